@@ -1,0 +1,31 @@
+"""Transfinite barycentric coordinates on closed quadratic B-spline domains.
+
+Pure numerics (numpy, scipy, numba): never imports `app`, moderngl, glfw or imgui.
+See DESIGN.md for the data flow and the paper's equation numbers.
+"""
+
+from core.basis import basis_functions
+from core.boundary import Boundary
+from core.bspline import ClosedBSpline
+from core.harmonic import harmonic_basis
+from core.kernels import KERNELS, ConvergenceWarning, SolveReport, kernel
+from core.mesh import Mesh, folded_triangles, triangulate
+from core.mesh_basis import MESH_ONLY_KERNELS, mesh_basis_functions
+from core.pgw import pgw_basis
+
+__all__ = [
+    "KERNELS",
+    "MESH_ONLY_KERNELS",
+    "Boundary",
+    "ClosedBSpline",
+    "ConvergenceWarning",
+    "Mesh",
+    "SolveReport",
+    "basis_functions",
+    "folded_triangles",
+    "harmonic_basis",
+    "kernel",
+    "mesh_basis_functions",
+    "pgw_basis",
+    "triangulate",
+]

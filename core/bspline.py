@@ -1,0 +1,345 @@
+"""Closed uniform quadratic B-spline curves, the domain boundaries of the paper.
+
+Sec. 4.1: for user control points P_1..P_n, the curve is
+p(t) = sum_{i=0}^{n+1} P_i N_i^2(t) over the uniform knots (-2, -1, ..., n+2) with
+P_0 = P_n and P_{n+1} = P_1, for t in [0, n).  On t in [j, j+1) with u = t - j only
+N_j, N_{j+1}, N_{j+2} are non-zero:
+
+    N_j = (1 - u)^2 / 2,   N_{j+1} = (-2u^2 + 2u + 1) / 2,   N_{j+2} = u^2 / 2.
+
+Sec. 4.3 folds the n + 2 basis functions onto the n user points
+(G_1 = Ĝ_1 + Ĝ_{n+1}, G_n = Ĝ_0 + Ĝ_n), which here means: paper index i belongs to
+array row (i - 1) mod n.  Coordinates are (x, y) in whatever frame the caller
+uses (image pixels with the origin top-left and y down in the app).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from core.boundary import Boundary, PiecewisePolynomial
+from core.validation import as_parameters, as_points, positive_int
+
+
+class ClosedBSpline:
+    """A closed uniform quadratic B-spline with n >= 3 control points.
+
+    Parameters
+    ----------
+    control_points : array_like of shape (n, 2)
+        P_1..P_n.  A point repeated twice in a row makes a sharp corner, a polygon
+        is the curve whose points are all doubled (the paper's Fig. 10).
+
+    Raises
+    ------
+    ValueError
+        Fewer than 3 points, non-finite values, a point repeated three or more
+        times in a row, a curve of (nearly) zero area, or a curve that crosses or
+        touches itself.
+    """
+
+    def __init__(self, control_points):
+        points = as_points(control_points, "control_points", min_count=3)
+        self._points = points
+        self._points.setflags(write=False)
+        if np.all(points == points[0]):
+            raise ValueError("control_points are all the same point; the curve has no area")
+        _check_repeats(points)
+        self.area = _signed_area(points)
+        self.diameter = _diameter(points)
+        centred = points - points.mean(axis=0)
+        singular = np.linalg.svd(centred, compute_uv=False)
+        if singular[1] <= 1e-12 * singular[0]:
+            raise ValueError("control_points are collinear; the curve encloses no area")
+        crossing = _first_self_intersection(points)
+        if crossing is not None:
+            i, j = crossing
+            raise ValueError(
+                f"the curve crosses or touches itself near control points {i} and {j}; "
+                "move the control points so that it is a simple closed curve"
+            )
+        if abs(self.area) <= 1e-10 * self.diameter**2:
+            raise ValueError(
+                "the curve encloses (almost) no area: control_points are collinear or retrace themselves"
+            )
+
+    @property
+    def control_points(self) -> np.ndarray:
+        """ndarray of shape (n, 2): P_1..P_n (read-only)."""
+        return self._points
+
+    @property
+    def n(self) -> int:
+        """Number of control points, also the parameter period."""
+        return self._points.shape[0]
+
+    @property
+    def is_counterclockwise(self) -> bool:
+        """True if the curve runs counter-clockwise in a y-up frame (positive area)."""
+        return self.area > 0
+
+    def __repr__(self) -> str:
+        return f"ClosedBSpline(n={self.n}, area={self.area:.6g})"
+
+    def __call__(self, t) -> np.ndarray:
+        """Points p(t), ndarray of shape (m, 2), for parameters t of shape (m,) (periodic)."""
+        return self.evaluate(t)[0]
+
+    def derivative(self, t, order: int = 1) -> np.ndarray:
+        """p'(t) (order=1) or p''(t) (order=2), ndarray of shape (m, 2)."""
+        if order not in (1, 2):
+            raise ValueError(f"order must be 1 or 2, got {order!r}")
+        return self.evaluate(t)[order]
+
+    def evaluate(self, t) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """p(t), p'(t), p''(t), each ndarray of shape (m, 2), for t of shape (m,)."""
+        t = np.mod(as_parameters(t), self.n)
+        index, weights = basis_weights(t, self.n)
+        derivative_weights = _basis_derivative_weights(t)
+        points = self._points[index]  # (m, 3, 2)
+        value = np.einsum("mk,mkd->md", weights, points)
+        first = np.einsum("mk,mkd->md", derivative_weights[0], points)
+        second = np.einsum("mk,mkd->md", derivative_weights[1], points)
+        return value, first, second
+
+    def basis_matrix(self, t) -> np.ndarray:
+        """Folded B-spline basis, ndarray of shape (m, n): row k holds N_i(t_k), rows sum to 1.
+
+        ``basis_matrix(t) @ control_points == curve(t)`` (Sec. 4.3).
+        """
+        t = np.mod(as_parameters(t), self.n)
+        index, weights = basis_weights(t, self.n)
+        matrix = np.zeros((t.shape[0], self.n))
+        rows = np.repeat(np.arange(t.shape[0]), 3)
+        np.add.at(matrix, (rows, index.ravel()), weights.ravel())
+        return matrix
+
+    def sample(self, samples_per_segment: int = 100) -> Boundary:
+        """Sample N = samples_per_segment * n parameters t_k = k h, h = 1 / samples_per_segment.
+
+        Returns a `Boundary` that also keeps the exact curve, so quadrature can be
+        refined near the boundary at any parameter.  At the knots, where p'' jumps,
+        the second derivative is the mean of its one-sided values.
+        """
+        per = positive_int(samples_per_segment, "samples_per_segment", minimum=2)
+        count = per * self.n
+        t = np.arange(count) * (self.n / count)
+        value, first, second = self.evaluate(t)
+        # p'' jumps at the knots (every per-th sample); the trapezoid rule wants the
+        # mean of both sides there, which p'' of the sample before (same span) gives.
+        knots = np.arange(0, count, per)
+        second[knots] = 0.5 * (second[knots] + second[knots - 1])
+        return Boundary(
+            value,
+            first,
+            second,
+            self.n / count,
+            _curve=self.piecewise_polynomial(),
+            _corners=self.corners(),
+        )
+
+    def piecewise_polynomial(self) -> PiecewisePolynomial:
+        """The curve as n quadratic pieces in Bézier-free power form, u = t - j in [0, 1]."""
+        previous = np.roll(self._points, 1, axis=0)  # paper P_j, j = 0..n-1
+        current = self._points  # P_{j+1}
+        following = np.roll(self._points, -1, axis=0)  # P_{j+2}
+        # p(u) = B0 + 2u(B1 - B0) + u^2 (B2 - 2 B1 + B0) with Bézier points below.
+        b0 = 0.5 * (previous + current)
+        b1 = current
+        b2 = 0.5 * (current + following)
+        coefficients = np.stack([b0, 2.0 * (b1 - b0), b2 - 2.0 * b1 + b0], axis=1)
+        return PiecewisePolynomial(coefficients, 1.0)
+
+    def corners(self) -> np.ndarray:
+        """Sharp corners made by doubled control points.
+
+        Returns ndarray of shape (C, 5): parameter t_c and the unit directions in
+        which the curve arrives (2 values) and leaves (2 values).
+        """
+        following = np.roll(self._points, -1, axis=0)
+        doubled = np.flatnonzero(np.all(self._points == following, axis=1))
+        rows = []
+        for i in doubled:
+            before = self._points[(i - 1) % self.n]
+            after = self._points[(i + 2) % self.n]
+            arrive = self._points[i] - before
+            leave = after - self._points[i]
+            # Array rows i, i+1 are paper P_{i+1} = P_{i+2}: the curve passes through
+            # that point at the knot t = i + 1.
+            rows.append(
+                [(i + 1) % self.n, *(arrive / np.linalg.norm(arrive)), *(leave / np.linalg.norm(leave))]
+            )
+        return np.array(rows, dtype=np.float64).reshape(-1, 5)
+
+    def subdivide(self) -> ClosedBSpline:
+        """The same curve with 2n control points (Chaikin's rule, exact for quadratics).
+
+        The new curve q satisfies q(2t) = p(t) (parameters taken modulo 2n).
+        """
+        following = np.roll(self._points, -1, axis=0)
+        refined = np.empty((2 * self.n, 2))
+        refined[0::2] = 0.75 * self._points + 0.25 * following
+        refined[1::2] = 0.25 * self._points + 0.75 * following
+        # Chaikin's points give q(2t - 1) = p(t); one roll makes it q(2t) = p(t).
+        return ClosedBSpline(np.roll(refined, 1, axis=0))
+
+    def contains(self, x) -> np.ndarray:
+        """Inside test against the exact curve: bool ndarray of shape (M,).
+
+        Points on the curve count as inside (the domain is closed).
+        """
+        from core.closest_point import distance_to_curve, winding_numbers
+
+        points = as_points(x, "x")
+        pieces = self.piecewise_polynomial()
+        winding = winding_numbers(pieces, points)
+        inside = winding != 0
+        on_curve = distance_to_curve(pieces, points[~inside]) <= 1e-12 * self.diameter
+        inside[np.flatnonzero(~inside)[on_curve]] = True
+        return inside
+
+
+def basis_weights(t: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Non-zero folded basis functions at parameters t in [0, n).
+
+    Returns (index, weights), ndarrays of shape (m, 3): array rows and values of
+    N_j, N_{j+1}, N_{j+2} for t in [j, j+1).
+    """
+    segment = np.minimum(np.floor(t).astype(np.int64), n - 1)
+    u = t - segment
+    index = np.stack([(segment - 1) % n, segment % n, (segment + 1) % n], axis=1)
+    weights = np.stack([0.5 * (1 - u) ** 2, 0.5 * (-2 * u * u + 2 * u + 1), 0.5 * u * u], axis=1)
+    return index, weights
+
+
+def _basis_derivative_weights(t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    u = t - np.floor(t)
+    first = np.stack([u - 1, 1 - 2 * u, u], axis=1)
+    second = np.broadcast_to(np.array([1.0, -2.0, 1.0]), first.shape)
+    return first, second
+
+
+def _check_repeats(points: np.ndarray) -> None:
+    same_as_next = np.all(points == np.roll(points, -1, axis=0), axis=1)
+    triple = same_as_next & np.roll(same_as_next, -1)
+    if triple.any():
+        i = int(np.flatnonzero(triple)[0])
+        raise ValueError(
+            f"control points {i}, {(i + 1) % len(points)} and {(i + 2) % len(points)} "
+            "coincide; repeat a point at most twice (twice makes a sharp corner)"
+        )
+
+
+def _signed_area(points: np.ndarray) -> float:
+    """Exact signed area (positive counter-clockwise in a y-up frame) by Green's theorem.
+
+    Per span the integrand x y' - y x' is a cubic in u, so Simpson's rule is exact.
+    """
+    previous = np.roll(points, 1, axis=0)
+    following = np.roll(points, -1, axis=0)
+    total = 0.0
+    for u, weight in ((0.0, 1.0), (0.5, 4.0), (1.0, 1.0)):
+        value = (
+            (0.5 * (1 - u) ** 2) * previous
+            + (0.5 * (-2 * u * u + 2 * u + 1)) * points
+            + (0.5 * u * u) * following
+        )
+        first = (u - 1) * previous + (1 - 2 * u) * points + u * following
+        cross = value[:, 0] * first[:, 1] - value[:, 1] * first[:, 0]
+        total += weight * cross.sum()
+    return 0.5 * total / 6.0
+
+
+def _diameter(points: np.ndarray) -> float:
+    """Largest distance between two points of the curve (it lies in the control hull).
+
+    Uses dense samples; exact to a relative 1e-4, which is all tolerances need.
+    """
+    spline = _dense(points, 32)
+    if spline.shape[0] > 2000:
+        from scipy.spatial import ConvexHull
+
+        try:
+            spline = spline[ConvexHull(spline).vertices]
+        except Exception:  # degenerate (collinear) hull: fall back to all points
+            pass
+    difference = spline[:, None, :] - spline[None, :, :]
+    return float(np.sqrt((difference**2).sum(-1).max()))
+
+
+def _dense(points: np.ndarray, per_span: int) -> np.ndarray:
+    n = points.shape[0]
+    t = np.arange(n * per_span) / per_span
+    index, weights = basis_weights(t, n)
+    return np.einsum("mk,mkd->md", weights, points[index])
+
+
+def _first_self_intersection(points: np.ndarray) -> tuple[int, int] | None:
+    """First pair of spans (array indices of their middle control point) that meet.
+
+    Each span is a parabola arc (cannot cross itself); spans are compared as
+    polylines of 24 chords, pruned by the bounding boxes of their Bézier hulls.
+    Adjacent spans share one end point, which does not count.
+    """
+    n = points.shape[0]
+    per = 24
+    u = np.linspace(0.0, 1.0, per + 1)
+    previous = np.roll(points, 1, axis=0)
+    following = np.roll(points, -1, axis=0)
+    b0 = 0.5 * (previous + points)
+    b2 = 0.5 * (points + following)
+    polylines = (
+        ((1 - u) ** 2)[None, :, None] * b0[:, None, :]
+        + (2 * u * (1 - u))[None, :, None] * points[:, None, :]
+        + (u**2)[None, :, None] * b2[:, None, :]
+    )  # (n, per + 1, 2)
+    hull = np.stack([b0, points, b2], axis=1)
+    low, high = hull.min(axis=1), hull.max(axis=1)
+    scale = max(float(np.ptp(points, axis=0).max()), 1e-300)
+    pad = 1e-9 * scale
+    overlap = np.all((low[:, None] <= high[None, :] + pad) & (low[None, :] <= high[:, None] + pad), -1)
+    degenerate = np.all(b0 == b2, axis=1)  # no repeated triples, but keep it safe
+    for i in range(n):
+        for j in range(i + 1, n):
+            if not overlap[i, j] or degenerate[i] or degenerate[j]:
+                continue
+            a = polylines[i]
+            b = polylines[j]
+            if j == i + 1:
+                a, b = a[:-1], b[1:]  # drop the shared end point a[-1] == b[0]
+            elif i == 0 and j == n - 1:
+                a, b = a[1:], b[:-1]  # spans n-1 and 0 share b[-1] == a[0]
+            if _polylines_meet(a, b, pad):
+                return i, j
+    return None
+
+
+def _polylines_meet(a: np.ndarray, b: np.ndarray, tolerance: float) -> bool:
+    """Whether two polylines (ka, 2), (kb, 2) intersect or touch (within tolerance)."""
+    if len(a) < 2 or len(b) < 2:
+        return False
+    p, r = a[:-1], np.diff(a, axis=0)
+    q, s = b[:-1], np.diff(b, axis=0)
+    p, r = p[:, None, :], r[:, None, :]
+    q, s = q[None, :, :], s[None, :, :]
+    qp = q - p
+    denominator = r[..., 0] * s[..., 1] - r[..., 1] * s[..., 0]
+    t_num = qp[..., 0] * s[..., 1] - qp[..., 1] * s[..., 0]
+    u_num = qp[..., 0] * r[..., 1] - qp[..., 1] * r[..., 0]
+    parallel = np.abs(denominator) <= 1e-12 * np.linalg.norm(r, axis=-1) * np.linalg.norm(s, axis=-1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = t_num / denominator
+        u = u_num / denominator
+    proper = ~parallel & (t >= 0) & (t <= 1) & (u >= 0) & (u <= 1)
+    if proper.any():
+        return True
+    # Parallel chords: they meet only if collinear and overlapping (a retraced path).
+    collinear = parallel & (np.abs(t_num) <= tolerance * (np.linalg.norm(s, axis=-1) + 1e-300))
+    if collinear.any():
+        rr = (r * r).sum(-1)
+        start = (qp * r).sum(-1) / np.where(rr > 0, rr, 1)
+        end = ((qp + s) * r).sum(-1) / np.where(rr > 0, rr, 1)
+        lo, hi = np.minimum(start, end), np.maximum(start, end)
+        if np.any(collinear & (hi >= 0) & (lo <= 1) & (rr > 0)):
+            return True
+    return False

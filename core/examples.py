@@ -1,0 +1,63 @@
+"""Example cages used by the tests, the benchmark and the demos (coordinates in a unit-ish frame).
+
+Each function returns control points, ndarray of shape (n, 2), counter-clockwise in
+a y-up frame unless said otherwise.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def starfish(arms: int = 5, inner: float = 0.35, outer: float = 1.0, points_per_arm: int = 2) -> np.ndarray:
+    """A star with `arms` limbs: alternating tip and armpit control points."""
+    count = arms * points_per_arm
+    angles = np.pi / 2 + 2 * np.pi * np.arange(count) / count
+    radii = np.where(np.arange(count) % points_per_arm == 0, outer, inner)
+    return np.stack([radii * np.cos(angles), radii * np.sin(angles)], axis=1)
+
+
+def blob() -> np.ndarray:
+    """A non-convex 12-point domain in [0, 1]^2, like the paper's Fig. 1."""
+    return np.array(
+        [
+            [0.10, 0.15],
+            [0.40, 0.05],
+            [0.65, 0.20],
+            [0.95, 0.05],
+            [1.00, 0.45],
+            [0.80, 0.55],
+            [0.95, 0.95],
+            [0.55, 0.90],
+            [0.45, 0.55],
+            [0.30, 0.95],
+            [0.00, 0.80],
+            [0.15, 0.50],
+        ]
+    )
+
+
+def ellipse(count: int = 8, a: float = 1.0, b: float = 0.7) -> np.ndarray:
+    """A convex cage on an ellipse."""
+    angles = 2 * np.pi * np.arange(count) / count
+    return np.stack([a * np.cos(angles), b * np.sin(angles)], axis=1)
+
+
+def dumbbell() -> np.ndarray:
+    """Two lobes joined by a narrow neck (width about 0.1)."""
+    return np.array(
+        [
+            [-1.0, -0.5],
+            [-0.3, -0.5],
+            [-0.15, -0.05],
+            [0.15, -0.05],
+            [0.3, -0.5],
+            [1.0, -0.5],
+            [1.0, 0.5],
+            [0.3, 0.5],
+            [0.15, 0.05],
+            [-0.15, 0.05],
+            [-0.3, 0.5],
+            [-1.0, 0.5],
+        ]
+    )

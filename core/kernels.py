@@ -1,0 +1,327 @@
+"""Barycentric kernels lambda(x, t) of a sampled closed curve (`core.kernel`).
+
+The table of kernels (names are a public contract, see DESIGN.md):
+
+=============================  ===============================================  ==============
+name                           weight omega_x or kernel                         paper
+=============================  ===============================================  ==============
+mean-value                     mu = (p - x) x p' / r^3, may be negative          Eq. 5
+modified-mean-value            omega = |d theta / dt|                            Eq. 22-23
+modified-mean-value-squared    omega = |d theta / dt|^2                          Sec. 3.4
+maximum-likelihood             omega = 1                                         Sec. 3.1
+pseudo-harmonic                omega = 1 / r                                     Eq. 18
+power                          omega = 1 / r^k, optional shift                   Eq. 19
+harmonic-like (default)        omega = 1 / r^4 + int 1 / r^4                     Eq. 20
+wachspress, laplace            three-point family, convex domains only           Sec. 1.1
+=============================  ===============================================  ==============
+
+The weighted maximum-likelihood kernels (Eq. 17) solve a two-variable convex
+problem per point (Eq. 16); see `core.solver`.
+"""
+
+from __future__ import annotations
+
+import warnings
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numba
+import numpy as np
+
+from core import solver
+from core.boundary import Boundary
+from core.validation import as_points, positive_float
+
+KERNELS = (
+    "harmonic-like",
+    "mean-value",
+    "modified-mean-value",
+    "modified-mean-value-squared",
+    "maximum-likelihood",
+    "pseudo-harmonic",
+    "power",
+    "wachspress",
+    "laplace",
+)
+DEFAULT_KERNEL = "harmonic-like"
+
+_IDENTIFIERS = {
+    "maximum-likelihood": solver.MAXIMUM_LIKELIHOOD,
+    "pseudo-harmonic": solver.PSEUDO_HARMONIC,
+    "power": solver.POWER,
+    "harmonic-like": solver.HARMONIC_LIKE,
+    "modified-mean-value": solver.MODIFIED_MEAN_VALUE,
+    "modified-mean-value-squared": solver.MODIFIED_MEAN_VALUE_SQUARED,
+    "mean-value": solver.MEAN_VALUE,
+    "wachspress": solver.WACHSPRESS,
+    "laplace": solver.LAPLACE,
+}
+_SHIFTS = {"none": solver.SHIFT_NONE, "integral": solver.SHIFT_INTEGRAL, "mean": solver.SHIFT_MEAN}
+CONVEX_ONLY = ("wachspress", "laplace")
+# Newton stops when the linear-precision residual is below this fraction of the diameter.
+DEFAULT_TOLERANCE = 1e-11
+# Quadrature refinements tried, in turn, for points whose kernel the samples do not resolve.
+REFINEMENTS = (4, 16)
+# Points per compiled call: bounds memory to chunk x columns and paces the progress callback.
+CHUNK = 4096
+
+Progress = Callable[[float], None]
+
+
+class ConvergenceWarning(RuntimeWarning):
+    """Some points did not reach the Newton tolerance, or sit at the feasible edge."""
+
+
+@dataclass(frozen=True)
+class SolveReport:
+    """Per-point diagnostics of a kernel evaluation.
+
+    Attributes
+    ----------
+    iterations : ndarray of shape (M,)
+        Newton iterations (0 for the explicit kernels and boundary points).
+    status : ndarray of shape (M,)
+        0 converged, 1 not converged, 3 converged but the minimiser is at the edge
+        of the feasible set (lambda-hat is under-resolved by the quadrature).
+    residual : ndarray of shape (M,)
+        Linear-precision error |sum_t lambda(x, t) p(t) h - x| in length units.
+    """
+
+    iterations: np.ndarray
+    status: np.ndarray
+    residual: np.ndarray
+
+    @property
+    def converged(self) -> np.ndarray:
+        """bool ndarray of shape (M,): the point met the tolerance."""
+        return self.status == solver.STATUS_CONVERGED
+
+    @property
+    def failed(self) -> np.ndarray:
+        """bool ndarray of shape (M,): not converged or at the feasible edge."""
+        return self.status != solver.STATUS_CONVERGED
+
+
+def kernel_parameters(kernel: str, params: dict) -> tuple[int, float, int]:
+    """Validate a kernel name and its parameters; return (identifier, power, shift mode)."""
+    if not isinstance(kernel, str) or kernel not in _IDENTIFIERS:
+        raise ValueError(f"unknown kernel {kernel!r}; choose one of: {', '.join(KERNELS)}")
+    params = dict(params)
+    power = 0.0
+    shift = solver.SHIFT_NONE
+    if kernel == "power":
+        power = positive_float(params.pop("power", 2.0), "power")
+        shift_value = params.pop("shift", "none")
+        if shift_value is True:
+            shift_value = "integral"
+        elif shift_value is False or shift_value is None:
+            shift_value = "none"
+        if shift_value not in _SHIFTS:
+            raise ValueError(
+                f"shift must be one of {', '.join(_SHIFTS)} (or True/False), got {shift_value!r}"
+            )
+        shift = _SHIFTS[shift_value]
+    if params:
+        raise ValueError(
+            f"kernel {kernel!r} does not take parameter(s) {', '.join(sorted(params))}"
+            + ("" if kernel == "power" else "; only 'power' takes power= and shift=")
+        )
+    return _IDENTIFIERS[kernel], power, shift
+
+
+def kernel(
+    boundary: Boundary,
+    x,
+    kernel: str = DEFAULT_KERNEL,
+    *,
+    progress: Progress | None = None,
+    tolerance: float = DEFAULT_TOLERANCE,
+    return_report: bool = False,
+    **params,
+):
+    """Kernel values lambda(x_m, t_k) at the N samples of a boundary.
+
+    Parameters
+    ----------
+    boundary : Boundary
+        The closed curve, sampled at t_k = k h.
+    x : array_like of shape (M, 2)
+        Points in the closed domain.
+    kernel : str
+        One of `KERNELS`; ``power`` takes ``power=k`` and ``shift="none" |
+        "integral" | "mean"`` (Eq. 19; True means "integral").
+    progress : callable, optional
+        Called with the fraction done in [0, 1].
+    tolerance : float
+        Newton stops when the linear-precision residual is below
+        tolerance * diameter.
+    return_report : bool
+        Also return a `SolveReport`.
+
+    Returns
+    -------
+    ndarray of shape (M, N)
+        ``h * values.sum(axis=1) == 1``.  Farther than a few sample spacings from
+        the boundary this is exactly the trapezoid rule of Sec. 4.1 (and
+        ``h * values @ boundary.points == x`` to the Newton tolerance).  Nearer,
+        the refined quadrature is lumped onto the samples by linear interpolation
+        in t, which keeps the partition of unity exact.  Points on the boundary
+        get the Lagrange limit (a discrete delta at their parameter).
+    """
+    if not isinstance(boundary, Boundary):
+        raise ValueError(f"boundary must be a core.Boundary, got {type(boundary).__name__}")
+    values, report = evaluate(
+        boundary, x, kernel, solver.OUTPUT_SAMPLES, boundary.count, progress, tolerance, params
+    )
+    return (values, report) if return_report else values
+
+
+def evaluate(
+    boundary: Boundary,
+    x,
+    kernel: str,
+    mode: int,
+    columns: int,
+    progress: Progress | None,
+    tolerance: float,
+    params: dict,
+) -> tuple[np.ndarray, SolveReport]:
+    """Shared driver of `kernel` and `basis_functions`: validate, chunk, solve, check."""
+    identifier, power, shift = kernel_parameters(kernel, params)
+    tolerance = positive_float(tolerance, "tolerance")
+    points = as_points(x, "x")
+    if kernel in CONVEX_ONLY:
+        _require_convex(boundary, kernel)
+    count = points.shape[0]
+    out = np.zeros((count, columns))
+    iterations = np.zeros(count, dtype=np.int64)
+    status = np.zeros(count, dtype=np.int64)
+    residual = np.zeros(count)
+    run = _Run(points, identifier, power, shift, mode, columns, tolerance, boundary)
+    run.solve(boundary, np.arange(count), out, iterations, status, residual, progress)
+    # Points whose lambda-hat peaks more sharply than the quadrature resolves (or
+    # that did not converge) are solved again on finer quadratures.
+    for factor in REFINEMENTS:
+        again = np.flatnonzero(
+            (status == solver.STATUS_NOT_CONVERGED) | (status == solver.STATUS_AT_FEASIBLE_EDGE)
+        )
+        if again.size == 0:
+            break
+        out[again] = 0.0
+        run.solve(boundary.refined(factor), again, out, iterations, status, residual, None, factor)
+    outside = status == solver.STATUS_OUTSIDE
+    if outside.any():
+        first = int(np.flatnonzero(outside)[0])
+        raise ValueError(
+            f"{int(outside.sum())} of {count} points of x are outside the domain "
+            f"(first: index {first}, {points[first].tolist()})"
+        )
+    report = SolveReport(iterations, status, residual)
+    failed = report.failed
+    if failed.any():
+        warnings.warn(
+            f"{int(failed.sum())} of {count} points did not converge cleanly with kernel "
+            f"{kernel!r} (worst linear-precision residual {residual[failed].max():.3g}, "
+            f"{int((status == solver.STATUS_AT_FEASIBLE_EDGE).sum())} at the feasible edge); "
+            "see return_report=True for which",
+            ConvergenceWarning,
+            stacklevel=3,
+        )
+    return out, report
+
+
+@dataclass
+class _Run:
+    """One evaluation request: what `solver.solve_points` needs besides the quadrature."""
+
+    points: np.ndarray
+    identifier: int
+    power: float
+    shift: int
+    mode: int
+    columns: int
+    tolerance: float
+    reference: Boundary  # the boundary whose samples (and diameter) define the output
+
+    def solve(self, boundary, indices, out, iterations, status, residual, progress, factor=1):
+        """Solve the points `indices` on `boundary` (the reference one or a refinement)."""
+        curve = _curve_arrays(boundary, self.mode, self.columns, factor, self.reference.step)
+        orientation = 1.0 if self.reference.area > 0 else -1.0
+        for start in range(0, indices.size, CHUNK):
+            chunk = indices[start : start + CHUNK]
+            rows = np.zeros((chunk.size, self.columns))
+            diagnostics = [
+                np.zeros(chunk.size, dtype=np.int64),
+                np.zeros(chunk.size, dtype=np.int64),
+                np.zeros(chunk.size),
+            ]
+            solver.solve_points(
+                self.points[chunk],
+                self.identifier,
+                self.power,
+                self.shift,
+                self.mode,
+                curve,
+                boundary.curve.coefficients,
+                boundary.curve.piece_length,
+                orientation,
+                boundary.corners,
+                self.reference.diameter,
+                self.columns,
+                self.tolerance,
+                rows,
+                *diagnostics,
+                numba.get_num_threads(),
+            )
+            out[chunk] = rows
+            iterations[chunk], status[chunk], residual[chunk] = diagnostics
+            if progress is not None:
+                progress((start + chunk.size) / indices.size)
+
+
+def _curve_arrays(boundary: Boundary, mode: int, columns: int, factor: int, out_step: float) -> tuple:
+    """The per-sample arrays `core.solver.solve_points` shares between points."""
+    count = boundary.count
+    if mode == solver.OUTPUT_BASIS:
+        per = count // columns
+        u = (np.arange(count) % per) / per
+        basis = (0.5 * (1 - u) ** 2, 0.5 * (-2 * u * u + 2 * u + 1), 0.5 * u * u)
+    else:
+        basis = (np.zeros(count),) * 3
+    column = np.ascontiguousarray
+    return (
+        column(boundary.points[:, 0]),
+        column(boundary.points[:, 1]),
+        column(boundary.tangents[:, 0]),
+        column(boundary.tangents[:, 1]),
+        column(boundary.second_derivatives[:, 0]),
+        column(boundary.second_derivatives[:, 1]),
+        _sample_spacing(boundary.points),
+        np.full(count, boundary.step),
+        boundary.parameters,
+        *basis,
+        float(boundary.step),
+        solver.SINH_STEP / factor,
+        float(out_step),
+    )
+
+
+def _sample_spacing(points: np.ndarray) -> np.ndarray:
+    """Largest distance from each sample to its two neighbours, shape (N,)."""
+    chord = np.linalg.norm(np.roll(points, -1, axis=0) - points, axis=1)
+    return np.maximum(chord, np.roll(chord, 1))
+
+
+def _require_convex(boundary: Boundary, kernel: str) -> None:
+    orientation = 1.0 if boundary.area > 0 else -1.0
+    tangents, second = boundary.tangents, boundary.second_derivatives
+    turning = orientation * (tangents[:, 0] * second[:, 1] - tangents[:, 1] * second[:, 0])
+    scale = np.abs(turning).max()
+    corner_turns = orientation * (
+        boundary.corners[:, 1] * boundary.corners[:, 4] - boundary.corners[:, 2] * boundary.corners[:, 3]
+    )
+    if (turning < -1e-9 * scale).any() or (corner_turns < -1e-12).any():
+        raise ValueError(
+            f"kernel {kernel!r} is defined for convex domains only and this curve is not "
+            "convex; use 'harmonic-like' or another maximum-likelihood kernel"
+        )

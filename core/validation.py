@@ -1,0 +1,68 @@
+"""Input checks shared by every public function of `core`.
+
+One helper per kind of argument, each raising `ValueError` with a message that
+names the argument and says what to change, so that the CLI and the viewer can
+show it to a person as one line.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def as_points(value, name: str, *, min_count: int = 0) -> np.ndarray:
+    """Return `value` as a C-contiguous float64 array of shape (M, 2).
+
+    Raises `ValueError` naming `name` if the value is not a list of (x, y) pairs,
+    holds non-finite numbers, or has fewer than `min_count` rows.
+    """
+    try:
+        array = np.array(value, dtype=np.float64)
+    except (TypeError, ValueError) as error:
+        raise ValueError(f"{name} must be a list of (x, y) number pairs ({error})") from None
+    if array.ndim == 1 and array.shape[0] == 2 and min_count <= 1:
+        array = array.reshape(1, 2)
+    if array.ndim != 2 or array.shape[1] != 2:
+        raise ValueError(f"{name} must have shape (M, 2), got shape {array.shape}")
+    if array.shape[0] < min_count:
+        raise ValueError(f"{name} needs at least {min_count} points, got {array.shape[0]}")
+    bad = ~np.isfinite(array).all(axis=1)
+    if bad.any():
+        first = int(np.flatnonzero(bad)[0])
+        raise ValueError(
+            f"{name} has {int(bad.sum())} point(s) with NaN or infinite coordinates (first at index {first})"
+        )
+    return np.ascontiguousarray(array)
+
+
+def as_parameters(value, name: str = "t") -> np.ndarray:
+    """Return `value` as a finite float64 array of shape (m,)."""
+    try:
+        array = np.atleast_1d(np.asarray(value, dtype=np.float64))
+    except (TypeError, ValueError) as error:
+        raise ValueError(f"{name} must be numbers ({error})") from None
+    if array.ndim != 1:
+        raise ValueError(f"{name} must be a 1-D array of parameters, got shape {array.shape}")
+    if not np.isfinite(array).all():
+        raise ValueError(f"{name} has NaN or infinite values")
+    return array
+
+
+def positive_int(value, name: str, *, minimum: int = 1) -> int:
+    """Return `value` as an int >= `minimum`, or raise `ValueError` naming `name`."""
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+        raise ValueError(f"{name} must be an integer, got {value!r}")
+    if value < minimum:
+        raise ValueError(f"{name} must be at least {minimum}, got {value}")
+    return int(value)
+
+
+def positive_float(value, name: str) -> float:
+    """Return `value` as a finite float > 0, or raise `ValueError` naming `name`."""
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be a number, got {value!r}") from None
+    if not np.isfinite(number) or number <= 0:
+        raise ValueError(f"{name} must be a finite number > 0, got {value!r}")
+    return number

@@ -1,0 +1,134 @@
+"""core.ClosedBSpline: evaluation, folding, validation, inside test, subdivision."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import core
+from core import examples
+
+
+def test_curve_is_the_folded_basis_times_the_control_points(blob):
+    t = np.random.default_rng(0).uniform(0, blob.n, 500)
+    np.testing.assert_allclose(blob.basis_matrix(t) @ blob.control_points, blob(t), atol=1e-15)
+    np.testing.assert_allclose(blob.basis_matrix(t).sum(axis=1), 1.0, atol=1e-15)
+
+
+def test_curve_is_periodic_and_c1(blob):
+    t = np.arange(blob.n, dtype=float)  # the knots
+    left, left_first, _ = blob.evaluate(t - 1e-9)
+    right, right_first, _ = blob.evaluate(t + 1e-9)
+    np.testing.assert_allclose(left, right, atol=1e-8)
+    np.testing.assert_allclose(left_first, right_first, atol=1e-8)
+    np.testing.assert_allclose(blob([0.0]), blob([float(blob.n)]), atol=1e-15)
+
+
+def test_derivatives_match_finite_differences(starfish):
+    t = np.random.default_rng(1).uniform(0, starfish.n, 50)
+    t = t[np.abs(t - np.round(t)) > 1e-3]  # p'' jumps at the knots
+    eps = 1e-6
+    np.testing.assert_allclose(
+        starfish.derivative(t), (starfish(t + eps) - starfish(t - eps)) / (2 * eps), atol=1e-8
+    )
+    np.testing.assert_allclose(
+        starfish.derivative(t, 2),
+        (starfish.derivative(t + eps) - starfish.derivative(t - eps)) / (2 * eps),
+        atol=1e-6,
+    )
+
+
+def test_paper_convention_curve_starts_between_pn_and_p1():
+    # Sec. 4.1: P_0 = P_n, knots (-2, ..., n + 2), so p(0) = (P_n + P_1) / 2.
+    points = examples.ellipse(6)
+    curve = core.ClosedBSpline(points)
+    np.testing.assert_allclose(curve([0.0])[0], 0.5 * (points[-1] + points[0]), atol=1e-15)
+    np.testing.assert_allclose(curve([1.0])[0], 0.5 * (points[0] + points[1]), atol=1e-15)
+
+
+def test_area_is_exact_for_a_polygon():
+    square = np.repeat(np.array([[0.0, 0.0], [2.0, 0.0], [2.0, 1.0], [0.0, 1.0]]), 2, axis=0)
+    assert core.ClosedBSpline(square).area == pytest.approx(2.0, abs=1e-15)
+    assert core.ClosedBSpline(square[::-1]).area == pytest.approx(-2.0, abs=1e-15)
+
+
+def test_subdivision_leaves_the_curve_unchanged(starfish):
+    finer = starfish.subdivide()
+    assert finer.n == 2 * starfish.n
+    t = np.linspace(0, starfish.n, 301)
+    np.testing.assert_allclose(finer(2 * t), starfish(t), atol=1e-14)
+
+
+def test_subdivision_keeps_sharp_corners():
+    polygon = core.ClosedBSpline(np.repeat(examples.ellipse(5), 2, axis=0))
+    finer = polygon.subdivide()
+    assert len(finer.corners()) == len(polygon.corners()) == 5
+    t = np.linspace(0, polygon.n, 401)
+    np.testing.assert_allclose(finer(2 * t), polygon(t), atol=1e-14)
+
+
+def test_corners_of_doubled_points():
+    points = np.array([[0.0, 0.0], [0.0, 0.0], [2.0, 0.0], [1.0, 2.0]])
+    curve = core.ClosedBSpline(points)
+    corners = curve.corners()
+    assert corners.shape == (1, 5)
+    np.testing.assert_allclose(curve(corners[:, 0]), [[0.0, 0.0]], atol=1e-15)
+    np.testing.assert_allclose(curve.derivative(corners[:, 0]), [[0.0, 0.0]], atol=1e-15)
+
+
+def test_contains_uses_the_true_curve(blob):
+    rng = np.random.default_rng(2)
+    s = rng.uniform(0, blob.n, 200)
+    points, tangents, _ = blob.evaluate(s)
+    normal = np.stack([-tangents[:, 1], tangents[:, 0]], axis=1)
+    normal /= np.linalg.norm(normal, axis=1, keepdims=True)
+    inward = normal if blob.is_counterclockwise else -normal
+    offset = 1e-5 * blob.diameter
+    assert blob.contains(points + offset * inward).all()
+    assert not blob.contains(points - offset * inward).any()
+    assert blob.contains(points).all()  # the closed domain includes its boundary
+
+
+def test_contains_at_reflex_and_convex_corners():
+    # An L shape as a polygon: the reflex corner at (1, 1).
+    corners = np.array([[0, 0], [2, 0], [2, 1], [1, 1], [1, 2], [0, 2]], dtype=float)
+    curve = core.ClosedBSpline(np.repeat(corners, 2, axis=0))
+    inside = np.array([[0.99, 0.99], [1.0 - 1e-7, 1.5], [0.5, 0.5], [1.5, 1.0 - 1e-7]])
+    outside = np.array([[1.01, 1.01], [1.0 + 1e-7, 1.5], [2.0 + 1e-7, 0.5], [-1e-9, 1.0]])
+    assert curve.contains(inside).all()
+    assert not curve.contains(outside).any()
+
+
+@pytest.mark.parametrize(
+    ("points", "message"),
+    [
+        ([[0, 0], [1, 0]], "at least 3"),
+        ([[0, 0], [1, 0], [np.nan, 1]], "NaN or infinite"),
+        ([[0, 0], [1, 0], [1, 1, 2]], "control_points must"),
+        ([[0, 0], [1, 0], [2, 0], [3, 0]], "no area"),
+        ([[1, 1], [1, 1], [1, 1], [1, 1]], "same point"),
+        ([[0, 0], [6, 0], [6, 1], [0, 5], [0, 6], [6, 6]], "crosses or touches itself"),
+        ([[0, 0], [0, 0], [0, 0], [1, 0], [0, 1]], "repeat a point at most twice"),
+        ("abc", "control_points must"),
+    ],
+)
+def test_invalid_control_points_are_rejected_with_a_clear_message(points, message):
+    with pytest.raises(ValueError, match=message):
+        core.ClosedBSpline(points)
+
+
+def test_a_figure_eight_is_reported_as_self_intersecting_not_as_zero_area():
+    with pytest.raises(ValueError, match="crosses or touches itself"):
+        core.ClosedBSpline([[0, 0], [2, 0], [0, 2], [2, 2]])
+
+
+def test_derivative_order_is_checked(blob):
+    with pytest.raises(ValueError, match="order must be 1 or 2"):
+        blob.derivative([0.5], order=3)
+
+
+def test_sample_checks_samples_per_segment(blob):
+    with pytest.raises(ValueError, match="samples_per_segment must be at least 2"):
+        blob.sample(1)
+    with pytest.raises(ValueError, match="samples_per_segment must be an integer"):
+        blob.sample(2.5)
