@@ -1,0 +1,7 @@
+"""Interactive and command-line image deformation on top of `core` (Sec. 4.3 of the paper).
+
+`app` owns every GL object, window, widget and file: `app.render` draws meshes with
+moderngl, `app.files` reads and writes cages, sessions and images, `app.cli` is the
+command line (``python -m app``), `app.fit` fits a cage to an image's silhouette and
+`app.compare` compares the kernels of `core` on height data.
+"""

@@ -1,0 +1,394 @@
+"""Reading and writing the files of the command line and the viewer.
+
+Cage files are JSON ``{"control_points": [[x, y], ...]}`` in image pixels (x to
+the right, y down, origin at the image's top-left corner); session files hold
+``image``, ``cage``, ``target``, ``kernel`` and ``view`` (see DESIGN.md).  Every
+reader validates its input and raises `InputError` with one line naming the file
+and what is wrong in it; every writer is atomic (a temporary file in the same
+directory, then `os.replace`), so a failed or interrupted write leaves an existing
+file untouched.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import math
+import os
+import sys
+import tempfile
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+from numbers import Real
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from core.validation import as_points
+
+
+class InputError(ValueError):
+    """Bad input from a file or the command line: one line saying what and where."""
+
+
+@contextlib.contextmanager
+def reported_as_input(where: str) -> Iterator[None]:
+    """Turn a `ValueError` of the block (bad cage, kernel, mesh size, ...) into an `InputError`.
+
+    `core` raises `ValueError` with a message a person can act on; this adds
+    where the offending input came from.
+    """
+    try:
+        yield
+    except InputError:
+        raise
+    except ValueError as error:
+        raise InputError(f"{where}: {error}") from None
+
+
+def cage_curve(control_points: np.ndarray, where: str):
+    """`core.ClosedBSpline` of a cage, or `InputError` naming `where` (self-intersection, ...)."""
+    import core
+
+    with reported_as_input(where):
+        return core.ClosedBSpline(control_points)
+
+
+# -- generic ------------------------------------------------------------------
+
+
+def write_atomic(path: str | os.PathLike, data: bytes) -> None:
+    """Write `data` to `path` through a temporary file in the same directory and `os.replace`.
+
+    Raises
+    ------
+    InputError
+        If the file cannot be written; `path` is then unchanged.
+    """
+    path = Path(path)
+    check_writable(path)
+    handle, temporary = None, None
+    try:
+        handle, temporary = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+        with os.fdopen(handle, "wb") as stream:
+            handle = None
+            stream.write(data)
+            stream.flush()
+            os.fsync(stream.fileno())
+        # mkstemp creates 0600 files: keep the mode of the file being replaced, or
+        # use the usual 0644 for a new one.
+        os.chmod(temporary, path.stat().st_mode & 0o7777 if path.exists() else 0o644)
+        os.replace(temporary, path)
+        temporary = None
+    except OSError as error:
+        raise InputError(f"{path}: cannot write ({error.strerror or error})") from None
+    finally:
+        if handle is not None:
+            os.close(handle)
+        if temporary is not None:
+            with contextlib.suppress(OSError):
+                os.remove(temporary)
+
+
+def check_writable(path: str | os.PathLike, *, suffix: str | None = None) -> None:
+    """Raise `InputError` early if `path` obviously cannot be written (before long work).
+
+    Parameters
+    ----------
+    path : path-like
+        The output file.
+    suffix : str, optional
+        Required file name extension, e.g. ``".png"`` (compared case-insensitively).
+    """
+    path = Path(path)
+    if suffix is not None and path.suffix.lower() != suffix:
+        raise InputError(f"{path}: the output file name must end in {suffix}")
+    if path.is_dir():
+        raise InputError(f"{path}: cannot write, it is a directory")
+    parent = path.parent
+    if not parent.is_dir():
+        raise InputError(f"{path}: cannot write, directory {parent} does not exist")
+    if not os.access(parent, os.W_OK | os.X_OK) or (path.exists() and not os.access(path, os.W_OK)):
+        raise InputError(f"{path}: cannot write, permission denied")
+
+
+def read_json(path: str | os.PathLike):
+    """Parse a JSON file; `InputError` with the file name (and line) if that fails."""
+    path = Path(path)
+    text = _read_bytes(path).decode("utf-8", errors="replace")
+    try:
+        return json.loads(text)
+    except json.JSONDecodeError as error:
+        raise InputError(
+            f"{path}: not valid JSON ({error.msg} at line {error.lineno}, column {error.colno})"
+        ) from None
+
+
+def write_json(path: str | os.PathLike, value) -> None:
+    """Write `value` as indented JSON, atomically."""
+    # allow_nan=False: Python would write NaN, which is not JSON.
+    write_atomic(path, (json.dumps(value, indent=2, allow_nan=False) + "\n").encode("utf-8"))
+
+
+# -- cages --------------------------------------------------------------------
+
+
+def cage_points(value, where: str) -> np.ndarray:
+    """Control points of a cage object ``{"control_points": [[x, y], ...]}``.
+
+    Parameters
+    ----------
+    value : object
+        Parsed JSON.
+    where : str
+        Where the object comes from, for messages (e.g. ``"cage.json"`` or
+        ``"session.json: target"``).
+
+    Returns
+    -------
+    ndarray of shape (n, 2), float64
+
+    Raises
+    ------
+    InputError
+        Not an object with a ``control_points`` list of number pairs, non-finite
+        values, or fewer than 3 points.  Whether the curve is simple is
+        checked by `core.ClosedBSpline`.
+    """
+    if not isinstance(value, dict):
+        raise InputError(f'{where}: expected an object with "control_points", got {_json_type(value)}')
+    if "control_points" not in value:
+        raise InputError(f'{where}: missing "control_points"')
+    points = value["control_points"]
+    if not isinstance(points, list):
+        raise InputError(
+            f'{where}: "control_points" must be a list of [x, y] pairs, got {_json_type(points)}'
+        )
+    for index, point in enumerate(points):
+        # bool is an int in Python, but `true` is never a coordinate.
+        if not (
+            isinstance(point, list)
+            and len(point) == 2
+            and all(isinstance(c, Real) and not isinstance(c, bool) for c in point)
+        ):
+            raise InputError(
+                f"{where}: control_points[{index}] must be a pair of numbers [x, y], got {point!r}"
+            )
+    try:
+        return as_points(points, "control_points", min_count=3)
+    except ValueError as error:
+        raise InputError(f"{where}: {error}") from None
+
+
+def read_cage(path: str | os.PathLike) -> np.ndarray:
+    """Control points, ndarray of shape (n, 2), of the cage file at `path`."""
+    return cage_points(read_json(path), str(path))
+
+
+def write_cage(path: str | os.PathLike, control_points: np.ndarray) -> None:
+    """Write a cage file (coordinates rounded to 1/1000 pixel), atomically."""
+    points = np.round(np.asarray(control_points, dtype=np.float64), 3)
+    write_json(path, {"control_points": points.tolist()})
+
+
+# -- sessions -----------------------------------------------------------------
+
+
+@dataclass
+class Session:
+    """The state of a viewer session.
+
+    Attributes
+    ----------
+    image : Path
+        The source image (relative paths in the file are relative to the file's directory).
+    cage, target : ndarray of shape (n, 2)
+        Source and target control points, image pixels.
+    kernel : str
+        A name from `core.KERNELS`.
+    scale : float
+        View scale s: image point (x, y) is drawn at window pixel (ox + s x, oy + s y).
+    offset : tuple of float
+        View offset (ox, oy).
+    extra : dict
+        Other keys of the file, written back unchanged.
+    """
+
+    image: Path
+    cage: np.ndarray
+    target: np.ndarray
+    kernel: str
+    scale: float = 1.0
+    offset: tuple[float, float] = (0.0, 0.0)
+    extra: dict = field(default_factory=dict)
+
+
+def kernel_names() -> tuple[str, ...]:
+    """Every kernel name `core.mesh_basis_functions` takes: the point kernels and the mesh-based ones."""
+    import core
+
+    return (*core.KERNELS, *core.MESH_ONLY_KERNELS)
+
+
+def read_session(path: str | os.PathLike) -> Session:
+    """Read and validate a session file; `InputError` naming the file and key if it is bad."""
+    path = Path(path)
+    value = read_json(path)
+    if not isinstance(value, dict):
+        raise InputError(f"{path}: expected a JSON object, got {_json_type(value)}")
+    missing = [key for key in ("image", "cage", "target", "kernel", "view") if key not in value]
+    if missing:
+        raise InputError(f"{path}: missing key(s) {', '.join(missing)}")
+    if not isinstance(value["image"], str) or not value["image"]:
+        raise InputError(f'{path}: "image" must be a file path, got {value["image"]!r}')
+    cage = cage_points(value["cage"], f"{path}: cage")
+    target = cage_points(value["target"], f"{path}: target")
+    if target.shape != cage.shape:
+        raise InputError(f"{path}: target has {len(target)} control points but cage has {len(cage)}")
+    kernel = value["kernel"]
+    if kernel not in kernel_names():
+        raise InputError(f"{path}: unknown kernel {kernel!r}; choose one of {', '.join(kernel_names())}")
+    scale, offset = _view(value["view"], path)
+    extra = {k: v for k, v in value.items() if k not in ("image", "cage", "target", "kernel", "view")}
+    return Session(path.parent / value["image"], cage, target, kernel, scale, offset, extra)
+
+
+def write_session(path: str | os.PathLike, session: Session) -> None:
+    """Write a session file atomically; the image path is stored relative to it when possible."""
+    path = Path(path)
+    try:
+        image = os.path.relpath(Path(session.image).resolve(), path.resolve().parent)
+    except ValueError:  # another drive on Windows
+        image = str(Path(session.image).resolve())
+    value = dict(session.extra)
+    value.update(
+        image=image,
+        cage={"control_points": np.asarray(session.cage, dtype=float).tolist()},
+        target={"control_points": np.asarray(session.target, dtype=float).tolist()},
+        kernel=session.kernel,
+        view={"scale": float(session.scale), "offset": [float(v) for v in session.offset]},
+    )
+    write_json(path, value)
+
+
+def _view(value, path: Path) -> tuple[float, tuple[float, float]]:
+    if not isinstance(value, dict) or "scale" not in value or "offset" not in value:
+        raise InputError(f'{path}: "view" must be an object {{"scale": s, "offset": [ox, oy]}}')
+    scale, offset = value["scale"], value["offset"]
+    if not _is_number(scale) or not math.isfinite(scale) or scale <= 0:
+        raise InputError(f"{path}: view scale must be a finite number > 0, got {scale!r}")
+    if not (
+        isinstance(offset, list)
+        and len(offset) == 2
+        and all(_is_number(v) and math.isfinite(v) for v in offset)
+    ):
+        raise InputError(f"{path}: view offset must be two finite numbers [ox, oy], got {offset!r}")
+    return float(scale), (float(offset[0]), float(offset[1]))
+
+
+# -- images -------------------------------------------------------------------
+
+
+def read_image(path: str | os.PathLike) -> np.ndarray:
+    """Decode an image file (PNG, JPEG, ... anything OpenCV reads) as RGBA.
+
+    Returns
+    -------
+    ndarray of shape (H, W, 4), uint8
+        Straight alpha (255 where the file has none), row 0 at the top.
+
+    Raises
+    ------
+    InputError
+        Missing, unreadable, empty, corrupt or unsupported file.
+    """
+    path = Path(path)
+    data = _read_bytes(path)
+    with _captured_c_stderr() as messages:
+        image = cv2.imdecode(np.frombuffer(data, dtype=np.uint8), cv2.IMREAD_UNCHANGED)
+    if image is None:
+        reason = _decoder_reason(messages)
+        raise InputError(f"{path}: cannot decode the image{f' ({reason})' if reason else ''}")
+    if image.dtype == np.uint16:
+        image = ((image.astype(np.uint32) + 128) // 257).astype(np.uint8)
+    elif image.dtype != np.uint8:
+        raise InputError(f"{path}: unsupported pixel type {image.dtype}; use 8- or 16-bit images")
+    if image.ndim == 2:
+        return cv2.cvtColor(image, cv2.COLOR_GRAY2RGBA)
+    conversions = {3: cv2.COLOR_BGR2RGBA, 4: cv2.COLOR_BGRA2RGBA}
+    if image.shape[2] not in conversions:
+        raise InputError(f"{path}: unsupported image with {image.shape[2]} channels")
+    return cv2.cvtColor(image, conversions[image.shape[2]])
+
+
+def encode_png(image: np.ndarray) -> bytes:
+    """PNG bytes of an RGBA uint8 image of shape (H, W, 4), row 0 at the top."""
+    ok, buffer = cv2.imencode(".png", cv2.cvtColor(image, cv2.COLOR_RGBA2BGRA))
+    if not ok:
+        raise RuntimeError("OpenCV failed to encode a PNG")
+    return buffer.tobytes()
+
+
+def write_png(path: str | os.PathLike, image: np.ndarray) -> None:
+    """Write an RGBA uint8 image of shape (H, W, 4) as PNG, atomically."""
+    write_atomic(path, encode_png(image))
+
+
+def _read_bytes(path: Path) -> bytes:
+    try:
+        data = path.read_bytes()
+    except FileNotFoundError:
+        raise InputError(f"{path}: no such file") from None
+    except IsADirectoryError:
+        raise InputError(f"{path}: is a directory, not a file") from None
+    except OSError as error:
+        raise InputError(f"{path}: cannot read ({error.strerror or error})") from None
+    if not data:
+        raise InputError(f"{path}: the file is empty")
+    return data
+
+
+@contextlib.contextmanager
+def _captured_c_stderr() -> Iterator[list[str]]:
+    """Collect what C libraries print on file descriptor 2 meanwhile.
+
+    libpng and libjpeg report decoding errors by printing them, outside Python's
+    reach; capturing them keeps the command line's error to one line and lets it
+    quote the decoder's reason.
+    """
+    messages: list[str] = []
+    sys.stderr.flush()
+    saved = os.dup(2)
+    with tempfile.TemporaryFile() as sink:
+        os.dup2(sink.fileno(), 2)
+        try:
+            yield messages
+        finally:
+            os.dup2(saved, 2)
+            os.close(saved)
+            sink.seek(0)
+            messages.extend(sink.read().decode("utf-8", errors="replace").splitlines())
+
+
+def _decoder_reason(messages: list[str]) -> str:
+    """The most specific decoder message, without OpenCV's log prefix."""
+    for line in reversed(messages):
+        line = line.strip()
+        if line.startswith("[") and "]" in line:
+            line = line.split("]", 1)[1].strip()
+            # OpenCV's log lines read "global file.cpp:123 function message".
+            parts = line.split(" ", 3)
+            line = parts[3] if len(parts) == 4 and parts[0] == "global" else line
+        if line:
+            return line.removeprefix("libpng error: ")
+    return ""
+
+
+def _is_number(value) -> bool:
+    return isinstance(value, Real) and not isinstance(value, bool)
+
+
+def _json_type(value) -> str:
+    names = {dict: "an object", list: "a list", str: "a string", bool: "a boolean", type(None): "null"}
+    return names.get(type(value), "a number")

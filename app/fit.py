@@ -1,0 +1,276 @@
+"""Fit a cage (closed uniform quadratic B-spline, Sec. 4.1) to an image's main silhouette.
+
+The silhouette is the alpha channel when the image has a meaningful one, otherwise
+the largest object against the background (Otsu threshold and morphology, with the
+polarity in which the object does not touch the image border).  Its outer contour
+is parameterised by arc length and the n control points solve the linear least
+squares problem ``B(t) P = contour`` with the folded basis of `core.bspline`;
+then a few rounds move every parameter to its foot point on the current curve and
+minimise the distances to the tangent lines there, so the result fits the
+distance to the curve, not to fixed parameters.
+
+Coordinates are image pixels, x right, y down, origin at the image's top-left
+corner; pixel (column i, row j) covers [i, i+1] x [j, j+1].
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import cv2
+import numpy as np
+from scipy.ndimage import gaussian_filter1d
+
+from core.bspline import ClosedBSpline, basis_weights
+from core.validation import positive_int
+
+#: Most rounds of the tangent-distance fit after the arc-length fit.
+FIT_ROUNDS = 12
+#: Newton steps of the foot-point parameters per round.
+FOOT_POINT_STEPS = 3
+#: Weight of the tangential distance relative to the normal one.
+TANGENTIAL_WEIGHT = 1e-4
+#: Neighbouring control points closer than this (pixels) become a sharp corner.
+CORNER_SNAP = 1.0
+
+
+class CageFitWarning(UserWarning):
+    """The fit had to change the request (fewer points or smoothing) to stay simple."""
+
+
+def fit_cage(image: np.ndarray, points: int = 16) -> np.ndarray:
+    """Control points of a closed quadratic B-spline around the image's main silhouette.
+
+    Parameters
+    ----------
+    image : ndarray of shape (H, W, 4) or (H, W, 3), uint8
+        RGBA or RGB, row 0 at the top.
+    points : int
+        n >= 3, the number of control points.
+
+    Returns
+    -------
+    ndarray of shape (m, 2), float64
+        Control points in image pixels; m == points unless that curve crossed
+        itself, in which case the contour is smoothed and then m is lowered until
+        the curve is simple, with a `CageFitWarning` saying so.  Pairs closer
+        than a pixel are merged into sharp corners (`snap_corners`).
+
+    Raises
+    ------
+    ValueError
+        If the image holds no object or the object is too small for `points`.
+    """
+    points = positive_int(points, "points", minimum=3)
+    contour = silhouette_contour(image)
+    if len(contour) < 3 * points:
+        raise ValueError(
+            f"the silhouette's outline has only {len(contour)} pixels, too few for {points} control "
+            "points; use fewer points or a larger image"
+        )
+    length = _perimeter(contour)
+    for count in range(points, 2, -1):
+        for smoothing in (0.0, 0.25, 0.5, 1.0):
+            # Smoothing over a fraction of one span irons out wiggles that make the
+            # fit loop, without changing the shape at the scale of the spans.
+            sigma = smoothing * len(contour) / count
+            data = gaussian_filter1d(contour, sigma, axis=0, mode="wrap") if sigma else contour
+            control_points = snap_corners(fit_closed_bspline(data, count))
+            try:
+                ClosedBSpline(control_points)
+            except ValueError:
+                continue
+            if (count, smoothing) != (points, 0.0):
+                remedy = [f"used {count} points"] if count != points else []
+                if sigma:
+                    remedy.append(f"smoothed the outline over {sigma * length / len(contour):.1f} px")
+                warnings.warn(
+                    f"the fitted curve with {points} control points crossed itself; {' and '.join(remedy)}",
+                    CageFitWarning,
+                    stacklevel=2,
+                )
+            return control_points
+    raise ValueError("could not fit a simple closed curve to the silhouette")
+
+
+def snap_corners(control_points: np.ndarray, tolerance: float = CORNER_SNAP) -> np.ndarray:
+    """Make neighbouring control points closer than `tolerance` an exact double.
+
+    Least squares pulls two control points together at a sharp corner of the
+    outline.  Less than a pixel apart they are a corner to the eye, but a curvature
+    spike to the numerics; doubled exactly they are the sharp corner that
+    `core.ClosedBSpline` models (Fig. 10 of the paper).  Pairs do not chain, so
+    no point is repeated three times.
+
+    Parameters
+    ----------
+    control_points : ndarray of shape (n, 2)
+    tolerance : float
+        Distance in pixels.
+
+    Returns
+    -------
+    ndarray of shape (n, 2)
+    """
+    points = np.array(control_points, dtype=np.float64)
+    count = len(points)
+    taken = np.zeros(count, dtype=bool)
+    for i in range(count):
+        j = (i + 1) % count
+        if not (taken[i] or taken[j]) and np.linalg.norm(points[i] - points[j]) < tolerance:
+            points[i] = points[j] = 0.5 * (points[i] + points[j])
+            taken[i] = taken[j] = True
+    return points
+
+
+def silhouette_mask(image: np.ndarray) -> np.ndarray:
+    """The main object of the image, bool ndarray of shape (H, W).
+
+    The alpha channel decides when it is present and not all opaque; otherwise
+    the object is the largest component of an Otsu threshold, taking the polarity
+    (dark or light object) whose largest component does not touch the border.
+    """
+    image = np.asarray(image)
+    if image.dtype != np.uint8 or image.ndim != 3 or image.shape[2] not in (3, 4):
+        raise ValueError(
+            f"image must be an (H, W, 3) or (H, W, 4) uint8 array, got {image.dtype} {image.shape}"
+        )
+    if image.shape[2] == 4 and image[..., 3].min() < 255:
+        candidates = [_largest_component(image[..., 3] >= 128)]
+    else:
+        grey = cv2.GaussianBlur(cv2.cvtColor(image[..., :3], cv2.COLOR_RGB2GRAY), (5, 5), 0)
+        _, light = cv2.threshold(grey, 0, 1, cv2.THRESH_BINARY + cv2.THRESH_OTSU)
+        size = max(3, (min(image.shape[:2]) // 200) | 1)
+        kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (size, size))
+        candidates = []
+        for mask in (light, 1 - light):
+            mask = cv2.morphologyEx(mask.astype(np.uint8), cv2.MORPH_OPEN, kernel)
+            mask = cv2.morphologyEx(mask, cv2.MORPH_CLOSE, kernel)
+            candidates.append(_largest_component(mask > 0, avoid_border=True))
+    touches, area, mask = max(candidates, key=lambda c: (not c[0], c[1]))
+    if area < 16:
+        raise ValueError("found no object in the image (the silhouette is empty or tiny)")
+    return mask
+
+
+def silhouette_contour(image: np.ndarray) -> np.ndarray:
+    """Outer outline of `silhouette_mask`, ndarray of shape (K, 2), image pixels.
+
+    The points are the centres of the boundary pixels moved half a pixel outwards,
+    which puts them on the edge between object and background.
+    """
+    mask = silhouette_mask(image).astype(np.uint8)
+    contours, _ = cv2.findContours(mask, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
+    contour = max(contours, key=cv2.contourArea).reshape(-1, 2).astype(np.float64) + 0.5
+    tangent = np.roll(contour, -2, axis=0) - np.roll(contour, 2, axis=0)
+    tangent /= np.maximum(np.linalg.norm(tangent, axis=1, keepdims=True), 1e-12)
+    area = 0.5 * np.sum(
+        contour[:, 0] * np.roll(contour[:, 1], -1) - np.roll(contour[:, 0], -1) * contour[:, 1]
+    )
+    outward = np.sign(area) * np.stack([tangent[:, 1], -tangent[:, 0]], axis=1)
+    return contour + 0.5 * outward
+
+
+def fit_closed_bspline(data: np.ndarray, count: int) -> np.ndarray:
+    """Least-squares closed uniform quadratic B-spline through a closed point sequence.
+
+    Starts from the linear fit at arc-length parameters, then minimises the
+    distance to the tangent lines at the foot points (TDM, Wang, Pottmann and Liu
+    2006): plain parameter correction only creeps along the curve, this converges
+    quadratically (a sampled spline is recovered to rounding in a few rounds).
+
+    Parameters
+    ----------
+    data : ndarray of shape (K, 2)
+        Points along a closed curve, in order, the last one followed by the first.
+    count : int
+        n, the number of control points.
+
+    Returns
+    -------
+    ndarray of shape (n, 2)
+        Control points; the curve may cross itself (callers check).
+    """
+    steps = np.linalg.norm(np.diff(data, axis=0, append=data[:1]), axis=1)
+    t = count * np.concatenate([[0.0], np.cumsum(steps)[:-1]]) / steps.sum()
+    control_points = np.linalg.lstsq(_basis_matrix(t, count), data, rcond=None)[0]
+    extent = float(np.ptp(data, axis=0).max())
+    # A small tangential term keeps the system regular where the data are noisy
+    # (pixel staircases) without holding the parameters back.
+    tangential = np.sqrt(TANGENTIAL_WEIGHT)
+    for _ in range(FIT_ROUNDS):
+        for _ in range(FOOT_POINT_STEPS):
+            t = _foot_point_parameters(control_points, data, t)
+        basis = _basis_matrix(t, count)
+        first = _derivatives(control_points, t)[1]
+        tangent = first / np.maximum(np.linalg.norm(first, axis=1, keepdims=True), 1e-300)
+        normal = np.stack([tangent[:, 1], -tangent[:, 0]], axis=1)
+        system = np.vstack(
+            [
+                np.hstack([normal[:, :1] * basis, normal[:, 1:] * basis]),
+                tangential * np.hstack([tangent[:, :1] * basis, tangent[:, 1:] * basis]),
+            ]
+        )
+        right = np.concatenate([np.sum(normal * data, axis=1), tangential * np.sum(tangent * data, axis=1)])
+        solution = np.linalg.lstsq(system, right, rcond=None)[0]
+        updated = np.stack([solution[:count], solution[count:]], axis=1)
+        change = np.abs(updated - control_points).max()
+        control_points = updated
+        if change <= 1e-12 * extent:
+            break
+    return control_points
+
+
+def _basis_matrix(t: np.ndarray, count: int) -> np.ndarray:
+    """Folded B-spline basis (K, n) at parameters t in [0, n), as `ClosedBSpline.basis_matrix`."""
+    index, weights = basis_weights(t, count)
+    matrix = np.zeros((t.shape[0], count))
+    np.add.at(matrix, (np.repeat(np.arange(t.shape[0]), 3), index.ravel()), weights.ravel())
+    return matrix
+
+
+def _derivatives(control_points: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """p(t), p'(t), p''(t) of the closed B-spline, each of shape (K, 2)."""
+    index, weights = basis_weights(t, control_points.shape[0])
+    u = (t - np.floor(t))[:, None]
+    corners = control_points[index]  # (K, 3, 2)
+    point = np.einsum("kj,kjd->kd", weights, corners)
+    first = (u - 1) * corners[:, 0] + (1 - 2 * u) * corners[:, 1] + u * corners[:, 2]
+    second = corners[:, 0] - 2 * corners[:, 1] + corners[:, 2]
+    return point, first, second
+
+
+def _foot_point_parameters(control_points: np.ndarray, data: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """One Newton step per point towards the parameter of its closest curve point."""
+    point, first, second = _derivatives(control_points, t)
+    difference = point - data
+    gradient = np.sum(difference * first, axis=1)
+    speed = np.sum(first * first, axis=1)
+    curvature = speed + np.sum(difference * second, axis=1)
+    # Far from a minimum the Hessian can be small or negative: fall back to the
+    # Gauss-Newton term, and never move by more than half a span.
+    curvature = np.where(curvature > 0.1 * speed, curvature, speed)
+    step = np.clip(gradient / np.maximum(curvature, 1e-300), -0.5, 0.5)
+    return np.mod(t - step, control_points.shape[0])
+
+
+def _largest_component(mask: np.ndarray, *, avoid_border: bool = False) -> tuple[bool, int, np.ndarray]:
+    """(touches the border, area, mask) of the largest 8-connected component.
+
+    With `avoid_border`, components touching the border count only if no other exists.
+    """
+    count, labels, stats, _ = cv2.connectedComponentsWithStats(mask.astype(np.uint8), connectivity=8)
+    if count <= 1:
+        return True, 0, np.zeros(mask.shape, dtype=bool)
+    height, width = mask.shape
+    left, top = stats[1:, cv2.CC_STAT_LEFT], stats[1:, cv2.CC_STAT_TOP]
+    right, bottom = left + stats[1:, cv2.CC_STAT_WIDTH], top + stats[1:, cv2.CC_STAT_HEIGHT]
+    touches = (left == 0) | (top == 0) | (right == width) | (bottom == height)
+    area = stats[1:, cv2.CC_STAT_AREA]
+    order = np.lexsort((-area, touches)) if avoid_border else np.argsort(-area)
+    best = int(order[0])
+    return bool(touches[best]), int(area[best]), labels == best + 1
+
+
+def _perimeter(contour: np.ndarray) -> float:
+    return float(np.linalg.norm(np.diff(contour, axis=0, append=contour[:1]), axis=1).sum())

@@ -1,0 +1,324 @@
+"""Tests of app.render and app.shaders on a headless EGL context.
+
+Without EGL these tests fail (the fixture raises): rendering is never skipped.
+Meshes and deformations are built here (scipy Delaunay, affine maps), so the
+renderer is tested independently of core's mesher and kernels.
+"""
+
+import cv2
+import numpy as np
+import pytest
+from scipy.spatial import Delaunay
+
+from app.render import (
+    BAND_COLOURS,
+    BAND_START,
+    BAND_WIDTH,
+    HIGHLIGHT_COLOUR,
+    View,
+    WarpRenderer,
+    create_headless_context,
+)
+from app.shaders import load_shader
+
+
+@pytest.fixture(scope="module")
+def ctx():
+    context = create_headless_context()
+    yield context
+    context.release()
+
+
+@pytest.fixture
+def renderer(ctx):
+    with WarpRenderer(ctx) as instance:
+        yield instance
+
+
+def smooth_image(width=320, height=240, seed=0):
+    """Opaque RGBA test picture: smooth waves, a ramp and one hard-edged square, (H, W, 4) uint8."""
+    rng = np.random.default_rng(seed)
+    y, x = np.mgrid[0:height, 0:width].astype(np.float64)
+    phase = rng.uniform(0, 2 * np.pi, 3)
+    image = np.empty((height, width, 4), dtype=np.uint8)
+    image[..., 0] = 127.5 + 127 * np.sin(x / 9 + phase[0]) * np.cos(y / 13 + phase[1])
+    image[..., 1] = 127.5 + 127 * np.sin((x + 2 * y) / 17 + phase[2])
+    image[..., 2] = 255 * x / width
+    image[..., 3] = 255
+    image[height // 3 : height // 2, width // 3 : width // 2, :3] = (250, 30, 60)
+    return image
+
+
+def ellipse_mesh(center, axes, spacing, seed=1):
+    """Delaunay mesh of an ellipse polygon with jittered interior points.
+
+    Returns vertices (V, 2), triangles (T, 3) and the boundary polygon (B, 2) in order.
+    """
+    rng = np.random.default_rng(seed)
+    a, b = axes
+    count = int(np.ceil(np.pi * (a + b) / spacing))
+    angles = 2 * np.pi * np.arange(count) / count
+    boundary = np.stack([center[0] + a * np.cos(angles), center[1] + b * np.sin(angles)], axis=1)
+    y, x = np.mgrid[-b:b:spacing, -a:a:spacing]
+    interior = np.stack([x.ravel(), y.ravel()], axis=1) + rng.uniform(-0.3, 0.3, (x.size, 2)) * spacing
+    inside = (interior[:, 0] / (a - spacing / 2)) ** 2 + (interior[:, 1] / (b - spacing / 2)) ** 2 < 1
+    vertices = np.vstack([boundary, interior[inside] + center])
+    return vertices, Delaunay(vertices).simplices, boundary
+
+
+def polygon_mask(polygon, shape, inset):
+    """Pixels whose centres are inside `polygon` by more than `inset` pixels (negative: outside by -inset)."""
+    mask = np.zeros(shape, dtype=np.uint8)
+    cv2.fillPoly(mask, [np.round((polygon - 0.5) * 256).astype(np.int32)], 1, shift=8)
+    radius = int(np.ceil(abs(inset)))
+    kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * radius + 1, 2 * radius + 1))
+    if inset >= 0:
+        return cv2.erode(mask, kernel).astype(bool)
+    return ~cv2.dilate(mask, kernel).astype(bool)
+
+
+def psnr(a, b, mask):
+    error = np.mean((a[mask][:, :3].astype(np.float64) - b[mask][:, :3]) ** 2)
+    return 10 * np.log10(255.0**2 / max(error, 1e-12))
+
+
+def affine(matrix, offset, points):
+    return points @ np.asarray(matrix).T + offset
+
+
+def rotation(angle):
+    return np.array([[np.cos(angle), -np.sin(angle)], [np.sin(angle), np.cos(angle)]])
+
+
+# -- shaders ---------------------------------------------------------------------------
+
+
+def test_shader_loader_caches_and_names_missing_files():
+    assert load_shader("mesh.vert.glsl") is load_shader("mesh.vert.glsl")
+    with pytest.raises(FileNotFoundError, match=r"shader 'nope.glsl' not found .*available: .*mesh.vert"):
+        load_shader("nope.glsl")
+
+
+# -- image warping ---------------------------------------------------------------------
+
+
+def test_identity_on_full_rectangle_reproduces_the_image(renderer):
+    image = smooth_image()
+    height, width = image.shape[:2]
+    y, x = np.mgrid[0:height:24j, 0:width:32j]
+    vertices = np.stack([x.ravel(), y.ravel()], axis=1)
+    renderer.set_image(image)
+    renderer.set_mesh(vertices, Delaunay(vertices).simplices)
+    out = renderer.render((width, height))
+    assert out.shape == image.shape and out.dtype == np.uint8
+    assert psnr(out, image, np.ones((height, width), bool)) >= 40
+    assert (out[..., 3] == 255).all()
+
+
+def test_identity_inside_domain_and_transparent_outside(renderer):
+    image = smooth_image()
+    vertices, triangles, boundary = ellipse_mesh((160, 120), (130, 90), 9)
+    renderer.set_image(image)
+    renderer.set_mesh(vertices, triangles)
+    out = renderer.render((320, 240))
+    inside = polygon_mask(boundary, (240, 320), 1.5)
+    outside = polygon_mask(boundary, (240, 320), -1.5)
+    assert psnr(out, image, inside) >= 40
+    assert (out[inside, 3] == 255).all()
+    assert (out[outside] == 0).all(), "outside the domain everything must be transparent black"
+
+
+def test_affine_deformation_matches_cv2_warp_affine(renderer):
+    image = smooth_image()
+    height, width = image.shape[:2]
+    vertices, triangles, boundary = ellipse_mesh((160, 120), (120, 80), 10)
+    matrix = rotation(np.radians(17)) @ np.diag([0.85, 1.1])
+    offset = np.array([30.0, -12.0])
+    renderer.set_image(image)
+    renderer.set_mesh(vertices, triangles)
+    renderer.set_positions(affine(matrix, offset, vertices))
+    out = renderer.render((width, height))
+    # Our pixel (i, j) covers [i, i+1] x [j, j+1]; OpenCV's pixel centres are integers,
+    # so x' = A x + b becomes i' = A i + b + (A - I) (0.5, 0.5).
+    opencv_offset = offset + (matrix - np.eye(2)) @ [0.5, 0.5]
+    expected = cv2.warpAffine(
+        image,
+        np.hstack([matrix, opencv_offset[:, None]]),
+        (width, height),
+        flags=cv2.INTER_LINEAR,
+        borderMode=cv2.BORDER_CONSTANT,
+        borderValue=(0, 0, 0, 0),
+    )
+    inside = polygon_mask(affine(matrix, offset, boundary), (height, width), 2.0)
+    assert inside.sum() > 20000
+    # 33 dB is the requirement; 45 also proves the half-pixel convention (41.8 dB without it).
+    assert psnr(out, expected, inside) >= 45
+    assert (out[polygon_mask(affine(matrix, offset, boundary), (height, width), -1.5), 3] == 0).all()
+
+
+def test_no_cracks_under_a_nonlinear_deformation(renderer):
+    image = smooth_image()
+    vertices, triangles, boundary = ellipse_mesh((160, 120), (120, 85), 6, seed=3)
+    # A swirl: every triangle moves differently, so any gap between neighbours shows.
+    relative = vertices - (160, 120)
+    turn = 0.6 * np.exp(-np.sum(relative**2, axis=1) / 80.0**2)
+    swirled = np.einsum("vij,vj->vi", rotation(turn).transpose(2, 0, 1), relative)
+    renderer.set_image(image)
+    renderer.set_mesh(vertices, triangles)
+    renderer.set_positions(swirled + (160, 120))
+    out = renderer.render((320, 240))
+    # The boundary turns by at most ~0.6 rad near its ends; compare with the swirled boundary polygon.
+    boundary_index = np.arange(len(boundary))  # ellipse_mesh puts the boundary first
+    deformed_boundary = swirled[boundary_index] + (160, 120)
+    inside = polygon_mask(deformed_boundary, (240, 320), 1.5)
+    assert inside.sum() > 20000
+    assert (out[inside, 3] == 255).all()
+
+
+def test_edges_are_antialiased(renderer):
+    image = smooth_image()
+    square = np.array([[60.0, 40.0], [260.0, 40.0], [260.0, 200.0], [60.0, 200.0]])
+    renderer.set_image(image)
+    renderer.set_mesh(square, np.array([[0, 1, 2], [0, 2, 3]]))
+    renderer.set_positions(affine(rotation(0.3), (40, -40), square))
+    alpha = renderer.render((320, 240))[..., 3]
+    levels = np.unique(alpha[(alpha > 0) & (alpha < 255)])
+    assert len(levels) >= 3, f"edge pixels should have partial coverage, got levels {levels}"
+
+
+def test_shrinking_uses_mipmaps(renderer):
+    size = 512
+    y, x = np.mgrid[0:size, 0:size]
+    checker = np.zeros((size, size, 4), dtype=np.uint8)
+    checker[..., :3] = (((x + y) % 2) * 255)[..., None]
+    checker[..., 3] = 255
+    corners = np.array([[0.0, 0.0], [size, 0.0], [size, size], [0.0, size]])
+    renderer.set_image(checker)
+    renderer.set_mesh(corners, np.array([[0, 1, 2], [0, 2, 3]]))
+    # 8.3, not 8: at exactly 1/8 every sample sits on a texel edge, where even plain
+    # bilinear filtering averages to grey and the test could not fail.
+    out = renderer.render((61, 61), View(1 / 8.3)).astype(np.float64)
+    grey = out[1:-1, 1:-1, :3]
+    assert abs(grey.mean() - 127.5) < 3
+    assert grey.std() < 2, "a shrunk checkerboard must come out uniform grey, not aliased"
+
+
+def test_transparent_source_pixels_do_not_bleed_colour(renderer):
+    # Left half: transparent with a red colour that must never show; right half: opaque blue.
+    image = np.zeros((64, 64, 4), dtype=np.uint8)
+    image[:, :32] = (255, 0, 0, 0)
+    image[:, 32:] = (0, 0, 255, 255)
+    corners = np.array([[0.0, 0.0], [64.0, 0.0], [64.0, 64.0], [0.0, 64.0]])
+    renderer.set_image(image)
+    renderer.set_mesh(corners, np.array([[0, 1, 2], [0, 2, 3]]))
+    out = renderer.render((37, 37), View(37 / 64))  # shrink: filtering mixes both halves
+    partial = (out[..., 3] > 0) & (out[..., 3] < 255)
+    assert partial.any()
+    assert (out[partial, 0] <= 2).all() and (out[partial, 2] >= 250).all()
+    assert (out[out[..., 3] == 0, :3] == 0).all()
+
+
+def test_view_maps_image_points_to_framebuffer_pixels(renderer):
+    image = np.full((10, 10, 4), 255, dtype=np.uint8)
+    square = np.array([[2.0, 3.0], [6.0, 3.0], [6.0, 8.0], [2.0, 8.0]])
+    renderer.set_image(image)
+    renderer.set_mesh(square, np.array([[0, 1, 2], [0, 2, 3]]))
+    out = renderer.render((40, 30), View(2.0, (5.0, 7.0)))
+    rows, columns = np.nonzero(out[..., 3] == 255)
+    # (x, y) -> (5 + 2x, 7 + 2y): x in [2, 6] -> columns 9..16, y in [3, 8] -> rows 13..22.
+    assert (columns.min(), columns.max(), rows.min(), rows.max()) == (9, 16, 13, 22)
+
+
+def test_render_restores_the_callers_framebuffer():
+    # A context of its own: the framebuffer bound here must not outlive the test.
+    ctx = create_headless_context()
+    screen = ctx.simple_framebuffer((8, 8))
+    screen.use()
+    with WarpRenderer(ctx) as renderer:
+        renderer.set_image(np.full((4, 4, 4), 255, dtype=np.uint8))
+        renderer.set_mesh(np.array([[0.0, 0.0], [4.0, 0.0], [0.0, 4.0]]), np.array([[0, 1, 2]]))
+        renderer.render((16, 16))
+        renderer.render((32, 16))  # a new size replaces the offscreen framebuffers
+        assert ctx.fbo is screen
+    ctx.release()
+
+
+def test_view_fit_centres_the_box():
+    view = View.fit((0.0, 0.0, 200.0, 100.0), (400, 400), margin=10)
+    assert view.scale == pytest.approx(1.9)
+    assert view.offset == pytest.approx((10.0, 105.0))
+
+
+def test_positions_update_in_place(renderer):
+    image = smooth_image()
+    vertices, triangles, _ = ellipse_mesh((160, 120), (100, 70), 12)
+    renderer.set_image(image)
+    renderer.set_mesh(vertices, triangles)
+    buffer, vertex_array = renderer._positions.glo, renderer._image_vao.glo
+    first = renderer.render((320, 240))
+    renderer.set_positions(vertices + (20.0, 0.0))
+    second = renderer.render((320, 240))
+    assert (renderer._positions.glo, renderer._image_vao.glo) == (buffer, vertex_array)
+    # A whole-pixel move shifts the picture exactly.
+    assert np.array_equal(second[:, 40:], first[:, 20:-20])
+
+
+# -- scalar fields and overlays ---------------------------------------------------------
+
+
+def test_field_bands_follow_the_colour_map(renderer):
+    vertices = np.array([[0.0, 0.0], [120.0, 0.0], [120.0, 40.0], [0.0, 40.0]])
+    renderer.set_mesh(vertices, np.array([[0, 1, 2], [0, 2, 3]]))
+    # Values off the band edges (every multiple of 0.1 carries an iso-line).
+    for value, band in ((-0.55, 0), (-0.05, 0), (0.05, 1), (0.55, 6), (0.95, 10), (1.05, 11), (3.05, 11)):
+        renderer.set_field(np.full(4, value))
+        out = renderer.render((120, 40), content="field")
+        expected = np.round(255 * BAND_COLOURS[band])
+        assert np.abs(out[20, 60, :3] - expected).max() <= 1, (value, band)
+    # A ramp from BAND_START to the end of the last band shows every band in order.
+    renderer.set_field(BAND_START + len(BAND_COLOURS) * BAND_WIDTH * vertices[:, 0] / 120.0)
+    row = renderer.render((120, 40), content="field")[20, :, :3].astype(int)
+    centres = ((np.arange(len(BAND_COLOURS)) + 0.5) * 10).astype(int)
+    assert np.abs(row[centres] - np.round(255 * BAND_COLOURS)).max() <= 1
+    # Band edges (every 10 pixels here) are darkened lines.
+    edges = np.arange(1, len(BAND_COLOURS)) * 10
+    brightness = row.sum(axis=1)
+    assert (brightness[edges] < 0.9 * (brightness[edges - 5] + brightness[edges + 5]) / 2).all()
+
+
+def test_wireframe_and_highlighted_triangles(renderer):
+    vertices = np.array([[0.0, 0.0], [100.0, 0.0], [100.0, 100.0], [0.0, 100.0]])
+    renderer.set_mesh(vertices, np.array([[0, 1, 2], [0, 2, 3]]))
+    renderer.set_field(np.full(4, 0.55))
+    plain = renderer.render((100, 100), content="field").astype(int)
+    renderer.set_highlighted(np.array([False, True]))
+    marked = renderer.render((100, 100), content="field", wireframe=True, highlight=True).astype(int)
+    # Triangle 1 (0, 2, 3) is the lower-left half (y down): (x, y) = (20, 80) is inside it.
+    colour, alpha = np.array(HIGHLIGHT_COLOUR[:3]), HIGHLIGHT_COLOUR[3]
+    expected = np.round(255 * colour + (1 - alpha) * plain[80, 20, :3])
+    assert np.abs(marked[80, 20, :3] - expected).max() <= 2
+    assert np.array_equal(marked[20, 80], plain[20, 80])
+    diagonal = marked[np.arange(5, 95), np.arange(5, 95), :3].sum(axis=1)
+    assert (diagonal < plain[np.arange(5, 95), np.arange(5, 95), :3].sum(axis=1)).mean() > 0.9
+
+
+# -- errors -------------------------------------------------------------------------------
+
+
+def test_errors_say_what_is_wrong(renderer):
+    with pytest.raises(RuntimeError, match="set_mesh"):
+        renderer.render((10, 10))
+    with pytest.raises(ValueError, match=r"\(H, W, 4\) uint8"):
+        renderer.set_image(np.zeros((4, 4, 3), dtype=np.uint8))
+    with pytest.raises(ValueError, match="integer indices"):
+        renderer.set_mesh(np.zeros((3, 2)), np.array([[0, 1, 3]]))
+    renderer.set_mesh(np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]), np.array([[0, 1, 2]]))
+    with pytest.raises(RuntimeError, match="set_image"):
+        renderer.render((10, 10))
+    with pytest.raises(ValueError, match="positions must have shape"):
+        renderer.set_positions(np.zeros((4, 2)))
+    with pytest.raises(ValueError, match="mask or indices"):
+        renderer.set_highlighted(np.array([1]))
+    renderer.set_highlighted([])
+    with pytest.raises(ValueError, match="output size"):
+        renderer.render((0, 10), content="none")
