@@ -241,9 +241,8 @@ def triangulate(curve: ClosedBSpline, max_edge: float | None = None) -> Mesh:
         If `curve` is not a ClosedBSpline, or `max_edge` is not a number > 0 or so
         small that the mesh would exceed `MAX_VERTICES` vertices (estimated from
         the area; refinement near narrow features adds to that estimate).
-    RuntimeError
-        If the refinement does not converge in `MAX_ROUNDS` rounds (not seen on
-        any valid curve; a bug report with the control points is welcome).
+        Also if the refinement fails (seen only for near-cusps made by two almost
+        coincident control points): the message names them.
     """
     if not isinstance(curve, ClosedBSpline):
         raise ValueError(f"curve must be a core.ClosedBSpline, got {type(curve).__name__}")
@@ -258,12 +257,34 @@ def triangulate(curve: ClosedBSpline, max_edge: float | None = None) -> Mesh:
             f"max_edge={max_edge:.6g} is too small: the mesh would have about {estimate:.3g} "
             f"vertices, more than the {MAX_VERTICES:,} allowed; use max_edge >= {smallest:.3g}"
         )
-    sizing = _Sizing(curve, max_edge)
-    mesher = _Refinement(curve, sizing)
-    mesher.refine()
-    mesher.smooth(SMOOTHING_PASSES)
-    mesher.refine()
-    return mesher.mesh()
+    try:
+        sizing = _Sizing(curve, max_edge)
+        mesher = _Refinement(curve, sizing)
+        mesher.refine()
+        mesher.smooth(SMOOTHING_PASSES)
+        mesher.refine()
+        return mesher.mesh()
+    except RuntimeError as error:
+        raise ValueError(_unmeshable(curve, str(error))) from None
+
+
+def _unmeshable(curve: ClosedBSpline, reason: str) -> str:
+    """A message a person can act on when the refinement fails.
+
+    The failures seen are near-cusps: two neighbouring control points almost (but
+    not exactly) equal make the curve turn back within a tiny distance.
+    """
+    points = curve.control_points
+    gaps = np.linalg.norm(np.roll(points, -1, axis=0) - points, axis=1)
+    gaps[gaps == 0] = np.inf  # exact doubles are sharp corners, which mesh fine
+    i = int(np.argmin(gaps))
+    if gaps[i] < 1e-2 * curve.diameter:
+        return (
+            f"the curve cannot be meshed: control points {i} and {(i + 1) % len(points)} are almost "
+            f"coincident ({gaps[i]:.3g} apart), which folds the curve into a near-cusp; make them "
+            "exactly equal (a sharp corner) or move them apart"
+        )
+    return f"the curve cannot be meshed ({reason}); try a larger max_edge or smooth the cage"
 
 
 class _Sizing:

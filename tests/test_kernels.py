@@ -224,3 +224,16 @@ def test_boundary_argument_is_checked(blob):
 def test_example_cages_are_valid():
     for points in (examples.blob(), examples.starfish(), examples.ellipse(), examples.dumbbell()):
         assert core.ClosedBSpline(points).area != 0
+
+
+def test_compiled_solver_matches_the_plain_numpy_reference(blob):
+    from core.reference import reference_kernel
+
+    boundary = blob.sample(30)
+    x = interior_points(blob, 100, seed=10, margin=0.05)
+    expected = reference_kernel(boundary, x)
+    np.testing.assert_allclose(core.kernel(boundary, x), expected, rtol=1e-9, atol=1e-12 * expected.max())
+    unshifted = reference_kernel(boundary, x, power=2.0, shift=False)
+    np.testing.assert_allclose(
+        core.kernel(boundary, x, "power", power=2.0), unshifted, rtol=1e-9, atol=1e-12 * unshifted.max()
+    )
