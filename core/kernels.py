@@ -273,6 +273,10 @@ class _Run:
                 *diagnostics,
                 numba.get_num_threads(),
             )
+            # A safety net: a row that is not finite is never returned as converged.
+            broken = ~np.isfinite(rows).all(axis=1) & (diagnostics[1] != solver.STATUS_OUTSIDE)
+            diagnostics[1][broken] = solver.STATUS_NOT_CONVERGED
+            diagnostics[2][broken] = np.inf
             out[chunk] = rows
             iterations[chunk], status[chunk], residual[chunk] = diagnostics
             if progress is not None:

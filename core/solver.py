@@ -208,48 +208,83 @@ def _side_of_curve(coefficients, piece_length, t, x, y, orientation):
     return 1 if (left_a or left_b) else -1
 
 
+@njit(cache=True, error_model="numpy")
+def _graded_side(edge, scale, step):
+    """Sinh rule on one side of the centre: (intervals m, sinh scale s', sigma step).
+
+    The rule is t = centre +- s' sinh(sigma), sigma in [0, sigma_e], m uniform
+    steps.  m is chosen so that s' <= scale (the peak is resolved), then s' is
+    solved so that the node spacing at the window end is exactly the sample step:
+    sqrt(s'^2 + edge^2) asinh(edge / s') = m h (the left side decreases in s').
+    That makes the h^2 f' / 12 end terms of Euler-Maclaurin cancel against the
+    uniform rule outside (see _graded_nodes).
+    """
+    needed = math.sqrt(scale * scale + edge * edge) * math.asinh(edge / scale) / step
+    intervals = max(2, int(math.ceil(max(needed, edge / step + 1.0))))
+    cap = MAX_WINDOW_NODES // 2 - 1
+    if intervals > cap:
+        # A window longer than the node budget: no exact end spacing, graded all the same.
+        return cap, scale, math.asinh(edge / scale) / cap
+    target = intervals * step
+    low = scale
+    while math.sqrt(low * low + edge * edge) * math.asinh(edge / low) <= target and low > 1e-300:
+        low *= 0.5
+    high = scale
+    for _ in range(64):
+        middle = math.sqrt(low * high)
+        if math.sqrt(middle * middle + edge * edge) * math.asinh(edge / middle) > target:
+            low = middle
+        else:
+            high = middle
+    return intervals, high, math.asinh(edge / high) / intervals
+
+
 @njit(cache=True, inline="always", error_model="numpy")
-def _side_intervals(edge, scale, step, sinh_step):
-    """Intervals of the sinh rule on one side of the centre (see _graded_nodes)."""
-    sigma_edge = math.asinh(edge / scale)
-    # Node spacing at the window end is scale cosh(sigma_edge) dsigma: keep it <= h.
-    needed = max(sigma_edge / sinh_step, scale * math.cosh(sigma_edge) * sigma_edge / step)
-    intervals = max(2, int(math.ceil(needed)))
-    return min(intervals, MAX_WINDOW_NODES // 2 - 1), sigma_edge
+def _end_correction(dsigma):
+    """Euler-Maclaurin end terms of the sinh rule per unit edge (t'' = t'''' = edge at the end)."""
+    return dsigma**2 / 12.0 - dsigma**4 / 720.0
 
 
 @njit(cache=True, error_model="numpy")
-def _graded_nodes(center, scale, start, stop, step, sinh_step, times, weights, offset):
-    """Trapezoid rule in sigma for t = center + scale sinh(sigma) on [start, stop].
+def _graded_nodes(center, scale, start, stop, step, times, weights, offset):
+    """Trapezoid rule in sigma for t = center +- scale' sinh(sigma) on [start, stop].
 
-    Each side of `center` gets its own uniform sigma step, so that the node spacing
-    at both window ends matches the sample step h and the rule blends into the
-    uniform one.  Nodes are written in increasing t from `offset`; the end nodes
-    carry only the inner half weight.  Returns the new offset.
+    Each side of `center` gets its own rule (`_graded_side`) whose node spacing at
+    the window end is exactly the sample step h.  By Euler-Maclaurin the trapezoid
+    error of the window is then (h^2 / 12) f'(t_end), cancelling the uniform rule
+    outside, plus (dsigma^2 / 12) f(t_end) t''(sigma_end) with t'' = |t_end -
+    center| (and its dsigma^4 companion), which is removed from the end weights.
+    The junctions then cost O(h^2 dsigma^2) instead of O(h dsigma).  Nodes are
+    written in increasing t from `offset`; the end nodes carry only the inner half
+    weight.  Returns the new offset.
     """
     count = offset
     left = center - start
     right = stop - center
-    left_intervals, left_sigma = (0, 0.0)
-    right_intervals, right_sigma = (0, 0.0)
+    left_intervals, left_scale, left_step = 0, scale, 0.0
+    right_intervals, right_scale, right_step = 0, scale, 0.0
     if left > 0.0:
-        left_intervals, left_sigma = _side_intervals(left, scale, step, sinh_step)
+        left_intervals, left_scale, left_step = _graded_side(left, scale, step)
     if right > 0.0:
-        right_intervals, right_sigma = _side_intervals(right, scale, step, sinh_step)
-    left_step = left_sigma / left_intervals if left_intervals > 0 else 0.0
-    right_step = right_sigma / right_intervals if right_intervals > 0 else 0.0
+        right_intervals, right_scale, right_step = _graded_side(right, scale, step)
     for i in range(left_intervals, 0, -1):
         sigma = i * left_step
-        times[count] = center - scale * math.sinh(sigma)
-        weights[count] = scale * math.cosh(sigma) * left_step * (0.5 if i == left_intervals else 1.0)
+        times[count] = center - left_scale * math.sinh(sigma)
+        weight = left_scale * math.cosh(sigma) * left_step
+        if i == left_intervals:
+            weight = 0.5 * weight - left * _end_correction(left_step)
+        weights[count] = weight
         count += 1
     times[count] = center
-    weights[count] = 0.5 * scale * (left_step + right_step)
+    weights[count] = 0.5 * (left_scale * left_step + right_scale * right_step)
     count += 1
     for i in range(1, right_intervals + 1):
         sigma = i * right_step
-        times[count] = center + scale * math.sinh(sigma)
-        weights[count] = scale * math.cosh(sigma) * right_step * (0.5 if i == right_intervals else 1.0)
+        times[count] = center + right_scale * math.sinh(sigma)
+        weight = right_scale * math.cosh(sigma) * right_step
+        if i == right_intervals:
+            weight = 0.5 * weight - right * _end_correction(right_step)
+        weights[count] = weight
         count += 1
     return count
 
@@ -726,18 +761,21 @@ def _finish(kernel, ux, uy, inv_r, a, s, inv_s, trial, trial_inv, total, px, py,
         iterations, status, residual = _newton(ux, uy, inv_r, a, s, inv_s, trial, trial_inv, total, tolerance)
         smallest = 1.0
         peak = 0
-        norm = 0.0
         for j in range(total):
             if s[j] < smallest:
                 smallest = s[j]
                 peak = j
+        # The peak's share of the constraint sum_j a_j / s_j = 1 (Eq. 12 with phi_0 = 1).
+        share = a[peak] * inv_s[peak]
+        if status == STATUS_CONVERGED and _peak_unresolved(ux, uy, share, w, step, total, peak, smallest):
+            status = STATUS_AT_FEASIBLE_EDGE
+        norm = 0.0
+        for j in range(total):
             a[j] = a[j] * inv_r[j] * inv_s[j]
             norm += a[j]
         inverse = 1.0 / norm
         for j in range(total):
             a[j] *= inverse
-        if status == STATUS_CONVERGED and _peak_unresolved(ux, uy, a, w, step, total, peak, smallest):
-            status = STATUS_AT_FEASIBLE_EDGE
         return iterations, status, residual
     # Explicit kernels: the linear-precision residual is the quadrature's own.
     ex = 0.0
@@ -749,18 +787,18 @@ def _finish(kernel, ux, uy, inv_r, a, s, inv_s, trial, trial_inv, total, px, py,
 
 
 @njit(cache=True, error_model="numpy")
-def _peak_unresolved(ux, uy, c, w, step, count, peak, smallest):
+def _peak_unresolved(ux, uy, share, w, step, count, peak, smallest):
     """Whether lambda-hat = 1 / s (Eq. 14) peaks more sharply than the nodes resolve.
 
     Near its minimum s_min, 1 / (1 + phi . u) has an angular half-width of about
     sqrt(2 s_min).  If the neighbouring nodes are farther apart in direction, the
-    peak's share of the kernel may sit anywhere within the peak node's cell w, so
-    the error it can cause is about share * w / h (relative to the sample step).
-    That is reported when it exceeds PEAK_MASS (the unshifted high powers of
-    Sec. 3.3); a sharp peak at the closest point of a near point, inside the
-    finely graded window, is harmless and is not.
+    node's share of the constraint mass sum_j a_j / s_j = 1 (Eq. 12), which is what
+    pins phi, may belong anywhere within its cell w; the error that can cause is
+    about share * w / h.  Reported when above PEAK_MASS (e.g. the unshifted high
+    powers of Sec. 3.3, or omega^2 weights near the boundary); a sharp peak inside
+    the finely graded window of a near point is harmless and is not.
     """
-    if c[peak] * w[peak] <= PEAK_MASS * step:
+    if share * w[peak] <= PEAK_MASS * step:
         return False
     before = (peak - 1) % count
     after = (peak + 1) % count
@@ -822,6 +860,17 @@ def _refined_nodes(
     Uniform samples outside the windows, a graded sinh rule inside each window
     around its closest parameter (peak width from the local speed and curvature).
     """
+    # Reach at least step / sinh_step on both sides of the closest point, so that the
+    # sigma step of the graded rule (about h / reach) is at most sinh_step; never
+    # into the neighbouring window.
+    reach = int(math.ceil(1.0 / sinh_step))
+    if not (window_count == 1 and window_stop[0] - window_start[0] >= count):
+        for i in range(window_count):
+            previous_stop = window_stop[window_count - 1] - count if i == 0 else window_stop[i - 1]
+            next_start = window_start[i + 1] if i + 1 < window_count else window_start[0] + count
+            centre = int(math.floor(window_t[i] / step))
+            window_start[i] = max(previous_stop + 1, min(window_start[i], centre - reach))
+            window_stop[i] = min(next_start - 1, max(window_stop[i], centre + 1 + reach))
     nodes = 0
     for i in range(window_count):
         lo = window_start[i] * step
@@ -835,7 +884,7 @@ def _refined_nodes(
         scale = 2.0 * di / (speed + math.sqrt(speed * speed + 2.0 * bend * di) + 1e-300)
         scale = min(scale, hi - lo)
         first = nodes
-        nodes = _graded_nodes(ti, scale, lo, hi, step, sinh_step, t, w, nodes)
+        nodes = _graded_nodes(ti, scale, lo, hi, step, t, w, nodes)
         # The window's end nodes are samples: they also get the outer half step.
         w[first] += 0.5 * step
         w[nodes - 1] += 0.5 * step

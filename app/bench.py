@@ -1,0 +1,252 @@
+"""``python -m app bench``: the performance table on this machine.
+
+Every row is the median of repeated runs in this one process, next to a baseline
+measured in the same process (the plain numpy reference of `core.reference`, and
+the finite-element harmonic solve the paper compares against), so that ratios
+stay meaningful on a shared, noisy machine.  The 1,000,000-point memory run and
+the 4K warp run as child processes, to measure their own peak memory and their
+whole time from process start.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+import core
+from core import examples
+
+# The paper's Fig. 7 setting: a 12-point domain, N = 100 n samples, 26,000 points.
+SAMPLES_PER_SEGMENT = 100
+SCALE = 1000.0  # the example domain in pixels
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Print the table; returns the exit code."""
+    parser = argparse.ArgumentParser(prog="python -m app bench", description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="tiny sizes (a smoke test, seconds)")
+    parser.add_argument("--repeats", type=int, default=3, help="runs per row; the median is shown")
+    parser.add_argument(
+        "--large", action="store_true", help="also the 1,000,000-vertex FEM comparison (minutes)"
+    )
+    parser.add_argument("--skip-fem", action="store_true", help="no finite-element comparison")
+    parser.add_argument("--skip-memory", action="store_true", help="no 1,000,000-point memory run")
+    parser.add_argument("--skip-warp", action="store_true", help="no end-to-end 4K warp")
+    args = parser.parse_args(argv)
+    repeats = max(1, args.repeats)
+    curve = core.ClosedBSpline(examples.blob() * SCALE)
+    sizes = (500,) if args.quick else (26_000, 200_000)
+    _warm_up(curve)
+    print(f"transfinite-warp bench: {os.cpu_count()} cores, numba threads {_threads()}")
+    print(f"domain: 12-point blob, N = {SAMPLES_PER_SEGMENT * curve.n} samples; median of {repeats}\n")
+    _point_kernels(curve, sizes, repeats, args.quick)
+    if not args.skip_fem:
+        vertices = (2_000, 10_000) if args.quick else (10_000, 100_000, 300_000)
+        if args.large:
+            vertices += (1_000_000,)
+        _fem_comparison(curve, vertices, 1 if args.quick else repeats)
+    if not args.skip_memory:
+        _memory(curve, 20_000 if args.quick else 1_000_000)
+    if not args.skip_warp:
+        _warp_4k((640, 360) if args.quick else (3840, 2160))
+    return 0
+
+
+def _threads() -> int:
+    import numba
+
+    return numba.get_num_threads()
+
+
+def _warm_up(curve: core.ClosedBSpline) -> None:
+    """Compile (or load from numba's cache) every kernel before timing."""
+    x = _points(curve, 50, seed=0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        for name in core.KERNELS:
+            if name not in ("wachspress", "laplace"):
+                core.basis_functions(curve, x, name)
+        core.pgw_basis(curve, x[:5])
+
+
+def _points(curve: core.ClosedBSpline, count: int, seed: int) -> np.ndarray:
+    """`count` uniformly random points in the domain, shape (count, 2)."""
+    rng = np.random.default_rng(seed)
+    low, high = curve.control_points.min(axis=0), curve.control_points.max(axis=0)
+    found = np.zeros((0, 2))
+    while found.shape[0] < count:
+        x = rng.uniform(low, high, size=(2 * count, 2))
+        found = np.vstack([found, x[curve.contains(x)]])
+    return found[:count]
+
+
+def _median_time(function, repeats: int) -> tuple[float, object]:
+    times, result = [], None
+    for _ in range(repeats):
+        start = time.perf_counter()
+        result = function()
+        times.append(time.perf_counter() - start)
+    return statistics.median(times), result
+
+
+def _row(name: str, count: int, samples: int, seconds: float, newton: str) -> None:
+    rate = 1e6 * seconds / count
+    print(f"{name:<28} {count:>10,} {samples:>10,} {seconds:>9.3f} {rate:>9.2f} {newton:>15}")
+
+
+def _point_kernels(curve, sizes, repeats, quick) -> None:
+    print("point kernels (basis functions G at random interior points)")
+    header = f"{'kernel':<28} {'points M':>10} {'samples N':>10} {'seconds':>9} {'us/point':>9} "
+    header += f"{'Newton med/max':>15}"
+    print(header)
+    print("-" * len(header))
+    samples = SAMPLES_PER_SEGMENT * curve.n
+    rows = [(name, sizes[0]) for name in core.KERNELS if name not in ("wachspress", "laplace")]
+    rows[1:1] = [("harmonic-like", size) for size in sizes[1:]]
+    default_rate = None
+    for name, count in rows:
+        x = _points(curve, count, seed=1)
+
+        def run(x=x, name=name):
+            return core.basis_functions(curve, x, name, return_report=True)
+
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            seconds, (_, report) = _median_time(run, repeats)
+        iterations = report.iterations
+        newton = f"{int(np.median(iterations))} / {iterations.max()}" if iterations.max() else "-"
+        _row(name, count, samples, seconds, newton)
+        if name == "harmonic-like" and count == sizes[0]:
+            default_rate = seconds / count
+    count = min(sizes[0], 2_000)
+    x = _points(curve, count, seed=1)
+    seconds, _ = _median_time(lambda: core.pgw_basis(curve, x), repeats)
+    _row("pgw (comparison, lines)", count, samples // 2, seconds, "-")
+    pgw_rate = seconds / count
+    count = min(sizes[0], 200 if quick else 1_000)
+    x = _points(curve, count, seed=1)
+    # The baseline solves only farther than a few sample spacings from the boundary.
+    from core.closest_point import distance_to_curve
+    from core.reference import reference_kernel
+
+    x = x[distance_to_curve(curve.piecewise_polynomial(), x) > 0.02 * curve.diameter]
+    boundary = curve.sample(SAMPLES_PER_SEGMENT)
+    seconds, _ = _median_time(lambda: reference_kernel(boundary, x), repeats)
+    reference_rate = seconds / x.shape[0]
+    _row("numpy reference (baseline)", x.shape[0], samples, seconds, "-")
+    print(
+        f"\nharmonic-like vs the numpy reference: {reference_rate / default_rate:.1f}x faster; "
+        f"vs PGW: {pgw_rate / default_rate:.1f}x faster (per point, same process)\n"
+    )
+
+
+def _fem_comparison(curve, vertices, repeats) -> None:
+    print("transfinite (harmonic-like) vs finite-element harmonic on the same mesh (Fig. 7 right)")
+    header = f"{'vertices V':>11} {'mesh s':>8} {'FEM s':>8} {'transfinite s':>14} {'FEM / transfinite':>18}"
+    print(header)
+    print("-" * len(header))
+    for count in vertices:
+        max_edge = math.sqrt(2.0 * abs(curve.area) / (math.sqrt(3.0) * count))
+        start = time.perf_counter()
+        mesh = core.triangulate(curve, max_edge=max_edge)
+        meshing = time.perf_counter() - start
+
+        def fem_solve(mesh=mesh):
+            return core.harmonic_basis(curve, mesh)
+
+        def transfinite(mesh=mesh):
+            return core.mesh_basis_functions(curve, mesh, "harmonic-like", cache=False)
+
+        fem, _ = _median_time(fem_solve, repeats)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            ours, _ = _median_time(transfinite, repeats)
+        print(f"{mesh.vertices.shape[0]:>11,} {meshing:>8.2f} {fem:>8.3f} {ours:>14.3f} {fem / ours:>18.2f}")
+    print()
+
+
+_MEMORY_CHILD = """
+import resource, sys, time, warnings
+import numpy as np
+import core
+from core import examples
+curve = core.ClosedBSpline(examples.blob() * {scale})
+core.basis_functions(curve, [[500.0, 300.0]])
+rng = np.random.default_rng(2)
+x = rng.uniform(curve.control_points.min(0), curve.control_points.max(0), size=(3 * {count}, 2))
+x = x[curve.contains(x)][:{count}]
+before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+start = time.perf_counter()
+with warnings.catch_warnings():
+    warnings.simplefilter("ignore")
+    G = core.basis_functions(curve, x)
+seconds = time.perf_counter() - start
+peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+print(seconds, before, peak, G.shape[0])
+"""
+
+
+def _memory(curve, count) -> None:
+    code = _MEMORY_CHILD.format(scale=SCALE, count=count)
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    seconds, before, peak, rows = result.stdout.split()
+    print(
+        f"{int(rows):,} points, harmonic-like: {float(seconds):.2f} s, peak memory of the whole process "
+        f"{int(peak) / 1024:.0f} MiB (before the call {int(before) / 1024:.0f} MiB)\n"
+    )
+
+
+def _warp_4k(size) -> None:
+    """`python -m app warp` on a generated image, from process start to the PNG written."""
+    import cv2
+
+    width, height = size
+    with tempfile.TemporaryDirectory() as folder:
+        folder = Path(folder)
+        rng = np.random.default_rng(3)
+        image = np.zeros((height, width, 3), np.uint8)
+        image[:] = (40, 60, 90)
+        for _ in range(200):
+            centre = (int(rng.integers(0, width)), int(rng.integers(0, height)))
+            colour = tuple(int(c) for c in rng.integers(0, 255, 3))
+            cv2.circle(image, centre, int(rng.integers(5, width // 20)), colour, -1, cv2.LINE_AA)
+        cv2.imwrite(str(folder / "image.png"), image)
+        cage = examples.starfish() * (0.45 * height) + np.array([width / 2, height / 2])
+        target = cage.copy()
+        target[0] += (0.1 * height, 0.05 * height)
+        target[4] -= (0.05 * height, 0.1 * height)
+        (folder / "cage.json").write_text(json.dumps({"control_points": cage.tolist()}))
+        (folder / "target.json").write_text(json.dumps({"control_points": target.tolist()}))
+        environment = dict(os.environ, TRANSFINITE_CACHE_DIR=str(folder / "cache"))
+        command = [
+            sys.executable,
+            "-m",
+            "app",
+            "warp",
+            str(folder / "image.png"),
+            "--cage",
+            str(folder / "cage.json"),
+            "--target",
+            str(folder / "target.json"),
+            "--output",
+            str(folder / "out.png"),
+        ]
+        start = time.perf_counter()
+        subprocess.run(command, check=True, env=environment, capture_output=True)
+        seconds = time.perf_counter() - start
+        written = (folder / "out.png").stat().st_size
+    print(
+        f"warp {width}x{height} end to end (process start to PNG written, basis not cached): "
+        f"{seconds:.2f} s ({written / 2**20:.1f} MiB PNG)"
+    )
