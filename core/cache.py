@@ -10,6 +10,7 @@ not hold the expected finite array is ignored: the caller recomputes it.
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import json
 import os
@@ -22,6 +23,17 @@ import numpy as np
 # Bump when the meaning or layout of a cached array changes.
 FORMAT_VERSION = 1
 ENVIRONMENT_VARIABLE = "TRANSFINITE_CACHE_DIR"
+# The modules whose code decides the cached values (hashed into every key).
+NUMERICAL_MODULES = (
+    "basis.py",
+    "boundary.py",
+    "bspline.py",
+    "harmonic.py",
+    "kernels.py",
+    "mesh_basis.py",
+    "pgw.py",
+    "solver.py",
+)
 
 
 def cache_directory() -> Path:
@@ -42,13 +54,15 @@ def cache_key(
     samples_per_segment: int,
     params: dict,
 ) -> str:
-    """Hex SHA-256 of the format version, the cage, the mesh, the kernel and its parameters.
+    """Hex SHA-256 of the format version, the numerical code, the cage, the mesh, the kernel
+    and its parameters.
 
     Arrays enter with their dtype and shape, so that equal bytes of different
     shapes give different keys.
     """
     digest = hashlib.sha256()
     digest.update(f"transfinite-warp basis functions, format {FORMAT_VERSION}\n".encode())
+    digest.update(_code_digest().encode())
     for array, dtype in (
         (control_points, np.float64),
         (vertices, np.float64),
@@ -104,6 +118,16 @@ def store(key: str, array: np.ndarray) -> None:
             RuntimeWarning,
             stacklevel=3,
         )
+
+
+@functools.cache
+def _code_digest() -> str:
+    """SHA-256 of the modules that compute G: a changed solver never reads stale results."""
+    digest = hashlib.sha256()
+    folder = Path(__file__).resolve().parent
+    for name in NUMERICAL_MODULES:
+        digest.update((folder / name).read_bytes())
+    return digest.hexdigest()
 
 
 def _canonical(value):

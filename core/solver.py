@@ -64,6 +64,8 @@ PEAK_MASS = 1e-4
 MAX_WINDOWS = 8
 MAX_WINDOW_NODES = 1024
 MAX_NEWTON = 100
+# Blending factors of the path-following fallback (see _continuation), ending at 0.
+CONTINUATION = (0.5, 0.1, 1e-2, 1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 0.0)
 MAX_BACKTRACKS = 60
 ARMIJO = 1e-4
 
@@ -400,10 +402,11 @@ def _weights(kernel, power, shift, px, py, tx, ty, sx, sy, w, x, y, count, corne
 
 
 @njit(cache=True, error_model="numpy", fastmath={"contract", "arcp", "reassoc", "nsz"})
-def _newton(ux, uy, inv_r, a, s, inv_s, trial, trial_inv, count, tolerance):
+def _newton(ux, uy, inv_r, a, s, inv_s, trial, trial_inv, count, tolerance, phix, phiy):
     """Minimise F(phi) = -sum a_j log(1 + phi . u_j) (Eq. 16 with phi_0 = 1).
 
-    Newton's method with Armijo backtracking from phi = 0 (Sec. 4.1); a trial with
+    Newton's method with Armijo backtracking from (phix, phiy), phi = 0 in the
+    paper (Sec. 4.1), which must be feasible; a trial with
     any 1 + phi . u_j <= 0 is rejected like an Armijo failure.  One fused pass per
     trial gives the gradient, Hessian and D at the trial point and, with
     z_j = s_j(trial) / s_j - 1, the log-free bound
@@ -415,8 +418,8 @@ def _newton(ux, uy, inv_r, a, s, inv_s, trial, trial_inv, count, tolerance):
     exact change (sum of log1p, free of cancellation) computed.
 
     On return `s` and `inv_s` hold 1 + phi . u_j and its inverse.  Returns
-    (iterations, status, residual), residual = |grad F| / D in length units: the
-    linear-precision error of the discrete kernel.
+    (iterations, status, residual, phix, phiy), residual = |grad F| / D in length
+    units: the linear-precision error of the discrete kernel.
     """
     gx = 0.0
     gy = 0.0
@@ -425,15 +428,18 @@ def _newton(ux, uy, inv_r, a, s, inv_s, trial, trial_inv, count, tolerance):
     hyy = 0.0
     d = 0.0
     for j in range(count):
-        s[j] = 1.0
-        inv_s[j] = 1.0
-        aj = a[j]
-        gx -= aj * ux[j]
-        gy -= aj * uy[j]
-        hxx += aj * ux[j] * ux[j]
-        hxy += aj * ux[j] * uy[j]
-        hyy += aj * uy[j] * uy[j]
-        d += aj * inv_r[j]
+        sj = 1.0 + phix * ux[j] + phiy * uy[j]
+        inv = 1.0 / sj
+        s[j] = sj
+        inv_s[j] = inv
+        ia = a[j] * inv
+        gx -= ia * ux[j]
+        gy -= ia * uy[j]
+        ib = ia * inv
+        hxx += ib * ux[j] * ux[j]
+        hxy += ib * ux[j] * uy[j]
+        hyy += ib * uy[j] * uy[j]
+        d += ia * inv_r[j]
     residual = math.sqrt(gx * gx + gy * gy) / d
     status = STATUS_NOT_CONVERGED
     iterations = 0
@@ -495,6 +501,8 @@ def _newton(ux, uy, inv_r, a, s, inv_s, trial, trial_inv, count, tolerance):
         if not accepted:
             break
         iterations += 1
+        phix += alpha * deltax
+        phiy += alpha * deltay
         s, trial = trial, s
         inv_s, trial_inv = trial_inv, inv_s
         swapped = not swapped
@@ -505,6 +513,38 @@ def _newton(ux, uy, inv_r, a, s, inv_s, trial, trial_inv, count, tolerance):
         for j in range(count):
             trial[j] = s[j]
             trial_inv[j] = inv_s[j]
+    return iterations, status, residual, phix, phiy
+
+
+@njit(cache=True, error_model="numpy")
+def _continuation(ux, uy, inv_r, a, w, blend, s, inv_s, trial, trial_inv, count, tolerance, iterations):
+    """Path-following for the points Newton from phi = 0 does not bring home.
+
+    When omega spans many orders of magnitude (the unshifted powers of Sec. 3.3)
+    the minimiser hugs the edge of the feasible set and damped Newton steps from
+    phi = 0 crawl.  The weights (1 - mu) a + mu w / sum(w) blend the kernel with the
+    unweighted one (omega = 1, well conditioned); mu falls to 0 and each stage starts
+    from the previous minimiser.  The last stage is exactly the problem of Eq. 16,
+    so the result is the same minimiser, only reached.  Returns (iterations,
+    status, residual) of the whole path.
+    """
+    length = 0.0
+    for j in range(count):
+        length += w[j]
+    phix = 0.0
+    phiy = 0.0
+    status = STATUS_NOT_CONVERGED
+    residual = math.inf
+    for mu in CONTINUATION:
+        for j in range(count):
+            blend[j] = (1.0 - mu) * a[j] + mu * w[j] / length
+        stage_tolerance = tolerance if mu == 0.0 else 1e4 * tolerance
+        taken, status, residual, phix, phiy = _newton(
+            ux, uy, inv_r, blend, s, inv_s, trial, trial_inv, count, stage_tolerance, phix, phiy
+        )
+        iterations += taken
+        if status != STATUS_CONVERGED:
+            break
     return iterations, status, residual
 
 
@@ -562,7 +602,7 @@ def _solve_point(
         sinh_step,
         out_step,
     ) = curve
-    (px, py, tx, ty, sx, sy, w, t, ux, uy, inv_r, a, s, inv_s, trial, trial_inv) = scratch
+    (px, py, tx, ty, sx, sy, w, t, ux, uy, inv_r, a, s, inv_s, trial, trial_inv, blend) = scratch
     count = sample_x.shape[0]
     out_count = int(round(count * step / out_step))
     # Pass 1: directions to the samples, and the stretches closer than NEAR_SPACINGS.
@@ -633,6 +673,7 @@ def _solve_point(
                 inv_s,
                 trial,
                 trial_inv,
+                blend,
                 total,
                 sample_x,
                 sample_y,
@@ -729,6 +770,7 @@ def _solve_point(
         inv_s,
         trial,
         trial_inv,
+        blend,
         total,
         px,
         py,
@@ -750,7 +792,9 @@ def _wrap(t, period):
 
 
 @njit(cache=True, error_model="numpy")
-def _finish(kernel, ux, uy, inv_r, a, s, inv_s, trial, trial_inv, total, px, py, w, step, x, y, tolerance):
+def _finish(
+    kernel, ux, uy, inv_r, a, s, inv_s, trial, trial_inv, blend, total, px, py, w, step, x, y, tolerance
+):
     """Turn normalised weights `a` into the quadrature-weighted kernel w_j lambda_j (in `a`).
 
     Maximum-likelihood family: Newton on Eq. 16, then Eq. 14 and 17,
@@ -758,7 +802,13 @@ def _finish(kernel, ux, uy, inv_r, a, s, inv_s, trial, trial_inv, total, px, py,
     Returns (iterations, status, residual).
     """
     if kernel <= MODIFIED_MEAN_VALUE_SQUARED:
-        iterations, status, residual = _newton(ux, uy, inv_r, a, s, inv_s, trial, trial_inv, total, tolerance)
+        iterations, status, residual, phix, phiy = _newton(
+            ux, uy, inv_r, a, s, inv_s, trial, trial_inv, total, tolerance, 0.0, 0.0
+        )
+        if status != STATUS_CONVERGED:
+            iterations, status, residual = _continuation(
+                ux, uy, inv_r, a, w, blend, s, inv_s, trial, trial_inv, total, tolerance, iterations
+            )
         smallest = 1.0
         peak = 0
         for j in range(total):
@@ -934,6 +984,7 @@ def solve_points(
     blocks = max(1, min(points.shape[0], threads))
     for b in prange(blocks):
         scratch = (
+            np.empty(capacity),
             np.empty(capacity),
             np.empty(capacity),
             np.empty(capacity),

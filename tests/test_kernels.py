@@ -237,3 +237,16 @@ def test_compiled_solver_matches_the_plain_numpy_reference(blob):
     np.testing.assert_allclose(
         core.kernel(boundary, x, "power", power=2.0), unshifted, rtol=1e-9, atol=1e-12 * unshifted.max()
     )
+
+
+def test_path_following_brings_unshifted_powers_home(blob):
+    # Newton from phi = 0 crawls when omega = 1 / r^k spans many orders of magnitude;
+    # the continuation of core.solver reaches the same minimiser (Eq. 16 is convex).
+    x = interior_points(blob, 3000, seed=21)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", core.ConvergenceWarning)
+        _, report = core.basis_functions(blob, x, "power", power=3, return_report=True)
+    assert (report.status != 1).all()  # 1: not converged
+    assert report.iterations.max() > 100  # some points did need the path
+    converged = report.converged
+    assert report.residual[converged].max() <= 1e-11 * blob.diameter

@@ -265,3 +265,21 @@ def test_no_warnings_for_a_normal_call(setup):
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         mesh_basis_functions(curve, mesh, kernel="harmonic-like")
+
+
+def test_cache_keys_change_with_the_numerical_code(monkeypatch):
+    from core import cache
+
+    arguments = (
+        np.zeros((3, 2)),
+        np.zeros((3, 2)),
+        np.zeros((1, 3)),
+        np.arange(3),
+        np.zeros(3),
+        "harmonic-like",
+        100,
+        {},
+    )
+    before = cache.cache_key(*arguments)
+    monkeypatch.setattr(cache, "_code_digest", lambda: "another solver")
+    assert cache.cache_key(*arguments) != before
