@@ -3,5 +3,6 @@
 `app` owns every GL object, window, widget and file: `app.render` draws meshes with
 moderngl, `app.files` reads and writes cages, sessions and images, `app.cli` is the
 command line (``python -m app``), `app.fit` fits a cage to an image's silhouette and
-`app.compare` compares the kernels of `core` on height data.
+`app.compare` compares the kernels of `core` on height data, and `app.viewer` is the
+interactive viewer (``python -m app``, ``view``, ``demo``).
 """

@@ -2,8 +2,9 @@
 
 Commands: ``warp`` (deform an image with a source and a target cage and write a
 PNG), ``fit`` (a cage around an image's silhouette), ``compare`` (the kernels on
-height data, the paper's Fig. 1), ``bench`` (``app.bench``).  ``view`` and ``demo``
-are reserved for the viewer.
+height data, the paper's Fig. 1), ``bench`` (``app.bench``), and the interactive
+viewer (`app.viewer`): ``view`` (also what no arguments at all open, on the
+bundled demo) and ``demo`` (a bundled demo, optionally replaying its script).
 
 Exit codes: 0 success, 1 the environment cannot run the command (no OpenGL),
 2 bad input.  Bad input is reported as one line on stderr naming the file and what
@@ -29,6 +30,8 @@ from app.files import (
     read_image,
     read_session,
     reported_as_input,
+    session_kernel_params,
+    session_max_edge,
     write_cage,
     write_png,
 )
@@ -48,8 +51,9 @@ def main(argv: list[str] | None = None) -> int:
         Arguments without the program name; ``sys.argv[1:]`` by default.
     """
     argv = list(sys.argv[1:] if argv is None else argv)
-    if not argv or argv[0] == "bench":
-        # Until the viewer lands, no arguments means the performance table.
+    if not argv:
+        argv = ["view"]  # the viewer on the bundled demo
+    if argv[0] == "bench":
         from app import bench
 
         return bench.main(argv[1:])
@@ -142,11 +146,50 @@ def build_parser() -> argparse.ArgumentParser:
     # Listed for --help only: main() hands "bench" to app.bench before parsing.
     commands.add_parser("bench", help="the performance table on this machine", add_help=False)
 
-    for name in ("view", "demo"):
-        reserved = commands.add_parser(name, help="the interactive viewer (not available yet)")
-        reserved.add_argument("rest", nargs=argparse.REMAINDER, help=argparse.SUPPRESS)
-        reserved.set_defaults(run=_not_yet)
+    view = commands.add_parser(
+        "view", help="the interactive viewer (no IMAGE and no --session: the bundled demo)"
+    )
+    view.add_argument("image", nargs="?", type=Path, help="source image (the cage is fitted unless --cage)")
+    view.add_argument("--cage", type=Path, help="source cage JSON, image pixels")
+    view.add_argument(
+        "--session",
+        type=Path,
+        help="session JSON: restored if it exists, and saved after every change (default: a file in "
+        "~/.local/state/transfinite-warp/sessions)",
+    )
+    _viewer_options(view)
+    view.set_defaults(run=_view)
+
+    demo = commands.add_parser("demo", help="the viewer on a bundled demo, optionally replaying its script")
+    demo.add_argument("name", nargs="?", help="starfish (default), character or pattern")
+    demo.add_argument("--play", action="store_true", help="replay the demo's scripted drags at once")
+    demo.add_argument("--script", type=Path, help="replay this script instead (JSON list of timed moves)")
+    demo.add_argument(
+        "--frames",
+        type=Path,
+        metavar="DIR",
+        help="write every replayed frame as DIR/frame_NNNNN.png, then quit",
+    )
+    demo.add_argument("--fps", type=_positive(float), default=30.0, help="frames per second of --frames")
+    demo.add_argument("--session", type=Path, help="session JSON to save to (default: per demo)")
+    _viewer_options(demo)
+    demo.set_defaults(run=_demo)
     return parser
+
+
+def _viewer_options(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "--stats", action="store_true", help="on exit, print frames=N median_frame_ms=X p95_frame_ms=Y"
+    )
+    parser.add_argument(
+        "--max-edge",
+        type=_positive(float),
+        metavar="PX",
+        help="longest mesh edge in image pixels (default: about 6,000 vertices in the cage)",
+    )
+    parser.add_argument(
+        "--export", type=Path, metavar="PNG", help="where Ctrl+E writes (default: beside the session)"
+    )
 
 
 # -- commands -------------------------------------------------------------------
@@ -167,6 +210,10 @@ def _warp(args: argparse.Namespace) -> int:
         session = read_session(args.session)
         image_path, cage, target = session.image, session.cage, session.target
         kernel = args.kernel or session.kernel
+        # The viewer's kernel parameters and mesh, so that the output is exactly what it showed.
+        session_params = session_kernel_params(session, args.session) if kernel == session.kernel else {}
+        if args.max_edge is None:
+            args.max_edge = session_max_edge(session, args.session)
         cage_source, target_source = f"{args.session}: cage", f"{args.session}: target"
     else:
         missing = [
@@ -179,6 +226,7 @@ def _warp(args: argparse.Namespace) -> int:
         image_path = args.image
         cage, target = read_cage(args.cage), read_cage(args.target)
         kernel = args.kernel or "harmonic-like"
+        session_params = {}
         cage_source, target_source = str(args.cage), str(args.target)
         if len(target) != len(cage):
             raise InputError(
@@ -198,7 +246,9 @@ def _warp(args: argparse.Namespace) -> int:
         view = View.fit((0.0, 0.0, width, height), size)
     else:
         size, view = (width, height), View()
-    params = {} if args.samples_per_segment is None else {"samples_per_segment": args.samples_per_segment}
+    params = dict(session_params)
+    if args.samples_per_segment is not None:
+        params["samples_per_segment"] = args.samples_per_segment
 
     # The GL context comes first: without one there is no point in the long precompute.
     ctx = create_headless_context()
@@ -251,8 +301,57 @@ def _compare(args: argparse.Namespace) -> int:
     return run_compare(args)
 
 
-def _not_yet(args: argparse.Namespace) -> int:
-    return _fail(f"python -m app {args.command}: the viewer is not available yet", EXIT_ENVIRONMENT)
+def _view(args: argparse.Namespace) -> int:
+    from app.viewer.demos import DEFAULT_DEMO, demo_files
+    from app.viewer.session import open_document
+    from app.viewer.window import Options, run
+
+    _check_viewer_outputs(args)
+    if args.cage is not None and args.image is None:
+        raise InputError("--cage needs an IMAGE")
+    document = open_document(args.image, args.cage, args.session, args.max_edge)
+    script = None
+    if args.image is None and (args.session is None or not args.session.exists()):
+        script = demo_files(DEFAULT_DEMO).script
+    return run(document, Options(stats=args.stats, max_edge=args.max_edge, script=script, export=args.export))
+
+
+def _demo(args: argparse.Namespace) -> int:
+    from app.viewer.demos import DEFAULT_DEMO, demo_files, read_script
+    from app.viewer.session import default_session_path, open_document
+    from app.viewer.window import Options, run
+
+    _check_viewer_outputs(args)
+    files = demo_files(args.name or DEFAULT_DEMO)
+    session = args.session
+    if session is None:
+        session = default_session_path(f"demo-{files.name}")
+        if session.exists():
+            session.unlink()  # a demo starts afresh; --session keeps one
+    elif session.exists():
+        raise InputError(f"{session} exists: a demo starts a new session (open that one with view --session)")
+    document = open_document(files.image, files.cage, session, args.max_edge)
+    script = args.script or files.script
+    read_script(script, document.snapshot.n)  # bad scripts fail here, before the window opens
+    if args.frames is not None and args.frames.exists() and not args.frames.is_dir():
+        raise InputError(f"{args.frames}: not a directory")
+    options = Options(
+        stats=args.stats,
+        max_edge=args.max_edge,
+        script=script,
+        play=args.play or args.frames is not None or args.script is not None,
+        frames=args.frames,
+        fps=args.fps,
+        export=args.export,
+    )
+    return run(document, options)
+
+
+def _check_viewer_outputs(args: argparse.Namespace) -> None:
+    if args.session is not None:
+        check_writable(args.session, suffix=".json")
+    if args.export is not None:
+        check_writable(args.export, suffix=".png")
 
 
 # -- helpers ----------------------------------------------------------------------

@@ -2,7 +2,8 @@
 
 Cage files are JSON ``{"control_points": [[x, y], ...]}`` in image pixels (x to
 the right, y down, origin at the image's top-left corner); session files hold
-``image``, ``cage``, ``target``, ``kernel`` and ``view`` (see DESIGN.md).  Every
+``image``, ``cage``, ``target``, ``kernel`` and ``view`` (see DESIGN.md), and
+optionally ``kernel_params`` and ``mesh`` (what the viewer computed with).  Every
 reader validates its input and raises `InputError` with one line naming the file
 and what is wrong in it; every writer is atomic (a temporary file in the same
 directory, then `os.replace`), so a failed or interrupted write leaves an existing
@@ -270,6 +271,58 @@ def write_session(path: str | os.PathLike, session: Session) -> None:
         view={"scale": float(session.scale), "offset": [float(v) for v in session.offset]},
     )
     write_json(path, value)
+
+
+def session_kernel_params(session: Session, path: str | os.PathLike = "session") -> dict:
+    """Kernel parameters of a session: its ``kernel_params`` object, validated; {} if absent.
+
+    Only the ``power`` kernel takes parameters: ``power`` (a number > 0) and
+    ``shift`` (``"none"``, ``"integral"`` or ``"mean"``).  The viewer writes them
+    so that ``warp --session`` computes the very basis functions it showed.
+    """
+    value = session.extra.get("kernel_params")
+    if value is None:
+        return {}
+    if not isinstance(value, dict):
+        raise InputError(f'{path}: "kernel_params" must be an object, got {_json_type(value)}')
+    if session.kernel != "power":
+        if value:
+            raise InputError(
+                f"{path}: kernel {session.kernel!r} takes no parameters, but kernel_params has "
+                f"{', '.join(sorted(value))}"
+            )
+        return {}
+    unknown = sorted(set(value) - {"power", "shift"})
+    if unknown:
+        raise InputError(
+            f"{path}: unknown kernel parameter(s) {', '.join(unknown)} (power takes power, shift)"
+        )
+    params = {}
+    if "power" in value:
+        power = value["power"]
+        if not _is_number(power) or not math.isfinite(power) or power <= 0:
+            raise InputError(f"{path}: kernel_params power must be a number > 0, got {power!r}")
+        params["power"] = float(power)
+    if "shift" in value:
+        if value["shift"] not in ("none", "integral", "mean"):
+            raise InputError(
+                f'{path}: kernel_params shift must be "none", "integral" or "mean", got {value["shift"]!r}'
+            )
+        params["shift"] = value["shift"]
+    return params
+
+
+def session_max_edge(session: Session, path: str | os.PathLike = "session") -> float | None:
+    """The mesh edge length of a session (its ``mesh`` object's ``max_edge``), or None if absent."""
+    value = session.extra.get("mesh")
+    if value is None:
+        return None
+    if not isinstance(value, dict) or "max_edge" not in value:
+        raise InputError(f'{path}: "mesh" must be an object {{"max_edge": h}}')
+    edge = value["max_edge"]
+    if not _is_number(edge) or not math.isfinite(edge) or edge <= 0:
+        raise InputError(f"{path}: mesh max_edge must be a number > 0, got {edge!r}")
+    return float(edge)
 
 
 def _view(value, path: Path) -> tuple[float, tuple[float, float]]:

@@ -6,6 +6,13 @@ offscreen framebuffers.  The per-drag update is `WarpRenderer.set_positions`,
 which writes the deformed vertices into a buffer in place; programs and vertex
 arrays are built only when the mesh itself changes.
 
+For the viewer it also draws what goes on top of and under the mesh: the source
+image as a faded backdrop (`draw_backdrop`), one basis function G_i as a heat map
+(``content="heat"``, the paper's Fig. 8), the folded-over triangles found on the
+GPU (``folds=True``), and overlays of antialiased lines and round handles
+(`set_overlay`, `draw_overlay`) for the curves, control polygons and control
+points of the paper's Fig. 11.
+
 Coordinates are image pixels, x to the right, y down, origin at the top-left
 corner of the image: pixel (column i, row j) covers [i, i+1] x [j, j+1].  A
 `View` maps an image point (x, y) to framebuffer pixel (ox + s x, oy + s y),
@@ -42,6 +49,23 @@ BAND_COLOURS = _band_colours()
 #: Premultiplied RGBA of the overlays.
 WIREFRAME_COLOUR = (0.0, 0.0, 0.0, 0.35)
 HIGHLIGHT_COLOUR = (0.9 * 0.6, 0.0, 0.6 * 0.6, 0.6)
+
+#: Heat map of one basis function (``content="heat"``): RGB in [0, 1] at the values
+#: 0, 1/4, 1/2, 3/4 and 1 (linear in between), and the colour of negative values.
+HEAT_STOPS = np.array(
+    [
+        [0.05, 0.03, 0.25],
+        [0.36, 0.09, 0.55],
+        [0.80, 0.23, 0.36],
+        [0.98, 0.58, 0.16],
+        [1.00, 0.97, 0.62],
+    ]
+)
+HEAT_NEGATIVE = np.array([0.10, 0.75, 0.80])
+
+#: Floats per overlay vertex: x, y (image pixels), r, g, b, a (straight alpha),
+#: size (line width or handle diameter, framebuffer pixels).
+OVERLAY_FLOATS = 7
 
 
 @dataclass(frozen=True)
@@ -134,11 +158,42 @@ class WarpRenderer:
         self._solid_program = ctx.program(
             vertex_shader=vertex, fragment_shader=load_shader("solid.frag.glsl")
         )
+        self._heat_program = ctx.program(vertex_shader=vertex, fragment_shader=load_shader("heat.frag.glsl"))
+        self._folds_program = ctx.program(
+            vertex_shader=vertex,
+            geometry_shader=load_shader("folds.geom.glsl"),
+            fragment_shader=load_shader("solid.frag.glsl"),
+        )
+        self._line_program = ctx.program(
+            vertex_shader=load_shader("overlay_line.vert.glsl"),
+            geometry_shader=load_shader("overlay_line.geom.glsl"),
+            fragment_shader=load_shader("overlay_line.frag.glsl"),
+        )
+        self._point_program = ctx.program(
+            vertex_shader=load_shader("overlay_point.vert.glsl"),
+            fragment_shader=load_shader("overlay_point.frag.glsl"),
+        )
+        self._programs = [
+            self._image_program,
+            self._field_program,
+            self._solid_program,
+            self._heat_program,
+            self._folds_program,
+            self._line_program,
+            self._point_program,
+        ]
         self._field_program["u_bands"].write(BAND_COLOURS.astype("f4").tobytes())
         self._field_program["u_band_start"].value = BAND_START
         self._field_program["u_band_width"].value = BAND_WIDTH
+        self._heat_program["u_stops"].write(HEAT_STOPS.astype("f4").tobytes())
+        self._heat_program["u_negative"].value = tuple(HEAT_NEGATIVE)
+        self._image_program["u_opacity"].value = 1.0
         self._texture: moderngl.Texture | None = None
         self._sampler: moderngl.Sampler | None = None
+        self._backdrop_objects: list = []
+        self._overlay_objects: list = []
+        self._overlay_capacity = 0
+        self._overlay_counts = (0, 0)
         self._image_size: tuple[int, int] | None = None
         self._mesh_objects: list = []
         self._vertices: np.ndarray | None = None
@@ -185,6 +240,14 @@ class WarpRenderer:
         self._image_size = (width, height)
         if changed and self._vertices is not None:
             self._uv.write(self._source_uv().tobytes())
+        # The whole image as two triangles, for the viewer's backdrop.
+        corners = np.array([[0, 0], [width, 0], [0, height], [width, height]], dtype="f4")
+        uv = np.array([[0, 0], [1, 0], [0, 1], [1, 1]], dtype="f4")
+        quad = self.ctx.buffer(np.hstack([corners, uv]).tobytes())
+        self._backdrop_vao = self.ctx.vertex_array(
+            self._image_program, [(quad, "2f 2f", "in_position", "in_uv")], mode=moderngl.TRIANGLE_STRIP
+        )
+        self._backdrop_objects = [self._backdrop_vao, quad]
 
     def set_mesh(self, vertices: np.ndarray, triangles: np.ndarray) -> None:
         """Set the undeformed mesh; positions start undeformed, the field at 0.
@@ -248,7 +311,19 @@ class WarpRenderer:
             [(self._positions, "2f", "in_position")],
             index_buffer=self._highlighted,
         )
+        self._heat_vao = ctx.vertex_array(
+            self._heat_program,
+            [(self._positions, "2f", "in_position"), (self._values, "1f", "in_value")],
+            index_buffer=self._triangles,
+        )
+        self._folds_vao = ctx.vertex_array(
+            self._folds_program,
+            [(self._positions, "2f", "in_position"), (self._uv, "2f", "in_uv")],
+            index_buffer=self._triangles,
+        )
         self._mesh_objects = [
+            self._heat_vao,
+            self._folds_vao,
             self._image_vao,
             self._field_vao,
             self._edge_vao,
@@ -278,7 +353,7 @@ class WarpRenderer:
         self._positions.write(np.ascontiguousarray(positions, dtype="f4").tobytes())
 
     def set_field(self, values: np.ndarray) -> None:
-        """Write the per-vertex scalar field drawn by ``content="field"``.
+        """Write the per-vertex scalar field drawn by ``content="field"`` or ``"heat"``.
 
         Parameters
         ----------
@@ -327,6 +402,7 @@ class WarpRenderer:
         content: str = "image",
         wireframe: bool = False,
         highlight: bool = False,
+        folds: bool = False,
     ) -> None:
         """Draw into the bound framebuffer with premultiplied-alpha blending.
 
@@ -336,40 +412,137 @@ class WarpRenderer:
             Image-to-framebuffer transform.
         viewport_size : tuple of int
             (width, height) of the viewport in framebuffer pixels.
-        content : {"image", "field", "none"}
-            The warped image, the scalar field in height bands, or only overlays.
+        content : {"image", "field", "heat", "none"}
+            The warped image, the scalar field in height bands (Fig. 1), the scalar
+            field as a heat map (Fig. 8), or only overlays.
         wireframe : bool
             Draw the mesh edges on top.
         highlight : bool
             Fill the triangles chosen by `set_highlighted` on top.
+        folds : bool
+            Fill the triangles that the current positions fold over (found on the
+            GPU, like `core.folded_triangles`) on top.
         """
         self._require_mesh()
-        if content not in ("image", "field", "none"):
-            raise ValueError(f"content must be 'image', 'field' or 'none', got {content!r}")
+        if content not in ("image", "field", "heat", "none"):
+            raise ValueError(f"content must be 'image', 'field', 'heat' or 'none', got {content!r}")
         if content == "image" and self._texture is None:
             raise RuntimeError("draw(content='image') needs set_image first")
-        if content == "field" and not self._field_ready:
-            raise RuntimeError("draw(content='field') needs set_field first")
-        for program in (self._image_program, self._field_program, self._solid_program):
-            program["u_scale"].value = float(view.scale)
-            program["u_offset"].value = tuple(float(v) for v in view.offset)
-            program["u_viewport"].value = (float(viewport_size[0]), float(viewport_size[1]))
-        ctx = self.ctx
-        ctx.disable(moderngl.DEPTH_TEST | moderngl.CULL_FACE)
-        ctx.enable(moderngl.BLEND)
-        ctx.blend_func = moderngl.ONE, moderngl.ONE_MINUS_SRC_ALPHA
+        if content in ("field", "heat") and not self._field_ready:
+            raise RuntimeError(f"draw(content={content!r}) needs set_field first")
+        self._set_view(
+            (
+                self._image_program,
+                self._field_program,
+                self._solid_program,
+                self._heat_program,
+                self._folds_program,
+            ),
+            view,
+            viewport_size,
+        )
+        self._blending()
         if content == "image":
             self._sampler.use(location=0)
             self._image_program["u_image"].value = 0
+            self._image_program["u_opacity"].value = 1.0
             self._image_vao.render()
+            # A bound sampler object overrides any texture's own filtering on that unit:
+            # unbind it so that other code drawing into the same context (imgui) is unaffected.
+            self._sampler.clear(location=0)
         elif content == "field":
             self._field_vao.render()
+        elif content == "heat":
+            self._heat_vao.render()
+        if folds:
+            self._folds_program["u_colour"].value = HIGHLIGHT_COLOUR
+            self._folds_vao.render()
         if highlight and self._highlight_count:
             self._solid_program["u_colour"].value = HIGHLIGHT_COLOUR
             self._highlight_vao.render(vertices=3 * self._highlight_count)
         if wireframe:
             self._solid_program["u_colour"].value = WIREFRAME_COLOUR
             self._edge_vao.render()
+
+    def draw_backdrop(self, view: View, viewport_size: tuple[int, int], opacity: float = 1.0) -> None:
+        """Draw the whole undeformed source image, faded by `opacity`, into the bound framebuffer.
+
+        Parameters
+        ----------
+        view : View
+            Image-to-framebuffer transform.
+        viewport_size : tuple of int
+            (width, height) of the viewport in framebuffer pixels.
+        opacity : float
+            In [0, 1]; the image is blended over what is drawn already.
+        """
+        if self._texture is None:
+            raise RuntimeError("draw_backdrop needs set_image first")
+        self._set_view((self._image_program,), view, viewport_size)
+        self._blending()
+        self._sampler.use(location=0)
+        self._image_program["u_image"].value = 0
+        self._image_program["u_opacity"].value = float(min(max(opacity, 0.0), 1.0))
+        self._backdrop_vao.render()
+        self._sampler.clear(location=0)
+        self._image_program["u_opacity"].value = 1.0
+
+    def set_overlay(self, segments: np.ndarray, points: np.ndarray) -> None:
+        """Set the overlay lines and handles drawn by `draw_overlay` (rewritten in place).
+
+        Parameters
+        ----------
+        segments : ndarray of shape (S, 2, 7)
+            Line segments, each endpoint ``[x, y, r, g, b, a, width]``: image pixels,
+            straight-alpha colour in [0, 1], width in framebuffer pixels.
+        points : ndarray of shape (K, 7)
+            Round handles ``[x, y, r, g, b, a, diameter]``, drawn after (over) the lines
+            in order, the last on top.
+        """
+        segments = np.asarray(segments, dtype="f4").reshape(-1, OVERLAY_FLOATS)
+        points = np.asarray(points, dtype="f4").reshape(-1, OVERLAY_FLOATS)
+        if len(segments) % 2:
+            raise ValueError("segments must have shape (S, 2, 7)")
+        data = np.concatenate([segments, points])
+        if not np.isfinite(data).all():
+            raise ValueError("overlay data contain NaN or infinite values")
+        if len(data) > self._overlay_capacity:
+            # Grows by doubling, so that vertex arrays are rebuilt only a few times
+            # in a session (when the control points multiply), never per drag.
+            self._release_overlay()
+            capacity = max(1024, 2 * len(data))
+            buffer = self.ctx.buffer(reserve=capacity * OVERLAY_FLOATS * 4, dynamic=True)
+            layout = (buffer, "2f 4f 1f", "in_position", "in_colour", "in_size")
+            self._line_vao = self.ctx.vertex_array(self._line_program, [layout], mode=moderngl.LINES)
+            self._point_vao = self.ctx.vertex_array(self._point_program, [layout], mode=moderngl.POINTS)
+            self._overlay_buffer = buffer
+            self._overlay_objects = [self._line_vao, self._point_vao, buffer]
+            self._overlay_capacity = capacity
+        if len(data):
+            self._overlay_buffer.write(np.ascontiguousarray(data))
+        self._overlay_counts = (len(segments), len(points))
+
+    def draw_overlay(self, view: View, viewport_size: tuple[int, int]) -> None:
+        """Draw the lines and handles of `set_overlay` into the bound framebuffer.
+
+        Parameters
+        ----------
+        view : View
+            Image-to-framebuffer transform.
+        viewport_size : tuple of int
+            (width, height) of the viewport in framebuffer pixels.
+        """
+        line_vertices, point_count = self._overlay_counts
+        if not (line_vertices or point_count):
+            return
+        self._set_view((self._line_program, self._point_program), view, viewport_size)
+        self._blending()
+        if line_vertices:
+            self._line_vao.render(vertices=line_vertices)
+        if point_count:
+            self.ctx.enable(moderngl.PROGRAM_POINT_SIZE)
+            self._point_vao.render(vertices=point_count, first=line_vertices)
+            self.ctx.disable(moderngl.PROGRAM_POINT_SIZE)
 
     def render(
         self,
@@ -381,6 +554,7 @@ class WarpRenderer:
         content: str = "image",
         wireframe: bool = False,
         highlight: bool = False,
+        folds: bool = False,
     ) -> np.ndarray:
         """Draw offscreen with multisampling and read the result back.
 
@@ -394,7 +568,7 @@ class WarpRenderer:
             Multisample count, lowered to what the driver supports.
         background : tuple of float
             Straight RGBA in [0, 1] outside the drawn mesh; transparent by default.
-        content, wireframe, highlight
+        content, wireframe, highlight, folds
             As in `draw`.
 
         Returns
@@ -416,7 +590,14 @@ class WarpRenderer:
         multisample.use()
         red, green, blue, alpha = background
         multisample.clear(red * alpha, green * alpha, blue * alpha, alpha)
-        self.draw(view or View(), (width, height), content=content, wireframe=wireframe, highlight=highlight)
+        self.draw(
+            view or View(),
+            (width, height),
+            content=content,
+            wireframe=wireframe,
+            highlight=highlight,
+            folds=folds,
+        )
         self.ctx.copy_framebuffer(resolved, multisample)
         if previous is not None:
             previous.use()
@@ -432,8 +613,10 @@ class WarpRenderer:
         self._release_mesh()
         self._release_image()
         self._release_target()
-        for program in (self._image_program, self._field_program, self._solid_program):
+        self._release_overlay()
+        for program in self._programs:
             program.release()
+        self._programs = []
 
     def __enter__(self) -> WarpRenderer:
         return self
@@ -456,6 +639,24 @@ class WarpRenderer:
         objects = self._target[2]
         return objects[0], objects[1]
 
+    def _set_view(self, programs, view: View, viewport_size: tuple[int, int]) -> None:
+        values = {
+            "u_scale": float(view.scale),
+            "u_offset": (float(view.offset[0]), float(view.offset[1])),
+            "u_viewport": (float(viewport_size[0]), float(viewport_size[1])),
+        }
+        for program in programs:
+            for name, value in values.items():
+                member = program.get(name, None)
+                if member is not None:
+                    member.value = value
+
+    def _blending(self) -> None:
+        ctx = self.ctx
+        ctx.disable(moderngl.DEPTH_TEST | moderngl.CULL_FACE)
+        ctx.enable(moderngl.BLEND)
+        ctx.blend_func = moderngl.ONE, moderngl.ONE_MINUS_SRC_ALPHA
+
     def _source_uv(self) -> np.ndarray:
         size = self._image_size or (1, 1)
         return (self._vertices / np.array(size, dtype=np.float64)).astype("f4")
@@ -471,10 +672,18 @@ class WarpRenderer:
         self._vertices = None
 
     def _release_image(self) -> None:
-        for item in (self._sampler, self._texture):
+        for item in (*self._backdrop_objects, self._sampler, self._texture):
             if item is not None:
                 item.release()
+        self._backdrop_objects = []
         self._sampler = self._texture = None
+
+    def _release_overlay(self) -> None:
+        for item in self._overlay_objects:
+            item.release()
+        self._overlay_objects = []
+        self._overlay_capacity = 0
+        self._overlay_counts = (0, 0)
 
     def _release_target(self) -> None:
         if self._target is not None:

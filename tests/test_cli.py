@@ -235,21 +235,31 @@ def assert_one_line_error(code, err, pattern, expected_code=2):
 # -- other commands ----------------------------------------------------------------------
 
 
-def test_no_arguments_and_bench_dispatch_to_app_bench(monkeypatch):
-    calls = []
+def test_no_arguments_open_the_viewer_and_bench_dispatches_to_app_bench(monkeypatch):
+    calls, opened = [], []
     fake = types.ModuleType("app.bench")
     fake.main = lambda argv: calls.append(argv) or 0
     monkeypatch.setitem(sys.modules, "app.bench", fake)
     monkeypatch.setattr("app.bench", fake, raising=False)
+    monkeypatch.setattr("app.viewer.window.run", lambda document, options: opened.append(document) or 0)
     assert main([]) == 0
     assert main(["bench", "--quick"]) == 0
-    assert calls == [[], ["--quick"]]
+    assert calls == [["--quick"]]
+    assert [document.snapshot.image.name for document in opened] == ["starfish.png"]
 
 
-@pytest.mark.parametrize("command", ["view", "demo"])
-def test_viewer_commands_are_reserved(capfd, command):
-    code, out, err = run_main([command], capfd)
-    assert_one_line_error(code, err, rf"python -m app {command}: the viewer is not available yet", 1)
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (["demo", "nosuch"], r"unknown demo 'nosuch'; choose one of starfish, character, pattern"),
+        (["view", "--cage", "cage.json"], r"--cage needs an IMAGE"),
+        (["view", "missing.png"], r"missing.png: no such file"),
+    ],
+)
+def test_viewer_commands_report_bad_input(capfd, monkeypatch, tmp_path, argv, message):
+    monkeypatch.chdir(tmp_path)
+    code, out, err = run_main(argv, capfd)
+    assert_one_line_error(code, err, message)
 
 
 def test_unknown_command(capfd):

@@ -1,0 +1,288 @@
+"""What the viewer's input does to `AppState`: mouse events and named commands.
+
+The window turns glfw callbacks (and `ScriptPlayer` replays, and widget clicks)
+into calls of `pointer` and `command`; nothing here touches GL or a window, so
+the whole interaction is testable headless.  Every edit goes through `commit`,
+which records one undo step and marks the session for saving.
+
+Mouse (window pixels, canvas only):
+
+- deform mode: drag a blue target handle to deform; drag elsewhere to pan;
+- cage mode: drag a green source handle to move it (its target follows); click
+  elsewhere to add a point (appended while there are fewer than 3, otherwise
+  inserted into the nearest span); right-click a handle to delete it;
+- middle or right drag pans, the wheel zooms around the cursor; Esc cancels a drag.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from app.files import InputError, kernel_names, read_image
+from app.render import View
+from app.viewer import editing
+from app.viewer.state import CONTENTS, MODES, SHIFTS, AppState, Drag, Snapshot
+
+LEFT, RIGHT, MIDDLE = 0, 1, 2
+#: Window pixels of the status line at the bottom (kept in step with app.viewer.gui).
+STATUS_HEIGHT = 28.0
+#: Wheel zoom per notch.
+ZOOM_STEP = 1.15
+
+
+def commit(state: AppState, snapshot: Snapshot, message: str | None = None) -> bool:
+    """Make `snapshot` the document as one undoable edit; False if nothing changed."""
+    state.live = snapshot
+    changed = state.history.push(snapshot)
+    if changed:
+        state.session_dirty = True
+    if message:
+        state.say(message)
+    if state.selected is not None and state.selected >= snapshot.n:
+        state.selected = None
+    return changed
+
+
+def show(state: AppState, snapshot: Snapshot) -> None:
+    """Show a snapshot of the history (undo, redo), reloading the image if it differs."""
+    if snapshot.image != state.live.image:
+        try:
+            state.image = read_image(snapshot.image)
+        except InputError as error:
+            state.say(str(error), error=True)
+    state.live = snapshot
+    state.drag = None
+    state.session_dirty = True
+    if state.selected is not None and state.selected >= snapshot.n:
+        state.selected = None
+
+
+def handles(state: AppState, kind: str) -> np.ndarray:
+    """Window positions of the source ("source") or target ("target") handles."""
+    points = state.live.cage if kind == "source" else state.live.target
+    return editing.to_window(state.view, points)
+
+
+def pick(state: AppState, x: float, y: float) -> int | None:
+    """The handle of the current mode under window position (x, y)."""
+    return editing.nearest_handle(handles(state, "source" if state.mode == "cage" else "target"), (x, y))
+
+
+# -- mouse ------------------------------------------------------------------------------
+
+
+def pointer(state: AppState, kind: str, x: float, y: float, button: int = LEFT, amount: float = 0.0) -> None:
+    """Handle one canvas mouse event.
+
+    Parameters
+    ----------
+    kind : {"press", "release", "move", "scroll"}
+    x, y : float
+        Cursor, window pixels.
+    button : int
+        0 left, 1 right, 2 middle (press and release).
+    amount : float
+        Wheel notches (scroll), positive away from the user (zoom in).
+    """
+    state.cursor = (float(x), float(y))
+    if kind == "press":
+        _press(state, x, y, button)
+    elif kind == "move":
+        _move(state, x, y)
+    elif kind == "release":
+        _release(state, button)
+    elif kind == "scroll":
+        state.view = editing.zoom_about(state.view, (x, y), ZOOM_STEP**amount)
+        state.view_dirty = True
+    else:
+        raise ValueError(f"unknown pointer event {kind!r}")
+
+
+def _press(state: AppState, x: float, y: float, button: int) -> None:
+    if state.drag is not None:
+        return
+    cursor = editing.to_image(state.view, (x, y))
+    index = pick(state, x, y)
+    live = state.live
+    if button == LEFT and index is not None:
+        kind = "source" if state.mode == "cage" else "target"
+        points = live.cage if kind == "source" else live.target
+        state.drag = Drag(kind, index, points[index] - cursor, live)
+        state.selected = index
+        return
+    if button == LEFT and state.mode == "cage":
+        cage, target, index = editing.insert_point(live.cage, live.target, cursor)
+        problem = editing.cage_problem(cage) if len(cage) >= 3 else None
+        if problem:
+            state.say(f"cannot add a point there: {problem}", error=True)
+            return
+        commit(state, live.replace(cage=cage, target=target), f"added control point {index}")
+        state.selected = index
+        state.drag = Drag("source", index, np.zeros(2), state.live)
+        return
+    if button == RIGHT and index is not None and state.mode == "cage":
+        delete(state, index)
+        return
+    if button in (LEFT, RIGHT, MIDDLE):
+        state.drag = Drag("pan", -1, np.array([x, y], dtype=np.float64), live)
+
+
+def _move(state: AppState, x: float, y: float) -> None:
+    drag = state.drag
+    if drag is None:
+        state.hovered = pick(state, x, y)
+        return
+    if drag.kind == "pan":
+        state.view = editing.pan(state.view, np.array([x, y]) - drag.grab)
+        drag.grab = np.array([x, y], dtype=np.float64)
+        drag.moved = True
+        state.view_dirty = True
+        return
+    position = editing.to_image(state.view, (x, y)) + drag.grab
+    live = state.live
+    if drag.kind == "target":
+        state.live = live.replace(target=editing.move_point(live.target, drag.index, position))
+    else:
+        cage, target = editing.move_source_point(live.cage, live.target, drag.index, position)
+        state.live = live.replace(cage=cage, target=target)
+    drag.moved = True
+
+
+def _release(state: AppState, button: int) -> None:
+    drag = state.drag
+    if drag is None:
+        return
+    state.drag = None
+    if drag.kind == "pan" or not drag.moved:
+        return
+    if drag.kind == "source":
+        problem = editing.cage_problem(state.live.cage) if state.live.n >= 3 else None
+        if problem:
+            state.live = drag.before
+            state.say(f"move undone: {problem}", error=True)
+            return
+    commit(state, state.live)
+
+
+def cancel_drag(state: AppState) -> bool:
+    """Esc: put back what the drag changed; False if there was no drag."""
+    drag = state.drag
+    if drag is None:
+        return False
+    state.drag = None
+    if drag.kind != "pan":
+        state.live = drag.before
+    state.say("drag cancelled")
+    return True
+
+
+# -- commands -----------------------------------------------------------------------------
+
+
+def delete(state: AppState, index: int | None = None) -> None:
+    """Delete source control point `index` (default: the selected one) and its target."""
+    index = state.selected if index is None else index
+    if index is None:
+        state.say("select a control point first (click it)", error=True)
+        return
+    try:
+        cage, target = editing.delete_point(state.live.cage, state.live.target, index)
+    except ValueError as error:
+        state.say(str(error), error=True)
+        return
+    problem = editing.cage_problem(cage)
+    if problem:
+        state.say(f"cannot delete point {index}: {problem}", error=True)
+        return
+    commit(state, state.live.replace(cage=cage, target=target), f"deleted control point {index}")
+    state.selected = None
+
+
+def command(state: AppState, name: str, value=None) -> bool:
+    """Run a named command of the panel or the keyboard; False if `name` is not one of these.
+
+    Commands: undo, redo, cancel, new_cage, reset_target, fit, subdivide, delete, mode, content,
+    kernel, power, shift, toggle (a bool field of the state), fit_view, help.
+    The window handles the ones that need it (open, save, export, quit).
+    """
+    live = state.live
+    if name == "undo":
+        if state.drag is not None:
+            cancel_drag(state)
+        snapshot = state.history.undo()
+        show(state, snapshot) if snapshot is not None else state.say("nothing to undo")
+    elif name == "redo":
+        if state.drag is not None:
+            cancel_drag(state)
+        snapshot = state.history.redo()
+        show(state, snapshot) if snapshot is not None else state.say("nothing to redo")
+    elif name == "cancel":
+        if not cancel_drag(state):
+            state.show_help = False
+    elif name == "new_cage":
+        empty = np.zeros((0, 2))
+        commit(state, live.replace(cage=empty, target=empty), "click on the image to place control points")
+        state.mode = "cage"
+        state.selected = state.hovered = None
+    elif name == "reset_target":
+        commit(state, live.replace(target=live.cage), "target reset to the source cage")
+    elif name == "fit":
+        from app.viewer.session import fit_or_ellipse
+
+        points = int(value) if value else (live.n if live.n >= 8 else 16)
+        cage, note = fit_or_ellipse(state.image, points)
+        commit(state, live.replace(cage=cage, target=cage), note)
+    elif name == "subdivide":
+        if live.n < 3:
+            state.say("place at least 3 control points first", error=True)
+        else:
+            cage, target = editing.subdivide(live.cage), editing.subdivide(live.target)
+            commit(state, live.replace(cage=cage, target=target), f"subdivided: {len(cage)} control points")
+            state.selected = None
+    elif name == "delete":
+        delete(state, value)
+    elif name == "mode":
+        state.mode = value if value in MODES else ("cage" if state.mode == "deform" else "deform")
+        state.hovered = None
+        state.session_dirty = True
+    elif name == "content":
+        if value in CONTENTS:
+            state.content = value
+            state.session_dirty = True
+    elif name == "kernel":
+        if value not in kernel_names():
+            state.say(f"unknown kernel {value!r}", error=True)
+        else:
+            commit(state, live.replace(kernel=value), f"kernel: {value}")
+    elif name == "power":
+        if float(value) > 0:
+            commit(state, live.replace(power=float(value)))
+    elif name == "shift":
+        if value in SHIFTS:
+            commit(state, live.replace(shift=value))
+    elif name == "toggle":
+        setattr(state, value, not getattr(state, value))
+        state.session_dirty = True
+    elif name == "fit_view":
+        fit_view(state, value)
+    elif name == "help":
+        state.show_help = not state.show_help
+    else:
+        return False
+    return True
+
+
+def fit_view(state: AppState, window_size: tuple[int, int] | None) -> None:
+    """Show the whole image centred in the canvas (the window right of the side panel).
+
+    Small images are shown at 100%, not enlarged (the wheel zooms in): pixels
+    sharp, and no more pixels to fill per frame than the image has.
+    """
+    width, height = window_size or state.window_size
+    image_height, image_width = state.image.shape[:2]
+    left = state.canvas_left
+    canvas = (max(width - left, 1), max(height - STATUS_HEIGHT, 1))
+    scale = min(View.fit((0.0, 0.0, image_width, image_height), canvas, margin=24).scale, 1.0)
+    offset = (left + 0.5 * (canvas[0] - scale * image_width), 0.5 * (canvas[1] - scale * image_height))
+    state.view = View(scale, (round(offset[0], 1), round(offset[1], 1)))
+    state.view_dirty = True

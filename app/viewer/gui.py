@@ -1,0 +1,268 @@
+"""The widgets of the viewer, drawn with imgui-bundle once per frame by `gui`.
+
+`gui(state, shortcuts)` reads `AppState` and returns what the user asked for as
+commands ``(name, value)``, the same ones the keyboard produces, which the window
+runs through `app.viewer.controller.command` (or handles itself: open, save,
+export, quit, play).  Panels: the controls on the left, the status line at the
+bottom (kernel, vertices, last precompute time, frame time), a colour bar for the
+basis-function and height views, and the help with every shortcut.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from imgui_bundle import imgui
+
+from app.files import kernel_names
+from app.render import BAND_COLOURS, BAND_START, BAND_WIDTH, HEAT_NEGATIVE, HEAT_STOPS
+from app.viewer.controller import STATUS_HEIGHT
+from app.viewer.state import SHIFTS, AppState
+
+PANEL_WIDTH = 300.0
+
+_FIXED = (
+    imgui.WindowFlags_.no_move
+    | imgui.WindowFlags_.no_resize
+    | imgui.WindowFlags_.no_collapse
+    | imgui.WindowFlags_.no_saved_settings
+)
+_CONTENT_LABELS = {
+    "image": "Warped image",
+    "basis": "Basis function G_i (Fig. 8)",
+    "height": "Height interpolant (Fig. 1)",
+}
+
+
+def _colour(rgb, alpha: float = 1.0) -> int:
+    return imgui.get_color_u32(imgui.ImVec4(float(rgb[0]), float(rgb[1]), float(rgb[2]), alpha))
+
+
+def gui(state: AppState, shortcuts: list[tuple[str, str]], extras: dict | None = None) -> list[tuple]:
+    """Draw every widget; return the commands the user gave, in order.
+
+    Parameters
+    ----------
+    state : AppState
+    shortcuts : list of (keys, what)
+        For the help panel.
+    extras : dict, optional
+        ``session_saved`` (str), ``script`` (bool: a demo script can be played),
+        ``playing`` (bool), ``dialogs`` (bool: a file dialog program exists).
+    """
+    extras = extras or {}
+    commands: list[tuple] = []
+    width, height = state.window_size
+    _panel(state, commands, extras, height)
+    _status(state, width, height)
+    if state.content != "image" and state.basis is not None:
+        _colour_bar(state, width, height)
+    if state.show_help:
+        _help(state, shortcuts, width, height)
+    return commands
+
+
+def _panel(state: AppState, commands: list, extras: dict, height: float) -> None:
+    live = state.live
+    imgui.set_next_window_pos((0, 0))
+    # As tall as its content: every pixel of panel costs a software rasteriser time.
+    imgui.set_next_window_size_constraints((PANEL_WIDTH, 0), (PANEL_WIDTH, height - STATUS_HEIGHT))
+    imgui.begin("Transfinite warp", None, _FIXED | imgui.WindowFlags_.always_auto_resize)
+
+    imgui.separator_text("Edit")
+    if imgui.radio_button("Deform (target, blue)", state.mode == "deform"):
+        commands.append(("mode", "deform"))
+    if imgui.radio_button("Edit cage (source, green)", state.mode == "cage"):
+        commands.append(("mode", "cage"))
+    if imgui.button("Undo"):
+        commands.append(("undo", None))
+    imgui.same_line()
+    if imgui.button("Redo"):
+        commands.append(("redo", None))
+    imgui.same_line()
+    if imgui.button("Reset target"):
+        commands.append(("reset_target", None))
+    if imgui.button("Fit cage to silhouette"):
+        commands.append(("fit", None))
+    imgui.same_line()
+    if imgui.button("Subdivide"):
+        commands.append(("subdivide", None))
+    if imgui.button("New cage"):
+        commands.append(("new_cage", None))
+    imgui.same_line()
+    imgui.begin_disabled(state.selected is None or state.mode != "cage")
+    if imgui.button("Delete selected point"):
+        commands.append(("delete", None))
+    imgui.end_disabled()
+    imgui.text_disabled(
+        f"{live.n} control points"
+        + (f", point {state.selected} selected" if state.selected is not None else "")
+    )
+
+    imgui.separator_text("Kernel")
+    names = kernel_names()
+    if imgui.begin_combo("##kernel", live.kernel):
+        for name in names:
+            clicked, _ = imgui.selectable(name, name == live.kernel)
+            if clicked and name != live.kernel:
+                commands.append(("kernel", name))
+        imgui.end_combo()
+    if live.kernel == "power":
+        # The slider edits a draft; the kernel changes (one undo step, one precompute) on release.
+        if state.power_draft is None or not imgui.is_any_item_active():
+            state.power_draft = live.power
+        _, state.power_draft = imgui.slider_float("power k", state.power_draft, 0.5, 8.0, "%.2f")
+        if imgui.is_item_deactivated_after_edit():
+            commands.append(("power", round(state.power_draft, 2)))
+        if imgui.begin_combo("shift", live.shift):
+            for shift in SHIFTS:
+                clicked, _ = imgui.selectable(shift, shift == live.shift)
+                if clicked and shift != live.shift:
+                    commands.append(("shift", shift))
+            imgui.end_combo()
+    if state.progress is not None:
+        imgui.progress_bar(state.progress, (-1, 0), f"{state.progress_label} {100 * state.progress:.0f}%")
+    elif state.basis_error:
+        imgui.push_text_wrap_pos(PANEL_WIDTH - 12)
+        imgui.text_colored((1.0, 0.45, 0.4, 1.0), state.basis_error)
+        imgui.pop_text_wrap_pos()
+    if state.basis is not None and state.basis.kernel != live.kernel:
+        imgui.push_text_wrap_pos(PANEL_WIDTH - 12)
+        imgui.text_disabled(f"showing {state.basis.kernel} until {live.kernel} is ready")
+        imgui.pop_text_wrap_pos()
+
+    imgui.separator_text("Show")
+    for content, label in _CONTENT_LABELS.items():
+        if imgui.radio_button(label, state.content == content):
+            commands.append(("content", content))
+    for field, label in (
+        ("show_folds", "Folded triangles"),
+        ("show_wireframe", "Mesh edges"),
+        ("show_overlay", "Curves and handles"),
+    ):
+        changed, _ = imgui.checkbox(label, getattr(state, field))
+        if changed:
+            commands.append(("toggle", field))
+    imgui.set_next_item_width(150)
+    _, state.backdrop_opacity = imgui.slider_float("source image", state.backdrop_opacity, 0.0, 1.0, "%.2f")
+    if imgui.button("Fit view"):
+        commands.append(("fit_view", None))
+    if state.folded_count:
+        imgui.text_colored((1.0, 0.5, 0.8, 1.0), f"{state.folded_count} folded triangles")
+
+    imgui.separator_text("File")
+    if imgui.button("Open image..."):
+        commands.append(("open", None))
+    imgui.same_line()
+    if imgui.button("Save"):
+        commands.append(("save", None))
+    imgui.same_line()
+    if imgui.button("Export PNG"):
+        commands.append(("export", None))
+    if extras.get("script"):
+        if imgui.button("Stop script" if extras.get("playing") else "Play demo script"):
+            commands.append(("play", None))
+    imgui.push_text_wrap_pos(PANEL_WIDTH - 12)
+    imgui.text_disabled(f"session: {state.session_path}")
+    imgui.pop_text_wrap_pos()
+    if imgui.button("Help (F1)"):
+        commands.append(("help", None))
+    imgui.same_line()
+    if imgui.button("Quit"):
+        commands.append(("quit", None))
+    state.canvas_left = PANEL_WIDTH
+    imgui.end()
+
+
+def _status(state: AppState, width: float, height: float) -> None:
+    imgui.set_next_window_pos((0, height - STATUS_HEIGHT))
+    imgui.set_next_window_size((width, STATUS_HEIGHT))
+    imgui.begin("##status", None, _FIXED | imgui.WindowFlags_.no_title_bar | imgui.WindowFlags_.no_scrollbar)
+    live = state.live
+    kernel = live.kernel + (f" (k={live.power:g}, shift {live.shift})" if live.kernel == "power" else "")
+    vertices = f"{len(state.basis.mesh.vertices):,} vertices" if state.basis is not None else "no mesh yet"
+    precompute = (
+        f"precompute {state.last_precompute_seconds:.2f} s"
+        if state.last_precompute_seconds is not None
+        else "precompute -"
+    )
+    recent = sorted(state.frame_ms[-60:])
+    frame = f"frame {recent[len(recent) // 2]:.1f} ms" if recent else "frame -"
+    imgui.text(f"{kernel} | {vertices} | {precompute} | {frame} |")
+    if state.message:
+        imgui.same_line()
+        colour = (1.0, 0.45, 0.4, 1.0) if state.message_is_error else (0.75, 0.85, 1.0, 1.0)
+        imgui.text_colored(colour, state.message)
+    imgui.end()
+
+
+def _colour_bar(state: AppState, width: float, height: float) -> None:
+    bar_width, bar_height = 240.0, 96.0
+    imgui.set_next_window_pos((width - bar_width - 10, height - STATUS_HEIGHT - bar_height - 10))
+    imgui.set_next_window_size((bar_width, bar_height))
+    imgui.begin("##colour bar", None, _FIXED | imgui.WindowFlags_.no_title_bar | imgui.WindowFlags_.no_inputs)
+    draw = imgui.get_window_draw_list()
+    left, top = imgui.get_cursor_screen_pos()
+    span = bar_width - 24
+    if state.content == "height":
+        imgui.text("height, bands [k, k+1]/10 (Fig. 1)")
+        top += 20
+        count = len(BAND_COLOURS)
+        for k, rgb in enumerate(BAND_COLOURS):
+            x0 = left + span * k / count
+            draw.add_rect_filled((x0, top), (left + span * (k + 1) / count, top + 22), _colour(rgb))
+        for k in (1, 6, 11):
+            value = BAND_START + k * BAND_WIDTH
+            draw.add_text((left + span * k / count - 6, top + 26), _colour((1, 1, 1)), f"{value:.1f}")
+        imgui.dummy((span, 48))
+        imgui.text_disabled("red < 0, green > 1")
+    else:
+        index = state.selected if state.selected is not None else 0
+        imgui.text(f"basis function G_{index} (Fig. 8)")
+        top += 20
+        negative = 0.12 * span
+        draw.add_rect_filled((left, top), (left + negative, top + 22), _colour(HEAT_NEGATIVE))
+        stops = len(HEAT_STOPS) - 1
+        for k in range(stops):
+            x0 = left + negative + (span - negative) * k / stops
+            x1 = left + negative + (span - negative) * (k + 1) / stops
+            a, b = _colour(HEAT_STOPS[k]), _colour(HEAT_STOPS[k + 1])
+            draw.add_rect_filled_multi_color((x0, top), (x1, top + 22), a, b, b, a)
+        for value, x in (("<0", left), ("0", left + negative), ("1", left + span - 6)):
+            draw.add_text((x, top + 26), _colour((1, 1, 1)), value)
+        imgui.dummy((span, 48))
+        imgui.text_disabled("isolines every 0.1, white at 0")
+    imgui.end()
+
+
+def _help(state: AppState, shortcuts: list[tuple[str, str]], width: float, height: float) -> None:
+    imgui.set_next_window_pos((width / 2, height / 2), imgui.Cond_.appearing, (0.5, 0.5))
+    imgui.set_next_window_size((min(780.0, 0.9 * width), 0), imgui.Cond_.appearing)
+    expanded, opened = imgui.begin("Help", True, imgui.WindowFlags_.no_saved_settings)
+    if expanded:
+        imgui.text_wrapped(
+            "Transfinite barycentric image deformation (Chang & Hormann). The green curve is the "
+            "source cage around the image, the blue one the target: drag blue handles to deform. "
+            "In cage mode, drag green handles, click to add a point, right-click a point to delete it."
+        )
+        imgui.separator()
+        if imgui.begin_table("shortcuts", 2, imgui.TableFlags_.row_bg | imgui.TableFlags_.borders_inner_v):
+            imgui.table_setup_column("keys", imgui.TableColumnFlags_.width_fixed, 170)
+            imgui.table_setup_column("what", imgui.TableColumnFlags_.width_stretch)
+            for keys, what in shortcuts:
+                imgui.table_next_row()
+                imgui.table_next_column()
+                imgui.text(keys)
+                imgui.table_next_column()
+                imgui.text_wrapped(what)  # long descriptions wrap instead of being cut off
+            imgui.end_table()
+    imgui.end()
+    if opened is False:
+        state.show_help = False
+
+
+def frame_statistics(frame_ms: list[float]) -> tuple[int, float, float]:
+    """(count, median, 95th percentile) of frame times in ms; zeros without frames."""
+    if not frame_ms:
+        return 0, 0.0, 0.0
+    values = np.asarray(frame_ms)
+    return len(values), float(np.median(values)), float(np.percentile(values, 95))

@@ -1,0 +1,266 @@
+"""The basis-function precompute (Sec. 4.3) in a background process, with progress and cancellation.
+
+Meshing the cage and computing G (V x n) take seconds.  core's numba kernels hold
+the GIL while they run, so in a thread they would stall the viewer's frames; a
+separate process (started with ``spawn``, at lowered priority) keeps the UI
+responsive and still gets the otherwise idle cores.  The protocol is two pipes:
+
+- requests go to the worker; a newer request supersedes (cancels) the one running,
+  checked whenever the kernel reports progress;
+- ``("progress", key, fraction, phase)``, ``("done", key, result)`` and
+  ``("error", key, message)`` come back and are read on the main thread by
+  `Precompute.poll`, which never blocks.
+
+The main thread applies a result only if its key is still the one it wants
+(a stale result, for a cage edited meanwhile, is discarded), and keeps the last
+few in memory so that undo and redo of a cage edit redraw at once.  G itself is
+also kept on disk by `core.mesh_basis_functions`.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import multiprocessing
+import os
+import time
+from collections import OrderedDict
+from dataclasses import dataclass
+
+import numpy as np
+
+from app.viewer.state import BasisResult, Snapshot
+
+#: Results kept in memory for undo and redo.
+MEMORY_RESULTS = 6
+#: Seconds between two progress messages of the worker.
+PROGRESS_INTERVAL = 0.05
+
+
+@dataclass(frozen=True)
+class Request:
+    """One precompute: the mesh of the cage and G for a kernel.
+
+    Attributes
+    ----------
+    key : str
+        `basis_key` of the inputs below.
+    cage : ndarray of shape (n, 2)
+    kernel : str
+    params : dict
+        Kernel parameters (``power``, ``shift``).
+    max_edge : float
+        Mesh edge length, image pixels.
+    """
+
+    key: str
+    cage: np.ndarray
+    kernel: str
+    params: dict
+    max_edge: float
+
+
+def basis_key(snapshot: Snapshot, max_edge: float) -> str:
+    """Identity of the basis functions a snapshot needs: its cage, kernel, parameters and mesh size."""
+    digest = hashlib.sha256()
+    digest.update(np.ascontiguousarray(snapshot.cage, dtype=np.float64).tobytes())
+    settings = {"kernel": snapshot.kernel, "params": snapshot.kernel_params(), "max_edge": float(max_edge)}
+    digest.update(json.dumps(settings, sort_keys=True).encode())
+    return digest.hexdigest()[:24]
+
+
+def make_request(snapshot: Snapshot, max_edge: float) -> Request:
+    """The `Request` for a snapshot's basis functions."""
+    return Request(
+        basis_key(snapshot, max_edge),
+        np.array(snapshot.cage),
+        snapshot.kernel,
+        snapshot.kernel_params(),
+        float(max_edge),
+    )
+
+
+def result_from_message(key: str, payload: dict) -> BasisResult:
+    """Build a `BasisResult` from the worker's ``done`` payload."""
+    import core
+
+    basis = np.asarray(payload["basis"], dtype=np.float64)
+    mesh = core.Mesh(
+        payload["vertices"], payload["triangles"], payload["boundary"], payload["boundary_parameters"]
+    )
+    return BasisResult(
+        key=key,
+        cage=payload["cage"],
+        mesh=mesh,
+        basis=basis,
+        columns=np.asfortranarray(basis, dtype=np.float32),
+        kernel=payload["kernel"],
+        seconds=payload["seconds"],
+    )
+
+
+def compute(request: Request, progress=None) -> dict:
+    """Mesh the cage and compute G, in this process: the worker's job (also used by tests).
+
+    Returns
+    -------
+    dict
+        ``cage`` (n, 2), the mesh's ``vertices`` (V, 2), ``triangles`` (T, 3),
+        ``boundary`` and ``boundary_parameters``, ``basis`` (V, n), ``kernel``, ``seconds``.
+
+    Raises
+    ------
+    ValueError
+        The cage, kernel or parameters are invalid (message for the status line).
+    """
+    import core
+
+    started = time.perf_counter()
+    curve = core.ClosedBSpline(request.cage)
+    if progress is not None:
+        progress(0.0, "meshing")
+    mesh = core.triangulate(curve, max_edge=request.max_edge)
+
+    def report(fraction: float) -> None:
+        if progress is not None:
+            progress(fraction, "basis functions")
+
+    report(0.0)
+    basis = core.mesh_basis_functions(curve, mesh, kernel=request.kernel, progress=report, **request.params)
+    return {
+        "cage": np.array(request.cage),
+        "vertices": mesh.vertices,
+        "triangles": mesh.triangles,
+        "boundary": mesh.boundary,
+        "boundary_parameters": mesh.boundary_parameters,
+        "basis": basis,
+        "kernel": request.kernel,
+        "seconds": time.perf_counter() - started,
+    }
+
+
+class Precompute:
+    """The worker process and the main thread's side of its pipes.
+
+    Parameters
+    ----------
+    nice : int
+        Priority decrease of the worker (Unix), so that the UI wins the CPU.
+    """
+
+    def __init__(self, nice: int = 10):
+        context = multiprocessing.get_context("spawn")
+        # Pipe(duplex=False) returns (receiving end, sending end).
+        request_reader, self._requests = context.Pipe(duplex=False)
+        self._results, result_writer = context.Pipe(duplex=False)
+        self._process = context.Process(
+            target=_serve,
+            args=(request_reader, result_writer, nice),
+            name="transfinite-precompute",
+            daemon=True,
+        )
+        self._process.start()
+        request_reader.close()
+        result_writer.close()
+        self.pending: str | None = None  # key of the request running or queued
+        self._memory: OrderedDict[str, BasisResult] = OrderedDict()
+
+    def submit(self, request: Request) -> None:
+        """Start computing `request`, superseding whatever runs."""
+        self.pending = request.key
+        self._requests.send(request)
+
+    def remembered(self, key: str) -> BasisResult | None:
+        """A result computed earlier in this session, if kept."""
+        result = self._memory.get(key)
+        if result is not None:
+            self._memory.move_to_end(key)
+        return result
+
+    def remember(self, result: BasisResult) -> None:
+        self._memory[result.key] = result
+        self._memory.move_to_end(result.key)
+        while len(self._memory) > MEMORY_RESULTS:
+            self._memory.popitem(last=False)
+
+    def poll(self) -> list[tuple]:
+        """Messages that arrived, without waiting: progress, done (as `BasisResult`) and error."""
+        messages = []
+        try:
+            while self._results.poll():
+                message = self._results.recv()
+                kind, key = message[0], message[1]
+                if kind == "done":
+                    result = result_from_message(key, message[2])
+                    self.remember(result)
+                    message = ("done", key, result)
+                if kind in ("done", "error") and key == self.pending:
+                    self.pending = None
+                messages.append(message)
+        except (EOFError, OSError):
+            if self.pending is not None:
+                messages.append(("error", self.pending, "the precompute process stopped unexpectedly"))
+                self.pending = None
+        return messages
+
+    @property
+    def alive(self) -> bool:
+        return self._process.is_alive()
+
+    def close(self) -> None:
+        """Stop the worker (it abandons a running request at its next progress report)."""
+        try:
+            self._requests.send(None)
+        except OSError:
+            pass
+        self._process.join(timeout=2.0)
+        if self._process.is_alive():
+            self._process.terminate()
+            self._process.join(timeout=2.0)
+        self._requests.close()
+        self._results.close()
+
+
+class _Superseded(Exception):
+    """A newer request arrived while one was running."""
+
+
+def _serve(requests, results, nice: int) -> None:
+    """The worker process: compute requests one at a time, newest first."""
+    if nice and hasattr(os, "nice"):
+        try:
+            os.nice(nice)
+        except OSError:
+            pass
+    waiting = []
+    while True:
+        request = waiting.pop() if waiting else requests.recv()
+        while requests.poll():  # only the newest request matters
+            request = requests.recv()
+        if request is None:
+            return
+        last = [0.0]
+
+        def progress(fraction: float, phase: str, request=request, last=last) -> None:
+            if requests.poll():
+                waiting.append(requests.recv())
+                raise _Superseded
+            now = time.perf_counter()
+            if now - last[0] >= PROGRESS_INTERVAL or fraction >= 1.0:
+                last[0] = now
+                results.send(("progress", request.key, float(fraction), phase))
+
+        try:
+            payload = compute(request, progress)
+        except _Superseded:
+            continue
+        except ValueError as error:
+            results.send(("error", request.key, str(error)))
+            continue
+        except Exception as error:  # noqa: BLE001 - reported in the status line, the worker lives on
+            results.send(("error", request.key, f"{type(error).__name__}: {error}"))
+            continue
+        if requests.poll():
+            waiting.append(requests.recv())
+            continue
+        results.send(("done", request.key, payload))

@@ -1,0 +1,204 @@
+"""Keeps the `WarpRenderer` in step with `AppState`, doing per frame only what changed.
+
+- a new image: upload the texture;
+- new basis functions: upload the mesh (the only time vertex arrays are built);
+- a changed target: during a drag of one point, the rank-one update
+  x' += G[:, i] (P'_i(new) - P'_i(old)) of float32 positions, O(V) whatever n is,
+  and one in-place buffer write; otherwise (undo, release, script) the exact
+  product G @ P' in float64, the one `python -m app warp` uses;
+- the field of the basis-function or height view when it changes;
+- the overlay of curves, control polygons and handles (a few kilobytes) every frame.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from app.compare import default_values
+from app.render import View, WarpRenderer
+from app.viewer.editing import curve_points
+from app.viewer.state import AppState
+
+#: Straight RGB of the overlays: the source curve green, the target blue (the paper's Fig. 11).
+SOURCE_COLOUR = (0.16, 0.80, 0.28)
+TARGET_COLOUR = (0.22, 0.48, 1.00)
+SELECTED_COLOUR = (1.00, 0.86, 0.20)
+HOVER_COLOUR = (1.00, 1.00, 1.00)
+BACKGROUND = (0.13, 0.13, 0.14)
+
+
+def overlay_arrays(state: AppState) -> tuple[np.ndarray, np.ndarray]:
+    """Line segments (S, 2, 7) and handles (K, 7) for `WarpRenderer.set_overlay`.
+
+    The curve of the mode being edited is drawn wider and on top, with large
+    handles; the other one thinner and fainter.  The selected handle is yellow, the
+    hovered one white.
+    """
+    live = state.live
+    active = "source" if state.mode == "cage" else "target"
+    segments, points = [], []
+    for kind in sorted(("source", "target"), key=lambda k: k == active):
+        control = live.cage if kind == "source" else live.target
+        colour = SOURCE_COLOUR if kind == "source" else TARGET_COLOUR
+        is_active = kind == active
+        alpha = 1.0 if is_active else 0.55
+        if len(control) >= 3:
+            segments.append(_closed_segments(curve_points(control), colour, alpha, 2.5 if is_active else 1.5))
+        if len(control) >= 2:
+            polygon = control if len(control) >= 3 else control[:2]
+            segments.append(_closed_segments(polygon, colour, 0.45 * alpha, 1.0))
+        size = 11.0 if is_active else 7.0
+        handles = np.zeros((len(control), 7))
+        handles[:, :2] = control
+        handles[:, 2:5] = colour
+        handles[:, 5] = alpha
+        handles[:, 6] = size
+        if is_active:
+            for index, fill, grow in (
+                (state.hovered, HOVER_COLOUR, 4.0),
+                (state.selected, SELECTED_COLOUR, 2.0),
+            ):
+                if index is not None and index < len(control):
+                    handles[index, 2:5] = fill
+                    handles[index, 6] = size + grow
+        points.append(handles)
+    segments = np.concatenate(segments) if segments else np.zeros((0, 2, 7))
+    return segments, np.concatenate(points)
+
+
+def _closed_segments(polyline: np.ndarray, colour, alpha: float, width: float) -> np.ndarray:
+    ends = np.roll(polyline, -1, axis=0)
+    segments = np.zeros((len(polyline), 2, 7))
+    segments[:, 0, :2], segments[:, 1, :2] = polyline, ends
+    segments[:, :, 2:5] = colour
+    segments[:, :, 5] = alpha
+    segments[:, :, 6] = width
+    return segments
+
+
+class Scene:
+    """The renderer's side of the state, updated once per frame by `sync`.
+
+    Parameters
+    ----------
+    renderer : WarpRenderer
+    """
+
+    def __init__(self, renderer: WarpRenderer):
+        self.renderer = renderer
+        self._image = None
+        self._basis = None
+        self._drawn_target: np.ndarray | None = None
+        self._positions: np.ndarray | None = None
+        self._exact = False
+        self._field = None
+        #: CPU time of the last per-drag position update (ms), for the status line and tests.
+        self.update_ms = 0.0
+
+    @property
+    def has_mesh(self) -> bool:
+        return self._basis is not None
+
+    def mesh_matches(self, state: AppState) -> bool:
+        """Whether the uploaded mesh belongs to the current source cage (so the warp is meaningful)."""
+        basis = self._basis
+        return basis is not None and np.array_equal(basis.cage, state.live.cage)
+
+    def sync(self, state: AppState) -> None:
+        """Upload what changed since the last frame."""
+        renderer = self.renderer
+        if state.image is not self._image:
+            renderer.set_image(state.image)
+            self._image = state.image
+        basis = state.basis
+        if basis is not None and basis is not self._basis:
+            renderer.set_mesh(basis.mesh.vertices, basis.mesh.triangles)
+            self._basis = basis
+            self._drawn_target = None
+            self._field = None
+        if not self.mesh_matches(state):
+            return
+        self._update_positions(state)
+        self._update_field(state)
+
+    def _update_positions(self, state: AppState) -> None:
+        basis, target = self._basis, state.live.target
+        dragging = state.drag is not None and state.drag.kind == "target"
+        drawn = self._drawn_target
+        if drawn is not None and np.array_equal(drawn, target) and (self._exact or dragging):
+            return
+        started = time.perf_counter()
+        changed = None if drawn is None else np.flatnonzero(np.any(drawn != target, axis=1))
+        if dragging and changed is not None and len(changed) == 1 and self._positions is not None:
+            # The per-drag path: one column of G, O(V) work for any n.
+            i = int(changed[0])
+            delta = (target[i] - drawn[i]).astype(np.float32)
+            column = basis.columns[:, i]
+            self._positions[:, 0] += column * delta[0]
+            self._positions[:, 1] += column * delta[1]
+            self._exact = False
+        else:
+            self._positions = (basis.basis @ target).astype(np.float32)
+            self._exact = True
+            self._count_folds(state)
+        self.renderer.set_positions(self._positions)
+        self._drawn_target = np.array(target)
+        self.update_ms = 1e3 * (time.perf_counter() - started)
+
+    def _count_folds(self, state: AppState) -> None:
+        import core
+
+        deformed = self._basis.basis @ state.live.target
+        state.folded_count = int(np.count_nonzero(core.folded_triangles(self._basis.mesh, deformed)))
+
+    def _update_field(self, state: AppState) -> None:
+        basis = self._basis
+        if state.content == "basis":
+            index = state.selected if state.selected is not None else 0
+            signature = ("basis", basis.key, index)
+            if signature != self._field and index < basis.basis.shape[1]:
+                self.renderer.set_field(basis.basis[:, index])
+                self._field = signature
+        elif state.content == "height":
+            signature = ("height", basis.key)
+            if signature != self._field:
+                self.renderer.set_field(basis.basis @ default_values(basis.basis.shape[1]))
+                self._field = signature
+
+    def invalidate_positions(self) -> None:
+        """Someone else wrote the position buffer: recompute it at the next `sync`."""
+        self._drawn_target = None
+
+    def exact_positions(self, state: AppState) -> np.ndarray | None:
+        """G @ P' in float64 for the current target (what `warp` draws), or None without a matching mesh."""
+        if not self.mesh_matches(state):
+            return None
+        return self._basis.basis @ state.live.target
+
+    def draw(self, state: AppState, framebuffer_size: tuple[int, int], pixel_ratio: float = 1.0) -> None:
+        """Draw the canvas into the bound framebuffer: backdrop, mesh, overlays."""
+        renderer = self.renderer
+        view = View(state.view.scale * pixel_ratio, tuple(v * pixel_ratio for v in state.view.offset))
+        meshed = self.mesh_matches(state)
+        content = {"image": "image", "basis": "heat", "height": "field"}[state.content]
+        warped = meshed and (state.mode == "deform" or content != "image")
+        # The faded source image costs a full textured pass of a software rasteriser: only on request.
+        opacity = state.backdrop_opacity if warped else 1.0
+        renderer.ctx.clear(*BACKGROUND, 1.0)
+        if opacity > 0:
+            renderer.draw_backdrop(view, framebuffer_size, opacity)
+        if warped:
+            renderer.draw(
+                view,
+                framebuffer_size,
+                content=content,
+                wireframe=state.show_wireframe,
+                folds=state.show_folds,
+            )
+        if state.show_overlay:
+            segments, points = overlay_arrays(state)
+            scaled = View(view.scale, view.offset)
+            renderer.set_overlay(segments, points)
+            renderer.draw_overlay(scaled, framebuffer_size)

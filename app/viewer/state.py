@@ -1,0 +1,274 @@
+"""The viewer's state: immutable edit snapshots, their undo history, and the one `AppState`.
+
+An edit (moving, inserting or deleting a control point, fitting, subdividing,
+choosing a kernel, opening an image) replaces the whole `Snapshot`; the `History`
+keeps the snapshots, so undo and redo swap whole states and can never get out of
+step with what was drawn.  Everything else in `AppState` is view or session
+state that undo does not touch (zoom, pan, what is shown, the current drag).
+
+Coordinates are image pixels, x to the right, y down, origin at the image's
+top-left corner, like the cage and session files.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from app.render import View
+
+#: Parameters of the ``power`` kernel family (Eq. 19) when a session does not say.
+DEFAULT_POWER = 4.0
+DEFAULT_SHIFT = "mean"
+SHIFTS = ("none", "integral", "mean")
+
+#: What the canvas shows.
+CONTENTS = ("image", "basis", "height")
+#: What a left click edits: the target (deform) or the source cage.
+MODES = ("deform", "cage")
+
+
+def _frozen_points(points, name: str) -> np.ndarray:
+    array = np.array(points, dtype=np.float64).reshape(-1, 2)
+    if not np.isfinite(array).all():
+        raise ValueError(f"{name} contain NaN or infinite values")
+    array.setflags(write=False)
+    return array
+
+
+@dataclass(frozen=True, eq=False)
+class Snapshot:
+    """Everything one edit changes, never modified in place.
+
+    Attributes
+    ----------
+    image : Path
+        The source image file.
+    cage : ndarray of shape (n, 2)
+        Source control points (read-only); fewer than 3 while a cage is being placed.
+    target : ndarray of shape (n, 2)
+        Target control points (read-only), one per source point.
+    kernel : str
+        A name of `app.files.kernel_names`.
+    power, shift : float, str
+        Parameters of the ``power`` kernel (ignored by the others).
+    """
+
+    image: Path
+    cage: np.ndarray
+    target: np.ndarray
+    kernel: str = "harmonic-like"
+    power: float = DEFAULT_POWER
+    shift: str = DEFAULT_SHIFT
+
+    def __post_init__(self):
+        cage = _frozen_points(self.cage, "cage")
+        target = _frozen_points(self.target, "target")
+        if cage.shape != target.shape:
+            raise ValueError(f"target has {len(target)} control points but cage has {len(cage)}")
+        if self.shift not in SHIFTS:
+            raise ValueError(f"shift must be one of {', '.join(SHIFTS)}, got {self.shift!r}")
+        object.__setattr__(self, "image", Path(self.image))
+        object.__setattr__(self, "cage", cage)
+        object.__setattr__(self, "target", target)
+        object.__setattr__(self, "power", float(self.power))
+
+    @property
+    def n(self) -> int:
+        """Number of control points."""
+        return len(self.cage)
+
+    def kernel_params(self) -> dict:
+        """Keyword parameters of the kernel for `core.mesh_basis_functions`."""
+        if self.kernel == "power":
+            return {"power": self.power, "shift": self.shift}
+        return {}
+
+    def replace(self, **changes) -> Snapshot:
+        """A copy with some fields changed."""
+        return dataclasses.replace(self, **changes)
+
+    def __eq__(self, other) -> bool:
+        if not isinstance(other, Snapshot):
+            return NotImplemented
+        return (
+            self.image == other.image
+            and self.kernel == other.kernel
+            and self.power == other.power
+            and self.shift == other.shift
+            and np.array_equal(self.cage, other.cage)
+            and np.array_equal(self.target, other.target)
+        )
+
+    __hash__ = None  # mutable-looking arrays inside: compare, do not hash
+
+
+class History:
+    """Undo and redo over whole `Snapshot` states.
+
+    Parameters
+    ----------
+    initial : Snapshot
+        The state before any edit.
+    limit : int
+        Most undo steps kept; the oldest are dropped.
+    """
+
+    def __init__(self, initial: Snapshot, limit: int = 1000):
+        self._undo: list[Snapshot] = []
+        self._redo: list[Snapshot] = []
+        self._current = initial
+        self.limit = limit
+
+    @property
+    def current(self) -> Snapshot:
+        """The state after the last edit (or undo, or redo)."""
+        return self._current
+
+    @property
+    def can_undo(self) -> bool:
+        return bool(self._undo)
+
+    @property
+    def can_redo(self) -> bool:
+        return bool(self._redo)
+
+    def push(self, snapshot: Snapshot) -> bool:
+        """Record an edit; returns False (and records nothing) if nothing changed."""
+        if snapshot == self._current:
+            return False
+        self._undo.append(self._current)
+        del self._undo[: -self.limit]
+        self._redo.clear()
+        self._current = snapshot
+        return True
+
+    def undo(self) -> Snapshot | None:
+        """Step back; returns the new current state, or None if there is nothing to undo."""
+        if not self._undo:
+            return None
+        self._redo.append(self._current)
+        self._current = self._undo.pop()
+        return self._current
+
+    def redo(self) -> Snapshot | None:
+        """Step forward again; returns the new current state, or None if there is nothing to redo."""
+        if not self._redo:
+            return None
+        self._undo.append(self._current)
+        self._current = self._redo.pop()
+        return self._current
+
+    def reset(self, initial: Snapshot) -> None:
+        """Forget every step (a new document)."""
+        self._undo.clear()
+        self._redo.clear()
+        self._current = initial
+
+
+@dataclass
+class Drag:
+    """A mouse drag in progress.
+
+    Attributes
+    ----------
+    kind : {"target", "source", "pan"}
+        What the drag moves.
+    index : int
+        The control point dragged (-1 for a pan).
+    grab : ndarray of shape (2,)
+        Control point minus cursor, image pixels, so that the point does not jump
+        to the cursor; for a pan, the cursor's window position at the last event.
+    before : Snapshot
+        The state when the drag started: Esc goes back to it.
+    moved : bool
+        Whether the cursor moved since the press.
+    """
+
+    kind: str
+    index: int
+    grab: np.ndarray
+    before: Snapshot
+    moved: bool = False
+
+
+@dataclass
+class BasisResult:
+    """Basis functions G of one (cage, mesh, kernel), ready to draw.
+
+    Attributes
+    ----------
+    key : str
+        `app.viewer.precompute.basis_key` of what it was computed for.
+    cage : ndarray of shape (n, 2)
+        The source control points it belongs to.
+    mesh : core.Mesh
+        The mesh of the domain: undeformed vertices (V, 2) in image pixels, triangles.
+    basis : ndarray of shape (V, n), float64
+        G; the deformed vertices are ``basis @ target``.
+    columns : ndarray of shape (V, n), float32, column-major
+        G again, so that one column (one control point's influence) is contiguous
+        for the per-drag rank-one update.
+    kernel : str
+        The kernel it was computed with (shown while another one is computed).
+    seconds : float
+        Wall time of the precompute (0 when it came from a cache).
+    """
+
+    key: str
+    cage: np.ndarray
+    mesh: object  # core.Mesh (not imported here: state stays light)
+    basis: np.ndarray
+    columns: np.ndarray
+    kernel: str
+    seconds: float
+
+
+@dataclass
+class AppState:
+    """Everything the viewer knows, read and written by `gui` and the event handlers once per frame.
+
+    The document is `live`: `history.current`, or the version a drag is changing
+    right now (committed to the history when the mouse is released).
+    """
+
+    history: History
+    live: Snapshot
+    image: np.ndarray  # (H, W, 4) uint8 RGBA of live.image
+    session_path: Path
+    view: View = field(default_factory=View)
+    mode: str = "deform"
+    content: str = "image"
+    selected: int | None = None
+    hovered: int | None = None
+    drag: Drag | None = None
+    show_folds: bool = True
+    show_wireframe: bool = False
+    show_overlay: bool = True
+    show_help: bool = False
+    backdrop_opacity: float = 0.0  # of the source image behind the warp
+    power_draft: float | None = None  # the power slider while it is dragged
+    max_edge: float | None = None  # forced mesh edge length (None: from the cage's area)
+    basis: BasisResult | None = None  # the result drawn (perhaps of another kernel)
+    progress: float | None = None  # fraction of the running precompute, None when idle
+    progress_label: str = ""
+    basis_error: str = ""  # why the wanted basis functions could not be computed
+    last_precompute_seconds: float | None = None
+    folded_count: int | None = None
+    message: str = ""
+    message_is_error: bool = False
+    frame_ms: list[float] = field(default_factory=list)
+    cursor: tuple[float, float] = (0.0, 0.0)  # window pixels
+    window_size: tuple[int, int] = (1280, 1024)  # window pixels
+    canvas_left: float = 0.0  # window pixels hidden under the side panel
+    session_dirty: bool = False  # an edit to save now
+    view_dirty: bool = False  # a zoom or pan to save soon
+    quit: bool = False
+
+    def say(self, message: str, error: bool = False) -> None:
+        """Show `message` in the status line."""
+        self.message = " ".join(str(message).split())
+        self.message_is_error = error

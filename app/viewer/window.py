@@ -1,0 +1,620 @@
+"""The viewer's window: a glfw loop of our own, moderngl for the canvas, imgui-bundle for widgets.
+
+One frame: poll input (glfw callbacks, chained after imgui's own, queue canvas
+events only when imgui does not want the mouse), replay a script's events
+through the same queue, apply them (`controller`), read the precompute's
+messages, draw the widgets (`gui`) and run their commands, bring the GPU up to
+date (`Scene.sync`: one in-place buffer write per drag), draw, swap, and save the
+session if it changed.  The frame time is the wall time of that whole sequence.
+
+With the environment variable ``TRANSFINITE_VIEWER_TEST=1`` the viewer prints
+one line per milestone on stdout (``ready window=ID``, ``basis ...``,
+``saved PATH``, ``exported PATH``, ``script done``) for tests that drive the real
+window, and does not wait for vertical sync.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import signal
+import sys
+import time
+from collections import deque
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from app.files import InputError, read_image, read_json, write_png
+from app.render import View
+from app.viewer import controller, editing
+from app.viewer.precompute import Precompute, make_request
+from app.viewer.session import Document, apply_preferences, fit_or_ellipse, restore, save
+from app.viewer.state import AppState, History
+
+TEST_VARIABLE = "TRANSFINITE_VIEWER_TEST"
+WINDOW_SIZE = (1280, 1024)
+#: Seconds after the last zoom or pan before the view is saved.
+VIEW_SAVE_DELAY = 0.5
+IMAGE_FILTERS = [
+    "Images",
+    "*.png *.jpg *.jpeg *.bmp *.tif *.tiff *.webp",
+    "Sessions",
+    "*.json",
+    "All files",
+    "*",
+]
+
+
+@dataclass
+class Options:
+    """What the command line asks of the viewer."""
+
+    stats: bool = False
+    max_edge: float | None = None
+    script: Path | None = None  # a script to replay (demo --play or --script)
+    play: bool = False  # start replaying at once
+    frames: Path | None = None  # write every replayed frame here (and quit at the end)
+    fps: float = 30.0
+    export: Path | None = None  # where Ctrl+E writes (default: beside the session)
+    size: tuple[int, int] = WINDOW_SIZE
+
+
+def _key_table():
+    import glfw
+
+    ctrl, shift = glfw.MOD_CONTROL, glfw.MOD_SHIFT
+    # (key, modifiers, command, value, keys shown in the help, what it does)
+    return [
+        (glfw.KEY_Z, ctrl, "undo", None, "Ctrl+Z", "undo the last edit"),
+        (glfw.KEY_Z, ctrl | shift, "redo", None, "Ctrl+Shift+Z, Ctrl+Y", "redo"),
+        (glfw.KEY_Y, ctrl, "redo", None, None, None),
+        (glfw.KEY_ESCAPE, 0, "cancel", None, "Esc", "cancel the drag in progress (or close the help)"),
+        (glfw.KEY_O, ctrl, "open", None, "Ctrl+O", "open an image (or drop a file on the window)"),
+        (glfw.KEY_S, ctrl, "save", None, "Ctrl+S", "save the session now (it also saves itself)"),
+        (glfw.KEY_E, ctrl, "export", None, "Ctrl+E", "export the warped image as PNG, full resolution"),
+        (glfw.KEY_Q, ctrl, "quit", None, "Ctrl+Q", "quit"),
+        (glfw.KEY_TAB, 0, "mode", None, "Tab", "switch between deforming and editing the cage"),
+        (glfw.KEY_D, 0, "mode", "deform", "D", "deform: drag the blue target points"),
+        (glfw.KEY_C, 0, "mode", "cage", "C", "cage: drag green points, click to add, right-click to delete"),
+        (glfw.KEY_N, 0, "new_cage", None, "N", "a new cage: click on the image to place its points"),
+        (glfw.KEY_R, 0, "reset_target", None, "R", "reset the target to the source cage"),
+        (glfw.KEY_F, 0, "fit", None, "F", "fit the cage to the image's silhouette"),
+        (glfw.KEY_S, 0, "subdivide", None, "S", "subdivide the cage (same curve, twice the points)"),
+        (glfw.KEY_DELETE, 0, "delete", None, "Delete", "delete the selected control point"),
+        (glfw.KEY_BACKSPACE, 0, "delete", None, None, None),
+        (glfw.KEY_1, 0, "content", "image", "1", "show the warped image"),
+        (glfw.KEY_2, 0, "content", "basis", "2", "show the selected point's basis function (heat map)"),
+        (glfw.KEY_3, 0, "content", "height", "3", "show a height interpolant in bands (Fig. 1)"),
+        (glfw.KEY_X, 0, "toggle", "show_folds", "X", "show folded-over triangles"),
+        (glfw.KEY_W, 0, "toggle", "show_wireframe", "W", "show the mesh edges"),
+        (glfw.KEY_V, 0, "toggle", "show_overlay", "V", "show the curves and handles"),
+        (glfw.KEY_HOME, 0, "fit_view", None, "Home", "fit the image in the window"),
+        (glfw.KEY_P, 0, "play", None, "P", "play or stop the demo script"),
+        (glfw.KEY_F1, 0, "help", None, "F1, H", "this help"),
+        (glfw.KEY_H, 0, "help", None, None, None),
+    ]
+
+
+MOUSE_HELP = [
+    ("Wheel", "zoom around the cursor"),
+    ("Middle or right drag", "pan (also left drag on empty canvas when deforming)"),
+]
+
+
+class Viewer:
+    """The running viewer: state, window, renderer, precompute worker.
+
+    Parameters
+    ----------
+    document : Document
+        What to open.
+    options : Options
+    """
+
+    def __init__(self, document: Document, options: Options):
+        self.options = options
+        self.test_mode = os.environ.get(TEST_VARIABLE) == "1"
+        # The worker starts first: its imports overlap with the window's creation.
+        self.precompute = Precompute()
+        self.state = AppState(
+            history=History(document.snapshot),
+            live=document.snapshot,
+            image=document.image,
+            session_path=Path(document.session_path),
+            window_size=options.size,
+        )
+        apply_preferences(self.state, document.preferences)
+        self._initial_view = document.view
+        self._edges: dict[bytes, float] = {}
+        if document.max_edge is not None:
+            self._edges[document.snapshot.cage.tobytes()] = document.max_edge
+        self._wanted: str | None = None
+        self._failed: set[str] = set()
+        self._events: deque = deque()
+        self._dialog = None
+        self._view_changed_at = 0.0
+        self._player = None
+        self._script_clock: float | None = None
+        self._frames_written = 0
+        self._announced_ready = False
+        self.window = None
+
+    # -- lifetime -------------------------------------------------------------------
+
+    def run(self) -> int:
+        """Open the window and loop until quit; returns the exit code."""
+        previous = signal.signal(signal.SIGTERM, lambda *_: setattr(self.state, "quit", True))
+        try:
+            self._open_window()
+            try:
+                if self.options.script is not None and self.options.play:
+                    self._toggle_script()
+                while not self.state.quit:
+                    self._frame()
+            finally:
+                self._close_window()
+        finally:
+            signal.signal(signal.SIGTERM, previous)
+            self.precompute.close()
+        if self.options.stats:
+            from app.viewer.gui import frame_statistics
+
+            count, median, p95 = frame_statistics(self.state.frame_ms)
+            print(f"frames={count} median_frame_ms={median:.2f} p95_frame_ms={p95:.2f}", flush=True)
+        return 0
+
+    def _open_window(self) -> None:
+        import glfw  # before imgui_bundle, so that the standard glfw module is the one used
+        import moderngl
+        from imgui_bundle import imgui
+        from imgui_bundle.python_backends.glfw_backend import GlfwRenderer
+
+        from app.render import WarpRenderer
+        from app.viewer.scene import Scene
+
+        if not glfw.init():
+            raise _environment_error(
+                f"cannot initialise glfw (is there a display? DISPLAY is {os.environ.get('DISPLAY')!r})"
+            )
+        glfw.window_hint(glfw.CONTEXT_VERSION_MAJOR, 3)
+        glfw.window_hint(glfw.CONTEXT_VERSION_MINOR, 3)
+        glfw.window_hint(glfw.OPENGL_PROFILE, glfw.OPENGL_CORE_PROFILE)
+        glfw.window_hint(glfw.OPENGL_FORWARD_COMPAT, True)
+        # 2D only: no depth or stencil buffer to clear every frame.
+        glfw.window_hint(glfw.DEPTH_BITS, 0)
+        glfw.window_hint(glfw.STENCIL_BITS, 0)
+        width, height = self.options.size
+        window = glfw.create_window(width, height, self._title(), None, None)
+        if not window:
+            glfw.terminate()
+            raise _environment_error("cannot open an OpenGL 3.3 window")
+        self.window = window
+        glfw.make_context_current(window)
+        glfw.swap_interval(0 if self.test_mode else 1)
+        self.ctx = moderngl.create_context()
+        imgui.create_context()
+        imgui.get_io().set_ini_filename("")
+        self.imgui = imgui
+        self.imgui_renderer = GlfwRenderer(window)
+        self._chain_callbacks(glfw)
+        self.renderer = WarpRenderer(self.ctx)
+        self.scene = Scene(self.renderer)
+        self.shortcuts = [(keys, what) for *_, keys, what in _key_table() if keys] + MOUSE_HELP
+        self._keys = _key_table()
+        glfw.focus_window(window)
+        self.state.window_size = glfw.get_window_size(window)
+        self.state.canvas_left = 300.0
+        if self._initial_view is not None:
+            self.state.view = self._initial_view
+        else:
+            controller.fit_view(self.state, None)
+            self.state.view_dirty = False
+        self.state.session_dirty = True  # the first save, so the session file exists at once
+
+    def _close_window(self) -> None:
+        import glfw
+
+        self._save_if_needed(force=True)
+        if self.window is None:
+            return
+        self.renderer.release()
+        self.imgui_renderer.shutdown()
+        self.imgui.destroy_context()
+        self.ctx.release()
+        glfw.destroy_window(self.window)
+        glfw.terminate()
+        self.window = None
+
+    # -- input --------------------------------------------------------------------------
+
+    def _chain_callbacks(self, glfw) -> None:
+        """Wrap imgui's glfw callbacks: imgui sees every event first, the canvas what imgui leaves."""
+        window, io = self.window, self.imgui.get_io()
+
+        def chained(setter, handler):
+            previous = setter(window, None)
+
+            def callback(*args):
+                if previous is not None:
+                    previous(*args)
+                handler(*args)
+
+            setter(window, callback)
+
+        def mouse_button(_, button, action, mods):
+            x, y = glfw.get_cursor_pos(window)
+            if action == glfw.RELEASE:
+                self._events.append(("pointer", "release", x, y, button, 0.0))
+            elif not io.want_capture_mouse:
+                self._events.append(("pointer", "press", x, y, button, 0.0))
+
+        def cursor(_, x, y):
+            # A drag keeps its events even over a panel.
+            if self.state.drag is not None or not io.want_capture_mouse:
+                self._events.append(("pointer", "move", x, y, 0, 0.0))
+
+        def scroll(_, dx, dy):
+            if not io.want_capture_mouse:
+                x, y = glfw.get_cursor_pos(window)
+                self._events.append(("pointer", "scroll", x, y, 0, dy))
+
+        def key(_, key, scancode, action, mods):
+            if action not in (glfw.PRESS, glfw.REPEAT) or io.want_text_input:
+                return
+            if mods & glfw.MOD_SUPER:  # Cmd on macOS
+                mods = (mods & ~glfw.MOD_SUPER) | glfw.MOD_CONTROL
+            mods &= glfw.MOD_CONTROL | glfw.MOD_SHIFT | glfw.MOD_ALT
+            for code, wanted, name, value, *_ in self._keys:
+                if code == key and wanted == mods:
+                    if io.want_capture_keyboard and not mods & glfw.MOD_CONTROL and name != "cancel":
+                        return  # plain letters go to a focused widget
+                    self._events.append(("command", name, value))
+                    return
+
+        def drop(_, paths):
+            for path in paths[:1]:
+                self._events.append(("command", "open_path", path))
+
+        def close(_):
+            self.state.quit = True
+
+        chained(glfw.set_mouse_button_callback, mouse_button)
+        chained(glfw.set_cursor_pos_callback, cursor)
+        chained(glfw.set_scroll_callback, scroll)
+        chained(glfw.set_key_callback, key)
+        glfw.set_drop_callback(window, drop)
+        glfw.set_window_close_callback(window, close)
+
+    def _apply_events(self) -> None:
+        while self._events:
+            event = self._events.popleft()
+            if event[0] == "pointer":
+                _, kind, x, y, button, amount = event
+                controller.pointer(self.state, kind, x, y, button, amount)
+                if kind in ("scroll",) or (
+                    kind == "move" and self.state.drag and self.state.drag.kind == "pan"
+                ):
+                    self._view_changed_at = time.perf_counter()
+            else:
+                self.command(event[1], event[2])
+
+    def command(self, name: str, value=None) -> None:
+        """Run a command of the keyboard, the panel or a drop."""
+        state = self.state
+        if name == "quit":
+            state.quit = True
+        elif name == "save":
+            self._save_if_needed(force=True, announce=True)
+        elif name == "export":
+            self.export()
+        elif name == "open":
+            self._open_dialog()
+        elif name == "open_path":
+            self.open_path(Path(value))
+        elif name == "play":
+            self._toggle_script()
+        elif name == "fit_view":
+            controller.fit_view(state, None)
+            self._view_changed_at = time.perf_counter()
+        elif not controller.command(state, name, value):
+            state.say(f"unknown command {name!r}", error=True)
+
+    # -- files ----------------------------------------------------------------------------
+
+    def _open_dialog(self) -> None:
+        from imgui_bundle import portable_file_dialogs as pfd
+
+        if not any(shutil.which(p) for p in ("zenity", "kdialog", "matedialog", "qarma")):
+            self.state.say(
+                "no file dialog program (zenity or kdialog) found: drop the image on the window, "
+                "or give it on the command line",
+                error=True,
+            )
+            return
+        directory = str(Path(self.state.live.image).parent)
+        self._dialog = pfd.open_file("Open an image", directory, IMAGE_FILTERS)
+
+    def _poll_dialog(self) -> None:
+        if self._dialog is not None and self._dialog.ready(0):
+            paths = self._dialog.result()
+            self._dialog = None
+            if paths:
+                self.open_path(Path(paths[0]))
+
+    def open_path(self, path: Path) -> None:
+        """Open a dropped or chosen file: an image, a session or a cage file."""
+        state = self.state
+        try:
+            if path.suffix.lower() == ".json":
+                value = read_json(path)
+                if isinstance(value, dict) and "image" in value and "target" in value:
+                    document = restore(path)
+                    controller.commit(state, document.snapshot, f"opened session {path}")
+                    state.image = document.image
+                    state.view = document.view
+                    state.session_path = path
+                    return
+                from app.files import read_cage
+
+                cage = read_cage(path)
+                problem = editing.cage_problem(cage)
+                if problem:
+                    raise InputError(f"{path}: {problem}")
+                controller.commit(state, state.live.replace(cage=cage, target=cage), f"cage from {path}")
+                return
+            image = read_image(path)
+        except InputError as error:
+            state.say(str(error), error=True)
+            return
+        cage, note = fit_or_ellipse(image)
+        state.image = image
+        controller.commit(
+            state,
+            state.live.replace(image=path.resolve(), cage=cage, target=cage),
+            f"opened {path.name}: {note}",
+        )
+        controller.fit_view(state, None)
+        if self.window is not None:
+            import glfw
+
+            glfw.set_window_title(self.window, self._title())
+
+    def export(self, path: Path | None = None) -> Path | None:
+        """Write the warped image at the image's full resolution, like ``warp --session``."""
+        state = self.state
+        path = path or self.options.export or state.session_path.with_suffix(".png")
+        pixels = self._render_export()
+        if pixels is None:
+            state.say("nothing to export yet: the basis functions are still being computed", error=True)
+            return None
+        try:
+            write_png(path, pixels)
+        except InputError as error:
+            state.say(str(error), error=True)
+            return None
+        state.say(f"exported {path}")
+        self._announce(f"exported {path}")
+        return path
+
+    def _render_export(self) -> np.ndarray | None:
+        state = self.state
+        if state.basis is None or state.basis.key != self._wanted:
+            return None
+        positions = self.scene.exact_positions(state)
+        if positions is None:
+            return None
+        self.renderer.set_positions(positions)
+        self.scene.invalidate_positions()
+        height, width = state.image.shape[:2]
+        return self.renderer.render((width, height), View())
+
+    def _save_if_needed(self, force: bool = False, announce: bool = False) -> None:
+        state = self.state
+        due = state.session_dirty or (
+            state.view_dirty and time.perf_counter() - self._view_changed_at >= VIEW_SAVE_DELAY
+        )
+        if not (due or force) or state.drag is not None and not force:
+            return
+        if state.history.current.n < 3:
+            return  # a cage being placed is no session yet
+        try:
+            save(state, self._max_edge(state.history.current.cage))
+        except (InputError, OSError) as error:
+            state.say(f"cannot save the session: {error}", error=True)
+            return
+        state.session_dirty = state.view_dirty = False
+        if announce:
+            state.say(f"saved {state.session_path}")
+        self._announce(f"saved {state.session_path}")
+
+    # -- precompute -----------------------------------------------------------------------
+
+    def _max_edge(self, cage: np.ndarray) -> float:
+        if self.options.max_edge is not None:
+            return self.options.max_edge
+        key = cage.tobytes()
+        if key not in self._edges:
+            self._edges[key] = editing.default_max_edge(cage)
+        return self._edges[key]
+
+    def _update_precompute(self) -> None:
+        state = self.state
+        for message in self.precompute.poll():
+            kind, key = message[0], message[1]
+            if kind == "progress" and key == self.precompute.pending:
+                state.progress, state.progress_label = message[2], message[3]
+            elif kind == "done":
+                state.progress = None if self.precompute.pending is None else state.progress
+                if key == self._wanted:
+                    self._apply(message[2])
+            elif kind == "error":
+                if self.precompute.pending is None:
+                    state.progress = None
+                self._failed.add(key)
+                if key == self._wanted:
+                    state.basis_error = message[2]
+                    state.say(message[2], error=True)
+        if state.drag is not None or state.live.n < 3:
+            return
+        live = state.live
+        wanted = make_request(live, self._max_edge(live.cage))
+        self._wanted = wanted.key
+        if state.basis is not None and state.basis.key == wanted.key:
+            return
+        remembered = self.precompute.remembered(wanted.key)
+        if remembered is not None:
+            self._apply(remembered, cached=True)
+        elif wanted.key in self._failed:
+            return
+        elif self.precompute.pending != wanted.key:
+            self.precompute.submit(wanted)
+            state.progress, state.progress_label = 0.0, "starting"
+            state.basis_error = ""
+
+    def _apply(self, result, cached: bool = False) -> None:
+        state = self.state
+        state.basis = result
+        state.basis_error = ""
+        if not cached:
+            state.last_precompute_seconds = result.seconds
+            state.progress = None
+        vertices = len(result.mesh.vertices)
+        self._announce(f"basis key={result.key} vertices={vertices} kernel={result.kernel}")
+
+    # -- scripts --------------------------------------------------------------------------
+
+    def _toggle_script(self) -> None:
+        from app.viewer.demos import ScriptPlayer, read_script
+
+        if self.options.script is None:
+            self.state.say("no script: start a demo (python -m app demo NAME) or give --script", error=True)
+            return
+        if self._player is not None:
+            self._player = None
+            self._script_clock = None
+            self.state.say("script stopped")
+            return
+        try:
+            moves = read_script(self.options.script, self.state.live.n)
+        except InputError as error:
+            self.state.say(str(error), error=True)
+            return
+        self.state.mode = "deform"
+        self._player = ScriptPlayer(moves)
+        self._script_clock = None
+        self.state.say(f"playing {self.options.script.name}")
+
+    def _script_events(self) -> None:
+        player, state = self._player, self.state
+        if player is None:
+            return
+        ready = (
+            state.basis is not None and state.basis.key == self._wanted and self.precompute.pending is None
+        )
+        if self._script_clock is None:
+            if not ready:
+                return  # replay once the deformation can be seen
+            self._script_clock = time.perf_counter()
+        if self.options.frames is not None:
+            now = self._frames_written / self.options.fps
+        else:
+            now = time.perf_counter() - self._script_clock
+        events = player.events(
+            now,
+            lambda index: state.live.target[index],
+            lambda point: editing.to_window(state.view, point),
+        )
+        for kind, x, y in events:
+            # The same path as the mouse: the queue that the glfw callbacks fill.
+            self._events.append(("pointer", kind, x, y, controller.LEFT, 0.0))
+        if player.finished and not events:
+            self._player = None
+            state.say("script finished")
+            self._announce("script done")
+            if self.options.frames is not None:
+                state.quit = True
+
+    def _write_frame(self) -> None:
+        if self._player is None or self._script_clock is None or self.options.frames is None:
+            return
+        pixels = self._render_export()
+        if pixels is None:
+            return
+        self.options.frames.mkdir(parents=True, exist_ok=True)
+        write_png(self.options.frames / f"frame_{self._frames_written:05d}.png", pixels)
+        self._frames_written += 1
+
+    # -- one frame --------------------------------------------------------------------------
+
+    def _frame(self) -> None:
+        import glfw
+
+        imgui, state = self.imgui, self.state
+        # Input wakes the loop at once; without input, draw only as often as something
+        # changes on its own, so that an idle or waiting viewer leaves the CPU to the
+        # precompute (the worker runs at lower priority and gets what the UI leaves).
+        if self._player is not None and self._script_clock is not None:
+            glfw.poll_events()  # a replay animates every frame
+        elif self._events:
+            glfw.poll_events()
+        elif self.precompute.pending is not None or self._player is not None:
+            glfw.wait_events_timeout(0.1)  # the progress bar
+        elif state.view_dirty or self._dialog is not None:
+            glfw.wait_events_timeout(0.05)
+        else:
+            glfw.wait_events_timeout(0.5)
+        started = time.perf_counter()
+        state.window_size = glfw.get_window_size(self.window)
+        self._script_events()
+        self._apply_events()
+        self._poll_dialog()
+        self._update_precompute()
+
+        self.imgui_renderer.process_inputs()
+        imgui.new_frame()
+        from app.viewer.gui import gui
+
+        extras = {"script": self.options.script is not None, "playing": self._player is not None}
+        for name, value in gui(state, self.shortcuts, extras):
+            self.command(name, value)
+        self._update_precompute()  # a kernel chosen in the panel starts computing this frame
+
+        self.scene.sync(state)
+        width, height = glfw.get_framebuffer_size(self.window)
+        ratio = width / max(state.window_size[0], 1)
+        self.ctx.screen.use()
+        self.ctx.viewport = (0, 0, width, height)
+        if width > 0 and height > 0:
+            self.scene.draw(state, (width, height), ratio)
+        imgui.render()
+        self.imgui_renderer.render(imgui.get_draw_data())
+        self._write_frame()
+        glfw.swap_buffers(self.window)
+        state.frame_ms.append(1e3 * (time.perf_counter() - started))
+        self._save_if_needed()
+        if not self._announced_ready:
+            self._announced_ready = True
+            window_id = glfw.get_x11_window(self.window) if sys.platform.startswith("linux") else 0
+            self._announce(f"ready window={window_id}")
+        if glfw.window_should_close(self.window):
+            state.quit = True
+
+    def _announce(self, line: str) -> None:
+        if self.test_mode:
+            print(line, flush=True)
+
+    def _title(self) -> str:
+        return f"Transfinite warp - {Path(self.state.live.image).name}"
+
+
+def _environment_error(message: str) -> Exception:
+    from app.render import ContextUnavailableError
+
+    return ContextUnavailableError(message)
+
+
+def run(document: Document, options: Options) -> int:
+    """Open the viewer on `document`; returns the exit code when it is closed."""
+    return Viewer(document, options).run()

@@ -1,0 +1,202 @@
+"""What input does to the viewer's state (app.viewer.controller), without a window."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from app.render import View
+from app.viewer import controller, editing
+from app.viewer.controller import LEFT, MIDDLE, RIGHT
+from app.viewer.state import AppState, History, Snapshot
+from core import examples
+
+STAR = examples.starfish(points_per_arm=2) * np.array([150.0, -150.0]) + np.array([320.0, 240.0])
+
+
+@pytest.fixture
+def state():
+    snapshot = Snapshot(Path("star.png"), STAR, STAR)
+    image = np.zeros((480, 640, 4), np.uint8)
+    return AppState(History(snapshot), snapshot, image, Path("session.json"), view=View(1.5, (100.0, 20.0)))
+
+
+def window_of(state, point):
+    return editing.to_window(state.view, point)
+
+
+def drag(state, start, end, steps=5, button=LEFT):
+    controller.pointer(state, "press", *start, button=button)
+    for fraction in np.linspace(0, 1, steps + 1)[1:]:
+        controller.pointer(state, "move", *(np.asarray(start) + fraction * (np.asarray(end) - start)))
+
+
+def test_dragging_a_target_point_is_one_undo_step(state):
+    start = window_of(state, STAR[0])
+    drag(state, start, start + [30, 15])
+    assert state.drag is not None and state.drag.kind == "target"
+    assert not state.history.can_undo  # committed only on release
+    np.testing.assert_allclose(state.live.target[0], STAR[0] + np.array([30, 15]) / 1.5)
+    controller.pointer(state, "release", *(start + [30, 15]))
+    assert state.drag is None and state.session_dirty
+    assert state.history.current == state.live and state.selected == 0
+    np.testing.assert_array_equal(state.live.cage, STAR)
+    controller.command(state, "undo")
+    assert state.live == Snapshot(Path("star.png"), STAR, STAR)
+    controller.command(state, "redo")
+    np.testing.assert_allclose(state.live.target[0], STAR[0] + np.array([30, 15]) / 1.5)
+
+
+def test_a_click_without_a_move_records_nothing(state):
+    start = window_of(state, STAR[3])
+    controller.pointer(state, "press", *start)
+    controller.pointer(state, "release", *start)
+    assert not state.history.can_undo and state.selected == 3
+
+
+def test_escape_cancels_the_drag(state):
+    start = window_of(state, STAR[2])
+    drag(state, start, start + [40, 0])
+    controller.command(state, "cancel")
+    assert state.drag is None and state.live == state.history.current
+    controller.pointer(state, "release", *(start + [40, 0]))
+    assert not state.history.can_undo
+
+
+def test_drag_on_empty_canvas_pans_and_wheel_zooms(state):
+    drag(state, (900.0, 900.0), (950.0, 880.0))
+    controller.pointer(state, "release", 950.0, 880.0)
+    assert state.view.offset == (150.0, 0.0) and state.view_dirty
+    assert not state.history.can_undo
+    drag(state, (10.0, 10.0), (20.0, 20.0), button=MIDDLE)
+    controller.pointer(state, "release", 20.0, 20.0, button=MIDDLE)
+    assert state.view.offset == (160.0, 10.0)
+    under = editing.to_image(state.view, (500, 400))
+    controller.pointer(state, "scroll", 500, 400, amount=2)
+    assert state.view.scale == pytest.approx(1.5 * 1.15**2)
+    np.testing.assert_allclose(editing.to_image(state.view, (500, 400)), under)
+
+
+def test_cage_mode_moves_inserts_and_deletes_source_points(state):
+    controller.command(state, "mode", "cage")
+    start = window_of(state, STAR[1])
+    drag(state, start, start + [6, 3])
+    controller.pointer(state, "release", *(start + [6, 3]))
+    moved = state.live
+    np.testing.assert_allclose(moved.cage[1] - STAR[1], np.array([6, 3]) / 1.5)
+    np.testing.assert_allclose(moved.target, moved.cage)  # the target point came along
+    # A click away from the handles inserts a point into the nearest span (and grabs it).
+    curve = editing.curve_points(moved.cage)
+    click = window_of(state, curve[5 * editing.SAMPLES_PER_SPAN + 2])
+    controller.pointer(state, "press", *click)
+    controller.pointer(state, "release", *click)
+    assert state.live.n == len(STAR) + 1 and state.selected is not None
+    index = state.selected
+    # Right-click deletes it again.
+    controller.pointer(state, "press", *window_of(state, state.live.cage[index]), button=RIGHT)
+    controller.pointer(state, "release", *window_of(state, state.live.cage[index]), button=RIGHT)
+    assert state.live == moved
+    assert state.history.undo() is not None and state.history.current.n == len(STAR) + 1
+
+
+def test_a_source_move_that_crosses_the_curve_is_undone(state):
+    controller.command(state, "mode", "cage")
+    start = window_of(state, STAR[0])  # the top tip, dragged down through the whole star
+    drag(state, start, window_of(state, STAR[5] + [0, 200]))
+    controller.pointer(state, "release", *window_of(state, STAR[5] + [0, 200]))
+    assert state.live == state.history.current and not state.history.can_undo
+    assert state.message_is_error and "crosses or touches itself" in state.message
+
+
+def test_commands(state):
+    controller.command(state, "kernel", "mean-value")
+    assert state.live.kernel == "mean-value"
+    controller.command(state, "kernel", "nonsense")
+    assert state.message_is_error and state.live.kernel == "mean-value"
+    controller.command(state, "kernel", "power")
+    controller.command(state, "power", 2.5)
+    controller.command(state, "shift", "integral")
+    assert state.live.kernel_params() == {"power": 2.5, "shift": "integral"}
+    controller.command(state, "subdivide")
+    assert state.live.n == 2 * len(STAR)
+    controller.command(state, "undo")
+    target = state.live.target.copy()
+    target[3] += 20
+    controller.commit(state, state.live.replace(target=target))
+    controller.command(state, "reset_target")
+    np.testing.assert_array_equal(state.live.target, state.live.cage)
+    controller.command(state, "content", "basis")
+    controller.command(state, "toggle", "show_wireframe")
+    assert state.content == "basis" and state.show_wireframe
+    controller.command(state, "delete")
+    assert "select a control point" in state.message
+    assert not controller.command(state, "fly")
+
+
+def test_fit_command_fits_the_silhouette(state):
+    image = np.zeros((480, 640, 4), np.uint8)
+    image[..., 3] = 255
+    image[150:330, 200:460, :3] = 255
+    state.image = image
+    controller.command(state, "fit", 12)
+    cage = state.live.cage
+    assert len(cage) == 12 and np.array_equal(cage, state.live.target)
+    assert 180 < cage[:, 0].min() < 220 and 440 < cage[:, 0].max() < 480
+
+
+def test_fit_view_centres_the_image_right_of_the_panel(state):
+    state.canvas_left = 300.0
+    controller.fit_view(state, (1280, 1024))  # the image fits: shown at 100%
+    assert state.view.scale == 1.0
+    corner, far = editing.to_window(state.view, [[0, 0], [640, 480]])
+    assert corner[0] - 300 == pytest.approx(1280 - far[0], abs=0.1)
+    assert corner[1] == pytest.approx(1024 - controller.STATUS_HEIGHT - far[1], abs=0.1)
+    controller.fit_view(state, (700, 500))  # too small a window: fitted with a margin
+    corner, far = editing.to_window(state.view, [[0, 0], [640, 480]])
+    assert state.view.scale < 1 and corner[0] >= 300 + 23.9 and far[0] <= 700 - 23.9
+
+
+def test_opening_dropped_files(tmp_path, monkeypatch):
+    """What a file dropped on the window (or chosen in the dialog) does, without a window."""
+    from app.files import write_cage
+    from app.viewer.demos import demo_files
+    from app.viewer.session import open_document, save
+    from app.viewer.window import Options, Viewer
+
+    monkeypatch.setenv("TRANSFINITE_STATE_DIR", str(tmp_path))
+    files = demo_files("starfish")
+    viewer = Viewer(open_document(files.image, files.cage, tmp_path / "s.json"), Options())
+    try:
+        state = viewer.state
+        viewer.open_path(demo_files("pattern").image)  # an image: a fitted cage, one undo step
+        assert state.live.image.name == "pattern.png" and state.image.shape == (480, 640, 4)
+        assert state.history.can_undo and np.array_equal(state.live.cage, state.live.target)
+        square = np.array([[100.0, 100.0], [500.0, 100.0], [500.0, 400.0], [100.0, 400.0]])
+        write_cage(tmp_path / "cage.json", square)
+        viewer.open_path(tmp_path / "cage.json")  # a cage file
+        np.testing.assert_array_equal(state.live.cage, square)
+        save(state, None)
+        other = tmp_path / "other.json"
+        (tmp_path / "s.json").rename(other)
+        controller.command(state, "undo")
+        viewer.open_path(other)  # a session: everything, and it saves there from now on
+        np.testing.assert_array_equal(state.live.cage, square)
+        assert state.session_path == other
+        viewer.open_path(tmp_path / "missing.png")
+        assert state.message_is_error and "no such file" in state.message
+    finally:
+        viewer.precompute.close()
+
+
+def test_a_new_cage_is_placed_point_by_point(state):
+    controller.command(state, "new_cage")
+    assert state.mode == "cage" and state.live.n == 0
+    for point in ([100, 100], [400, 120], [250, 380], [90, 300]):
+        x, y = editing.to_window(state.view, point)
+        controller.pointer(state, "press", x, y)
+        controller.pointer(state, "release", x, y)
+    assert state.live.n == 4 and editing.cage_problem(state.live.cage) is None
+    np.testing.assert_array_equal(state.live.cage, state.live.target)
+    for _ in range(4):
+        controller.command(state, "undo")
+    assert state.live.n == 0

@@ -1,0 +1,102 @@
+"""The basis-function precompute in its background process (app.viewer.precompute)."""
+
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import core
+from app.viewer.precompute import Precompute, basis_key, compute, make_request
+from app.viewer.state import Snapshot
+from core import examples
+
+STAR = examples.starfish(points_per_arm=2) * np.array([100.0, -100.0]) + 200.0
+
+
+@pytest.fixture
+def cache(tmp_path, monkeypatch):
+    monkeypatch.setenv("TRANSFINITE_CACHE_DIR", str(tmp_path))
+
+
+def snapshot(**changes):
+    return Snapshot(Path("x.png"), STAR, STAR, **changes)
+
+
+def test_keys_follow_what_the_basis_depends_on():
+    base = basis_key(snapshot(), 5.0)
+    assert base == basis_key(snapshot().replace(target=STAR + 9), 5.0)  # not the target
+    others = {
+        basis_key(snapshot(kernel="mean-value"), 5.0),
+        basis_key(snapshot(), 4.0),
+        basis_key(snapshot().replace(cage=STAR + 1), 5.0),
+        basis_key(snapshot(kernel="power", power=3.0), 5.0),
+        basis_key(snapshot(kernel="power", power=3.0, shift="none"), 5.0),
+    }
+    assert base not in others and len(others) == 5
+    assert basis_key(snapshot(power=3.0), 5.0) == base  # ignored by other kernels
+
+
+def test_compute_meshes_and_interpolates(cache):
+    progress = []
+    payload = compute(make_request(snapshot(), 8.0), lambda fraction, phase: progress.append(phase))
+    basis, vertices = payload["basis"], payload["vertices"]
+    np.testing.assert_allclose(basis.sum(axis=1), 1.0, atol=1e-10)
+    np.testing.assert_allclose(basis @ STAR, vertices, atol=1e-5)  # linear precision
+    assert progress[0] == "meshing" and "basis functions" in progress
+
+
+def test_the_worker_process_computes_supersedes_and_reports_errors(cache):
+    precompute = Precompute()
+    try:
+        first = make_request(snapshot(), 4.0)
+        second = make_request(snapshot(kernel="mean-value"), 6.0)
+        precompute.submit(first)
+        precompute.submit(second)  # supersedes the first
+        assert precompute.pending == second.key
+        messages = _until(precompute, lambda m: m[0] in ("done", "error"))
+        done = [m for m in messages if m[0] == "done"]
+        assert [m[1] for m in done] == [second.key]
+        result = done[0][2]
+        assert result.kernel == "mean-value" and result.basis.shape == (len(result.mesh.vertices), len(STAR))
+        assert result.columns.flags.f_contiguous and result.columns.dtype == np.float32
+        np.testing.assert_array_equal(result.cage, STAR)
+        assert precompute.pending is None and precompute.remembered(second.key) is result
+        # A kernel that does not take this domain: an error message, the worker lives on.
+        bad = make_request(snapshot(kernel="wachspress"), 6.0)
+        precompute.submit(bad)
+        messages = _until(precompute, lambda m: m[0] in ("done", "error"))
+        assert messages[-1][:2] == ("error", bad.key) and "convex" in messages[-1][2]
+        assert precompute.alive
+    finally:
+        precompute.close()
+    assert not precompute.alive
+
+
+def test_memory_keeps_the_last_results():
+    from app.viewer import precompute as module
+
+    holder = Precompute.__new__(Precompute)
+    holder._memory = module.OrderedDict()
+    for number in range(module.MEMORY_RESULTS + 2):
+        holder.remember(type("R", (), {"key": str(number)})())
+    assert holder.remembered("0") is None and holder.remembered(str(module.MEMORY_RESULTS + 1)) is not None
+
+
+def _until(precompute, stop, timeout=90.0):
+    messages, deadline = [], time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        batch = precompute.poll()
+        messages.extend(batch)
+        if any(stop(m) for m in batch):
+            return messages
+        time.sleep(0.02)
+    raise AssertionError(f"no result within {timeout} s: {messages[-3:]}")
+
+
+def test_meshes_from_the_worker_are_core_meshes(cache):
+    payload = compute(make_request(snapshot(), 10.0))
+    mesh = core.Mesh(
+        payload["vertices"], payload["triangles"], payload["boundary"], payload["boundary_parameters"]
+    )
+    assert not core.folded_triangles(mesh, payload["basis"] @ STAR).any()

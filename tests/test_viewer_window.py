@@ -1,0 +1,296 @@
+"""The real viewer window under Xvfb, driven by real X input events (xdotool).
+
+One viewer session: start, drag a target control point, check the screen changed
+where the arm moved and nowhere else, undo (Ctrl+Z), redo (Ctrl+Shift+Z and
+Ctrl+Y), cancel a drag with Esc, export (Ctrl+E) and compare with
+``python -m app warp --session``, quit (Ctrl+Q); then reopen the saved session and
+check the same picture comes back, and close the window like a window manager.
+
+Xvfb and xdotool are required: without them these tests fail, they never skip.
+Screenshots are kept in the test's temporary directory (and under
+``$VIEWER_SCREENSHOTS`` when set, for people to look at).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import shutil
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from viewer_harness import ViewerProcess, close_window, save_png, screenshot, start_xvfb, xdotool
+
+from app.files import read_image
+from app.viewer.editing import SAMPLES_PER_SPAN, curve_matrix
+
+ROOT = Path(__file__).resolve().parent.parent
+ASSETS = ROOT / "assets"
+PANEL_RIGHT, STATUS_TOP = 300, 990  # window pixels: the side panel and the status line
+
+
+@pytest.fixture(scope="module")
+def display():
+    process, name = start_xvfb()
+    yield name
+    process.terminate()
+    process.wait(timeout=10)
+
+
+@pytest.fixture(scope="module")
+def environment(display, tmp_path_factory):
+    folder = tmp_path_factory.mktemp("viewer")
+    env = {
+        **os.environ,
+        "DISPLAY": display,
+        "TRANSFINITE_CACHE_DIR": str(folder / "cache"),
+        "TRANSFINITE_STATE_DIR": str(folder / "state"),
+    }
+    return env, folder
+
+
+def shot(display: str, folder: Path, name: str) -> np.ndarray:
+    """Screenshot of the whole screen (the window covers it), also saved as PNG."""
+    time.sleep(0.4)  # a few frames for the last event to be drawn
+    pixels = screenshot(display)
+    save_png(folder / f"{name}.png", pixels)
+    keep = os.environ.get("VIEWER_SCREENSHOTS")
+    if keep:
+        Path(keep).mkdir(parents=True, exist_ok=True)
+        save_png(Path(keep) / f"{name}.png", pixels)
+    return pixels.astype(np.int16)
+
+
+def box_difference(a: np.ndarray, b: np.ndarray, centre, half: int) -> float:
+    x, y = int(round(centre[0])), int(round(centre[1]))
+    region = (slice(max(y - half, 0), y + half), slice(max(x - half, 0), x + half))
+    return float(np.abs(a[region] - b[region]).mean())
+
+
+def changed_fraction(a: np.ndarray, b: np.ndarray) -> float:
+    """Fraction of canvas pixels (right of the panel, above the status line) that differ visibly."""
+    canvas = (slice(0, STATUS_TOP), slice(PANEL_RIGHT, None))
+    return float((np.abs(a[canvas] - b[canvas]).max(axis=-1) > 40).mean())
+
+
+def session_points(path: Path) -> tuple[np.ndarray, np.ndarray, dict]:
+    value = json.loads(path.read_text())
+    return (
+        np.array(value["cage"]["control_points"]),
+        np.array(value["target"]["control_points"]),
+        value,
+    )
+
+
+def window_pixel(view: dict, point) -> np.ndarray:
+    return np.asarray(view["offset"]) + view["scale"] * np.asarray(point)
+
+
+def park_mouse(display: str, window: str) -> None:
+    """Move the pointer onto empty canvas, so no handle shows as hovered."""
+    xdotool(display, "mousemove", "--window", window, "1250", "40")
+
+
+def stats_line(lines: list[str]) -> re.Match:
+    for line in lines:
+        match = re.fullmatch(r"frames=(\d+) median_frame_ms=([\d.]+) p95_frame_ms=([\d.]+)", line)
+        if match:
+            return match
+    raise AssertionError(f"no stats line in {lines}")
+
+
+def test_drag_undo_redo_export_quit_and_restore(display, environment):
+    env, folder = environment
+    session = folder / "session.json"
+    exported = folder / "exported.png"
+    viewer = ViewerProcess(
+        [
+            "view",
+            str(ASSETS / "starfish.png"),
+            "--cage",
+            str(ASSETS / "starfish.cage.json"),
+            "--session",
+            str(session),
+            "--export",
+            str(exported),
+            "--stats",
+        ],
+        env,
+        ROOT,
+    )
+    try:
+        window = viewer.wait_for("ready window=", 30).split("=")[1]
+        viewer.wait_for("basis ", 60)
+        cage, target, value = session_points(session)
+        view = value["view"]
+        assert np.array_equal(cage, target)
+        park_mouse(display, window)
+        before = shot(display, folder, "1-start")
+
+        # Drag the top arm's tip (control point 0) with real button and motion events.
+        start = window_pixel(view, target[0])
+        drag = np.array([90.0, 40.0])
+        xdotool(display, "mousemove", "--window", window, *(f"{v:.0f}" for v in start))
+        time.sleep(0.2)
+        xdotool(display, "mousedown", "1")
+        for step in np.linspace(0.1, 1.0, 10):
+            xdotool(display, "mousemove", "--window", window, *(f"{v:.0f}" for v in start + step * drag))
+            time.sleep(0.03)
+        xdotool(display, "mouseup", "1")
+        viewer.wait_for("saved", 10)
+        cage_after, target_after, _ = session_points(session)
+        assert np.array_equal(cage_after, cage), "a target drag must not move the source cage"
+        moved = np.flatnonzero(np.any(target_after != target, axis=1))
+        assert moved.tolist() == [0]
+        np.testing.assert_allclose(
+            target_after[0] - target[0], drag / view["scale"], atol=1.5 / view["scale"]
+        )
+        park_mouse(display, window)
+        dragged = shot(display, folder, "2-dragged")
+        # The arm moved: the screen changed where it was and where it is now ...
+        # (Inside an arm near its tip: halfway between the curve's two sides there, at t = 0.2 and
+        # t = 0.8 of the span that bulges towards control point 0.)
+        centre = np.array([320.0, 250.0])
+        sides = curve_matrix(len(target))[[SAMPLES_PER_SPAN // 5, SAMPLES_PER_SPAN * 4 // 5]]
+        old_arm = window_pixel(view, (sides @ target).mean(axis=0))
+        new_arm = window_pixel(view, (sides @ target_after).mean(axis=0))
+        assert box_difference(before, dragged, old_arm, 5) > 30
+        assert box_difference(before, dragged, new_arm, 5) > 30
+        # ... and not at the far end of the starfish (the bottom-left arm's tip).
+        far = window_pixel(view, cage[12] + 0.3 * (centre - cage[12]))
+        assert box_difference(before, dragged, far, 30) < 6  # global coordinates: a sub-pixel shift at most
+
+        # Undo, redo (both shortcuts), each saved at once.
+        xdotool(display, "key", "ctrl+z")
+        viewer.wait_for("saved", 10)
+        assert np.array_equal(session_points(session)[1], target)
+        park_mouse(display, window)
+        undone = shot(display, folder, "3-undone")
+        assert changed_fraction(before, undone) < 0.002
+        xdotool(display, "key", "ctrl+shift+z")
+        viewer.wait_for("saved", 10)
+        assert np.array_equal(session_points(session)[1], target_after)
+        xdotool(display, "key", "ctrl+z")
+        viewer.wait_for("saved", 10)
+        xdotool(display, "key", "ctrl+y")
+        viewer.wait_for("saved", 10)
+        assert np.array_equal(session_points(session)[1], target_after)
+        park_mouse(display, window)
+        redone = shot(display, folder, "4-redone")
+        assert changed_fraction(dragged, redone) < 0.002
+
+        # Esc cancels a drag in progress: nothing changes, nothing is saved.
+        other = window_pixel(view, target_after[4])
+        xdotool(display, "mousemove", "--window", window, *(f"{v:.0f}" for v in other))
+        time.sleep(0.2)
+        xdotool(display, "mousedown", "1")
+        for step in (0.3, 0.6, 1.0):
+            xdotool(
+                display,
+                "mousemove",
+                "--window",
+                window,
+                *(f"{v:.0f}" for v in other + step * np.array([60, 60])),
+            )
+            time.sleep(0.03)
+        xdotool(display, "key", "Escape")
+        time.sleep(0.2)
+        xdotool(display, "mouseup", "1")
+        park_mouse(display, window)
+        cancelled = shot(display, folder, "5-cancelled")
+        assert changed_fraction(redone, cancelled) < 0.002
+        assert np.array_equal(session_points(session)[1], target_after)
+
+        # Export at full resolution: exactly what `warp --session` writes.
+        xdotool(display, "key", "ctrl+e")
+        assert viewer.wait_for("exported", 20) == f"exported {exported}"
+        warped = folder / "warped.png"
+        result = subprocess.run(
+            [sys.executable, "-m", "app", "warp", "--session", str(session), "--output", str(warped)],
+            cwd=ROOT,
+            env=env,
+            capture_output=True,
+            text=True,
+            timeout=120,
+        )
+        assert result.returncode == 0, result.stderr
+        viewer_pixels, warp_pixels = read_image(exported), read_image(warped)
+        assert viewer_pixels.shape == warp_pixels.shape == (480, 640, 4)
+        assert np.abs(viewer_pixels.astype(int) - warp_pixels.astype(int)).max() <= 1
+
+        # Quit with Ctrl+Q: a clean exit and the frame statistics.
+        xdotool(display, "key", "ctrl+q")
+        code, stderr = viewer.finish()
+        assert code == 0, stderr
+        frames = stats_line(viewer.lines)
+        assert int(frames.group(1)) > 10
+    finally:
+        viewer.kill()
+
+    # Reopen the session: image, cage, target, kernel and view come back.
+    reopened = ViewerProcess(["view", "--session", str(session), "--stats"], env, ROOT)
+    try:
+        window = reopened.wait_for("ready window=", 30).split("=")[1]
+        reopened.wait_for("basis ", 60)
+        park_mouse(display, window)
+        restored = shot(display, folder, "6-restored")
+        assert changed_fraction(redone, restored) < 0.002
+        close_window(display, int(window))
+        code, stderr = reopened.finish()
+        assert code == 0, stderr
+        stats_line(reopened.lines)
+        assert np.array_equal(session_points(session)[1], target_after)
+    finally:
+        reopened.kill()
+
+
+def test_no_display_is_an_environment_error(environment):
+    env, folder = environment
+    result = subprocess.run(
+        [sys.executable, "-m", "app", "view", "--session", str(folder / "none.json")],
+        cwd=ROOT,
+        env={**env, "DISPLAY": ":1999"},
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert result.returncode == 1
+    assert result.stderr.strip().count("\n") == 0 and "display" in result.stderr
+
+
+def test_tools_are_installed():
+    # The window tests need these; a missing tool must fail the suite, not skip it.
+    assert shutil.which("Xvfb") and shutil.which("xdotool")
+
+
+def test_scripted_demo_replays_through_the_mouse_path_and_writes_frames(environment):
+    env, folder = environment
+    frames = folder / "frames"
+    demo = ViewerProcess(
+        ["demo", "pattern", "--frames", str(frames), "--fps", "8", "--max-edge", "6", "--stats"], env, ROOT
+    )
+    try:
+        demo.wait_for("ready window=", 30)
+        demo.wait_for("script done", 90)
+        code, stderr = demo.finish(30)  # --frames quits when the script ends
+        assert code == 0, stderr
+    finally:
+        demo.kill()
+    stats_line(demo.lines)
+    written = sorted(frames.glob("frame_*.png"))
+    moves = json.loads((ASSETS / "pattern.script.json").read_text())["moves"]
+    duration = max(m["at"] + m["duration"] for m in moves)
+    assert abs(len(written) - duration * 8) <= 3
+    first, last = read_image(written[0]), read_image(written[-1])
+    assert first.shape == last.shape == (480, 640, 4)
+    assert np.abs(first.astype(int) - last.astype(int)).mean() > 5  # the horseshoe closed
+    # The moves went through the same handler as the mouse: one undo step each, saved.
+    saved = json.loads((folder / "state" / "sessions" / "demo-pattern.json").read_text())
+    target = np.array(saved["target"]["control_points"])
+    for move in moves:
+        np.testing.assert_allclose(target[move["point"]], move["to"], atol=0.05)

@@ -1,0 +1,241 @@
+"""Driving the real viewer window under Xvfb: the server, xdotool input and screenshots.
+
+Used by tests/test_viewer_window.py.  Screenshots read the X server's root window
+through libX11 (ctypes), so no ImageMagick or xwd is needed; input goes through
+xdotool, i.e. real X events that glfw receives like a user's.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import ctypes.util
+import os
+import shutil
+import subprocess
+import time
+from pathlib import Path
+
+import numpy as np
+
+
+def start_xvfb(size=(1280, 1024)) -> tuple[subprocess.Popen, str]:
+    """Start Xvfb on the first free display from :99; returns (process, ":N").
+
+    Raises RuntimeError (so the test fails, never skips) if Xvfb is missing or does not start.
+    """
+    if shutil.which("Xvfb") is None:
+        raise RuntimeError("Xvfb is not installed (apt-get install xvfb)")
+    if shutil.which("xdotool") is None:
+        raise RuntimeError("xdotool is not installed (apt-get install xdotool)")
+    for number in range(99, 160):
+        if Path(f"/tmp/.X{number}-lock").exists() or Path(f"/tmp/.X11-unix/X{number}").exists():
+            continue
+        display = f":{number}"
+        process = subprocess.Popen(
+            ["Xvfb", display, "-screen", "0", f"{size[0]}x{size[1]}x24", "-nolisten", "tcp"],
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL,
+        )
+        deadline = time.monotonic() + 10
+        while time.monotonic() < deadline:
+            if process.poll() is not None:
+                break
+            if Path(f"/tmp/.X11-unix/X{number}").exists():
+                return process, display
+            time.sleep(0.05)
+        process.kill()
+        process.wait()
+    raise RuntimeError("could not start Xvfb on any display :99..:159")
+
+
+def xdotool(display: str, *args: str) -> str:
+    """Run xdotool on `display`; returns its stdout."""
+    result = subprocess.run(
+        ["xdotool", *args], env={**os.environ, "DISPLAY": display}, capture_output=True, text=True, timeout=20
+    )
+    if result.returncode != 0:
+        raise RuntimeError(f"xdotool {' '.join(args)} failed: {result.stderr.strip()}")
+    return result.stdout
+
+
+class _XImage(ctypes.Structure):
+    _fields_ = [
+        ("width", ctypes.c_int),
+        ("height", ctypes.c_int),
+        ("xoffset", ctypes.c_int),
+        ("format", ctypes.c_int),
+        ("data", ctypes.POINTER(ctypes.c_ubyte)),
+        ("byte_order", ctypes.c_int),
+        ("bitmap_unit", ctypes.c_int),
+        ("bitmap_bit_order", ctypes.c_int),
+        ("bitmap_pad", ctypes.c_int),
+        ("depth", ctypes.c_int),
+        ("bytes_per_line", ctypes.c_int),
+        ("bits_per_pixel", ctypes.c_int),
+        ("red_mask", ctypes.c_ulong),
+        ("green_mask", ctypes.c_ulong),
+        ("blue_mask", ctypes.c_ulong),
+    ]
+
+
+def screenshot(display: str) -> np.ndarray:
+    """The whole screen of `display` as RGB, ndarray of shape (H, W, 3), uint8, row 0 at the top."""
+    x11 = ctypes.cdll.LoadLibrary(ctypes.util.find_library("X11") or "libX11.so.6")
+    x11.XOpenDisplay.restype = ctypes.c_void_p
+    x11.XOpenDisplay.argtypes = [ctypes.c_char_p]
+    x11.XDefaultRootWindow.restype = ctypes.c_ulong
+    x11.XDefaultRootWindow.argtypes = [ctypes.c_void_p]
+    x11.XGetImage.restype = ctypes.POINTER(_XImage)
+    x11.XGetImage.argtypes = [
+        ctypes.c_void_p, ctypes.c_ulong, ctypes.c_int, ctypes.c_int,
+        ctypes.c_uint, ctypes.c_uint, ctypes.c_ulong, ctypes.c_int,
+    ]  # fmt: skip
+    x11.XDisplayWidth.argtypes = x11.XDisplayHeight.argtypes = [ctypes.c_void_p, ctypes.c_int]
+    x11.XFree.argtypes = [ctypes.c_void_p]
+    x11.XCloseDisplay.argtypes = [ctypes.c_void_p]
+    handle = x11.XOpenDisplay(display.encode())
+    if not handle:
+        raise RuntimeError(f"cannot open X display {display}")
+    try:
+        width, height = x11.XDisplayWidth(handle, 0), x11.XDisplayHeight(handle, 0)
+        all_planes, z_pixmap = 0xFFFFFFFF, 2
+        image = x11.XGetImage(
+            handle, x11.XDefaultRootWindow(handle), 0, 0, width, height, all_planes, z_pixmap
+        )
+        if not image:
+            raise RuntimeError("XGetImage failed")
+        content = image.contents
+        if content.bits_per_pixel != 32:
+            raise RuntimeError(f"expected 32 bits per pixel, got {content.bits_per_pixel}")
+        size = content.bytes_per_line * content.height
+        raw = np.ctypeslib.as_array(content.data, shape=(size,)).copy()
+        x11.XFree(ctypes.cast(content.data, ctypes.c_void_p))
+        x11.XFree(ctypes.cast(image, ctypes.c_void_p))
+    finally:
+        x11.XCloseDisplay(handle)
+    pixels = raw.reshape(height, content.bytes_per_line // 4, 4)[:, :width]
+    return pixels[..., [2, 1, 0]].copy()  # BGRX (little endian) -> RGB
+
+
+def save_png(path: str | os.PathLike, rgb: np.ndarray) -> None:
+    """Write an RGB screenshot as PNG (for people to look at)."""
+    import cv2
+
+    cv2.imwrite(str(path), cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR))
+
+
+class _ClientMessage(ctypes.Structure):
+    _fields_ = [
+        ("type", ctypes.c_int),
+        ("serial", ctypes.c_ulong),
+        ("send_event", ctypes.c_int),
+        ("display", ctypes.c_void_p),
+        ("window", ctypes.c_ulong),
+        ("message_type", ctypes.c_ulong),
+        ("format", ctypes.c_int),
+        ("data", ctypes.c_long * 5),
+        ("pad", ctypes.c_long * 12),  # XEvent is 24 longs
+    ]
+
+
+def close_window(display: str, window: int) -> None:
+    """Ask `window` to close like a window manager's close button (WM_DELETE_WINDOW)."""
+    x11 = ctypes.cdll.LoadLibrary(ctypes.util.find_library("X11") or "libX11.so.6")
+    x11.XOpenDisplay.restype = ctypes.c_void_p
+    x11.XOpenDisplay.argtypes = [ctypes.c_char_p]
+    x11.XInternAtom.restype = ctypes.c_ulong
+    x11.XInternAtom.argtypes = [ctypes.c_void_p, ctypes.c_char_p, ctypes.c_int]
+    x11.XSendEvent.argtypes = [ctypes.c_void_p, ctypes.c_ulong, ctypes.c_int, ctypes.c_long, ctypes.c_void_p]
+    x11.XFlush.argtypes = x11.XCloseDisplay.argtypes = [ctypes.c_void_p]
+    handle = x11.XOpenDisplay(display.encode())
+    if not handle:
+        raise RuntimeError(f"cannot open X display {display}")
+    try:
+        event = _ClientMessage()
+        event.type = 33  # ClientMessage
+        event.window = window
+        event.message_type = x11.XInternAtom(handle, b"WM_PROTOCOLS", 0)
+        event.format = 32
+        event.data[0] = x11.XInternAtom(handle, b"WM_DELETE_WINDOW", 0)
+        event.data[1] = 0  # CurrentTime
+        if not x11.XSendEvent(handle, window, 0, 0, ctypes.byref(event)):
+            raise RuntimeError("XSendEvent failed")
+        x11.XFlush(handle)
+    finally:
+        x11.XCloseDisplay(handle)
+
+
+class ViewerProcess:
+    """``python -m app ...`` in a subprocess with the viewer's test hook, its stdout read line by line.
+
+    Parameters
+    ----------
+    args : list of str
+        Arguments after ``python -m app``.
+    env : dict
+        Environment (DISPLAY, cache and state directories); the test hook is added.
+    cwd : path-like
+        The repository root.
+    """
+
+    def __init__(self, args: list[str], env: dict, cwd):
+        import queue
+        import sys
+        import threading
+
+        self.lines: list[str] = []
+        self._queue: queue.Queue = queue.Queue()
+        self.process = subprocess.Popen(
+            [sys.executable, "-m", "app", *args],
+            cwd=cwd,
+            env={**env, "TRANSFINITE_VIEWER_TEST": "1"},
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
+        threading.Thread(target=self._read, daemon=True).start()
+
+    def _read(self) -> None:
+        for line in self.process.stdout:
+            self._queue.put(line.rstrip("\n"))
+        self._queue.put(None)
+
+    def wait_for(self, prefix: str, timeout: float = 60.0) -> str:
+        """The next stdout line starting with `prefix` (earlier lines are kept in `lines`)."""
+        import queue
+
+        deadline = time.monotonic() + timeout
+        while True:
+            remaining = deadline - time.monotonic()
+            if remaining <= 0:
+                raise AssertionError(f"no {prefix!r} line within {timeout} s; got {self.lines}")
+            try:
+                line = self._queue.get(timeout=remaining)
+            except queue.Empty:
+                continue
+            if line is None:
+                stderr = self.process.stderr.read()
+                raise AssertionError(f"the viewer exited before {prefix!r}: {self.lines}\n{stderr}")
+            self.lines.append(line)
+            if line.startswith(prefix):
+                return line
+
+    def finish(self, timeout: float = 20.0) -> tuple[int, str]:
+        """Wait for the process to exit; (exit code, stderr)."""
+        code = self.process.wait(timeout=timeout)
+        import queue
+
+        while True:
+            try:
+                line = self._queue.get(timeout=2)
+            except queue.Empty:
+                break
+            if line is None:
+                break
+            self.lines.append(line)
+        return code, self.process.stderr.read()
+
+    def kill(self) -> None:
+        if self.process.poll() is None:
+            self.process.kill()
+            self.process.wait()
