@@ -294,3 +294,43 @@ def test_scripted_demo_replays_through_the_mouse_path_and_writes_frames(environm
     target = np.array(saved["target"]["control_points"])
     for move in moves:
         np.testing.assert_allclose(target[move["point"]], move["to"], atol=0.05)
+
+
+def session_image(session: Path) -> Path:
+    """The image of a session file, resolved (sessions store it relative to themselves)."""
+    return (session.parent / json.loads(session.read_text())["image"]).resolve()
+
+
+def test_open_prompt_when_no_dialog_program_is_installed(display, environment):
+    # Ctrl+O runs zenity or kdialog where one is installed; without them (this machine)
+    # the viewer asks for the path in the window: type it, press Enter, the image opens.
+    env, folder = environment
+    session = folder / "prompt-session.json"
+    no_programs = folder / "empty-bin"
+    no_programs.mkdir(exist_ok=True)  # the viewer finds no zenity or kdialog on this PATH
+    viewer = ViewerProcess(
+        ["view", str(ASSETS / "starfish.png"), "--session", str(session)],
+        {**env, "PATH": str(no_programs)},
+        ROOT,
+    )
+    try:
+        window = viewer.wait_for("ready window=", 30).split("=")[1]
+        path = str(ASSETS / "pattern.png")
+        xdotool(display, "windowfocus", "--sync", window)
+        xdotool(display, "key", "ctrl+o")
+        time.sleep(0.5)
+        xdotool(display, "key", "ctrl+a")  # replace the proposed folder
+        xdotool(display, "type", "--delay", "5", path)
+        xdotool(display, "key", "Return")
+        deadline = time.monotonic() + 20
+        while time.monotonic() < deadline:
+            if session.exists() and session_image(session) == Path(path):
+                break
+            time.sleep(0.2)
+        assert session_image(session) == Path(path)
+        xdotool(display, "key", "ctrl+q")
+        code, stderr = viewer.finish()
+        assert code == 0, stderr
+    finally:
+        if viewer.process.poll() is None:
+            viewer.process.kill()

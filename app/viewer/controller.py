@@ -219,6 +219,7 @@ def command(state: AppState, name: str, value=None) -> bool:
     elif name == "cancel":
         if not cancel_drag(state):
             state.show_help = False
+            state.open_prompt = None
     elif name == "new_cage":
         empty = np.zeros((0, 2))
         commit(state, live.replace(cage=empty, target=empty), "click on the image to place control points")

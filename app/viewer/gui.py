@@ -58,7 +58,33 @@ def gui(state: AppState, shortcuts: list[tuple[str, str]], extras: dict | None =
         _colour_bar(state, width, height)
     if state.show_help:
         _help(state, shortcuts, width, height)
+    if state.open_prompt is not None:
+        _open_prompt(state, commands, width, height)
     return commands
+
+
+def _open_prompt(state: AppState, commands: list[tuple], width: float, height: float) -> None:
+    """Type a path to open, where no file dialog program (zenity, kdialog) is installed."""
+    imgui.set_next_window_pos((width / 2, height / 3), imgui.Cond_.appearing, (0.5, 0.5))
+    imgui.set_next_window_size((min(640.0, 0.9 * width), 0), imgui.Cond_.appearing)
+    expanded, opened = imgui.begin("Open a file", True, imgui.WindowFlags_.no_saved_settings)
+    if expanded:
+        imgui.text_wrapped("Path of an image, a session or a cage file (or drop the file on the window):")
+        imgui.set_next_item_width(-1)
+        if imgui.is_window_appearing():
+            imgui.set_keyboard_focus_here()
+        entered, state.open_prompt = imgui.input_text(
+            "##path", state.open_prompt, imgui.InputTextFlags_.enter_returns_true
+        )
+        if (entered or imgui.button("Open")) and state.open_prompt.strip():
+            commands.append(("open_path", state.open_prompt.strip()))
+            state.open_prompt = None
+        imgui.same_line()
+        if imgui.button("Cancel"):
+            state.open_prompt = None
+    imgui.end()
+    if opened is False:
+        state.open_prompt = None
 
 
 def _panel(state: AppState, commands: list, extras: dict, height: float) -> None:

@@ -249,6 +249,7 @@ class AppState:
     show_wireframe: bool = False
     show_overlay: bool = True
     show_help: bool = False
+    open_prompt: str | None = None  # the path typed into the open prompt (no dialog program)
     backdrop_opacity: float = 0.0  # of the source image behind the warp
     power_draft: float | None = None  # the power slider while it is dragged
     max_edge: float | None = None  # forced mesh edge length (None: from the cage's area)

@@ -327,11 +327,8 @@ class Viewer:
         from imgui_bundle import portable_file_dialogs as pfd
 
         if not any(shutil.which(p) for p in ("zenity", "kdialog", "matedialog", "qarma")):
-            self.state.say(
-                "no file dialog program (zenity or kdialog) found: drop the image on the window, "
-                "or give it on the command line",
-                error=True,
-            )
+            # No dialog program to run: ask for the path in the window itself.
+            self.state.open_prompt = str(Path(self.state.live.image).parent) + os.sep
             return
         directory = str(Path(self.state.live.image).parent)
         self._dialog = pfd.open_file("Open an image", directory, IMAGE_FILTERS)
