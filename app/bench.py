@@ -184,8 +184,13 @@ from core import examples
 curve = core.ClosedBSpline(examples.blob() * {scale})
 core.basis_functions(curve, [[500.0, 300.0]])
 rng = np.random.default_rng(2)
-x = rng.uniform(curve.control_points.min(0), curve.control_points.max(0), size=(3 * {count}, 2))
-x = x[curve.contains(x)][:{count}]
+batches, found = [], 0
+while found < {count}:  # in batches, so that making the points does not set the peak
+    batch = rng.uniform(curve.control_points.min(0), curve.control_points.max(0), size=(200_000, 2))
+    batches.append(batch[curve.contains(batch)])
+    found += len(batches[-1])
+x = np.concatenate(batches)[:{count}]
+del batches
 before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
 start = time.perf_counter()
 with warnings.catch_warnings():
