@@ -51,6 +51,19 @@ class ClosedBSpline:
         singular = np.linalg.svd(centred, compute_uv=False)
         if singular[1] <= 1e-12 * singular[0]:
             raise ValueError("control_points are collinear; the curve encloses no area")
+        i = _first_knot_loop(points)
+        j = None if i is None else (i + 1) % len(points)
+        if i is not None and np.linalg.norm(points[j] - points[i]) < 1e-2 * self.diameter:
+            raise ValueError(
+                f"the curve crosses itself in a tiny loop between control points {i} and {j}, which "
+                "are almost equal while the cage turns back over them; make them exactly equal "
+                "(a sharp corner) or move them apart"
+            )
+        if i is not None:
+            raise ValueError(
+                f"the curve crosses or touches itself near control points {i} and {j}; "
+                "move the control points so that it is a simple closed curve"
+            )
         crossing = _first_self_intersection(points)
         if crossing is not None:
             i, j = crossing
@@ -274,12 +287,54 @@ def _dense(points: np.ndarray, per_span: int) -> np.ndarray:
     return np.einsum("mk,mkd->md", weights, points[index])
 
 
+def knot_loops(points: np.ndarray) -> np.ndarray:
+    """Crossings of the two spans that meet at a knot, ndarray of shape (L, 3): i, s, v.
+
+    The spans meeting at the knot between control points i and i + 1 (array rows)
+    cross again, besides at the knot, when the two points are almost equal and the
+    cage turns back over them: p(knot - s) == p(knot + v), the arc in between a loop
+    that can be far smaller than a pixel, which polylines of the spans miss.
+
+    With e = (P_{i+1} - P_i) / 2 and the knot K = P_i + e, the spans are
+    K - 2 s e + s^2 a and K + 2 v e + v^2 b (s, v in (0, 1]), a and b their second
+    differences.  The cross product with e gives s^2 (e x a) = v^2 (e x b), so
+    s = rho v with rho = sqrt((e x b) / (e x a)), and the component along e gives
+    v = 2 (rho + 1) |e|^2 / (rho^2 a.e - b.e).  These are all the crossings of two
+    spans that share a knot (both are tangent to e there).
+    """
+    previous = np.roll(points, 1, axis=0)
+    following = np.roll(points, -1, axis=0)
+    after = np.roll(points, -2, axis=0)
+    half = 0.5 * (following - points)
+    knot = points + half
+    a = 0.5 * (previous + points) - 2.0 * points + knot
+    b = 0.5 * (following + after) - 2.0 * following + knot
+    side_a = half[:, 0] * a[:, 1] - half[:, 1] * a[:, 0]
+    side_b = half[:, 0] * b[:, 1] - half[:, 1] * b[:, 0]
+    loops = []
+    for i in np.flatnonzero((side_a * side_b > 0) & np.any(half != 0, axis=1)):
+        rho = np.sqrt(side_b[i] / side_a[i])
+        denominator = rho**2 * float(a[i] @ half[i]) - float(b[i] @ half[i])
+        if denominator <= 0:
+            continue
+        v = 2.0 * (rho + 1.0) * float(half[i] @ half[i]) / denominator
+        if 0 < rho * v <= 1 and 0 < v <= 1:
+            loops.append([i, rho * v, v])
+    return np.array(loops, dtype=np.float64).reshape(-1, 3)
+
+
+def _first_knot_loop(points: np.ndarray) -> int | None:
+    loops = knot_loops(points)
+    return int(loops[0, 0]) if loops.shape[0] else None
+
+
 def _first_self_intersection(points: np.ndarray) -> tuple[int, int] | None:
     """First pair of spans (array indices of their middle control point) that meet.
 
     Each span is a parabola arc (cannot cross itself); spans are compared as
     polylines of 24 chords, pruned by the bounding boxes of their Bézier hulls.
-    Adjacent spans share one end point, which does not count.
+    Adjacent spans share one end point, which does not count; their other
+    crossings, loops smaller than a chord, are found exactly by `knot_loops`.
     """
     n = points.shape[0]
     per = 24

@@ -45,3 +45,22 @@ def starfish() -> core.ClosedBSpline:
 def ellipse() -> core.ClosedBSpline:
     """A convex domain."""
     return core.ClosedBSpline(examples.ellipse())
+
+
+def pixel_blob(n: int = 10) -> np.ndarray:
+    """A smooth cage about 360 px across in image coordinates (x right, y down), shape (n, 2)."""
+    angle = 2 * np.pi * np.arange(n) / n
+    radius = 150 * (1 + 0.2 * np.cos(3 * angle))
+    return np.stack([300 + radius * np.cos(angle), 300 - radius * np.sin(angle)], axis=1)
+
+
+def near_cusp(gap: float, turn_degrees: float, k: int = 3) -> np.ndarray:
+    """`pixel_blob` with a point inserted `gap` px after point k, towards the cage's tangent
+    at k turned by `turn_degrees`: a near-cusp.  From about 150 degrees the cage turns back
+    over the two points and the curve crosses itself in a loop around their knot."""
+    points = pixel_blob()
+    tangent = points[k + 1] - points[k - 1]
+    turn = np.radians(turn_degrees)
+    rotation = np.array([[np.cos(turn), -np.sin(turn)], [np.sin(turn), np.cos(turn)]])
+    direction = rotation @ tangent / np.linalg.norm(tangent)
+    return np.insert(points, k + 1, points[k] + gap * direction, axis=0)

@@ -4,9 +4,11 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from conftest import near_cusp
 
 import core
 from core import examples
+from core.bspline import knot_loops
 
 
 def test_curve_is_the_folded_basis_times_the_control_points(blob):
@@ -132,3 +134,26 @@ def test_sample_checks_samples_per_segment(blob):
         blob.sample(1)
     with pytest.raises(ValueError, match="samples_per_segment must be an integer"):
         blob.sample(2.5)
+
+
+@pytest.mark.parametrize("gap", [1e-4, 1e-2, 0.9, 2.0])
+def test_tiny_loops_at_a_knot_are_found_exactly_and_rejected(gap):
+    # Almost equal neighbours with the cage turning back over them: the two spans at
+    # their knot cross again, in a loop far smaller than any polyline chord.
+    points = near_cusp(gap, 150)
+    ((i, s, v),) = knot_loops(points)
+    knot = (int(i) + 1) % len(points)
+    spline = core.ClosedBSpline.__new__(core.ClosedBSpline)  # evaluate without validation
+    spline._points = points
+    crossing = spline.evaluate(np.array([knot - s, knot + v]))[0]
+    np.testing.assert_allclose(crossing[0], crossing[1], rtol=0, atol=1e-9)
+    loop = spline(np.linspace(knot - s, knot + v, 1001))
+    assert 0 < np.linalg.norm(loop - loop[0], axis=1).max() < gap
+    with pytest.raises(ValueError, match=f"tiny loop between control points {int(i)} and {int(i) + 1}"):
+        core.ClosedBSpline(points)
+
+
+@pytest.mark.parametrize("turn_degrees", [60, 120, 135])
+def test_near_cusps_without_a_loop_are_valid(turn_degrees):
+    assert knot_loops(near_cusp(0.01, turn_degrees)).shape == (0, 3)
+    core.ClosedBSpline(near_cusp(0.01, turn_degrees))

@@ -2,8 +2,10 @@
 
 import numpy as np
 import pytest
+from conftest import near_cusp, pixel_blob
 
 import core
+from core.closest_point import distance_to_curve
 from core.mesh import Mesh, folded_triangles, triangulate
 
 
@@ -86,8 +88,7 @@ def test_triangles_are_counter_clockwise(case):
     assert np.all(mesh.signed_areas() > 0)
 
 
-def test_mesh_is_a_topological_disk_bounded_by_the_chords(case):
-    _, _, mesh = case
+def assert_disk_bounded_by_the_chords(mesh):
     edges = mesh.edges()
     assert mesh.vertices.shape[0] - edges.shape[0] + mesh.triangles.shape[0] == 1
     assert np.unique(mesh.triangles).size == mesh.vertices.shape[0]  # every vertex used
@@ -102,8 +103,7 @@ def test_mesh_is_a_topological_disk_bounded_by_the_chords(case):
     assert border == polygon
 
 
-def test_boundary_polygon_is_simple(case):
-    _, _, mesh = case
+def assert_simple_boundary_polygon(mesh):
     a, b = chords(mesh)
     count = a.shape[0]
     r = b - a
@@ -119,14 +119,22 @@ def test_boundary_polygon_is_simple(case):
     assert not np.any(crossing & ~neighbours)
 
 
+def test_mesh_is_a_topological_disk_bounded_by_the_chords(case):
+    _, _, mesh = case
+    assert_disk_bounded_by_the_chords(mesh)
+
+
+def test_boundary_polygon_is_simple(case):
+    _, _, mesh = case
+    assert_simple_boundary_polygon(mesh)
+
+
 def test_interior_vertices_and_centroids_are_strictly_inside_the_curve(case):
     _, curve, mesh = case
     interior = mesh.vertices[mesh.interior]
     assert curve.contains(interior).all()
     assert curve.contains(mesh.vertices[mesh.triangles].mean(axis=1)).all()
     # Not on the curve either: farther than a small fraction of the shortest edge.
-    from core.closest_point import distance_to_curve
-
     shortest = np.linalg.norm(np.diff(mesh.vertices[mesh.edges()], axis=1), axis=2).min()
     assert distance_to_curve(curve.piecewise_polynomial(), interior).min() > 0.1 * shortest
 
@@ -243,6 +251,36 @@ def test_mesh_arrays_are_read_only():
         mesh.vertices[0, 0] = 1.0
     assert mesh.triangles.dtype == np.int64 and mesh.boundary.dtype == np.int64
     assert mesh.interior.size == mesh.vertices.shape[0] - mesh.boundary.size
+
+
+# ---------------------------------------------------------------- near-cusps
+
+
+NEAR_CUSP_GAPS = [1e-4, 1e-3, 1e-2, 0.1, 0.9, 2.0]
+
+
+@pytest.fixture(scope="module")
+def blob_vertex_count():
+    return triangulate(core.ClosedBSpline(pixel_blob())).vertices.shape[0]
+
+
+@pytest.mark.parametrize("turn_degrees", [60, 120, 135])
+@pytest.mark.parametrize("gap", NEAR_CUSP_GAPS)
+def test_near_cusp_cages_mesh(gap, turn_degrees, blob_vertex_count):
+    # Two almost equal control points make a near-cusp; unless the cage turns back over
+    # them (then the curve loops and ClosedBSpline rejects it, see test_bspline) it meshes.
+    curve = core.ClosedBSpline(near_cusp(gap, turn_degrees))
+    mesh = triangulate(curve)
+    np.testing.assert_allclose(
+        mesh.vertices[mesh.boundary], curve(mesh.boundary_parameters), rtol=0, atol=1e-12 * curve.diameter
+    )
+    t = mesh.boundary_parameters
+    assert np.all(np.diff(t) > 0) and t[0] >= 0 and t[-1] < curve.n
+    assert np.all(mesh.signed_areas() > 0)
+    assert_disk_bounded_by_the_chords(mesh)
+    assert_simple_boundary_polygon(mesh)
+    assert curve.contains(mesh.vertices[mesh.interior]).all()
+    assert mesh.vertices.shape[0] <= 1.2 * blob_vertex_count
 
 
 # ---------------------------------------------------------------- folded triangles
