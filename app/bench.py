@@ -177,7 +177,7 @@ def _fem_comparison(curve, vertices, repeats) -> None:
 
 
 _MEMORY_CHILD = """
-import resource, sys, time, warnings
+import sys, time, warnings
 import numpy as np
 import core
 from core import examples
@@ -191,13 +191,17 @@ while found < {count}:  # in batches, so that making the points does not set the
     found += len(batches[-1])
 x = np.concatenate(batches)[:{count}]
 del batches
-before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+def high_water():  # VmHWM in KiB; ru_maxrss would include the parent's forked copy
+    for line in open("/proc/self/status"):
+        if line.startswith("VmHWM:"):
+            return int(line.split()[1])
+before = high_water()
 start = time.perf_counter()
 with warnings.catch_warnings():
     warnings.simplefilter("ignore")
     G = core.basis_functions(curve, x)
 seconds = time.perf_counter() - start
-peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+peak = high_water()
 print(seconds, before, peak, G.shape[0])
 """
 
