@@ -247,6 +247,12 @@ class _Run:
         """Solve the points `indices` on `boundary` (the reference one or a refinement)."""
         curve = _curve_arrays(boundary, self.mode, self.columns, factor, self.reference.step)
         orientation = 1.0 if self.reference.area > 0 else -1.0
+        settings = (
+            self.identifier, self.power, self.shift, self.mode, orientation,
+            self.reference.diameter, self.columns, self.tolerance,
+        )  # fmt: skip
+        geometry = (boundary.curve.coefficients, boundary.curve.piece_length, boundary.corners)
+        threads = numba.get_num_threads()
         for start in range(0, indices.size, CHUNK):
             chunk = indices[start : start + CHUNK]
             rows = np.zeros((chunk.size, self.columns))
@@ -255,24 +261,7 @@ class _Run:
                 np.zeros(chunk.size, dtype=np.int64),
                 np.zeros(chunk.size),
             ]
-            solver.solve_points(
-                self.points[chunk],
-                self.identifier,
-                self.power,
-                self.shift,
-                self.mode,
-                curve,
-                boundary.curve.coefficients,
-                boundary.curve.piece_length,
-                orientation,
-                boundary.corners,
-                self.reference.diameter,
-                self.columns,
-                self.tolerance,
-                rows,
-                *diagnostics,
-                numba.get_num_threads(),
-            )
+            solver.solve_points(self.points[chunk], settings, curve, geometry, rows, *diagnostics, threads)
             # A safety net: a row that is not finite is never returned as converged.
             broken = ~np.isfinite(rows).all(axis=1) & (diagnostics[1] != solver.STATUS_OUTSIDE)
             diagnostics[1][broken] = solver.STATUS_NOT_CONVERGED

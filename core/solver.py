@@ -558,33 +558,15 @@ def _exact_change(a, ux, uy, inv_s, deltax, deltay, alpha, count):
 
 
 @njit(cache=True, error_model="numpy")
-def _solve_point(
-    x,
-    y,
-    kernel,
-    power,
-    shift,
-    mode,
-    curve,
-    coefficients,
-    piece_length,
-    orientation,
-    corners,
-    diameter,
-    control_count,
-    tolerance,
-    row,
-    scratch,
-    window_start,
-    window_stop,
-    window_t,
-    window_d,
-):
+def _solve_point(x, y, settings, curve, geometry, row, scratch, windows):
     """Evaluate one point; writes its output row and returns (iterations, status, residual).
 
-    `curve` is a tuple of shared per-sample arrays (see `solve_points`), `scratch`
-    a tuple of per-thread work arrays.
+    `settings`, `curve` and `geometry` are the shared tuples of `solve_points`,
+    `scratch` and `windows` per-thread work arrays.
     """
+    kernel, power, shift, mode, orientation, diameter, control_count, tolerance = settings
+    coefficients, piece_length, corners = geometry
+    window_start, window_stop, window_t, window_d = windows
     (
         sample_x,
         sample_y,
@@ -947,37 +929,22 @@ def _refined_nodes(
 
 
 @njit(cache=True, parallel=True, error_model="numpy")
-def solve_points(
-    points,
-    kernel,
-    power,
-    shift,
-    mode,
-    curve,
-    coefficients,
-    piece_length,
-    orientation,
-    corners,
-    diameter,
-    control_count,
-    tolerance,
-    out,
-    iterations,
-    status,
-    residual,
-    threads,
-):
+def solve_points(points, settings, curve, geometry, out, iterations, status, residual, threads):
     """Evaluate all points (M, 2) into out (M, columns); per-point diagnostics (M,).
 
-    `curve` = (sample_x, sample_y, tangent_x, tangent_y, second_x, second_y,
+    settings = (kernel, power, shift, output mode, orientation (+1 counter-clockwise),
+    diameter, n control points, Newton tolerance relative to the diameter).
+    curve = (sample_x, sample_y, tangent_x, tangent_y, second_x, second_y,
     spacing, uniform weights, t_k, basis0, basis1, basis2, h, sinh_step, out_step):
     twelve contiguous float64 arrays of shape (N,) (basis* are the three non-zero
     B-spline basis values at t_k, used in OUTPUT_BASIS mode), the sample step, the
     sinh step of the near-boundary rule, and the step of the output samples
     (OUTPUT_SAMPLES lumps onto that grid, which may be coarser than the samples).
+    geometry = (piecewise-polynomial coefficients (P, D + 1, 2), piece length,
+    corners (C, 5)): the exact curve between samples.
     """
     count = curve[0].shape[0]
-    capacity = count + MAX_WINDOWS * MAX_WINDOW_NODES + corners.shape[0] + 8
+    capacity = count + MAX_WINDOWS * MAX_WINDOW_NODES + geometry[2].shape[0] + 8
     # One block of scratch arrays per thread, allocated once: fresh allocations per
     # point fault in new pages and serialise the threads.  Points are dealt out
     # round-robin so that the costlier near-boundary points spread evenly.
@@ -1006,26 +973,8 @@ def solve_points(
         window_stop = np.empty(MAX_WINDOWS + 1, dtype=np.int64)
         window_t = np.empty(MAX_WINDOWS + 1)
         window_d = np.empty(MAX_WINDOWS + 1)
+        windows = (window_start, window_stop, window_t, window_d)
         for m in range(b, points.shape[0], blocks):
             iterations[m], status[m], residual[m] = _solve_point(
-                points[m, 0],
-                points[m, 1],
-                kernel,
-                power,
-                shift,
-                mode,
-                curve,
-                coefficients,
-                piece_length,
-                orientation,
-                corners,
-                diameter,
-                control_count,
-                tolerance,
-                out[m],
-                scratch,
-                window_start,
-                window_stop,
-                window_t,
-                window_d,
+                points[m, 0], points[m, 1], settings, curve, geometry, out[m], scratch, windows
             )
