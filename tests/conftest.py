@@ -29,6 +29,25 @@ def interior_points(curve: core.ClosedBSpline, count: int, seed: int, margin: fl
     return np.concatenate(found)[:count]
 
 
+@pytest.fixture(scope="module")
+def ctx():
+    """A headless EGL OpenGL context; without EGL the tests using it fail, never skip."""
+    from app.render import create_headless_context
+
+    context = create_headless_context()
+    yield context
+    context.release()
+
+
+@pytest.fixture
+def renderer(ctx):
+    """An `app.render.WarpRenderer` on the headless context, released afterwards."""
+    from app.render import WarpRenderer
+
+    with WarpRenderer(ctx) as instance:
+        yield instance
+
+
 @pytest.fixture(scope="session")
 def blob() -> core.ClosedBSpline:
     """The non-convex 12-point domain (like the paper's Fig. 1)."""

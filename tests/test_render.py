@@ -22,19 +22,6 @@ from app.render import (
 from app.shaders import load_shader
 
 
-@pytest.fixture(scope="module")
-def ctx():
-    context = create_headless_context()
-    yield context
-    context.release()
-
-
-@pytest.fixture
-def renderer(ctx):
-    with WarpRenderer(ctx) as instance:
-        yield instance
-
-
 def smooth_image(width=320, height=240, seed=0):
     """Opaque RGBA test picture: smooth waves, a ramp and one hard-edged square, (H, W, 4) uint8."""
     rng = np.random.default_rng(seed)

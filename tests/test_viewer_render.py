@@ -17,24 +17,9 @@ from app.render import (
     HEAT_STOPS,
     HIGHLIGHT_COLOUR,
     View,
-    WarpRenderer,
-    create_headless_context,
 )
 from app.viewer.scene import Scene
 from app.viewer.state import AppState, BasisResult, Drag, History, Snapshot
-
-
-@pytest.fixture(scope="module")
-def ctx():
-    context = create_headless_context()
-    yield context
-    context.release()
-
-
-@pytest.fixture
-def renderer(ctx):
-    with WarpRenderer(ctx) as instance:
-        yield instance
 
 
 def grid_mesh(count=21, size=100.0):
