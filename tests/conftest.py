@@ -83,3 +83,16 @@ def near_cusp(gap: float, turn_degrees: float, k: int = 3) -> np.ndarray:
     rotation = np.array([[np.cos(turn), -np.sin(turn)], [np.sin(turn), np.cos(turn)]])
     direction = rotation @ tangent / np.linalg.norm(tangent)
     return np.insert(points, k + 1, points[k] + gap * direction, axis=0)
+
+
+def wavy_star(n: int = 15, arms: int = 5, depth: float = 0.5) -> np.ndarray:
+    """Control points (n, 2) on r = 1 + depth cos(arms angle): a non-convex star."""
+    angle = 2 * np.pi * np.arange(n) / n
+    radius = 1.0 + depth * np.cos(arms * angle)
+    return np.stack([radius * np.cos(angle), radius * np.sin(angle)], axis=1)
+
+
+def l_polygon() -> np.ndarray:
+    """An L-shaped polygon, every corner doubled (sharp corners), shape (12, 2)."""
+    polygon = [[0, 0], [2, 0], [2, 1], [1, 1], [1, 2], [0, 2]]
+    return np.repeat(np.array(polygon, dtype=float), 2, axis=0)

@@ -2,24 +2,14 @@
 
 import numpy as np
 import pytest
+from conftest import l_polygon as l_shape
+from conftest import wavy_star as starfish
 from scipy.sparse import lil_matrix
 from scipy.sparse.linalg import cg
 
 import core
 from core.harmonic import harmonic_basis, stiffness_matrix
 from core.mesh import Mesh, triangulate
-
-
-def starfish(n=15):
-    angle = 2 * np.pi * np.arange(n) / n
-    radius = 1.0 + 0.5 * np.cos(5 * angle)
-    return np.stack([radius * np.cos(angle), radius * np.sin(angle)], axis=1)
-
-
-def l_shape():
-    polygon = [[0, 0], [2, 0], [2, 1], [1, 1], [1, 2], [0, 2]]
-    return np.repeat(np.array(polygon, dtype=float), 2, axis=0)
-
 
 CAGES = {
     "starfish": starfish(),

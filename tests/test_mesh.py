@@ -2,7 +2,8 @@
 
 import numpy as np
 import pytest
-from conftest import near_cusp, pixel_blob
+from conftest import l_polygon as l_shape
+from conftest import near_cusp, pixel_blob, wavy_star
 
 import core
 from core.closest_point import distance_to_curve
@@ -11,9 +12,7 @@ from core.mesh import Mesh, folded_triangles, triangulate
 
 def starfish(arms=5, n=20):
     """A non-convex star with `arms` arms and narrow armpits."""
-    angle = 2 * np.pi * np.arange(n) / n
-    radius = 1.0 + 0.6 * np.cos(arms * angle)
-    return np.stack([radius * np.cos(angle), radius * np.sin(angle)], axis=1)
+    return wavy_star(n=n, arms=arms, depth=0.6)
 
 
 def dumbbell(neck=0.02):
@@ -34,11 +33,6 @@ def slotted_square(gap=0.02):
     """A square polygon (doubled points: sharp corners) cut by a narrow slot from the top."""
     g = gap / 2
     polygon = [[-1, -1], [1, -1], [1, 1], [g, 1], [g, -0.5], [-g, -0.5], [-g, 1], [-1, 1]]
-    return np.repeat(np.array(polygon, dtype=float), 2, axis=0)
-
-
-def l_shape():
-    polygon = [[0, 0], [2, 0], [2, 1], [1, 1], [1, 2], [0, 2]]
     return np.repeat(np.array(polygon, dtype=float), 2, axis=0)
 
 

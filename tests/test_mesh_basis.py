@@ -5,6 +5,7 @@ import warnings
 
 import numpy as np
 import pytest
+from conftest import wavy_star as starfish
 
 import core
 from core import cache as disk_cache
@@ -13,12 +14,6 @@ from core.harmonic import harmonic_basis
 from core.mesh import triangulate
 from core.mesh_basis import MESH_ONLY_KERNELS, mesh_basis_functions
 from core.pgw import pgw_basis
-
-
-def starfish(n=15):
-    angle = 2 * np.pi * np.arange(n) / n
-    radius = 1.0 + 0.5 * np.cos(5 * angle)
-    return np.stack([radius * np.cos(angle), radius * np.sin(angle)], axis=1)
 
 
 @pytest.fixture(autouse=True)

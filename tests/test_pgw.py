@@ -2,22 +2,12 @@
 
 import numpy as np
 import pytest
+from conftest import l_polygon as l_shape
+from conftest import wavy_star as starfish
 from scipy.optimize import brentq
 
 import core
 from core.pgw import pgw_basis
-
-
-def starfish(n=15):
-    angle = 2 * np.pi * np.arange(n) / n
-    radius = 1.0 + 0.5 * np.cos(5 * angle)
-    return np.stack([radius * np.cos(angle), radius * np.sin(angle)], axis=1)
-
-
-def l_shape():
-    polygon = [[0, 0], [2, 0], [2, 1], [1, 1], [1, 2], [0, 2]]
-    return np.repeat(np.array(polygon, dtype=float), 2, axis=0)
-
 
 CONVEX = np.array([[2.0, 0.0], [1.0, 1.5], [-1.0, 1.2], [-1.5, -0.5], [0.5, -1.5]])
 CAGES = {
