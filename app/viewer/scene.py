@@ -140,17 +140,17 @@ class Scene:
             self._positions[:, 1] += column * delta[1]
             self._exact = False
         else:
-            self._positions = (basis.basis @ target).astype(np.float32)
+            deformed = basis.basis @ target
+            self._positions = deformed.astype(np.float32)
             self._exact = True
-            self._count_folds(state)
+            self._count_folds(state, deformed)
         self.renderer.set_positions(self._positions)
         self._drawn_target = np.array(target)
         self.update_ms = 1e3 * (time.perf_counter() - started)
 
-    def _count_folds(self, state: AppState) -> None:
+    def _count_folds(self, state: AppState, deformed: np.ndarray) -> None:
         import core
 
-        deformed = self._basis.basis @ state.live.target
         state.folded_count = int(np.count_nonzero(core.folded_triangles(self._basis.mesh, deformed)))
 
     def _update_field(self, state: AppState) -> None:
