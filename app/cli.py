@@ -154,8 +154,8 @@ def build_parser() -> argparse.ArgumentParser:
     view.add_argument(
         "--session",
         type=Path,
-        help="session JSON: restored if it exists, and saved after every change (default: a file in "
-        "~/.local/state/transfinite-warp/sessions)",
+        help="session JSON: restored if it exists, and saved after every change (default: the image's "
+        "own session file in ~/.local/state/transfinite-warp/sessions, restored when it is opened again)",
     )
     _viewer_options(view)
     view.set_defaults(run=_view)
@@ -171,13 +171,24 @@ def build_parser() -> argparse.ArgumentParser:
         help="write every replayed frame as DIR/frame_NNNNN.png, then quit",
     )
     demo.add_argument("--fps", type=_positive(float), default=30.0, help="frames per second of --frames")
-    demo.add_argument("--session", type=Path, help="session JSON to save to (default: per demo)")
+    demo.add_argument(
+        "--session",
+        type=Path,
+        help="session JSON: restored if it exists, and saved after every change (default: the demo's own "
+        "session file, the same one python -m app opens)",
+    )
     _viewer_options(demo)
     demo.set_defaults(run=_demo)
     return parser
 
 
 def _viewer_options(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "--fresh",
+        action="store_true",
+        help="start over instead of restoring the image's last session (the old session file is kept "
+        "beside the new one, renamed)",
+    )
     parser.add_argument(
         "--stats", action="store_true", help="on exit, print frames=N median_frame_ms=X p95_frame_ms=Y"
     )
@@ -309,7 +320,8 @@ def _view(args: argparse.Namespace) -> int:
     _check_viewer_outputs(args)
     if args.cage is not None and args.image is None:
         raise InputError("--cage needs an IMAGE")
-    document = open_document(args.image, args.cage, args.session, args.max_edge)
+    document = open_document(args.image, args.cage, args.session, args.max_edge, fresh=args.fresh)
+    _tell(document.notices)
     script = None
     if args.image is None and (args.session is None or not args.session.exists()):
         script = demo_files(DEFAULT_DEMO).script
@@ -318,19 +330,21 @@ def _view(args: argparse.Namespace) -> int:
 
 def _demo(args: argparse.Namespace) -> int:
     from app.viewer.demos import DEFAULT_DEMO, demo_files, read_script
-    from app.viewer.session import default_session_path, open_document
+    from app.viewer.session import begin_with, open_document, start_snapshot
     from app.viewer.window import Options, run
 
     _check_viewer_outputs(args)
     files = demo_files(args.name or DEFAULT_DEMO)
-    session = args.session
-    if session is None:
-        session = default_session_path(f"demo-{files.name}")
-        if session.exists():
-            session.unlink()  # a demo starts afresh; --session keeps one
-    elif session.exists():
-        raise InputError(f"{session} exists: a demo starts a new session (open that one with view --session)")
-    document = open_document(files.image, files.cage, session, args.max_edge)
+    document = open_document(
+        session=args.session, max_edge=args.max_edge, demo_name=files.name, fresh=args.fresh
+    )
+    play = args.play or args.frames is not None or args.script is not None
+    if play:
+        # A script moves the demo's own control points: replay it from the demo's start,
+        # one undoable step after whatever the session held.
+        start, _ = start_snapshot(document.snapshot, document.image, files.cage)
+        begin_with(document, start, "back to the demo's start to replay its script (Ctrl+Z: your last state)")
+    _tell(document.notices)
     script = args.script or files.script
     read_script(script, document.snapshot.n)  # bad scripts fail here, before the window opens
     if args.frames is not None and args.frames.exists() and not args.frames.is_dir():
@@ -339,12 +353,18 @@ def _demo(args: argparse.Namespace) -> int:
         stats=args.stats,
         max_edge=args.max_edge,
         script=script,
-        play=args.play or args.frames is not None or args.script is not None,
+        play=play,
         frames=args.frames,
         fps=args.fps,
         export=args.export,
     )
     return run(document, options)
+
+
+def _tell(notices: list[str]) -> None:
+    """What opening a document did (restored, kept aside, ...): one line each on stderr."""
+    for notice in notices:
+        print(f"note: {notice}", file=sys.stderr)
 
 
 def _check_viewer_outputs(args: argparse.Namespace) -> None:

@@ -16,6 +16,7 @@ import contextlib
 import json
 import math
 import os
+import re
 import sys
 import tempfile
 from collections.abc import Iterator
@@ -126,10 +127,22 @@ def read_json(path: str | os.PathLike):
         ) from None
 
 
-def write_json(path: str | os.PathLike, value) -> None:
-    """Write `value` as indented JSON, atomically."""
+#: A list of numbers that `json.dumps(indent=...)` spread over lines (raw newlines occur in no JSON string).
+_NUMBER_LIST = re.compile(r"\[\n\s*(-?[0-9][0-9.eE+-]*(?:,\n\s*-?[0-9][0-9.eE+-]*)*)\n\s*\]")
+
+
+def json_text(value) -> str:
+    """Indented JSON text of `value`, each list of numbers (an [x, y] pair) on one line."""
     # allow_nan=False: Python would write NaN, which is not JSON.
-    write_atomic(path, (json.dumps(value, indent=2, allow_nan=False) + "\n").encode("utf-8"))
+    text = json.dumps(value, indent=2, allow_nan=False)
+    return _NUMBER_LIST.sub(
+        lambda match: f"[{', '.join(n.strip() for n in match.group(1).split(','))}]", text
+    )
+
+
+def write_json(path: str | os.PathLike, value) -> None:
+    """Write `value` as indented JSON (number lists on one line), atomically."""
+    write_atomic(path, (json_text(value) + "\n").encode("utf-8"))
 
 
 # -- cages --------------------------------------------------------------------

@@ -1,10 +1,12 @@
 """What input does to the viewer's state (app.viewer.controller), without a window."""
 
+import json
 from pathlib import Path
 
 import numpy as np
 import pytest
 
+from app.files import kernel_names
 from app.render import View
 from app.viewer import controller, editing
 from app.viewer.controller import LEFT, MIDDLE, RIGHT
@@ -113,6 +115,13 @@ def test_commands(state):
     assert state.live.kernel == "mean-value"
     controller.command(state, "kernel", "nonsense")
     assert state.message_is_error and state.live.kernel == "mean-value"
+    names = kernel_names()
+    for step in range(len(names)):  # K walks through every kernel and back to the first
+        assert state.live.kernel == names[(names.index("mean-value") + step) % len(names)]
+        controller.command(state, "cycle_kernel", "next")
+    assert state.live.kernel == "mean-value" and state.message == "kernel: mean-value"
+    controller.command(state, "cycle_kernel", "previous")
+    assert state.live.kernel == names[names.index("mean-value") - 1]
     controller.command(state, "kernel", "power")
     controller.command(state, "power", 2.5)
     controller.command(state, "shift", "integral")
@@ -157,33 +166,46 @@ def test_fit_view_centres_the_image_right_of_the_panel(state):
 
 
 def test_opening_dropped_files(tmp_path, monkeypatch):
-    """What a file dropped on the window (or chosen in the dialog) does, without a window."""
+    """What a file dropped on the window (or chosen in the dialog) does, without a window.
+
+    An image or a session switches to that document's own session file, and the
+    file left behind is never written again; a cage file is an undoable edit.
+    """
     from app.files import write_cage
     from app.viewer.demos import demo_files
-    from app.viewer.session import open_document, save
+    from app.viewer.session import open_document
+    from app.viewer.session_files import session_path_for
     from app.viewer.window import Options, Viewer
 
     monkeypatch.setenv("TRANSFINITE_STATE_DIR", str(tmp_path))
-    files = demo_files("starfish")
-    viewer = Viewer(open_document(files.image, files.cage, tmp_path / "s.json"), Options())
+    files, pattern = demo_files("starfish"), demo_files("pattern")
+    first = tmp_path / "s.json"
+    viewer = Viewer(open_document(files.image, files.cage, first), Options())
     try:
         state = viewer.state
-        viewer.open_path(demo_files("pattern").image)  # an image: a fitted cage, one undo step
+        controller.commit(state, state.live.replace(kernel="mean-value"))
+        viewer.open_path(pattern.image)  # an image: its own session, a fitted cage, no undo step
         assert state.live.image.name == "pattern.png" and state.image.shape == (480, 640, 4)
-        assert state.history.can_undo and np.array_equal(state.live.cage, state.live.target)
+        assert not state.history.can_undo and np.array_equal(state.live.cage, state.live.target)
+        assert state.session_path == session_path_for(pattern.image)
+        assert json.loads(first.read_text())["kernel"] == "mean-value"  # saved when it was left
+        left_behind = first.read_bytes()
         square = np.array([[100.0, 100.0], [500.0, 100.0], [500.0, 400.0], [100.0, 400.0]])
         write_cage(tmp_path / "cage.json", square)
-        viewer.open_path(tmp_path / "cage.json")  # a cage file
+        viewer.open_path(tmp_path / "cage.json")  # a cage file: an edit of this document
         np.testing.assert_array_equal(state.live.cage, square)
-        save(state, None)
-        other = tmp_path / "other.json"
-        (tmp_path / "s.json").rename(other)
+        assert state.history.can_undo
+        viewer.open_path(first)  # a session: everything, and it saves there from now on
+        assert state.session_path == first and state.live.kernel == "mean-value"
+        assert state.live.image.name == "starfish.png" and state.image.shape[:2] == (480, 640)
+        viewer.open_path(pattern.image)  # its session was saved when it was left: restored
+        np.testing.assert_array_equal(state.live.cage, square)
         controller.command(state, "undo")
-        viewer.open_path(other)  # a session: everything, and it saves there from now on
-        np.testing.assert_array_equal(state.live.cage, square)
-        assert state.session_path == other
+        assert not np.array_equal(state.live.cage, square)  # its history came back too
+        assert first.read_bytes() == left_behind
         viewer.open_path(tmp_path / "missing.png")
         assert state.message_is_error and "no such file" in state.message
+        assert state.session_path == session_path_for(pattern.image)
     finally:
         viewer.precompute.close()
 

@@ -1,6 +1,7 @@
 """Opening and saving viewer documents (app.viewer.session) and the session keys `warp` reads."""
 
 import json
+import re
 from pathlib import Path
 
 import numpy as np
@@ -10,6 +11,7 @@ from app.files import InputError, Session, read_session, session_kernel_params, 
 from app.render import View
 from app.viewer import session as sessions
 from app.viewer.demos import demo_files
+from app.viewer.session_files import BACKUPS, backup_path, backups, session_path_for
 from app.viewer.state import AppState, History
 
 
@@ -18,15 +20,28 @@ def state_directory(tmp_path, monkeypatch):
     monkeypatch.setenv("TRANSFINITE_STATE_DIR", str(tmp_path / "state"))
 
 
-def test_default_paths(tmp_path):
-    assert sessions.default_session_path("my image") == tmp_path / "state" / "sessions" / "my_image.json"
+def test_every_image_has_its_own_session_file_whatever_the_command(tmp_path, monkeypatch):
+    folder = tmp_path / "pictures"
+    (folder / "other").mkdir(parents=True)
+    monkeypatch.chdir(folder)
+    path = session_path_for(Path("my image.png"))
+    assert path.parent == tmp_path / "state" / "sessions" and path.name.startswith("my_image-")
+    assert session_path_for(folder / "other" / ".." / "my image.png") == path  # the same file
+    assert session_path_for(folder / "other" / "my image.png") != path  # same name, another picture
+    # The bare viewer, `view IMAGE --cage` and `demo` open the demo's image: one session file.
+    files = demo_files("starfish")
+    demo = sessions.open_document()
+    assert demo.session_path == session_path_for(files.image)
+    assert sessions.open_document(files.image, files.cage).session_path == demo.session_path
+    assert sessions.open_document(demo_name="starfish").session_path == demo.session_path
+    assert sessions.open_document(demo_name="pattern").session_path != demo.session_path
 
 
 def test_open_a_demo_an_image_and_fit(tmp_path):
     document = sessions.open_document()
     assert document.snapshot.image.name == "starfish.png" and document.view is None
     assert np.array_equal(document.snapshot.cage, document.snapshot.target)
-    assert document.session_path.name == "starfish.json"
+    assert not document.restored and not document.undo and not document.notices
     files = demo_files("pattern")
     fitted = sessions.open_document(files.image)  # no cage: fitted to the silhouette
     assert 10 <= fitted.snapshot.n <= 16
@@ -101,3 +116,165 @@ def test_a_saved_session_reads_back_with_the_shared_reader(tmp_path):
     session = read_session(path)
     assert session.image.resolve() == files.image.resolve() and session.kernel == "harmonic-like"
     assert "mesh" not in session.extra and "kernel_params" not in session.extra
+
+
+def edited(state: AppState, step: int) -> None:
+    """Move control point 0 of the target by (step, -step): one undoable edit."""
+    target = state.live.target.copy()
+    target[0] += [step, -step]
+    snapshot = state.live.replace(target=target)
+    state.history.push(snapshot)
+    state.live = snapshot
+
+
+def opened_state(document) -> AppState:
+    history = History(document.snapshot, undo=document.undo, redo=document.redo)
+    return AppState(history, document.snapshot, document.image, document.session_path)
+
+
+def test_reopening_an_image_restores_its_state_and_undo_history():
+    files = demo_files("starfish")
+    first = sessions.open_document(files.image, files.cage)
+    state = opened_state(first)
+    for step in (1, 2, 3):
+        edited(state, step)
+    state.history.undo()  # one step to redo
+    state.live = state.history.current
+    state = replace_kernel(state, "pseudo-harmonic")
+    sessions.save(state, None)
+    again = sessions.open_document(files.image, files.cage)  # the same command once more
+    assert again.restored and again.session_path == first.session_path
+    assert again.snapshot == state.history.current
+    assert again.undo == list(state.history.undo_steps) and again.redo == list(state.history.redo_steps)
+    assert len(again.undo) == 3 and len(again.redo) == 0  # the kernel change dropped the redo step
+    assert again.notices[-1].startswith("restored starfish.png from the session (3 undo steps)")
+    history = opened_state(again).history
+    assert history.undo().kernel == "harmonic-like" and history.undo() == again.undo[1]
+    assert sessions.open_document().snapshot == state.history.current  # the bare viewer too
+
+
+def replace_kernel(state: AppState, kernel: str) -> AppState:
+    snapshot = state.live.replace(kernel=kernel)
+    state.history.push(snapshot)
+    state.live = snapshot
+    return state
+
+
+def test_the_saved_history_is_bounded_and_in_order():
+    files = demo_files("starfish")
+    state = opened_state(sessions.open_document(files.image, files.cage))
+    for step in range(sessions.SAVED_STEPS + 20):
+        edited(state, step)
+    for _ in range(5):
+        state.history.undo()
+    sessions.save(state, None)
+    restored = sessions.restore(state.session_path)
+    assert restored.undo == list(state.history.undo_steps[-sessions.SAVED_STEPS :])
+    assert restored.redo == list(state.history.redo_steps) and len(restored.redo) == 5
+    text = state.session_path.read_text()
+    assert not re.search(r"^\s*-?[0-9][0-9.eE+-]*,?$", text, re.MULTILINE)  # no number alone on a line
+    assert text.count("[[") == 0 and text.count("\n") > 2 * len(restored.undo)  # but a pair a line
+
+
+def test_a_damaged_history_is_dropped_but_the_state_restored(tmp_path):
+    files = demo_files("starfish")
+    state = opened_state(sessions.open_document(files.image, files.cage))
+    edited(state, 4)
+    sessions.save(state, None)
+    value = json.loads(state.session_path.read_text())
+    value["history"]["undo"][0]["kernel"] = "no-such-kernel"
+    state.session_path.write_text(json.dumps(value))
+    restored = sessions.open_document(files.image, files.cage)
+    assert restored.snapshot == state.history.current and restored.undo == []
+    assert (
+        "the undo history cannot be read" in restored.notices[0] and "no-such-kernel" in restored.notices[0]
+    )
+
+
+def test_autosave_keeps_the_last_versions_and_view_changes_do_not_rotate():
+    files = demo_files("starfish")
+    state = opened_state(sessions.open_document(files.image, files.cage))
+    path = state.session_path
+    sessions.save(state, None)
+    versions = [path.read_bytes()]
+    for step in range(1, BACKUPS + 3):
+        edited(state, step)
+        sessions.save(state, None)
+        versions.append(path.read_bytes())
+    state.view = View(2.0, (5.0, 6.0))
+    sessions.save(state, None, new_version=False)  # a zoom: the same version, no rotation
+    assert backups(path) == [backup_path(path, k) for k in range(1, BACKUPS + 1)]
+    for k in range(1, BACKUPS + 1):
+        assert backup_path(path, k).read_bytes() == versions[-1 - k]
+    assert json.loads(path.read_text())["view"]["scale"] == 2.0
+    assert not list(path.parent.glob(".*.tmp"))
+
+
+@pytest.mark.parametrize("damage", [b"{ not json", b'{"image": "x.png"}', b""])
+def test_an_unreadable_session_is_kept_aside_and_the_newest_backup_restored(damage):
+    files = demo_files("starfish")
+    state = opened_state(sessions.open_document(files.image, files.cage))
+    path = state.session_path
+    edited(state, 7)
+    sessions.save(state, None)
+    good = state.history.current
+    edited(state, 8)
+    sessions.save(state, None)  # the version with 7 is backup 1 now
+    path.write_bytes(damage)
+    document = sessions.open_document(files.image, files.cage)
+    (aside,) = path.parent.glob(f"{path.stem}.unreadable-*.json")
+    assert aside.read_bytes() == damage  # kept, byte for byte
+    assert document.snapshot == good and document.session_path == path and not path.exists()
+    assert "cannot restore the session" in document.notices[0] and str(aside) in document.notices[0]
+    assert "from its backup" in document.notices[1]
+
+
+def test_nothing_readable_starts_afresh_and_keeps_the_bad_file():
+    files = demo_files("starfish")
+    path = session_path_for(files.image)
+    path.parent.mkdir(parents=True)
+    path.write_text('{"image": "elsewhere.png", "cage": 1}')
+    document = sessions.open_document(files.image, files.cage)
+    assert not document.restored and np.array_equal(document.snapshot.cage, document.snapshot.target)
+    assert len(list(path.parent.glob("*.unreadable-*.json"))) == 1 and not path.exists()
+
+
+def test_another_images_session_under_this_name_is_not_taken():
+    files, other = demo_files("starfish"), demo_files("pattern")
+    state = opened_state(sessions.open_document(other.image, other.cage))
+    state.session_path = session_path_for(files.image)  # as if the names collided
+    sessions.save(state, None)
+    document = sessions.open_document(files.image, files.cage)
+    assert document.snapshot.image == files.image.resolve() and not document.restored
+    assert "is the session of" in document.notices[0]
+
+
+def test_fresh_starts_over_and_keeps_the_old_session():
+    files = demo_files("starfish")
+    state = opened_state(sessions.open_document(files.image, files.cage))
+    edited(state, 5)
+    sessions.save(state, None)
+    before = state.session_path.read_bytes()
+    fresh = sessions.open_document(files.image, files.cage, fresh=True)
+    assert not fresh.restored and not fresh.undo and not state.session_path.exists()
+    (aside,) = state.session_path.parent.glob("*.replaced-*.json")
+    assert aside.read_bytes() == before and str(aside) in fresh.notices[0]
+    with pytest.raises(InputError, match="--fresh"):
+        sessions.open_document(session=aside, fresh=True)
+
+
+def test_start_over_and_begin_with_are_one_undoable_step():
+    files = demo_files("starfish")
+    document = sessions.open_document(files.image, files.cage)
+    state = opened_state(document)
+    edited(state, 9)
+    sessions.save(state, None)
+    document = sessions.open_document(files.image, files.cage)
+    start, note = sessions.start_snapshot(document.snapshot, document.image, files.cage)
+    assert np.array_equal(start.target, start.cage) and note == "the cage of starfish.cage.json"
+    restored = document.snapshot
+    sessions.begin_with(document, start, "replay")
+    assert document.snapshot == start and document.undo[-1] == restored and not document.restored
+    count = len(document.undo)
+    sessions.begin_with(document, start, "again")  # nothing changes: no step
+    assert len(document.undo) == count and document.notices[-1] == "replay"

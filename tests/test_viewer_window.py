@@ -290,10 +290,16 @@ def test_scripted_demo_replays_through_the_mouse_path_and_writes_frames(environm
     assert first.shape == last.shape == (480, 640, 4)
     assert np.abs(first.astype(int) - last.astype(int)).mean() > 5  # the horseshoe closed
     # The moves went through the same handler as the mouse: one undo step each, saved.
-    saved = json.loads((folder / "state" / "sessions" / "demo-pattern.json").read_text())
+    saved = json.loads(main_session(folder / "state", "pattern").read_text())
     target = np.array(saved["target"]["control_points"])
     for move in moves:
         np.testing.assert_allclose(target[move["point"]], move["to"], atol=0.05)
+
+
+def main_session(state: Path, stem: str) -> Path:
+    """The one session file of the image called `stem` in the state directory `state`."""
+    (path,) = (p for p in (state / "sessions").glob(f"{stem}-*.json") if re.fullmatch(r"[^.]+\.json", p.name))
+    return path
 
 
 def session_image(session: Path) -> Path:
@@ -322,15 +328,96 @@ def test_open_prompt_when_no_dialog_program_is_installed(display, environment):
         xdotool(display, "key", "ctrl+a")  # replace the proposed folder
         xdotool(display, "type", "--delay", "5", path)
         xdotool(display, "key", "Return")
-        deadline = time.monotonic() + 20
-        while time.monotonic() < deadline:
-            if session.exists() and session_image(session) == Path(path):
-                break
-            time.sleep(0.2)
-        assert session_image(session) == Path(path)
+        # The image opens in its own session file; the one given with --session keeps the starfish.
+        opened = session
+        while opened == session:
+            opened = Path(viewer.wait_for("saved ", 20).split(" ", 1)[1])
+        assert session_image(opened) == Path(path)
+        assert session_image(session) == ASSETS / "starfish.png"
         xdotool(display, "key", "ctrl+q")
         code, stderr = viewer.finish()
         assert code == 0, stderr
     finally:
         if viewer.process.poll() is None:
             viewer.process.kill()
+
+
+def drag_point(display: str, window: str, start: np.ndarray, offset: np.ndarray) -> None:
+    """Press on `start` (window pixels), move by `offset` in ten steps, release: real X events."""
+    xdotool(display, "mousemove", "--window", window, *(f"{v:.0f}" for v in start))
+    time.sleep(0.2)
+    xdotool(display, "mousedown", "1")
+    for step in np.linspace(0.1, 1.0, 10):
+        xdotool(display, "mousemove", "--window", window, *(f"{v:.0f}" for v in start + step * offset))
+        time.sleep(0.03)
+    xdotool(display, "mouseup", "1")
+
+
+def test_kill_and_relaunch_brings_back_the_work_and_its_undo(display, environment):
+    """Drag, change the kernel, kill -9, run the identical command again: the drag is back, Ctrl+Z
+    undoes it; opening another image then leaves this image's session file byte for byte unchanged."""
+    env, folder = environment
+    state = folder / "state-kill"
+    no_programs = folder / "empty-bin"  # no zenity: Ctrl+O asks in the window
+    no_programs.mkdir(exist_ok=True)
+    env = {**env, "TRANSFINITE_STATE_DIR": str(state), "PATH": str(no_programs)}
+    command = ["view", str(ASSETS / "starfish.png"), "--cage", str(ASSETS / "starfish.cage.json")]
+    viewer = ViewerProcess(command, env, ROOT)
+    try:
+        window = viewer.wait_for("ready window=", 30).split("=")[1]
+        viewer.wait_for("basis ", 60)
+        session = main_session(state, "starfish")
+        cage, target, value = session_points(session)
+        drag_point(display, window, window_pixel(value["view"], target[0]), np.array([80.0, 30.0]))
+        viewer.wait_for("saved", 10)
+        xdotool(display, "key", "k")  # the next kernel
+        viewer.wait_for("saved", 10)
+        viewer.wait_for("basis ", 60)
+        _, dragged, value = session_points(session)
+        assert value["kernel"] != "harmonic-like" and not np.array_equal(dragged, target)
+        park_mouse(display, window)
+        before_kill = shot(display, folder, "kill-1-before")
+    finally:
+        viewer.kill()  # SIGKILL: no chance to save anything more
+
+    again = ViewerProcess(command, env, ROOT)  # the identical command
+    try:
+        window = again.wait_for("ready window=", 30).split("=")[1]
+        again.wait_for("basis ", 60)
+        assert main_session(state, "starfish") == session
+        _, restored, restored_value = session_points(session)
+        assert np.array_equal(restored, dragged) and restored_value["kernel"] == value["kernel"]
+        park_mouse(display, window)
+        assert changed_fraction(before_kill, shot(display, folder, "kill-2-relaunched")) < 0.002
+        xdotool(display, "key", "ctrl+z")  # the kernel change
+        again.wait_for("saved", 10)
+        xdotool(display, "key", "ctrl+z")  # the drag
+        again.wait_for("saved", 10)
+        _, undone, undone_value = session_points(session)
+        assert np.array_equal(undone, target) and undone_value["kernel"] == "harmonic-like"
+        xdotool(display, "key", "ctrl+y")  # and forward again to the killed state
+        xdotool(display, "key", "ctrl+y")
+        deadline = time.monotonic() + 10
+        while session_points(session)[2]["kernel"] != value["kernel"] and time.monotonic() < deadline:
+            time.sleep(0.1)
+        first_bytes = session.read_bytes()
+        assert np.array_equal(session_points(session)[1], dragged)
+        assert json.loads(first_bytes)["kernel"] == value["kernel"]
+
+        xdotool(display, "windowfocus", "--sync", window)
+        xdotool(display, "key", "ctrl+o")
+        time.sleep(0.5)
+        xdotool(display, "key", "ctrl+a")
+        xdotool(display, "type", "--delay", "5", str(ASSETS / "pattern.png"))
+        xdotool(display, "key", "Return")
+        opened = session
+        while opened == session:
+            opened = Path(again.wait_for("saved ", 20).split(" ", 1)[1])
+        assert opened == main_session(state, "pattern")
+        xdotool(display, "key", "ctrl+q")
+        code, stderr = again.finish()
+        assert code == 0, stderr
+        assert "note: restored starfish.png from the session (2 undo steps)" in stderr
+        assert session.read_bytes() == first_bytes
+    finally:
+        again.kill()

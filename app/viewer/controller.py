@@ -202,7 +202,8 @@ def command(state: AppState, name: str, value=None) -> bool:
     """Run a named command of the panel or the keyboard; False if `name` is not one of these.
 
     Commands: undo, redo, cancel, new_cage, reset_target, fit, subdivide, delete, mode, content,
-    kernel, power, shift, toggle (a bool field of the state), fit_view, help.
+    kernel, cycle_kernel (value "previous" goes back), power, shift, toggle (a bool field of the
+    state), fit_view, help.
     The window handles the ones that need it (open, save, export, quit).
     """
     live = state.live
@@ -255,6 +256,11 @@ def command(state: AppState, name: str, value=None) -> bool:
             state.say(f"unknown kernel {value!r}", error=True)
         else:
             commit(state, live.replace(kernel=value), f"kernel: {value}")
+    elif name == "cycle_kernel":
+        names = kernel_names()
+        index = names.index(live.kernel) if live.kernel in names else -1
+        kernel = names[(index + (-1 if value == "previous" else 1)) % len(names)]
+        commit(state, live.replace(kernel=kernel), f"kernel: {kernel}")
     elif name == "power":
         if float(value) > 0:
             commit(state, live.replace(power=float(value)))

@@ -1,21 +1,24 @@
 """Opening a viewer document (demo, image, cage, session file) and saving it as a session.
 
 The session file is the one of DESIGN.md (``image``, ``cage``, ``target``,
-``kernel``, ``view``) plus three keys of its own that `python -m app warp
---session` also reads, so that it exports exactly what the viewer showed:
-``kernel_params`` (the ``power`` kernel's ``power`` and ``shift``) and ``mesh``
-(``{"max_edge": h}``, the mesh the viewer used).  ``viewer`` keeps what only the
-viewer needs (mode, what is shown, the power family's settings while another
-kernel is chosen).  Without ``--session`` the viewer saves to
-``$XDG_STATE_HOME/transfinite-warp/sessions/NAME.json``
-(``~/.local/state/...``; ``$TRANSFINITE_STATE_DIR`` overrides the directory).
+``kernel``, ``view``) plus keys of its own that `python -m app warp --session`
+also reads, so that it exports exactly what the viewer showed: ``kernel_params``
+(the ``power`` kernel's ``power`` and ``shift``) and ``mesh`` (``{"max_edge":
+h}``, the mesh the viewer used).  ``viewer`` keeps what only the viewer needs
+(mode, what is shown, the power family's settings while another kernel is
+chosen) and ``history`` the undo and redo steps (the newest `SAVED_STEPS` of
+each), so that Ctrl+Z still works after a restart.
+
+Without ``--session`` every image has its own file (`session_path_for`), which
+the viewer restores when the same image (or demo) is opened again, whatever the
+command; ``--fresh`` starts over and keeps the old file aside.  A file that
+cannot be read is kept aside too, and the newest readable backup is restored.
 """
 
 from __future__ import annotations
 
-import os
 import warnings
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -24,6 +27,7 @@ from app.files import (
     InputError,
     Session,
     cage_curve,
+    kernel_names,
     read_cage,
     read_image,
     read_session,
@@ -33,9 +37,11 @@ from app.files import (
     write_session,
 )
 from app.render import View
+from app.viewer.session_files import backups, keep_aside, rotate_backups, session_path_for
 from app.viewer.state import CONTENTS, DEFAULT_POWER, DEFAULT_SHIFT, MODES, SHIFTS, AppState, Snapshot
 
-STATE_VARIABLE = "TRANSFINITE_STATE_DIR"
+#: Undo steps (and redo steps) written into the session file.
+SAVED_STEPS = 100
 
 
 @dataclass
@@ -55,6 +61,16 @@ class Document:
         Mesh edge length given on the command line or by the session.
     preferences : dict
         The session's ``viewer`` object (mode, content, ...).
+    undo, redo : list of Snapshot
+        The undo history restored with the session (`History` order).
+    restored : bool
+        Whether `snapshot` is what `session_path` (or its backup) held: the first
+        autosave then does not count as a new version.
+    start_cage : Path or None
+        The cage file a new session of this image starts from ("Start over";
+        None: fit the cage to the image).
+    notices : list of str
+        What the user should hear about the opening (restored, kept aside, ...).
     """
 
     snapshot: Snapshot
@@ -63,21 +79,11 @@ class Document:
     view: View | None = None
     max_edge: float | None = None
     preferences: dict | None = None
-
-
-def state_directory() -> Path:
-    """Where sessions without ``--session`` go."""
-    configured = os.environ.get(STATE_VARIABLE)
-    if configured:
-        return Path(configured).expanduser()
-    base = os.environ.get("XDG_STATE_HOME") or Path.home() / ".local" / "state"
-    return Path(base) / "transfinite-warp"
-
-
-def default_session_path(name: str) -> Path:
-    """The autosave file of a document called `name` (the image's stem or the demo's name)."""
-    safe = "".join(c if c.isalnum() or c in "-_." else "_" for c in name) or "session"
-    return state_directory() / "sessions" / f"{safe}.json"
+    undo: list[Snapshot] = field(default_factory=list)
+    redo: list[Snapshot] = field(default_factory=list)
+    restored: bool = False
+    start_cage: Path | None = None
+    notices: list[str] = field(default_factory=list)
 
 
 def open_document(
@@ -86,21 +92,26 @@ def open_document(
     session: Path | None = None,
     max_edge: float | None = None,
     demo_name: str | None = None,
+    fresh: bool = False,
 ) -> Document:
-    """The document of ``python -m app view [IMAGE] [--cage] [--session]`` (or of a demo).
+    """The document of ``python -m app view [IMAGE] [--cage] [--session] [--fresh]`` (or of a demo).
 
-    - ``--session`` alone: restore that file (image, cage, target, kernel, view);
-    - IMAGE (with or without ``--cage``): a new document; without a cage the cage is
-      fitted to the image's silhouette, or an ellipse if there is none;
-    - neither: the bundled demo (`demo_name`, the default demo by default).
+    - ``--session`` that exists: restore that file (IMAGE, ``--cage`` or ``--fresh``
+      with it are refused);
+    - otherwise the document is IMAGE, or the bundled demo (`demo_name`, the
+      default demo by default) when there is none; its session file is
+      ``--session`` or `session_path_for` the image.  If that file exists it is
+      restored with its undo history (``--cage`` is then only what "Start over"
+      goes back to); with `fresh` it is kept aside and the document starts anew:
+      from ``--cage``, or a cage fitted to the image's silhouette, or an ellipse.
 
     Raises
     ------
     InputError
-        Unreadable files, or IMAGE / ``--cage`` given with an existing ``--session``.
+        Unreadable files, or IMAGE / ``--cage`` / ``--fresh`` with an existing ``--session``.
     """
     if session is not None and session.exists():
-        given = [name for name, value in (("IMAGE", image), ("--cage", cage)) if value is not None]
+        given = [name for name, value in (("IMAGE", image), ("--cage", cage), ("--fresh", fresh)) if value]
         if given:
             raise InputError(
                 f"{session} exists: open it alone with --session, or start {' and '.join(given)} "
@@ -111,10 +122,17 @@ def open_document(
         from app.viewer.demos import DEFAULT_DEMO, demo_files
 
         files = demo_files(demo_name or DEFAULT_DEMO)
-        image, cage = files.image, files.cage
-        name = files.name
-    else:
-        name = image.stem
+        image, cage = files.image, cage or files.cage
+    path = session or session_path_for(image)
+    notices: list[str] = []
+    if session is None and not fresh:
+        document = recover(path, Path(image), max_edge, notices)
+        if document is not None:
+            document.start_cage = cage
+            return document
+    elif fresh and path.exists():
+        aside = keep_aside(path, "replaced")
+        notices.append(f"started afresh; the previous session is kept as {aside}")
     pixels = read_image(image)
     if cage is not None:
         control_points = read_cage(cage)
@@ -122,11 +140,42 @@ def open_document(
     else:
         control_points, _ = fit_or_ellipse(pixels)
     snapshot = Snapshot(Path(image).resolve(), control_points, control_points)
-    return Document(snapshot, pixels, session or default_session_path(name), None, max_edge, {})
+    return Document(
+        snapshot, pixels, path, max_edge=max_edge, preferences={}, start_cage=cage, notices=notices
+    )
+
+
+def recover(path: Path, image: Path, max_edge: float | None, notices: list[str]) -> Document | None:
+    """Restore the session of `image` from `path` or, if that cannot be read, its newest readable backup.
+
+    An unreadable `path` (bad JSON, bad keys, a cage that is not simple, another
+    image's session) is kept aside, never overwritten.  Appends what happened to
+    `notices`; returns None when there is nothing to restore.
+    """
+    for candidate in [path, *backups(path)] if path.exists() else backups(path):
+        try:
+            document = restore(candidate, max_edge)
+            if document.snapshot.image != image.resolve():
+                raise InputError(f"{candidate}: is the session of {document.snapshot.image}, not of {image}")
+        except InputError as error:
+            if candidate == path:
+                aside = keep_aside(path, "unreadable")
+                notices.append(f"cannot restore the session ({error}); kept it as {aside}")
+            continue
+        document.session_path = path
+        steps = len(document.undo)
+        source = "the session" if candidate == path else f"its backup {candidate.name}"
+        document.notices[:0] = notices
+        document.notices.append(
+            f"restored {image.name} from {source} ({steps} undo step{'s' * (steps != 1)}); "
+            "--fresh starts over"
+        )
+        return document
+    return None
 
 
 def restore(path: Path, max_edge: float | None = None) -> Document:
-    """Open a session file: everything, including the view."""
+    """Open a session file: everything, including the view and the undo history."""
     session = read_session(path)
     pixels = read_image(session.image)
     cage_curve(session.cage, f"{path}: cage")
@@ -138,9 +187,14 @@ def restore(path: Path, max_edge: float | None = None) -> Document:
         power = DEFAULT_POWER
     if shift not in SHIFTS:
         shift = DEFAULT_SHIFT
-    snapshot = Snapshot(
-        Path(session.image).resolve(), session.cage, session.target, session.kernel, power, shift
-    )
+    image = Path(session.image).resolve()
+    snapshot = Snapshot(image, session.cage, session.target, session.kernel, power, shift)
+    notices: list[str] = []
+    try:
+        undo, redo = history_of(session.extra.get("history"), image)
+    except (TypeError, ValueError, KeyError) as error:
+        undo, redo = [], []
+        notices.append(f"{path}: the undo history cannot be read ({error}); starting without it")
     return Document(
         snapshot,
         pixels,
@@ -148,7 +202,100 @@ def restore(path: Path, max_edge: float | None = None) -> Document:
         View(session.scale, session.offset),
         max_edge if max_edge is not None else session_max_edge(session, path),
         preferences,
+        undo,
+        redo,
+        restored=True,
+        notices=notices,
     )
+
+
+def _step(snapshot: Snapshot) -> dict:
+    return {
+        "cage": snapshot.cage.tolist(),
+        "target": snapshot.target.tolist(),
+        "kernel": snapshot.kernel,
+        "power": snapshot.power,
+        "shift": snapshot.shift,
+    }
+
+
+def history_json(state: AppState) -> dict:
+    """The ``history`` object of the session file: the newest `SAVED_STEPS` undo and redo steps.
+
+    Steps are ``{"cage": [[x, y], ...], "target": [[x, y], ...], "kernel", "power",
+    "shift"}`` of the session's image; ``undo`` is oldest first, ``redo`` has the
+    next step last (`History` order).
+    """
+    image = state.history.current.image
+
+    def nearest(steps: tuple[Snapshot, ...]) -> list[dict]:
+        """The last `SAVED_STEPS` steps (the nearest to the current state) back to another image."""
+        kept = []
+        for snapshot in reversed(steps):
+            if snapshot.image != image or len(kept) == SAVED_STEPS:
+                break
+            kept.append(_step(snapshot))
+        return kept[::-1]
+
+    return {"undo": nearest(state.history.undo_steps), "redo": nearest(state.history.redo_steps)}
+
+
+def history_of(value, image: Path) -> tuple[list[Snapshot], list[Snapshot]]:
+    """Undo and redo steps of a ``history`` object (`history_json`); ([], []) when absent.
+
+    Raises
+    ------
+    TypeError, KeyError, ValueError
+        The object is malformed (a step's cage is not simple is not checked here:
+        undoing to it shows it as it was).
+    """
+    if value is None:
+        return [], []
+    if not isinstance(value, dict):
+        raise TypeError(f"expected an object, got {type(value).__name__}")
+
+    def snapshots(name: str) -> list[Snapshot]:
+        steps = value.get(name, [])
+        if not isinstance(steps, list):
+            raise TypeError(f"{name} must be a list")
+        result = []
+        for index, step in enumerate(steps):
+            kernel = step["kernel"]
+            if kernel not in kernel_names():
+                raise ValueError(f"{name}[{index}] has unknown kernel {kernel!r}")
+            cage, target = np.asarray(step["cage"], float), np.asarray(step["target"], float)
+            if cage.ndim != 2 or cage.shape[1:] != (2,) or len(cage) < 3:
+                raise ValueError(f"{name}[{index}] cage must be 3 or more [x, y] pairs")
+            result.append(Snapshot(image, cage, target, kernel, float(step["power"]), step["shift"]))
+        return result
+
+    return snapshots("undo"), snapshots("redo")
+
+
+def start_snapshot(current: Snapshot, image: np.ndarray, cage: Path | None) -> tuple[Snapshot, str]:
+    """A new start of the document `current` and a note saying what it is.
+
+    The cage (and target) of the file `cage`, or a cage fitted to `image`
+    (`fit_or_ellipse`) when there is none; image and kernel stay.
+    """
+    if cage is None:
+        points, note = fit_or_ellipse(image)
+    else:
+        points = read_cage(cage)
+        cage_curve(points, str(cage))
+        note = f"the cage of {cage.name}"
+    return current.replace(cage=points, target=points), note
+
+
+def begin_with(document: Document, snapshot: Snapshot, message: str) -> None:
+    """Make `snapshot` the document's state as one undoable step (what it held stays a Ctrl+Z away)."""
+    if snapshot == document.snapshot:
+        return
+    document.undo.append(document.snapshot)
+    document.redo.clear()
+    document.snapshot = snapshot
+    document.restored = False
+    document.notices.append(message)
 
 
 def fit_or_ellipse(image: np.ndarray, points: int = 16) -> tuple[np.ndarray, str]:
@@ -202,6 +349,7 @@ def session_of(state: AppState, max_edge: float | None) -> Session:
         extra["kernel_params"] = snapshot.kernel_params()
     if max_edge is not None:
         extra["mesh"] = {"max_edge": float(max_edge)}
+    extra["history"] = history_json(state)
     return Session(
         snapshot.image,
         np.array(snapshot.cage),
@@ -213,8 +361,17 @@ def session_of(state: AppState, max_edge: float | None) -> Session:
     )
 
 
-def save(state: AppState, max_edge: float | None) -> None:
-    """Write the session file atomically (`InputError` if it cannot be written)."""
+def save(state: AppState, max_edge: float | None, new_version: bool = True) -> None:
+    """Write the session file atomically (`InputError` if it cannot be written).
+
+    With `new_version` (the document changed since the file was written) the
+    file's previous version becomes backup 1 first (`rotate_backups`).
+    """
     path = state.session_path
     path.parent.mkdir(parents=True, exist_ok=True)
+    if new_version:
+        try:
+            rotate_backups(path)
+        except OSError as error:
+            raise InputError(f"{path}: cannot keep a backup ({error.strerror or error})") from None
     write_session(path, session_of(state, max_edge))

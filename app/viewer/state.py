@@ -112,16 +112,34 @@ class History:
     Parameters
     ----------
     initial : Snapshot
-        The state before any edit.
+        The current state (before any edit, or the one a session restored).
     limit : int
         Most undo steps kept; the oldest are dropped.
+    undo, redo : list of Snapshot, optional
+        Steps restored from a session file, in the order of `undo_steps` and `redo_steps`.
     """
 
-    def __init__(self, initial: Snapshot, limit: int = 1000):
-        self._undo: list[Snapshot] = []
-        self._redo: list[Snapshot] = []
+    def __init__(
+        self,
+        initial: Snapshot,
+        limit: int = 1000,
+        undo: list[Snapshot] | None = None,
+        redo: list[Snapshot] | None = None,
+    ):
+        self._undo: list[Snapshot] = list(undo or [])[-limit:]
+        self._redo: list[Snapshot] = list(redo or [])
         self._current = initial
         self.limit = limit
+
+    @property
+    def undo_steps(self) -> tuple[Snapshot, ...]:
+        """The states Ctrl+Z goes back to, oldest first."""
+        return tuple(self._undo)
+
+    @property
+    def redo_steps(self) -> tuple[Snapshot, ...]:
+        """The states redo goes forward to, the next one last."""
+        return tuple(self._redo)
 
     @property
     def current(self) -> Snapshot:
@@ -161,12 +179,6 @@ class History:
         self._undo.append(self._current)
         self._current = self._redo.pop()
         return self._current
-
-    def reset(self, initial: Snapshot) -> None:
-        """Forget every step (a new document)."""
-        self._undo.clear()
-        self._redo.clear()
-        self._current = initial
 
 
 @dataclass

@@ -30,8 +30,8 @@ from app.files import InputError, read_image, read_json, write_png
 from app.render import View
 from app.viewer import controller, editing
 from app.viewer.precompute import Precompute, make_request
-from app.viewer.session import Document, apply_preferences, fit_or_ellipse, restore, save
-from app.viewer.state import AppState, History
+from app.viewer.session import Document, apply_preferences, open_document, save, start_snapshot
+from app.viewer.state import AppState, History, Snapshot
 
 TEST_VARIABLE = "TRANSFINITE_VIEWER_TEST"
 WINDOW_SIZE = (1280, 1024)
@@ -84,6 +84,8 @@ def _key_table():
         (glfw.KEY_S, 0, "subdivide", None, "S", "subdivide the cage (same curve, twice the points)"),
         (glfw.KEY_DELETE, 0, "delete", None, "Delete", "delete the selected control point"),
         (glfw.KEY_BACKSPACE, 0, "delete", None, None, None),
+        (glfw.KEY_K, 0, "cycle_kernel", "next", "K, Shift+K", "next (previous) kernel"),
+        (glfw.KEY_K, shift, "cycle_kernel", "previous", None, None),
         (glfw.KEY_1, 0, "content", "image", "1", "show the warped image"),
         (glfw.KEY_2, 0, "content", "basis", "2", "show the selected point's basis function (heat map)"),
         (glfw.KEY_3, 0, "content", "height", "3", "show a height interpolant in bands (Fig. 1)"),
@@ -125,11 +127,8 @@ class Viewer:
             session_path=Path(document.session_path),
             window_size=options.size,
         )
-        apply_preferences(self.state, document.preferences)
-        self._initial_view = document.view
         self._edges: dict[bytes, float] = {}
-        if document.max_edge is not None:
-            self._edges[document.snapshot.cage.tobytes()] = document.max_edge
+        self._load(document)
         self._wanted: str | None = None
         self._failed: set[str] = set()
         self._events: deque = deque()
@@ -206,12 +205,35 @@ class Viewer:
         glfw.focus_window(window)
         self.state.window_size = glfw.get_window_size(window)
         self.state.canvas_left = 300.0
-        if self._initial_view is not None:
-            self.state.view = self._initial_view
+        self._show_document_view()
+        self.state.session_dirty = True  # the first save, so the session file exists at once
+
+    def _load(self, document: Document) -> None:
+        """Make `document` the one shown and saved: its history, preferences and session file."""
+        state = self.state
+        state.history = History(document.snapshot, undo=document.undo, redo=document.redo)
+        state.live = document.snapshot
+        state.image = document.image
+        state.session_path = Path(document.session_path)
+        state.drag = None
+        state.selected = None
+        apply_preferences(state, document.preferences)
+        if document.max_edge is not None:
+            self._edges[document.snapshot.cage.tobytes()] = document.max_edge
+        self._document_view = document.view
+        self._start_cage = document.start_cage
+        # What the session file holds now: an autosave of anything else is a new version.
+        self._saved: Snapshot | None = document.snapshot if document.restored else None
+        if document.notices:
+            state.say(document.notices[-1])
+
+    def _show_document_view(self) -> None:
+        """The loaded session's view, or the image fitted to the window."""
+        if self._document_view is not None:
+            self.state.view = self._document_view
         else:
             controller.fit_view(self.state, None)
             self.state.view_dirty = False
-        self.state.session_dirty = True  # the first save, so the session file exists at once
 
     def _close_window(self) -> None:
         import glfw
@@ -315,6 +337,8 @@ class Viewer:
             self.open_path(Path(value))
         elif name == "play":
             self._toggle_script()
+        elif name == "start_over":
+            self.start_over()
         elif name == "fit_view":
             controller.fit_view(state, None)
             self._view_changed_at = time.perf_counter()
@@ -341,17 +365,17 @@ class Viewer:
                 self.open_path(Path(paths[0]))
 
     def open_path(self, path: Path) -> None:
-        """Open a dropped or chosen file: an image, a session or a cage file."""
+        """Open a dropped or chosen file: an image or a session (each in its own session file), or a cage.
+
+        The current session is saved first and never written again after the
+        switch; opening an image whose session exists restores that session.
+        """
         state = self.state
         try:
             if path.suffix.lower() == ".json":
                 value = read_json(path)
                 if isinstance(value, dict) and "image" in value and "target" in value:
-                    document = restore(path)
-                    controller.commit(state, document.snapshot, f"opened session {path}")
-                    state.image = document.image
-                    state.view = document.view
-                    state.session_path = path
+                    self._switch_to(open_document(session=path))
                     return
                 from app.files import read_cage
 
@@ -361,22 +385,36 @@ class Viewer:
                     raise InputError(f"{path}: {problem}")
                 controller.commit(state, state.live.replace(cage=cage, target=cage), f"cage from {path}")
                 return
-            image = read_image(path)
-        except InputError as error:
+            read_image(path)  # a bad file is reported before the current session is left
+            document = open_document(path)
+        except (InputError, OSError) as error:
             state.say(str(error), error=True)
             return
-        cage, note = fit_or_ellipse(image)
-        state.image = image
-        controller.commit(
-            state,
-            state.live.replace(image=path.resolve(), cage=cage, target=cage),
-            f"opened {path.name}: {note}",
-        )
-        controller.fit_view(state, None)
+        if not document.notices:
+            document.notices.append(f"opened {path.name}")
+        self._switch_to(document)
+
+    def _switch_to(self, document: Document) -> None:
+        """Save the current session if it changed, then show `document`."""
+        self._save_if_needed(due=True)
+        self._load(document)
+        self._show_document_view()
+        self.state.session_dirty = True
         if self.window is not None:
             import glfw
 
             glfw.set_window_title(self.window, self._title())
+
+    def start_over(self) -> None:
+        """Replace the document with a new start (the opening cage, or a fitted one), as one undoable edit."""
+        state = self.state
+        try:
+            snapshot, note = start_snapshot(state.live, state.image, self._start_cage)
+        except InputError as error:
+            state.say(str(error), error=True)
+            return
+        if controller.commit(state, snapshot, f"started over: {note} (Ctrl+Z goes back)"):
+            controller.fit_view(state, None)
 
     def export(self, path: Path | None = None) -> Path | None:
         """Write the warped image at the image's full resolution, like ``warp --session``."""
@@ -407,20 +445,26 @@ class Viewer:
         height, width = state.image.shape[:2]
         return self.renderer.render((width, height), View())
 
-    def _save_if_needed(self, force: bool = False, announce: bool = False) -> None:
+    def _save_if_needed(self, force: bool = False, announce: bool = False, due: bool = False) -> None:
+        """Autosave after an edit, after a zoom or pan settles, or when asked.
+
+        `force` writes in any case; `due` writes a pending zoom or pan at once.
+        """
         state = self.state
         due = state.session_dirty or (
-            state.view_dirty and time.perf_counter() - self._view_changed_at >= VIEW_SAVE_DELAY
+            state.view_dirty and (due or time.perf_counter() - self._view_changed_at >= VIEW_SAVE_DELAY)
         )
         if not (due or force) or state.drag is not None and not force:
             return
-        if state.history.current.n < 3:
+        current = state.history.current
+        if current.n < 3:
             return  # a cage being placed is no session yet
         try:
-            save(state, self._max_edge(state.history.current.cage))
+            save(state, self._max_edge(current.cage), new_version=current != self._saved)
         except (InputError, OSError) as error:
             state.say(f"cannot save the session: {error}", error=True)
             return
+        self._saved = current
         state.session_dirty = state.view_dirty = False
         if announce:
             state.say(f"saved {state.session_path}")
