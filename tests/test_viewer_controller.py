@@ -65,10 +65,10 @@ def test_escape_cancels_the_drag(state):
     assert not state.history.can_undo
 
 
-def test_drag_on_empty_canvas_pans_and_wheel_zooms(state):
-    drag(state, (900.0, 900.0), (950.0, 880.0))
-    controller.pointer(state, "release", 950.0, 880.0)
-    assert state.view.offset == (150.0, 0.0) and state.view_dirty
+def test_right_or_middle_drag_pans_and_wheel_and_keys_zoom(state):
+    drag(state, (900.0, 900.0), (950.0, 880.0), button=RIGHT)
+    controller.pointer(state, "release", 950.0, 880.0, button=RIGHT)
+    assert state.view.offset == (150.0, 0.0) and state.view_dirty and not state.view_fitted
     assert not state.history.can_undo
     drag(state, (10.0, 10.0), (20.0, 20.0), button=MIDDLE)
     controller.pointer(state, "release", 20.0, 20.0, button=MIDDLE)
@@ -77,6 +77,69 @@ def test_drag_on_empty_canvas_pans_and_wheel_zooms(state):
     controller.pointer(state, "scroll", 500, 400, amount=2)
     assert state.view.scale == pytest.approx(1.5 * 1.15**2)
     np.testing.assert_allclose(editing.to_image(state.view, (500, 400)), under)
+    centre = (0.5 * (state.canvas_left + 1280), 0.5 * (1024 - controller.STATUS_HEIGHT))
+    under = editing.to_image(state.view, centre)
+    controller.command(state, "zoom", 1.0)  # the 1 key: 100 % about the canvas centre
+    assert state.view.scale == pytest.approx(1.0)
+    np.testing.assert_allclose(editing.to_image(state.view, centre), under)
+    controller.command(state, "zoom", "in")
+    controller.command(state, "zoom", "in")
+    controller.command(state, "zoom", "out")
+    assert state.view.scale == pytest.approx(controller.KEY_ZOOM_STEP)
+    controller.command(state, "fit_view")
+    assert state.view_fitted
+
+
+def test_rubber_band_and_shift_click_select_handles_that_move_together(state):
+    points = window_of(state, STAR)
+    low, high = points[[0, 1]].min(axis=0) - 5, points[[0, 1]].max(axis=0) + 5
+    others = [i for i in range(len(STAR)) if np.all((points[i] >= low) & (points[i] <= high))]
+    drag(state, low, high)  # on empty canvas: a rubber band, no pan
+    assert controller.band_corners(state) is not None and state.view.offset == (100.0, 20.0)
+    controller.pointer(state, "release", *high)
+    assert state.group == frozenset(others) and {0, 1} <= state.group and not state.history.can_undo
+    controller.pointer(state, "press", *points[4], shift=True)  # Shift+click adds one ...
+    controller.pointer(state, "release", *points[4])
+    controller.pointer(state, "press", *points[1], shift=True)  # ... and takes one out
+    controller.pointer(state, "release", *points[1])
+    group = sorted((set(others) | {4}) - {1})
+    assert state.group == frozenset(group) and state.live == state.history.current
+    drag(state, points[4], points[4] + [30, -15])  # dragging one moves them all
+    controller.pointer(state, "release", *(points[4] + [30, -15]))
+    moved = np.array(STAR)
+    moved[group] += np.array([30, -15]) / 1.5
+    np.testing.assert_allclose(state.live.target, moved)
+    np.testing.assert_array_equal(state.live.cage, STAR)
+    assert state.message == f"moved {len(group)} control points"
+    controller.command(state, "undo")  # one step
+    np.testing.assert_array_equal(state.live.target, STAR)
+    controller.pointer(state, "press", 1200.0, 1000.0)  # a click on empty canvas clears it
+    controller.pointer(state, "release", 1200.0, 1000.0)
+    assert state.group == frozenset() and state.selected is None
+
+
+def test_a_cancelled_drag_leaves_nothing_selected_and_delete_needs_cage_mode(state):
+    start = window_of(state, STAR[2])
+    drag(state, start, start + [40, 0])
+    controller.command(state, "cancel")
+    assert state.selected is None and state.group == frozenset()
+    controller.pointer(state, "press", *start)
+    controller.pointer(state, "release", *start)
+    assert state.selected == 2
+    for key in ("delete", "delete"):  # Delete and Backspace in deform mode: nothing happens
+        controller.command(state, key)
+        assert state.live.n == len(STAR) and state.message_is_error and "cage mode" in state.message
+    controller.command(state, "mode", "cage")
+    points = window_of(state, STAR)
+    controller.pointer(state, "press", *points[2], shift=True)
+    controller.pointer(state, "release", *points[2])
+    controller.pointer(state, "press", *points[5], shift=True)
+    controller.pointer(state, "release", *points[5])
+    controller.command(state, "delete")  # the selection, as one step
+    np.testing.assert_array_equal(state.live.cage, np.delete(STAR, [2, 5], axis=0))
+    assert state.message == "deleted control 2 points" and state.group == frozenset()
+    controller.command(state, "undo")
+    assert state.live.n == len(STAR)
 
 
 def test_cage_mode_moves_inserts_and_deletes_source_points(state):
@@ -137,6 +200,7 @@ def test_commands(state):
     controller.command(state, "content", "basis")
     controller.command(state, "toggle", "show_wireframe")
     assert state.content == "basis" and state.show_wireframe
+    controller.command(state, "mode", "cage")
     controller.command(state, "delete")
     assert "select a control point" in state.message
     assert not controller.command(state, "fly")

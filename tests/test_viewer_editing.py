@@ -74,12 +74,11 @@ def test_delete_point(star):
         editing.delete_point(star, star, 99)
 
 
-def test_moving_a_source_point_carries_its_target(star):
-    target = star + 7.0
-    cage, moved = editing.move_source_point(star, target, 2, star[2] + [10, -4])
-    np.testing.assert_allclose(cage[2], star[2] + [10, -4])
-    np.testing.assert_allclose(moved[2], target[2] + [10, -4])
-    np.testing.assert_array_equal(np.delete(moved, 2, axis=0), np.delete(target, 2, axis=0))
+def test_moving_points_moves_only_those(star):
+    moved = editing.move_points(star, (2, 5), [10, -4])
+    np.testing.assert_allclose(moved[[2, 5]], star[[2, 5]] + [10, -4])
+    np.testing.assert_array_equal(np.delete(moved, [2, 5], axis=0), np.delete(star, [2, 5], axis=0))
+    assert moved is not star and np.array_equal(editing.move_points(star, (), [1, 1]), star)
 
 
 def test_subdivide_keeps_the_curve(star):

@@ -28,6 +28,7 @@ from viewer_harness import ViewerProcess, close_window, save_png, screenshot, st
 
 from app.files import read_image
 from app.viewer.editing import SAMPLES_PER_SPAN, curve_matrix
+from app.viewer.window import IDLE_WAIT
 
 ROOT = Path(__file__).resolve().parent.parent
 ASSETS = ROOT / "assets"
@@ -324,7 +325,7 @@ def test_open_prompt_when_no_dialog_program_is_installed(display, environment):
         path = str(ASSETS / "pattern.png")
         xdotool(display, "windowfocus", "--sync", window)
         xdotool(display, "key", "ctrl+o")
-        time.sleep(0.5)
+        viewer.wait_for("text input on", 10)  # typed before, the letters would be shortcuts
         xdotool(display, "key", "ctrl+a")  # replace the proposed folder
         xdotool(display, "type", "--delay", "5", path)
         xdotool(display, "key", "Return")
@@ -406,7 +407,7 @@ def test_kill_and_relaunch_brings_back_the_work_and_its_undo(display, environmen
 
         xdotool(display, "windowfocus", "--sync", window)
         xdotool(display, "key", "ctrl+o")
-        time.sleep(0.5)
+        again.wait_for("text input on", 10)  # typed before, the letters would be shortcuts
         xdotool(display, "key", "ctrl+a")
         xdotool(display, "type", "--delay", "5", str(ASSETS / "pattern.png"))
         xdotool(display, "key", "Return")
@@ -421,3 +422,101 @@ def test_kill_and_relaunch_brings_back_the_work_and_its_undo(display, environmen
         assert session.read_bytes() == first_bytes
     finally:
         again.kill()
+
+
+def wait_for_session(path: Path, predicate, timeout: float = 10.0):
+    """The session file's (cage, target, value) once `predicate` holds for them."""
+    deadline = time.monotonic() + timeout
+    while True:
+        points = session_points(path)
+        if predicate(*points):
+            return points
+        if time.monotonic() > deadline:
+            raise AssertionError(f"{path} did not reach the expected state: {points[2]['view']}")
+        time.sleep(0.1)
+
+
+def test_rough_edges_redraw_escape_delete_group_moves_zoom_and_resize(display, environment):
+    from app.viewer import controller
+    from app.viewer.state import AppState, History, Snapshot
+
+    env, folder = environment
+    state = folder / "state-edges"
+    env = {**env, "TRANSFINITE_STATE_DIR": str(state)}
+    viewer = ViewerProcess(
+        ["view", str(ASSETS / "starfish.png"), "--cage", str(ASSETS / "starfish.cage.json")], env, ROOT
+    )
+    try:
+        window = viewer.wait_for("ready window=", 30).split("=")[1]
+        combo = viewer.wait_for("spot kernel=").split("=")[1].split(",")
+        viewer.wait_for("basis ", 60)
+        session = main_session(state, "starfish")
+        cage, target, value = session_points(session)
+        view = value["view"]
+
+        # A click opens the kernel list at once: no mouse motion is needed for the next frame
+        # (an idle viewer would otherwise sleep for IDLE_WAIT).
+        xdotool(display, "mousemove", "--window", window, *combo)
+        time.sleep(0.3)
+        clicked = time.monotonic()
+        xdotool(display, "click", "1")
+        viewer.wait_for("popup open", 5)
+        assert time.monotonic() - clicked < 0.5 * IDLE_WAIT
+        xdotool(display, "key", "Escape")  # Esc closes it
+        viewer.wait_for("popup closed", 5)
+
+        # With the list open, a press on a handle closes it and starts the drag: nothing swallowed.
+        xdotool(display, "click", "1")
+        viewer.wait_for("popup open", 5)
+        drag_point(display, window, window_pixel(view, target[3]), np.array([40.0, 20.0]))
+        viewer.wait_for("popup closed", 5)
+        _, moved, _ = wait_for_session(session, lambda c, t, v: not np.array_equal(t, target))
+        assert np.flatnonzero(np.any(moved != target, axis=1)).tolist() == [3]
+
+        # Delete and Backspace in deform mode delete nothing (point 3 is selected).
+        xdotool(display, "key", "Delete")
+        xdotool(display, "key", "BackSpace")
+        time.sleep(0.8)
+        assert len(session_points(session)[0]) == len(cage)
+
+        # Shift+click adds point 6 to the selection; dragging it moves 3 and 6 together.
+        xdotool(display, "mousemove", "--window", window, *(f"{v:.0f}" for v in window_pixel(view, moved[6])))
+        time.sleep(0.2)
+        xdotool(display, "keydown", "shift")
+        xdotool(display, "click", "1")
+        xdotool(display, "keyup", "shift")
+        time.sleep(0.3)
+        drag_point(display, window, window_pixel(view, moved[6]), np.array([-30.0, 24.0]))
+        _, both, _ = wait_for_session(session, lambda c, t, v: not np.array_equal(t, moved))
+        assert np.flatnonzero(np.any(both != moved, axis=1)).tolist() == [3, 6]
+        np.testing.assert_allclose(both[3] - moved[3], both[6] - moved[6], atol=1e-9)
+
+        # Zoom keys: 1 is 100 %, + and - zoom by 1.5, 0 fits again.
+        park_mouse(display, window)
+        fitted = view["scale"]
+        xdotool(display, "key", "1")
+        wait_for_session(session, lambda c, t, v: v["view"]["scale"] == 1.0)
+        xdotool(display, "key", "plus")
+        wait_for_session(session, lambda c, t, v: abs(v["view"]["scale"] - 1.5) < 1e-9)
+        xdotool(display, "key", "minus")
+        xdotool(display, "key", "minus")
+        wait_for_session(session, lambda c, t, v: abs(v["view"]["scale"] - 1 / 1.5) < 1e-9)
+        xdotool(display, "key", "0")
+        wait_for_session(session, lambda c, t, v: v["view"]["scale"] == fitted)
+
+        # A smaller window fits the image again instead of cutting it off.
+        xdotool(display, "windowsize", window, "900", "640")
+        image = read_image(ASSETS / "starfish.png")
+        expected = AppState(History(Snapshot(Path("s.png"), cage, cage)), None, image, Path("s.json"))
+        expected.window_size, expected.canvas_left = (900, 640), 300.0
+        controller.fit_view(expected, None)
+        _, _, resized = wait_for_session(
+            session, lambda c, t, v: abs(v["view"]["scale"] - expected.view.scale) < 1e-9
+        )
+        assert expected.view.scale < fitted
+        np.testing.assert_allclose(resized["view"]["offset"], expected.view.offset)
+        xdotool(display, "key", "ctrl+q")
+        code, stderr = viewer.finish()
+        assert code == 0, stderr
+    finally:
+        viewer.kill()

@@ -7,10 +7,13 @@ which records one undo step and marks the session for saving.
 
 Mouse (window pixels, canvas only):
 
-- deform mode: drag a blue target handle to deform; drag elsewhere to pan;
+- deform mode: drag a blue target handle to deform; drag on empty canvas to
+  select the handles in a rubber band;
 - cage mode: drag a green source handle to move it (its target follows); click
   elsewhere to add a point (appended while there are fewer than 3, otherwise
   inserted into the nearest span); right-click a handle to delete it;
+- Shift+click adds a handle to the selection or takes it out; dragging a selected
+  handle moves the whole selection;
 - middle or right drag pans, the wheel zooms around the cursor; Esc cancels a drag.
 """
 
@@ -28,6 +31,8 @@ LEFT, RIGHT, MIDDLE = 0, 1, 2
 STATUS_HEIGHT = 28.0
 #: Wheel zoom per notch.
 ZOOM_STEP = 1.15
+#: Zoom of the + and - keys.
+KEY_ZOOM_STEP = 1.5
 
 
 def commit(state: AppState, snapshot: Snapshot, message: str | None = None) -> bool:
@@ -38,8 +43,11 @@ def commit(state: AppState, snapshot: Snapshot, message: str | None = None) -> b
         state.session_dirty = True
     if message:
         state.say(message)
+    elif changed:
+        state.say("")  # what the status line said belongs to an earlier action
     if state.selected is not None and state.selected >= snapshot.n:
         state.selected = None
+    state.group = frozenset(i for i in state.group if i < snapshot.n)
     return changed
 
 
@@ -55,6 +63,7 @@ def show(state: AppState, snapshot: Snapshot) -> None:
     state.session_dirty = True
     if state.selected is not None and state.selected >= snapshot.n:
         state.selected = None
+    state.group = frozenset(i for i in state.group if i < snapshot.n)
 
 
 def handles(state: AppState, kind: str) -> np.ndarray:
@@ -65,13 +74,21 @@ def handles(state: AppState, kind: str) -> np.ndarray:
 
 def pick(state: AppState, x: float, y: float) -> int | None:
     """The handle of the current mode under window position (x, y)."""
-    return editing.nearest_handle(handles(state, "source" if state.mode == "cage" else "target"), (x, y))
+    return editing.nearest_handle(handles(state, _active(state)), (x, y))
 
 
 # -- mouse ------------------------------------------------------------------------------
 
 
-def pointer(state: AppState, kind: str, x: float, y: float, button: int = LEFT, amount: float = 0.0) -> None:
+def pointer(
+    state: AppState,
+    kind: str,
+    x: float,
+    y: float,
+    button: int = LEFT,
+    amount: float = 0.0,
+    shift: bool = False,
+) -> None:
     """Handle one canvas mouse event.
 
     Parameters
@@ -83,34 +100,43 @@ def pointer(state: AppState, kind: str, x: float, y: float, button: int = LEFT, 
         0 left, 1 right, 2 middle (press and release).
     amount : float
         Wheel notches (scroll), positive away from the user (zoom in).
+    shift : bool
+        Shift held (press): add to the selection instead of replacing it.
     """
     state.cursor = (float(x), float(y))
     if kind == "press":
-        _press(state, x, y, button)
+        _press(state, x, y, button, shift)
     elif kind == "move":
         _move(state, x, y)
     elif kind == "release":
         _release(state, button)
     elif kind == "scroll":
-        state.view = editing.zoom_about(state.view, (x, y), ZOOM_STEP**amount)
-        state.view_dirty = True
+        zoom(state, ZOOM_STEP**amount, (x, y))
     else:
         raise ValueError(f"unknown pointer event {kind!r}")
 
 
-def _press(state: AppState, x: float, y: float, button: int) -> None:
+def _press(state: AppState, x: float, y: float, button: int, shift: bool = False) -> None:
     if state.drag is not None:
         return
     cursor = editing.to_image(state.view, (x, y))
     index = pick(state, x, y)
     live = state.live
     if button == LEFT and index is not None:
-        kind = "source" if state.mode == "cage" else "target"
+        if shift:  # Shift+click: in or out of the selection, nothing moves
+            state.group = state.group ^ {index}
+            state.selected = index if index in state.group else None
+            return
+        selection = state.group
+        if index not in state.group:
+            state.group = frozenset({index})
+        kind = _active(state)
         points = live.cage if kind == "source" else live.target
-        state.drag = Drag(kind, index, points[index] - cursor, live)
+        indices = (index, *sorted(state.group - {index}))
+        state.drag = Drag(kind, index, points[index] - cursor, live, indices=indices, selection=selection)
         state.selected = index
         return
-    if button == LEFT and state.mode == "cage":
+    if button == LEFT and state.mode == "cage" and not shift:
         cage, target, index = editing.insert_point(live.cage, live.target, cursor)
         problem = editing.cage_problem(cage) if len(cage) >= 3 else None
         if problem:
@@ -118,13 +144,26 @@ def _press(state: AppState, x: float, y: float, button: int) -> None:
             return
         commit(state, live.replace(cage=cage, target=target), f"added control point {index}")
         state.selected = index
-        state.drag = Drag("source", index, np.zeros(2), state.live)
+        state.group = frozenset({index})
+        state.drag = Drag("source", index, np.zeros(2), state.live, indices=(index,))
         return
     if button == RIGHT and index is not None and state.mode == "cage":
         delete(state, index)
         return
-    if button in (LEFT, RIGHT, MIDDLE):
+    if button == LEFT:
+        start = np.array([x, y], dtype=np.float64)
+        state.drag = Drag("band", -1, start, live, selection=state.group if shift else frozenset())
+    elif button in (RIGHT, MIDDLE):
         state.drag = Drag("pan", -1, np.array([x, y], dtype=np.float64), live)
+
+
+def band_corners(state: AppState) -> tuple[np.ndarray, np.ndarray] | None:
+    """The rubber band being dragged: its lowest and highest corner, window pixels; None if none."""
+    drag = state.drag
+    if drag is None or drag.kind != "band":
+        return None
+    cursor = np.asarray(state.cursor, dtype=np.float64)
+    return np.minimum(drag.grab, cursor), np.maximum(drag.grab, cursor)
 
 
 def _move(state: AppState, x: float, y: float) -> None:
@@ -137,15 +176,28 @@ def _move(state: AppState, x: float, y: float) -> None:
         drag.grab = np.array([x, y], dtype=np.float64)
         drag.moved = True
         state.view_dirty = True
+        state.view_fitted = False
+        return
+    drag.moved = True
+    if drag.kind == "band":
+        low, high = band_corners(state)
+        points = handles(state, _active(state))
+        inside = np.all((points >= low) & (points <= high), axis=1)
+        state.group = drag.selection | frozenset(np.flatnonzero(inside).tolist())
         return
     position = editing.to_image(state.view, (x, y)) + drag.grab
-    live = state.live
+    before, indices = drag.before, drag.indices or (drag.index,)
     if drag.kind == "target":
-        state.live = live.replace(target=editing.move_point(live.target, drag.index, position))
-    else:
-        cage, target = editing.move_source_point(live.cage, live.target, drag.index, position)
-        state.live = live.replace(cage=cage, target=target)
-    drag.moved = True
+        shift = position - before.target[drag.index]
+        state.live = state.live.replace(target=editing.move_points(before.target, indices, shift))
+    else:  # the target points come along with their source points
+        shift = position - before.cage[drag.index]
+        cage = editing.move_points(before.cage, indices, shift)
+        state.live = state.live.replace(cage=cage, target=editing.move_points(before.target, indices, shift))
+
+
+def _active(state: AppState) -> str:
+    return "source" if state.mode == "cage" else "target"
 
 
 def _release(state: AppState, button: int) -> None:
@@ -153,6 +205,12 @@ def _release(state: AppState, button: int) -> None:
     if drag is None:
         return
     state.drag = None
+    if drag.kind == "band":
+        if not drag.moved:  # a click on empty canvas: nothing selected any more
+            state.group, state.selected = drag.selection, None
+        elif state.group:
+            state.say(f"{len(state.group)} handles selected: drag one to move them together")
+        return
     if drag.kind == "pan" or not drag.moved:
         return
     if drag.kind == "source":
@@ -161,7 +219,8 @@ def _release(state: AppState, button: int) -> None:
             state.live = drag.before
             state.say(f"move undone: {problem}", error=True)
             return
-    commit(state, state.live)
+    moved = len(drag.indices)
+    commit(state, state.live, f"moved {moved} control points" if moved > 1 else None)
 
 
 def cancel_drag(state: AppState) -> bool:
@@ -172,6 +231,10 @@ def cancel_drag(state: AppState) -> bool:
     state.drag = None
     if drag.kind != "pan":
         state.live = drag.before
+    if drag.kind in ("target", "source", "band"):
+        state.group = drag.selection
+        if drag.index not in drag.selection:
+            state.selected = None  # the press selected it: a cancelled drag leaves nothing selected
     state.say("drag cancelled")
     return True
 
@@ -180,22 +243,39 @@ def cancel_drag(state: AppState) -> bool:
 
 
 def delete(state: AppState, index: int | None = None) -> None:
-    """Delete source control point `index` (default: the selected one) and its target."""
-    index = state.selected if index is None else index
-    if index is None:
+    """Delete source control point `index` (default: the selected ones) and their targets (cage mode)."""
+    if state.mode != "cage":
+        state.say("points are deleted in cage mode (C); deforming never removes them", error=True)
+        return
+    indices = sorted({index} if index is not None else state.group or {state.selected} - {None}, reverse=True)
+    if not indices:
         state.say("select a control point first (click it)", error=True)
         return
+    cage, target = state.live.cage, state.live.target
     try:
-        cage, target = editing.delete_point(state.live.cage, state.live.target, index)
+        for i in indices:
+            cage, target = editing.delete_point(cage, target, i)
     except ValueError as error:
         state.say(str(error), error=True)
         return
+    what = f"point {indices[0]}" if len(indices) == 1 else f"{len(indices)} points"
     problem = editing.cage_problem(cage)
     if problem:
-        state.say(f"cannot delete point {index}: {problem}", error=True)
+        state.say(f"cannot delete {what}: {problem}", error=True)
         return
-    commit(state, state.live.replace(cage=cage, target=target), f"deleted control point {index}")
+    commit(state, state.live.replace(cage=cage, target=target), f"deleted control {what}")
     state.selected = None
+    state.group = frozenset()
+
+
+def zoom(state: AppState, factor: float, about=None) -> None:
+    """Zoom the view by `factor` about window point `about` (default: the canvas centre)."""
+    if about is None:
+        width, height = state.window_size
+        about = (0.5 * (state.canvas_left + width), 0.5 * (height - STATUS_HEIGHT))
+    state.view = editing.zoom_about(state.view, about, factor)
+    state.view_dirty = True
+    state.view_fitted = False
 
 
 def command(state: AppState, name: str, value=None) -> bool:
@@ -203,7 +283,7 @@ def command(state: AppState, name: str, value=None) -> bool:
 
     Commands: undo, redo, cancel, new_cage, reset_target, fit, subdivide, delete, mode, content,
     kernel, cycle_kernel (value "previous" goes back), power, shift, toggle (a bool field of the
-    state), fit_view, help.
+    state), fit_view, zoom ("in", "out" or a scale, 1.0 for 100 %), help.
     The window handles the ones that need it (open, save, export, quit).
     """
     live = state.live
@@ -220,7 +300,7 @@ def command(state: AppState, name: str, value=None) -> bool:
     elif name == "cancel":
         if not cancel_drag(state):
             state.show_help = False
-            state.open_prompt = None
+            state.open_prompt = state.export_prompt = None
     elif name == "new_cage":
         empty = np.zeros((0, 2))
         commit(state, live.replace(cage=empty, target=empty), "click on the image to place control points")
@@ -246,6 +326,7 @@ def command(state: AppState, name: str, value=None) -> bool:
     elif name == "mode":
         state.mode = value if value in MODES else ("cage" if state.mode == "deform" else "deform")
         state.hovered = None
+        state.group = frozenset()
         state.session_dirty = True
     elif name == "content":
         if value in CONTENTS:
@@ -272,6 +353,11 @@ def command(state: AppState, name: str, value=None) -> bool:
         state.session_dirty = True
     elif name == "fit_view":
         fit_view(state, value)
+    elif name == "zoom":
+        if value in ("in", "out"):
+            zoom(state, KEY_ZOOM_STEP if value == "in" else 1 / KEY_ZOOM_STEP)
+        else:  # a scale: 1.0 is 100 %
+            zoom(state, float(value) / state.view.scale)
     elif name == "help":
         state.show_help = not state.show_help
     else:
@@ -293,3 +379,4 @@ def fit_view(state: AppState, window_size: tuple[int, int] | None) -> None:
     offset = (left + 0.5 * (canvas[0] - scale * image_width), 0.5 * (canvas[1] - scale * image_height))
     state.view = View(scale, (round(offset[0], 1), round(offset[1], 1)))
     state.view_dirty = True
+    state.view_fitted = True

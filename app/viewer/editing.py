@@ -149,22 +149,10 @@ def delete_point(cage: np.ndarray, target: np.ndarray, index: int) -> tuple[np.n
     return np.delete(cage, index, axis=0), np.delete(np.asarray(target, dtype=np.float64), index, axis=0)
 
 
-def move_source_point(
-    cage: np.ndarray, target: np.ndarray, index: int, position
-) -> tuple[np.ndarray, np.ndarray]:
-    """Move source point `index` to `position`; its target point moves by the same amount."""
-    cage = np.array(cage, dtype=np.float64).reshape(-1, 2)
-    target = np.array(target, dtype=np.float64).reshape(-1, 2)
-    shift = np.asarray(position, dtype=np.float64) - cage[index]
-    cage[index] += shift
-    target[index] += shift
-    return cage, target
-
-
-def move_point(points: np.ndarray, index: int, position) -> np.ndarray:
-    """A copy of `points` with row `index` at `position`."""
+def move_points(points: np.ndarray, indices, shift) -> np.ndarray:
+    """A copy of `points` (n, 2) with the rows `indices` moved by `shift` (2,)."""
     points = np.array(points, dtype=np.float64).reshape(-1, 2)
-    points[index] = position
+    points[list(indices)] += np.asarray(shift, dtype=np.float64)
     return points
 
 

@@ -58,33 +58,47 @@ def gui(state: AppState, shortcuts: list[tuple[str, str]], extras: dict | None =
         _colour_bar(state, width, height)
     if state.show_help:
         _help(state, shortcuts, width, height)
-    if state.open_prompt is not None:
-        _open_prompt(state, commands, width, height)
+    for kind in ("open", "export"):
+        if getattr(state, f"{kind}_prompt") is not None:
+            _path_prompt(state, commands, (width, height), kind)
     return commands
 
 
-def _open_prompt(state: AppState, commands: list[tuple], width: float, height: float) -> None:
-    """Type a path to open, where no file dialog program (zenity, kdialog) is installed."""
+def _path_prompt(state: AppState, commands: list[tuple], size: tuple[float, float], kind: str) -> None:
+    """Type a path to open (`kind` "open") or to export to ("export"), where no file dialog
+    program (zenity, kdialog) is installed."""
+    width, height = size
+    field = f"{kind}_prompt"
+    title, explanation, button, command = {
+        "open": (
+            "Open a file",
+            "Path of an image, a session or a cage file (or drop the file on the window):",
+            "Open",
+            "open_path",
+        ),
+        "export": ("Export the warped image", "Write the PNG to:", "Export", "export_path"),
+    }[kind]
     imgui.set_next_window_pos((width / 2, height / 3), imgui.Cond_.appearing, (0.5, 0.5))
     imgui.set_next_window_size((min(640.0, 0.9 * width), 0), imgui.Cond_.appearing)
-    expanded, opened = imgui.begin("Open a file", True, imgui.WindowFlags_.no_saved_settings)
+    expanded, opened = imgui.begin(title, True, imgui.WindowFlags_.no_saved_settings)
     if expanded:
-        imgui.text_wrapped("Path of an image, a session or a cage file (or drop the file on the window):")
+        imgui.text_wrapped(explanation)
         imgui.set_next_item_width(-1)
         if imgui.is_window_appearing():
             imgui.set_keyboard_focus_here()
-        entered, state.open_prompt = imgui.input_text(
-            "##path", state.open_prompt, imgui.InputTextFlags_.enter_returns_true
+        entered, text = imgui.input_text(
+            f"##{kind}", getattr(state, field), imgui.InputTextFlags_.enter_returns_true
         )
-        if (entered or imgui.button("Open")) and state.open_prompt.strip():
-            commands.append(("open_path", state.open_prompt.strip()))
-            state.open_prompt = None
+        setattr(state, field, text)
+        if (entered or imgui.button(button)) and text.strip():
+            commands.append((command, text.strip()))
+            setattr(state, field, None)
         imgui.same_line()
         if imgui.button("Cancel"):
-            state.open_prompt = None
+            setattr(state, field, None)
     imgui.end()
     if opened is False:
-        state.open_prompt = None
+        setattr(state, field, None)
 
 
 def _panel(state: AppState, commands: list, extras: dict, height: float) -> None:
@@ -115,17 +129,19 @@ def _panel(state: AppState, commands: list, extras: dict, height: float) -> None
     if imgui.button("New cage"):
         commands.append(("new_cage", None))
     imgui.same_line()
-    imgui.begin_disabled(state.selected is None or state.mode != "cage")
-    if imgui.button("Delete selected point"):
+    imgui.begin_disabled((state.selected is None and not state.group) or state.mode != "cage")
+    if imgui.button("Delete selected"):
         commands.append(("delete", None))
     imgui.end_disabled()
-    imgui.text_disabled(
-        f"{live.n} control points"
-        + (f", point {state.selected} selected" if state.selected is not None else "")
-    )
+    if len(state.group) > 1:
+        selection = f", {len(state.group)} selected"
+    else:
+        selection = f", point {state.selected} selected" if state.selected is not None else ""
+    imgui.text_disabled(f"{live.n} control points{selection}")
 
     imgui.separator_text("Kernel")
     names = kernel_names()
+    state.spots["kernel"] = tuple(imgui.get_cursor_screen_pos() + imgui.ImVec2(24, 8))
     if imgui.begin_combo("##kernel", live.kernel):
         for name in names:
             clicked, _ = imgui.selectable(name, name == live.kernel)
@@ -205,9 +221,11 @@ def _panel(state: AppState, commands: list, extras: dict, height: float) -> None
 
 
 def _status(state: AppState, width: float, height: float) -> None:
-    imgui.set_next_window_pos((0, height - STATUS_HEIGHT))
-    imgui.set_next_window_size((width, STATUS_HEIGHT))
-    imgui.begin("##status", None, _FIXED | imgui.WindowFlags_.no_title_bar | imgui.WindowFlags_.no_scrollbar)
+    """The status line: kernel, mesh, zoom, timings and the last message.
+
+    A message too long for the line goes on lines of its own above it, wrapped,
+    instead of being cut at the window's edge.
+    """
     live = state.live
     kernel = live.kernel + (f" (k={live.power:g}, shift {live.shift})" if live.kernel == "power" else "")
     vertices = f"{len(state.basis.mesh.vertices):,} vertices" if state.basis is not None else "no mesh yet"
@@ -218,10 +236,23 @@ def _status(state: AppState, width: float, height: float) -> None:
     )
     recent = sorted(state.frame_ms[-60:])
     frame = f"frame {recent[len(recent) // 2]:.1f} ms" if recent else "frame -"
-    imgui.text(f"{kernel} | {vertices} | {precompute} | {frame} |")
-    if state.message:
+    summary = f"{kernel} | {vertices} | zoom {100 * state.view.scale:.0f} % | {precompute} | {frame} |"
+    padding = imgui.get_style().window_padding.x
+    room = width - 2 * padding
+    spacing = imgui.get_style().item_spacing.x
+    inline = imgui.calc_text_size(f"{summary}{state.message}").x + spacing <= room
+    extra = 0.0 if inline or not state.message else imgui.calc_text_size(state.message, wrap_width=room).y
+    imgui.set_next_window_pos((0, height - STATUS_HEIGHT - extra))
+    imgui.set_next_window_size((width, STATUS_HEIGHT + extra))
+    imgui.begin("##status", None, _FIXED | imgui.WindowFlags_.no_title_bar | imgui.WindowFlags_.no_scrollbar)
+    colour = (1.0, 0.45, 0.4, 1.0) if state.message_is_error else (0.75, 0.85, 1.0, 1.0)
+    if state.message and not inline:
+        imgui.push_text_wrap_pos(0.0)
+        imgui.text_colored(colour, state.message)
+        imgui.pop_text_wrap_pos()
+    imgui.text(summary)
+    if state.message and inline:
         imgui.same_line()
-        colour = (1.0, 0.45, 0.4, 1.0) if state.message_is_error else (0.75, 0.85, 1.0, 1.0)
         imgui.text_colored(colour, state.message)
     imgui.end()
 

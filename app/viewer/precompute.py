@@ -22,9 +22,12 @@ from __future__ import annotations
 import hashlib
 import json
 import multiprocessing
+import multiprocessing.connection
 import os
+import threading
 import time
 from collections import OrderedDict
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -164,6 +167,28 @@ class Precompute:
         result_writer.close()
         self.pending: str | None = None  # key of the request running or queued
         self._memory: OrderedDict[str, BasisResult] = OrderedDict()
+        self._read = threading.Event()  # set by `poll`: the waker may wait for the next message
+        self._closing = threading.Event()
+
+    def wake_on_message(self, wake: Callable[[], None]) -> None:
+        """Call `wake` from a thread whenever a message is waiting, so that a sleeping UI loop redraws.
+
+        After one call it waits until `poll` has read the messages, so a message
+        not yet read does not wake the loop again and again.
+        """
+
+        def watch() -> None:
+            while not self._closing.is_set():
+                try:
+                    ready = multiprocessing.connection.wait([self._results], timeout=0.5)
+                except (OSError, ValueError):
+                    return  # the pipe is closed
+                if ready and not self._closing.is_set():
+                    self._read.clear()
+                    wake()
+                    self._read.wait(0.5)
+
+        threading.Thread(target=watch, name="precompute-waker", daemon=True).start()
 
     def submit(self, request: Request) -> None:
         """Start computing `request`, superseding whatever runs."""
@@ -186,6 +211,7 @@ class Precompute:
     def poll(self) -> list[tuple]:
         """Messages that arrived, without waiting: progress, done (as `BasisResult`) and error."""
         messages = []
+        self._read.set()
         try:
             while self._results.poll():
                 message = self._results.recv()
@@ -209,6 +235,7 @@ class Precompute:
 
     def close(self) -> None:
         """Stop the worker (it abandons a running request at its next progress report)."""
+        self._closing.set()
         try:
             self._requests.send(None)
         except OSError:

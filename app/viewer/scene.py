@@ -18,7 +18,8 @@ import numpy as np
 
 from app.compare import default_values
 from app.render import View, WarpRenderer
-from app.viewer.editing import curve_points
+from app.viewer.controller import band_corners
+from app.viewer.editing import curve_points, to_image
 from app.viewer.state import AppState
 
 #: Straight RGB of the overlays: the source curve green, the target blue (the paper's Fig. 11).
@@ -57,6 +58,7 @@ def overlay_arrays(state: AppState) -> tuple[np.ndarray, np.ndarray]:
         handles[:, 6] = size
         if is_active:
             for index, fill, grow in (
+                *((i, SELECTED_COLOUR, 0.0) for i in state.group),
                 (state.hovered, HOVER_COLOUR, 4.0),
                 (state.selected, SELECTED_COLOUR, 2.0),
             ):
@@ -64,6 +66,11 @@ def overlay_arrays(state: AppState) -> tuple[np.ndarray, np.ndarray]:
                     handles[index, 2:5] = fill
                     handles[index, 6] = size + grow
         points.append(handles)
+    band = band_corners(state)
+    if band is not None:
+        (x0, y0), (x1, y1) = band
+        corners = to_image(state.view, [[x0, y0], [x1, y0], [x1, y1], [x0, y1]])
+        segments.append(_closed_segments(corners, SELECTED_COLOUR, 0.9, 1.0))
     segments = np.concatenate(segments) if segments else np.zeros((0, 2, 7))
     return segments, np.concatenate(points)
 
@@ -131,13 +138,13 @@ class Scene:
             return
         started = time.perf_counter()
         changed = None if drawn is None else np.flatnonzero(np.any(drawn != target, axis=1))
-        if dragging and changed is not None and len(changed) == 1 and self._positions is not None:
-            # The per-drag path: one column of G, O(V) work for any n.
-            i = int(changed[0])
-            delta = (target[i] - drawn[i]).astype(np.float32)
-            column = basis.columns[:, i]
-            self._positions[:, 0] += column * delta[0]
-            self._positions[:, 1] += column * delta[1]
+        if dragging and changed is not None and 0 < len(changed) <= 4 and self._positions is not None:
+            # The per-drag path: one column of G per moved point, O(V) work for any n.
+            for i in changed:
+                delta = (target[i] - drawn[i]).astype(np.float32)
+                column = basis.columns[:, i]
+                self._positions[:, 0] += column * delta[0]
+                self._positions[:, 1] += column * delta[1]
             self._exact = False
         else:
             deformed = basis.basis @ target

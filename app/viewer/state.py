@@ -187,17 +187,22 @@ class Drag:
 
     Attributes
     ----------
-    kind : {"target", "source", "pan"}
-        What the drag moves.
+    kind : {"target", "source", "pan", "band"}
+        What the drag moves ("band": a rubber band that selects the handles inside it).
     index : int
-        The control point dragged (-1 for a pan).
+        The control point under the cursor (-1 for a pan or a band).
     grab : ndarray of shape (2,)
         Control point minus cursor, image pixels, so that the point does not jump
-        to the cursor; for a pan, the cursor's window position at the last event.
+        to the cursor; for a pan, the cursor's window position at the last event;
+        for a band, the window position where it started.
     before : Snapshot
         The state when the drag started: Esc goes back to it.
     moved : bool
         Whether the cursor moved since the press.
+    indices : tuple of int
+        Every control point the drag moves together (the selection, `index` among them).
+    selection : frozenset of int
+        The selection when the drag started (a band with Shift adds to it; Esc restores it).
     """
 
     kind: str
@@ -205,6 +210,8 @@ class Drag:
     grab: np.ndarray
     before: Snapshot
     moved: bool = False
+    indices: tuple[int, ...] = ()
+    selection: frozenset = frozenset()
 
 
 @dataclass
@@ -254,7 +261,9 @@ class AppState:
     view: View = field(default_factory=View)
     mode: str = "deform"
     content: str = "image"
-    selected: int | None = None
+    selected: int | None = None  # the last handle clicked: its basis function is shown
+    group: frozenset = frozenset()  # the handles moved together (Shift+click, rubber band)
+    view_fitted: bool = True  # the view is `fit_view`'s (a window resize fits it again)
     hovered: int | None = None
     drag: Drag | None = None
     show_folds: bool = True
@@ -262,6 +271,7 @@ class AppState:
     show_overlay: bool = True
     show_help: bool = False
     open_prompt: str | None = None  # the path typed into the open prompt (no dialog program)
+    export_prompt: str | None = None  # the path typed into the export prompt (no dialog program)
     backdrop_opacity: float = 0.0  # of the source image behind the warp
     power_draft: float | None = None  # the power slider while it is dragged
     max_edge: float | None = None  # forced mesh edge length (None: from the cage's area)
@@ -277,6 +287,7 @@ class AppState:
     cursor: tuple[float, float] = (0.0, 0.0)  # window pixels
     window_size: tuple[int, int] = (1280, 1024)  # window pixels
     canvas_left: float = 0.0  # window pixels hidden under the side panel
+    spots: dict = field(default_factory=dict)  # window points inside some widgets (for tests)
     session_dirty: bool = False  # an edit to save now
     view_dirty: bool = False  # a zoom or pan to save soon
     quit: bool = False

@@ -70,10 +70,11 @@ def _key_table():
         (glfw.KEY_Z, ctrl, "undo", None, "Ctrl+Z", "undo the last edit"),
         (glfw.KEY_Z, ctrl | shift, "redo", None, "Ctrl+Shift+Z, Ctrl+Y", "redo"),
         (glfw.KEY_Y, ctrl, "redo", None, None, None),
-        (glfw.KEY_ESCAPE, 0, "cancel", None, "Esc", "cancel the drag in progress (or close the help)"),
+        (glfw.KEY_ESCAPE, 0, "cancel", None, "Esc", "cancel the drag in progress, close a list or the help"),
         (glfw.KEY_O, ctrl, "open", None, "Ctrl+O", "open an image (or drop a file on the window)"),
         (glfw.KEY_S, ctrl, "save", None, "Ctrl+S", "save the session now (it also saves itself)"),
         (glfw.KEY_E, ctrl, "export", None, "Ctrl+E", "export the warped image as PNG, full resolution"),
+        (glfw.KEY_E, ctrl | shift, "export", "again", "Ctrl+Shift+E", "export again to the last file"),
         (glfw.KEY_Q, ctrl, "quit", None, "Ctrl+Q", "quit"),
         (glfw.KEY_TAB, 0, "mode", None, "Tab", "switch between deforming and editing the cage"),
         (glfw.KEY_D, 0, "mode", "deform", "D", "deform: drag the blue target points"),
@@ -82,17 +83,26 @@ def _key_table():
         (glfw.KEY_R, 0, "reset_target", None, "R", "reset the target to the source cage"),
         (glfw.KEY_F, 0, "fit", None, "F", "fit the cage to the image's silhouette"),
         (glfw.KEY_S, 0, "subdivide", None, "S", "subdivide the cage (same curve, twice the points)"),
-        (glfw.KEY_DELETE, 0, "delete", None, "Delete", "delete the selected control point"),
+        (glfw.KEY_DELETE, 0, "delete", None, "Delete", "delete the selected control points (cage mode)"),
         (glfw.KEY_BACKSPACE, 0, "delete", None, None, None),
         (glfw.KEY_K, 0, "cycle_kernel", "next", "K, Shift+K", "next (previous) kernel"),
         (glfw.KEY_K, shift, "cycle_kernel", "previous", None, None),
-        (glfw.KEY_1, 0, "content", "image", "1", "show the warped image"),
-        (glfw.KEY_2, 0, "content", "basis", "2", "show the selected point's basis function (heat map)"),
-        (glfw.KEY_3, 0, "content", "height", "3", "show a height interpolant in bands (Fig. 1)"),
+        (glfw.KEY_1, shift, "content", "image", "Shift+1", "show the warped image"),
+        (glfw.KEY_2, shift, "content", "basis", "Shift+2", "show the selected point's basis function"),
+        (glfw.KEY_3, shift, "content", "height", "Shift+3", "show a height interpolant in bands (Fig. 1)"),
+        (glfw.KEY_EQUAL, 0, "zoom", "in", "+, -", "zoom in, out (about the canvas centre)"),
+        (glfw.KEY_EQUAL, shift, "zoom", "in", None, None),
+        (glfw.KEY_KP_ADD, 0, "zoom", "in", None, None),
+        (glfw.KEY_MINUS, 0, "zoom", "out", None, None),
+        (glfw.KEY_KP_SUBTRACT, 0, "zoom", "out", None, None),
+        (glfw.KEY_1, 0, "zoom", 1.0, "1, 2, 3", "zoom to 100 %, 200 %, 400 %"),
+        (glfw.KEY_2, 0, "zoom", 2.0, None, None),
+        (glfw.KEY_3, 0, "zoom", 4.0, None, None),
+        (glfw.KEY_0, 0, "fit_view", None, "0, Home", "fit the image in the window"),
         (glfw.KEY_X, 0, "toggle", "show_folds", "X", "show folded-over triangles"),
         (glfw.KEY_W, 0, "toggle", "show_wireframe", "W", "show the mesh edges"),
         (glfw.KEY_V, 0, "toggle", "show_overlay", "V", "show the curves and handles"),
-        (glfw.KEY_HOME, 0, "fit_view", None, "Home", "fit the image in the window"),
+        (glfw.KEY_HOME, 0, "fit_view", None, None, None),
         (glfw.KEY_P, 0, "play", None, "P", "play or stop the demo script"),
         (glfw.KEY_F1, 0, "help", None, "F1, H", "this help"),
         (glfw.KEY_H, 0, "help", None, None, None),
@@ -101,8 +111,15 @@ def _key_table():
 
 MOUSE_HELP = [
     ("Wheel", "zoom around the cursor"),
-    ("Middle or right drag", "pan (also left drag on empty canvas when deforming)"),
+    ("Middle or right drag", "pan"),
+    ("Drag on empty canvas", "select the handles inside a rubber band (deform mode; Shift adds)"),
+    ("Shift+click", "add a handle to the selection, or take it out; drag one to move them all"),
 ]
+#: Frames drawn after any input without waiting: imgui opens a popup (a combo) one frame
+#: after the click, and a widget may change the state it draws only on the next frame.
+FRAMES_AFTER_INPUT = 3
+#: Seconds an idle viewer sleeps between frames (input, and the precompute's messages, wake it).
+IDLE_WAIT = 2.0
 
 
 class Viewer:
@@ -133,11 +150,17 @@ class Viewer:
         self._failed: set[str] = set()
         self._events: deque = deque()
         self._dialog = None
+        self._save_dialog = None
         self._view_changed_at = 0.0
         self._player = None
         self._script_clock: float | None = None
         self._frames_written = 0
         self._announced_ready = False
+        self._frames_to_draw = FRAMES_AFTER_INPUT
+        self._close_popups = False
+        self._popup_is_open = False
+        self._typing = False
+        self._last_export: Path | None = options.export
         self.window = None
 
     # -- lifetime -------------------------------------------------------------------
@@ -198,6 +221,7 @@ class Viewer:
         self.imgui = imgui
         self.imgui_renderer = GlfwRenderer(window)
         self._chain_callbacks(glfw)
+        self.precompute.wake_on_message(glfw.post_empty_event)
         self.renderer = WarpRenderer(self.ctx)
         self.scene = Scene(self.renderer)
         self.shortcuts = [(keys, what) for *_, keys, what in _key_table() if keys] + MOUSE_HELP
@@ -262,25 +286,28 @@ class Viewer:
                 if previous is not None:
                     previous(*args)
                 handler(*args)
+                self._frames_to_draw = FRAMES_AFTER_INPUT
 
             setter(window, callback)
 
         def mouse_button(_, button, action, mods):
             x, y = glfw.get_cursor_pos(window)
             if action == glfw.RELEASE:
-                self._events.append(("pointer", "release", x, y, button, 0.0))
-            elif not io.want_capture_mouse:
-                self._events.append(("pointer", "press", x, y, button, 0.0))
+                self._events.append(("pointer", "release", x, y, button, 0.0, False))
+            elif not io.want_capture_mouse_unless_popup_close:
+                # A press that closes an open list (combo) also reaches the canvas.
+                shift = bool(mods & glfw.MOD_SHIFT)
+                self._events.append(("pointer", "press", x, y, button, 0.0, shift))
 
         def cursor(_, x, y):
             # A drag keeps its events even over a panel.
             if self.state.drag is not None or not io.want_capture_mouse:
-                self._events.append(("pointer", "move", x, y, 0, 0.0))
+                self._events.append(("pointer", "move", x, y, 0, 0.0, False))
 
         def scroll(_, dx, dy):
             if not io.want_capture_mouse:
                 x, y = glfw.get_cursor_pos(window)
-                self._events.append(("pointer", "scroll", x, y, 0, dy))
+                self._events.append(("pointer", "scroll", x, y, 0, dy, False))
 
         def key(_, key, scancode, action, mods):
             if action not in (glfw.PRESS, glfw.REPEAT) or io.want_text_input:
@@ -302,10 +329,15 @@ class Viewer:
         def close(_):
             self.state.quit = True
 
+        def char(*_):
+            self._frames_to_draw = FRAMES_AFTER_INPUT
+
         chained(glfw.set_mouse_button_callback, mouse_button)
         chained(glfw.set_cursor_pos_callback, cursor)
         chained(glfw.set_scroll_callback, scroll)
         chained(glfw.set_key_callback, key)
+        chained(glfw.set_char_callback, char)
+        chained(glfw.set_window_size_callback, lambda *_: None)
         glfw.set_drop_callback(window, drop)
         glfw.set_window_close_callback(window, close)
 
@@ -313,8 +345,8 @@ class Viewer:
         while self._events:
             event = self._events.popleft()
             if event[0] == "pointer":
-                _, kind, x, y, button, amount = event
-                controller.pointer(self.state, kind, x, y, button, amount)
+                _, kind, x, y, button, amount, shift = event
+                controller.pointer(self.state, kind, x, y, button, amount, shift)
                 if kind in ("scroll",) or (
                     kind == "move" and self.state.drag and self.state.drag.kind == "pan"
                 ):
@@ -330,7 +362,14 @@ class Viewer:
         elif name == "save":
             self._save_if_needed(force=True, announce=True)
         elif name == "export":
-            self.export()
+            if value == "again" and self._last_export is not None:
+                self.export(self._last_export)
+            else:
+                self._ask_export_path()
+        elif name == "export_path":
+            self.export(Path(value).expanduser())
+        elif name == "cancel" and self._popup_is_open:
+            self._close_popups = True
         elif name == "open":
             self._open_dialog()
         elif name == "open_path":
@@ -344,6 +383,21 @@ class Viewer:
             self._view_changed_at = time.perf_counter()
         elif not controller.command(state, name, value):
             state.say(f"unknown command {name!r}", error=True)
+
+    def _follow_window_size(self, size: tuple[int, int]) -> None:
+        """A resized window: fit the image again if it was fitted, else keep the canvas centre still."""
+        state = self.state
+        old = state.window_size
+        state.window_size = size
+        if tuple(size) == tuple(old) or size[0] <= 0 or size[1] <= 0:
+            return
+        if state.view_fitted:
+            controller.fit_view(state, None)
+        else:
+            shift = 0.5 * (np.asarray(size, dtype=np.float64) - np.asarray(old, dtype=np.float64))
+            state.view = editing.pan(state.view, shift)
+            state.view_dirty = True
+        self._view_changed_at = time.perf_counter()
 
     # -- files ----------------------------------------------------------------------------
 
@@ -363,6 +417,11 @@ class Viewer:
             self._dialog = None
             if paths:
                 self.open_path(Path(paths[0]))
+        if self._save_dialog is not None and self._save_dialog.ready(0):
+            path = self._save_dialog.result()
+            self._save_dialog = None
+            if path:
+                self.export(Path(path))
 
     def open_path(self, path: Path) -> None:
         """Open a dropped or chosen file: an image or a session (each in its own session file), or a cage.
@@ -416,10 +475,24 @@ class Viewer:
         if controller.commit(state, snapshot, f"started over: {note} (Ctrl+Z goes back)"):
             controller.fit_view(state, None)
 
-    def export(self, path: Path | None = None) -> Path | None:
+    def _ask_export_path(self) -> None:
+        """Ctrl+E: where to write (``--export`` if given, else a save dialog or the in-window prompt)."""
+        if self.options.export is not None:
+            self.export(self.options.export)
+            return
+        proposed = self._last_export or default_export_path(self.state.live.image)
+        if not any(shutil.which(p) for p in ("zenity", "kdialog", "matedialog", "qarma")):
+            self.state.export_prompt = str(proposed)
+            return
+        from imgui_bundle import portable_file_dialogs as pfd
+
+        self._save_dialog = pfd.save_file("Export the warped image", str(proposed), ["PNG images", "*.png"])
+
+    def export(self, path: Path) -> Path | None:
         """Write the warped image at the image's full resolution, like ``warp --session``."""
         state = self.state
-        path = path or self.options.export or state.session_path.with_suffix(".png")
+        if path.suffix.lower() != ".png":
+            path = path.with_name(path.name + ".png")
         pixels = self._render_export()
         if pixels is None:
             state.say("nothing to export yet: the basis functions are still being computed", error=True)
@@ -429,7 +502,8 @@ class Viewer:
         except InputError as error:
             state.say(str(error), error=True)
             return None
-        state.say(f"exported {path}")
+        self._last_export = path
+        state.say(f"exported {path} (Ctrl+Shift+E writes it again)")
         self._announce(f"exported {path}")
         return path
 
@@ -569,7 +643,7 @@ class Viewer:
         )
         for kind, x, y in events:
             # The same path as the mouse: the queue that the glfw callbacks fill.
-            self._events.append(("pointer", kind, x, y, controller.LEFT, 0.0))
+            self._events.append(("pointer", kind, x, y, controller.LEFT, 0.0, False))
         if player.finished and not events:
             self._player = None
             state.say("script finished")
@@ -598,16 +672,19 @@ class Viewer:
         # precompute (the worker runs at lower priority and gets what the UI leaves).
         if self._player is not None and self._script_clock is not None:
             glfw.poll_events()  # a replay animates every frame
-        elif self._events:
+        elif not imgui.get_current_context().input_events_queue.empty():
+            glfw.poll_events()  # imgui takes queued input a few events a frame (typed text)
+        elif self._events or self._frames_to_draw > 0:
             glfw.poll_events()
+            self._frames_to_draw -= 1
         elif self.precompute.pending is not None or self._player is not None:
             glfw.wait_events_timeout(0.1)  # the progress bar
-        elif state.view_dirty or self._dialog is not None:
+        elif state.view_dirty or self._dialog is not None or self._save_dialog is not None:
             glfw.wait_events_timeout(0.05)
         else:
-            glfw.wait_events_timeout(0.5)
+            glfw.wait_events_timeout(IDLE_WAIT)
         started = time.perf_counter()
-        state.window_size = glfw.get_window_size(self.window)
+        self._follow_window_size(glfw.get_window_size(self.window))
         self._script_events()
         self._apply_events()
         self._poll_dialog()
@@ -615,10 +692,23 @@ class Viewer:
 
         self.imgui_renderer.process_inputs()
         imgui.new_frame()
+        if self._close_popups:
+            imgui.internal.close_popups_except_modals()
+            self._close_popups = False
         from app.viewer.gui import gui
 
         extras = {"script": self.options.script is not None, "playing": self._player is not None}
-        for name, value in gui(state, self.shortcuts, extras):
+        commands = gui(state, self.shortcuts, extras)
+        any_popup = imgui.PopupFlags_.any_popup_id | imgui.PopupFlags_.any_popup_level
+        popup = imgui.is_popup_open("", any_popup)
+        if popup != self._popup_is_open:
+            self._announce(f"popup {'open' if popup else 'closed'}")
+        self._popup_is_open = popup
+        typing = imgui.get_io().want_text_input
+        if typing != self._typing:
+            self._announce(f"text input {'on' if typing else 'off'}")  # keys go to a text field
+            self._typing = typing
+        for name, value in commands:
             self.command(name, value)
         self._update_precompute()  # a kernel chosen in the panel starts computing this frame
 
@@ -639,6 +729,8 @@ class Viewer:
             self._announced_ready = True
             window_id = glfw.get_x11_window(self.window) if sys.platform.startswith("linux") else 0
             self._announce(f"ready window={window_id}")
+            x, y = state.spots.get("kernel", (0, 0))
+            self._announce(f"spot kernel={x:.0f},{y:.0f}")
         if glfw.window_should_close(self.window):
             state.quit = True
 
@@ -648,6 +740,19 @@ class Viewer:
 
     def _title(self) -> str:
         return f"Transfinite warp - {Path(self.state.live.image).name}"
+
+
+def default_export_path(image: Path) -> Path:
+    """Where Ctrl+E proposes to write: ``STEM-warped.png`` beside the image, numbered if it exists."""
+    image = Path(image)
+    if not os.access(image.parent, os.W_OK):  # a bundled demo, a read-only folder
+        image = Path.cwd() / image.name
+    for number in range(1, 1000):
+        suffix = "" if number == 1 else f"-{number}"
+        path = image.with_name(f"{image.stem}-warped{suffix}.png")
+        if not path.exists():
+            return path
+    return image.with_name(f"{image.stem}-warped.png")
 
 
 def _environment_error(message: str) -> Exception:
