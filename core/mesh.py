@@ -34,6 +34,7 @@ Coordinates are (x, y); "counter-clockwise" means in a y-up frame (positive
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -213,7 +214,9 @@ def require_mesh_of(curve: ClosedBSpline, mesh: Mesh) -> None:
         )
 
 
-def triangulate(curve: ClosedBSpline, max_edge: float | None = None) -> Mesh:
+def triangulate(
+    curve: ClosedBSpline, max_edge: float | None = None, progress: Callable[[float], None] | None = None
+) -> Mesh:
     """Quality conforming triangle mesh of the domain bounded by `curve`.
 
     Parameters
@@ -224,6 +227,10 @@ def triangulate(curve: ClosedBSpline, max_edge: float | None = None) -> Mesh:
         Longest edge wanted, in the units of the control points; edges are shorter
         where the curve turns or where parts of it come close.  Defaults to
         ``curve.diameter / 50``.
+    progress : callable, optional
+        Called with the fraction done, in [0, 1], after each phase and each
+        refinement round (an estimate: the vertices so far against the count that
+        the area and `max_edge` predict); it may raise to abandon the meshing.
 
     Returns
     -------
@@ -257,13 +264,20 @@ def triangulate(curve: ClosedBSpline, max_edge: float | None = None) -> Mesh:
             f"max_edge={max_edge:.6g} is too small: the mesh would have about {estimate:.3g} "
             f"vertices, more than the {MAX_VERTICES:,} allowed; use max_edge >= {smallest:.3g}"
         )
+    report = _Progress(progress, estimate)
     try:
+        # The fractions are the phases' shares of the time on dense meshes (250k vertices).
         sizing = _Sizing(curve, max_edge)
+        report.phase(0.01)
         mesher = _Refinement(curve, sizing)
-        mesher.refine()
-        mesher.smooth(SMOOTHING_PASSES)
-        mesher.refine()
-        return mesher.mesh()
+        report.phase(0.03)
+        mesher.refine(lambda: report.vertices(mesher.points.shape[0], 0.03, 0.2))
+        mesher.smooth(SMOOTHING_PASSES, lambda done: report.phase(0.2 + 0.45 * done))
+        report.phase(0.78)
+        mesher.refine(lambda: report.vertices(mesher.points.shape[0], 0.78, 0.97))
+        mesh = mesher.mesh()
+        report.phase(1.0)
+        return mesh
     except RuntimeError as error:
         raise ValueError(_unmeshable(curve, str(error))) from None
 
@@ -546,10 +560,15 @@ class _Refinement:
             return
         raise RuntimeError("boundary refinement did not converge")
 
-    def refine(self) -> None:
-        """Conform, then insert circumcentres of bad triangles until none is left."""
+    def refine(self, round_done: Callable[[], None] | None = None) -> None:
+        """Conform, then insert circumcentres of bad triangles until none is left.
+
+        `round_done` is called after each round's triangulation.
+        """
         for _ in range(MAX_ROUNDS):
             self._conform()
+            if round_done is not None:
+                round_done()
             if not self._improve():
                 return
         raise RuntimeError("mesh refinement did not converge")
@@ -602,12 +621,12 @@ class _Refinement:
         self.interior = np.vstack([self.interior, accepted])
         return True
 
-    def smooth(self, passes: int) -> None:
+    def smooth(self, passes: int, pass_done: Callable[[float], None] | None = None) -> None:
         """Laplacian smoothing: move interior vertices to the mean of their neighbours.
 
         Each pass keeps every triangle at least a tenth of its area before the
         pass (moves that would not are undone); then the points are triangulated
-        again.
+        again.  `pass_done` gets the fraction of the passes done after each one.
         """
         points = self.points
         count = self.parameters.shape[0]
@@ -621,7 +640,7 @@ class _Refinement:
         degree = np.asarray(adjacency.sum(axis=1)).ravel()
         movable = np.arange(count, total)
         movable = movable[degree[movable] > 0]
-        for _ in range(passes):
+        for done in range(passes):
             moved = points.copy()
             moved[movable] = (adjacency @ points)[movable] / degree[movable, None]
             minimum_area = 0.1 * _signed_areas(points, simplices)
@@ -632,6 +651,8 @@ class _Refinement:
                 undo = np.unique(simplices[collapsed])
                 moved[undo] = points[undo]
             points = moved
+            if pass_done is not None:
+                pass_done((done + 1) / passes)
         self.interior = points[count:]
         self._conform()
 
@@ -650,6 +671,34 @@ class _Refinement:
             boundary=np.arange(count, dtype=np.int64),
             boundary_parameters=self.parameters.copy(),
         )
+
+
+class _Progress:
+    """Monotone progress of `triangulate` for an optional callback.
+
+    Parameters
+    ----------
+    callback : callable or None
+        Takes the fraction done in [0, 1].
+    estimate : float
+        Vertices expected from the area and the edge length (refinement near
+        narrow parts adds more, so the fraction of a phase is capped at its end).
+    """
+
+    def __init__(self, callback: Callable[[float], None] | None, estimate: float):
+        self.callback = callback
+        self.estimate = max(estimate, 1.0)
+        self.done = 0.0
+
+    def phase(self, fraction: float) -> None:
+        """A phase ended at `fraction`."""
+        if self.callback is not None and fraction >= self.done:
+            self.done = fraction
+            self.callback(fraction)
+
+    def vertices(self, count: int, start: float, stop: float) -> None:
+        """A refinement round of the phase [start, stop] ended with `count` vertices."""
+        self.phase(start + (stop - start) * min(count / self.estimate, 0.99))
 
 
 def _lattice(sizing: _Sizing, polygon: np.ndarray) -> np.ndarray:

@@ -337,3 +337,22 @@ def test_mesh_validates_its_arrays():
         mesh.signed_areas(np.zeros((4, 2)))
     with pytest.raises(ValueError, match="mesh must be a core.Mesh"):
         folded_triangles("mesh", vertices)
+
+
+def test_progress_rises_to_one_and_can_abandon_the_meshing():
+    curve = core.ClosedBSpline(wavy_star())
+    seen = []
+    mesh = triangulate(curve, max_edge=curve.diameter / 120, progress=seen.append)
+    assert len(seen) >= 6 and seen[-1] == 1.0 and 0.0 < seen[0] <= 0.05
+    assert np.all(np.diff(seen) >= 0) and all(0.0 <= f <= 1.0 for f in seen)
+    assert len(mesh.vertices) > 5000  # phases and rounds reported along the way, not only at the end
+
+    class Stop(Exception):
+        pass
+
+    def stop_halfway(fraction):
+        if fraction > 0.5:
+            raise Stop
+
+    with pytest.raises(Stop):
+        triangulate(curve, max_edge=curve.diameter / 120, progress=stop_halfway)

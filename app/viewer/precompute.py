@@ -120,9 +120,13 @@ def compute(request: Request, progress=None) -> dict:
 
     started = time.perf_counter()
     curve = core.ClosedBSpline(request.cage)
-    if progress is not None:
-        progress(0.0, "meshing")
-    mesh = core.triangulate(curve, max_edge=request.max_edge)
+
+    def meshing(fraction: float) -> None:
+        if progress is not None:
+            progress(fraction, "meshing")
+
+    meshing(0.0)
+    mesh = core.triangulate(curve, max_edge=request.max_edge, progress=meshing)
 
     def report(fraction: float) -> None:
         if progress is not None:
