@@ -274,15 +274,57 @@ def test_opening_dropped_files(tmp_path, monkeypatch):
         viewer.precompute.close()
 
 
-def test_a_new_cage_is_placed_point_by_point(state):
+def click(state, point, ctrl=False):
+    x, y = window_of(state, point)
+    controller.pointer(state, "press", x, y, ctrl=ctrl)
+    controller.pointer(state, "release", x, y)
+
+
+def test_a_new_cage_is_drawn_click_by_click_with_gimps_keys(state, monkeypatch):
+    clock = iter(np.arange(0.0, 100.0, 1.0))  # a second between clicks: no double clicks
+    monkeypatch.setattr(controller.time, "monotonic", lambda: next(clock))
+    before = state.history.current
     controller.command(state, "new_cage")
-    assert state.mode == "cage" and state.live.n == 0
-    for point in ([100, 100], [400, 120], [250, 380], [90, 300]):
-        x, y = editing.to_window(state.view, point)
-        controller.pointer(state, "press", x, y)
-        controller.pointer(state, "release", x, y)
-    assert state.live.n == 4 and editing.cage_problem(state.live.cage) is None
-    np.testing.assert_array_equal(state.live.cage, state.live.target)
-    for _ in range(4):
-        controller.command(state, "undo")
-    assert state.live.n == 0
+    assert state.mode == "cage" and state.live.n == 0 and state.drawing is not None
+    square = [[100, 100], [400, 120], [420, 380], [90, 300]]
+    for point in square:
+        click(state, point)
+    controller.command(state, "delete")  # Backspace removes the last point ...
+    assert state.live.n == 3
+    click(state, square[3], ctrl=True)  # ... and Ctrl+click puts it back as a sharp corner
+    np.testing.assert_array_equal(state.live.cage, np.array([*square, square[3]], float))
+    assert not state.history.can_undo and state.history.current == before  # nothing committed yet
+    controller.command(state, "kernel", "mean-value")  # edits wait until the cage is made
+    assert state.message_is_error and state.live.kernel == before.kernel
+    click(state, square[0])  # the first point closes the curve
+    assert state.drawing.closed and state.live.n == 5
+    click(state, [250, 250])  # a closed curve takes no more points
+    assert state.live.n == 5
+    controller.command(state, "confirm")  # Enter makes it the cage, one undo step
+    assert state.drawing is None and state.mode == "deform"
+    np.testing.assert_array_equal(state.live.cage, np.array([*square, square[3]], float))
+    np.testing.assert_array_equal(state.live.target, state.live.cage)
+    assert state.history.current == state.live and state.live.image == before.image
+    controller.command(state, "undo")
+    assert state.live == before
+
+
+def test_a_double_click_makes_a_corner_and_crossing_cages_are_refused(state, monkeypatch):
+    times = iter([0.0, 1.0, 1.2, 5.0, 9.0])  # the 2nd and 3rd clicks are 0.2 s apart
+    monkeypatch.setattr(controller.time, "monotonic", lambda: next(times))
+    controller.command(state, "new_cage")
+    for point in ([100, 100], [400, 100], [400, 100]):
+        click(state, point)
+    assert state.live.n == 3 and np.array_equal(state.live.cage[1], state.live.cage[2])
+    for point in ([100, 400], [400, 400]):  # a bow tie: the closing span crosses the others
+        click(state, point)
+    controller.command(state, "confirm")  # Enter closes ... or says why it cannot
+    assert not state.drawing.closed and state.message_is_error and "cannot close" in state.message
+    controller.command(state, "delete")
+    controller.command(state, "confirm")  # a triangle with one sharp corner closes
+    assert state.drawing.closed and not state.message_is_error
+    controller.command(state, "delete")  # Backspace reopens a closed curve
+    assert not state.drawing.closed and state.live.n == 4
+    controller.command(state, "cancel")  # Esc abandons the whole new cage
+    assert state.drawing is None and state.live == state.history.current
+    np.testing.assert_array_equal(state.live.cage, STAR)

@@ -520,3 +520,58 @@ def test_rough_edges_redraw_escape_delete_group_moves_zoom_and_resize(display, e
         assert code == 0, stderr
     finally:
         viewer.kill()
+
+
+def test_drawing_a_new_cage_with_clicks_backspace_enter_and_escape(display, environment):
+    env, folder = environment
+    state = folder / "state-draw"
+    env = {**env, "TRANSFINITE_STATE_DIR": str(state)}
+    viewer = ViewerProcess(
+        ["view", str(ASSETS / "starfish.png"), "--cage", str(ASSETS / "starfish.cage.json")], env, ROOT
+    )
+    try:
+        window = viewer.wait_for("ready window=", 30).split("=")[1]
+        viewer.wait_for("basis ", 60)
+        session = main_session(state, "starfish")
+        original, _, value = session_points(session)
+        view = value["view"]
+
+        def click_at(point, repeat=1):
+            x, y = window_pixel(view, point)
+            xdotool(display, "mousemove", "--window", window, f"{x:.0f}", f"{y:.0f}")
+            time.sleep(0.15)
+            xdotool(display, "click", "--repeat", str(repeat), "--delay", "80", "1")
+            time.sleep(0.5)  # longer than a double click
+
+        corners = np.array([[140.0, 100.0], [500.0, 110.0], [520.0, 400.0], [120.0, 380.0]])
+        xdotool(display, "windowfocus", "--sync", window)
+        xdotool(display, "key", "n")
+        click_at(corners[0])
+        click_at(corners[1], repeat=2)  # a double click: a sharp corner
+        click_at([320.0, 240.0])  # a point too many ...
+        xdotool(display, "key", "BackSpace")  # ... removed again
+        click_at(corners[2])
+        click_at(corners[3])
+        xdotool(display, "key", "Return")  # closes the curve
+        time.sleep(0.3)
+        assert np.array_equal(session_points(session)[0], original)  # nothing saved while drawing
+        xdotool(display, "key", "Return")  # and makes it the cage
+        cage, target, _ = wait_for_session(session, lambda c, t, v: len(c) != len(original))
+        expected = np.array([corners[0], corners[1], corners[1], corners[2], corners[3]])
+        np.testing.assert_allclose(cage, expected, atol=1.0 / view["scale"])
+        assert np.array_equal(cage, target) and np.array_equal(cage[1], cage[2])
+
+        # Esc abandons a new cage: the one just made stays.
+        xdotool(display, "key", "n")
+        click_at([200.0, 200.0])
+        click_at([300.0, 200.0])
+        xdotool(display, "key", "Escape")
+        time.sleep(0.3)
+        xdotool(display, "key", "ctrl+s")
+        viewer.wait_for("saved", 10)
+        np.testing.assert_array_equal(session_points(session)[0], cage)
+        xdotool(display, "key", "ctrl+q")
+        code, stderr = viewer.finish()
+        assert code == 0, stderr
+    finally:
+        viewer.kill()

@@ -19,11 +19,13 @@ Mouse (window pixels, canvas only):
 
 from __future__ import annotations
 
+import time
+
 import numpy as np
 
 from app.files import InputError, kernel_names, read_image
 from app.render import View
-from app.viewer import editing
+from app.viewer import drawing, editing
 from app.viewer.state import CONTENTS, MODES, SHIFTS, AppState, Drag, Snapshot
 
 LEFT, RIGHT, MIDDLE = 0, 1, 2
@@ -88,6 +90,7 @@ def pointer(
     button: int = LEFT,
     amount: float = 0.0,
     shift: bool = False,
+    ctrl: bool = False,
 ) -> None:
     """Handle one canvas mouse event.
 
@@ -102,9 +105,13 @@ def pointer(
         Wheel notches (scroll), positive away from the user (zoom in).
     shift : bool
         Shift held (press): add to the selection instead of replacing it.
+    ctrl : bool
+        Ctrl held (press): while a new cage is drawn, place a sharp corner.
     """
     state.cursor = (float(x), float(y))
-    if kind == "press":
+    if kind == "press" and state.drawing is not None and button == LEFT and state.drag is None:
+        drawing.press(state, x, y, ctrl, time.monotonic())
+    elif kind == "press":
         _press(state, x, y, button, shift)
     elif kind == "move":
         _move(state, x, y)
@@ -281,12 +288,15 @@ def zoom(state: AppState, factor: float, about=None) -> None:
 def command(state: AppState, name: str, value=None) -> bool:
     """Run a named command of the panel or the keyboard; False if `name` is not one of these.
 
-    Commands: undo, redo, cancel, new_cage, reset_target, fit, subdivide, delete, mode, content,
+    Commands: undo, redo, cancel, new_cage, confirm (Enter), reset_target, fit, subdivide, delete,
+    mode, content,
     kernel, cycle_kernel (value "previous" goes back), power, shift, toggle (a bool field of the
     state), fit_view, zoom ("in", "out" or a scale, 1.0 for 100 %), help.
     The window handles the ones that need it (open, save, export, quit).
     """
     live = state.live
+    if state.drawing is not None and _drawing_command(state, name):
+        return True
     if name == "undo":
         if state.drag is not None:
             cancel_drag(state)
@@ -302,10 +312,9 @@ def command(state: AppState, name: str, value=None) -> bool:
             state.show_help = False
             state.open_prompt = state.export_prompt = None
     elif name == "new_cage":
-        empty = np.zeros((0, 2))
-        commit(state, live.replace(cage=empty, target=empty), "click on the image to place control points")
-        state.mode = "cage"
-        state.selected = state.hovered = None
+        drawing.start(state)
+    elif name == "confirm":
+        pass  # Enter means something only while a new cage is drawn
     elif name == "reset_target":
         commit(state, live.replace(target=live.cage), "target reset to the source cage")
     elif name == "fit":
@@ -360,6 +369,25 @@ def command(state: AppState, name: str, value=None) -> bool:
             zoom(state, float(value) / state.view.scale)
     elif name == "help":
         state.show_help = not state.show_help
+    else:
+        return False
+    return True
+
+
+#: Commands that change the document: refused while a new cage is drawn.
+_EDITS = ("redo", "reset_target", "fit", "subdivide", "mode", "kernel", "cycle_kernel", "power", "shift")
+
+
+def _drawing_command(state: AppState, name: str) -> bool:
+    """Run `name` the way the new-cage mode means it; False if it is not special there."""
+    if name == "cancel" and state.drag is None:
+        drawing.abandon(state)
+    elif name in ("delete", "undo"):
+        drawing.remove_last(state)
+    elif name == "confirm":
+        drawing.confirm(state)
+    elif name in _EDITS:
+        state.say("finish the new cage first (Enter) or abandon it (Esc)", error=True)
     else:
         return False
     return True

@@ -35,10 +35,12 @@ def overlay_arrays(state: AppState) -> tuple[np.ndarray, np.ndarray]:
 
     The curve of the mode being edited is drawn wider and on top, with large
     handles; the other one thinner and fainter.  The selected handle is yellow, the
-    hovered one white.
+    hovered one white.  While a new cage is drawn and still open, its points are
+    joined in order, a line runs on to the cursor, and the closed curve is a faint preview.
     """
     live = state.live
     active = "source" if state.mode == "cage" else "target"
+    drawing = state.drawing is not None and not state.drawing.closed
     segments, points = [], []
     for kind in sorted(("source", "target"), key=lambda k: k == active):
         control = live.cage if kind == "source" else live.target
@@ -46,10 +48,19 @@ def overlay_arrays(state: AppState) -> tuple[np.ndarray, np.ndarray]:
         is_active = kind == active
         alpha = 1.0 if is_active else 0.55
         if len(control) >= 3:
-            segments.append(_closed_segments(curve_points(control), colour, alpha, 2.5 if is_active else 1.5))
+            curve_alpha = 0.35 * alpha if drawing else alpha
+            segments.append(
+                _closed_segments(curve_points(control), colour, curve_alpha, 2.5 if is_active else 1.5)
+            )
         if len(control) >= 2:
             polygon = control if len(control) >= 3 else control[:2]
-            segments.append(_closed_segments(polygon, colour, 0.45 * alpha, 1.0))
+            if drawing:  # the points in the order placed, not yet closed
+                segments.append(_closed_segments(polygon, colour, alpha, 1.5)[:-1])
+            else:
+                segments.append(_closed_segments(polygon, colour, 0.45 * alpha, 1.0))
+        if drawing and is_active and len(control):
+            cursor = to_image(state.view, [state.cursor])
+            segments.append(_closed_segments(np.vstack([control[-1:], cursor]), colour, 0.6, 1.0)[:1])
         size = 11.0 if is_active else 7.0
         handles = np.zeros((len(control), 7))
         handles[:, :2] = control

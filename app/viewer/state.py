@@ -215,6 +215,28 @@ class Drag:
 
 
 @dataclass
+class Drawing:
+    """A new cage being placed point by point (the "new cage" mode), not yet in the history.
+
+    The points placed so far are ``AppState.live.cage`` (and ``target``).
+
+    Attributes
+    ----------
+    before : Snapshot
+        The document before the new cage was started: Esc goes back to it, Enter
+        replaces its cage and target with the new points.
+    closed : bool
+        Whether the curve was closed (first point clicked, or Enter).
+    last_click : tuple of float or None
+        (time, x, y) of the last placement, to tell a double click.
+    """
+
+    before: Snapshot
+    closed: bool = False
+    last_click: tuple[float, float, float] | None = None
+
+
+@dataclass
 class BasisResult:
     """Basis functions G of one (cage, mesh, kernel), ready to draw.
 
@@ -266,6 +288,7 @@ class AppState:
     view_fitted: bool = True  # the view is `fit_view`'s (a window resize fits it again)
     hovered: int | None = None
     drag: Drag | None = None
+    drawing: Drawing | None = None  # a new cage being placed
     show_folds: bool = True
     show_wireframe: bool = False
     show_overlay: bool = True

@@ -79,7 +79,18 @@ def _key_table():
         (glfw.KEY_TAB, 0, "mode", None, "Tab", "switch between deforming and editing the cage"),
         (glfw.KEY_D, 0, "mode", "deform", "D", "deform: drag the blue target points"),
         (glfw.KEY_C, 0, "mode", "cage", "C", "cage: drag green points, click to add, right-click to delete"),
-        (glfw.KEY_N, 0, "new_cage", None, "N", "a new cage: click on the image to place its points"),
+        (
+            glfw.KEY_N,
+            0,
+            "new_cage",
+            None,
+            "N",
+            "draw a new cage: click to place points (Ctrl+click or a "
+            "double click: a sharp corner), click the first point or Enter to close, Enter again to use it, "
+            "Backspace removes the last point, Esc abandons",
+        ),
+        (glfw.KEY_ENTER, 0, "confirm", None, "Enter", "close the new cage; use it"),
+        (glfw.KEY_KP_ENTER, 0, "confirm", None, None, None),
         (glfw.KEY_R, 0, "reset_target", None, "R", "reset the target to the source cage"),
         (glfw.KEY_F, 0, "fit", None, "F", "fit the cage to the image's silhouette"),
         (glfw.KEY_S, 0, "subdivide", None, "S", "subdivide the cage (same curve, twice the points)"),
@@ -239,7 +250,7 @@ class Viewer:
         state.live = document.snapshot
         state.image = document.image
         state.session_path = Path(document.session_path)
-        state.drag = None
+        state.drag = state.drawing = None
         state.selected = None
         apply_preferences(state, document.preferences)
         if document.max_edge is not None:
@@ -293,21 +304,21 @@ class Viewer:
         def mouse_button(_, button, action, mods):
             x, y = glfw.get_cursor_pos(window)
             if action == glfw.RELEASE:
-                self._events.append(("pointer", "release", x, y, button, 0.0, False))
+                self._events.append(("pointer", "release", x, y, button, 0.0, False, False))
             elif not io.want_capture_mouse_unless_popup_close:
                 # A press that closes an open list (combo) also reaches the canvas.
-                shift = bool(mods & glfw.MOD_SHIFT)
-                self._events.append(("pointer", "press", x, y, button, 0.0, shift))
+                shift, ctrl = bool(mods & glfw.MOD_SHIFT), bool(mods & (glfw.MOD_CONTROL | glfw.MOD_SUPER))
+                self._events.append(("pointer", "press", x, y, button, 0.0, shift, ctrl))
 
         def cursor(_, x, y):
             # A drag keeps its events even over a panel.
             if self.state.drag is not None or not io.want_capture_mouse:
-                self._events.append(("pointer", "move", x, y, 0, 0.0, False))
+                self._events.append(("pointer", "move", x, y, 0, 0.0, False, False))
 
         def scroll(_, dx, dy):
             if not io.want_capture_mouse:
                 x, y = glfw.get_cursor_pos(window)
-                self._events.append(("pointer", "scroll", x, y, 0, dy, False))
+                self._events.append(("pointer", "scroll", x, y, 0, dy, False, False))
 
         def key(_, key, scancode, action, mods):
             if action not in (glfw.PRESS, glfw.REPEAT) or io.want_text_input:
@@ -345,8 +356,8 @@ class Viewer:
         while self._events:
             event = self._events.popleft()
             if event[0] == "pointer":
-                _, kind, x, y, button, amount, shift = event
-                controller.pointer(self.state, kind, x, y, button, amount, shift)
+                _, kind, x, y, button, amount, shift, ctrl = event
+                controller.pointer(self.state, kind, x, y, button, amount, shift, ctrl)
                 if kind in ("scroll",) or (
                     kind == "move" and self.state.drag and self.state.drag.kind == "pan"
                 ):
@@ -571,7 +582,7 @@ class Viewer:
                 if key == self._wanted:
                     state.basis_error = message[2]
                     state.say(message[2], error=True)
-        if state.drag is not None or state.live.n < 3:
+        if state.drag is not None or state.drawing is not None or state.live.n < 3:
             return
         live = state.live
         wanted = make_request(live, self._max_edge(live.cage))
@@ -643,7 +654,7 @@ class Viewer:
         )
         for kind, x, y in events:
             # The same path as the mouse: the queue that the glfw callbacks fill.
-            self._events.append(("pointer", kind, x, y, controller.LEFT, 0.0, False))
+            self._events.append(("pointer", kind, x, y, controller.LEFT, 0.0, False, False))
         if player.finished and not events:
             self._player = None
             state.say("script finished")
