@@ -338,6 +338,23 @@ def session_max_edge(session: Session, path: str | os.PathLike = "session") -> f
     return float(edge)
 
 
+def session_output(session: Session, path: str | os.PathLike = "session") -> tuple[str, str]:
+    """The session's ``outside`` and ``canvas`` settings (default ``"transparent"``, ``"source"``).
+
+    They say what an export shows outside the deformed region (nothing, or the
+    untouched image) and whether the output grows to hold the whole target.
+    """
+    from app.framing import CANVASES, OUTSIDES
+
+    settings = []
+    for key, choices in (("outside", OUTSIDES), ("canvas", CANVASES)):
+        value = session.extra.get(key, choices[0])
+        if value not in choices:
+            raise InputError(f'{path}: "{key}" must be one of {", ".join(choices)}, got {value!r}')
+        settings.append(value)
+    return settings[0], settings[1]
+
+
 def _view(value, path: Path) -> tuple[float, tuple[float, float]]:
     if not isinstance(value, dict) or "scale" not in value or "offset" not in value:
         raise InputError(f'{path}: "view" must be an object {{"scale": s, "offset": [ox, oy]}}')

@@ -555,6 +555,7 @@ class WarpRenderer:
         wireframe: bool = False,
         highlight: bool = False,
         folds: bool = False,
+        backdrop: bool = False,
     ) -> np.ndarray:
         """Draw offscreen with multisampling and read the result back.
 
@@ -570,6 +571,9 @@ class WarpRenderer:
             Straight RGBA in [0, 1] outside the drawn mesh; transparent by default.
         content, wireframe, highlight, folds
             As in `draw`.
+        backdrop : bool
+            Draw the whole undeformed image first (`draw_backdrop`) and the warp
+            over it: the rest of the picture kept (``--outside original``).
 
         Returns
         -------
@@ -590,6 +594,8 @@ class WarpRenderer:
         multisample.use()
         red, green, blue, alpha = background
         multisample.clear(red * alpha, green * alpha, blue * alpha, alpha)
+        if backdrop:
+            self.draw_backdrop(view or View(), (width, height))
         self.draw(
             view or View(),
             (width, height),

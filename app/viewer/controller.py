@@ -24,6 +24,7 @@ import time
 import numpy as np
 
 from app.files import InputError, kernel_names, read_image
+from app.framing import CANVASES, OUTSIDES
 from app.render import View
 from app.viewer import drawing, editing
 from app.viewer.state import CONTENTS, MODES, SHIFTS, AppState, Drag, Snapshot
@@ -289,9 +290,9 @@ def command(state: AppState, name: str, value=None) -> bool:
     """Run a named command of the panel or the keyboard; False if `name` is not one of these.
 
     Commands: undo, redo, cancel, new_cage, confirm (Enter), reset_target, fit, subdivide, delete,
-    mode, content,
-    kernel, cycle_kernel (value "previous" goes back), power, shift, toggle (a bool field of the
-    state), fit_view, zoom ("in", "out" or a scale, 1.0 for 100 %), help.
+    mode, content, kernel, cycle_kernel (value "previous" goes back), power, shift, toggle (a bool
+    field of the state), outside, canvas (the export settings of app.framing), fit_view, zoom ("in",
+    "out" or a scale, 1.0 for 100 %), help.
     The window handles the ones that need it (open, save, export, quit).
     """
     live = state.live
@@ -357,6 +358,11 @@ def command(state: AppState, name: str, value=None) -> bool:
     elif name == "shift":
         if value in SHIFTS:
             commit(state, live.replace(shift=value))
+    elif name in ("outside", "canvas"):
+        choices = OUTSIDES if name == "outside" else CANVASES
+        if value in choices:
+            setattr(state, name, value)
+            state.session_dirty = True
     elif name == "toggle":
         setattr(state, value, not getattr(state, value))
         state.session_dirty = True

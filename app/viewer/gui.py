@@ -185,7 +185,25 @@ def _panel(state: AppState, commands: list, extras: dict, height: float) -> None
         if changed:
             commands.append(("toggle", field))
     imgui.set_next_item_width(150)
-    _, state.backdrop_opacity = imgui.slider_float("source image", state.backdrop_opacity, 0.0, 1.0, "%.2f")
+    if state.outside == "transparent":
+        _, state.backdrop_opacity = imgui.slider_float(
+            "source image", state.backdrop_opacity, 0.0, 1.0, "%.2f"
+        )
+    imgui.text("Outside the warp:")
+    for outside, label in (("transparent", "transparent"), ("original", "the original image")):
+        imgui.same_line()
+        if imgui.radio_button(label, state.outside == outside):
+            commands.append(("outside", outside))
+    if imgui.is_item_hovered():
+        imgui.set_tooltip(
+            "the original image: the untouched picture around the warp (inside the source cage, where the "
+            "target does not cover it, the original is seen); exports and warp --outside do the same"
+        )
+    imgui.text("Export canvas:")
+    for canvas, label in (("source", "image size"), ("grow", "grow to the target")):
+        imgui.same_line()
+        if imgui.radio_button(label, state.canvas == canvas):
+            commands.append(("canvas", canvas))
     if imgui.button("Fit view"):
         commands.append(("fit_view", None))
     if state.folded_count:

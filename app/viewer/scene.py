@@ -203,7 +203,7 @@ class Scene:
         content = {"image": "image", "basis": "heat", "height": "field"}[state.content]
         warped = meshed and (state.mode == "deform" or content != "image")
         # The faded source image costs a full textured pass of a software rasteriser: only on request.
-        opacity = state.backdrop_opacity if warped else 1.0
+        opacity = (1.0 if state.outside == "original" else state.backdrop_opacity) if warped else 1.0
         renderer.ctx.clear(*BACKGROUND, 1.0)
         if opacity > 0:
             renderer.draw_backdrop(view, framebuffer_size, opacity)

@@ -34,8 +34,10 @@ from app.files import (
     reported_as_input,
     session_kernel_params,
     session_max_edge,
+    session_output,
     write_session,
 )
+from app.framing import CANVASES, OUTSIDES
 from app.render import View
 from app.viewer.session_files import backups, keep_aside, rotate_backups, session_path_for
 from app.viewer.state import CONTENTS, DEFAULT_POWER, DEFAULT_SHIFT, MODES, SHIFTS, AppState, Snapshot
@@ -181,6 +183,8 @@ def restore(path: Path, max_edge: float | None = None) -> Document:
     cage_curve(session.cage, f"{path}: cage")
     params = session_kernel_params(session, path)
     preferences = session.extra.get("viewer") if isinstance(session.extra.get("viewer"), dict) else {}
+    outside, canvas = session_output(session, path)
+    preferences = {**preferences, "outside": outside, "canvas": canvas}
     power = params.get("power", preferences.get("power", DEFAULT_POWER))
     shift = params.get("shift", preferences.get("shift", DEFAULT_SHIFT))
     if not isinstance(power, (int, float)) or not power > 0:
@@ -325,6 +329,10 @@ def apply_preferences(state: AppState, preferences: dict | None) -> None:
     for name in ("show_folds", "show_wireframe", "show_overlay"):
         if isinstance(preferences.get(name), bool):
             setattr(state, name, preferences[name])
+    if preferences.get("outside") in OUTSIDES:
+        state.outside = preferences["outside"]
+    if preferences.get("canvas") in CANVASES:
+        state.canvas = preferences["canvas"]
     selected = preferences.get("selected")
     if isinstance(selected, int) and 0 <= selected < state.live.n:
         state.selected = selected
@@ -349,6 +357,7 @@ def session_of(state: AppState, max_edge: float | None) -> Session:
         extra["kernel_params"] = snapshot.kernel_params()
     if max_edge is not None:
         extra["mesh"] = {"max_edge": float(max_edge)}
+    extra["outside"], extra["canvas"] = state.outside, state.canvas
     extra["history"] = history_json(state)
     return Session(
         snapshot.image,

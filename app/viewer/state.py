@@ -295,7 +295,9 @@ class AppState:
     show_help: bool = False
     open_prompt: str | None = None  # the path typed into the open prompt (no dialog program)
     export_prompt: str | None = None  # the path typed into the export prompt (no dialog program)
-    backdrop_opacity: float = 0.0  # of the source image behind the warp
+    backdrop_opacity: float = 0.0  # of the source image behind the warp (outside "transparent")
+    outside: str = "transparent"  # what exports show outside the deformed region (app.framing)
+    canvas: str = "source"  # "grow": exports widen to hold the whole target
     power_draft: float | None = None  # the power slider while it is dragged
     max_edge: float | None = None  # forced mesh edge length (None: from the cage's area)
     basis: BasisResult | None = None  # the result drawn (perhaps of another kernel)

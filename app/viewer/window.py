@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from app.files import InputError, read_image, read_json, write_png
-from app.render import View
+from app.framing import output_frame, output_region
 from app.viewer import controller, editing
 from app.viewer.precompute import Precompute, make_request
 from app.viewer.session import Document, apply_preferences, open_document, save, start_snapshot
@@ -528,7 +528,9 @@ class Viewer:
         self.renderer.set_positions(positions)
         self.scene.invalidate_positions()
         height, width = state.image.shape[:2]
-        return self.renderer.render((width, height), View())
+        region = output_region((width, height), state.live.target, state.canvas)
+        size, view = output_frame(region)
+        return self.renderer.render(size, view, backdrop=state.outside == "original")
 
     def _save_if_needed(self, force: bool = False, announce: bool = False, due: bool = False) -> None:
         """Autosave after an edit, after a zoom or pan settles, or when asked.

@@ -1,0 +1,64 @@
+"""What part of the plane an exported warp shows, and at what size (``--canvas``, ``--scale``, ``--size``).
+
+``canvas="source"`` frames the source image's rectangle; ``canvas="grow"`` widens
+it to hold the whole target curve too, so that a target that leaves the image is
+not clipped.  Both `python -m app warp` and the viewer's export use `output_frame`,
+so they write the same pixels.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from app.render import View
+from core.bspline import basis_weights
+
+CANVASES = ("source", "grow")
+OUTSIDES = ("transparent", "original")
+#: Curve samples per span for the target's bounding box (sub-pixel for spans under ~1,000 px).
+SAMPLES_PER_SPAN = 64
+
+
+def output_region(image_size: tuple[int, int], target: np.ndarray, canvas: str) -> tuple[float, ...]:
+    """(x0, y0, x1, y1) in image pixels: the image, or (``grow``) the image and the target curve.
+
+    Parameters
+    ----------
+    image_size : tuple of int
+        (width, height) of the source image.
+    target : ndarray of shape (n, 2)
+        Target control points; the curve is sampled (it may cross itself) and its
+        bounding box rounded outwards to whole pixels.
+    canvas : {"source", "grow"}
+    """
+    if canvas not in CANVASES:
+        raise ValueError(f"canvas must be one of {', '.join(CANVASES)}, got {canvas!r}")
+    width, height = image_size
+    x0, y0, x1, y1 = 0.0, 0.0, float(width), float(height)
+    if canvas == "grow":
+        target = np.asarray(target, dtype=np.float64)
+        t = np.arange(len(target) * SAMPLES_PER_SPAN) / SAMPLES_PER_SPAN
+        index, weights = basis_weights(t, len(target))
+        curve = np.einsum("mk,mkd->md", weights, target[index])
+        low, high = np.floor(curve.min(axis=0)), np.ceil(curve.max(axis=0))
+        x0, y0 = min(x0, float(low[0])), min(y0, float(low[1]))
+        x1, y1 = max(x1, float(high[0])), max(y1, float(high[1]))
+    return x0, y0, x1, y1
+
+
+def output_frame(
+    region: tuple[float, float, float, float],
+    scale: float | None = None,
+    size: tuple[int, int] | None = None,
+) -> tuple[tuple[int, int], View]:
+    """Output size (width, height) and the image-to-output `View` that shows `region`.
+
+    At most one of `scale` (output pixels per image pixel) and `size` (fit the
+    region into it); with neither, one output pixel per image pixel.
+    """
+    x0, y0, x1, y1 = region
+    if size is not None:
+        return (int(size[0]), int(size[1])), View.fit(region, size)
+    scale = 1.0 if scale is None else float(scale)
+    width, height = max(1, round((x1 - x0) * scale)), max(1, round((y1 - y0) * scale))
+    return (width, height), View(scale, (-scale * x0, -scale * y0))
