@@ -26,6 +26,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from core.atomic_write import write_atomically
 from core.validation import as_points
 
 
@@ -62,6 +63,9 @@ def cage_curve(control_points: np.ndarray, where: str):
 def write_atomic(path: str | os.PathLike, data: bytes) -> None:
     """Write `data` to `path` through a temporary file in the same directory and `os.replace`.
 
+    Temporaries left by a killed process are removed first (`core.atomic_write`);
+    a new file gets the mode the umask gives, a replaced one keeps its mode.
+
     Raises
     ------
     InputError
@@ -69,27 +73,10 @@ def write_atomic(path: str | os.PathLike, data: bytes) -> None:
     """
     path = Path(path)
     check_writable(path)
-    handle, temporary = None, None
     try:
-        handle, temporary = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-        with os.fdopen(handle, "wb") as stream:
-            handle = None
-            stream.write(data)
-            stream.flush()
-            os.fsync(stream.fileno())
-        # mkstemp creates 0600 files: keep the mode of the file being replaced, or
-        # use the usual 0644 for a new one.
-        os.chmod(temporary, path.stat().st_mode & 0o7777 if path.exists() else 0o644)
-        os.replace(temporary, path)
-        temporary = None
+        write_atomically(path, lambda stream: stream.write(data))
     except OSError as error:
         raise InputError(f"{path}: cannot write ({error.strerror or error})") from None
-    finally:
-        if handle is not None:
-            os.close(handle)
-        if temporary is not None:
-            with contextlib.suppress(OSError):
-                os.remove(temporary)
 
 
 def check_writable(path: str | os.PathLike, *, suffix: str | None = None) -> None:
