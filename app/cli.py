@@ -6,8 +6,8 @@ height data, the paper's Fig. 1), ``bench`` (``app.bench``), and the interactive
 viewer (`app.viewer`): ``view`` (also what no arguments at all open, on the
 bundled demo) and ``demo`` (a bundled demo, optionally replaying its script).
 
-Exit codes: 0 success, 1 the environment cannot run the command (no OpenGL),
-2 bad input.  Bad input is reported as one line on stderr naming the file and what
+Exit codes: 0 success, 1 the environment cannot run the command (no OpenGL, not
+enough memory), 2 bad input.  Bad input is reported as one line on stderr naming the file and what
 is wrong, without a traceback, and no output file is written or changed.
 """
 
@@ -40,6 +40,8 @@ from app.render import ContextUnavailableError
 EXIT_OK = 0
 EXIT_ENVIRONMENT = 1
 EXIT_BAD_INPUT = 2
+# cv2.Error.StsNoMem, without importing cv2 for the commands that never use it.
+_OPENCV_NO_MEMORY = -4
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -74,6 +76,11 @@ def main(argv: list[str] | None = None) -> int:
             return _fail(f"error: {error}", EXIT_ENVIRONMENT)
         except KeyboardInterrupt:
             return _fail("interrupted", 130)
+        except Exception as error:
+            # The machine, not the input: an allocation failed (numpy, OpenCV or our own decoding).
+            if not _out_of_memory(error):
+                raise
+            return _fail(f"error: out of memory: {_memory_detail(error)}", EXIT_ENVIRONMENT)
         for message in _pending_notes:
             print(message, file=sys.stderr)
         _pending_notes.clear()
@@ -284,12 +291,15 @@ def _warp(args: argparse.Namespace) -> int:
 
 
 def _fit(args: argparse.Namespace) -> int:
-    from app.fit import fit_cage
+    from app.fit import FIT_PIXELS, fit_cage
 
     check_writable(args.output, suffix=".json")
     image = read_image(args.image)
     with reported_as_input(str(args.image)):
         control_points = fit_cage(image, args.points)
+    height, width = image.shape[:2]
+    if height * width > FIT_PIXELS:
+        note(f"fitted on a copy of about {FIT_PIXELS / 1e6:.1f} megapixels of the {width}x{height} image")
     write_cage(args.output, control_points)
     note(f"wrote {args.output} ({len(control_points)} control points)")
     return EXIT_OK
@@ -434,6 +444,18 @@ def _fail(message: str, code: int) -> int:
     _pending_notes.clear()
     print(" ".join(str(message).split()), file=sys.stderr, flush=True)
     return code
+
+
+def _out_of_memory(error: Exception) -> bool:
+    """Whether `error` is an allocation failure: MemoryError, or OpenCV's StsNoMem (-4)."""
+    return isinstance(error, MemoryError) or (
+        type(error).__module__ == "cv2" and getattr(error, "code", None) == _OPENCV_NO_MEMORY
+    )
+
+
+def _memory_detail(error: Exception) -> str:
+    detail = getattr(error, "err", None) or str(error)
+    return detail or "an allocation failed"
 
 
 def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:

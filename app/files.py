@@ -26,8 +26,14 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from app.image_header import MAX_IMAGE_PIXELS, ImageHeader, image_header
 from core.atomic_write import write_atomically
 from core.validation import as_points
+
+#: Largest image file read into memory.
+MAX_IMAGE_FILE_BYTES = 1 << 30
+#: Largest cage coordinate, in pixels: beyond it float64 has no sub-pixel precision left.
+MAX_COORDINATE = 1e15
 
 
 class InputError(ValueError):
@@ -333,6 +339,9 @@ def _view(value, path: Path) -> tuple[float, tuple[float, float]]:
 def read_image(path: str | os.PathLike) -> np.ndarray:
     """Decode an image file (PNG, JPEG, ... anything OpenCV reads) as RGBA.
 
+    The header is read first: an image of more than `MAX_IMAGE_PIXELS` pixels is
+    refused before anything is allocated for it.
+
     Returns
     -------
     ndarray of shape (H, W, 4), uint8
@@ -341,15 +350,16 @@ def read_image(path: str | os.PathLike) -> np.ndarray:
     Raises
     ------
     InputError
-        Missing, unreadable, empty, corrupt or unsupported file.
+        Missing, unreadable, empty, corrupt, unsupported or too large file.
+    MemoryError
+        The machine cannot allocate the decoded image.
     """
     path = Path(path)
-    data = _read_bytes(path)
-    with _captured_c_stderr() as messages:
-        image = cv2.imdecode(np.frombuffer(data, dtype=np.uint8), cv2.IMREAD_UNCHANGED)
-    if image is None:
-        reason = _decoder_reason(messages)
-        raise InputError(f"{path}: cannot decode the image{f' ({reason})' if reason else ''}")
+    data = _read_bytes(path, limit=MAX_IMAGE_FILE_BYTES)
+    header = image_header(data)
+    if header is not None:
+        check_image_size(header, path)
+    image = _decode(data, path)
     if image.dtype == np.uint16:
         image = ((image.astype(np.uint32) + 128) // 257).astype(np.uint8)
     elif image.dtype != np.uint8:
@@ -360,6 +370,36 @@ def read_image(path: str | os.PathLike) -> np.ndarray:
     if image.shape[2] not in conversions:
         raise InputError(f"{path}: unsupported image with {image.shape[2]} channels")
     return cv2.cvtColor(image, conversions[image.shape[2]])
+
+
+def check_image_size(header: ImageHeader, path: str | os.PathLike) -> None:
+    """`InputError` if the image `header` declares has more than `MAX_IMAGE_PIXELS` pixels."""
+    if header.pixels > MAX_IMAGE_PIXELS:
+        raise InputError(
+            f"{path}: the {header.format} image is {header.width}x{header.height} pixels "
+            f"({header.pixels / 1e6:.0f} megapixels); at most {MAX_IMAGE_PIXELS / 1e6:.0f} megapixels "
+            "can be processed"
+        )
+
+
+def _decode(data: bytes, path: Path) -> np.ndarray:
+    """OpenCV's decoding of `data`, with its complaints as one `InputError` line."""
+    with _captured_c_stderr() as messages:
+        try:
+            image = cv2.imdecode(np.frombuffer(data, dtype=np.uint8), cv2.IMREAD_UNCHANGED)
+        except cv2.error as error:
+            if error.code == cv2.Error.StsNoMem:
+                raise MemoryError(f"decoding {path}: {error.err}") from None
+            if "CV_IO_MAX_IMAGE_PIXELS" in error.err:
+                raise InputError(
+                    f"{path}: the image has more than {MAX_IMAGE_PIXELS / 1e6:.0f} megapixels, the most "
+                    "that can be processed"
+                ) from None
+            image, messages = None, [*messages, error.err]
+    if image is None:
+        reason = _decoder_reason(messages)
+        raise InputError(f"{path}: cannot decode the image{f' ({reason})' if reason else ''}")
+    return image
 
 
 def encode_png(image: np.ndarray) -> bytes:
@@ -375,8 +415,13 @@ def write_png(path: str | os.PathLike, image: np.ndarray) -> None:
     write_atomic(path, encode_png(image))
 
 
-def _read_bytes(path: Path) -> bytes:
+def _read_bytes(path: Path, limit: int | None = None) -> bytes:
     try:
+        if limit is not None and path.stat().st_size > limit:
+            raise InputError(
+                f"{path}: the file is {path.stat().st_size / 2**20:.0f} MiB; at most {limit / 2**20:.0f} MiB "
+                "can be read"
+            )
         data = path.read_bytes()
     except FileNotFoundError:
         raise InputError(f"{path}: no such file") from None
