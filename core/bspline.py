@@ -19,7 +19,7 @@ import numpy as np
 
 from core.boundary import Boundary, PiecewisePolynomial
 from core.diameter import point_set_diameter
-from core.validation import as_parameters, as_points, positive_int
+from core.validation import as_parameters, as_points, checked_samples_per_segment
 
 
 class ClosedBSpline:
@@ -41,6 +41,7 @@ class ClosedBSpline:
 
     def __init__(self, control_points):
         points = as_points(control_points, "control_points", min_count=3)
+        _check_range(points)
         self._points = points
         self._points.setflags(write=False)
         if np.all(points == points[0]):
@@ -135,7 +136,7 @@ class ClosedBSpline:
         refined near the boundary at any parameter.  At the knots, where p'' jumps,
         the second derivative is the mean of its one-sided values.
         """
-        per = positive_int(samples_per_segment, "samples_per_segment", minimum=2)
+        per = checked_samples_per_segment(samples_per_segment, self.n)
         count = per * self.n
         t = np.arange(count) * (self.n / count)
         value, first, second = self.evaluate(t)
@@ -231,6 +232,20 @@ def _basis_derivative_weights(t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     first = np.stack([u - 1, 1 - 2 * u, u], axis=1)
     second = np.broadcast_to(np.array([1.0, -2.0, 1.0]), first.shape)
     return first, second
+
+
+#: Largest coordinate magnitude: squares (areas, distances) must stay finite.
+MAX_COORDINATE = 1e150
+
+
+def _check_range(points: np.ndarray) -> None:
+    outside = np.flatnonzero(np.abs(points).max(axis=1) > MAX_COORDINATE)
+    if outside.size:
+        i = int(outside[0])
+        raise ValueError(
+            f"control_points[{i}] = {points[i].tolist()} is out of range: coordinates must lie within "
+            f"+-{MAX_COORDINATE:g} ({outside.size} point(s) do not)"
+        )
 
 
 def _check_repeats(points: np.ndarray) -> None:

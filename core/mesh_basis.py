@@ -24,7 +24,7 @@ from core.harmonic import harmonic_basis
 from core.kernels import CONVEX_ONLY, DEFAULT_TOLERANCE, KERNELS
 from core.mesh import Mesh, require_mesh_of
 from core.pgw import pgw_basis
-from core.validation import positive_int
+from core.validation import checked_samples_per_segment
 
 # Kernels defined through the mesh or by line intersections rather than `core.kernel`.
 MESH_ONLY_KERNELS = ("pgw", "harmonic")
@@ -90,7 +90,7 @@ def mesh_basis_functions(
     valid = tuple(dict.fromkeys(tuple(KERNELS) + MESH_ONLY_KERNELS))
     if not isinstance(kernel, str) or kernel not in valid:
         raise ValueError(f"unknown kernel {kernel!r}; choose one of: {', '.join(valid)}")
-    per = positive_int(samples_per_segment, "samples_per_segment", minimum=2)
+    per = checked_samples_per_segment(samples_per_segment, curve.n)
     if kernel in MESH_ONLY_KERNELS:
         unknown = sorted(set(params) - set(_MESH_ONLY_PARAMETERS[kernel]))
         if unknown:

@@ -114,6 +114,14 @@ def test_contains_at_reflex_and_convex_corners():
         ([[0, 0], [6, 0], [6, 1], [0, 5], [0, 6], [6, 6]], "crosses or touches itself"),
         ([[0, 0], [0, 0], [0, 0], [1, 0], [0, 1]], "repeat a point at most twice"),
         ("abc", "control_points must"),
+        (
+            [[0, 0], [1e308, 0], [0, 1]],
+            r"control_points\[1\] = \[1e\+308, 0.0\] is out of range: .* within \+-1e\+150",
+        ),
+        (
+            [[0, 0], [10**400, 0], [0, 1]],
+            r"control_points must be a list of \(x, y\) number pairs \(int too large",
+        ),
     ],
 )
 def test_invalid_control_points_are_rejected_with_a_clear_message(points, message):
@@ -134,6 +142,12 @@ def test_derivative_order_is_checked(blob):
 def test_sample_checks_samples_per_segment(blob):
     with pytest.raises(ValueError, match="samples_per_segment must be at least 2"):
         blob.sample(1)
+    most = (1 << 20) // blob.n
+    assert blob.sample(most).count == most * blob.n
+    with pytest.raises(
+        ValueError, match=rf"more than the 1,048,576 allowed; use 2 <= samples_per_segment <= {most}"
+    ):
+        blob.sample(most + 1)
     with pytest.raises(ValueError, match="samples_per_segment must be an integer"):
         blob.sample(2.5)
 
