@@ -120,6 +120,11 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="K",
         help="boundary samples per B-spline span (default: the kernel's)",
     )
+    warp.add_argument(
+        "--overwrite-input",
+        action="store_true",
+        help="allow --output to be the input image (otherwise refused)",
+    )
     warp.set_defaults(run=_warp)
 
     fit = commands.add_parser("fit", help="fit a cage to the main silhouette of an image")
@@ -205,6 +210,7 @@ def _viewer_options(parser: argparse.ArgumentParser) -> None:
 def _warp(args: argparse.Namespace) -> int:
     import core
     from app.render import View, WarpRenderer, create_headless_context
+    from core.validation import checked_samples_per_segment
 
     check_writable(args.output, suffix=".png")
     if args.session is not None:
@@ -216,7 +222,7 @@ def _warp(args: argparse.Namespace) -> int:
             )
         session = read_session(args.session)
         image_path, cage, target = session.image, session.cage, session.target
-        kernel = args.kernel or session.kernel
+        kernel = session.kernel if args.kernel is None else args.kernel
         # The viewer's kernel parameters and mesh, so that the output is exactly what it showed.
         session_params = session_kernel_params(session, args.session) if kernel == session.kernel else {}
         if args.max_edge is None:
@@ -232,7 +238,7 @@ def _warp(args: argparse.Namespace) -> int:
             raise InputError(f"warp needs {', '.join(missing)} (or --session)")
         image_path = args.image
         cage, target = read_cage(args.cage), read_cage(args.target)
-        kernel = args.kernel or "harmonic-like"
+        kernel = "harmonic-like" if args.kernel is None else args.kernel
         session_params = {}
         cage_source, target_source = str(args.cage), str(args.target)
         if len(target) != len(cage):
@@ -241,10 +247,14 @@ def _warp(args: argparse.Namespace) -> int:
             )
     if kernel not in kernel_names():
         raise InputError(f"unknown kernel {kernel!r}; choose one of {', '.join(kernel_names())}")
+    _refuse_overwriting_input(args.output, image_path, args.overwrite_input)
     image = read_image(image_path)
     height, width = image.shape[:2]
     curve = cage_curve(cage, cage_source)
     _require_overlap(curve, (width, height), cage_source)
+    if args.samples_per_segment is not None:
+        with reported_as_input("--samples-per-segment"):
+            checked_samples_per_segment(args.samples_per_segment, curve.n)
     if args.scale is not None:
         size = (max(1, round(width * args.scale)), max(1, round(height * args.scale)))
         view = View(args.scale)
@@ -253,6 +263,7 @@ def _warp(args: argparse.Namespace) -> int:
         view = View.fit((0.0, 0.0, width, height), size)
     else:
         size, view = (width, height), View()
+    _warn_if_target_is_absurd(target, size, target_source)
     params = dict(session_params)
     if args.samples_per_segment is not None:
         params["samples_per_segment"] = args.samples_per_segment
@@ -427,6 +438,33 @@ def _require_overlap(curve, image_size: tuple[int, int], source: str) -> None:
         raise InputError(
             f"{source}: the cage lies entirely outside the {width}x{height} image "
             f"(its bounding box is x {low[0]:.4g}..{high[0]:.4g}, y {low[1]:.4g}..{high[1]:.4g})"
+        )
+
+
+def _refuse_overwriting_input(output: Path, image: Path, allowed: bool) -> None:
+    """`InputError` if `output` is the input `image` (the same file), unless `allowed`."""
+    try:
+        same = output.samefile(image)
+    except OSError:  # one of them does not exist: a missing image is reported when it is read
+        same = False
+    if same and not allowed:
+        raise InputError(
+            f"{output}: is the input image; give another --output, or --overwrite-input to replace it"
+        )
+
+
+#: A target larger than this many times the output's larger side is reported.
+ABSURD_TARGET_EXTENT = 100.0
+
+
+def _warn_if_target_is_absurd(target: np.ndarray, size: tuple[int, int], source: str) -> None:
+    """Note a target cage (n, 2) whose extent dwarfs the output `size` (width, height):
+    almost all of the deformed image then falls outside the picture."""
+    extent = float(np.ptp(target, axis=0).max())
+    if extent > ABSURD_TARGET_EXTENT * max(size):
+        note(
+            f"warning: {source}: the target spans {extent:.3g} pixels, {extent / max(size):.3g} times the "
+            f"{size[0]}x{size[1]} output; the output shows only a tiny part of the deformed image"
         )
 
 

@@ -110,13 +110,18 @@ def check_writable(path: str | os.PathLike, *, suffix: str | None = None) -> Non
 def read_json(path: str | os.PathLike):
     """Parse a JSON file; `InputError` with the file name (and line) if that fails."""
     path = Path(path)
-    text = _read_bytes(path).decode("utf-8", errors="replace")
+    # utf-8-sig: a byte order mark, which some editors write, is not part of the JSON text.
+    text = _read_bytes(path).decode("utf-8-sig", errors="replace")
     try:
         return json.loads(text)
     except json.JSONDecodeError as error:
         raise InputError(
             f"{path}: not valid JSON ({error.msg} at line {error.lineno}, column {error.colno})"
         ) from None
+    except RecursionError:
+        raise InputError(f"{path}: cannot read the JSON (arrays or objects nested too deeply)") from None
+    except ValueError as error:  # e.g. an integer of more digits than Python converts
+        raise InputError(f"{path}: cannot read the JSON ({str(error).split(':')[0]})") from None
 
 
 def write_json(path: str | os.PathLike, value) -> None:
@@ -161,13 +166,14 @@ def cage_points(value, where: str) -> np.ndarray:
         )
     for index, point in enumerate(points):
         # bool is an int in Python, but `true` is never a coordinate.
-        if not (
-            isinstance(point, list)
-            and len(point) == 2
-            and all(isinstance(c, Real) and not isinstance(c, bool) for c in point)
-        ):
+        if not (isinstance(point, list) and len(point) == 2 and all(_is_number(c) for c in point)):
             raise InputError(
-                f"{where}: control_points[{index}] must be a pair of numbers [x, y], got {point!r}"
+                f"{where}: control_points[{index}] must be a pair of numbers [x, y], got {_shown(point)}"
+            )
+        if any(_out_of_range(c) for c in point):
+            raise InputError(
+                f"{where}: control_points[{index}] = {_shown(point)} is out of range: coordinates must "
+                f"lie within +-{MAX_COORDINATE:g} pixels"
             )
     try:
         return as_points(points, "control_points", min_count=3)
@@ -472,6 +478,18 @@ def _decoder_reason(messages: list[str]) -> str:
 
 def _is_number(value) -> bool:
     return isinstance(value, Real) and not isinstance(value, bool)
+
+
+def _out_of_range(value: Real) -> bool:
+    """A coordinate beyond +-MAX_COORDINATE (integers of any size compare exactly; NaN and
+    infinities are left to the finiteness check, which names them)."""
+    return abs(value) > MAX_COORDINATE and not (isinstance(value, float) and math.isinf(value))
+
+
+def _shown(value, limit: int = 60) -> str:
+    """`repr` of a JSON value, shortened to one readable piece of a line."""
+    text = repr(value)
+    return text if len(text) <= limit else f"{text[: limit - 3]}..."
 
 
 def _json_type(value) -> str:
