@@ -6,3 +6,11 @@ command line (``python -m app``), `app.fit` fits a cage to an image's silhouette
 `app.compare` compares the kernels of `core` on height data, and `app.viewer` is the
 interactive viewer (``python -m app``, ``view``, ``demo``).
 """
+
+import os
+
+from app.image_header import MAX_IMAGE_PIXELS
+
+# OpenCV reads its pixel limit once, when cv2 is loaded, which every module of app does
+# after this: formats whose header app.image_header does not read are then limited too.
+os.environ.setdefault("OPENCV_IO_MAX_IMAGE_PIXELS", str(MAX_IMAGE_PIXELS))

@@ -6,8 +6,8 @@ height data, the paper's Fig. 1), ``bench`` (``app.bench``), and the interactive
 viewer (`app.viewer`): ``view`` (also what no arguments at all open, on the
 bundled demo) and ``demo`` (a bundled demo, optionally replaying its script).
 
-Exit codes: 0 success, 1 the environment cannot run the command (no OpenGL),
-2 bad input.  Bad input is reported as one line on stderr naming the file and what
+Exit codes: 0 success, 1 the environment cannot run the command (no OpenGL, not
+enough memory), 2 bad input.  Bad input is reported as one line on stderr naming the file and what
 is wrong, without a traceback, and no output file is written or changed.
 """
 
@@ -40,6 +40,8 @@ from app.render import ContextUnavailableError
 EXIT_OK = 0
 EXIT_ENVIRONMENT = 1
 EXIT_BAD_INPUT = 2
+# cv2.Error.StsNoMem, without importing cv2 for the commands that never use it.
+_OPENCV_NO_MEMORY = -4
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -74,6 +76,11 @@ def main(argv: list[str] | None = None) -> int:
             return _fail(f"error: {error}", EXIT_ENVIRONMENT)
         except KeyboardInterrupt:
             return _fail("interrupted", 130)
+        except Exception as error:
+            # The machine, not the input: an allocation failed (numpy, OpenCV or our own decoding).
+            if not _out_of_memory(error):
+                raise
+            return _fail(f"error: out of memory: {_memory_detail(error)}", EXIT_ENVIRONMENT)
         for message in _pending_notes:
             print(message, file=sys.stderr)
         _pending_notes.clear()
@@ -112,6 +119,11 @@ def build_parser() -> argparse.ArgumentParser:
         type=_positive(int),
         metavar="K",
         help="boundary samples per B-spline span (default: the kernel's)",
+    )
+    warp.add_argument(
+        "--overwrite-input",
+        action="store_true",
+        help="allow --output to be the input image (otherwise refused)",
     )
     warp.set_defaults(run=_warp)
 
@@ -209,6 +221,7 @@ def _viewer_options(parser: argparse.ArgumentParser) -> None:
 def _warp(args: argparse.Namespace) -> int:
     import core
     from app.render import View, WarpRenderer, create_headless_context
+    from core.validation import checked_samples_per_segment
 
     check_writable(args.output, suffix=".png")
     if args.session is not None:
@@ -220,7 +233,7 @@ def _warp(args: argparse.Namespace) -> int:
             )
         session = read_session(args.session)
         image_path, cage, target = session.image, session.cage, session.target
-        kernel = args.kernel or session.kernel
+        kernel = session.kernel if args.kernel is None else args.kernel
         # The viewer's kernel parameters and mesh, so that the output is exactly what it showed.
         session_params = session_kernel_params(session, args.session) if kernel == session.kernel else {}
         if args.max_edge is None:
@@ -236,7 +249,7 @@ def _warp(args: argparse.Namespace) -> int:
             raise InputError(f"warp needs {', '.join(missing)} (or --session)")
         image_path = args.image
         cage, target = read_cage(args.cage), read_cage(args.target)
-        kernel = args.kernel or "harmonic-like"
+        kernel = "harmonic-like" if args.kernel is None else args.kernel
         session_params = {}
         cage_source, target_source = str(args.cage), str(args.target)
         if len(target) != len(cage):
@@ -245,10 +258,14 @@ def _warp(args: argparse.Namespace) -> int:
             )
     if kernel not in kernel_names():
         raise InputError(f"unknown kernel {kernel!r}; choose one of {', '.join(kernel_names())}")
+    _refuse_overwriting_input(args.output, image_path, args.overwrite_input)
     image = read_image(image_path)
     height, width = image.shape[:2]
     curve = cage_curve(cage, cage_source)
     _require_overlap(curve, (width, height), cage_source)
+    if args.samples_per_segment is not None:
+        with reported_as_input("--samples-per-segment"):
+            checked_samples_per_segment(args.samples_per_segment, curve.n)
     if args.scale is not None:
         size = (max(1, round(width * args.scale)), max(1, round(height * args.scale)))
         view = View(args.scale)
@@ -257,6 +274,7 @@ def _warp(args: argparse.Namespace) -> int:
         view = View.fit((0.0, 0.0, width, height), size)
     else:
         size, view = (width, height), View()
+    _warn_if_target_is_absurd(target, size, target_source)
     params = dict(session_params)
     if args.samples_per_segment is not None:
         params["samples_per_segment"] = args.samples_per_segment
@@ -295,12 +313,15 @@ def _warp(args: argparse.Namespace) -> int:
 
 
 def _fit(args: argparse.Namespace) -> int:
-    from app.fit import fit_cage
+    from app.fit import FIT_PIXELS, fit_cage
 
     check_writable(args.output, suffix=".json")
     image = read_image(args.image)
     with reported_as_input(str(args.image)):
         control_points = fit_cage(image, args.points)
+    height, width = image.shape[:2]
+    if height * width > FIT_PIXELS:
+        note(f"fitted on a copy of about {FIT_PIXELS / 1e6:.1f} megapixels of the {width}x{height} image")
     write_cage(args.output, control_points)
     note(f"wrote {args.output} ({len(control_points)} control points)")
     return EXIT_OK
@@ -440,6 +461,33 @@ def _require_overlap(curve, image_size: tuple[int, int], source: str) -> None:
         )
 
 
+def _refuse_overwriting_input(output: Path, image: Path, allowed: bool) -> None:
+    """`InputError` if `output` is the input `image` (the same file), unless `allowed`."""
+    try:
+        same = output.samefile(image)
+    except OSError:  # one of them does not exist: a missing image is reported when it is read
+        same = False
+    if same and not allowed:
+        raise InputError(
+            f"{output}: is the input image; give another --output, or --overwrite-input to replace it"
+        )
+
+
+#: A target larger than this many times the output's larger side is reported.
+ABSURD_TARGET_EXTENT = 100.0
+
+
+def _warn_if_target_is_absurd(target: np.ndarray, size: tuple[int, int], source: str) -> None:
+    """Note a target cage (n, 2) whose extent dwarfs the output `size` (width, height):
+    almost all of the deformed image then falls outside the picture."""
+    extent = float(np.ptp(target, axis=0).max())
+    if extent > ABSURD_TARGET_EXTENT * max(size):
+        note(
+            f"warning: {source}: the target spans {extent:.3g} pixels, {extent / max(size):.3g} times the "
+            f"{size[0]}x{size[1]} output; the output shows only a tiny part of the deformed image"
+        )
+
+
 # Notes and warnings of the running command, printed on stderr once it succeeds:
 # when it fails, its error stays the only line.
 _pending_notes: list[str] = []
@@ -454,6 +502,18 @@ def _fail(message: str, code: int) -> int:
     _pending_notes.clear()
     print(" ".join(str(message).split()), file=sys.stderr, flush=True)
     return code
+
+
+def _out_of_memory(error: Exception) -> bool:
+    """Whether `error` is an allocation failure: MemoryError, or OpenCV's StsNoMem (-4)."""
+    return isinstance(error, MemoryError) or (
+        type(error).__module__ == "cv2" and getattr(error, "code", None) == _OPENCV_NO_MEMORY
+    )
+
+
+def _memory_detail(error: Exception) -> str:
+    detail = getattr(error, "err", None) or str(error)
+    return detail or "an allocation failed"
 
 
 def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:

@@ -27,7 +27,14 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from app.image_header import MAX_IMAGE_PIXELS, ImageHeader, image_header
+from core.atomic_write import write_atomically
 from core.validation import as_points
+
+#: Largest image file read into memory.
+MAX_IMAGE_FILE_BYTES = 1 << 30
+#: Largest cage coordinate, in pixels: beyond it float64 has no sub-pixel precision left.
+MAX_COORDINATE = 1e15
 
 
 class InputError(ValueError):
@@ -63,6 +70,9 @@ def cage_curve(control_points: np.ndarray, where: str):
 def write_atomic(path: str | os.PathLike, data: bytes) -> None:
     """Write `data` to `path` through a temporary file in the same directory and `os.replace`.
 
+    Temporaries left by a killed process are removed first (`core.atomic_write`);
+    a new file gets the mode the umask gives, a replaced one keeps its mode.
+
     Raises
     ------
     InputError
@@ -70,27 +80,10 @@ def write_atomic(path: str | os.PathLike, data: bytes) -> None:
     """
     path = Path(path)
     check_writable(path)
-    handle, temporary = None, None
     try:
-        handle, temporary = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-        with os.fdopen(handle, "wb") as stream:
-            handle = None
-            stream.write(data)
-            stream.flush()
-            os.fsync(stream.fileno())
-        # mkstemp creates 0600 files: keep the mode of the file being replaced, or
-        # use the usual 0644 for a new one.
-        os.chmod(temporary, path.stat().st_mode & 0o7777 if path.exists() else 0o644)
-        os.replace(temporary, path)
-        temporary = None
+        write_atomically(path, lambda stream: stream.write(data))
     except OSError as error:
         raise InputError(f"{path}: cannot write ({error.strerror or error})") from None
-    finally:
-        if handle is not None:
-            os.close(handle)
-        if temporary is not None:
-            with contextlib.suppress(OSError):
-                os.remove(temporary)
 
 
 def check_writable(path: str | os.PathLike, *, suffix: str | None = None) -> None:
@@ -118,13 +111,18 @@ def check_writable(path: str | os.PathLike, *, suffix: str | None = None) -> Non
 def read_json(path: str | os.PathLike):
     """Parse a JSON file; `InputError` with the file name (and line) if that fails."""
     path = Path(path)
-    text = _read_bytes(path).decode("utf-8", errors="replace")
+    # utf-8-sig: a byte order mark, which some editors write, is not part of the JSON text.
+    text = _read_bytes(path).decode("utf-8-sig", errors="replace")
     try:
         return json.loads(text)
     except json.JSONDecodeError as error:
         raise InputError(
             f"{path}: not valid JSON ({error.msg} at line {error.lineno}, column {error.colno})"
         ) from None
+    except RecursionError:
+        raise InputError(f"{path}: cannot read the JSON (arrays or objects nested too deeply)") from None
+    except ValueError as error:  # e.g. an integer of more digits than Python converts
+        raise InputError(f"{path}: cannot read the JSON ({str(error).split(':')[0]})") from None
 
 
 #: A list of numbers that `json.dumps(indent=...)` spread over lines (raw newlines occur in no JSON string).
@@ -181,13 +179,14 @@ def cage_points(value, where: str) -> np.ndarray:
         )
     for index, point in enumerate(points):
         # bool is an int in Python, but `true` is never a coordinate.
-        if not (
-            isinstance(point, list)
-            and len(point) == 2
-            and all(isinstance(c, Real) and not isinstance(c, bool) for c in point)
-        ):
+        if not (isinstance(point, list) and len(point) == 2 and all(_is_number(c) for c in point)):
             raise InputError(
-                f"{where}: control_points[{index}] must be a pair of numbers [x, y], got {point!r}"
+                f"{where}: control_points[{index}] must be a pair of numbers [x, y], got {_shown(point)}"
+            )
+        if any(_out_of_range(c) for c in point):
+            raise InputError(
+                f"{where}: control_points[{index}] = {_shown(point)} is out of range: coordinates must "
+                f"lie within +-{MAX_COORDINATE:g} pixels"
             )
     try:
         return as_points(points, "control_points", min_count=3)
@@ -376,6 +375,9 @@ def _view(value, path: Path) -> tuple[float, tuple[float, float]]:
 def read_image(path: str | os.PathLike) -> np.ndarray:
     """Decode an image file (PNG, JPEG, ... anything OpenCV reads) as RGBA.
 
+    The header is read first: an image of more than `MAX_IMAGE_PIXELS` pixels is
+    refused before anything is allocated for it.
+
     Returns
     -------
     ndarray of shape (H, W, 4), uint8
@@ -384,15 +386,16 @@ def read_image(path: str | os.PathLike) -> np.ndarray:
     Raises
     ------
     InputError
-        Missing, unreadable, empty, corrupt or unsupported file.
+        Missing, unreadable, empty, corrupt, unsupported or too large file.
+    MemoryError
+        The machine cannot allocate the decoded image.
     """
     path = Path(path)
-    data = _read_bytes(path)
-    with _captured_c_stderr() as messages:
-        image = cv2.imdecode(np.frombuffer(data, dtype=np.uint8), cv2.IMREAD_UNCHANGED)
-    if image is None:
-        reason = _decoder_reason(messages)
-        raise InputError(f"{path}: cannot decode the image{f' ({reason})' if reason else ''}")
+    data = _read_bytes(path, limit=MAX_IMAGE_FILE_BYTES)
+    header = image_header(data)
+    if header is not None:
+        check_image_size(header, path)
+    image = _decode(data, path)
     if image.dtype == np.uint16:
         image = ((image.astype(np.uint32) + 128) // 257).astype(np.uint8)
     elif image.dtype != np.uint8:
@@ -403,6 +406,36 @@ def read_image(path: str | os.PathLike) -> np.ndarray:
     if image.shape[2] not in conversions:
         raise InputError(f"{path}: unsupported image with {image.shape[2]} channels")
     return cv2.cvtColor(image, conversions[image.shape[2]])
+
+
+def check_image_size(header: ImageHeader, path: str | os.PathLike) -> None:
+    """`InputError` if the image `header` declares has more than `MAX_IMAGE_PIXELS` pixels."""
+    if header.pixels > MAX_IMAGE_PIXELS:
+        raise InputError(
+            f"{path}: the {header.format} image is {header.width}x{header.height} pixels "
+            f"({header.pixels / 1e6:.0f} megapixels); at most {MAX_IMAGE_PIXELS / 1e6:.0f} megapixels "
+            "can be processed"
+        )
+
+
+def _decode(data: bytes, path: Path) -> np.ndarray:
+    """OpenCV's decoding of `data`, with its complaints as one `InputError` line."""
+    with _captured_c_stderr() as messages:
+        try:
+            image = cv2.imdecode(np.frombuffer(data, dtype=np.uint8), cv2.IMREAD_UNCHANGED)
+        except cv2.error as error:
+            if error.code == cv2.Error.StsNoMem:
+                raise MemoryError(f"decoding {path}: {error.err}") from None
+            if "CV_IO_MAX_IMAGE_PIXELS" in error.err:
+                raise InputError(
+                    f"{path}: the image has more than {MAX_IMAGE_PIXELS / 1e6:.0f} megapixels, the most "
+                    "that can be processed"
+                ) from None
+            image, messages = None, [*messages, error.err]
+    if image is None:
+        reason = _decoder_reason(messages)
+        raise InputError(f"{path}: cannot decode the image{f' ({reason})' if reason else ''}")
+    return image
 
 
 def encode_png(image: np.ndarray) -> bytes:
@@ -418,8 +451,13 @@ def write_png(path: str | os.PathLike, image: np.ndarray) -> None:
     write_atomic(path, encode_png(image))
 
 
-def _read_bytes(path: Path) -> bytes:
+def _read_bytes(path: Path, limit: int | None = None) -> bytes:
     try:
+        if limit is not None and path.stat().st_size > limit:
+            raise InputError(
+                f"{path}: the file is {path.stat().st_size / 2**20:.0f} MiB; at most {limit / 2**20:.0f} MiB "
+                "can be read"
+            )
         data = path.read_bytes()
     except FileNotFoundError:
         raise InputError(f"{path}: no such file") from None
@@ -470,6 +508,18 @@ def _decoder_reason(messages: list[str]) -> str:
 
 def _is_number(value) -> bool:
     return isinstance(value, Real) and not isinstance(value, bool)
+
+
+def _out_of_range(value: Real) -> bool:
+    """A coordinate beyond +-MAX_COORDINATE (integers of any size compare exactly; NaN and
+    infinities are left to the finiteness check, which names them)."""
+    return abs(value) > MAX_COORDINATE and not (isinstance(value, float) and math.isinf(value))
+
+
+def _shown(value, limit: int = 60) -> str:
+    """`repr` of a JSON value, shortened to one readable piece of a line."""
+    text = repr(value)
+    return text if len(text) <= limit else f"{text[: limit - 3]}..."
 
 
 def _json_type(value) -> str:

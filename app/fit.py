@@ -32,13 +32,16 @@ FOOT_POINT_STEPS = 3
 TANGENTIAL_WEIGHT = 1e-4
 #: Neighbouring control points closer than this (pixels) become a sharp corner.
 CORNER_SNAP = 1.0
+#: Larger images are fitted on a copy of about this many pixels (2048 x 2048): the cost
+#: grows with the outline's length, the cage's accuracy is a fraction of a span.
+FIT_PIXELS = 1 << 22
 
 
 class CageFitWarning(UserWarning):
     """The fit had to change the request (fewer points or smoothing) to stay simple."""
 
 
-def fit_cage(image: np.ndarray, points: int = 16) -> np.ndarray:
+def fit_cage(image: np.ndarray, points: int = 16, max_pixels: int = FIT_PIXELS) -> np.ndarray:
     """Control points of a closed quadratic B-spline around the image's main silhouette.
 
     Parameters
@@ -47,6 +50,9 @@ def fit_cage(image: np.ndarray, points: int = 16) -> np.ndarray:
         RGBA or RGB, row 0 at the top.
     points : int
         n >= 3, the number of control points.
+    max_pixels : int
+        An image of more pixels is fitted on a copy shrunk to about this many
+        (`downscaled`), and the cage mapped back to the image's pixels.
 
     Returns
     -------
@@ -54,7 +60,8 @@ def fit_cage(image: np.ndarray, points: int = 16) -> np.ndarray:
         Control points in image pixels; m == points unless that curve crossed
         itself, in which case the contour is smoothed and then m is lowered until
         the curve is simple, with a `CageFitWarning` saying so.  Pairs closer
-        than a pixel are merged into sharp corners (`snap_corners`).
+        than a pixel (of the fitted copy) are merged into sharp corners
+        (`snap_corners`).
 
     Raises
     ------
@@ -62,6 +69,7 @@ def fit_cage(image: np.ndarray, points: int = 16) -> np.ndarray:
         If the image holds no object or the object is too small for `points`.
     """
     points = positive_int(points, "points", minimum=3)
+    image, scale = downscaled(image, positive_int(max_pixels, "max_pixels"))
     contour = silhouette_contour(image)
     if len(contour) < 3 * points:
         raise ValueError(
@@ -83,14 +91,31 @@ def fit_cage(image: np.ndarray, points: int = 16) -> np.ndarray:
             if (count, smoothing) != (points, 0.0):
                 remedy = [f"used {count} points"] if count != points else []
                 if sigma:
-                    remedy.append(f"smoothed the outline over {sigma * length / len(contour):.1f} px")
+                    pixels = sigma * length / len(contour) * float(np.sqrt(np.prod(scale)))
+                    remedy.append(f"smoothed the outline over {pixels:.1f} px")
                 warnings.warn(
                     f"the fitted curve with {points} control points crossed itself; {' and '.join(remedy)}",
                     CageFitWarning,
                     stacklevel=2,
                 )
-            return control_points
+            return control_points * scale
     raise ValueError("could not fit a simple closed curve to the silhouette")
+
+
+def downscaled(image: np.ndarray, max_pixels: int) -> tuple[np.ndarray, np.ndarray]:
+    """`image` (H, W, C) shrunk by area averaging to at most `max_pixels` pixels.
+
+    Returns the copy (h, w, C) (the image itself if small enough) and the scale
+    (W / w, H / h), shape (2,), that maps its pixel coordinates (x right, y down,
+    origin at the top-left corner) back to the image's.
+    """
+    height, width = image.shape[:2]
+    if height * width <= max_pixels:
+        return image, np.ones(2)
+    factor = np.sqrt(max_pixels / (height * width))
+    size = (max(1, int(width * factor)), max(1, int(height * factor)))
+    small = cv2.resize(image, size, interpolation=cv2.INTER_AREA)
+    return small, np.array([width / size[0], height / size[1]])
 
 
 def snap_corners(control_points: np.ndarray, tolerance: float = CORNER_SNAP) -> np.ndarray:

@@ -10,13 +10,14 @@ from core.bspline import ClosedBSpline
 from core.harmonic import harmonic_basis
 from core.kernels import KERNELS, ConvergenceWarning, SolveReport, kernel
 from core.mesh import Mesh, folded_triangles, triangulate
-from core.mesh_basis import MESH_ONLY_KERNELS, mesh_basis_functions
+from core.mesh_basis import MESH_ONLY_KERNELS, CacheWarning, mesh_basis_functions
 from core.pgw import pgw_basis
 
 __all__ = [
     "KERNELS",
     "MESH_ONLY_KERNELS",
     "Boundary",
+    "CacheWarning",
     "ClosedBSpline",
     "ConvergenceWarning",
     "Mesh",

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from core.diameter import point_set_diameter
 from core.validation import as_parameters, as_points, positive_float
 
 
@@ -107,7 +108,7 @@ class Boundary:
         extent = np.ptp(self.points, axis=0)
         if not np.all(extent > 0):
             raise ValueError("the boundary samples are collinear; the domain has no area")
-        self.diameter = _sample_diameter(self.points) if _diameter is None else float(_diameter)
+        self.diameter = point_set_diameter(self.points) if _diameter is None else float(_diameter)
         area = (
             0.5
             * self.step
@@ -152,17 +153,3 @@ class Boundary:
 
     def __repr__(self) -> str:
         return f"Boundary(N={self.count}, step={self.step:.6g})"
-
-
-def _sample_diameter(points: np.ndarray) -> float:
-    from scipy.spatial import ConvexHull
-
-    try:
-        hull = points[ConvexHull(points).vertices]
-    except Exception:  # degenerate hull; the caller reports zero area
-        hull = points
-    # Pairwise distances are quadratic in the hull size; a few thousand evenly spread
-    # hull points give the diameter to far better than any tolerance needs.
-    hull = hull[:: max(1, len(hull) // 2000)]
-    difference = hull[:, None, :] - hull[None, :, :]
-    return float(np.sqrt((difference**2).sum(-1).max()))

@@ -18,7 +18,8 @@ from __future__ import annotations
 import numpy as np
 
 from core.boundary import Boundary, PiecewisePolynomial
-from core.validation import as_parameters, as_points, positive_int
+from core.diameter import point_set_diameter
+from core.validation import as_parameters, as_points, checked_samples_per_segment
 
 
 class ClosedBSpline:
@@ -40,6 +41,7 @@ class ClosedBSpline:
 
     def __init__(self, control_points):
         points = as_points(control_points, "control_points", min_count=3)
+        _check_range(points)
         self._points = points
         self._points.setflags(write=False)
         if np.all(points == points[0]):
@@ -134,7 +136,7 @@ class ClosedBSpline:
         refined near the boundary at any parameter.  At the knots, where p'' jumps,
         the second derivative is the mean of its one-sided values.
         """
-        per = positive_int(samples_per_segment, "samples_per_segment", minimum=2)
+        per = checked_samples_per_segment(samples_per_segment, self.n)
         count = per * self.n
         t = np.arange(count) * (self.n / count)
         value, first, second = self.evaluate(t)
@@ -232,6 +234,20 @@ def _basis_derivative_weights(t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return first, second
 
 
+#: Largest coordinate magnitude: squares (areas, distances) must stay finite.
+MAX_COORDINATE = 1e150
+
+
+def _check_range(points: np.ndarray) -> None:
+    outside = np.flatnonzero(np.abs(points).max(axis=1) > MAX_COORDINATE)
+    if outside.size:
+        i = int(outside[0])
+        raise ValueError(
+            f"control_points[{i}] = {points[i].tolist()} is out of range: coordinates must lie within "
+            f"+-{MAX_COORDINATE:g} ({outside.size} point(s) do not)"
+        )
+
+
 def _check_repeats(points: np.ndarray) -> None:
     same_as_next = np.all(points == np.roll(points, -1, axis=0), axis=1)
     triple = same_as_next & np.roll(same_as_next, -1)
@@ -267,17 +283,9 @@ def _diameter(points: np.ndarray) -> float:
     """Largest distance between two points of the curve (it lies in the control hull).
 
     Uses dense samples; exact to a relative 1e-4, which is all tolerances need.
+    O(n log n) time and O(n) memory (`core.diameter`).
     """
-    spline = _dense(points, 32)
-    if spline.shape[0] > 2000:
-        from scipy.spatial import ConvexHull
-
-        try:
-            spline = spline[ConvexHull(spline).vertices]
-        except Exception:  # degenerate (collinear) hull: fall back to all points
-            pass
-    difference = spline[:, None, :] - spline[None, :, :]
-    return float(np.sqrt((difference**2).sum(-1).max()))
+    return point_set_diameter(_dense(points, 32))
 
 
 def _dense(points: np.ndarray, per_span: int) -> np.ndarray:
@@ -332,51 +340,94 @@ def _first_self_intersection(points: np.ndarray) -> tuple[int, int] | None:
     """First pair of spans (array indices of their middle control point) that meet.
 
     Each span is a parabola arc (cannot cross itself); spans are compared as
-    polylines of 24 chords, pruned by the bounding boxes of their Bézier hulls.
-    Adjacent spans share one end point, which does not count; their other
-    crossings, loops smaller than a chord, are found exactly by `knot_loops`.
+    polylines of 24 chords, pruned by the bounding boxes of their Bézier hulls
+    (`_overlapping_spans`, a sweep in x: memory linear in n).  Adjacent spans
+    share one end point, which does not count; their other crossings, loops
+    smaller than a chord, are found exactly by `knot_loops`.
     """
     n = points.shape[0]
-    per = 24
-    u = np.linspace(0.0, 1.0, per + 1)
+    u = np.linspace(0.0, 1.0, _CHORDS + 1)
     previous = np.roll(points, 1, axis=0)
     following = np.roll(points, -1, axis=0)
     b0 = 0.5 * (previous + points)
     b2 = 0.5 * (points + following)
-    polylines = (
-        ((1 - u) ** 2)[None, :, None] * b0[:, None, :]
-        + (2 * u * (1 - u))[None, :, None] * points[:, None, :]
-        + (u**2)[None, :, None] * b2[:, None, :]
-    )  # (n, per + 1, 2)
     hull = np.stack([b0, points, b2], axis=1)
     low, high = hull.min(axis=1), hull.max(axis=1)
     scale = max(float(np.ptp(points, axis=0).max()), 1e-300)
     pad = 1e-9 * scale
-    overlap = np.all((low[:, None] <= high[None, :] + pad) & (low[None, :] <= high[:, None] + pad), -1)
     degenerate = np.all(b0 == b2, axis=1)  # no repeated triples, but keep it safe
-    for i in range(n):
-        for j in range(i + 1, n):
-            if not overlap[i, j] or degenerate[i] or degenerate[j]:
-                continue
-            a = polylines[i]
-            b = polylines[j]
-            if j == i + 1:
-                a, b = a[:-1], b[1:]  # drop the shared end point a[-1] == b[0]
-            elif i == 0 and j == n - 1:
-                a, b = a[1:], b[:-1]  # spans n-1 and 0 share b[-1] == a[0]
-            if _polylines_meet(a, b, pad):
-                return i, j
+    for pairs in _overlapping_spans(low, high, pad):
+        pairs = pairs[~(degenerate[pairs[:, 0]] | degenerate[pairs[:, 1]])]
+        for start in range(0, pairs.shape[0], _PAIRS_PER_BATCH):
+            batch = pairs[start : start + _PAIRS_PER_BATCH]
+            i, j = batch[:, 0], batch[:, 1]
+            a = _polyline(b0[i], points[i], b2[i], u)
+            b = _polyline(b0[j], points[j], b2[j], u)
+            # Neighbours share an end point: leave out the chords that end there.
+            valid = np.ones((batch.shape[0], _CHORDS, _CHORDS), dtype=bool)
+            follows = j == i + 1
+            wraps = ~follows & (i == 0) & (j == n - 1)
+            valid[follows, -1, :] = False
+            valid[follows, :, 0] = False
+            valid[wraps, 0, :] = False
+            valid[wraps, :, -1] = False
+            hits = np.flatnonzero(_chords_meet(a, b, valid, pad))
+            if hits.size:
+                return int(i[hits[0]]), int(j[hits[0]])
     return None
 
 
-def _polylines_meet(a: np.ndarray, b: np.ndarray, tolerance: float) -> bool:
-    """Whether two polylines (ka, 2), (kb, 2) intersect or touch (within tolerance)."""
-    if len(a) < 2 or len(b) < 2:
-        return False
-    p, r = a[:-1], np.diff(a, axis=0)
-    q, s = b[:-1], np.diff(b, axis=0)
-    p, r = p[:, None, :], r[:, None, :]
-    q, s = q[None, :, :], s[None, :, :]
+# Chords per span in the self-intersection test, and span pairs tested at once.
+_CHORDS = 24
+_PAIRS_PER_BATCH = 2048
+# Candidate span pairs produced at once by the sweep (bounds its memory).
+_PAIRS_PER_SWEEP = 1 << 20
+
+
+def _overlapping_spans(low: np.ndarray, high: np.ndarray, pad: float):
+    """Pairs (i, j), i < j, of boxes (n, 2) that overlap within `pad`.
+
+    A sweep over the boxes sorted by their left side finds, for each box, the
+    boxes that start before it ends; those are filtered by the other coordinate.
+    Yields int64 arrays of shape (K, 2), each sorted, from blocks of at most about
+    `_PAIRS_PER_SWEEP` candidates (at most n for one box), so memory stays linear
+    in n however many pairs overlap.
+    """
+    n = low.shape[0]
+    order = np.argsort(low[:, 0], kind="stable")
+    starts = low[order, 0]
+    stops = np.searchsorted(starts, high[order, 0] + pad, side="right")
+    counts = np.maximum(stops - np.arange(n) - 1, 0)
+    first = 0
+    while first < n:
+        total = np.cumsum(counts[first:])
+        last = first + max(1, int(np.searchsorted(total, _PAIRS_PER_SWEEP, side="right")))
+        sizes = counts[first:last]
+        mine = np.repeat(np.arange(first, last), sizes)
+        other = mine + 1 + np.arange(sizes.sum()) - np.repeat(np.cumsum(sizes) - sizes, sizes)
+        i, j = order[mine], order[other]
+        overlap = (low[i, 1] <= high[j, 1] + pad) & (low[j, 1] <= high[i, 1] + pad)
+        pairs = np.sort(np.stack([i[overlap], j[overlap]], axis=1), axis=1)
+        yield pairs[np.lexsort((pairs[:, 1], pairs[:, 0]))]
+        first = last
+
+
+def _polyline(b0: np.ndarray, b1: np.ndarray, b2: np.ndarray, u: np.ndarray) -> np.ndarray:
+    """Points (K, len(u), 2) of K quadratic Bézier arcs with control points (K, 2) each."""
+    return (
+        ((1 - u) ** 2)[None, :, None] * b0[:, None, :]
+        + (2 * u * (1 - u))[None, :, None] * b1[:, None, :]
+        + (u**2)[None, :, None] * b2[:, None, :]
+    )
+
+
+def _chords_meet(a: np.ndarray, b: np.ndarray, valid: np.ndarray, tolerance: float) -> np.ndarray:
+    """Whether polylines a[k] and b[k] (K, c + 1, 2) intersect or touch (within tolerance).
+
+    Only the chord pairs where ``valid`` (K, c, c) is true count.  Returns bool (K,).
+    """
+    p, r = a[:, :-1, None, :], np.diff(a, axis=1)[:, :, None, :]
+    q, s = b[:, None, :-1, :], np.diff(b, axis=1)[:, None, :, :]
     qp = q - p
     denominator = r[..., 0] * s[..., 1] - r[..., 1] * s[..., 0]
     t_num = qp[..., 0] * s[..., 1] - qp[..., 1] * s[..., 0]
@@ -386,15 +437,11 @@ def _polylines_meet(a: np.ndarray, b: np.ndarray, tolerance: float) -> bool:
         t = t_num / denominator
         u = u_num / denominator
     proper = ~parallel & (t >= 0) & (t <= 1) & (u >= 0) & (u <= 1)
-    if proper.any():
-        return True
-    # Parallel chords: they meet only if collinear and overlapping (a retraced path).
+    # Parallel chords meet only if collinear and overlapping (a retraced path).
     collinear = parallel & (np.abs(t_num) <= tolerance * (np.linalg.norm(s, axis=-1) + 1e-300))
-    if collinear.any():
-        rr = (r * r).sum(-1)
-        start = (qp * r).sum(-1) / np.where(rr > 0, rr, 1)
-        end = ((qp + s) * r).sum(-1) / np.where(rr > 0, rr, 1)
-        lo, hi = np.minimum(start, end), np.maximum(start, end)
-        if np.any(collinear & (hi >= 0) & (lo <= 1) & (rr > 0)):
-            return True
-    return False
+    rr = (r * r).sum(-1)
+    safe = np.where(rr > 0, rr, 1)
+    start = (qp * r).sum(-1) / safe
+    end = ((qp + s) * r).sum(-1) / safe
+    overlapping = collinear & (np.maximum(start, end) >= 0) & (np.minimum(start, end) <= 1) & (rr > 0)
+    return np.any(valid & (proper | overlapping), axis=(1, 2))

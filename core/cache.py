@@ -1,11 +1,17 @@
 """On-disk cache of basis-function matrices G (V x n) at mesh vertices.
 
 Computing G once per (cage, mesh, kernel) is the precompute of Sec. 4.3; it can
-take seconds, so the result is kept as a ``.npy`` file named by the SHA-256 of
-everything it depends on.  The directory is ``$TRANSFINITE_CACHE_DIR`` or
-``~/.cache/transfinite-warp``.  Files are written atomically (a temporary file in
-the same directory, then `os.replace`), and a file that cannot be read or does
-not hold the expected finite array is ignored: the caller recomputes it.
+take seconds, so the result is kept in a ``.npz`` file named by the SHA-256 of
+everything it depends on (`cache_key`).  The directory is
+``$TRANSFINITE_CACHE_DIR`` or ``~/.cache/transfinite-warp``.
+
+A cache must never change a result.  Each file holds the array, the errors of
+its invariants measured when it was computed (`core.mesh_basis` checks them on
+every read) and a SHA-256 checksum of the key, the shape, the errors and the
+array's bytes.  `load` reports a file that cannot be read, does not hold what
+was stored under its key, or fails the checksum as a problem (the caller
+recomputes and `store` replaces it); files are written atomically
+(`core.atomic_write`) with the mode the umask gives.
 """
 
 from __future__ import annotations
@@ -14,20 +20,23 @@ import functools
 import hashlib
 import json
 import os
-import tempfile
 import warnings
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
+from core.atomic_write import write_atomically
+
 # Bump when the meaning or layout of a cached array changes.
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2
 ENVIRONMENT_VARIABLE = "TRANSFINITE_CACHE_DIR"
 # The modules whose code decides the cached values (hashed into every key).
 NUMERICAL_MODULES = (
     "basis.py",
     "boundary.py",
     "bspline.py",
+    "diameter.py",
     "harmonic.py",
     "kernels.py",
     "mesh_basis.py",
@@ -82,42 +91,85 @@ def cache_key(
     return digest.hexdigest()
 
 
-def load(key: str, shape: tuple[int, int]) -> np.ndarray | None:
-    """The cached float64 array of `shape` for `key`, or None if absent, unreadable or wrong."""
-    path = cache_directory() / f"{key}.npy"
+@dataclass(frozen=True)
+class Entry:
+    """What `load` found for a key.
+
+    Attributes
+    ----------
+    values : ndarray of shape (V, n) or None
+        The stored array, if the file is intact.
+    errors : ndarray of shape (2,) or None
+        Its partition-of-unity and linear-precision errors when it was stored.
+    problem : str or None
+        Why an existing file was rejected; None if it is intact or absent.
+    """
+
+    values: np.ndarray | None = None
+    errors: np.ndarray | None = None
+    problem: str | None = None
+
+
+def entry_path(key: str) -> Path:
+    """The file of `key` in `cache_directory`."""
+    return cache_directory() / f"{key}.npz"
+
+
+def load(key: str, shape: tuple[int, int]) -> Entry:
+    """The intact float64 array of `shape` stored for `key`, or why there is none."""
+    path = entry_path(key)
     try:
-        array = np.load(path, allow_pickle=False)
-    except Exception:  # missing, truncated, not .npy, unreadable: recompute, never crash
-        return None
-    if array.dtype != np.float64 or array.shape != tuple(shape) or not np.isfinite(array).all():
-        return None
-    return array
+        # Our own stream: np.load leaves the file open when the zip is broken.
+        with open(path, "rb") as stream, np.load(stream, allow_pickle=False) as file:
+            values, errors, checksum = file["basis"], file["errors"], str(file["checksum"])
+    except (FileNotFoundError, NotADirectoryError):
+        return Entry()
+    except Exception as error:  # truncated, not a .npz, bad zip CRC, missing member: recompute
+        return Entry(problem=f"unreadable: {type(error).__name__}")
+    if values.dtype != np.float64 or values.shape != tuple(shape):
+        return Entry(problem=f"a {values.dtype} array of shape {values.shape}, expected {tuple(shape)}")
+    if errors.dtype != np.float64 or errors.shape != (2,):
+        return Entry(problem="its invariant errors are malformed")
+    if checksum != _checksum(key, values, errors):
+        return Entry(problem="checksum mismatch")
+    if not (np.isfinite(values).all() and np.isfinite(errors).all()):
+        return Entry(problem="non-finite values")
+    return Entry(values, errors)
 
 
-def store(key: str, array: np.ndarray) -> None:
-    """Write `array` for `key` atomically; warn (never raise) if the directory is not writable."""
+def store(key: str, values: np.ndarray, errors: np.ndarray) -> bool:
+    """Write `values` (V, n) and their invariant `errors` (2,) for `key` atomically.
+
+    Returns whether it was written; warns (never raises) if the directory is not writable.
+    """
+    values = np.ascontiguousarray(values, dtype=np.float64)
+    errors = np.ascontiguousarray(errors, dtype=np.float64)
+    checksum = np.array(_checksum(key, values, errors))
     directory = cache_directory()
-    temporary = None
     try:
         directory.mkdir(parents=True, exist_ok=True)
-        with tempfile.NamedTemporaryFile(
-            dir=directory, prefix=f".{key}.", suffix=".tmp", delete=False
-        ) as file:
-            temporary = file.name
-            np.save(file, np.ascontiguousarray(array, dtype=np.float64), allow_pickle=False)
-        os.replace(temporary, directory / f"{key}.npy")
+        write_atomically(
+            entry_path(key), lambda stream: np.savez(stream, basis=values, errors=errors, checksum=checksum)
+        )
     except OSError as error:
-        if temporary is not None:
-            try:
-                os.unlink(temporary)
-            except OSError:
-                pass
         warnings.warn(
             f"could not write the basis-function cache in {directory} ({error}); "
             f"set {ENVIRONMENT_VARIABLE} to a writable directory",
             RuntimeWarning,
             stacklevel=3,
         )
+        return False
+    return True
+
+
+def _checksum(key: str, values: np.ndarray, errors: np.ndarray) -> str:
+    """Hex SHA-256 of the key, the array's dtype, shape and bytes, and the errors."""
+    digest = hashlib.sha256(key.encode())
+    for array in (values, errors):
+        array = np.ascontiguousarray(array)
+        digest.update(f"{array.dtype.str}{array.shape}\n".encode())
+        digest.update(array.tobytes())
+    return digest.hexdigest()
 
 
 @functools.cache

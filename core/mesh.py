@@ -245,9 +245,10 @@ def triangulate(
     Raises
     ------
     ValueError
-        If `curve` is not a ClosedBSpline, or `max_edge` is not a number > 0 or so
-        small that the mesh would exceed `MAX_VERTICES` vertices (estimated from
-        the area; refinement near narrow features adds to that estimate).
+        If `curve` is not a ClosedBSpline, or `max_edge` is not a number > 0, is
+        longer than the curve's diameter, or is so small that the mesh would
+        exceed `MAX_VERTICES` vertices (estimated from the area; refinement near
+        narrow features adds to that estimate).
         Also if the refinement fails (seen only for near-cusps made by two almost
         coincident control points): the message names them.
     """
@@ -256,6 +257,11 @@ def triangulate(
     if max_edge is None:
         max_edge = curve.diameter / DEFAULT_EDGES_PER_DIAMETER
     max_edge = positive_float(max_edge, "max_edge")
+    if max_edge > curve.diameter:
+        raise ValueError(
+            f"max_edge={max_edge:.6g} is longer than the domain; use 0 < max_edge <= {curve.diameter:.6g} "
+            "(the curve's diameter)"
+        )
     # An equilateral mesh of edge h has 2 / (sqrt(3) h^2) vertices per unit area.
     estimate = 2.0 * abs(curve.area) / (math.sqrt(3.0) * max_edge**2)
     if estimate > MAX_VERTICES:

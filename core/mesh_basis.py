@@ -13,6 +13,7 @@ property), interior rows come from
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Callable
 
 import numpy as np
@@ -20,13 +21,23 @@ import numpy as np
 from core import cache as disk_cache
 from core.bspline import ClosedBSpline
 from core.harmonic import harmonic_basis
-from core.kernels import KERNELS
+from core.kernels import CONVEX_ONLY, DEFAULT_TOLERANCE, KERNELS
 from core.mesh import Mesh, require_mesh_of
 from core.pgw import pgw_basis
-from core.validation import positive_int
+from core.validation import checked_samples_per_segment
 
 # Kernels defined through the mesh or by line intersections rather than `core.kernel`.
 MESH_ONLY_KERNELS = ("pgw", "harmonic")
+# Kernels whose linear precision holds to the Newton tolerance (the weighted maximum-likelihood family).
+NEWTON_KERNELS = tuple(name for name in KERNELS if name not in ("mean-value", *CONVEX_ONLY))
+# Rounding allowance of the invariant checks, in units of n * machine epsilon.
+ROUNDING_ULPS = 64
+
+
+class CacheWarning(RuntimeWarning):
+    """A damaged cache entry was found, recomputed and replaced."""
+
+
 _MESH_ONLY_PARAMETERS = {"pgw": ("angles",), "harmonic": ()}
 
 
@@ -56,7 +67,9 @@ def mesh_basis_functions(
     progress : callable, optional
         Called with the fraction done in [0, 1].
     cache : bool
-        Read and write the result in the disk cache (`core.cache`).
+        Read and write the result in the disk cache (`core.cache`).  An entry
+        that fails its checksum or `invariant_problem` is recomputed and
+        replaced, with a `CacheWarning` saying so.
     **params
         Kernel parameters: those of `core.basis_functions` for the point kernels,
         ``angles`` for ``"pgw"``, none for ``"harmonic"``.
@@ -77,7 +90,7 @@ def mesh_basis_functions(
     valid = tuple(dict.fromkeys(tuple(KERNELS) + MESH_ONLY_KERNELS))
     if not isinstance(kernel, str) or kernel not in valid:
         raise ValueError(f"unknown kernel {kernel!r}; choose one of: {', '.join(valid)}")
-    per = positive_int(samples_per_segment, "samples_per_segment", minimum=2)
+    per = checked_samples_per_segment(samples_per_segment, curve.n)
     if kernel in MESH_ONLY_KERNELS:
         unknown = sorted(set(params) - set(_MESH_ONLY_PARAMETERS[kernel]))
         if unknown:
@@ -88,27 +101,76 @@ def mesh_basis_functions(
     if progress is not None and not callable(progress):
         raise ValueError(f"progress must be a callable taking a fraction, got {progress!r}")
     shape = (mesh.vertices.shape[0], curve.n)
-    key = None
-    if cache:
-        key = disk_cache.cache_key(
-            curve.control_points,
-            mesh.vertices,
-            mesh.triangles,
-            mesh.boundary,
-            mesh.boundary_parameters,
-            kernel,
-            per,
-            params,
-        )
-        cached = disk_cache.load(key, shape)
-        if cached is not None:
+    if not cache:
+        return _compute(curve, mesh, kernel, per, progress, params)
+    key = disk_cache.cache_key(
+        curve.control_points,
+        mesh.vertices,
+        mesh.triangles,
+        mesh.boundary,
+        mesh.boundary_parameters,
+        kernel,
+        per,
+        params,
+    )
+    entry = disk_cache.load(key, shape)
+    problem = entry.problem
+    if entry.values is not None:
+        problem = invariant_problem(curve, mesh, kernel, params, entry.values, entry.errors)
+        if problem is None:
             if progress is not None:
                 progress(1.0)
-            return cached
+            return entry.values
     values = _compute(curve, mesh, kernel, per, progress, params)
-    if key is not None:
-        disk_cache.store(key, values)
+    replaced = disk_cache.store(key, values, invariant_errors(curve, mesh, values))
+    if problem is not None:
+        warnings.warn(
+            f"the cached basis functions {disk_cache.entry_path(key)} were damaged ({problem}); "
+            f"recomputed them{' and replaced the file' if replaced else ''}",
+            CacheWarning,
+            stacklevel=2,
+        )
     return values
+
+
+def invariant_errors(curve: ClosedBSpline, mesh: Mesh, values: np.ndarray) -> np.ndarray:
+    """Partition-of-unity and linear-precision errors of G, ndarray of shape (2,).
+
+    ``max_v |sum_i G_vi - 1|`` and ``max_v |G_v P - x_v|`` (length units) over the
+    rows of `values` (V, n).
+    """
+    partition = float(np.abs(values.sum(axis=1) - 1.0).max())
+    linear = float(np.linalg.norm(values @ curve.control_points - mesh.vertices, axis=1).max())
+    return np.array([partition, linear])
+
+
+def invariant_problem(
+    curve: ClosedBSpline, mesh: Mesh, kernel: str, params: dict, values: np.ndarray, recorded: np.ndarray
+) -> str | None:
+    """What is wrong with a stored G (V, n), or None if it holds every invariant it should.
+
+    Boundary rows must be exactly the B-spline basis (the Lagrange property, by
+    construction for every kernel).  Rows must sum to 1 and reproduce the
+    vertices to the bounds the computation guarantees: rounding for the partition
+    of unity, the Newton tolerance times the diameter for the linear precision of
+    the weighted maximum-likelihood kernels, or, where a computation was less
+    accurate than that (explicit kernels, points that did not converge), the
+    errors `recorded` (2,) when it was stored, twice over for rounding.
+    """
+    if not np.array_equal(values[mesh.boundary], curve.basis_matrix(mesh.boundary_parameters)):
+        return "its boundary rows are not the B-spline basis"
+    rounding = ROUNDING_ULPS * curve.n * np.finfo(np.float64).eps
+    partition, linear = invariant_errors(curve, mesh, values)
+    allowed = 2.0 * max(float(recorded[0]), rounding)
+    if not partition <= allowed:
+        return f"rows sum to 1 only within {partition:.3g}, not {allowed:.3g}"
+    guaranteed = rounding * float(np.abs(curve.control_points).max())
+    if kernel in NEWTON_KERNELS:
+        guaranteed += params.get("tolerance", DEFAULT_TOLERANCE) * curve.diameter
+    allowed = 2.0 * max(float(recorded[1]), guaranteed)
+    if not linear <= allowed:
+        return f"G @ P misses the vertices by {linear:.3g}, more than {allowed:.3g}"
+    return None
 
 
 def _compute(curve, mesh, kernel, samples_per_segment, progress, params) -> np.ndarray:

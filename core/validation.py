@@ -9,6 +9,11 @@ from __future__ import annotations
 
 import numpy as np
 
+#: Most boundary samples N = samples_per_segment * n of one curve: N floats per array of
+#: the solver's quadrature, and N operations per point.  A 10,000-point cage at the
+#: default 100 per span fits.
+MAX_BOUNDARY_SAMPLES = 1 << 20
+
 
 def as_points(value, name: str, *, min_count: int = 0) -> np.ndarray:
     """Return `value` as a C-contiguous float64 array of shape (M, 2).
@@ -18,7 +23,7 @@ def as_points(value, name: str, *, min_count: int = 0) -> np.ndarray:
     """
     try:
         array = np.array(value, dtype=np.float64)
-    except (TypeError, ValueError) as error:
+    except (TypeError, ValueError, OverflowError) as error:
         raise ValueError(f"{name} must be a list of (x, y) number pairs ({error})") from None
     if array.ndim == 1 and array.shape[0] == 2 and min_count <= 1:
         array = array.reshape(1, 2)
@@ -55,6 +60,19 @@ def positive_int(value, name: str, *, minimum: int = 1) -> int:
     if value < minimum:
         raise ValueError(f"{name} must be at least {minimum}, got {value}")
     return int(value)
+
+
+def checked_samples_per_segment(value, control_points: int) -> int:
+    """Return `value` as an int in [2, MAX_BOUNDARY_SAMPLES // control_points], or raise `ValueError`."""
+    per = positive_int(value, "samples_per_segment", minimum=2)
+    most = MAX_BOUNDARY_SAMPLES // control_points
+    if per > most:
+        raise ValueError(
+            f"samples_per_segment={per} gives {per * control_points:,} boundary samples for "
+            f"{control_points} control points, more than the {MAX_BOUNDARY_SAMPLES:,} allowed; "
+            f"use 2 <= samples_per_segment <= {most}"
+        )
+    return per
 
 
 def positive_float(value, name: str) -> float:

@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import struct
+import zlib
+
 import numpy as np
 import pytest
 
@@ -96,3 +99,31 @@ def l_polygon() -> np.ndarray:
     """An L-shaped polygon, every corner doubled (sharp corners), shape (12, 2)."""
     polygon = [[0, 0], [2, 0], [2, 1], [1, 1], [1, 2], [0, 2]]
     return np.repeat(np.array(polygon, dtype=float), 2, axis=0)
+
+
+def _png_chunk(kind: bytes, body: bytes) -> bytes:
+    return struct.pack(">I", len(body)) + kind + body + struct.pack(">I", zlib.crc32(kind + body))
+
+
+def declared_png(width: int, height: int) -> bytes:
+    """A PNG header declaring width x height RGB pixels, and no pixel data (65 bytes)."""
+    return (
+        b"\x89PNG\r\n\x1a\n"
+        + _png_chunk(b"IHDR", struct.pack(">IIBBBBB", width, height, 8, 2, 0, 0, 0))
+        + _png_chunk(b"IDAT", zlib.compress(b""))
+        + _png_chunk(b"IEND", b"")
+    )
+
+
+def blank_png(width: int, height: int, channels: int = 1) -> bytes:
+    """A real, valid, all-zero PNG of width x height pixels: big in pixels, small in bytes."""
+    colour = {1: 0, 3: 2, 4: 6}[channels]
+    compressor = zlib.compressobj(1)
+    row = bytes(1 + width * channels)  # filter byte 0, then the samples
+    data = b"".join(compressor.compress(row) for _ in range(height)) + compressor.flush()
+    return (
+        b"\x89PNG\r\n\x1a\n"
+        + _png_chunk(b"IHDR", struct.pack(">IIBBBBB", width, height, 8, colour, 0, 0, 0))
+        + _png_chunk(b"IDAT", data)
+        + _png_chunk(b"IEND", b"")
+    )

@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+import tracemalloc
+
 import numpy as np
 import pytest
 from conftest import near_cusp
 
 import core
-from core import examples
+from core import bspline, examples
 from core.bspline import knot_loops
 
 
@@ -112,6 +114,14 @@ def test_contains_at_reflex_and_convex_corners():
         ([[0, 0], [6, 0], [6, 1], [0, 5], [0, 6], [6, 6]], "crosses or touches itself"),
         ([[0, 0], [0, 0], [0, 0], [1, 0], [0, 1]], "repeat a point at most twice"),
         ("abc", "control_points must"),
+        (
+            [[0, 0], [1e308, 0], [0, 1]],
+            r"control_points\[1\] = \[1e\+308, 0.0\] is out of range: .* within \+-1e\+150",
+        ),
+        (
+            [[0, 0], [10**400, 0], [0, 1]],
+            r"control_points must be a list of \(x, y\) number pairs \(int too large",
+        ),
     ],
 )
 def test_invalid_control_points_are_rejected_with_a_clear_message(points, message):
@@ -132,6 +142,12 @@ def test_derivative_order_is_checked(blob):
 def test_sample_checks_samples_per_segment(blob):
     with pytest.raises(ValueError, match="samples_per_segment must be at least 2"):
         blob.sample(1)
+    most = (1 << 20) // blob.n
+    assert blob.sample(most).count == most * blob.n
+    with pytest.raises(
+        ValueError, match=rf"more than the 1,048,576 allowed; use 2 <= samples_per_segment <= {most}"
+    ):
+        blob.sample(most + 1)
     with pytest.raises(ValueError, match="samples_per_segment must be an integer"):
         blob.sample(2.5)
 
@@ -157,3 +173,59 @@ def test_tiny_loops_at_a_knot_are_found_exactly_and_rejected(gap):
 def test_near_cusps_without_a_loop_are_valid(turn_degrees):
     assert knot_loops(near_cusp(0.01, turn_degrees)).shape == (0, 3)
     core.ClosedBSpline(near_cusp(0.01, turn_degrees))
+
+
+def ellipse_cage(count):
+    angles = np.linspace(0.0, 2 * np.pi, count, endpoint=False)
+    return np.c_[600 + 500 * np.cos(angles), 500 + 300 * np.sin(angles)]
+
+
+def test_a_convex_cage_of_10000_points_validates_in_linear_memory():
+    # Every dense sample is on the hull: the pairwise diameter needed 32n x 32n x 2 floats
+    # (1.5 TiB here); the span pairs tested for crossings were an n x n matrix.
+    points = ellipse_cage(10_000)
+    tracemalloc.start()
+    try:
+        curve = core.ClosedBSpline(points)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert peak < 512 * 2**20  # measured: 120 MiB
+    assert abs(curve.diameter - 1000.0) <= 1e-4 * 1000.0
+
+
+def test_the_span_sweep_finds_the_same_first_crossing_as_all_pairs():
+    rng = np.random.default_rng(11)
+    crossing = 0
+    for trial in range(300):
+        count = int(rng.integers(3, 30))
+        angles = np.sort(rng.uniform(0.0, 2 * np.pi, count))
+        radii = rng.uniform(0.2, 1.0, count) if trial % 2 else 1 + 0.05 * rng.normal(size=count)
+        points = (
+            rng.normal(size=(count, 2))
+            if trial % 5 == 0
+            else np.c_[radii * np.cos(angles), radii * np.sin(angles)]
+        )
+        expected = all_pairs_first_crossing(points)
+        assert bspline._first_self_intersection(points) == expected
+        crossing += expected is not None
+    assert 30 < crossing < 270  # both outcomes are exercised
+
+
+def all_pairs_first_crossing(points):
+    """The oracle: every pair of spans at once, no pruning, the lexicographically first hit."""
+    n = len(points)
+    i, j = np.triu_indices(n, k=1)
+    u = np.linspace(0.0, 1.0, bspline._CHORDS + 1)
+    b0 = 0.5 * (np.roll(points, 1, axis=0) + points)
+    b2 = 0.5 * (points + np.roll(points, -1, axis=0))
+    valid = np.ones((len(i), bspline._CHORDS, bspline._CHORDS), dtype=bool)
+    follows = j == i + 1
+    wraps = ~follows & (i == 0) & (j == n - 1)
+    valid[follows, -1, :] = valid[follows, :, 0] = False
+    valid[wraps, 0, :] = valid[wraps, :, -1] = False
+    a = bspline._polyline(b0[i], points[i], b2[i], u)
+    b = bspline._polyline(b0[j], points[j], b2[j], u)
+    pad = 1e-9 * float(np.ptp(points, axis=0).max())
+    hits = np.flatnonzero(bspline._chords_meet(a, b, valid, pad))
+    return (int(i[hits[0]]), int(j[hits[0]])) if hits.size else None

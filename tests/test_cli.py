@@ -9,6 +9,7 @@ a few run ``python -m app`` in a subprocess end to end.
 import io
 import json
 import re
+import resource
 import subprocess
 import sys
 import types
@@ -17,6 +18,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 import pytest
+from conftest import blank_png, declared_png
 
 from app.__main__ import main
 from app.cli import ProgressBar
@@ -28,6 +30,7 @@ WIDTH, HEIGHT = 160, 120
 CAGE = [[30, 20], [80, 30], [130, 18], [140, 60], [128, 100], [80, 92], [28, 102], [20, 60]]
 FIGURE_EIGHT = [[103, 74], [135, 74], [135, 46], [103, 46], [57, 74], [25, 74], [25, 46], [57, 46]]
 L_AROUND_CORNER = [[-40, -40], [10, -40], [60, -40], [60, -12], [-12, -12], [-12, 60], [-40, 60], [-40, 10]]
+CAGE_TEXT = json.dumps({"control_points": CAGE})
 AFFINE = np.array([[0.9, -0.2, 18.0], [0.15, 1.05, -6.0]])  # x' = A x + b, our pixel convention
 
 
@@ -201,6 +204,44 @@ BAD_WARP_INPUTS = {
         ],
         r"gone.png: no such file",
     ),
+    # -- the fuzz run of issue 13: each of these ended in a traceback, a silent default or worse
+    "image declaring 30000x30000": (
+        lambda d: warp_argv(d, image=_write(d, "huge.png", declared_png(30000, 30000))),
+        r"huge.png: the PNG image is 30000x30000 pixels \(900 megapixels\); at most 134 megapixels",
+    ),
+    "integer 10^400 in a cage": (
+        lambda d: warp_argv(
+            d, **{"--cage": _write(d, "c.json", CAGE_TEXT.replace("30", "1" + "0" * 400, 1))}
+        ),
+        r"c.json: control_points\[0\] = \[1000.*\.\.\. is out of range: coordinates must lie within "
+        r"\+-1e\+15",
+    ),
+    "a point at 1e308": (
+        lambda d: warp_argv(d, **{"--cage": _write(d, "c.json", CAGE_TEXT.replace("30", "1e308", 1))}),
+        r"c.json: control_points\[0\] = \[1e\+308, 20\] is out of range",
+    ),
+    "an integer of 5000 digits": (
+        lambda d: warp_argv(d, **{"--cage": _write(d, "c.json", CAGE_TEXT.replace("30", "7" * 5000, 1))}),
+        r"c.json: cannot read the JSON \(Exceeds the limit \(4300 digits\)",
+    ),
+    "JSON nested 100,000 deep": (
+        lambda d: warp_argv(d, **{"--cage": _write(d, "c.json", "[" * 100_000 + "]" * 100_000)}),
+        r"c.json: cannot read the JSON \(arrays or objects nested too deeply\)",
+    ),
+    "--max-edge 1e300": (
+        lambda d: [*warp_argv(d), "--max-edge", "1e300"],
+        r"cage.json: meshing: max_edge=1e\+300 is longer than the domain; use 0 < max_edge <= 1\d\d\.\d+",
+    ),
+    "--samples-per-segment 10^9": (
+        lambda d: [*warp_argv(d), "--samples-per-segment", "1000000000"],
+        r"--samples-per-segment: samples_per_segment=1000000000 gives 8,000,000,000 boundary samples "
+        r"for 8 control points, more than the 1,048,576 allowed; use 2 <= samples_per_segment <= 131072",
+    ),
+    "empty --kernel": (lambda d: warp_argv(d, **{"--kernel": ""}), r"unknown kernel ''; choose one of"),
+    "--output is the input image": (
+        lambda d: warp_argv(d, **{"--output": d / "picture.png"}),
+        r"picture.png: is the input image; give another --output, or --overwrite-input to replace it",
+    ),
     "bad --size": (lambda d: [*warp_argv(d), "--size", "12by4"], r"--size: expected WIDTHxHEIGHT"),
     "negative --scale": (lambda d: [*warp_argv(d), "--scale", "-2"], r"--scale: must be a finite number > 0"),
     "missing --output": (lambda d: warp_argv(d, **{"--output": None}), r"required: --output"),
@@ -283,6 +324,126 @@ def test_bad_input_end_to_end_in_a_subprocess(files):
     assert_one_line_error(result.returncode, result.stderr, r"c.json: control_points needs at least 3 points")
     assert result.stdout == ""
     assert not (files / "out.png").exists()
+
+
+GIB = 1 << 30
+
+
+@pytest.fixture(scope="module")
+def big_images(tmp_path_factory):
+    """A PNG declaring 30000x30000 pixels without data, a real blank one of that size (900
+    megapixels, 1 MB), and a real blank RGB one of 11000x11000 (below the limit, 363 MB decoded)."""
+    directory = tmp_path_factory.mktemp("big")
+    (directory / "declared.png").write_bytes(declared_png(30000, 30000))
+    (directory / "blank.png").write_bytes(blank_png(30000, 30000))
+    (directory / "large.png").write_bytes(blank_png(11000, 11000, channels=3))
+    return directory
+
+
+def run_limited(argv, address_space):
+    """``python -m app ARGV`` with its address space limited like ``prlimit --as``."""
+    limit = (int(address_space), int(address_space))
+    return subprocess.run(
+        [sys.executable, "-m", "app", *map(str, argv)],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=300,
+        preexec_fn=lambda: resource.setrlimit(resource.RLIMIT_AS, limit),
+    )
+
+
+@pytest.mark.parametrize(
+    ("command", "pattern"),
+    [
+        (
+            lambda d, big: warp_argv(d, image=big / "declared.png"),
+            r"declared.png: the PNG image is 30000x30000",
+        ),
+        (lambda d, big: warp_argv(d, image=big / "blank.png"), r"blank.png: the PNG image is 30000x30000"),
+        (
+            lambda d, big: ["fit", big / "blank.png", "--output", d / "fitted.json"],
+            r"blank.png: the PNG image is",
+        ),
+        (lambda d, big: [*warp_argv(d), "--samples-per-segment", "1000000000"], r"at most|allowed; use 2 <="),
+        (
+            lambda d, big: [*warp_argv(d), "--max-edge", "1e300"],
+            r"max_edge=1e\+300 is longer than the domain",
+        ),
+        (
+            lambda d, big: warp_argv(d, **{"--cage": _write(d, "c.json", "[" * 100_000 + "]" * 100_000)}),
+            r"nested too deeply",
+        ),
+    ],
+    ids=["declared", "blank", "fit-blank", "samples", "max-edge", "deep-json"],
+)
+def test_bad_input_under_a_4_gib_address_space_is_one_line(files, big_images, command, pattern):
+    result = run_limited(command(files, big_images), 4 * GIB)
+    assert_one_line_error(result.returncode, result.stderr, pattern)
+    assert not (files / "out.png").exists() and not (files / "fitted.json").exists()
+
+
+def test_an_allocation_failure_is_one_line_and_exit_1(files, big_images):
+    # 121 megapixels is a valid input; 1.3 GiB of address space cannot hold it decoded.
+    result = run_limited(["fit", big_images / "large.png", "--output", files / "c.json"], 1.3 * GIB)
+    assert_one_line_error(result.returncode, result.stderr, r"^error: out of memory: ", expected_code=1)
+    assert not (files / "c.json").exists()
+
+
+@pytest.mark.parametrize(
+    "error",
+    [MemoryError("Unable to allocate 2.51 GiB for an array with shape (30000, 30000, 3)"), "opencv"],
+)
+def test_allocation_failures_anywhere_map_to_exit_1(files, capfd, monkeypatch, error):
+    if error == "opencv":
+        error = cv2.error("OpenCV(5.0.0) alloc.cpp:73: error: (-4:Insufficient memory)")
+        error.code, error.err = cv2.Error.StsNoMem, "Failed to allocate 2700000000 bytes"
+
+    def fail(*arguments, **keywords):
+        raise error
+
+    monkeypatch.setattr("core.triangulate", fail)
+    code, _, err = run_main(warp_argv(files), capfd)
+    assert_one_line_error(
+        code, err, r"^error: out of memory: (Unable to allocate 2.51 GiB|Failed to allocate)", 1
+    )
+    assert not (files / "out.png").exists()
+
+
+def mutated(data: bytes, seed: int) -> bytes:
+    """`data` with a few random bytes replaced, inserted or deleted (fixed seed)."""
+    rng = np.random.default_rng(seed)
+    data = bytearray(data)
+    for _ in range(int(rng.integers(1, 4))):
+        at = int(rng.integers(len(data)))
+        kind = rng.integers(3)
+        if kind == 0:
+            data[at] = int(rng.integers(256))
+        elif kind == 1:
+            data[at:at] = rng.bytes(int(rng.integers(1, 4)))
+        else:
+            del data[at : at + int(rng.integers(1, 4))]
+    return bytes(data)
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_fuzzed_inputs_work_or_fail_in_one_line(files, capfd, seed):
+    # A mutated image, cage, target or session: exit 0 with an output, or exit 2 with one line,
+    # no output file and never a traceback.
+    name = ("picture.png", "cage.json", "target.json", "session.json")[seed % 4]
+    path = files / name
+    path.write_bytes(mutated(path.read_bytes(), seed))
+    if name == "session.json":
+        argv = ["warp", "--session", path, "--output", files / "out.png"]
+    else:
+        argv = warp_argv(files)
+    code, _, err = run_main(argv, capfd)
+    assert "Traceback" not in err
+    if code == 0:
+        assert read_image(files / "out.png").shape == (HEIGHT, WIDTH, 4)
+    else:
+        assert_one_line_error(code, err, r"^error: ")
+        assert not (files / "out.png").exists()
 
 
 def ellipse_picture():
@@ -442,6 +603,89 @@ def test_warp_end_to_end_in_a_subprocess(files):
     assert "Traceback" not in result.stderr
     assert read_image(files / "out.png").shape == (HEIGHT, WIDTH, 4)
     assert not list(files.glob(".out.png.*"))
+
+
+def test_the_input_image_is_replaced_only_with_overwrite_input(files, capfd):
+    source = (files / "picture.png").read_bytes()
+    code, _, err = run_main(warp_argv(files, **{"--output": files / "picture.png"}), capfd)
+    assert_one_line_error(code, err, r"is the input image")
+    assert (files / "picture.png").read_bytes() == source
+    argv = warp_argv(files, **{"--output": files / "picture.png", "--target": files / "cage.json"})
+    code, _, err = run_main([*argv, "--overwrite-input"], capfd)
+    assert code == 0, err
+    assert (files / "picture.png").read_bytes() != source
+    assert read_image(files / "picture.png").shape == (HEIGHT, WIDTH, 4)
+
+
+def test_a_temporary_left_by_a_killed_warp_is_removed_by_the_next(files, capfd):
+    finished = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True)
+    stray = files / f".out.png.{int(finished.stdout)}.5eed1e55.tmp"  # what kill -9 mid-write leaves
+    stray.write_bytes(b"half a PNG")
+    code, _, err = run_main(warp_argv(files), capfd)
+    assert code == 0, err
+    assert not stray.exists()
+    assert [p.name for p in files.glob(".out.png.*")] == []
+
+
+def test_an_absurdly_large_target_warns(files, capfd):
+    huge = (np.array(transformed(CAGE)) * 1e12).tolist()
+    code, _, err = run_main(warp_argv(files, **{"--target": _cage(files, "t.json", huge)}), capfd)
+    assert code == 0, err
+    (line,) = [line for line in err.splitlines() if line.startswith("warning:")]
+    assert re.search(r"t.json: the target spans 1.\d+e\+14 pixels, .* times the 160x120 output", line)
+    code, _, err = run_main(warp_argv(files), capfd)
+    assert code == 0 and "warning" not in err
+
+
+CACHE_DAMAGE = {
+    "truncated": lambda path: path.write_bytes(path.read_bytes()[:1000]),
+    "random bytes": lambda path: path.write_bytes(np.random.default_rng(1).bytes(path.stat().st_size)),
+    "random finite values": lambda path: _rewrite_basis(
+        path, lambda basis: np.random.default_rng(2).uniform(0, 1, basis.shape)
+    ),
+    "two columns swapped": lambda path: _rewrite_basis(path, lambda basis: basis[:, [1, 0, *range(2, 8)]]),
+    "one bit flipped": lambda path: _rewrite_basis(path, _flip_one_bit),
+}
+
+
+def _rewrite_basis(path, change):
+    """Store a changed basis under the entry's old checksum, as a damaged disk or copy would."""
+    with np.load(path) as entry:
+        basis, errors, checksum = entry["basis"], entry["errors"], entry["checksum"]
+    with open(path, "wb") as stream:
+        np.savez(stream, basis=change(basis), errors=errors, checksum=checksum)
+
+
+def _flip_one_bit(basis):
+    damaged = basis.copy()
+    damaged.reshape(-1).view(np.uint64)[len(basis) * 4 + 3] ^= np.uint64(1 << 40)
+    return damaged
+
+
+@pytest.mark.parametrize("damage", CACHE_DAMAGE)
+def test_a_damaged_cache_entry_gives_the_reference_image_is_rewritten_and_reported(
+    files, capfd, tmp_path_factory, monkeypatch, damage
+):
+    cache = tmp_path_factory.mktemp("damaged-cache")
+    monkeypatch.setenv("TRANSFINITE_CACHE_DIR", str(cache))
+    code, _, err = run_main(warp_argv(files, **{"--output": files / "reference.png"}), capfd)
+    assert code == 0, err
+    (entry,) = cache.glob("*.npz")
+    intact = entry.read_bytes()
+    CACHE_DAMAGE[damage](entry)
+    assert entry.read_bytes() != intact
+    code, _, err = run_main(warp_argv(files), capfd)
+    assert code == 0, err
+    assert (files / "out.png").read_bytes() == (files / "reference.png").read_bytes()
+    assert entry.read_bytes() == intact  # rewritten: the same bytes as the first run wrote
+    (line,) = [line for line in err.splitlines() if "cached basis functions" in line]
+    assert re.fullmatch(
+        rf"warning: the cached basis functions {re.escape(str(entry))} were damaged \(.+\); "
+        r"recomputed them and replaced the file",
+        line,
+    )
+    code, _, err = run_main(warp_argv(files), capfd)
+    assert code == 0 and "cached basis functions" not in err
 
 
 def test_compare_writes_table_and_figure(files, capfd):

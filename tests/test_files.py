@@ -6,7 +6,9 @@ import os
 import cv2
 import numpy as np
 import pytest
+from conftest import declared_png
 
+from app import files
 from app.files import (
     InputError,
     Session,
@@ -214,3 +216,31 @@ def test_check_writable(tmp_path):
         check_writable(tmp_path / "nowhere" / "out.png")
     with pytest.raises(InputError, match=r"it is a directory"):
         check_writable(tmp_path)
+
+
+def test_a_byte_order_mark_is_not_part_of_the_json(tmp_path):
+    path = tmp_path / "bom.json"
+    path.write_bytes(b"\xef\xbb\xbf" + json.dumps({"control_points": [[0, 0], [4, 0], [0, 3]]}).encode())
+    assert read_cage(path).tolist() == [[0, 0], [4, 0], [0, 3]]
+
+
+def test_images_are_refused_by_their_header_before_decoding(tmp_path, monkeypatch):
+    decoded = []
+    monkeypatch.setattr(files.cv2, "imdecode", lambda *arguments: decoded.append(1))
+    (tmp_path / "huge.png").write_bytes(declared_png(30000, 30000))
+    with pytest.raises(
+        InputError, match=r"^\S+huge.png: the PNG image is 30000x30000 pixels \(900 megapixels\)"
+    ):
+        read_image(tmp_path / "huge.png")
+    limit = files.MAX_IMAGE_PIXELS
+    (tmp_path / "edge.png").write_bytes(declared_png(limit // 2, 2))
+    with pytest.raises(InputError, match=r"cannot decode the image"):  # allowed: the decoder is asked
+        read_image(tmp_path / "edge.png")
+    assert decoded == [1]
+
+
+def test_image_files_too_large_to_read_are_refused(tmp_path, monkeypatch):
+    monkeypatch.setattr(files, "MAX_IMAGE_FILE_BYTES", 2**20)
+    (tmp_path / "big.bmp").write_bytes(bytes(2 * 2**20))
+    with pytest.raises(InputError, match=r"big.bmp: the file is 2 MiB; at most 1 MiB can be read"):
+        read_image(tmp_path / "big.bmp")

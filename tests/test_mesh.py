@@ -311,12 +311,24 @@ def test_folded_triangles():
             1e-5,
             r"max_edge=1e-05 is too small: the mesh would have about .* vertices, more than the 5,000,000",
         ),
+        (
+            1e300,
+            r"max_edge=1e\+300 is longer than the domain; use 0 < max_edge <= \d\.\d+ "
+            r"\(the curve's diameter\)",
+        ),
     ],
 )
 def test_triangulate_rejects_bad_max_edge(max_edge, message):
     curve = core.ClosedBSpline(starfish())
     with pytest.raises(ValueError, match=message):
         triangulate(curve, max_edge=max_edge)
+
+
+def test_the_longest_max_edge_allowed_is_the_diameter():
+    curve = core.ClosedBSpline(starfish())
+    assert triangulate(curve, max_edge=curve.diameter).triangles.shape[0] > 0  # the limit itself meshes
+    with pytest.raises(ValueError, match="longer than the domain"):
+        triangulate(curve, max_edge=curve.diameter * (1 + 1e-12))
 
 
 def test_triangulate_rejects_a_non_curve():
