@@ -136,14 +136,19 @@ def open_document(
         aside = keep_aside(path, "replaced")
         notices.append(f"started afresh; the previous session is kept as {aside}")
     pixels = read_image(image)
+    preferences = {}
     if cage is not None:
         control_points = read_cage(cage)
         cage_curve(control_points, str(cage))
     else:
-        control_points, _ = fit_or_ellipse(pixels)
+        control_points, note = fit_or_ellipse(pixels)
+        notices.append(note)
+        if (pixels[..., 3] == 255).all():
+            # A photograph: its subject is cut out of a picture the user wants to keep whole.
+            preferences["outside"] = "original"
     snapshot = Snapshot(Path(image).resolve(), control_points, control_points)
     return Document(
-        snapshot, pixels, path, max_edge=max_edge, preferences={}, start_cage=cage, notices=notices
+        snapshot, pixels, path, max_edge=max_edge, preferences=preferences, start_cage=cage, notices=notices
     )
 
 
