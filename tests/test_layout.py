@@ -1,4 +1,5 @@
-"""The layout rules of the project: core/ is pure numerics, GLSL lives in shaders/."""
+"""The layout rules of the project: core/ is pure numerics, GLSL lives in shaders/, and the
+wheel ships every package and the bundled folders."""
 
 from __future__ import annotations
 
@@ -6,6 +7,8 @@ import ast
 import subprocess
 import sys
 from pathlib import Path
+
+import tomllib
 
 ROOT = Path(__file__).resolve().parent.parent
 FORBIDDEN = ("app", "moderngl", "glfw", "imgui_bundle", "OpenGL")
@@ -51,3 +54,24 @@ def test_bench_runs(tmp_path):
         check=True,
     )
     assert "harmonic-like" in result.stdout and "FEM / transfinite" in result.stdout
+
+
+def test_the_wheel_lists_every_package_and_the_bundled_folders():
+    setuptools = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]
+    packages = {
+        ".".join(path.parent.relative_to(ROOT).parts)
+        for top in ("app", "core")
+        for path in (ROOT / top).rglob("__init__.py")
+    }
+    assert packages <= set(setuptools["packages"])
+    assert setuptools["package-dir"] == {"app.data.shaders": "shaders", "app.data.assets": "assets"}
+    for package, folder in setuptools["package-dir"].items():
+        shipped = {
+            path.name
+            for pattern in setuptools["package-data"][package]
+            for path in (ROOT / folder).glob(pattern)
+        }
+        tracked = subprocess.run(
+            ["git", "ls-files", folder], capture_output=True, text=True, cwd=ROOT, check=True
+        ).stdout.split()
+        assert shipped == {Path(name).name for name in tracked}, f"every file of {folder}/ is shipped"
