@@ -6,9 +6,9 @@ height data, the paper's Fig. 1), ``bench`` (``app.bench``), and the interactive
 viewer (`app.viewer`): ``view`` (also what no arguments at all open, on the
 bundled demo) and ``demo`` (a bundled demo, optionally replaying its script).
 
-Exit codes: 0 success, 1 the environment cannot run the command (no OpenGL),
-2 bad input.  Bad input is reported as one line on stderr naming the file and what
-is wrong, without a traceback, and no output file is written or changed.
+Exit codes and what is printed on stderr are `app.console`'s: bad input is one
+line naming the file and what is wrong, without a traceback, exit code 2, and no
+output file is written or changed.
 """
 
 from __future__ import annotations
@@ -21,6 +21,18 @@ from pathlib import Path
 
 import numpy as np
 
+from app.console import (
+    EXIT_BAD_INPUT,
+    EXIT_ENVIRONMENT,
+    EXIT_INTERRUPTED,
+    EXIT_OK,
+    ProgressBar,
+    discard_notes,
+    fail,
+    note,
+    note_warning,
+    print_notes,
+)
 from app.files import (
     InputError,
     cage_curve,
@@ -36,10 +48,6 @@ from app.files import (
     write_png,
 )
 from app.render import ContextUnavailableError
-
-EXIT_OK = 0
-EXIT_ENVIRONMENT = 1
-EXIT_BAD_INPUT = 2
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -59,24 +67,22 @@ def main(argv: list[str] | None = None) -> int:
         return bench.main(argv[1:])
     parser = build_parser()
     with warnings.catch_warnings():
-        warnings.showwarning = _show_warning
+        warnings.showwarning = note_warning
         try:
             # argparse exits on --help and on usage errors (after printing one line, see _Parser).
             args = parser.parse_args(argv)
         except SystemExit as exit:
             return int(exit.code or 0)
-        _pending_notes.clear()
+        discard_notes()
         try:
             code = args.run(args)
         except InputError as error:
-            return _fail(f"error: {error}", EXIT_BAD_INPUT)
+            return fail(f"error: {error}", EXIT_BAD_INPUT)
         except ContextUnavailableError as error:
-            return _fail(f"error: {error}", EXIT_ENVIRONMENT)
+            return fail(f"error: {error}", EXIT_ENVIRONMENT)
         except KeyboardInterrupt:
-            return _fail("interrupted", 130)
-        for message in _pending_notes:
-            print(message, file=sys.stderr)
-        _pending_notes.clear()
+            return fail("interrupted", EXIT_INTERRUPTED)
+        print_notes()
         return code
 
 
@@ -357,46 +363,6 @@ def _check_viewer_outputs(args: argparse.Namespace) -> None:
 # -- helpers ----------------------------------------------------------------------
 
 
-class ProgressBar:
-    """A text progress bar on stderr, fed with the fraction done in [0, 1].
-
-    It redraws in place on a terminal and stays silent otherwise (logs and pipes
-    get the one-line summary of the command instead of carriage returns).
-    """
-
-    WIDTH = 30
-
-    def __init__(self, label: str, stream=None):
-        self.label = label
-        self.stream = stream or sys.stderr
-        self.enabled = self.stream.isatty()
-        self.started = time.perf_counter()
-        self._shown = -1
-        self._line = ""
-
-    def __call__(self, fraction: float) -> None:
-        percent = int(100 * min(max(fraction, 0.0), 1.0))
-        if not self.enabled or percent == self._shown:
-            return
-        self._shown = percent
-        filled = self.WIDTH * percent // 100
-        elapsed = time.perf_counter() - self.started
-        self._line = (
-            f"{self.label} [{'#' * filled}{'.' * (self.WIDTH - filled)}] {percent:3d}% {elapsed:5.1f} s"
-        )
-        self.stream.write(f"\r{self._line}")
-        self.stream.flush()
-
-    def __enter__(self) -> ProgressBar:
-        return self
-
-    def __exit__(self, exc_type, *exc_info) -> None:
-        if self._line:
-            # On failure the bar is wiped, so that the error is the only line left.
-            self.stream.write("\n" if exc_type is None else f"\r{' ' * len(self._line)}\r")
-            self.stream.flush()
-
-
 def _require_overlap(curve, image_size: tuple[int, int], source: str) -> None:
     """`InputError` if the domain does not cover a single pixel centre of the image."""
     import cv2
@@ -420,31 +386,11 @@ def _require_overlap(curve, image_size: tuple[int, int], source: str) -> None:
         )
 
 
-# Notes and warnings of the running command, printed on stderr once it succeeds:
-# when it fails, its error stays the only line.
-_pending_notes: list[str] = []
-
-
-def note(message: str) -> None:
-    """Report `message` (one line) on stderr when the command has succeeded."""
-    _pending_notes.append(" ".join(str(message).split()))
-
-
-def _fail(message: str, code: int) -> int:
-    _pending_notes.clear()
-    print(" ".join(str(message).split()), file=sys.stderr, flush=True)
-    return code
-
-
-def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
-    note(f"warning: {message}")
-
-
 class _Parser(argparse.ArgumentParser):
     """argparse with usage errors as one line and exit code 2, like every other bad input."""
 
     def error(self, message: str):
-        _fail(f"{self.prog}: error: {message} (see --help)", EXIT_BAD_INPUT)
+        fail(f"{self.prog}: error: {message} (see --help)", EXIT_BAD_INPUT)
         raise SystemExit(EXIT_BAD_INPUT)
 
 

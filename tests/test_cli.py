@@ -6,7 +6,6 @@ Most cases run `main(argv)` in-process (capfd also catches what C libraries prin
 a few run ``python -m app`` in a subprocess end to end.
 """
 
-import io
 import json
 import re
 import subprocess
@@ -19,8 +18,7 @@ import numpy as np
 import pytest
 
 from app.__main__ import main
-from app.cli import ProgressBar
-from app.files import InputError, read_cage, read_image, write_png
+from app.files import read_cage, read_image, write_png
 
 ROOT = Path(__file__).resolve().parent.parent
 WIDTH, HEIGHT = 160, 120
@@ -459,27 +457,3 @@ def test_compare_writes_table_and_figure(files, capfd):
     assert re.search(r"note: wachspress skipped: .*convex", err)
     figure = read_image(files / "fig.png")
     assert figure.shape[1] > 3 * 300 and (figure[..., 3] == 255).all()
-
-
-def test_progress_bar_draws_on_a_terminal_only():
-    class Terminal(io.StringIO):
-        def isatty(self):
-            return True
-
-    terminal = Terminal()
-    with ProgressBar("basis functions", terminal) as bar:
-        for fraction in (0.0, 0.5, 0.501, 1.0):
-            bar(fraction)
-    text = terminal.getvalue()
-    assert text.count("\r") == 3, "redraw only when the percentage changes"
-    assert "[###############...............]  50%" in text and text.endswith("\n")
-    terminal = Terminal()
-    with pytest.raises(InputError), ProgressBar("basis functions", terminal) as bar:
-        bar(0.3)
-        raise InputError("bad kernel")
-    drawn, wiped, rest = terminal.getvalue().split("\r")[1:]
-    assert "30%" in drawn and wiped == " " * len(drawn) and rest == "", "a failed stage wipes its bar"
-    pipe = io.StringIO()
-    with ProgressBar("basis functions", pipe) as bar:
-        bar(0.5)
-    assert pipe.getvalue() == ""
