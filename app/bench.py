@@ -25,6 +25,7 @@ from pathlib import Path
 import numpy as np
 
 import core
+from app.console import EXIT_OK
 from core import examples
 
 # The paper's Fig. 7 setting: a 12-point domain, N = 100 n samples, 26,000 points.
@@ -32,19 +33,9 @@ SAMPLES_PER_SEGMENT = 100
 SCALE = 1000.0  # the example domain in pixels
 
 
-def main(argv: list[str] | None = None) -> int:
-    """Print the table; returns the exit code."""
-    parser = argparse.ArgumentParser(prog="python -m app bench", description=__doc__.splitlines()[0])
-    parser.add_argument("--quick", action="store_true", help="tiny sizes (a smoke test, seconds)")
-    parser.add_argument("--repeats", type=int, default=3, help="runs per row; the median is shown")
-    parser.add_argument(
-        "--large", action="store_true", help="also the 1,000,000-vertex FEM comparison (minutes)"
-    )
-    parser.add_argument("--skip-fem", action="store_true", help="no finite-element comparison")
-    parser.add_argument("--skip-memory", action="store_true", help="no 1,000,000-point memory run")
-    parser.add_argument("--skip-warp", action="store_true", help="no end-to-end 4K warp")
-    args = parser.parse_args(argv)
-    repeats = max(1, args.repeats)
+def run_bench(args: argparse.Namespace) -> int:
+    """The ``bench`` command (arguments: `app.cli`): print the table; returns the exit code."""
+    repeats = args.repeats
     curve = core.ClosedBSpline(examples.blob() * SCALE)
     sizes = (500,) if args.quick else (26_000, 200_000)
     _warm_up(curve)
@@ -60,7 +51,7 @@ def main(argv: list[str] | None = None) -> int:
         _memory(curve, 20_000 if args.quick else 1_000_000)
     if not args.skip_warp:
         _warp_4k((640, 360) if args.quick else (3840, 2160))
-    return 0
+    return EXIT_OK
 
 
 def _threads() -> int:

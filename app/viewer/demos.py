@@ -13,11 +13,8 @@ shipped in the package (`app.bundled`); when they cannot be found as files, the
 demo is drawn again into the cache directory, so every demo is also embedded in
 the code.
 
-A script is JSON ``{"moves": [{"at": s, "duration": d, "point": i, "to": [x, y]}, ...]}``:
-at time s (seconds from the start of the replay) press the mouse on target
-control point i, drag it to image point (x, y) over d seconds, release.  Moves
-run one after another, like one mouse; `ScriptPlayer` turns them into the same
-input events the window produces.
+`SCRIPT_FORMAT` says what a script file holds; `ScriptPlayer` turns its moves
+into the same input events the window produces.
 """
 
 from __future__ import annotations
@@ -39,6 +36,14 @@ from app.viewer.editing import curve_points
 
 SIZE = (640, 480)
 DEFAULT_DEMO = "starfish"
+
+#: The format of a demo script, as the help of ``demo`` and ``assets/README.md`` give it (word for word).
+SCRIPT_FORMAT = (
+    'A script is JSON {"moves": [{"at": s, "duration": d, "point": i, "to": [x, y]}, ...]}: '
+    "at s seconds from the start of the replay, press the mouse on target control point i, "
+    "drag it to the image point (x, y) (pixels, origin top-left) over d seconds (default 1), "
+    "and release. Moves run one after another, like one hand on the mouse."
+)
 
 
 def _asset_directory() -> Path | None:
