@@ -1,4 +1,4 @@
-"""``python -m app``: the command line of `app.cli`."""
+"""``python -m app`` and the console script ``transfinite-warp``: the command line of `app.cli`."""
 
 import sys
 

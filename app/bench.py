@@ -25,26 +25,23 @@ from pathlib import Path
 import numpy as np
 
 import core
+from app.console import EXIT_ENVIRONMENT, EXIT_OK
 from core import examples
 
 # The paper's Fig. 7 setting: a 12-point domain, N = 100 n samples, 26,000 points.
 SAMPLES_PER_SEGMENT = 100
 SCALE = 1000.0  # the example domain in pixels
+#: How many of a failed child's last stderr lines `run_child` shows.
+CHILD_ERROR_LINES = 20
 
 
-def main(argv: list[str] | None = None) -> int:
-    """Print the table; returns the exit code."""
-    parser = argparse.ArgumentParser(prog="python -m app bench", description=__doc__.splitlines()[0])
-    parser.add_argument("--quick", action="store_true", help="tiny sizes (a smoke test, seconds)")
-    parser.add_argument("--repeats", type=int, default=3, help="runs per row; the median is shown")
-    parser.add_argument(
-        "--large", action="store_true", help="also the 1,000,000-vertex FEM comparison (minutes)"
-    )
-    parser.add_argument("--skip-fem", action="store_true", help="no finite-element comparison")
-    parser.add_argument("--skip-memory", action="store_true", help="no 1,000,000-point memory run")
-    parser.add_argument("--skip-warp", action="store_true", help="no end-to-end 4K warp")
-    args = parser.parse_args(argv)
-    repeats = max(1, args.repeats)
+def run_bench(args: argparse.Namespace) -> int:
+    """The ``bench`` command (arguments: `app.cli`): print the table; returns the exit code.
+
+    A row measured in a child process that fails is reported with the child's own
+    error output, the other rows still run, and the exit code is then 1.
+    """
+    repeats = args.repeats
     curve = core.ClosedBSpline(examples.blob() * SCALE)
     sizes = (500,) if args.quick else (26_000, 200_000)
     _warm_up(curve)
@@ -56,11 +53,45 @@ def main(argv: list[str] | None = None) -> int:
         if args.large:
             vertices += (1_000_000,)
         _fem_comparison(curve, vertices, 1 if args.quick else repeats)
+    children = []
     if not args.skip_memory:
-        _memory(curve, 20_000 if args.quick else 1_000_000)
+        children.append(lambda: _memory(curve, 20_000 if args.quick else 1_000_000))
     if not args.skip_warp:
-        _warp_4k((640, 360) if args.quick else (3840, 2160))
-    return 0
+        children.append(lambda: _warp_4k((640, 360) if args.quick else (3840, 2160)))
+    code = EXIT_OK
+    for child in children:
+        try:
+            child()
+        except StepFailed as error:
+            print(f"bench: {error}", file=sys.stderr, flush=True)
+            code = EXIT_ENVIRONMENT
+    return code
+
+
+class StepFailed(RuntimeError):
+    """A row measured in a child process failed; the message holds the child's error output."""
+
+
+def run_child(command: list[str], what: str, **kwargs) -> subprocess.CompletedProcess:
+    """Run `command` (a child process measuring the row `what`) and capture its output.
+
+    Returns
+    -------
+    subprocess.CompletedProcess
+        With ``stdout`` and ``stderr`` as text.
+
+    Raises
+    ------
+    StepFailed
+        If the child exits with a non-zero code: what failed, the code and the
+        child's stderr (its last lines), so the real error is on the screen.
+    """
+    result = subprocess.run(command, capture_output=True, text=True, **kwargs)
+    if result.returncode != 0:
+        lines = result.stderr.strip().splitlines()[-CHILD_ERROR_LINES:] or ["(no output on stderr)"]
+        details = "\n".join(f"    {line}" for line in lines)
+        raise StepFailed(f"{what} failed with exit code {result.returncode}:\n{details}")
+    return result
 
 
 def _threads() -> int:
@@ -208,7 +239,7 @@ print(seconds, before, peak, G.shape[0])
 
 def _memory(curve, count) -> None:
     code = _MEMORY_CHILD.format(scale=SCALE, count=count)
-    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    result = run_child([sys.executable, "-c", code], f"the {count:,}-point memory run")
     seconds, before, peak, rows = result.stdout.split()
     print(
         f"{int(rows):,} points, harmonic-like: {float(seconds):.2f} s, peak memory of the whole process "
@@ -252,7 +283,7 @@ def _warp_4k(size) -> None:
             str(folder / "out.png"),
         ]
         start = time.perf_counter()
-        subprocess.run(command, check=True, env=environment, capture_output=True)
+        run_child(command, f"the {width}x{height} warp", env=environment)
         seconds = time.perf_counter() - start
         written = (folder / "out.png").stat().st_size
     print(

@@ -1,26 +1,43 @@
-"""The command line: ``python -m app <command>`` (see DESIGN.md, "Command line and files").
+"""The command line: ``python -m app COMMAND`` or ``transfinite-warp COMMAND`` (DESIGN.md,
+"Command line and files").
 
 Commands: ``warp`` (deform an image with a source and a target cage and write a
 PNG), ``fit`` (a cage around an image's silhouette), ``compare`` (the kernels on
-height data, the paper's Fig. 1), ``bench`` (``app.bench``), and the interactive
-viewer (`app.viewer`): ``view`` (also what no arguments at all open, on the
-bundled demo) and ``demo`` (a bundled demo, optionally replaying its script).
+height data, the paper's Fig. 1, `app.compare`), ``bench`` (the performance table,
+`app.bench`), and the interactive viewer (`app.viewer`): ``view`` (also what no
+command opens: options without a command are the viewer's) and ``demo`` (a bundled
+demo, optionally replaying its script).
 
-Exit codes: 0 success, 1 the environment cannot run the command (no OpenGL, not
-enough memory), 2 bad input.  Bad input is reported as one line on stderr naming the file and what
-is wrong, without a traceback, and no output file is written or changed.
+Every argument and help text is defined here, in `build_parser`; each command's
+module is imported only when that command runs.  Exit codes and what is printed on
+stderr are `app.console`'s: 0 success, 1 the environment cannot run the command (no
+OpenGL, not enough memory), 2 bad input.  Bad input is one line naming the file and
+what is wrong, without a traceback, and no output file is written or changed.
 """
 
 from __future__ import annotations
 
 import argparse
 import sys
+import textwrap
 import time
 import warnings
 from pathlib import Path
 
 import numpy as np
 
+from app.console import (
+    EXIT_BAD_INPUT,
+    EXIT_ENVIRONMENT,
+    EXIT_INTERRUPTED,
+    EXIT_OK,
+    ProgressBar,
+    discard_notes,
+    fail,
+    note,
+    note_warning,
+    print_notes,
+)
 from app.files import (
     InputError,
     cage_curve,
@@ -36,10 +53,9 @@ from app.files import (
     write_png,
 )
 from app.render import ContextUnavailableError
+from app.viewer.demos import SCRIPT_FORMAT
 
-EXIT_OK = 0
-EXIT_ENVIRONMENT = 1
-EXIT_BAD_INPUT = 2
+DEFAULT_KERNEL = "harmonic-like"
 # cv2.Error.StsNoMem, without importing cv2 for the commands that never use it.
 _OPENCV_NO_MEMORY = -4
 
@@ -50,62 +66,98 @@ def main(argv: list[str] | None = None) -> int:
     Parameters
     ----------
     argv : list of str, optional
-        Arguments without the program name; ``sys.argv[1:]`` by default.
+        Arguments without the program name; ``sys.argv[1:]`` by default.  Without a
+        command (no arguments, or options only) they go to ``view``.
     """
     argv = list(sys.argv[1:] if argv is None else argv)
-    if not argv:
-        argv = ["view"]  # the viewer on the bundled demo
-    if argv[0] == "bench":
-        from app import bench
-
-        return bench.main(argv[1:])
-    parser = build_parser()
+    if not argv or (argv[0].startswith("-") and argv[0] not in ("-h", "--help")):
+        argv = ["view", *argv]  # the viewer, on the bundled demo unless told otherwise
+    parser = build_parser(program_name())
     with warnings.catch_warnings():
-        warnings.showwarning = _show_warning
+        warnings.showwarning = note_warning
         try:
             # argparse exits on --help and on usage errors (after printing one line, see _Parser).
             args = parser.parse_args(argv)
         except SystemExit as exit:
             return int(exit.code or 0)
-        _pending_notes.clear()
+        discard_notes()
         try:
             code = args.run(args)
         except InputError as error:
-            return _fail(f"error: {error}", EXIT_BAD_INPUT)
+            return fail(f"error: {error}", EXIT_BAD_INPUT)
         except ContextUnavailableError as error:
-            return _fail(f"error: {error}", EXIT_ENVIRONMENT)
+            return fail(f"error: {error}", EXIT_ENVIRONMENT)
         except KeyboardInterrupt:
-            return _fail("interrupted", 130)
+            return fail("interrupted", EXIT_INTERRUPTED)
         except Exception as error:
             # The machine, not the input: an allocation failed (numpy, OpenCV or our own decoding).
             if not _out_of_memory(error):
                 raise
-            return _fail(f"error: out of memory: {_memory_detail(error)}", EXIT_ENVIRONMENT)
-        for message in _pending_notes:
-            print(message, file=sys.stderr)
-        _pending_notes.clear()
+            return fail(f"error: out of memory: {_memory_detail(error)}", EXIT_ENVIRONMENT)
+        print_notes()
         return code
 
 
-def build_parser() -> argparse.ArgumentParser:
-    """The argument parser of every command but ``bench`` (which parses its own)."""
+def program_name(argv0: str | None = None) -> str:
+    """The name the user started the program by: ``python -m app``, or the console script's name.
+
+    Parameters
+    ----------
+    argv0 : str, optional
+        ``sys.argv[0]`` by default: the path of ``app/__main__.py`` under ``python -m app``,
+        the script's path (``.../bin/transfinite-warp``) when run as the console script.
+    """
+    name = Path(sys.argv[0] if argv0 is None else argv0).name
+    return "python -m app" if name in ("__main__.py", "-m", "-c", "") else name
+
+
+def build_parser(prog: str = "python -m app") -> argparse.ArgumentParser:
+    """The argument parser of every command, with `prog` as the program name in usage lines."""
     parser = _Parser(
-        prog="python -m app", description="Image deformation with transfinite barycentric coordinates."
+        prog=prog,
+        description="Image deformation with transfinite barycentric coordinates on B-spline cages.",
+        epilog=_examples(
+            ("%(prog)s", "the viewer on the bundled starfish demo"),
+            ("%(prog)s --stats", "the same: options without a command are the viewer's"),
+            ("%(prog)s view photo.png", "the viewer on your image (a cage is fitted)"),
+            ("%(prog)s demo pattern --play", "a demo, replaying its scripted drags"),
+            ("%(prog)s warp photo.png --cage c.json --target t.json --output out.png", None),
+            ("%(prog)s COMMAND --help", "every option of COMMAND"),
+        )
+        + "\n\nexit status: 0 success, 1 the environment cannot run the command (no OpenGL,\n"
+        "a failed bench step), 2 bad input (one line on stderr says what and where)",
+        formatter_class=_HelpFormatter,
     )
     commands = parser.add_subparsers(dest="command", required=True, parser_class=_Parser, metavar="COMMAND")
+    kernels = kernel_names()
 
-    warp = commands.add_parser("warp", help="deform an image from a source cage to a target cage")
-    warp.add_argument("image", nargs="?", type=Path, help="source image (or give --session)")
+    warp = _command(
+        commands,
+        "warp",
+        "deform an image from a source cage to a target cage",
+        "Deform IMAGE by moving CAGE's control points to TARGET's and write the result as\n"
+        "an RGBA PNG, transparent outside the deformed cage.  Cage files are JSON\n"
+        '{"control_points": [[x, y], ...]} in image pixels, x right, y down, origin at the\n'
+        "image's top-left corner.",
+        ("%(prog)s photo.png --cage cage.json --target target.json --output out.png", None),
+        ("%(prog)s photo.png --cage c.json --target t.json --output out.png --kernel mean-value", None),
+        ("%(prog)s --session photo.json --output out.png", "what the viewer showed, saved in photo.json"),
+    )
+    warp.add_argument("image", nargs="?", type=Path, metavar="IMAGE", help="source image (or give --session)")
     warp.add_argument("--cage", type=Path, help="source cage JSON, image pixels")
     warp.add_argument("--target", type=Path, help="target cage JSON, same number of control points")
     warp.add_argument(
         "--session",
         type=Path,
-        help="session JSON: image, cage, target and kernel (its view is the viewer's; the output is framed "
-        "like the image)",
+        help="session JSON of the viewer: image, cage, target and kernel (the output is framed like the "
+        "image, not like the viewer's window)",
     )
     warp.add_argument("--output", type=Path, required=True, help="output PNG (RGBA)")
-    warp.add_argument("--kernel", help="kernel name (default: harmonic-like, or the session's)")
+    warp.add_argument(
+        "--kernel",
+        metavar="NAME",
+        help=f"one of {', '.join(kernels)} (default: {DEFAULT_KERNEL}, or the session's)",
+    )
     warp.add_argument(
         "--max-edge", type=_positive(float), metavar="PX", help="longest mesh edge in image pixels"
     )
@@ -127,25 +179,50 @@ def build_parser() -> argparse.ArgumentParser:
     )
     warp.set_defaults(run=_warp)
 
-    fit = commands.add_parser("fit", help="fit a cage to the main silhouette of an image")
-    fit.add_argument("image", type=Path)
+    fit = _command(
+        commands,
+        "fit",
+        "fit a cage to the main silhouette of an image",
+        "Write a cage (a closed quadratic B-spline) around the main shape of IMAGE: its\n"
+        "alpha channel when it has one, else the largest object against the background.",
+        ("%(prog)s photo.png --output cage.json", None),
+        ("%(prog)s logo.png --output cage.json --points 24", None),
+    )
+    fit.add_argument(
+        "image",
+        type=Path,
+        metavar="IMAGE",
+        help="image with one main shape (PNG with alpha, or a plain background)",
+    )
     fit.add_argument("--output", type=Path, required=True, help="cage JSON to write")
     fit.add_argument(
         "--points", type=_positive(int), default=16, metavar="N", help="control points (default 16)"
     )
     fit.set_defaults(run=_fit)
 
-    compare = commands.add_parser("compare", help="compare the kernels on height data (paper's Fig. 1)")
+    compare = _command(
+        commands,
+        "compare",
+        "compare the kernels on height data (the paper's Fig. 1)",
+        "Interpolate heights given at the control points with every kernel on one mesh of\n"
+        "the cage, print each one's distance to the harmonic interpolant (RMS and maximum)\n"
+        "and draw them side by side in height bands.",
+        ("%(prog)s --cage cage.json --output compare.png", None),
+        ("%(prog)s --cage cage.json --output compare.png --kernel harmonic-like --kernel mean-value", None),
+    )
     compare.add_argument("--cage", type=Path, required=True, help="domain cage JSON")
     compare.add_argument(
-        "--data", type=Path, help='JSON {"values": [F_1, ..., F_n]} (default: a wave in [0, 1])'
+        "--data",
+        type=Path,
+        help='JSON {"values": [F_1, ..., F_n]}, one height per control point (default: two waves in [0, 1])',
     )
     compare.add_argument("--output", type=Path, required=True, help="figure PNG")
     compare.add_argument(
         "--kernel",
         action="append",
         metavar="NAME",
-        help="compare only this kernel (repeatable; harmonic is always the reference)",
+        help=f"compare only this kernel, repeatable: {', '.join(kernels)} (harmonic, the reference, "
+        "is always shown)",
     )
     compare.add_argument(
         "--max-edge",
@@ -155,46 +232,98 @@ def build_parser() -> argparse.ArgumentParser:
     )
     compare.set_defaults(run=_compare)
 
-    # Listed for --help only: main() hands "bench" to app.bench before parsing.
-    commands.add_parser("bench", help="the performance table on this machine", add_help=False)
+    bench = _command(
+        commands,
+        "bench",
+        "the performance table on this machine",
+        "Time the kernels, the plain numpy baseline and the finite-element harmonic solve\n"
+        "in one process (medians of repeated runs), then a 1,000,000-point solve and a 4K\n"
+        "warp, each in a child process of its own.",
+        ("%(prog)s", "the full table (a few minutes)"),
+        ("%(prog)s --quick", "tiny sizes: a smoke test of seconds"),
+    )
+    bench.add_argument("--quick", action="store_true", help="tiny sizes (a smoke test, seconds)")
+    bench.add_argument(
+        "--repeats", type=_positive(int), default=3, metavar="N", help="runs per row; the median is shown"
+    )
+    bench.add_argument(
+        "--large", action="store_true", help="also the 1,000,000-vertex FEM comparison (minutes)"
+    )
+    bench.add_argument("--skip-fem", action="store_true", help="no finite-element comparison")
+    bench.add_argument("--skip-memory", action="store_true", help="no 1,000,000-point memory run")
+    bench.add_argument("--skip-warp", action="store_true", help="no end-to-end 4K warp")
+    bench.set_defaults(run=_bench)
 
-    view = commands.add_parser(
-        "view", help="the interactive viewer (no IMAGE and no --session: the bundled demo)"
+    view = _command(
+        commands,
+        "view",
+        "the interactive viewer (the default command)",
+        "Open the viewer: drag the target cage's control points and the image follows.\n"
+        "Without IMAGE and --session it opens the bundled starfish demo.  The session is\n"
+        "saved after every change and restored when the same session is opened again.",
+        ("%(prog)s", "the bundled demo"),
+        ("%(prog)s photo.png", "a cage is fitted around the main shape"),
+        ("%(prog)s photo.png --cage cage.json --stats", None),
+        ("%(prog)s --session my-edit.json", "reopen (or start) a session file"),
     )
-    view.add_argument("image", nargs="?", type=Path, help="source image (the cage is fitted unless --cage)")
-    view.add_argument("--cage", type=Path, help="source cage JSON, image pixels")
-    view.add_argument(
-        "--session",
-        type=Path,
-        help="session JSON: restored if it exists, and saved after every change (default: the image's "
-        "own session file in ~/.local/state/transfinite-warp/sessions, restored when it is opened again)",
-    )
-    _viewer_options(view)
+    add_view_arguments(view)
     view.set_defaults(run=_view)
 
-    demo = commands.add_parser("demo", help="the viewer on a bundled demo, optionally replaying its script")
-    demo.add_argument("name", nargs="?", help="starfish (default), character or pattern")
+    demo = _command(
+        commands,
+        "demo",
+        "the viewer on a bundled demo, optionally replaying its script",
+        "Open the viewer on a bundled demo: starfish, character or pattern.\n\n"
+        + textwrap.fill(SCRIPT_FORMAT, 80),
+        ("%(prog)s pattern --play", "replay the demo's drags at once"),
+        ("%(prog)s starfish --frames frames/", "write every replayed frame as a PNG, then quit"),
+        ("%(prog)s character --script my-moves.json", None),
+    )
+    demo.add_argument("name", nargs="?", metavar="NAME", help="starfish (default), character or pattern")
     demo.add_argument("--play", action="store_true", help="replay the demo's scripted drags at once")
-    demo.add_argument("--script", type=Path, help="replay this script instead (JSON list of timed moves)")
+    demo.add_argument("--script", type=Path, help="replay this script file instead (format above)")
     demo.add_argument(
         "--frames",
         type=Path,
         metavar="DIR",
         help="write every replayed frame as DIR/frame_NNNNN.png, then quit",
     )
-    demo.add_argument("--fps", type=_positive(float), default=30.0, help="frames per second of --frames")
+    demo.add_argument(
+        "--fps", type=_positive(float), default=30.0, help="frames per second of --frames (default 30)"
+    )
     demo.add_argument(
         "--session",
         type=Path,
         help="session JSON: restored if it exists, and saved after every change (default: the demo's own "
-        "session file, the same one python -m app opens)",
+        "session file, the same one the program without a command opens)",
     )
-    _viewer_options(demo)
+    _add_viewer_options(demo)
     demo.set_defaults(run=_demo)
     return parser
 
 
-def _viewer_options(parser: argparse.ArgumentParser) -> None:
+def add_view_arguments(parser: argparse.ArgumentParser) -> None:
+    """The arguments of ``view``, which are also those of the program without a command."""
+    parser.add_argument(
+        "image",
+        nargs="?",
+        type=Path,
+        metavar="IMAGE",
+        help="source image (a cage is fitted around its shape unless --cage)",
+    )
+    parser.add_argument("--cage", type=Path, help="source cage JSON, image pixels")
+    parser.add_argument(
+        "--session",
+        type=Path,
+        help="session JSON: restored if it exists, and saved after every change (default: the image's "
+        "own session file in $XDG_STATE_HOME/transfinite-warp/sessions, ~/.local/state if XDG_STATE_HOME "
+        "is unset, restored whenever the image is opened again)",
+    )
+    _add_viewer_options(parser)
+
+
+def _add_viewer_options(parser: argparse.ArgumentParser) -> None:
+    """The options that ``view`` and ``demo`` share."""
     parser.add_argument(
         "--fresh",
         action="store_true",
@@ -213,6 +342,27 @@ def _viewer_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--export", type=Path, metavar="PNG", help="where Ctrl+E writes (default: beside the session)"
     )
+
+
+def _command(commands, name: str, summary: str, description: str, *examples) -> argparse.ArgumentParser:
+    """A subcommand with a one-line `summary` (in the command list), a `description` and `examples`."""
+    return commands.add_parser(
+        name,
+        help=summary,
+        description=description,
+        epilog=_examples(*examples),
+        formatter_class=_HelpFormatter,
+    )
+
+
+def _examples(*examples: tuple[str, str | None]) -> str:
+    """An epilog: one command line per example, its explanation (if any) on the next line."""
+    lines = ["examples:"]
+    for command, explanation in examples:
+        lines.append(f"  {command}")
+        if explanation:
+            lines.append(f"      {explanation}")
+    return "\n".join(lines)
 
 
 # -- commands -------------------------------------------------------------------
@@ -249,7 +399,7 @@ def _warp(args: argparse.Namespace) -> int:
             raise InputError(f"warp needs {', '.join(missing)} (or --session)")
         image_path = args.image
         cage, target = read_cage(args.cage), read_cage(args.target)
-        kernel = "harmonic-like" if args.kernel is None else args.kernel
+        kernel = DEFAULT_KERNEL if args.kernel is None else args.kernel
         session_params = {}
         cage_source, target_source = str(args.cage), str(args.target)
         if len(target) != len(cage):
@@ -333,6 +483,12 @@ def _compare(args: argparse.Namespace) -> int:
     return run_compare(args)
 
 
+def _bench(args: argparse.Namespace) -> int:
+    from app.bench import run_bench
+
+    return run_bench(args)
+
+
 def _view(args: argparse.Namespace) -> int:
     from app.viewer.demos import DEFAULT_DEMO, demo_files
     from app.viewer.session import open_document
@@ -398,46 +554,6 @@ def _check_viewer_outputs(args: argparse.Namespace) -> None:
 # -- helpers ----------------------------------------------------------------------
 
 
-class ProgressBar:
-    """A text progress bar on stderr, fed with the fraction done in [0, 1].
-
-    It redraws in place on a terminal and stays silent otherwise (logs and pipes
-    get the one-line summary of the command instead of carriage returns).
-    """
-
-    WIDTH = 30
-
-    def __init__(self, label: str, stream=None):
-        self.label = label
-        self.stream = stream or sys.stderr
-        self.enabled = self.stream.isatty()
-        self.started = time.perf_counter()
-        self._shown = -1
-        self._line = ""
-
-    def __call__(self, fraction: float) -> None:
-        percent = int(100 * min(max(fraction, 0.0), 1.0))
-        if not self.enabled or percent == self._shown:
-            return
-        self._shown = percent
-        filled = self.WIDTH * percent // 100
-        elapsed = time.perf_counter() - self.started
-        self._line = (
-            f"{self.label} [{'#' * filled}{'.' * (self.WIDTH - filled)}] {percent:3d}% {elapsed:5.1f} s"
-        )
-        self.stream.write(f"\r{self._line}")
-        self.stream.flush()
-
-    def __enter__(self) -> ProgressBar:
-        return self
-
-    def __exit__(self, exc_type, *exc_info) -> None:
-        if self._line:
-            # On failure the bar is wiped, so that the error is the only line left.
-            self.stream.write("\n" if exc_type is None else f"\r{' ' * len(self._line)}\r")
-            self.stream.flush()
-
-
 def _require_overlap(curve, image_size: tuple[int, int], source: str) -> None:
     """`InputError` if the domain does not cover a single pixel centre of the image."""
     import cv2
@@ -488,22 +604,6 @@ def _warn_if_target_is_absurd(target: np.ndarray, size: tuple[int, int], source:
         )
 
 
-# Notes and warnings of the running command, printed on stderr once it succeeds:
-# when it fails, its error stays the only line.
-_pending_notes: list[str] = []
-
-
-def note(message: str) -> None:
-    """Report `message` (one line) on stderr when the command has succeeded."""
-    _pending_notes.append(" ".join(str(message).split()))
-
-
-def _fail(message: str, code: int) -> int:
-    _pending_notes.clear()
-    print(" ".join(str(message).split()), file=sys.stderr, flush=True)
-    return code
-
-
 def _out_of_memory(error: Exception) -> bool:
     """Whether `error` is an allocation failure: MemoryError, or OpenCV's StsNoMem (-4)."""
     return isinstance(error, MemoryError) or (
@@ -516,15 +616,19 @@ def _memory_detail(error: Exception) -> str:
     return detail or "an allocation failed"
 
 
-def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
-    note(f"warning: {message}")
+class _HelpFormatter(argparse.RawDescriptionHelpFormatter):
+    """Descriptions and examples as written; argument help wrapped between words, never inside
+    a hyphenated name such as modified-mean-value-squared."""
+
+    def _split_lines(self, text: str, width: int) -> list[str]:
+        return textwrap.wrap(" ".join(text.split()), width, break_on_hyphens=False)
 
 
 class _Parser(argparse.ArgumentParser):
     """argparse with usage errors as one line and exit code 2, like every other bad input."""
 
     def error(self, message: str):
-        _fail(f"{self.prog}: error: {message} (see --help)", EXIT_BAD_INPUT)
+        fail(f"{self.prog}: error: {message} (see --help)", EXIT_BAD_INPUT)
         raise SystemExit(EXIT_BAD_INPUT)
 
 

@@ -17,6 +17,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+from app.console import EXIT_OK, ProgressBar, note
 from app.files import (
     InputError,
     cage_curve,
@@ -49,11 +50,6 @@ class Interpolant:
     maximum: float = 0.0
 
 
-def default_values(count: int) -> np.ndarray:
-    """Heights F_i in [0, 1], two waves around the curve like the data of the paper's Fig. 1, shape (n,)."""
-    return 0.5 + 0.5 * np.sin(2.0 * np.pi * 2.0 * np.arange(count) / count + 0.3)
-
-
 def kernel_variants(kernels: list[str] | None = None) -> list[tuple[str, str, dict]]:
     """(label, kernel, params) of every interpolant to compare, the reference first.
 
@@ -78,12 +74,12 @@ def kernel_variants(kernels: list[str] | None = None) -> list[tuple[str, str, di
 def run_compare(args: argparse.Namespace) -> int:
     """The ``compare`` command: table on stdout, figure to ``args.output``; returns the exit code."""
     import core
-    from app.cli import EXIT_OK, note
     from app.render import create_headless_context
+    from core.examples import wave_heights
 
     check_writable(args.output, suffix=".png")
     curve = cage_curve(read_cage(args.cage), str(args.cage))
-    values = _read_values(args.data, curve.n) if args.data else default_values(curve.n)
+    values = _read_values(args.data, curve.n) if args.data else wave_heights(curve.n)
     unknown = [name for name in args.kernel or [] if name not in kernel_names()]
     if unknown:
         raise InputError(f"unknown kernel(s) {', '.join(unknown)}; choose from {', '.join(kernel_names())}")
@@ -127,7 +123,6 @@ def compare_kernels(
         The harmonic reference first; kernels that reject the domain are skipped with a note.
     """
     import core
-    from app.cli import ProgressBar, note
 
     interpolants = []
     for label, kernel, params in kernel_variants(kernels):

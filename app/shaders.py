@@ -2,15 +2,15 @@
 
 Every GL program of the application is built from files loaded here by name, so
 that shader code lives in ``.glsl`` files (syntax highlighting, one place to edit)
-and each file is read from disk once per process.
+and each file is read once per process.  Where the folder is, in the source tree
+or in an installed package, is `app.bundled`'s business.
 """
 
 from __future__ import annotations
 
 from functools import cache
-from pathlib import Path
 
-SHADER_DIRECTORY = Path(__file__).resolve().parent.parent / "shaders"
+from app.bundled import bundled_directory
 
 
 @cache
@@ -20,18 +20,19 @@ def load_shader(name: str) -> str:
     Parameters
     ----------
     name : str
-        File name relative to the ``shaders`` directory, e.g. ``"warp.vert.glsl"``.
+        File name relative to the ``shaders`` directory, e.g. ``"mesh.vert.glsl"``.
 
     Raises
     ------
     FileNotFoundError
         If there is no such file; the message lists the shaders that exist.
     """
-    path = SHADER_DIRECTORY / name
+    directory = bundled_directory("shaders")
     try:
-        return path.read_text(encoding="utf-8")
+        return (directory / name).read_text(encoding="utf-8")
     except FileNotFoundError:
-        available = ", ".join(sorted(p.name for p in SHADER_DIRECTORY.glob("*.glsl"))) or "none"
+        shaders = directory.iterdir() if directory.is_dir() else ()
+        available = ", ".join(sorted(p.name for p in shaders if p.name.endswith(".glsl"))) or "none"
         raise FileNotFoundError(
-            f"shader {name!r} not found in {SHADER_DIRECTORY} (available: {available})"
+            f"shader {name!r} not found in {directory} (available: {available})"
         ) from None

@@ -2,8 +2,9 @@
 
 Computing G once per (cage, mesh, kernel) is the precompute of Sec. 4.3; it can
 take seconds, so the result is kept in a ``.npz`` file named by the SHA-256 of
-everything it depends on (`cache_key`).  The directory is
-``$TRANSFINITE_CACHE_DIR`` or ``~/.cache/transfinite-warp``.
+everything it depends on (`cache_key`).  The directory is ``$TRANSFINITE_CACHE_DIR``
+if set, else ``$XDG_CACHE_HOME/transfinite-warp`` (``~/.cache/transfinite-warp``
+when ``XDG_CACHE_HOME`` is unset, following the XDG base directory specification).
 
 A cache must never change a result.  Each file holds the array, the errors of
 its invariants measured when it was computed (`core.mesh_basis` checks them on
@@ -46,11 +47,15 @@ NUMERICAL_MODULES = (
 
 
 def cache_directory() -> Path:
-    """The cache directory: ``$TRANSFINITE_CACHE_DIR`` or ``~/.cache/transfinite-warp``."""
+    """The cache directory: ``$TRANSFINITE_CACHE_DIR``, or ``transfinite-warp`` in ``$XDG_CACHE_HOME``
+    (``~/.cache`` if that is unset or, as the XDG specification says, not an absolute path)."""
     configured = os.environ.get(ENVIRONMENT_VARIABLE)
     if configured:
         return Path(configured).expanduser()
-    return Path.home() / ".cache" / "transfinite-warp"
+    base = Path(os.environ.get("XDG_CACHE_HOME", ""))
+    if not base.is_absolute():
+        base = Path.home() / ".cache"
+    return base / "transfinite-warp"
 
 
 def cache_key(

@@ -1,4 +1,5 @@
-"""Example cages used by the tests, the benchmark and the demos (coordinates in a unit-ish frame).
+"""Example cages used by the tests, the benchmark and the demos (coordinates in a unit-ish frame),
+and example boundary data for them.
 
 Each function returns control points, ndarray of shape (n, 2), counter-clockwise in
 a y-up frame unless said otherwise.
@@ -61,3 +62,10 @@ def dumbbell() -> np.ndarray:
             [-1.0, 0.5],
         ]
     )
+
+
+def wave_heights(count: int) -> np.ndarray:
+    """Heights F_i in [0, 1] at `count` control points, two waves around the curve like the data
+    of the paper's Fig. 1, shape (count,): the default data of ``compare`` and of the viewer's
+    height view."""
+    return 0.5 + 0.5 * np.sin(2.0 * np.pi * 2.0 * np.arange(count) / count + 0.3)

@@ -1,4 +1,4 @@
-"""Tests of the command line (app.cli, app.__main__, app.compare's command).
+"""Tests of the command line (app.cli, app.__main__, app.compare's command, the help texts).
 
 Bad input must give exit code 2 and exactly one line on stderr naming the problem
 and the file, no traceback, no output file, and an existing output untouched.
@@ -6,13 +6,12 @@ Most cases run `main(argv)` in-process (capfd also catches what C libraries prin
 a few run ``python -m app`` in a subprocess end to end.
 """
 
-import io
+import argparse
 import json
 import re
 import resource
 import subprocess
 import sys
-import types
 from pathlib import Path
 
 import cv2
@@ -21,8 +20,9 @@ import pytest
 from conftest import blank_png, declared_png
 
 from app.__main__ import main
-from app.cli import ProgressBar
-from app.files import InputError, read_cage, read_image, write_png
+from app.cli import build_parser, program_name
+from app.files import kernel_names, read_cage, read_image, write_png
+from app.viewer.demos import SCRIPT_FORMAT
 
 ROOT = Path(__file__).resolve().parent.parent
 WIDTH, HEIGHT = 160, 120
@@ -278,15 +278,20 @@ def assert_one_line_error(code, err, pattern, expected_code=2):
 
 def test_no_arguments_open_the_viewer_and_bench_dispatches_to_app_bench(monkeypatch):
     calls, opened = [], []
-    fake = types.ModuleType("app.bench")
-    fake.main = lambda argv: calls.append(argv) or 0
-    monkeypatch.setitem(sys.modules, "app.bench", fake)
-    monkeypatch.setattr("app.bench", fake, raising=False)
+    monkeypatch.setattr("app.bench.run_bench", lambda args: calls.append(args) or 0)
     monkeypatch.setattr("app.viewer.window.run", lambda document, options: opened.append(document) or 0)
     assert main([]) == 0
     assert main(["bench", "--quick"]) == 0
-    assert calls == [["--quick"]]
+    assert [(args.quick, args.repeats) for args in calls] == [(True, 3)]
     assert [document.snapshot.image.name for document in opened] == ["starfish.png"]
+
+
+def test_options_without_a_command_are_the_viewers(monkeypatch, tmp_path):
+    opened = []
+    monkeypatch.setattr("app.viewer.window.run", lambda document, options: opened.append(options) or 0)
+    monkeypatch.setenv("TRANSFINITE_STATE_DIR", str(tmp_path))
+    assert main(["--stats", "--max-edge", "20"]) == 0
+    assert [(options.stats, options.max_edge) for options in opened] == [(True, 20.0)]
 
 
 @pytest.mark.parametrize(
@@ -705,25 +710,57 @@ def test_compare_writes_table_and_figure(files, capfd):
     assert figure.shape[1] > 3 * 300 and (figure[..., 3] == 255).all()
 
 
-def test_progress_bar_draws_on_a_terminal_only():
-    class Terminal(io.StringIO):
-        def isatty(self):
-            return True
+# -- help texts ------------------------------------------------------------------------------
 
-    terminal = Terminal()
-    with ProgressBar("basis functions", terminal) as bar:
-        for fraction in (0.0, 0.5, 0.501, 1.0):
-            bar(fraction)
-    text = terminal.getvalue()
-    assert text.count("\r") == 3, "redraw only when the percentage changes"
-    assert "[###############...............]  50%" in text and text.endswith("\n")
-    terminal = Terminal()
-    with pytest.raises(InputError), ProgressBar("basis functions", terminal) as bar:
-        bar(0.3)
-        raise InputError("bad kernel")
-    drawn, wiped, rest = terminal.getvalue().split("\r")[1:]
-    assert "30%" in drawn and wiped == " " * len(drawn) and rest == "", "a failed stage wipes its bar"
-    pipe = io.StringIO()
-    with ProgressBar("basis functions", pipe) as bar:
-        bar(0.5)
-    assert pipe.getvalue() == ""
+
+def subcommands(parser):
+    (commands,) = [a for a in parser._actions if isinstance(a, argparse._SubParsersAction)]
+    return commands.choices
+
+
+def test_every_argument_of_every_command_has_help():
+    parser = build_parser()
+    missing = [
+        f"{name} {'/'.join(action.option_strings) or action.dest}"
+        for name, command in subcommands(parser).items()
+        for action in command._actions
+        if not action.help
+    ]
+    assert missing == []
+
+
+@pytest.mark.parametrize("name", ["warp", "fit", "compare", "bench", "view", "demo"])
+def test_help_has_a_plain_description_and_examples(name, capsys):
+    command = subcommands(build_parser("transfinite-warp"))[name]
+    text = command.format_help()
+    assert text.startswith(f"usage: transfinite-warp {name} ")
+    assert f"examples:\n  transfinite-warp {name}" in text
+    description = command.description
+    assert description and not re.search(r"``|`\w|:\w+:`", description), "no reStructuredText markup"
+
+
+def test_kernel_options_list_their_choices():
+    for name in ("warp", "compare"):
+        text = " ".join(subcommands(build_parser())[name].format_help().split())
+        assert all(kernel in text for kernel in kernel_names()), name
+
+
+def test_the_demo_script_format_is_the_same_in_the_help_and_in_assets_readme():
+    def words(text):
+        return " ".join(text.split())
+
+    demo_help = words(subcommands(build_parser())["demo"].format_help())
+    assert words(SCRIPT_FORMAT) in demo_help
+    assert words(SCRIPT_FORMAT) in words((ROOT / "assets" / "README.md").read_text())
+
+
+def test_program_name():
+    assert program_name("/usr/lib/python3/site-packages/app/__main__.py") == "python -m app"
+    assert program_name("/home/me/.venv/bin/transfinite-warp") == "transfinite-warp"
+
+
+def test_usage_names_the_program_as_it_was_started(tmp_path):
+    result = subprocess.run(
+        [sys.executable, "-m", "app", "fit", "--help"], cwd=ROOT, capture_output=True, text=True, timeout=120
+    )
+    assert result.returncode == 0 and result.stdout.startswith("usage: python -m app fit ")

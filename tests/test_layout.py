@@ -1,4 +1,5 @@
-"""The layout rules of the project: core/ is pure numerics, GLSL lives in shaders/."""
+"""The layout rules of the project: core/ is pure numerics, GLSL lives in shaders/, the imports
+within app/ run one way, and the wheel ships every package and the bundled folders."""
 
 from __future__ import annotations
 
@@ -6,6 +7,8 @@ import ast
 import subprocess
 import sys
 from pathlib import Path
+
+import tomllib
 
 ROOT = Path(__file__).resolve().parent.parent
 FORBIDDEN = ("app", "moderngl", "glfw", "imgui_bundle", "OpenGL")
@@ -51,3 +54,93 @@ def test_bench_runs(tmp_path):
         check=True,
     )
     assert "harmonic-like" in result.stdout and "FEM / transfinite" in result.stdout
+
+
+def module_names(package: str) -> dict[str, Path]:
+    """Dotted name -> file of every module of `package` (a folder at the top of the repository)."""
+    names = {}
+    for path in sorted((ROOT / package).rglob("*.py")):
+        parts = path.relative_to(ROOT).with_suffix("").parts
+        names[".".join(parts[:-1] if parts[-1] == "__init__" else parts)] = path
+    return names
+
+
+def import_graph(package: str) -> dict[str, set[str]]:
+    """Every module of `package` -> the modules of `package` it imports, at the top or in a function."""
+    modules = module_names(package)
+    graph = {}
+    for name, path in modules.items():
+        imported = set()
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.Import):
+                imported |= {alias.name for alias in node.names}
+            elif isinstance(node, ast.ImportFrom):
+                base = node.module or ""
+                if node.level:
+                    here = name.split(".") if path.name == "__init__.py" else name.split(".")[:-1]
+                    base = ".".join(here[: len(here) - node.level + 1] + ([base] if base else []))
+                for alias in node.names:
+                    # `from package import module` imports the module, `from module import name` the module.
+                    imported.add(f"{base}.{alias.name}" if f"{base}.{alias.name}" in modules else base)
+        graph[name] = {target for target in imported if target in modules and target != name}
+    return graph
+
+
+def find_cycle(graph: dict[str, set[str]]) -> list[str]:
+    """One import cycle of `graph` as [a, b, ..., a], or [] if there is none (depth-first search)."""
+    state = dict.fromkeys(graph, "new")
+    path: list[str] = []
+
+    def visit(node):
+        state[node] = "on path"
+        path.append(node)
+        for target in sorted(graph[node]):
+            if state[target] == "on path":
+                return path[path.index(target) :] + [target]
+            if state[target] == "new" and (cycle := visit(target)):
+                return cycle
+        state[node] = "done"
+        path.pop()
+        return []
+
+    for node in sorted(graph):
+        if state[node] == "new" and (cycle := visit(node)):
+            return cycle
+    return []
+
+
+def test_find_cycle_finds_a_cycle():
+    assert find_cycle({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}) == ["a", "b", "c", "a"]
+    assert find_cycle({"a": {"b", "c"}, "b": {"c"}, "c": set()}) == []
+
+
+def test_imports_within_app_have_no_cycle():
+    assert find_cycle(import_graph("app")) == []
+
+
+def test_only_the_entry_point_imports_the_command_line():
+    # __main__ -> cli -> commands -> core: a command that needs a helper of the command line
+    # takes it from app.console (or app.files), never from app.cli.
+    importers = sorted(name for name, imported in import_graph("app").items() if "app.cli" in imported)
+    assert importers == ["app.__main__"]
+
+
+def test_the_wheel_lists_every_package_and_the_bundled_folders():
+    setuptools = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]
+    packages = {
+        ".".join(path.parent.relative_to(ROOT).parts)
+        for top in ("app", "core")
+        for path in (ROOT / top).rglob("__init__.py")
+    }
+    assert packages <= set(setuptools["packages"])
+    assert setuptools["package-dir"] == {"app.data.shaders": "shaders", "app.data.assets": "assets"}
+    for package, folder in setuptools["package-dir"].items():
+        shipped = {
+            path.name
+            for pattern in setuptools["package-data"][package]
+            for path in (ROOT / folder).glob(pattern)
+        }
+        tracked = subprocess.run(
+            ["git", "ls-files", folder], capture_output=True, text=True, cwd=ROOT, check=True
+        ).stdout.split()
+        assert shipped == {Path(name).name for name in tracked}, f"every file of {folder}/ is shipped"

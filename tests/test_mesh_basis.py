@@ -348,9 +348,16 @@ def test_an_unwritable_cache_directory_warns_but_still_returns(setup, tmp_path, 
     np.testing.assert_array_equal(basis, harmonic_basis(curve, mesh))
 
 
-def test_default_cache_directory(monkeypatch):
+def test_default_cache_directory(monkeypatch, tmp_path):
     monkeypatch.delenv("TRANSFINITE_CACHE_DIR", raising=False)
+    monkeypatch.delenv("XDG_CACHE_HOME", raising=False)
     assert disk_cache.cache_directory() == disk_cache.Path.home() / ".cache" / "transfinite-warp"
+    monkeypatch.setenv("XDG_CACHE_HOME", "relative/cache")  # ignored, as the XDG specification says
+    assert disk_cache.cache_directory() == disk_cache.Path.home() / ".cache" / "transfinite-warp"
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
+    assert disk_cache.cache_directory() == tmp_path / "transfinite-warp"
+    monkeypatch.setenv("TRANSFINITE_CACHE_DIR", str(tmp_path / "mine"))
+    assert disk_cache.cache_directory() == tmp_path / "mine"
 
 
 # ---------------------------------------------------------------- progress

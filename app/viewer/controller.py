@@ -391,7 +391,10 @@ def _drawing_command(state: AppState, name: str) -> bool:
     elif name in ("delete", "undo"):
         drawing.remove_last(state)
     elif name == "confirm":
-        drawing.confirm(state)
+        snapshot = drawing.confirm(state)
+        if snapshot is not None:
+            commit(state, snapshot, f"new cage, {snapshot.n} points: drag to deform")
+            state.mode = "deform"
     elif name in _EDITS:
         state.say("finish the new cage first (Enter) or abandon it (Esc)", error=True)
     else:

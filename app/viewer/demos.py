@@ -8,15 +8,13 @@ horseshoe whose checkerboard makes every distortion visible and whose two ends
 can be pulled together (where mean value coordinates fold over).
 
 ``assets/NAME.png``, ``assets/NAME.cage.json`` and ``assets/NAME.script.json``
-are written by ``python -m app.viewer.demos`` (``--output DIR`` elsewhere); when
-the assets folder is missing (an installed package) the demo is drawn again into
-the cache directory, so the default demo is always embedded in the code.
+are written by ``python -m app.viewer.demos`` (``--output DIR`` elsewhere) and
+shipped in the package (`app.bundled`); when they cannot be found as files, the
+demo is drawn again into the cache directory, so every demo is also embedded in
+the code.
 
-A script is JSON ``{"moves": [{"at": s, "duration": d, "point": i, "to": [x, y]}, ...]}``:
-at time s (seconds from the start of the replay) press the mouse on target
-control point i, drag it to image point (x, y) over d seconds, release.  Moves
-run one after another, like one mouse; `ScriptPlayer` turns them into the same
-input events the window produces.
+`SCRIPT_FORMAT` says what a script file holds; `ScriptPlayer` turns its moves
+into the same input events the window produces.
 """
 
 from __future__ import annotations
@@ -32,12 +30,30 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from app.bundled import bundled_directory
 from app.files import InputError, read_cage, read_json, write_cage, write_json, write_png
 from app.viewer.editing import curve_points
 
-ASSETS = Path(__file__).resolve().parents[2] / "assets"
 SIZE = (640, 480)
 DEFAULT_DEMO = "starfish"
+
+#: The format of a demo script, as the help of ``demo`` and ``assets/README.md`` give it (word for word).
+SCRIPT_FORMAT = (
+    'A script is JSON {"moves": [{"at": s, "duration": d, "point": i, "to": [x, y]}, ...]}: '
+    "at s seconds from the start of the replay, press the mouse on target control point i, "
+    "drag it to the image point (x, y) (pixels, origin top-left) over d seconds (default 1), "
+    "and release. Moves run one after another, like one hand on the mouse."
+)
+
+
+def _asset_directory() -> Path | None:
+    """The bundled ``assets`` folder, or None if it is not a folder on the file system."""
+    directory = bundled_directory("assets")
+    return directory if isinstance(directory, Path) and directory.is_dir() else None
+
+
+#: The shipped demo files (None: draw every demo into the cache directory instead).
+ASSETS = _asset_directory()
 
 
 @dataclass(frozen=True)
@@ -264,7 +280,7 @@ class DemoFiles:
 
 
 def demo_files(name: str = DEFAULT_DEMO) -> DemoFiles:
-    """The files of demo `name`: from ``assets/`` when present, else drawn into the cache directory.
+    """The files of demo `name`: the shipped ones when present, else drawn into the cache directory.
 
     Raises
     ------
@@ -274,6 +290,8 @@ def demo_files(name: str = DEFAULT_DEMO) -> DemoFiles:
     if name not in DEMOS:
         raise InputError(f"unknown demo {name!r}; choose one of {', '.join(DEMOS)}")
     for directory in (ASSETS, _cache_directory()):
+        if directory is None:
+            continue
         files = _files_in(directory, name)
         if all(path.is_file() for path in (files.image, files.cage, files.script)):
             return files
@@ -421,9 +439,16 @@ class ScriptPlayer:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """``python -m app.viewer.demos [--output DIR]``: draw every demo into DIR (default: assets/)."""
+    """Draw every demo into a folder: the assets of the source tree, or ``--output DIR``."""
     parser = argparse.ArgumentParser(prog="python -m app.viewer.demos", description=main.__doc__)
-    parser.add_argument("--output", type=Path, default=ASSETS)
+    parser.add_argument(
+        "--output",
+        type=Path,
+        default=ASSETS,
+        required=ASSETS is None,
+        help="folder to write NAME.png, NAME.cage.json and NAME.script.json into "
+        "(default: the bundled assets, assets/ in the source tree)",
+    )
     args = parser.parse_args(argv)
     for name in DEMOS:
         files = write_demo(name, args.output)

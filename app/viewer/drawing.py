@@ -16,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 from app.viewer import editing
-from app.viewer.state import AppState, Drawing
+from app.viewer.state import AppState, Drawing, Snapshot
 
 #: Two clicks this close in time (seconds) and space (window pixels) are a double click.
 DOUBLE_CLICK_SECONDS = 0.4
@@ -81,22 +81,16 @@ def close(state: AppState) -> bool:
     return True
 
 
-def confirm(state: AppState) -> bool:
-    """Enter: close an open curve, or make a closed one the cage; True when the cage was made."""
+def confirm(state: AppState) -> Snapshot | None:
+    """Enter: close an open curve; on a closed one, end the mode and return the document with the
+    new cage (the caller commits it as one undoable edit).  None while the curve stays open."""
     if not state.drawing.closed:
         close(state)
-        return False
-    from app.viewer.controller import commit
-
+        return None
     points = state.live.cage
-    before = state.drawing.before
+    state.live = state.drawing.before
     state.drawing = None
-    state.live = before
-    commit(
-        state, before.replace(cage=points, target=points), f"new cage, {len(points)} points: drag to deform"
-    )
-    state.mode = "deform"
-    return True
+    return state.live.replace(cage=points, target=points)
 
 
 def remove_last(state: AppState) -> None:

@@ -16,11 +16,11 @@ import time
 
 import numpy as np
 
-from app.compare import default_values
 from app.render import View, WarpRenderer
 from app.viewer.controller import band_corners
 from app.viewer.editing import curve_points, to_image
 from app.viewer.state import AppState
+from core.examples import wave_heights
 
 #: Straight RGB of the overlays: the source curve green, the target blue (the paper's Fig. 11).
 SOURCE_COLOUR = (0.16, 0.80, 0.28)
@@ -182,7 +182,7 @@ class Scene:
         elif state.content == "height":
             signature = ("height", basis.key)
             if signature != self._field:
-                self.renderer.set_field(basis.basis @ default_values(basis.basis.shape[1]))
+                self.renderer.set_field(basis.basis @ wave_heights(basis.basis.shape[1]))
                 self._field = signature
 
     def invalidate_positions(self) -> None:

@@ -32,8 +32,10 @@ def state_directory() -> Path:
     configured = os.environ.get(STATE_VARIABLE)
     if configured:
         return Path(configured).expanduser()
-    base = os.environ.get("XDG_STATE_HOME") or Path.home() / ".local" / "state"
-    return Path(base) / "transfinite-warp"
+    base = Path(os.environ.get("XDG_STATE_HOME", ""))
+    if not base.is_absolute():  # unset, or relative: ignored, as the XDG specification says
+        base = Path.home() / ".local" / "state"
+    return base / "transfinite-warp"
 
 
 def session_path_for(image: str | os.PathLike) -> Path:

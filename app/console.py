@@ -1,0 +1,95 @@
+"""What the commands say on the console: exit codes, one-line notes and errors, a progress bar.
+
+The command line's conventions (DESIGN.md, "Command line and files"): exit code 0
+on success, 1 when the environment cannot run the command (no OpenGL), 2 for bad
+input.  A failing command prints exactly one line on stderr, its error; the notes
+and warnings of a command are held back with `note` and printed by `print_notes`
+once it has succeeded.
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+
+EXIT_OK = 0
+EXIT_ENVIRONMENT = 1
+EXIT_BAD_INPUT = 2
+EXIT_INTERRUPTED = 130
+
+# Notes and warnings of the running command, printed on stderr once it succeeds:
+# when it fails, its error stays the only line.
+_pending_notes: list[str] = []
+
+
+def note(message: str) -> None:
+    """Report `message` (one line) on stderr when the command has succeeded."""
+    _pending_notes.append(_one_line(message))
+
+
+def note_warning(message, category, filename, lineno, file=None, line=None) -> None:
+    """A `warnings.showwarning` that turns each warning into a `note`."""
+    note(f"warning: {message}")
+
+
+def print_notes() -> None:
+    """Print the notes held back so far on stderr, and forget them."""
+    for message in _pending_notes:
+        print(message, file=sys.stderr)
+    _pending_notes.clear()
+
+
+def discard_notes() -> None:
+    """Forget the notes held back so far (a new command starts, or the current one failed)."""
+    _pending_notes.clear()
+
+
+def fail(message: str, code: int) -> int:
+    """Print `message` as the only line on stderr, dropping the held-back notes; returns `code`."""
+    discard_notes()
+    print(_one_line(message), file=sys.stderr, flush=True)
+    return code
+
+
+def _one_line(message) -> str:
+    return " ".join(str(message).split())
+
+
+class ProgressBar:
+    """A text progress bar on stderr, fed with the fraction done in [0, 1].
+
+    It redraws in place on a terminal and stays silent otherwise (logs and pipes
+    get the one-line summary of the command instead of carriage returns).
+    """
+
+    WIDTH = 30
+
+    def __init__(self, label: str, stream=None):
+        self.label = label
+        self.stream = stream or sys.stderr
+        self.enabled = self.stream.isatty()
+        self.started = time.perf_counter()
+        self._shown = -1
+        self._line = ""
+
+    def __call__(self, fraction: float) -> None:
+        percent = int(100 * min(max(fraction, 0.0), 1.0))
+        if not self.enabled or percent == self._shown:
+            return
+        self._shown = percent
+        filled = self.WIDTH * percent // 100
+        elapsed = time.perf_counter() - self.started
+        self._line = (
+            f"{self.label} [{'#' * filled}{'.' * (self.WIDTH - filled)}] {percent:3d}% {elapsed:5.1f} s"
+        )
+        self.stream.write(f"\r{self._line}")
+        self.stream.flush()
+
+    def __enter__(self) -> ProgressBar:
+        return self
+
+    def __exit__(self, exc_type, *exc_info) -> None:
+        if self._line:
+            # On failure the bar is wiped, so that the error is the only line left.
+            self.stream.write("\n" if exc_type is None else f"\r{' ' * len(self._line)}\r")
+            self.stream.flush()

@@ -1,0 +1,43 @@
+"""Tests of app.bench's error reporting (the table itself is smoke-tested in test_layout)."""
+
+import argparse
+import sys
+
+import pytest
+
+from app import bench
+from app.bench import StepFailed, run_child
+
+
+def test_a_failed_child_shows_its_own_error():
+    code = (
+        "import sys; print('compiling', file=sys.stderr); sys.exit('error: shader mesh.vert.glsl not found')"
+    )
+    with pytest.raises(StepFailed) as raised:
+        run_child([sys.executable, "-c", code], "the 640x360 warp")
+    assert str(raised.value) == (
+        "the 640x360 warp failed with exit code 1:\n    compiling\n    error: shader mesh.vert.glsl not found"
+    )
+    assert run_child([sys.executable, "-c", "print(42)"], "a row").stdout == "42\n"
+
+
+def test_a_failed_row_is_reported_and_the_others_still_run(monkeypatch, capsys):
+    ran = []
+
+    def fail(*args):
+        ran.append("memory")
+        raise StepFailed("the 20,000-point memory run failed with exit code 1:\n    MemoryError")
+
+    monkeypatch.setattr(bench, "_warm_up", lambda curve: None)
+    monkeypatch.setattr(bench, "_point_kernels", lambda *args: None)
+    monkeypatch.setattr(bench, "_memory", fail)
+    monkeypatch.setattr(bench, "_warp_4k", lambda size: ran.append("warp"))
+    args = argparse.Namespace(
+        quick=True, repeats=1, large=False, skip_fem=True, skip_memory=False, skip_warp=False
+    )
+    assert bench.run_bench(args) == 1
+    assert ran == ["memory", "warp"]
+    assert (
+        capsys.readouterr().err
+        == "bench: the 20,000-point memory run failed with exit code 1:\n    MemoryError\n"
+    )

@@ -1,0 +1,47 @@
+"""Tests of app.console: the progress bar, held-back notes and one-line failures."""
+
+import io
+
+import pytest
+
+from app import console
+from app.console import ProgressBar
+
+
+class Terminal(io.StringIO):
+    def isatty(self):
+        return True
+
+
+def test_progress_bar_draws_on_a_terminal_only():
+    terminal = Terminal()
+    with ProgressBar("basis functions", terminal) as bar:
+        for fraction in (0.0, 0.5, 0.501, 1.0):
+            bar(fraction)
+    text = terminal.getvalue()
+    assert text.count("\r") == 3, "redraw only when the percentage changes"
+    assert "[###############...............]  50%" in text and text.endswith("\n")
+    terminal = Terminal()
+    with pytest.raises(ValueError), ProgressBar("basis functions", terminal) as bar:
+        bar(0.3)
+        raise ValueError("bad kernel")
+    drawn, wiped, rest = terminal.getvalue().split("\r")[1:]
+    assert "30%" in drawn and wiped == " " * len(drawn) and rest == "", "a failed stage wipes its bar"
+    pipe = io.StringIO()
+    with ProgressBar("basis functions", pipe) as bar:
+        bar(0.5)
+    assert pipe.getvalue() == ""
+
+
+def test_notes_wait_for_success_and_a_failure_is_the_only_line(capsys):
+    console.discard_notes()
+    console.note("mesh: 12 vertices,\n 10 triangles")
+    assert capsys.readouterr().err == ""
+    console.print_notes()
+    assert capsys.readouterr().err == "mesh: 12 vertices, 10 triangles\n"
+    console.print_notes()
+    assert capsys.readouterr().err == "", "printed once"
+    console.note("wrote out.png")
+    assert console.fail("error: out.png:\n cannot write", console.EXIT_BAD_INPUT) == 2
+    console.print_notes()
+    assert capsys.readouterr().err == "error: out.png: cannot write\n"

@@ -1,0 +1,150 @@
+"""The built wheel, installed in a fresh virtual environment, works from anywhere.
+
+The repository is copied to a temporary folder, built there with ``pip wheel``, and
+the copy is deleted; the wheel goes into a new venv with its dependencies from the
+package index, and its commands run from an unrelated folder: ``fit``, ``warp``,
+``compare`` and, under Xvfb, ``demo --frames``.  That proves the wheel ships every
+package, the shaders and the demo assets, and that nothing reads the source tree.
+
+It takes one to three minutes (the venv's dependencies, numba compiling the solver
+in a new place), so it runs only with ``TRANSFINITE_WHEEL_CHECK=1``, as ``.ci/run``
+sets it.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+ROOT = Path(__file__).resolve().parent.parent
+
+pytestmark = pytest.mark.skipif(
+    os.environ.get("TRANSFINITE_WHEEL_CHECK") != "1",
+    reason="slow: set TRANSFINITE_WHEEL_CHECK=1 (.ci/run does)",
+)
+
+
+def run(command: list, timeout: float, **kwargs) -> subprocess.CompletedProcess:
+    """Run `command`; fail the test with its output if it exits non-zero."""
+    result = subprocess.run(
+        [str(part) for part in command], capture_output=True, text=True, timeout=timeout, **kwargs
+    )
+    assert result.returncode == 0, f"{command} failed:\n{result.stdout[-3000:]}\n{result.stderr[-3000:]}"
+    return result
+
+
+@pytest.fixture(scope="module")
+def venv(tmp_path_factory) -> Path:
+    """A fresh venv with the wheel and its dependencies installed; the wheel's source is gone."""
+    work = tmp_path_factory.mktemp("wheel")
+    source = work / "source"
+    tracked = run(["git", "ls-files", "-z"], 60, cwd=ROOT).stdout.split("\0")
+    for name in filter(None, tracked):
+        if (ROOT / name).is_file():
+            (source / name).parent.mkdir(parents=True, exist_ok=True)
+            shutil.copy2(ROOT / name, source / name)
+    run([sys.executable, "-m", "pip", "wheel", "--quiet", "--no-deps", "-w", work / "dist", source], 600)
+    shutil.rmtree(source)
+    (wheel,) = (work / "dist").glob("transfinite_warp-*.whl")
+    run([sys.executable, "-m", "venv", work / "venv"], 300)
+    run([work / "venv" / "bin" / "python", "-m", "pip", "install", "--quiet", wheel], 1200)
+    return work / "venv"
+
+
+@pytest.fixture
+def elsewhere(tmp_path, venv) -> tuple[Path, dict]:
+    """An unrelated working folder and an environment that can reach neither the source tree
+    nor the user's caches and sessions."""
+    environment = {
+        key: value
+        for key, value in os.environ.items()
+        if key not in ("PYTHONPATH", "PYTHONHOME", "VIRTUAL_ENV")
+    }
+    environment.update(
+        PATH=f"{venv / 'bin'}{os.pathsep}{environment.get('PATH', '')}",
+        XDG_CACHE_HOME=str(tmp_path / "cache"),
+        XDG_STATE_HOME=str(tmp_path / "state"),
+    )
+    environment.pop("TRANSFINITE_CACHE_DIR", None)
+    environment.pop("TRANSFINITE_STATE_DIR", None)
+    folder = tmp_path / "elsewhere"
+    folder.mkdir()
+    return folder, environment
+
+
+def picture() -> np.ndarray:
+    """A 200 x 150 RGBA picture: a blue ellipse with a white spot on a transparent background."""
+    image = np.zeros((150, 200, 4), np.uint8)
+    cv2.ellipse(image, (100, 75), (70, 45), 0, 0, 360, (220, 120, 40, 255), -1, cv2.LINE_AA)
+    cv2.circle(image, (80, 60), 12, (255, 255, 255, 255), -1)
+    return image
+
+
+def test_the_installed_wheel_runs_its_commands_from_anywhere(venv, elsewhere):
+    folder, environment = elsewhere
+
+    def command(*arguments, timeout=600):
+        return run(arguments, timeout, cwd=folder, env=environment)
+
+    located = command(
+        "python", "-c", "import app, app.viewer, core; print(app.__file__); print(core.__file__)"
+    )
+    site_packages = next((venv / "lib").glob("python3*/site-packages"))
+    for path in located.stdout.split():
+        assert Path(path).is_relative_to(site_packages), f"imported {path}, not the installed wheel"
+    assert command("transfinite-warp", "--help").stdout.startswith("usage: transfinite-warp ")
+
+    cv2.imwrite(str(folder / "blob.png"), picture())
+    command("transfinite-warp", "fit", "blob.png", "--output", "cage.json", "--points", "10")
+    cage = json.loads((folder / "cage.json").read_text())["control_points"]
+    target = [[x + 0.1 * (y - 75), y] for x, y in cage]  # a shear
+    (folder / "target.json").write_text(json.dumps({"control_points": target}))
+    command(
+        "transfinite-warp",
+        "warp",
+        "blob.png",
+        "--cage",
+        "cage.json",
+        "--target",
+        "target.json",
+        "--output",
+        "out.png",
+    )
+    warped = cv2.imread(str(folder / "out.png"), cv2.IMREAD_UNCHANGED)
+    assert warped.shape == (150, 200, 4) and warped[..., 3].any()
+
+    table = command(
+        "python", "-m", "app", "compare", "--cage", "cage.json", "--output", "compare.png",
+        "--kernel", "mean-value", "--max-edge", "8",
+    ).stdout  # fmt: skip
+    assert table.splitlines()[1].startswith("harmonic ") and (folder / "compare.png").is_file()
+
+
+def test_the_installed_wheel_replays_a_demo_under_xvfb(venv, elsewhere):
+    from viewer_harness import start_xvfb
+
+    folder, environment = elsewhere
+    server, display = start_xvfb()
+    try:
+        run(
+            ["transfinite-warp", "demo", "pattern", "--frames", "frames", "--fps", "4"],
+            600,
+            cwd=folder,
+            env={**environment, "DISPLAY": display},
+        )
+    finally:
+        server.terminate()
+        server.wait()
+    frames = sorted((folder / "frames").glob("frame_*.png"))
+    assert len(frames) > 4
+    assert not (folder / "cache" / "transfinite-warp" / "demos").exists(), "the shipped demo assets are used"
+    first, last = (cv2.imread(str(frame)) for frame in (frames[0], frames[-1]))
+    assert first.shape == last.shape and not np.array_equal(first, last), "the replay moved the cage"
