@@ -49,9 +49,11 @@ from app.files import (
     reported_as_input,
     session_kernel_params,
     session_max_edge,
+    session_output,
     write_cage,
     write_png,
 )
+from app.framing import CANVASES, OUTSIDES, output_frame, output_region
 from app.render import ContextUnavailableError
 from app.viewer.demos import SCRIPT_FORMAT
 
@@ -136,12 +138,17 @@ def build_parser(prog: str = "python -m app") -> argparse.ArgumentParser:
         "warp",
         "deform an image from a source cage to a target cage",
         "Deform IMAGE by moving CAGE's control points to TARGET's and write the result as\n"
-        "an RGBA PNG, transparent outside the deformed cage.  Cage files are JSON\n"
+        "an RGBA PNG, transparent outside the deformed cage (or, with --outside original,\n"
+        "over the untouched picture).  Cage files are JSON\n"
         '{"control_points": [[x, y], ...]} in image pixels, x right, y down, origin at the\n'
         "image's top-left corner.",
         ("%(prog)s photo.png --cage cage.json --target target.json --output out.png", None),
         ("%(prog)s photo.png --cage c.json --target t.json --output out.png --kernel mean-value", None),
         ("%(prog)s --session photo.json --output out.png", "what the viewer showed, saved in photo.json"),
+        (
+            "%(prog)s p.png --cage c.json --target t.json --output o.png --outside original --canvas grow",
+            "keep the rest of the picture, and widen it where the target leaves the image",
+        ),
     )
     warp.add_argument("image", nargs="?", type=Path, metavar="IMAGE", help="source image (or give --session)")
     warp.add_argument("--cage", type=Path, help="source cage JSON, image pixels")
@@ -165,6 +172,19 @@ def build_parser(prog: str = "python -m app") -> argparse.ArgumentParser:
     size.add_argument("--scale", type=_positive(float), metavar="S", help="output size = input size x S")
     size.add_argument(
         "--size", type=_size, metavar="WxH", help="output size; the image is fitted and centred"
+    )
+    warp.add_argument(
+        "--outside",
+        choices=OUTSIDES,
+        help="what the output shows outside the deformed region: transparent (the default, or the "
+        "session's), or original: the untouched image, so pixels away from both cages are exactly the "
+        "input; where the source cage's region is not covered by the deformed one, the original is seen",
+    )
+    warp.add_argument(
+        "--canvas",
+        choices=CANVASES,
+        help="source: the output frames the input image (the default, or the session's); grow: it "
+        "widens to hold the whole target curve, so a target that leaves the image is not clipped",
     )
     warp.add_argument(
         "--samples-per-segment",
@@ -370,7 +390,7 @@ def _examples(*examples: tuple[str, str | None]) -> str:
 
 def _warp(args: argparse.Namespace) -> int:
     import core
-    from app.render import View, WarpRenderer, create_headless_context
+    from app.render import WarpRenderer, create_headless_context
     from core.validation import checked_samples_per_segment
 
     check_writable(args.output, suffix=".png")
@@ -388,6 +408,7 @@ def _warp(args: argparse.Namespace) -> int:
         session_params = session_kernel_params(session, args.session) if kernel == session.kernel else {}
         if args.max_edge is None:
             args.max_edge = session_max_edge(session, args.session)
+        outside, canvas = session_output(session, args.session)
         cage_source, target_source = f"{args.session}: cage", f"{args.session}: target"
     else:
         missing = [
@@ -400,6 +421,7 @@ def _warp(args: argparse.Namespace) -> int:
         image_path = args.image
         cage, target = read_cage(args.cage), read_cage(args.target)
         kernel = DEFAULT_KERNEL if args.kernel is None else args.kernel
+        outside, canvas = OUTSIDES[0], CANVASES[0]
         session_params = {}
         cage_source, target_source = str(args.cage), str(args.target)
         if len(target) != len(cage):
@@ -416,14 +438,9 @@ def _warp(args: argparse.Namespace) -> int:
     if args.samples_per_segment is not None:
         with reported_as_input("--samples-per-segment"):
             checked_samples_per_segment(args.samples_per_segment, curve.n)
-    if args.scale is not None:
-        size = (max(1, round(width * args.scale)), max(1, round(height * args.scale)))
-        view = View(args.scale)
-    elif args.size is not None:
-        size = args.size
-        view = View.fit((0.0, 0.0, width, height), size)
-    else:
-        size, view = (width, height), View()
+    outside, canvas = args.outside or outside, args.canvas or canvas
+    region = output_region((width, height), target, canvas)
+    size, view = output_frame(region, args.scale, args.size)
     _warn_if_target_is_absurd(target, size, target_source)
     params = dict(session_params)
     if args.samples_per_segment is not None:
@@ -454,7 +471,7 @@ def _warp(args: argparse.Namespace) -> int:
             renderer.set_mesh(mesh.vertices, mesh.triangles)
             renderer.set_positions(deformed)
             with reported_as_input("rendering"):
-                pixels = renderer.render(size, view)
+                pixels = renderer.render(size, view, backdrop=outside == "original")
         write_png(args.output, pixels)
         note(f"wrote {args.output} ({size[0]}x{size[1]}) in {time.perf_counter() - started:.1f} s")
     finally:

@@ -764,3 +764,74 @@ def test_usage_names_the_program_as_it_was_started(tmp_path):
         [sys.executable, "-m", "app", "fit", "--help"], cwd=ROOT, capture_output=True, text=True, timeout=120
     )
     assert result.returncode == 0 and result.stdout.startswith("usage: python -m app fit ")
+
+
+def cage_mask(points, inset: float) -> np.ndarray:
+    """Pixels whose centres are inside the cage's curve by more than `inset` (< 0: outside by -inset)."""
+    from app.viewer.editing import curve_points
+
+    polygon = curve_points(np.asarray(points, float), 64)
+    mask = np.zeros((HEIGHT, WIDTH), np.uint8)
+    cv2.fillPoly(mask, [np.round((polygon - 0.5) * 16).astype(np.int32)], 1, shift=4)
+    kernel = np.ones((2 * int(np.ceil(abs(inset))) + 1,) * 2, np.uint8)
+    return (cv2.erode(mask, kernel) if inset > 0 else cv2.dilate(mask, kernel)).astype(bool)
+
+
+def test_outside_original_keeps_the_picture_and_grow_widens_the_canvas(files, capfd):
+    image = picture()
+    (files / "same.json").write_text(json.dumps({"control_points": CAGE}))
+    argv = warp_argv(files, **{"--target": files / "same.json"}) + ["--outside", "original"]
+    assert run_main(argv, capfd)[0] == 0
+    identity = read_image(files / "out.png")
+    assert (identity[..., 3] == 255).all()
+    assert np.abs(identity.astype(int) - image).max() <= 1  # the input, PSNR far above 40 dB
+    shift = np.array([12.0, 7.0])
+    moved_cage = (np.array(CAGE, float) + shift).tolist()
+    (files / "moved.json").write_text(json.dumps({"control_points": moved_cage}))
+    argv = warp_argv(files, **{"--target": files / "moved.json"}) + ["--outside", "original"]
+    assert run_main(argv, capfd)[0] == 0
+    moved = read_image(files / "out.png")
+    away = ~cage_mask(CAGE, -2) & ~cage_mask(moved_cage, -2)
+    np.testing.assert_array_equal(moved[away], image[away])  # exactly the input away from both cages
+    ys, xs = np.nonzero(cage_mask(moved_cage, 2))
+    inside = np.abs(moved[ys, xs].astype(int) - image[ys - 7, xs - 12]).mean()
+    assert inside < 3  # the translated picture (bilinear resampling of a smooth image)
+    assert run_main(warp_argv(files, **{"--target": files / "moved.json"}), capfd)[0] == 0
+    assert (read_image(files / "out.png")[away, 3] == 0).all()  # the default stays transparent
+    # A target that leaves the image on the left and at the bottom: grow widens the output.
+    leaving = (np.array(CAGE, float) + [-40.0, 30.0]).tolist()
+    (files / "leaving.json").write_text(json.dumps({"control_points": leaving}))
+    argv = warp_argv(files, **{"--target": files / "leaving.json"}) + ["--canvas", "grow"]
+    code, _, err = run_main(argv, capfd)
+    assert code == 0, err
+    grown = read_image(files / "out.png")
+    from app.viewer.editing import curve_points
+
+    curve = curve_points(np.array(leaving), 64)
+    left, bottom = int(np.floor(curve[:, 0].min())), int(np.ceil(curve[:, 1].max()))
+    assert grown.shape == (bottom, WIDTH - left, 4)
+    assert grown[:, : -left - 1, 3].any()  # drawn where the input had no pixels
+    code, out, _ = run_main(["warp", "--help"], capfd)
+    help_text = " ".join(out.split())
+    assert code == 0
+    assert "--outside {transparent,original}" in help_text and "--canvas {source,grow}" in help_text
+    assert "where the source cage's region is not covered by the deformed one, the original" in help_text
+
+
+def test_a_session_carries_outside_and_canvas_to_warp(files, capfd):
+    session = json.loads((files / "session.json").read_text())
+    session.update(outside="original", canvas="grow")
+    (files / "kept.json").write_text(json.dumps(session))
+    code, _, err = run_main(["warp", "--session", files / "kept.json", "--output", files / "o.png"], capfd)
+    assert code == 0, err
+    assert (read_image(files / "o.png")[..., 3] == 255).all()  # the picture kept around the warp
+    argv = ["warp", "--session", files / "kept.json", "--output", files / "t.png", "--outside", "transparent"]
+    assert run_main(argv, capfd)[0] == 0
+    assert (read_image(files / "t.png")[..., 3] == 0).any()  # the command line wins
+    session["outside"] = "blurred"
+    (files / "bad.json").write_text(json.dumps(session))
+    code, _, err = run_main(["warp", "--session", files / "bad.json", "--output", files / "b.png"], capfd)
+    assert code == 2 and err.strip() == (
+        f"error: {files / 'bad.json'}: \"outside\" must be one of transparent, original, got 'blurred'"
+    )
+    assert not (files / "b.png").exists()
