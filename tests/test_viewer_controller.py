@@ -328,3 +328,33 @@ def test_a_double_click_makes_a_corner_and_crossing_cages_are_refused(state, mon
     controller.command(state, "cancel")  # Esc abandons the whole new cage
     assert state.drawing is None and state.live == state.history.current
     np.testing.assert_array_equal(state.live.cage, STAR)
+
+
+def test_fit_on_a_photo_asks_for_a_rectangle_around_the_subject(state, monkeypatch):
+    import app.viewer.session as sessions
+
+    asked = []
+
+    def fake_fit(image, points=16, rect=None):
+        asked.append((points, rect))
+        return np.array([[10.0, 10.0], [60.0, 10.0], [60.0, 50.0], [10.0, 50.0]]), "fitted"
+
+    monkeypatch.setattr(sessions, "fit_or_ellipse", fake_fit)
+    state.image[..., 3] = 255  # an opaque picture: a photograph
+    controller.command(state, "fit")
+    assert state.fit_rect and not asked and "rectangle" in state.message
+    drag(state, window_of(state, [100, 80]), window_of(state, [300, 200]))  # not a pan, not a band
+    assert state.view.offset == (100.0, 20.0) and state.group == frozenset()
+    controller.pointer(state, "release", *window_of(state, [300, 200]))
+    ((points, rect),) = asked
+    assert points == len(STAR) and rect == pytest.approx((100.0, 80.0, 200.0, 120.0))
+    assert not state.fit_rect and state.live.n == 4 and state.history.can_undo
+    controller.command(state, "fit")  # Enter: the whole picture
+    controller.command(state, "confirm")
+    assert asked[-1] == (16, None) and not state.fit_rect  # 4 points now: the default count
+    controller.command(state, "fit")  # Esc: nothing
+    controller.command(state, "cancel")
+    assert not state.fit_rect and len(asked) == 2
+    state.image[..., 3] = 0  # an image with a silhouette in its alpha channel fits at once
+    controller.command(state, "fit")
+    assert len(asked) == 3 and asked[-1][1] is None and not state.fit_rect

@@ -112,6 +112,8 @@ def pointer(
     state.cursor = (float(x), float(y))
     if kind == "press" and state.drawing is not None and button == LEFT and state.drag is None:
         drawing.press(state, x, y, ctrl, time.monotonic())
+    elif kind == "press" and state.fit_rect and button == LEFT and state.drag is None:
+        state.drag = Drag("fit_rect", -1, np.array([x, y], dtype=np.float64), state.live)
     elif kind == "press":
         _press(state, x, y, button, shift)
     elif kind == "move":
@@ -165,10 +167,23 @@ def _press(state: AppState, x: float, y: float, button: int, shift: bool = False
         state.drag = Drag("pan", -1, np.array([x, y], dtype=np.float64), live)
 
 
+def fit(state: AppState, rect=None, points: int | None = None) -> None:
+    """Fit the cage to the image's subject (inside `rect`, (x, y, width, height) image pixels) as one
+    edit, with `points` control points (default: as many as now, at least 8, or 16)."""
+    from app.viewer.session import fit_or_ellipse
+
+    state.fit_rect = False
+    live = state.live
+    points = points or (live.n if live.n >= 8 else 16)
+    cage, note = fit_or_ellipse(state.image, points, rect)
+    commit(state, live.replace(cage=cage, target=cage), note)
+
+
 def band_corners(state: AppState) -> tuple[np.ndarray, np.ndarray] | None:
-    """The rubber band being dragged: its lowest and highest corner, window pixels; None if none."""
+    """The rubber band (or fit rectangle) being dragged: its lowest and highest corner, window
+    pixels; None if none."""
     drag = state.drag
-    if drag is None or drag.kind != "band":
+    if drag is None or drag.kind not in ("band", "fit_rect"):
         return None
     cursor = np.asarray(state.cursor, dtype=np.float64)
     return np.minimum(drag.grab, cursor), np.maximum(drag.grab, cursor)
@@ -187,6 +202,8 @@ def _move(state: AppState, x: float, y: float) -> None:
         state.view_fitted = False
         return
     drag.moved = True
+    if drag.kind == "fit_rect":
+        return
     if drag.kind == "band":
         low, high = band_corners(state)
         points = handles(state, _active(state))
@@ -213,6 +230,9 @@ def _release(state: AppState, button: int) -> None:
     if drag is None:
         return
     state.drag = None
+    if drag.kind == "fit_rect":
+        _fit_in_rectangle(state, drag)
+        return
     if drag.kind == "band":
         if not drag.moved:  # a click on empty canvas: nothing selected any more
             state.group, state.selected = drag.selection, None
@@ -229,6 +249,18 @@ def _release(state: AppState, button: int) -> None:
             return
     moved = len(drag.indices)
     commit(state, state.live, f"moved {moved} control points" if moved > 1 else None)
+
+
+def _fit_in_rectangle(state: AppState, drag) -> None:
+    """The rectangle dragged in fit mode, clipped to the image, is where the subject is."""
+    height, width = state.image.shape[:2]
+    corners = editing.to_image(state.view, [drag.grab, state.cursor])
+    low = np.clip(corners.min(axis=0), 0, [width, height])
+    high = np.clip(corners.max(axis=0), 0, [width, height])
+    if np.any(high - low < 4):
+        state.say("drag a larger rectangle around the subject (Enter: the whole picture)", error=True)
+        return
+    fit(state, (float(low[0]), float(low[1]), float(high[0] - low[0]), float(high[1] - low[1])))
 
 
 def cancel_drag(state: AppState) -> bool:
@@ -298,6 +330,13 @@ def command(state: AppState, name: str, value=None) -> bool:
     live = state.live
     if state.drawing is not None and _drawing_command(state, name):
         return True
+    if state.fit_rect and name in ("confirm", "cancel") and state.drag is None:
+        if name == "confirm":
+            fit(state)
+        else:
+            state.fit_rect = False
+            state.say("fit cancelled")
+        return True
     if name == "undo":
         if state.drag is not None:
             cancel_drag(state)
@@ -319,11 +358,12 @@ def command(state: AppState, name: str, value=None) -> bool:
     elif name == "reset_target":
         commit(state, live.replace(target=live.cage), "target reset to the source cage")
     elif name == "fit":
-        from app.viewer.session import fit_or_ellipse
-
-        points = int(value) if value else (live.n if live.n >= 8 else 16)
-        cage, note = fit_or_ellipse(state.image, points)
-        commit(state, live.replace(cage=cage, target=cage), note)
+        if value is None and (state.image[..., 3] == 255).all():
+            # A photograph: the user shows where the subject is first.
+            state.fit_rect = True
+            state.say("drag a rectangle around the subject (Enter: the whole picture, Esc: cancel)")
+        else:  # an image with a silhouette (alpha), or a number of control points
+            fit(state, points=int(value) if value else None)
     elif name == "subdivide":
         if live.n < 3:
             state.say("place at least 3 control points first", error=True)

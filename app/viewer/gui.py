@@ -121,7 +121,7 @@ def _panel(state: AppState, commands: list, extras: dict, height: float) -> None
     imgui.same_line()
     if imgui.button("Reset target"):
         commands.append(("reset_target", None))
-    if imgui.button("Fit cage to silhouette"):
+    if imgui.button("Fit cage to subject"):
         commands.append(("fit", None))
     imgui.same_line()
     if imgui.button("Subdivide"):

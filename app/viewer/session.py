@@ -307,8 +307,9 @@ def begin_with(document: Document, snapshot: Snapshot, message: str) -> None:
     document.notices.append(message)
 
 
-def fit_or_ellipse(image: np.ndarray, points: int = 16) -> tuple[np.ndarray, str]:
-    """A cage fitted to the image's silhouette (app.fit), or an ellipse if that fails; and a note."""
+def fit_or_ellipse(image: np.ndarray, points: int = 16, rect=None) -> tuple[np.ndarray, str]:
+    """A cage fitted to the image's subject (app.fit; inside `rect`, (x, y, width, height), if
+    given), or an ellipse if that fails; and a note."""
     from app.fit import fit_cage
     from app.viewer.editing import ellipse_cage
 
@@ -316,7 +317,7 @@ def fit_or_ellipse(image: np.ndarray, points: int = 16) -> tuple[np.ndarray, str
         warnings.simplefilter("always")
         try:
             with reported_as_input("fit"):
-                control_points = fit_cage(image, points)
+                control_points = fit_cage(image, points, rect=rect)
         except InputError as error:
             height, width = image.shape[:2]
             return ellipse_cage(width, height), f"no silhouette to fit ({error}); started with an ellipse"

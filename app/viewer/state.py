@@ -187,8 +187,9 @@ class Drag:
 
     Attributes
     ----------
-    kind : {"target", "source", "pan", "band"}
-        What the drag moves ("band": a rubber band that selects the handles inside it).
+    kind : {"target", "source", "pan", "band", "fit_rect"}
+        What the drag moves ("band": a rubber band that selects the handles inside it;
+        "fit_rect": the rectangle around a photograph's subject for "Fit cage").
     index : int
         The control point under the cursor (-1 for a pan or a band).
     grab : ndarray of shape (2,)
@@ -289,6 +290,7 @@ class AppState:
     hovered: int | None = None
     drag: Drag | None = None
     drawing: Drawing | None = None  # a new cage being placed
+    fit_rect: bool = False  # "Fit cage" on a photo waits for a rectangle around the subject
     show_folds: bool = True
     show_wireframe: bool = False
     show_overlay: bool = True
