@@ -218,7 +218,8 @@ def fit_closed_bspline(data: np.ndarray, count: int) -> np.ndarray:
     """
     steps = np.linalg.norm(np.diff(data, axis=0, append=data[:1]), axis=1)
     t = count * np.concatenate([[0.0], np.cumsum(steps)[:-1]]) / steps.sum()
-    control_points = np.linalg.lstsq(_basis_matrix(t, count), data, rcond=None)[0]
+    index, weights = basis_weights(t, count)
+    control_points = _least_squares(index, weights, data, count)
     extent = float(np.ptp(data, axis=0).max())
     # A small tangential term keeps the system regular where the data are noisy
     # (pixel staircases) without holding the parameters back.
@@ -226,18 +227,17 @@ def fit_closed_bspline(data: np.ndarray, count: int) -> np.ndarray:
     for _ in range(FIT_ROUNDS):
         for _ in range(FOOT_POINT_STEPS):
             t = _foot_point_parameters(control_points, data, t)
-        basis = _basis_matrix(t, count)
+        index, weights = basis_weights(t, count)
         first = _derivatives(control_points, t)[1]
         tangent = first / np.maximum(np.linalg.norm(first, axis=1, keepdims=True), 1e-300)
         normal = np.stack([tangent[:, 1], -tangent[:, 0]], axis=1)
-        system = np.vstack(
-            [
-                np.hstack([normal[:, :1] * basis, normal[:, 1:] * basis]),
-                tangential * np.hstack([tangent[:, :1] * basis, tangent[:, 1:] * basis]),
-            ]
-        )
-        right = np.concatenate([np.sum(normal * data, axis=1), tangential * np.sum(tangent * data, axis=1)])
-        solution = np.linalg.lstsq(system, right, rcond=None)[0]
+        # Unknowns (x_1..x_n, y_1..y_n); a row's coefficients are direction x basis weights.
+        columns = np.tile(np.concatenate([index, index + count], axis=1), (2, 1))
+        directions = np.concatenate([normal, tangential * tangent])
+        both = np.tile(weights, (2, 1))
+        coefficients = np.concatenate([directions[:, :1] * both, directions[:, 1:] * both], axis=1)
+        right = np.sum(directions * np.concatenate([data, data]), axis=1)
+        solution = _least_squares(columns, coefficients, right[:, None], 2 * count)[:, 0]
         updated = np.stack([solution[:count], solution[count:]], axis=1)
         change = np.abs(updated - control_points).max()
         control_points = updated
@@ -246,12 +246,23 @@ def fit_closed_bspline(data: np.ndarray, count: int) -> np.ndarray:
     return control_points
 
 
-def _basis_matrix(t: np.ndarray, count: int) -> np.ndarray:
-    """Folded B-spline basis (K, n) at parameters t in [0, n), as `ClosedBSpline.basis_matrix`."""
-    index, weights = basis_weights(t, count)
-    matrix = np.zeros((t.shape[0], count))
-    np.add.at(matrix, (np.repeat(np.arange(t.shape[0]), 3), index.ravel()), weights.ravel())
-    return matrix
+def _least_squares(columns: np.ndarray, coefficients: np.ndarray, right: np.ndarray, size: int) -> np.ndarray:
+    """Least-squares solution (size, d) of a sparse system through its normal equations.
+
+    Row k of the system has the values ``coefficients[k]`` (R, m) in the columns
+    ``columns[k]`` (R, m) of `size` unknowns, and right-hand sides ``right[k]``
+    (R, d).  The normal equations are assembled from the m nonzeros per row in
+    O(R m^2): a dense least-squares solve of the (R, size) system costs more, and
+    the threads of a parallel BLAS make it slower still on a busy machine.
+    """
+    pairs = (columns[:, :, None] * size + columns[:, None, :]).ravel()
+    products = (coefficients[:, :, None] * coefficients[:, None, :]).ravel()
+    matrix = np.bincount(pairs, products, minlength=size * size).reshape(size, size)
+    moments = np.stack(
+        [np.bincount(columns.ravel(), (coefficients * r[:, None]).ravel(), minlength=size) for r in right.T],
+        axis=1,
+    )
+    return np.linalg.lstsq(matrix, moments, rcond=None)[0]
 
 
 def _derivatives(control_points: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
