@@ -224,11 +224,18 @@ def fit_closed_bspline(data: np.ndarray, count: int) -> np.ndarray:
     # A small tangential term keeps the system regular where the data are noisy
     # (pixel staircases) without holding the parameters back.
     tangential = np.sqrt(TANGENTIAL_WEIGHT)
+    best, best_error = control_points, np.inf
     for _ in range(FIT_ROUNDS):
         for _ in range(FOOT_POINT_STEPS):
             t = _foot_point_parameters(control_points, data, t)
         index, weights = basis_weights(t, count)
-        first = _derivatives(control_points, t)[1]
+        point, first, _ = _derivatives(control_points, t)
+        # On a wiggly outline (a segmented photograph) the rounds can diverge: keep the
+        # control points of the smallest distance to the data, and stop once it grows.
+        error = float(np.mean(np.sum((point - data) ** 2, axis=1)))
+        if error > best_error:
+            break
+        best, best_error = control_points, error
         tangent = first / np.maximum(np.linalg.norm(first, axis=1, keepdims=True), 1e-300)
         normal = np.stack([tangent[:, 1], -tangent[:, 0]], axis=1)
         # Unknowns (x_1..x_n, y_1..y_n); a row's coefficients are direction x basis weights.
@@ -242,8 +249,8 @@ def fit_closed_bspline(data: np.ndarray, count: int) -> np.ndarray:
         change = np.abs(updated - control_points).max()
         control_points = updated
         if change <= 1e-12 * extent:
-            break
-    return control_points
+            return control_points
+    return best
 
 
 def _least_squares(columns: np.ndarray, coefficients: np.ndarray, right: np.ndarray, size: int) -> np.ndarray:
