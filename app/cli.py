@@ -202,21 +202,30 @@ def build_parser(prog: str = "python -m app") -> argparse.ArgumentParser:
     fit = _command(
         commands,
         "fit",
-        "fit a cage to the main silhouette of an image",
-        "Write a cage (a closed quadratic B-spline) around the main shape of IMAGE: its\n"
-        "alpha channel when it has one, else the largest object against the background.",
-        ("%(prog)s photo.png --output cage.json", None),
+        "fit a cage around the main subject of an image",
+        "Write a cage (a closed quadratic B-spline) around the main subject of IMAGE: its\n"
+        "alpha channel when it has one, a silhouette on a plain background, else the\n"
+        "subject of the photograph (GrabCut, seeded by saliency; --rect says where it is).\n"
+        "Around a photograph's subject the cage keeps a margin of 1.5% of its size.",
+        ("%(prog)s photo.jpg --output cage.json", None),
+        ("%(prog)s photo.jpg --output cage.json --rect 120,40,300,420", "only what is inside the rectangle"),
         ("%(prog)s logo.png --output cage.json --points 24", None),
     )
     fit.add_argument(
         "image",
         type=Path,
         metavar="IMAGE",
-        help="image with one main shape (PNG with alpha, or a plain background)",
+        help="a photograph, a shape on a plain background, or a PNG with alpha",
     )
     fit.add_argument("--output", type=Path, required=True, help="cage JSON to write")
     fit.add_argument(
         "--points", type=_positive(int), default=16, metavar="N", help="control points (default 16)"
+    )
+    fit.add_argument(
+        "--rect",
+        metavar="X,Y,W,H",
+        help="where the subject is, in image pixels (x right, y down from the top-left corner); "
+        "nothing outside is chosen (default: found in the whole image)",
     )
     fit.set_defaults(run=_fit)
 
@@ -480,12 +489,22 @@ def _warp(args: argparse.Namespace) -> int:
 
 
 def _fit(args: argparse.Namespace) -> int:
-    from app.fit import FIT_PIXELS, fit_cage
+    from app.fit import FIT_PIXELS, checked_rect, fit_cage
 
+    rect = None
+    if args.rect is not None:
+        try:
+            rect = [float(part) for part in args.rect.split(",")]
+        except ValueError:
+            rect = []
+        if len(rect) != 4:
+            raise InputError(f"--rect: expected X,Y,W,H such as 40,30,200,150, got {args.rect!r}")
     check_writable(args.output, suffix=".json")
     image = read_image(args.image)
+    with reported_as_input(f"--rect {args.rect}"):
+        rect = checked_rect(rect, image.shape[1], image.shape[0])
     with reported_as_input(str(args.image)):
-        control_points = fit_cage(image, args.points)
+        control_points = fit_cage(image, args.points, rect=rect)
     height, width = image.shape[:2]
     if height * width > FIT_PIXELS:
         note(f"fitted on a copy of about {FIT_PIXELS / 1e6:.1f} megapixels of the {width}x{height} image")

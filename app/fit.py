@@ -1,16 +1,30 @@
-"""Fit a cage (closed uniform quadratic B-spline, Sec. 4.1) to an image's main silhouette.
+"""Fit a cage (closed uniform quadratic B-spline, Sec. 4.1) around the main subject of an image.
 
-The silhouette is the alpha channel when the image has a meaningful one, otherwise
-the largest object against the background (Otsu threshold and morphology, with the
-polarity in which the object does not touch the image border).  Its outer contour
-is parameterised by arc length and the n control points solve the linear least
-squares problem ``B(t) P = contour`` with the folded basis of `core.bspline`;
-then a few rounds move every parameter to its foot point on the current curve and
-minimise the distances to the tangent lines there, so the result fits the
-distance to the curve, not to fixed parameters.
+The subject (`subject_mask`) is, in this order of trust:
+
+- the alpha channel, when the image has one that is not all opaque;
+- a silhouette on a plain background, when the grey levels are two-toned (Otsu's
+  threshold explains at least `TWO_TONE` of their variance): the largest object of
+  that threshold, in the polarity in which it does not touch the border;
+- otherwise a photograph: GrabCut (Rother, Kolmogorov and Blake 2004) on a copy of
+  about `SEGMENT_PIXELS` pixels.  Outside the rectangle is background; inside it
+  the fine-grained static saliency of opencv-contrib (`cv2.saliency`), weighted by
+  a centre prior, seeds the probable subject.  Of what GrabCut keeps, the largest
+  and most central region is taken, its holes filled and its outline smoothed; the
+  cage goes `SUBJECT_MARGIN` outside it, because a segmentation is uncertain by a
+  few pixels and a cage that cuts into the subject tears it when deformed, while
+  a thin band of background inside the cage just moves along.
+
+Alpha channels and plain silhouettes are exact to the pixel and get no margin.  The
+outer contour of the subject is parameterised by arc length and the n control
+points solve the linear least squares problem ``B(t) P = contour`` with the folded
+basis of `core.bspline`; then a few rounds move every parameter to its foot point
+on the current curve and minimise the distances to the tangent lines there, so
+the result fits the distance to the curve, not to fixed parameters.
 
 Coordinates are image pixels, x right, y down, origin at the image's top-left
-corner; pixel (column i, row j) covers [i, i+1] x [j, j+1].
+corner; pixel (column i, row j) covers [i, i+1] x [j, j+1].  A rectangle is
+(x, y, width, height) in the same pixels.
 """
 
 from __future__ import annotations
@@ -19,7 +33,9 @@ import warnings
 
 import cv2
 import numpy as np
-from scipy.ndimage import gaussian_filter1d
+from scipy.ndimage import gaussian_filter1d, minimum
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import dijkstra
 
 from core.bspline import ClosedBSpline, basis_weights
 from core.validation import positive_int
@@ -35,14 +51,51 @@ CORNER_SNAP = 1.0
 #: Larger images are fitted on a copy of about this many pixels (2048 x 2048): the cost
 #: grows with the outline's length, the cage's accuracy is a fraction of a span.
 FIT_PIXELS = 1 << 22
+#: Share of the grey levels' variance that Otsu's two classes must explain for an
+#: opaque image to count as a silhouette on a plain background (antialiased
+#: silhouettes: above 0.97; photographs of scikit-image's data: 0.57 to 0.86).
+TWO_TONE = 0.92
+#: GrabCut runs on a copy of about this many pixels (256 x 256): its cost grows with
+#: the pixels, and a cage of a few dozen control points needs no finer outline.
+SEGMENT_PIXELS = 1 << 15
+#: GrabCut's rounds of colour models and graph cut.
+GRABCUT_ITERATIONS = 4
+#: Without a rectangle, the frame of this fraction of each side is background.
+DEFAULT_INSET = 0.03
+#: The boundary saliency (`boundary_saliency`) is computed on a copy of this longer side.
+SALIENCY_SIDE = 96
+#: Without a rectangle, GrabCut's rectangle is the box of the central region salient above
+#: this fraction of the saliency's Otsu threshold, grown by `RECT_GROWTH` of its longer side.
+RECT_LEVEL = 0.5
+RECT_GROWTH = 0.08
+#: Inside the rectangle, pixels salient above this fraction of the Otsu threshold seed
+#: the probable subject, the others the probable background.
+SEED_LEVEL = 0.25
+#: A subject of less than this share of the rectangle is a detail (an eye of a close-up
+#: face): GrabCut starts again from the rectangle alone, and the larger result is kept.
+MIN_SUBJECT = 0.05
+#: Other parts of GrabCut's result join the main one when at least this share of its
+#: area and closer than `MERGE_GAP` of the rectangle's diagonal (`_central_component`).
+MERGE_AREA = 0.1
+MERGE_GAP = 0.15
+#: Opening and closing of GrabCut's mask, as a fraction of the rectangle's shorter side.
+SMOOTHING = 0.02
+#: The cage of a segmented subject goes around it grown by this fraction of the
+#: diagonal of its bounding box.
+SUBJECT_MARGIN = 0.015
 
 
 class CageFitWarning(UserWarning):
     """The fit had to change the request (fewer points or smoothing) to stay simple."""
 
 
-def fit_cage(image: np.ndarray, points: int = 16, max_pixels: int = FIT_PIXELS) -> np.ndarray:
-    """Control points of a closed quadratic B-spline around the image's main silhouette.
+def fit_cage(
+    image: np.ndarray,
+    points: int = 16,
+    rect=None,
+    max_pixels: int = FIT_PIXELS,
+) -> np.ndarray:
+    """Control points of a closed quadratic B-spline around the image's main subject.
 
     Parameters
     ----------
@@ -50,6 +103,10 @@ def fit_cage(image: np.ndarray, points: int = 16, max_pixels: int = FIT_PIXELS) 
         RGBA or RGB, row 0 at the top.
     points : int
         n >= 3, the number of control points.
+    rect : sequence of 4 numbers (x, y, width, height), optional
+        Where the subject is, in image pixels; it must lie inside the image.  Only
+        what is inside is considered.  Default: the whole image (for a photograph,
+        all but a frame of `DEFAULT_INSET` of each side).
     max_pixels : int
         An image of more pixels is fitted on a copy shrunk to about this many
         (`downscaled`), and the cage mapped back to the image's pixels.
@@ -61,19 +118,28 @@ def fit_cage(image: np.ndarray, points: int = 16, max_pixels: int = FIT_PIXELS) 
         itself, in which case the contour is smoothed and then m is lowered until
         the curve is simple, with a `CageFitWarning` saying so.  Pairs closer
         than a pixel (of the fitted copy) are merged into sharp corners
-        (`snap_corners`).
+        (`snap_corners`).  The curve follows the outline of `subject_mask`, grown
+        by `SUBJECT_MARGIN` when the subject was segmented from a photograph.
 
     Raises
     ------
     ValueError
-        If the image holds no object or the object is too small for `points`.
+        If the image or the rectangle is invalid, the image holds no object, or
+        the object is too small for `points`.
     """
     points = positive_int(points, "points", minimum=3)
+    image = _checked_image(image)
+    region = checked_rect(rect, image.shape[1], image.shape[0])
     image, scale = downscaled(image, positive_int(max_pixels, "max_pixels"))
-    contour = silhouette_contour(image)
+    if region is not None:
+        region = region / np.tile(scale, 2)
+    mask, exact = _subject(image, region)
+    if not exact:
+        mask = _grown(mask, SUBJECT_MARGIN)
+    contour = mask_outline(mask)
     if len(contour) < 3 * points:
         raise ValueError(
-            f"the silhouette's outline has only {len(contour)} pixels, too few for {points} control "
+            f"the subject's outline has only {len(contour)} pixels, too few for {points} control "
             "points; use fewer points or a larger image"
         )
     length = _perimeter(contour)
@@ -99,7 +165,53 @@ def fit_cage(image: np.ndarray, points: int = 16, max_pixels: int = FIT_PIXELS) 
                     stacklevel=2,
                 )
             return control_points * scale
-    raise ValueError("could not fit a simple closed curve to the silhouette")
+    raise ValueError("could not fit a simple closed curve to the subject")
+
+
+def subject_mask(image: np.ndarray, rect=None) -> np.ndarray:
+    """The main subject of the image, bool ndarray of shape (H, W), without the cage's margin.
+
+    `fit_cage` fits its cage around this mask (computed on its working copy).
+
+    Parameters
+    ----------
+    image : ndarray of shape (H, W, 4) or (H, W, 3), uint8
+        RGBA or RGB, row 0 at the top.
+    rect : sequence of 4 numbers (x, y, width, height), optional
+        As in `fit_cage`: nothing outside it is part of the subject.
+
+    Raises
+    ------
+    ValueError
+        If the image or the rectangle is invalid, or no subject is found.
+    """
+    image = _checked_image(image)
+    return _subject(image, checked_rect(rect, image.shape[1], image.shape[0]))[0]
+
+
+def checked_rect(rect, width: int, height: int) -> np.ndarray | None:
+    """`rect` as float64 (x, y, width, height), shape (4,), or None; `ValueError` unless inside the image.
+
+    The rectangle must have a positive width and height and lie within the
+    `width` x `height` image (x right, y down, origin at the top-left corner).
+    """
+    if rect is None:
+        return None
+    try:
+        values = np.array(rect, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"rect must be four numbers x, y, width, height, got {rect!r}") from None
+    if values.shape != (4,) or not np.isfinite(values).all():
+        raise ValueError(f"rect must be four finite numbers x, y, width, height, got {rect!r}")
+    x, y, w, h = values
+    if w <= 0 or h <= 0:
+        raise ValueError(f"rect must have a positive width and height, got {w:g}x{h:g}")
+    if x < 0 or y < 0 or x + w > width or y + h > height:
+        raise ValueError(
+            f"rect reaches outside the {width}x{height} image: it spans x {x:g} to {x + w:g} "
+            f"and y {y:g} to {y + h:g}"
+        )
+    return values
 
 
 def downscaled(image: np.ndarray, max_pixels: int) -> tuple[np.ndarray, np.ndarray]:
@@ -149,21 +261,17 @@ def snap_corners(control_points: np.ndarray, tolerance: float = CORNER_SNAP) -> 
 
 
 def silhouette_mask(image: np.ndarray) -> np.ndarray:
-    """The main object of the image, bool ndarray of shape (H, W).
+    """The main object of a silhouette image, bool ndarray of shape (H, W).
 
     The alpha channel decides when it is present and not all opaque; otherwise
     the object is the largest component of an Otsu threshold, taking the polarity
     (dark or light object) whose largest component does not touch the border.
     """
-    image = np.asarray(image)
-    if image.dtype != np.uint8 or image.ndim != 3 or image.shape[2] not in (3, 4):
-        raise ValueError(
-            f"image must be an (H, W, 3) or (H, W, 4) uint8 array, got {image.dtype} {image.shape}"
-        )
+    image = _checked_image(image)
     if image.shape[2] == 4 and image[..., 3].min() < 255:
         candidates = [_largest_component(image[..., 3] >= 128)]
     else:
-        grey = cv2.GaussianBlur(cv2.cvtColor(image[..., :3], cv2.COLOR_RGB2GRAY), (5, 5), 0)
+        grey = _grey(image)
         _, light = cv2.threshold(grey, 0, 1, cv2.THRESH_BINARY + cv2.THRESH_OTSU)
         size = max(3, (min(image.shape[:2]) // 200) | 1)
         kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (size, size))
@@ -178,14 +286,117 @@ def silhouette_mask(image: np.ndarray) -> np.ndarray:
     return mask
 
 
-def silhouette_contour(image: np.ndarray) -> np.ndarray:
-    """Outer outline of `silhouette_mask`, ndarray of shape (K, 2), image pixels.
+def two_toned(image: np.ndarray) -> bool:
+    """Whether Otsu's threshold explains at least `TWO_TONE` of the grey levels' variance.
+
+    `image` is (H, W, C) uint8, C >= 3.  True for a silhouette on a plain
+    background, false for a photograph (and for a constant image).
+    """
+    grey = _grey(image)
+    threshold, _ = cv2.threshold(grey, 0, 1, cv2.THRESH_BINARY + cv2.THRESH_OTSU)
+    histogram = np.bincount(grey.ravel(), minlength=256).astype(np.float64)
+    levels = np.arange(256.0)
+    light = levels > threshold
+    count, total = histogram.sum(), histogram[light].sum()
+    variance = histogram @ levels**2 / count - (histogram @ levels / count) ** 2
+    if total in (0, count) or variance <= 0:
+        return False
+    mean_light = histogram[light] @ levels[light] / total
+    mean_dark = histogram[~light] @ levels[~light] / (count - total)
+    between = total / count * (1 - total / count) * (mean_light - mean_dark) ** 2
+    return bool(between >= TWO_TONE * variance)
+
+
+def photo_subject(image: np.ndarray, rect=None) -> np.ndarray:
+    """The main subject of a photograph by GrabCut, bool ndarray of shape (H, W).
+
+    Parameters
+    ----------
+    image : ndarray of shape (H, W, C), uint8, C >= 3
+        RGB(A), row 0 at the top; the alpha channel is ignored.
+    rect : ndarray of shape (4,), optional
+        (x, y, width, height) inside the image (`checked_rect`); nothing outside it is
+        the subject.  Default: the box of the central salient region, grown by
+        `RECT_GROWTH`, within all but a frame of `DEFAULT_INSET` of each side.
+
+    Notes
+    -----
+    GrabCut runs on a copy of about `SEGMENT_PIXELS` pixels, with OpenCV's random
+    generator seeded so that a photograph always gives the same cage.  Outside the
+    rectangle is background; inside, the pixels whose `boundary_saliency` exceeds
+    `SEED_LEVEL` of its Otsu threshold are probable subject, the others probable
+    background.  The result is opened, its most central large component kept
+    (`_central_component`), its holes filled, closed, and scaled back to (H, W)
+    with bilinear interpolation of the 0/1 mask.  A result smaller than
+    `MIN_SUBJECT` of the rectangle is a detail: GrabCut runs again from the
+    rectangle alone (all of it probable subject) and the larger result is kept.
+    """
+    height, width = image.shape[:2]
+    small, scale = downscaled(np.ascontiguousarray(image[..., :3]), SEGMENT_PIXELS)
+    saliency = np.round(255 * boundary_saliency(small)).astype(np.uint8)
+    otsu, _ = cv2.threshold(saliency, 0, 1, cv2.THRESH_BINARY + cv2.THRESH_OTSU)
+    if rect is None:
+        bounds = _salient_bounds(saliency > RECT_LEVEL * otsu)
+    else:
+        bounds = _pixel_bounds(np.asarray(rect) / np.tile(scale, 2), small.shape[:2])
+    left, top, right, bottom = bounds
+    inside = (slice(top, bottom), slice(left, right))
+    seeds = np.full(small.shape[:2], cv2.GC_BGD, np.uint8)
+    seeds[inside] = np.where(saliency[inside] > SEED_LEVEL * otsu, cv2.GC_PR_FGD, cv2.GC_PR_BGD)
+    bgr = np.ascontiguousarray(small[..., ::-1])
+    subject = _grabcut_region(bgr, seeds, bounds)
+    if subject.sum() < MIN_SUBJECT * (right - left) * (bottom - top):
+        seeds[inside] = cv2.GC_PR_FGD
+        subject = max(subject, _grabcut_region(bgr, seeds, bounds), key=np.sum)
+    if scale[0] != 1 or scale[1] != 1:
+        subject = cv2.resize(subject.astype(np.float32), (width, height), interpolation=cv2.INTER_LINEAR)
+    return subject >= 0.5
+
+
+def boundary_saliency(image: np.ndarray) -> np.ndarray:
+    """How far each pixel is from the image's border in colour, float32 (H, W) in [0, 1].
+
+    Geodesic saliency with the boundary prior (Wei, Wen, Zhu and Sun, "Geodesic
+    saliency using background priors", ECCV 2012): background regions reach the
+    border through pixels of similar colour, a subject is cut off from it by its
+    outline.  On a copy of longer side `SALIENCY_SIDE`, lightly blurred, a step
+    between 4-neighbours costs their CIELAB difference less the median step (so
+    that texture does not add up), and the distance from each of the four sides
+    is computed separately (Dijkstra).  The second smallest of the four is kept,
+    so that a subject may touch one side, as a portrait its bottom edge.
+
+    Parameters
+    ----------
+    image : ndarray of shape (H, W, 3), uint8
+        RGB, row 0 at the top.
+    """
+    height, width = image.shape[:2]
+    factor = SALIENCY_SIDE / max(height, width)
+    size = (max(2, round(width * factor)), max(2, round(height * factor)))
+    small = cv2.GaussianBlur(cv2.resize(image, size, interpolation=cv2.INTER_AREA), (0, 0), 1.0)
+    lab = cv2.cvtColor(small, cv2.COLOR_RGB2LAB).reshape(-1, 3).astype(np.float32)
+    index = np.arange(size[0] * size[1]).reshape(size[1], size[0])
+    first = np.concatenate([index[:, :-1].ravel(), index[:-1, :].ravel()])
+    second = np.concatenate([index[:, 1:].ravel(), index[1:, :].ravel()])
+    step = np.linalg.norm(lab[first] - lab[second], axis=1)
+    # A small floor keeps every edge in the sparse graph (a zero weight would drop it).
+    cost = np.maximum(step - np.median(step), 0) + 1e-3
+    graph = coo_matrix((cost, (first, second)), shape=(index.size, index.size)).tocsr()
+    sides = (index[0], index[-1], index[:, 0], index[:, -1])
+    distances = np.stack([dijkstra(graph, directed=False, indices=side, min_only=True) for side in sides])
+    distances /= np.maximum(distances.max(axis=1, keepdims=True), 1e-12)
+    saliency = np.sort(distances, axis=0)[1].reshape(size[1], size[0]).astype(np.float32)
+    saliency = cv2.resize(saliency, (width, height), interpolation=cv2.INTER_LINEAR)
+    return saliency / max(float(saliency.max()), 1e-12)
+
+
+def mask_outline(mask: np.ndarray) -> np.ndarray:
+    """Outer outline of the largest region of `mask` (H, W), ndarray of shape (K, 2), image pixels.
 
     The points are the centres of the boundary pixels moved half a pixel outwards,
     which puts them on the edge between object and background.
     """
-    mask = silhouette_mask(image).astype(np.uint8)
-    contours, _ = cv2.findContours(mask, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
+    contours, _ = cv2.findContours(mask.astype(np.uint8), cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
     contour = max(contours, key=cv2.contourArea).reshape(-1, 2).astype(np.float64) + 0.5
     tangent = np.roll(contour, -2, axis=0) - np.roll(contour, 2, axis=0)
     tangent /= np.maximum(np.linalg.norm(tangent, axis=1, keepdims=True), 1e-12)
@@ -194,6 +405,145 @@ def silhouette_contour(image: np.ndarray) -> np.ndarray:
     )
     outward = np.sign(area) * np.stack([tangent[:, 1], -tangent[:, 0]], axis=1)
     return contour + 0.5 * outward
+
+
+def _subject(image: np.ndarray, rect: np.ndarray | None) -> tuple[np.ndarray, bool]:
+    """(mask (H, W) bool, whether it is exact): the subject of a checked image inside `rect`."""
+    height, width = image.shape[:2]
+    left, top, right, bottom = (0, 0, width, height) if rect is None else _pixel_bounds(rect, (height, width))
+    crop = image[top:bottom, left:right]
+    if (crop.shape[2] == 4 and crop[..., 3].min() < 255) or two_toned(crop):
+        exact = True
+        found = silhouette_mask(crop)
+        mask = np.zeros((height, width), dtype=bool)
+        mask[top:bottom, left:right] = found
+    else:
+        exact = False
+        mask = photo_subject(image, rect)
+        if mask.sum() < 16:
+            raise ValueError(
+                "found no subject in the image (GrabCut kept nothing); give a rectangle around it"
+            )
+    return mask, exact
+
+
+def _checked_image(image: np.ndarray) -> np.ndarray:
+    image = np.asarray(image)
+    if image.dtype != np.uint8 or image.ndim != 3 or image.shape[2] not in (3, 4):
+        raise ValueError(
+            f"image must be an (H, W, 3) or (H, W, 4) uint8 array, got {image.dtype} {image.shape}"
+        )
+    if min(image.shape[:2]) < 2:
+        raise ValueError(f"image must be at least 2x2 pixels, got {image.shape[1]}x{image.shape[0]}")
+    return image
+
+
+def _grey(image: np.ndarray) -> np.ndarray:
+    """Lightly blurred grey levels (H, W) uint8 of an RGB(A) image."""
+    return cv2.GaussianBlur(cv2.cvtColor(np.ascontiguousarray(image[..., :3]), cv2.COLOR_RGB2GRAY), (5, 5), 0)
+
+
+def _pixel_bounds(rect: np.ndarray, shape: tuple[int, int]) -> tuple[int, int, int, int]:
+    """(left, top, right, bottom): the pixels of `shape` (H, W) that `rect` (x, y, w, h) touches."""
+    height, width = shape
+    left = min(max(int(np.floor(rect[0])), 0), width - 1)
+    top = min(max(int(np.floor(rect[1])), 0), height - 1)
+    right = max(min(int(np.ceil(rect[0] + rect[2])), width), left + 1)
+    bottom = max(min(int(np.ceil(rect[1] + rect[3])), height), top + 1)
+    return left, top, right, bottom
+
+
+def _salient_bounds(salient: np.ndarray) -> tuple[int, int, int, int]:
+    """(left, top, right, bottom) of the default rectangle around the salient mask (h, w).
+
+    The box of its most central large component grown by `RECT_GROWTH`, within the
+    image less a frame of `DEFAULT_INSET`; that frame alone if nothing is salient.
+    """
+    height, width = salient.shape
+    inset = DEFAULT_INSET * np.array([width, height])
+    low, high = np.ceil(inset).astype(int), np.floor([width, height] - inset).astype(int)
+    high = np.maximum(high, low + 1)
+    kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (5, 5))
+    region = _central_component(
+        cv2.morphologyEx(salient.astype(np.uint8), cv2.MORPH_CLOSE, kernel),
+        0.5 * np.array([width, height]),
+        np.array([width, height]),
+    )
+    if not region.any():
+        return int(low[0]), int(low[1]), int(high[0]), int(high[1])
+    x, y, w, h = cv2.boundingRect(region)
+    growth = RECT_GROWTH * max(w, h)
+    left, top = np.minimum(np.maximum(low, np.floor([x - growth, y - growth])), high - 1).astype(int)
+    right, bottom = np.maximum(
+        np.minimum(high, np.ceil([x + w + growth, y + h + growth])), [left + 1, top + 1]
+    )
+    return int(left), int(top), int(right), int(bottom)
+
+
+def _grabcut_region(bgr: np.ndarray, seeds: np.ndarray, bounds: tuple[int, int, int, int]) -> np.ndarray:
+    """GrabCut of `bgr` (h, w, 3) from `seeds` (h, w), cleaned up: uint8 (h, w), 1 on the subject."""
+    left, top, right, bottom = bounds
+    labels = seeds.copy()
+    cv2.setRNGSeed(0)  # GrabCut's k-means starts from OpenCV's global random generator
+    models = np.zeros((1, 65)), np.zeros((1, 65))
+    cv2.grabCut(bgr, labels, None, *models, GRABCUT_ITERATIONS, cv2.GC_INIT_WITH_MASK)
+    found = ((labels == cv2.GC_FGD) | (labels == cv2.GC_PR_FGD)).astype(np.uint8)
+    size = max(3, round(SMOOTHING * min(right - left, bottom - top)) | 1)
+    kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (size, size))
+    found = cv2.morphologyEx(found, cv2.MORPH_OPEN, kernel)
+    centre = 0.5 * np.array([left + right, top + bottom])
+    subject = _filled(_central_component(found, centre, np.array([right - left, bottom - top])))
+    return cv2.morphologyEx(subject, cv2.MORPH_CLOSE, kernel)
+
+
+def _central_component(mask: np.ndarray, centre: np.ndarray, extent: np.ndarray) -> np.ndarray:
+    """The main region of `mask` (h, w): uint8 (h, w), 1 inside.
+
+    The 8-connected component of the largest area x exp(-r^2) wins, r being the
+    distance of its centroid from `centre` (x, y) in units of half the `extent`
+    (width, height): one centred on a corner of the rectangle must be 7.4 times
+    larger than a centred one.  Components of at least `MERGE_AREA` of its area
+    closer to it than `MERGE_GAP` of the extent's diagonal join it (a straight
+    bridge across each gap): a subject cut in two by a thin strip of background-coloured
+    pixels, as a portrait by a dark collar, stays one subject.
+    """
+    count, labels, stats, centroids = cv2.connectedComponentsWithStats(mask, connectivity=8)
+    if count <= 1:
+        return np.zeros(mask.shape, np.uint8)
+    area = stats[1:, cv2.CC_STAT_AREA]
+    offset = (centroids[1:] + 0.5 - centre) / (0.5 * extent)
+    best = 1 + int(np.argmax(area * np.exp(-np.sum(offset**2, axis=1))))
+    gap = MERGE_GAP * float(np.hypot(*extent))
+    distance = cv2.distanceTransform((labels != best).astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+    nearest = minimum(distance, labels, index=np.arange(1, count))
+    joined = np.flatnonzero((nearest <= gap) & (area >= MERGE_AREA * area[best - 1])) + 1
+    region = np.isin(labels, joined).astype(np.uint8)
+    best_points = np.argwhere(labels == best)[:, ::-1]  # (x, y)
+    for part in joined[joined != best]:
+        points = np.argwhere(labels == part)[:, ::-1]
+        start = points[np.argmin(distance[points[:, 1], points[:, 0]])]
+        end = best_points[np.argmin(np.sum((best_points - start) ** 2, axis=1))]
+        # A bridge half as wide as it is long: the B-spline smooths it into a waist.
+        thickness = max(3, round(0.5 * nearest[part - 1]))
+        cv2.line(region, tuple(int(v) for v in start), tuple(int(v) for v in end), 1, thickness)
+    return region
+
+
+def _filled(mask: np.ndarray) -> np.ndarray:
+    """`mask` (h, w) uint8 with every hole filled: the inside of its outer contours."""
+    contours, _ = cv2.findContours(mask, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE)
+    filled = np.zeros_like(mask)
+    cv2.drawContours(filled, contours, -1, 1, thickness=cv2.FILLED)
+    return filled
+
+
+def _grown(mask: np.ndarray, fraction: float) -> np.ndarray:
+    """`mask` (H, W) bool grown by `fraction` of its bounding box's diagonal (at least one pixel)."""
+    rows, columns = np.nonzero(mask)
+    radius = max(1.0, fraction * np.hypot(np.ptp(rows) + 1, np.ptp(columns) + 1))
+    # The Euclidean distance transform costs the same for any radius, a dilation grows with it.
+    outside = cv2.distanceTransform((~mask).astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+    return outside <= radius
 
 
 def fit_closed_bspline(data: np.ndarray, count: int) -> np.ndarray:
@@ -218,40 +568,58 @@ def fit_closed_bspline(data: np.ndarray, count: int) -> np.ndarray:
     """
     steps = np.linalg.norm(np.diff(data, axis=0, append=data[:1]), axis=1)
     t = count * np.concatenate([[0.0], np.cumsum(steps)[:-1]]) / steps.sum()
-    control_points = np.linalg.lstsq(_basis_matrix(t, count), data, rcond=None)[0]
+    index, weights = basis_weights(t, count)
+    control_points = _least_squares(index, weights, data, count)
     extent = float(np.ptp(data, axis=0).max())
     # A small tangential term keeps the system regular where the data are noisy
     # (pixel staircases) without holding the parameters back.
     tangential = np.sqrt(TANGENTIAL_WEIGHT)
+    best, best_error = control_points, np.inf
     for _ in range(FIT_ROUNDS):
         for _ in range(FOOT_POINT_STEPS):
             t = _foot_point_parameters(control_points, data, t)
-        basis = _basis_matrix(t, count)
-        first = _derivatives(control_points, t)[1]
+        index, weights = basis_weights(t, count)
+        point, first, _ = _derivatives(control_points, t)
+        # On a wiggly outline (a segmented photograph) the rounds can diverge: keep the
+        # control points of the smallest distance to the data, and stop once it grows.
+        error = float(np.mean(np.sum((point - data) ** 2, axis=1)))
+        if error > best_error:
+            break
+        best, best_error = control_points, error
         tangent = first / np.maximum(np.linalg.norm(first, axis=1, keepdims=True), 1e-300)
         normal = np.stack([tangent[:, 1], -tangent[:, 0]], axis=1)
-        system = np.vstack(
-            [
-                np.hstack([normal[:, :1] * basis, normal[:, 1:] * basis]),
-                tangential * np.hstack([tangent[:, :1] * basis, tangent[:, 1:] * basis]),
-            ]
-        )
-        right = np.concatenate([np.sum(normal * data, axis=1), tangential * np.sum(tangent * data, axis=1)])
-        solution = np.linalg.lstsq(system, right, rcond=None)[0]
+        # Unknowns (x_1..x_n, y_1..y_n); a row's coefficients are direction x basis weights.
+        columns = np.tile(np.concatenate([index, index + count], axis=1), (2, 1))
+        directions = np.concatenate([normal, tangential * tangent])
+        both = np.tile(weights, (2, 1))
+        coefficients = np.concatenate([directions[:, :1] * both, directions[:, 1:] * both], axis=1)
+        right = np.sum(directions * np.concatenate([data, data]), axis=1)
+        solution = _least_squares(columns, coefficients, right[:, None], 2 * count)[:, 0]
         updated = np.stack([solution[:count], solution[count:]], axis=1)
         change = np.abs(updated - control_points).max()
         control_points = updated
         if change <= 1e-12 * extent:
-            break
-    return control_points
+            return control_points
+    return best
 
 
-def _basis_matrix(t: np.ndarray, count: int) -> np.ndarray:
-    """Folded B-spline basis (K, n) at parameters t in [0, n), as `ClosedBSpline.basis_matrix`."""
-    index, weights = basis_weights(t, count)
-    matrix = np.zeros((t.shape[0], count))
-    np.add.at(matrix, (np.repeat(np.arange(t.shape[0]), 3), index.ravel()), weights.ravel())
-    return matrix
+def _least_squares(columns: np.ndarray, coefficients: np.ndarray, right: np.ndarray, size: int) -> np.ndarray:
+    """Least-squares solution (size, d) of a sparse system through its normal equations.
+
+    Row k of the system has the values ``coefficients[k]`` (R, m) in the columns
+    ``columns[k]`` (R, m) of `size` unknowns, and right-hand sides ``right[k]``
+    (R, d).  The normal equations are assembled from the m nonzeros per row in
+    O(R m^2): a dense least-squares solve of the (R, size) system costs more, and
+    the threads of a parallel BLAS make it slower still on a busy machine.
+    """
+    pairs = (columns[:, :, None] * size + columns[:, None, :]).ravel()
+    products = (coefficients[:, :, None] * coefficients[:, None, :]).ravel()
+    matrix = np.bincount(pairs, products, minlength=size * size).reshape(size, size)
+    moments = np.stack(
+        [np.bincount(columns.ravel(), (coefficients * r[:, None]).ravel(), minlength=size) for r in right.T],
+        axis=1,
+    )
+    return np.linalg.lstsq(matrix, moments, rcond=None)[0]
 
 
 def _derivatives(control_points: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

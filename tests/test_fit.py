@@ -1,5 +1,7 @@
-"""Tests of app.fit on synthetic silhouettes with known outlines."""
+"""Tests of app.fit: silhouettes with known outlines, synthetic photographs with known masks,
+scikit-image's photographs, and the --rect option."""
 
+import re
 import tracemalloc
 import warnings
 
@@ -8,15 +10,22 @@ import numpy as np
 import pytest
 from scipy.spatial import cKDTree
 
+from app.__main__ import main
+from app.files import read_cage, write_png
 from app.fit import (
     FIT_PIXELS,
     CageFitWarning,
+    checked_rect,
     downscaled,
     fit_cage,
     fit_closed_bspline,
+    mask_outline,
     silhouette_mask,
     snap_corners,
+    subject_mask,
+    two_toned,
 )
+from app.viewer.editing import curve_points as editing_curve_points
 from core import ClosedBSpline
 
 HEIGHT, WIDTH = 300, 400
@@ -142,9 +151,7 @@ def test_errors():
 
 
 def _outline(image):
-    from app.fit import silhouette_contour
-
-    return silhouette_contour(image)
+    return mask_outline(silhouette_mask(image))
 
 
 def _crosses_itself(control_points):
@@ -184,3 +191,289 @@ def test_downscaled_maps_pixel_edges_back_exactly():
     np.testing.assert_array_equal(np.array(small.shape[1::-1]) * scale, [3001, 1000])
     same, one = downscaled(image, image.shape[0] * image.shape[1])
     assert same is image and one.tolist() == [1.0, 1.0]
+
+
+# -- photographs: synthetic scenes with a known mask -------------------------------------
+
+SCENE_HEIGHT, SCENE_WIDTH = 360, 480
+
+
+def fractal_noise(rng, octaves=5, base=4):
+    """Zero-mean, unit-variance fractal noise (SCENE_HEIGHT, SCENE_WIDTH), float32: clouds, bark, skin."""
+    noise = np.zeros((SCENE_HEIGHT, SCENE_WIDTH), np.float32)
+    amplitude = 1.0
+    for octave in range(octaves):
+        cells = base * 2**octave
+        coarse = rng.standard_normal((cells * 3 // 4 + 2, cells + 2)).astype(np.float32)
+        noise += amplitude * cv2.resize(coarse, (SCENE_WIDTH, SCENE_HEIGHT), interpolation=cv2.INTER_CUBIC)
+        amplitude *= 0.55
+    return (noise - noise.mean()) / noise.std()
+
+
+def coloured(grey, dark, light):
+    """Grey levels (H, W) in [0, 1] mapped between two RGB colours, float32 (H, W, 3)."""
+    t = np.clip(grey, 0, 1)[..., None]
+    return (1 - t) * np.float32(dark) + t * np.float32(light)
+
+
+def texture(name, rng):
+    """A background texture (H, W) in about [0, 1]: fractal noise, or a crop of a scikit-image photograph."""
+    if name == "noise":
+        return 0.5 + 0.18 * fractal_noise(rng)
+    from skimage import data
+
+    photo = getattr(data, name)().astype(np.float32) / 255
+    y = rng.integers(0, photo.shape[0] - SCENE_HEIGHT)
+    x = rng.integers(0, photo.shape[1] - SCENE_WIDTH)
+    return photo[y : y + SCENE_HEIGHT, x : x + SCENE_WIDTH]
+
+
+def filled(polygon):
+    """Antialiased inside of a polygon (K, 2) (x, y): float32 coverage (H, W)."""
+    mask = np.zeros((SCENE_HEIGHT, SCENE_WIDTH), np.uint8)
+    cv2.fillPoly(mask, [np.round(polygon * 16).astype(np.int32)], 255, cv2.LINE_AA, shift=4)
+    return mask.astype(np.float32) / 255
+
+
+def shape_coverage(shape, centre, rng):
+    """Coverage (H, W) in [0, 1] of one of the scenes' objects around `centre` (x, y)."""
+    cx, cy = centre
+    if shape == "ellipse":
+        angle = np.linspace(0, 2 * np.pi, 400, endpoint=False)
+        x, y = 110 * np.cos(angle), 75 * np.sin(angle)
+        tilt = np.deg2rad(25)
+        return filled(
+            np.stack([cx + x * np.cos(tilt) - y * np.sin(tilt), cy + x * np.sin(tilt) + y * np.cos(tilt)], 1)
+        )
+    if shape == "star":  # non-convex, sharp
+        angle = np.arange(10) * np.pi / 5 + 0.3
+        radius = np.where(np.arange(10) % 2 == 0, 130.0, 60.0)
+        return filled(np.stack([cx + radius * np.cos(angle), cy + radius * np.sin(angle)], 1))
+    if shape == "crescent":  # non-convex, a deep bay
+        outer, inner = np.zeros((2, SCENE_HEIGHT, SCENE_WIDTH), np.uint8)
+        cv2.circle(outer, (round(cx * 16), round(cy * 16)), 120 * 16, 255, -1, cv2.LINE_AA, 4)
+        cv2.circle(inner, (round((cx + 66) * 16), round((cy - 24) * 16)), 90 * 16, 255, -1, cv2.LINE_AA, 4)
+        return np.clip(outer.astype(np.float32) - inner, 0, 255) / 255
+    if shape == "boot":  # non-convex, an L with rounded corners
+        polygon = np.array([[-90, -120], [-10, -120], [-10, 30], [100, 30], [100, 110], [-90, 110]], float)
+        return np.clip(cv2.GaussianBlur(filled(polygon + centre), (0, 0), 8) * 2 - 0.5, 0, 1)
+    angle = np.linspace(0, 2 * np.pi, 400, endpoint=False)  # a random blob, non-convex
+    radius = np.ones_like(angle)
+    for k in range(2, 6):
+        radius += 0.25 / np.sqrt(k) * rng.standard_normal() * np.cos(k * angle + rng.uniform(0, 2 * np.pi))
+    return filled(np.stack([cx + 100 * radius * np.cos(angle), cy + 100 * radius * np.sin(angle)], 1))
+
+
+def lighting(rng):
+    """A lighting change (H, W, 1): a ramp in a random direction and a broad spotlight, 0.5 to 1.4."""
+    y, x = np.mgrid[0:SCENE_HEIGHT, 0:SCENE_WIDTH].astype(np.float32)
+    angle = rng.uniform(0, 2 * np.pi)
+    ramp = ((x - SCENE_WIDTH / 2) * np.cos(angle) + (y - SCENE_HEIGHT / 2) * np.sin(angle)) / SCENE_WIDTH
+    spot = np.exp(-((x - rng.uniform(0, SCENE_WIDTH)) ** 2 + (y - rng.uniform(0, SCENE_HEIGHT)) ** 2) / 2e4)
+    return (0.75 + 0.5 * ramp + 0.3 * spot)[..., None]
+
+
+#: name: (seed, background texture, its colours, the object's colours, control points)
+SCENES = {
+    "ellipse-on-clouds": (1, "noise", ((40, 60, 30), (150, 170, 90)), ((120, 40, 30), (230, 120, 90)), 16),
+    "star-on-grass": (2, "grass", ((20, 50, 15), (140, 190, 80)), ((150, 120, 20), (250, 220, 120)), 24),
+    "crescent-on-brick": (4, "brick", ((90, 40, 30), (200, 140, 110)), ((30, 60, 120), (120, 170, 230)), 16),
+    "blob-on-clouds": (5, "noise", ((60, 50, 80), (170, 160, 200)), ((170, 140, 30), (250, 230, 150)), 16),
+    # An L on coarse gravel: the gravel's strong edges make its geodesic distance to the border
+    # add up, so the L's inner corner is seeded as subject and GrabCut keeps much of it, in
+    # either colour (segmentation IoU 0.79 blue, 0.82 brown; cage 0.69, 0.72).  Kept to show
+    # the limit: expected to fail until the seeding copes with such textures.
+    "blue-boot-on-gravel": (
+        6,
+        "gravel",
+        ((70, 70, 70), (200, 190, 170)),
+        ((20, 70, 110), (110, 170, 220)),
+        16,
+    ),
+    "brown-boot-on-gravel": (6, "gravel", ((70, 70, 70), (200, 190, 170)), ((60, 30, 15), (150, 90, 50)), 16),
+}
+
+
+def scene(name):
+    """(image (H, W, 3) uint8, mask (H, W) bool, control points): an object pasted on a texture, relit."""
+    seed, background, background_colours, object_colours, points = SCENES[name]
+    rng = np.random.default_rng(seed)
+    centre = np.array([SCENE_WIDTH, SCENE_HEIGHT]) * (0.5 + rng.uniform(-0.1, 0.1, 2))
+    coverage = shape_coverage(name.split("-")[-3], centre, rng)
+    back = coloured(texture(background, rng), *background_colours)
+    front = coloured(0.5 + 0.2 * fractal_noise(rng, base=6), *object_colours)  # the object has a texture too
+    image = (coverage[..., None] * front + (1 - coverage[..., None]) * back) * lighting(rng)
+    return np.clip(image, 0, 255).astype(np.uint8), coverage >= 0.5, points
+
+
+def cage_region(control_points, shape):
+    """Pixels (H, W) bool whose centres the closed B-spline of `control_points` encloses."""
+    region = np.zeros(shape, np.uint8)
+    cv2.fillPoly(region, [np.round(editing_curve_points(control_points) * 16).astype(np.int32)], 1, shift=4)
+    return region > 0
+
+
+@pytest.mark.parametrize(
+    "name",
+    [
+        pytest.param(name, marks=pytest.mark.xfail(strict=True, reason="the L's corner on gravel is kept"))
+        if name.endswith("boot-on-gravel")
+        else name
+        for name in sorted(SCENES)
+    ],
+)
+def test_synthetic_photograph_cage_matches_the_object(name):
+    image, mask, points = scene(name)
+    assert not two_toned(image), "the scene must go through the photograph path"
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", CageFitWarning)  # a clean fit, no retries
+        control_points = fit_cage(image, points)
+    region = cage_region(control_points, mask.shape)
+    # Measured: ellipse 0.893, star 0.811, crescent 0.841, blob 0.884 (the margin keeps every
+    # one below ~0.9); the segmentation alone matches the mask more closely (0.97 to 0.98).
+    assert (region & mask).sum() / (region | mask).sum() >= 0.8
+    assert (region & mask).sum() >= 0.99 * mask.sum(), "the cage must go around the object, not into it"
+    found = subject_mask(image)
+    assert (found & mask).sum() / (found | mask).sum() >= 0.9
+
+
+# -- photographs: scikit-image's data (shipped in the wheel, nothing downloaded) -----------
+
+#: Boxes (x0, y0, x1, y1) read off the photographs, and the share of each that the cage
+#: must cover (at least) or leave out (at most).  Coffee: the cup and its rim, not the table.
+#: Chelsea fills the frame (her fur runs into three borders), so the subject found is the face:
+#: both eyes and the nose.  Astronaut: her face and the chest of the suit, not the model
+#: shuttle or the flag behind her.
+PHOTOGRAPHS = {
+    "coffee": ({"cup": ((175, 20, 405, 300), 0.9)}, {}, 0.6),
+    "chelsea": (
+        {
+            "left eye": ((135, 85, 205, 145), 0.85),
+            "right eye": ((295, 105, 345, 165), 0.85),
+            "nose": ((240, 220, 295, 265), 0.85),
+        },
+        {},
+        0.8,
+    ),
+    "astronaut": (
+        {"face": ((180, 40, 270, 150), 0.95), "chest": ((100, 250, 330, 400), 0.9)},
+        {"shuttle": ((410, 30, 450, 240), 0.05), "flag": ((0, 0, 60, 250), 0.05)},
+        0.6,
+    ),
+}
+
+
+@pytest.mark.parametrize("name", sorted(PHOTOGRAPHS))
+def test_photograph_cage_covers_the_subject(name):
+    from skimage import data
+
+    image = getattr(data, name)()
+    covered, left_out, most_area = PHOTOGRAPHS[name]
+    region = cage_region(fit_cage(image, 16), image.shape[:2])
+    for part, ((x0, y0, x1, y1), least) in covered.items():
+        assert region[y0:y1, x0:x1].mean() >= least, part
+    for part, ((x0, y0, x1, y1), most) in left_out.items():
+        assert region[y0:y1, x0:x1].mean() <= most, part
+    assert region.mean() <= most_area, "the cage must not take the whole frame"
+
+
+def test_photograph_fit_is_repeatable():
+    # GrabCut's k-means draws from OpenCV's global generator; fit_cage seeds it.
+    image, _, _ = scene("blob-on-clouds")
+    cv2.setRNGSeed(12345)
+    first = fit_cage(image, 12)
+    cv2.randu(np.zeros((10, 10)), 0, 1)  # move the global generator on
+    assert np.array_equal(fit_cage(image, 12), first)
+
+
+# -- the rectangle --------------------------------------------------------------------------
+
+
+def two_objects():
+    """(image (H, W, 3), big central object (H, W) bool, small object at the right (H, W) bool)."""
+    rng = np.random.default_rng(7)
+    big = shape_coverage("ellipse", (200, 180), rng)
+    small = np.zeros((SCENE_HEIGHT, SCENE_WIDTH), np.uint8)
+    cv2.circle(small, (420 * 16, 70 * 16), 40 * 16, 255, -1, cv2.LINE_AA, 4)
+    small = small.astype(np.float32) / 255
+    back = coloured(0.5 + 0.18 * fractal_noise(rng), (40, 60, 30), (150, 170, 90))
+    image = back * (1 - big - small)[..., None]
+    image += big[..., None] * coloured(0.5 + 0.2 * fractal_noise(rng), (120, 40, 30), (230, 120, 90))
+    image += small[..., None] * coloured(0.5 + 0.2 * fractal_noise(rng), (30, 60, 120), (120, 170, 230))
+    return np.clip(image * lighting(rng), 0, 255).astype(np.uint8), big >= 0.5, small >= 0.5
+
+
+def test_rect_chooses_the_subject_inside_it():
+    image, big, small = two_objects()
+    region = cage_region(fit_cage(image, 12), big.shape)
+    assert (region & big).sum() >= 0.99 * big.sum() and not (region & small).any()
+    rect = (360, 15, 115, 115)  # around the small object only
+    region = cage_region(fit_cage(image, 12, rect=rect), big.shape)
+    assert not (region & big).any()
+    assert (region & small).sum() >= 0.99 * small.sum()
+    assert (region & small).sum() / (region | small).sum() >= 0.7
+    mask = subject_mask(image, rect=rect)
+    assert not mask[:, :360].any() and not mask[130:].any(), "nothing outside the rectangle"
+
+
+def test_rect_on_an_alpha_channel_keeps_the_silhouette_inside():
+    image = star_image()
+    mask = subject_mask(image, rect=(200, 0, 200, 300))  # the right half of the star
+    star = image[..., 3] >= 128
+    assert not mask[:, :200].any()
+    assert np.array_equal(mask[:, 200:], star[:, 200:])
+
+
+@pytest.mark.parametrize(
+    "rect, pattern",
+    [
+        ((10, 10, 0, 50), r"positive width and height, got 0x50"),
+        ((10, 10, 50, -5), r"positive width and height, got 50x-5"),
+        ((350, 10, 100, 100), r"reaches outside the 400x300 image: it spans x 350 to 450"),
+        ((-1, 0, 10, 10), r"reaches outside the 400x300 image"),
+        ((1, 2, 3), r"four finite numbers"),
+        ((1, 2, float("nan"), 4), r"four finite numbers"),
+        ("a,b,c,d", r"four numbers x, y, width, height"),
+    ],
+)
+def test_bad_rect(rect, pattern):
+    with pytest.raises(ValueError, match=pattern):
+        checked_rect(rect, WIDTH, HEIGHT)
+    with pytest.raises(ValueError, match=pattern):
+        fit_cage(star_image(), 12, rect=rect)
+
+
+@pytest.mark.parametrize(
+    "rect, pattern",
+    [
+        ("10,10,0,50", r"error: --rect 10,10,0,50: rect must have a positive width and height"),
+        ("300,10,200,100", r"error: --rect 300,10,200,100: rect reaches outside the 400x300 image"),
+        ("1,2,3", r"error: --rect: expected X,Y,W,H such as 40,30,200,150, got '1,2,3'"),
+        ("1,2,x,4", r"error: --rect: expected X,Y,W,H"),
+    ],
+)
+def test_cli_bad_rect_is_one_line_and_exit_2(tmp_path, capfd, rect, pattern):
+    write_png(tmp_path / "star.png", star_image())
+    code = main(["fit", str(tmp_path / "star.png"), "--output", str(tmp_path / "cage.json"), "--rect", rect])
+    err = capfd.readouterr().err
+    assert code == 2
+    assert len(err.strip().splitlines()) == 1 and re.match(pattern, err), err
+    assert not (tmp_path / "cage.json").exists()
+
+
+def test_cli_rect(tmp_path, capfd):
+    image, big, small = two_objects()
+    write_png(tmp_path / "two.png", np.dstack([image, np.full(big.shape, 255, np.uint8)]))
+    code = main(
+        [
+            "fit",
+            str(tmp_path / "two.png"),
+            "--output",
+            str(tmp_path / "cage.json"),
+            "--rect",
+            "360,15,115,115",
+        ]
+    )
+    assert code == 0, capfd.readouterr().err
+    region = cage_region(read_cage(tmp_path / "cage.json"), big.shape)
+    assert (region & small).sum() >= 0.99 * small.sum() and not (region & big).any()
