@@ -2,7 +2,7 @@
 "Command line and files").
 
 Commands: ``warp`` (deform an image with a source and a target cage and write a
-PNG), ``fit`` (a cage around an image's silhouette), ``compare`` (the kernels on
+PNG), ``fit`` (a cage around an image's subject), ``compare`` (the kernels on
 height data, the paper's Fig. 1, `app.compare`), ``bench`` (the performance table,
 `app.bench`), and the interactive viewer (`app.viewer`): ``view`` (also what no
 command opens: options without a command are the viewer's) and ``demo`` (a bundled

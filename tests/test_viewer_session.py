@@ -52,7 +52,7 @@ def test_open_a_demo_an_image_and_fit(tmp_path):
     document = sessions.open_document(blank)  # nothing to fit with 16 points: an ellipse
     assert document.snapshot.n == 12
     note = sessions.fit_or_ellipse(np.full((12, 10, 4), 255, np.uint8))[1]
-    assert note.startswith("no silhouette to fit")
+    assert note.startswith("no subject found")
 
 
 def test_save_and_restore_everything(tmp_path):

@@ -105,7 +105,7 @@ def open_document(
       ``--session`` or `session_path_for` the image.  If that file exists it is
       restored with its undo history (``--cage`` is then only what "Start over"
       goes back to); with `fresh` it is kept aside and the document starts anew:
-      from ``--cage``, or a cage fitted to the image's silhouette, or an ellipse.
+      from ``--cage``, or a cage fitted to the image's subject, or an ellipse.
 
     Raises
     ------
@@ -320,7 +320,7 @@ def fit_or_ellipse(image: np.ndarray, points: int = 16, rect=None) -> tuple[np.n
                 control_points = fit_cage(image, points, rect=rect)
         except InputError as error:
             height, width = image.shape[:2]
-            return ellipse_cage(width, height), f"no silhouette to fit ({error}); started with an ellipse"
+            return ellipse_cage(width, height), f"no subject found ({error}); started with an ellipse"
     note = str(caught[-1].message) if caught else f"fitted {len(control_points)} control points"
     return np.round(control_points, 3), note
 
