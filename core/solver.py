@@ -24,7 +24,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
 
 # Kernel identifiers shared with core.kernels.
 MAXIMUM_LIKELIHOOD = 0
@@ -928,9 +928,15 @@ def _refined_nodes(
     return nodes
 
 
-@njit(cache=True, parallel=True, error_model="numpy")
-def solve_points(points, settings, curve, geometry, out, iterations, status, residual, threads):
-    """Evaluate all points (M, 2) into out (M, columns); per-point diagnostics (M,).
+@njit(cache=True, nogil=True, error_model="numpy")
+def solve_points(points, settings, curve, geometry, out, iterations, status, residual, first, stride):
+    """Evaluate the points first, first + stride, ... of (M, 2) into out (M, columns).
+
+    Per-point diagnostics go to iterations, status and residual, each (M,).
+    The GIL is released, so that `core.kernels` runs one call per thread with
+    `stride` threads: cheaper to compile than numba's parallel loops, and as fast.
+    Points are dealt out round-robin so that the costlier near-boundary points
+    spread evenly.
 
     settings = (kernel, power, shift, output mode, orientation (+1 counter-clockwise),
     diameter, n control points, Newton tolerance relative to the diameter).
@@ -945,36 +951,33 @@ def solve_points(points, settings, curve, geometry, out, iterations, status, res
     """
     count = curve[0].shape[0]
     capacity = count + MAX_WINDOWS * MAX_WINDOW_NODES + geometry[2].shape[0] + 8
-    # One block of scratch arrays per thread, allocated once: fresh allocations per
-    # point fault in new pages and serialise the threads.  Points are dealt out
-    # round-robin so that the costlier near-boundary points spread evenly.
-    blocks = max(1, min(points.shape[0], threads))
-    for b in prange(blocks):
-        scratch = (
-            np.empty(capacity),
-            np.empty(capacity),
-            np.empty(capacity),
-            np.empty(capacity),
-            np.empty(capacity),
-            np.empty(capacity),
-            np.empty(capacity),
-            np.empty(capacity),
-            np.empty(capacity),
-            np.empty(capacity),
-            np.empty(capacity),
-            np.empty(capacity),
-            np.empty(capacity),
-            np.empty(capacity),
-            np.empty(capacity),
-            np.empty(capacity),
-            np.empty(capacity),
+    # Scratch arrays allocated once per call: fresh allocations per point fault in
+    # new pages and serialise the threads.
+    scratch = (
+        np.empty(capacity),
+        np.empty(capacity),
+        np.empty(capacity),
+        np.empty(capacity),
+        np.empty(capacity),
+        np.empty(capacity),
+        np.empty(capacity),
+        np.empty(capacity),
+        np.empty(capacity),
+        np.empty(capacity),
+        np.empty(capacity),
+        np.empty(capacity),
+        np.empty(capacity),
+        np.empty(capacity),
+        np.empty(capacity),
+        np.empty(capacity),
+        np.empty(capacity),
+    )
+    window_start = np.empty(MAX_WINDOWS + 1, dtype=np.int64)
+    window_stop = np.empty(MAX_WINDOWS + 1, dtype=np.int64)
+    window_t = np.empty(MAX_WINDOWS + 1)
+    window_d = np.empty(MAX_WINDOWS + 1)
+    windows = (window_start, window_stop, window_t, window_d)
+    for m in range(first, points.shape[0], stride):
+        iterations[m], status[m], residual[m] = _solve_point(
+            points[m, 0], points[m, 1], settings, curve, geometry, out[m], scratch, windows
         )
-        window_start = np.empty(MAX_WINDOWS + 1, dtype=np.int64)
-        window_stop = np.empty(MAX_WINDOWS + 1, dtype=np.int64)
-        window_t = np.empty(MAX_WINDOWS + 1)
-        window_d = np.empty(MAX_WINDOWS + 1)
-        windows = (window_start, window_stop, window_t, window_d)
-        for m in range(b, points.shape[0], blocks):
-            iterations[m], status[m], residual[m] = _solve_point(
-                points[m, 0], points[m, 1], settings, curve, geometry, out[m], scratch, windows
-            )
