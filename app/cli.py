@@ -36,6 +36,7 @@ from app.files import (
     write_png,
 )
 from app.render import ContextUnavailableError
+from core.compilation import MESSAGE as COMPILING
 
 EXIT_OK = 0
 EXIT_ENVIRONMENT = 1
@@ -258,10 +259,15 @@ def _warp(args: argparse.Namespace) -> int:
             mesh = core.triangulate(curve, max_edge=args.max_edge)
         note(f"mesh: {len(mesh.vertices)} vertices, {len(mesh.triangles)} triangles")
         with (
+            ProgressBar(COMPILING) as compiling,
             ProgressBar(f"basis functions ({kernel})") as bar,
             reported_as_input(f"{cage_source}: kernel {kernel!r}"),
         ):
-            basis = core.mesh_basis_functions(curve, mesh, kernel=kernel, progress=bar, **params)
+            basis = core.mesh_basis_functions(
+                curve, mesh, kernel=kernel, progress=bar, compiling=compiling, **params
+            )
+        if compiling.seconds is not None:
+            note(f"compiled the solver in {compiling.seconds:.1f} s (first run only; numba caches it)")
         deformed = basis @ target
         folded = np.count_nonzero(core.folded_triangles(mesh, deformed))
         if folded:
@@ -361,7 +367,9 @@ class ProgressBar:
     """A text progress bar on stderr, fed with the fraction done in [0, 1].
 
     It redraws in place on a terminal and stays silent otherwise (logs and pipes
-    get the one-line summary of the command instead of carriage returns).
+    get the one-line summary of the command instead of carriage returns).  At
+    100 % it ends its line, so that the next bar starts on a fresh one;
+    `seconds` is then the time from its first call to the last.
     """
 
     WIDTH = 30
@@ -373,18 +381,28 @@ class ProgressBar:
         self.started = time.perf_counter()
         self._shown = -1
         self._line = ""
+        self._first_call: float | None = None
+        self.seconds: float | None = None
 
     def __call__(self, fraction: float) -> None:
+        now = time.perf_counter()
+        if self._first_call is None:
+            self._first_call = now
         percent = int(100 * min(max(fraction, 0.0), 1.0))
+        if percent == 100:
+            self.seconds = now - self._first_call
         if not self.enabled or percent == self._shown:
             return
         self._shown = percent
         filled = self.WIDTH * percent // 100
-        elapsed = time.perf_counter() - self.started
+        elapsed = now - self.started
         self._line = (
             f"{self.label} [{'#' * filled}{'.' * (self.WIDTH - filled)}] {percent:3d}% {elapsed:5.1f} s"
         )
         self.stream.write(f"\r{self._line}")
+        if percent == 100:
+            self.stream.write("\n")
+            self._line = ""
         self.stream.flush()
 
     def __enter__(self) -> ProgressBar:

@@ -19,6 +19,7 @@ import numpy as np
 
 from core import cache as disk_cache
 from core.bspline import ClosedBSpline
+from core.compilation import compile_solver
 from core.harmonic import harmonic_basis
 from core.kernels import KERNELS
 from core.mesh import Mesh, require_mesh_of
@@ -37,6 +38,7 @@ def mesh_basis_functions(
     samples_per_segment: int = 100,
     progress: Callable[[float], None] | None = None,
     cache: bool = True,
+    compiling: Callable[[float], None] | None = None,
     **params,
 ) -> np.ndarray:
     """Basis functions G_i at every vertex of `mesh`.
@@ -57,6 +59,10 @@ def mesh_basis_functions(
         Called with the fraction done in [0, 1].
     cache : bool
         Read and write the result in the disk cache (`core.cache`).
+    compiling : callable, optional
+        Called with the fraction compiled in [0, 1] when a point kernel needs the
+        solver compiled first (the first run only, see `core.compile_solver`);
+        not called when G comes from the cache or the compiled solver is cached.
     **params
         Kernel parameters: those of `core.basis_functions` for the point kernels,
         ``angles`` for ``"pgw"``, none for ``"harmonic"``.
@@ -85,8 +91,9 @@ def mesh_basis_functions(
             raise ValueError(
                 f"kernel {kernel!r} does not take parameter(s) {', '.join(unknown)} (it takes: {allowed})"
             )
-    if progress is not None and not callable(progress):
-        raise ValueError(f"progress must be a callable taking a fraction, got {progress!r}")
+    for name, callback in (("progress", progress), ("compiling", compiling)):
+        if callback is not None and not callable(callback):
+            raise ValueError(f"{name} must be a callable taking a fraction, got {callback!r}")
     shape = (mesh.vertices.shape[0], curve.n)
     key = None
     if cache:
@@ -105,6 +112,8 @@ def mesh_basis_functions(
             if progress is not None:
                 progress(1.0)
             return cached
+    if kernel not in MESH_ONLY_KERNELS:
+        compile_solver(compiling)
     values = _compute(curve, mesh, kernel, per, progress, params)
     if key is not None:
         disk_cache.store(key, values)
