@@ -368,8 +368,8 @@ class ProgressBar:
 
     It redraws in place on a terminal and stays silent otherwise (logs and pipes
     get the one-line summary of the command instead of carriage returns).  At
-    100 % it ends its line, so that the next bar starts on a fresh one;
-    `seconds` is then the time from its first call to the last.
+    100 % it ends its line, so that the next bar starts on a fresh one.  Time
+    counts from its first call; `seconds` is the time from there to 100 %.
     """
 
     WIDTH = 30
@@ -378,7 +378,6 @@ class ProgressBar:
         self.label = label
         self.stream = stream or sys.stderr
         self.enabled = self.stream.isatty()
-        self.started = time.perf_counter()
         self._shown = -1
         self._line = ""
         self._first_call: float | None = None
@@ -395,7 +394,7 @@ class ProgressBar:
             return
         self._shown = percent
         filled = self.WIDTH * percent // 100
-        elapsed = now - self.started
+        elapsed = now - self._first_call
         self._line = (
             f"{self.label} [{'#' * filled}{'.' * (self.WIDTH - filled)}] {percent:3d}% {elapsed:5.1f} s"
         )
