@@ -56,6 +56,7 @@ from app.files import (
 from app.framing import CANVASES, OUTSIDES, output_frame, output_region
 from app.render import ContextUnavailableError
 from app.viewer.demos import SCRIPT_FORMAT
+from core.compilation import MESSAGE as COMPILING
 
 DEFAULT_KERNEL = "harmonic-like"
 # cv2.Error.StsNoMem, without importing cv2 for the commands that never use it.
@@ -463,10 +464,15 @@ def _warp(args: argparse.Namespace) -> int:
             mesh = core.triangulate(curve, max_edge=args.max_edge)
         note(f"mesh: {len(mesh.vertices)} vertices, {len(mesh.triangles)} triangles")
         with (
+            ProgressBar(COMPILING) as compiling,
             ProgressBar(f"basis functions ({kernel})") as bar,
             reported_as_input(f"{cage_source}: kernel {kernel!r}"),
         ):
-            basis = core.mesh_basis_functions(curve, mesh, kernel=kernel, progress=bar, **params)
+            basis = core.mesh_basis_functions(
+                curve, mesh, kernel=kernel, progress=bar, compiling=compiling, **params
+            )
+        if compiling.seconds is not None:
+            note(f"compiled the solver in {compiling.seconds:.1f} s (first run only; numba caches it)")
         deformed = basis @ target
         folded = np.count_nonzero(core.folded_triangles(mesh, deformed))
         if folded:

@@ -59,7 +59,9 @@ class ProgressBar:
     """A text progress bar on stderr, fed with the fraction done in [0, 1].
 
     It redraws in place on a terminal and stays silent otherwise (logs and pipes
-    get the one-line summary of the command instead of carriage returns).
+    get the one-line summary of the command instead of carriage returns).  At
+    100 % it ends its line, so that the next bar starts on a fresh one.  Time
+    counts from its first call; `seconds` is the time from there to 100 %.
     """
 
     WIDTH = 30
@@ -68,21 +70,30 @@ class ProgressBar:
         self.label = label
         self.stream = stream or sys.stderr
         self.enabled = self.stream.isatty()
-        self.started = time.perf_counter()
         self._shown = -1
         self._line = ""
+        self._first_call: float | None = None
+        self.seconds: float | None = None
 
     def __call__(self, fraction: float) -> None:
+        now = time.perf_counter()
+        if self._first_call is None:
+            self._first_call = now
         percent = int(100 * min(max(fraction, 0.0), 1.0))
+        if percent == 100:
+            self.seconds = now - self._first_call
         if not self.enabled or percent == self._shown:
             return
         self._shown = percent
         filled = self.WIDTH * percent // 100
-        elapsed = time.perf_counter() - self.started
+        elapsed = now - self._first_call
         self._line = (
             f"{self.label} [{'#' * filled}{'.' * (self.WIDTH - filled)}] {percent:3d}% {elapsed:5.1f} s"
         )
         self.stream.write(f"\r{self._line}")
+        if percent == 100:
+            self.stream.write("\n")
+            self._line = ""
         self.stream.flush()
 
     def __enter__(self) -> ProgressBar:

@@ -7,6 +7,7 @@ See DESIGN.md for the data flow and the paper's equation numbers.
 from core.basis import basis_functions
 from core.boundary import Boundary
 from core.bspline import ClosedBSpline
+from core.compilation import compile_solver
 from core.harmonic import harmonic_basis
 from core.kernels import KERNELS, ConvergenceWarning, SolveReport, kernel
 from core.mesh import Mesh, folded_triangles, triangulate
@@ -23,6 +24,7 @@ __all__ = [
     "Mesh",
     "SolveReport",
     "basis_functions",
+    "compile_solver",
     "folded_triangles",
     "harmonic_basis",
     "kernel",

@@ -21,8 +21,10 @@ problem per point (Eq. 16); see `core.solver`.
 
 from __future__ import annotations
 
+import functools
 import warnings
 from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numba
@@ -252,7 +254,6 @@ class _Run:
             self.reference.diameter, self.columns, self.tolerance,
         )  # fmt: skip
         geometry = (boundary.curve.coefficients, boundary.curve.piece_length, boundary.corners)
-        threads = numba.get_num_threads()
         for start in range(0, indices.size, CHUNK):
             chunk = indices[start : start + CHUNK]
             rows = np.zeros((chunk.size, self.columns))
@@ -261,7 +262,7 @@ class _Run:
                 np.zeros(chunk.size, dtype=np.int64),
                 np.zeros(chunk.size),
             ]
-            solver.solve_points(self.points[chunk], settings, curve, geometry, rows, *diagnostics, threads)
+            _solve_in_threads(self.points[chunk], settings, curve, geometry, rows, diagnostics)
             # A safety net: a row that is not finite is never returned as converged.
             broken = ~np.isfinite(rows).all(axis=1) & (diagnostics[1] != solver.STATUS_OUTSIDE)
             diagnostics[1][broken] = solver.STATUS_NOT_CONVERGED
@@ -270,6 +271,28 @@ class _Run:
             iterations[chunk], status[chunk], residual[chunk] = diagnostics
             if progress is not None:
                 progress((start + chunk.size) / indices.size)
+
+
+def _solve_in_threads(points, settings, curve, geometry, rows, diagnostics) -> None:
+    """`solver.solve_points` on every point, one strided share per thread (it releases the GIL)."""
+    threads = min(numba.config.NUMBA_NUM_THREADS, points.shape[0])
+    if threads <= 1:
+        solver.solve_points(points, settings, curve, geometry, rows, *diagnostics, 0, 1)
+        return
+    shares = [
+        _pool(threads).submit(
+            solver.solve_points, points, settings, curve, geometry, rows, *diagnostics, first, threads
+        )
+        for first in range(threads)
+    ]
+    for share in shares:
+        share.result()
+
+
+@functools.cache
+def _pool(threads: int) -> ThreadPoolExecutor:
+    """The solver's worker threads, made once per process (per thread count)."""
+    return ThreadPoolExecutor(threads, thread_name_prefix="transfinite-solver")
 
 
 def _curve_arrays(boundary: Boundary, mode: int, columns: int, factor: int, out_step: float) -> tuple:

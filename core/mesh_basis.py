@@ -20,6 +20,7 @@ import numpy as np
 
 from core import cache as disk_cache
 from core.bspline import ClosedBSpline
+from core.compilation import compile_solver
 from core.harmonic import harmonic_basis
 from core.kernels import CONVEX_ONLY, DEFAULT_TOLERANCE, KERNELS
 from core.mesh import Mesh, require_mesh_of
@@ -48,6 +49,7 @@ def mesh_basis_functions(
     samples_per_segment: int = 100,
     progress: Callable[[float], None] | None = None,
     cache: bool = True,
+    compiling: Callable[[float], None] | None = None,
     **params,
 ) -> np.ndarray:
     """Basis functions G_i at every vertex of `mesh`.
@@ -70,6 +72,10 @@ def mesh_basis_functions(
         Read and write the result in the disk cache (`core.cache`).  An entry
         that fails its checksum or `invariant_problem` is recomputed and
         replaced, with a `CacheWarning` saying so.
+    compiling : callable, optional
+        Called with the fraction compiled in [0, 1] when a point kernel needs the
+        solver compiled first (the first run only, see `core.compile_solver`);
+        not called when G comes from the cache or the compiled solver is cached.
     **params
         Kernel parameters: those of `core.basis_functions` for the point kernels,
         ``angles`` for ``"pgw"``, none for ``"harmonic"``.
@@ -98,10 +104,13 @@ def mesh_basis_functions(
             raise ValueError(
                 f"kernel {kernel!r} does not take parameter(s) {', '.join(unknown)} (it takes: {allowed})"
             )
-    if progress is not None and not callable(progress):
-        raise ValueError(f"progress must be a callable taking a fraction, got {progress!r}")
+    for name, callback in (("progress", progress), ("compiling", compiling)):
+        if callback is not None and not callable(callback):
+            raise ValueError(f"{name} must be a callable taking a fraction, got {callback!r}")
     shape = (mesh.vertices.shape[0], curve.n)
     if not cache:
+        if kernel not in MESH_ONLY_KERNELS:
+            compile_solver(compiling)
         return _compute(curve, mesh, kernel, per, progress, params)
     key = disk_cache.cache_key(
         curve.control_points,
@@ -121,6 +130,8 @@ def mesh_basis_functions(
             if progress is not None:
                 progress(1.0)
             return entry.values
+    if kernel not in MESH_ONLY_KERNELS:
+        compile_solver(compiling)
     values = _compute(curve, mesh, kernel, per, progress, params)
     replaced = disk_cache.store(key, values, invariant_errors(curve, mesh, values))
     if problem is not None:

@@ -24,7 +24,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
 
 # Kernel identifiers shared with core.kernels.
 MAXIMUM_LIKELIHOOD = 0
@@ -70,7 +70,7 @@ MAX_BACKTRACKS = 60
 ARMIJO = 1e-4
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(cache=True, error_model="numpy")
 def _evaluate_curve(coefficients, piece_length, t):
     """p(t), p'(t), p''(t) of a closed piecewise polynomial (see core.boundary)."""
     pieces = coefficients.shape[0]
@@ -145,7 +145,7 @@ def _closest_parameter(coefficients, piece_length, x, y, lo, hi):
     return t, math.sqrt(d)
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(cache=True, error_model="numpy")
 def _accumulate(row, mode, value, t, step, count, control_count):
     """Add value * (lumping or basis weights at t) into the output row."""
     if mode == OUTPUT_SAMPLES:
@@ -241,7 +241,7 @@ def _graded_side(edge, scale, step):
     return intervals, high, math.asinh(edge / high) / intervals
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(cache=True, error_model="numpy")
 def _end_correction(dsigma):
     """Euler-Maclaurin end terms of the sinh rule per unit edge (t'' = t'''' = edge at the end)."""
     return dsigma**2 / 12.0 - dsigma**4 / 720.0
@@ -591,7 +591,7 @@ def _solve_point(x, y, settings, curve, geometry, row, scratch, windows):
     window_count = 0
     in_run = False
     nearest = 1e300
-    nearest_index = 0
+    nearest_index = np.int64(0)  # not a literal: one specialisation of _merge_windows
     for k in range(count):
         dx = sample_x[k] - x
         dy = sample_y[k] - y
@@ -768,7 +768,7 @@ def _solve_point(x, y, settings, curve, geometry, row, scratch, windows):
     return iterations, status, residual
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(cache=True, error_model="numpy")
 def _wrap(t, period):
     return t - math.floor(t / period) * period
 
@@ -792,7 +792,7 @@ def _finish(
                 ux, uy, inv_r, a, w, blend, s, inv_s, trial, trial_inv, total, tolerance, iterations
             )
         smallest = 1.0
-        peak = 0
+        peak = np.int64(0)  # not a literal: one specialisation of _peak_unresolved
         for j in range(total):
             if s[j] < smallest:
                 smallest = s[j]
@@ -903,7 +903,7 @@ def _refined_nodes(
             centre = int(math.floor(window_t[i] / step))
             window_start[i] = max(previous_stop + 1, min(window_start[i], centre - reach))
             window_stop[i] = min(next_start - 1, max(window_stop[i], centre + 1 + reach))
-    nodes = 0
+    nodes = np.int64(0)  # not a literal: one specialisation of _graded_nodes
     for i in range(window_count):
         lo = window_start[i] * step
         hi = window_stop[i] * step
@@ -928,9 +928,15 @@ def _refined_nodes(
     return nodes
 
 
-@njit(cache=True, parallel=True, error_model="numpy")
-def solve_points(points, settings, curve, geometry, out, iterations, status, residual, threads):
-    """Evaluate all points (M, 2) into out (M, columns); per-point diagnostics (M,).
+@njit(cache=True, nogil=True, error_model="numpy")
+def solve_points(points, settings, curve, geometry, out, iterations, status, residual, first, stride):
+    """Evaluate the points first, first + stride, ... of (M, 2) into out (M, columns).
+
+    Per-point diagnostics go to iterations, status and residual, each (M,).
+    The GIL is released, so that `core.kernels` runs one call per thread with
+    `stride` threads: cheaper to compile than numba's parallel loops, and as fast.
+    Points are dealt out round-robin so that the costlier near-boundary points
+    spread evenly.
 
     settings = (kernel, power, shift, output mode, orientation (+1 counter-clockwise),
     diameter, n control points, Newton tolerance relative to the diameter).
@@ -945,36 +951,33 @@ def solve_points(points, settings, curve, geometry, out, iterations, status, res
     """
     count = curve[0].shape[0]
     capacity = count + MAX_WINDOWS * MAX_WINDOW_NODES + geometry[2].shape[0] + 8
-    # One block of scratch arrays per thread, allocated once: fresh allocations per
-    # point fault in new pages and serialise the threads.  Points are dealt out
-    # round-robin so that the costlier near-boundary points spread evenly.
-    blocks = max(1, min(points.shape[0], threads))
-    for b in prange(blocks):
-        scratch = (
-            np.empty(capacity),
-            np.empty(capacity),
-            np.empty(capacity),
-            np.empty(capacity),
-            np.empty(capacity),
-            np.empty(capacity),
-            np.empty(capacity),
-            np.empty(capacity),
-            np.empty(capacity),
-            np.empty(capacity),
-            np.empty(capacity),
-            np.empty(capacity),
-            np.empty(capacity),
-            np.empty(capacity),
-            np.empty(capacity),
-            np.empty(capacity),
-            np.empty(capacity),
+    # Scratch arrays allocated once per call: fresh allocations per point fault in
+    # new pages and serialise the threads.
+    scratch = (
+        np.empty(capacity),
+        np.empty(capacity),
+        np.empty(capacity),
+        np.empty(capacity),
+        np.empty(capacity),
+        np.empty(capacity),
+        np.empty(capacity),
+        np.empty(capacity),
+        np.empty(capacity),
+        np.empty(capacity),
+        np.empty(capacity),
+        np.empty(capacity),
+        np.empty(capacity),
+        np.empty(capacity),
+        np.empty(capacity),
+        np.empty(capacity),
+        np.empty(capacity),
+    )
+    window_start = np.empty(MAX_WINDOWS + 1, dtype=np.int64)
+    window_stop = np.empty(MAX_WINDOWS + 1, dtype=np.int64)
+    window_t = np.empty(MAX_WINDOWS + 1)
+    window_d = np.empty(MAX_WINDOWS + 1)
+    windows = (window_start, window_stop, window_t, window_d)
+    for m in range(first, points.shape[0], stride):
+        iterations[m], status[m], residual[m] = _solve_point(
+            points[m, 0], points[m, 1], settings, curve, geometry, out[m], scratch, windows
         )
-        window_start = np.empty(MAX_WINDOWS + 1, dtype=np.int64)
-        window_stop = np.empty(MAX_WINDOWS + 1, dtype=np.int64)
-        window_t = np.empty(MAX_WINDOWS + 1)
-        window_d = np.empty(MAX_WINDOWS + 1)
-        windows = (window_start, window_stop, window_t, window_d)
-        for m in range(b, points.shape[0], blocks):
-            iterations[m], status[m], residual[m] = _solve_point(
-                points[m, 0], points[m, 1], settings, curve, geometry, out[m], scratch, windows
-            )

@@ -185,14 +185,19 @@ def test_memory_is_bounded_by_the_chunk(blob, monkeypatch):
     # Points are solved in chunks of core.kernels.CHUNK: the work arrays never grow with M.
     from core import kernels
 
-    calls = []
+    calls, solved = [], []
     original = kernels.solver.solve_points
-    monkeypatch.setattr(
-        kernels.solver, "solve_points", lambda *a: calls.append(a[0].shape[0]) or original(*a)
-    )
+
+    def counting(*arguments):
+        points, first, stride = arguments[0], arguments[-2], arguments[-1]
+        calls.append(points.shape[0])
+        solved.append(len(range(first, points.shape[0], stride)))  # each thread's share
+        return original(*arguments)
+
+    monkeypatch.setattr(kernels.solver, "solve_points", counting)
     x = interior_points(blob, 3 * kernels.CHUNK + 5, seed=19)
     core.basis_functions(blob, x, "mean-value")
-    assert max(calls) == kernels.CHUNK and sum(calls) == x.shape[0]
+    assert max(calls) == kernels.CHUNK and sum(solved) == x.shape[0]
 
 
 @pytest.mark.parametrize(

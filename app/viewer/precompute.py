@@ -1,9 +1,10 @@
 """The basis-function precompute (Sec. 4.3) in a background process, with progress and cancellation.
 
-Meshing the cage and computing G (V x n) take seconds.  core's numba kernels hold
-the GIL while they run, so in a thread they would stall the viewer's frames; a
-separate process (started with ``spawn``, at lowered priority) keeps the UI
-responsive and still gets the otherwise idle cores.  The protocol is two pipes:
+Meshing the cage and computing G (V x n) take seconds, and on the very first run
+numba compiles the solver first (tens of seconds, its own progress phase, see
+`core.compilation`).  Compiling holds the GIL, so in a thread it would stall the
+viewer's frames; a separate process (started with ``spawn``, at lowered priority)
+keeps the UI responsive and still gets the otherwise idle cores.  The protocol is two pipes:
 
 - requests go to the worker; a newer request supersedes (cancels) the one running,
   checked whenever the kernel reports progress;
@@ -117,6 +118,7 @@ def compute(request: Request, progress=None) -> dict:
         The cage, kernel or parameters are invalid (message for the status line).
     """
     import core
+    from core.compilation import MESSAGE as COMPILING
 
     started = time.perf_counter()
     curve = core.ClosedBSpline(request.cage)
@@ -128,12 +130,27 @@ def compute(request: Request, progress=None) -> dict:
     meshing(0.0)
     mesh = core.triangulate(curve, max_edge=request.max_edge, progress=meshing)
 
+    superseded = []
+
+    def compiling(fraction: float) -> None:
+        # A newer request does not interrupt the first run's compilation (it needs
+        # the same code): it is noted, and this request given up once compiled.
+        if progress is not None and not superseded:
+            try:
+                progress(fraction, COMPILING)
+            except _Superseded:
+                superseded.append(True)
+
     def report(fraction: float) -> None:
+        if superseded:
+            raise _Superseded
         if progress is not None:
             progress(fraction, "basis functions")
 
     report(0.0)
-    basis = core.mesh_basis_functions(curve, mesh, kernel=request.kernel, progress=report, **request.params)
+    basis = core.mesh_basis_functions(
+        curve, mesh, kernel=request.kernel, progress=report, compiling=compiling, **request.params
+    )
     return {
         "cage": np.array(request.cage),
         "vertices": mesh.vertices,

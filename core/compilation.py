@@ -1,0 +1,102 @@
+"""The first-run compilation of `core.solver`, with progress (`core.compile_solver`).
+
+numba compiles the solver to machine code on its first use and keeps the result
+in its on-disk cache: ``__pycache__`` beside the sources, or, where that is not
+writable (a read-only install), numba's user-wide cache under
+``$XDG_CACHE_HOME/numba`` (``~/.cache/numba``); ``NUMBA_CACHE_DIR`` overrides
+both.  Later runs load it in a fraction of a second.  The first compilation
+takes tens of seconds of one core, so callers run it up front, through this
+module, to say what is happening and how far it has got instead of leaving a
+progress bar at 0 %.
+
+Progress is the share of the solver's source lines whose functions numba has
+finished compiling (each function of `core.solver` is compiled once, with its
+callees first; the work per function grows with its length).
+"""
+
+from __future__ import annotations
+
+import inspect
+import threading
+from collections.abc import Callable
+
+import numpy as np
+from numba.core import event
+from numba.core.registry import CPUDispatcher
+
+from core import solver
+
+#: What waiting callers show.
+MESSAGE = "compiling the solver (first run only)"
+
+
+def compile_solver(progress: Callable[[float], None] | None = None) -> bool:
+    """Compile the solver, or load it from numba's cache, before the first solve.
+
+    One small basis-function evaluation types every function of `core.solver`:
+    the kernel and the output mode are run-time values, so every kernel of
+    `core.KERNELS`, `core.kernel` and `core.basis_functions` share the one
+    specialisation it compiles.
+
+    Parameters
+    ----------
+    progress : callable, optional
+        Called with the fraction compiled in [0, 1], first with 0 when a real
+        compilation starts, last with 1; never called when every function comes
+        from the cache.
+
+    Returns
+    -------
+    bool
+        True if anything was compiled (a first run), False if all came from the cache.
+    """
+    from core.basis import basis_functions
+    from core.bspline import ClosedBSpline
+
+    listener = _Progress(progress)
+    with event.install_listener("numba:compile", listener):
+        square = ClosedBSpline(np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]))
+        basis_functions(square, np.array([[0.5, 0.5]]), samples_per_segment=4)
+    if listener.compiled and progress is not None:
+        progress(1.0)
+    return listener.compiled
+
+
+def solver_weights() -> dict[str, int]:
+    """Source lines of every compiled function of `core.solver`, by name."""
+    return {
+        name: len(inspect.getsourcelines(function.py_func)[0])
+        for name, function in vars(solver).items()
+        if isinstance(function, CPUDispatcher)
+    }
+
+
+class _Progress(event.Listener):
+    """Turns numba's compile events for `core.solver` into a compiled fraction."""
+
+    def __init__(self, progress: Callable[[float], None] | None):
+        self.progress = progress
+        self.weights = solver_weights()
+        self.total = sum(self.weights.values())
+        self.done = 0
+        self.compiled = False
+        self.thread = threading.get_ident()
+
+    def _name(self, data) -> str | None:
+        function = data["dispatcher"].py_func
+        if function.__module__ != solver.__name__ or threading.get_ident() != self.thread:
+            return None  # another module's function, or another thread's compilation
+        return function.__name__
+
+    def on_start(self, ev: event.Event) -> None:
+        if self._name(ev.data) is not None and not self.compiled:
+            self.compiled = True
+            if self.progress is not None:
+                self.progress(0.0)
+
+    def on_end(self, ev: event.Event) -> None:
+        name = self._name(ev.data)
+        if name is not None:
+            self.done += self.weights.get(name, 0)
+            if self.progress is not None:
+                self.progress(min(self.done / self.total, 1.0))

@@ -1,0 +1,57 @@
+"""The solver's first-run compilation: honest progress, one specialisation per function."""
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+
+# Compiles (or loads) the solver, then runs what users run: both output modes, a
+# near point, quadrature refinement (unshifted power 8), an explicit and a
+# three-point kernel.  All of it must go through the one specialisation made by
+# compile_solver; numba loads cached callees inside their callers, so the counts
+# are only meaningful on a cold cache.
+_CHILD = """
+import json, warnings
+import numpy as np
+from numba.core.registry import CPUDispatcher
+import core
+from core import examples, solver
+warnings.simplefilter("ignore")
+fractions = []
+compiled = core.compile_solver(fractions.append)
+blob = core.ClosedBSpline(examples.blob())
+centre = blob.control_points.mean(axis=0)
+x = np.array([centre, 0.999 * blob.sample(100).points[0] + 0.001 * centre])
+core.basis_functions(blob, x)
+core.basis_functions(blob, x, "power", power=8.0)
+core.kernel(blob.sample(20), x, "mean-value")
+square = core.ClosedBSpline(np.repeat([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]], 2, axis=0))
+core.basis_functions(square, [[0.3, 0.6]], "wachspress")
+signatures = {n: len(f.signatures) for n, f in vars(solver).items() if isinstance(f, CPUDispatcher)}
+print(json.dumps({"compiled": compiled, "fractions": fractions, "signatures": signatures}))
+"""
+
+
+def _run_child(cache: Path) -> dict:
+    environment = dict(os.environ, NUMBA_CACHE_DIR=str(cache), PYTHONPATH=str(ROOT))
+    result = subprocess.run(
+        [sys.executable, "-c", _CHILD], capture_output=True, text=True, env=environment, cwd=ROOT, check=True
+    )
+    return json.loads(result.stdout.splitlines()[-1])
+
+
+def test_a_cold_cache_compiles_once_with_progress_and_the_next_run_loads_it(tmp_path):
+    from core.compilation import solver_weights
+
+    cold = _run_child(tmp_path)
+    fractions = cold["fractions"]
+    assert cold["compiled"] and fractions[0] == 0.0 and fractions[-1] == 1.0
+    assert np.all(np.diff(fractions) >= 0.0) and len(fractions) > 10  # it moves, never a frozen 0 %
+    assert cold["signatures"] == dict.fromkeys(solver_weights(), 1)
+    warm = _run_child(tmp_path)
+    assert not warm["compiled"] and warm["fractions"] == []
