@@ -28,6 +28,7 @@ from app.files import (
     reported_as_input,
     write_png,
 )
+from core.compilation import MESSAGE as COMPILING
 
 #: Reference kernel of the comparison.
 REFERENCE = "harmonic"
@@ -128,8 +129,10 @@ def compare_kernels(
     for label, kernel, params in kernel_variants(kernels):
         started = time.perf_counter()
         try:
-            with ProgressBar(label) as bar:
-                basis = core.mesh_basis_functions(curve, mesh, kernel=kernel, progress=bar, **params)
+            with ProgressBar(COMPILING) as compiling, ProgressBar(label) as bar:
+                basis = core.mesh_basis_functions(
+                    curve, mesh, kernel=kernel, progress=bar, compiling=compiling, **params
+                )
         except ValueError as error:
             if kernel == REFERENCE:
                 raise InputError(f"{source}: the harmonic reference failed: {error}") from None
