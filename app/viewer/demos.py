@@ -45,7 +45,7 @@ from app.files import (
     write_session,
 )
 from app.keyframes import DEFAULT_INTERPOLATION, Keyframe, keyframes_json
-from app.viewer.editing import curve_points
+from app.viewer.editing import curve_points, default_max_edge
 
 SIZE = (640, 480)
 DEFAULT_DEMO = "starfish"
@@ -323,7 +323,11 @@ def write_demo(name: str, directory: Path) -> DemoFiles:
     write_json(files.script, {"demo": name, "moves": moves})
     cage = read_cage(files.cage)  # rounded as in the file
     keyframes = script_keyframes(cage, read_script(files.script, len(cage)))
-    extra = {"keyframes": keyframes_json(keyframes), "interpolation": DEFAULT_INTERPOLATION}
+    extra = {
+        "keyframes": keyframes_json(keyframes),
+        "interpolation": DEFAULT_INTERPOLATION,
+        "mesh": {"max_edge": default_max_edge(cage)},  # the viewer's mesh: animate shows what it plays
+    }
     write_session(files.session, Session(files.image, cage, cage, "harmonic-like", extra=extra))
     return files
 
