@@ -644,8 +644,8 @@ class Viewer:
         if self._playback_clock is None:
             self._playback_first_frame = len(state.frame_ms)
             self._announce("playback started")
-        elif not ready:
-            pass  # the animation waits (its time stands still) until it can be seen
+        elif not ready:  # the animation waits, its time standing still, until it can be seen
+            self._playback_first_frame = len(state.frame_ms)
         else:
             controller.advance(state, now - self._playback_clock)
         self._playback_clock = now
