@@ -2,7 +2,8 @@
 "Command line and files").
 
 Commands: ``warp`` (deform an image with a source and a target cage and write a
-PNG), ``fit`` (a cage around an image's subject), ``compare`` (the kernels on
+PNG), ``animate`` (a session's keyframes as MP4, GIF or PNG frames,
+`app.animate`), ``fit`` (a cage around an image's subject), ``compare`` (the kernels on
 height data, the paper's Fig. 1, `app.compare`), ``bench`` (the performance table,
 `app.bench`), and the interactive viewer (`app.viewer`): ``view`` (also what no
 command opens: options without a command are the viewer's) and ``demo`` (a bundled
@@ -123,7 +124,7 @@ def build_parser(prog: str = "python -m app") -> argparse.ArgumentParser:
             ("%(prog)s", "the viewer on the bundled starfish demo"),
             ("%(prog)s --stats", "the same: options without a command are the viewer's"),
             ("%(prog)s view photo.png", "the viewer on your image (a cage is fitted)"),
-            ("%(prog)s demo pattern --play", "a demo, replaying its scripted drags"),
+            ("%(prog)s demo pattern --play", "a demo, playing its keyframed animation"),
             ("%(prog)s warp photo.png --cage c.json --target t.json --output out.png", None),
             ("%(prog)s COMMAND --help", "every option of COMMAND"),
         )
@@ -302,15 +303,21 @@ def build_parser(prog: str = "python -m app") -> argparse.ArgumentParser:
     demo = _command(
         commands,
         "demo",
-        "the viewer on a bundled demo, optionally replaying its script",
-        "Open the viewer on a bundled demo: starfish, character or pattern.\n\n"
+        "the viewer on a bundled demo, optionally playing its animation",
+        "Open the viewer on a bundled demo: starfish, character or pattern.  --play plays\n"
+        "the demo's keyframes (its session NAME.session.json in the assets; Space pauses);\n"
+        "--script and --frames replay scripted drags through the mouse's input path.\n\n"
         + textwrap.fill(SCRIPT_FORMAT, 80),
-        ("%(prog)s pattern --play", "replay the demo's drags at once"),
+        ("%(prog)s pattern --play", "play the demo's keyframed animation, looping"),
         ("%(prog)s starfish --frames frames/", "write every replayed frame as a PNG, then quit"),
         ("%(prog)s character --script my-moves.json", None),
     )
     demo.add_argument("name", nargs="?", metavar="NAME", help="starfish (default), character or pattern")
-    demo.add_argument("--play", action="store_true", help="replay the demo's scripted drags at once")
+    demo.add_argument(
+        "--play",
+        action="store_true",
+        help="play the demo's keyframed animation at once (its scripted drags as keyframes), looping",
+    )
     demo.add_argument("--script", type=Path, help="replay this script file instead (format above)")
     demo.add_argument(
         "--frames",
@@ -329,6 +336,41 @@ def build_parser(prog: str = "python -m app") -> argparse.ArgumentParser:
     )
     _add_viewer_options(demo)
     demo.set_defaults(run=_demo)
+
+    animate = _command(
+        commands,
+        "animate",
+        "render a session's keyframes as MP4, GIF or PNG frames",
+        'Render the keyframed animation of SESSION (its "keyframes", made in the viewer:\n'
+        "I adds a keyframe, Space plays) offscreen, antialiased like warp.  Frame k is at\n"
+        "time k / fps from the first keyframe to the last, both included.  The output's\n"
+        "name chooses the format: .mp4 (MPEG-4 video), .gif, or a folder (a name ending\n"
+        "in /) of RGBA frame_NNNNN.png.  Video and GIF have no alpha: transparent parts\n"
+        "are white.  The output appears only when complete (Ctrl+C leaves nothing).",
+        ("%(prog)s walk.json --output walk.mp4", None),
+        ("%(prog)s walk.json --output walk.gif --fps 15 --size 320x240", "a small GIF"),
+        ("%(prog)s walk.json --output frames/ --outside original", "PNG frames over the untouched image"),
+    )
+    animate.add_argument("session", type=Path, metavar="SESSION", help="session JSON with keyframes")
+    animate.add_argument(
+        "--output", required=True, metavar="OUT", help="OUT.mp4, OUT.gif, or OUT_DIR/ for PNG frames"
+    )
+    animate.add_argument(
+        "--fps", type=_positive(float), default=30.0, metavar="N", help="frames per second (default 30)"
+    )
+    animate.add_argument(
+        "--size", type=_size, metavar="WxH", help="output size; the frame is fitted and centred"
+    )
+    animate.add_argument(
+        "--outside", choices=OUTSIDES, help="as for warp (default: the session's, else transparent)"
+    )
+    animate.add_argument(
+        "--canvas", choices=CANVASES, help="as for warp; grow holds the target of every frame"
+    )
+    animate.add_argument(
+        "--max-edge", type=_positive(float), metavar="PX", help="longest mesh edge (default: the session's)"
+    )
+    animate.set_defaults(run=_animate)
     return parser
 
 
@@ -531,6 +573,12 @@ def _bench(args: argparse.Namespace) -> int:
     return run_bench(args)
 
 
+def _animate(args: argparse.Namespace) -> int:
+    from app.animate import run_animate
+
+    return run_animate(args)
+
+
 def _view(args: argparse.Namespace) -> int:
     from app.viewer.demos import DEFAULT_DEMO, demo_files
     from app.viewer.session import open_document
@@ -548,7 +596,7 @@ def _view(args: argparse.Namespace) -> int:
 
 
 def _demo(args: argparse.Namespace) -> int:
-    from app.viewer.demos import DEFAULT_DEMO, demo_files, read_script
+    from app.viewer.demos import DEFAULT_DEMO, demo_files, demo_keyframes, read_script
     from app.viewer.session import begin_with, open_document, start_snapshot
     from app.viewer.window import Options, run
 
@@ -557,12 +605,16 @@ def _demo(args: argparse.Namespace) -> int:
     document = open_document(
         session=args.session, max_edge=args.max_edge, demo_name=files.name, fresh=args.fresh
     )
-    play = args.play or args.frames is not None or args.script is not None
-    if play:
-        # A script moves the demo's own control points: replay it from the demo's start,
-        # one undoable step after whatever the session held.
+    replay = args.frames is not None or args.script is not None
+    playback = args.play and not replay
+    if replay or playback:
+        # A script (or the keyframes) moves the demo's own control points: start from the demo's
+        # start, one undoable step after whatever the session held.
         start, _ = start_snapshot(document.snapshot, document.image, files.cage)
-        begin_with(document, start, "back to the demo's start to replay its script (Ctrl+Z: your last state)")
+        if playback:
+            start = start.replace(keyframes=demo_keyframes(files))
+        what = "play its animation" if playback else "replay its script"
+        begin_with(document, start, f"back to the demo's start to {what} (Ctrl+Z: your last state)")
     _tell(document.notices)
     script = args.script or files.script
     read_script(script, document.snapshot.n)  # bad scripts fail here, before the window opens
@@ -572,7 +624,8 @@ def _demo(args: argparse.Namespace) -> int:
         stats=args.stats,
         max_edge=args.max_edge,
         script=script,
-        play=play,
+        play=replay,
+        playback=playback,
         frames=args.frames,
         fps=args.fps,
         export=args.export,

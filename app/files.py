@@ -28,6 +28,7 @@ import cv2
 import numpy as np
 
 from app.image_header import MAX_IMAGE_PIXELS, ImageHeader, image_header
+from app.keyframes import DEFAULT_INTERPOLATION, INTERPOLATIONS, Keyframe, sorted_keyframes
 from core.atomic_write import write_atomically
 from core.validation import as_points
 
@@ -352,6 +353,47 @@ def session_output(session: Session, path: str | os.PathLike = "session") -> tup
             raise InputError(f'{path}: "{key}" must be one of {", ".join(choices)}, got {value!r}')
         settings.append(value)
     return settings[0], settings[1]
+
+
+def session_keyframes(
+    session: Session, path: str | os.PathLike = "session"
+) -> tuple[tuple[Keyframe, ...], str]:
+    """The session's ``keyframes`` (sorted by time; () if absent) and ``interpolation`` (default catmull-rom).
+
+    ``keyframes`` is a list of ``{"time": seconds, "target": {"control_points":
+    [[x, y], ...]}}``, each target with as many control points as the cage, times
+    distinct and within 0..`app.keyframes.MAX_TIME`.
+    """
+    value = session.extra.get("keyframes", [])
+    if not isinstance(value, list):
+        raise InputError(f'{path}: "keyframes" must be a list, got {_json_type(value)}')
+    keyframes = []
+    for index, item in enumerate(value):
+        where = f"{path}: keyframes[{index}]"
+        if not isinstance(item, dict) or "time" not in item or "target" not in item:
+            raise InputError(f'{where}: expected an object with "time" and "target", got {_shown(item)}')
+        time = item["time"]
+        if not _is_number(time) or not math.isfinite(time):
+            raise InputError(f"{where}: time must be a number of seconds, got {_shown(time)}")
+        target = cage_points(item["target"], f"{where}: target")
+        if target.shape != session.cage.shape:
+            raise InputError(
+                f"{where}: target has {len(target)} control points but cage has {len(session.cage)}"
+            )
+        try:
+            keyframes.append(Keyframe(time, target))
+        except ValueError as error:
+            raise InputError(f"{where}: {error}") from None
+    try:
+        keyframes = sorted_keyframes(keyframes)
+    except ValueError as error:
+        raise InputError(f"{path}: keyframes: {error}") from None
+    interpolation = session.extra.get("interpolation", DEFAULT_INTERPOLATION)
+    if interpolation not in INTERPOLATIONS:
+        raise InputError(
+            f'{path}: "interpolation" must be one of {", ".join(INTERPOLATIONS)}, got {_shown(interpolation)}'
+        )
+    return keyframes, interpolation
 
 
 def _view(value, path: Path) -> tuple[float, tuple[float, float]]:

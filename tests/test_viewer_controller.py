@@ -358,3 +358,89 @@ def test_fit_on_a_photo_asks_for_a_rectangle_around_the_subject(state, monkeypat
     state.image[..., 3] = 0  # an image with a silhouette in its alpha channel fits at once
     controller.command(state, "fit")
     assert len(asked) == 3 and asked[-1][1] is None and not state.fit_rect
+
+
+# -- keyframes and the timeline ---------------------------------------------------------------
+
+
+def test_keyframes_are_added_moved_and_deleted_as_undoable_edits(state):
+    controller.command(state, "add_keyframe")  # the rest pose at 0 s
+    controller.command(state, "seek", 1.0)
+    start = window_of(state, STAR[0])
+    drag(state, start, start + [30, 0])
+    controller.pointer(state, "release", *(start + [30, 0]))
+    controller.command(state, "add_keyframe")
+    keyframes = state.live.keyframes
+    assert [k.time for k in keyframes] == [0.0, 1.0] and state.keyframe == 1
+    np.testing.assert_allclose(keyframes[1].target[0], STAR[0] + [20, 0])
+    np.testing.assert_array_equal(keyframes[0].target, STAR)
+    assert state.session_dirty and state.history.current == state.live
+    controller.command(state, "undo")  # one step: the second keyframe
+    assert len(state.live.keyframes) == 1
+    controller.command(state, "redo")
+    controller.command(state, "keyframe_time", (1, 2.0))
+    assert [k.time for k in state.live.keyframes] == [0.0, 2.0] and state.time == 2.0
+    controller.command(state, "keyframe_time", (1, 0.0))  # onto the other one: refused
+    assert state.message_is_error and [k.time for k in state.live.keyframes] == [0.0, 2.0]
+    controller.command(state, "undo")
+    assert [k.time for k in state.live.keyframes] == [0.0, 1.0]
+    controller.command(state, "select_keyframe", 0)
+    controller.command(state, "delete_keyframe")
+    assert [k.time for k in state.live.keyframes] == [1.0] and state.keyframe is None
+    controller.command(state, "undo")
+    assert len(state.live.keyframes) == 2
+
+
+def two_keyframes(state):
+    moved = STAR.copy()
+    moved[0] += [40, 0]
+    from app.keyframes import Keyframe
+
+    snapshot = state.live.replace(keyframes=(Keyframe(0.0, STAR), Keyframe(2.0, moved)))
+    controller.commit(state, snapshot)
+    return moved
+
+
+def test_scrubbing_and_playback_show_the_interpolation_without_editing(state):
+    moved = two_keyframes(state)
+    steps = len(state.history.undo_steps)
+    controller.command(state, "seek", 1.0)
+    np.testing.assert_allclose(state.live.target[0], STAR[0] + [20, 0])  # halfway, by symmetry
+    controller.command(state, "interpolation", "linear")
+    controller.command(state, "seek", 0.5)
+    np.testing.assert_allclose(state.live.target[0], STAR[0] + [10, 0])
+    assert len(state.history.undo_steps) == steps + 1  # the interpolation; seeking records nothing
+    controller.command(state, "playback")
+    assert state.playing and state.time == 0.5
+    controller.advance(state, 1.0)
+    np.testing.assert_allclose(state.live.target[0], STAR[0] + [30, 0])
+    controller.advance(state, 1.0)  # past the end: loops
+    assert state.playing and state.time == pytest.approx(0.5)
+    state.loop = False
+    controller.advance(state, 5.0)
+    assert not state.playing and state.time == 2.0
+    np.testing.assert_array_equal(state.live.target, moved)
+    controller.command(state, "playback")
+    controller.pointer(state, "press", *window_of(state, STAR[3]))  # a hand on the cage pauses
+    assert not state.playing
+
+
+def test_cage_edits_carry_the_keyframes_along_and_a_new_cage_drops_them(state):
+    moved = two_keyframes(state)
+    state.mode = "cage"
+    start = window_of(state, STAR[5])
+    drag(state, start, start + [15, 0])
+    controller.pointer(state, "release", *(start + [15, 0]))
+    for keyframe, pose in zip(state.live.keyframes, (STAR, moved), strict=True):
+        np.testing.assert_allclose(keyframe.target[5], pose[5] + [10, 0])  # came along
+    controller.command(state, "subdivide")
+    assert all(len(k.target) == state.live.n == 2 * len(STAR) for k in state.live.keyframes)
+    controller.command(state, "undo")
+    state.selected = 2
+    controller.command(state, "delete")
+    assert all(len(k.target) == len(STAR) - 1 for k in state.live.keyframes)
+    controller.command(state, "undo")
+    controller.command(state, "fit")  # a new cage: its keyframes cleared, in one undoable step
+    assert state.live.keyframes == () and "keyframes cleared" in state.message
+    controller.command(state, "undo")
+    assert len(state.live.keyframes) == 2

@@ -97,3 +97,24 @@ def test_player_turns_moves_into_mouse_events():
     later = events(10.0)
     assert [e[0] for e in later] == ["press", "move", "release"] and later[0][1:] == (2.0, 2.0)
     assert player.finished and player.duration == 4.5
+
+
+@pytest.mark.parametrize("name", list(DEMOS))
+def test_demo_sessions_hold_their_scripts_as_keyframes(name):
+    from app.files import read_session
+
+    files = demo_files(name)
+    cage = read_cage(files.cage)
+    moves = read_script(files.script, len(cage))
+    keyframes = demos.demo_keyframes(files)
+    assert keyframes == demos.script_keyframes(cage, moves)
+    assert len(keyframes) == len(moves) + 2
+    np.testing.assert_array_equal(keyframes[0].target, cage)
+    np.testing.assert_array_equal(keyframes[-1].target, cage)  # back at the start: it loops
+    for before, after, move in zip(keyframes, keyframes[1:], moves, strict=False):
+        assert after.time == move.at + move.duration
+        assert np.flatnonzero(np.any(after.target != before.target, axis=1)).tolist() == [move.point]
+        np.testing.assert_array_equal(after.target[move.point], move.to)
+    session = read_session(files.session)
+    assert session.image.resolve() == files.image.resolve()
+    np.testing.assert_array_equal(session.cage, cage)

@@ -278,3 +278,65 @@ def test_start_over_and_begin_with_are_one_undoable_step():
     count = len(document.undo)
     sessions.begin_with(document, start, "again")  # nothing changes: no step
     assert len(document.undo) == count and document.notices[-1] == "replay"
+
+
+def test_keyframes_are_saved_restored_and_in_the_history_steps(tmp_path):
+    from app.keyframes import Keyframe
+
+    files = demo_files("starfish")
+    path = tmp_path / "k.json"
+    document = sessions.open_document(files.image, files.cage, path)
+    cage = document.snapshot.cage
+    moved = cage + [5.0, -3.0]
+    first = document.snapshot.replace(keyframes=(Keyframe(0.0, cage),))
+    second = first.replace(keyframes=(*first.keyframes, Keyframe(1.5, moved)), interpolation="linear")
+    state = AppState(History(first), first, document.image, path)
+    state.history.push(second)
+    state.live, state.time, state.loop = second, 0.75, False
+    sessions.save(state, None)
+    stored = json.loads(path.read_text())
+    assert [k["time"] for k in stored["keyframes"]] == [0.0, 1.5] and stored["interpolation"] == "linear"
+    assert stored["keyframes"][1]["target"]["control_points"] == moved.tolist()
+    assert len(stored["history"]["undo"][0]["keyframes"]) == 1  # the step before the second keyframe
+    restored = sessions.restore(path)
+    assert restored.snapshot == second and restored.undo == [first]
+    again = AppState(History(restored.snapshot), restored.snapshot, restored.image, path)
+    sessions.apply_preferences(again, restored.preferences)
+    assert (again.time, again.loop) == (0.75, False)
+
+
+def test_old_sessions_without_keyframes_still_load(tmp_path):
+    files = demo_files("starfish")
+    path = tmp_path / "old.json"
+    document = sessions.open_document(files.image, files.cage, path)
+    state = opened_state(document)
+    edited(state, 4)
+    sessions.save(state, None)
+    stored = json.loads(path.read_text())
+    # What a session of the version before keyframes held: no keys for them, steps without them.
+    for key in ("keyframes", "interpolation"):
+        del stored[key]
+        for step in stored["history"]["undo"]:
+            del step[key]
+    del stored["viewer"]["time"], stored["viewer"]["loop"]
+    path.write_text(json.dumps(stored))
+    restored = sessions.restore(path)
+    assert restored.snapshot.keyframes == () and restored.snapshot.interpolation == "catmull-rom"
+    assert len(restored.undo) == 1 and restored.undo[0].keyframes == ()
+    assert restored.snapshot == state.live
+
+
+def test_bad_keyframes_in_a_session_are_named(tmp_path):
+    from app.files import session_keyframes
+
+    points = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]])
+    for value, message in [
+        ({"keyframes": {}}, '"keyframes" must be a list'),
+        ({"keyframes": [{"time": 0}]}, r'keyframes\[0\]: expected an object with "time" and "target"'),
+        ({"keyframes": [{"time": -1, "target": {"control_points": points.tolist()}}]}, "time must be within"),
+        ({"keyframes": [{"time": 0, "target": {"control_points": [[0, 0]] * 4}}]}, "target has 4 control"),
+        ({"interpolation": "spline"}, '"interpolation" must be one of'),
+    ]:
+        session = Session(Path("x.png"), points, points, "harmonic-like", extra=value)
+        with pytest.raises(InputError, match=message):
+            session_keyframes(session, "s.json")

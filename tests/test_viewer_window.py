@@ -575,3 +575,99 @@ def test_drawing_a_new_cage_with_clicks_backspace_enter_and_escape(display, envi
         assert code == 0, stderr
     finally:
         viewer.kill()
+
+
+def test_keyframes_are_added_played_exported_and_saved(display, environment):
+    env, folder = environment
+    session = folder / "animated.json"
+    movie = folder / "animated.gif"
+    viewer = ViewerProcess(
+        [
+            "view",
+            str(ASSETS / "starfish.png"),
+            "--cage",
+            str(ASSETS / "starfish.cage.json"),
+            "--session",
+            str(session),
+            "--stats",
+        ],
+        env,
+        ROOT,
+    )
+    try:
+        window = viewer.wait_for("ready window=", 30).split("=")[1]
+        viewer.wait_for("basis ", 60)
+        cage, _, value = session_points(session)
+        view = value["view"]
+        xdotool(display, "mousemove", "--window", window, "1250", "40")
+        xdotool(display, "key", "i")  # a keyframe at 0 s: the rest pose
+        viewer.wait_for("saved", 10)
+        xdotool(display, "key", "shift+Right")  # the time on to 1 s
+        # Drag the right arm's tip (control point 4) to a new pose, and keyframe it at 1 s.
+        start, shift = window_pixel(view, cage[4]), np.array([60.0, -80.0])
+        xdotool(display, "mousemove", "--window", window, *(f"{v:.0f}" for v in start))
+        time.sleep(0.2)
+        xdotool(display, "mousedown", "1")
+        for step in np.linspace(0.02, 1.0, 50):
+            xdotool(display, "mousemove", "--window", window, *(f"{v:.0f}" for v in start + step * shift))
+            time.sleep(0.02)
+        xdotool(display, "mouseup", "1")
+        dragged = viewer.wait_for("drag done", 10)
+        viewer.wait_for("saved", 10)
+        xdotool(display, "key", "i")
+        viewer.wait_for("saved", 10)
+        keyframes = json.loads(session.read_text())["keyframes"]
+        assert [k["time"] for k in keyframes] == [0.0, 1.0]
+        assert np.array_equal(keyframes[0]["target"]["control_points"], cage)
+        pose = np.array(keyframes[1]["target"]["control_points"])
+        np.testing.assert_allclose(pose[4] - cage[4], shift / view["scale"], atol=1.5 / view["scale"])
+        park_mouse(display, window)
+        posed = shot(display, folder, "k1-posed")
+        xdotool(display, "key", "shift+Left")  # back to 0 s: the rest pose is shown again
+        park_mouse(display, window)
+        rest = shot(display, folder, "k2-rest")
+        tip = window_pixel(view, 0.8 * cage[4] + 0.2 * np.array([320.0, 250.0]))
+        assert box_difference(posed, rest, tip, 8) > 20
+
+        # Play (Space), let it loop for a while, pause: every frame was drawn, at the normal rate.
+        xdotool(display, "key", "space")
+        viewer.wait_for("playback started", 10)
+        time.sleep(2.5)
+        xdotool(display, "key", "space")
+        paused = viewer.wait_for("playback paused", 10)
+        frames, median = (float(part.split("=")[1]) for part in paused.split()[2:4])
+        assert frames >= 30, paused
+        # A frame of playback costs what a frame of dragging does (one G @ P' product, one upload):
+        # 60 fps or better on a quiet machine.  Other processes share this one's two cores, and the
+        # software rasteriser's time grows with them; so the bound is also relative to the drags
+        # just before and just after playing.
+        xdotool(display, "key", "shift+Left")
+        start = window_pixel(view, cage[12])
+        xdotool(display, "mousemove", "--window", window, *(f"{v:.0f}" for v in start))
+        time.sleep(0.2)
+        xdotool(display, "mousedown", "1")
+        for step in np.linspace(0.02, 1.0, 50):
+            xdotool(display, "mousemove", "--window", window, *(f"{v:.0f}" for v in start - step * shift))
+            time.sleep(0.02)
+        xdotool(display, "mouseup", "1")
+        again = viewer.wait_for("drag done", 10)
+        drag_median = max(float(line.split()[3].split("=")[1]) for line in (dragged, again))
+        assert median <= max(16.7, 1.5 * drag_median), (paused, dragged, again)
+
+        # Export the animation through the in-window prompt (no file dialog program here).
+        xdotool(display, "key", "ctrl+e")
+        viewer.wait_for("text input on", 10)
+        xdotool(display, "key", "ctrl+a")
+        xdotool(display, "type", str(movie))
+        xdotool(display, "key", "Return")
+        assert viewer.wait_for("exported", 60) == f"exported {movie}"
+        from PIL import Image
+
+        with Image.open(movie) as gif:
+            assert gif.n_frames == 31  # 1 s at 30 fps, both ends included
+        xdotool(display, "key", "ctrl+q")
+        code, stderr = viewer.finish()
+        assert code == 0, stderr
+    finally:
+        viewer.kill()
+    assert len(json.loads(session.read_text())["keyframes"]) == 2

@@ -25,6 +25,7 @@ import numpy as np
 
 from app.files import InputError, kernel_names, read_image
 from app.framing import CANVASES, OUTSIDES
+from app.keyframes import INTERPOLATIONS, MAX_TIME, TIME_RESOLUTION, Keyframe, interpolate
 from app.render import View
 from app.viewer import drawing, editing
 from app.viewer.state import CONTENTS, MODES, SHIFTS, AppState, Drag, Snapshot
@@ -51,6 +52,8 @@ def commit(state: AppState, snapshot: Snapshot, message: str | None = None) -> b
     if state.selected is not None and state.selected >= snapshot.n:
         state.selected = None
     state.group = frozenset(i for i in state.group if i < snapshot.n)
+    if state.keyframe is not None and state.keyframe >= len(snapshot.keyframes):
+        state.keyframe = None
     return changed
 
 
@@ -67,6 +70,8 @@ def show(state: AppState, snapshot: Snapshot) -> None:
     if state.selected is not None and state.selected >= snapshot.n:
         state.selected = None
     state.group = frozenset(i for i in state.group if i < snapshot.n)
+    if state.keyframe is not None and state.keyframe >= len(snapshot.keyframes):
+        state.keyframe = None
 
 
 def handles(state: AppState, kind: str) -> np.ndarray:
@@ -129,6 +134,7 @@ def pointer(
 def _press(state: AppState, x: float, y: float, button: int, shift: bool = False) -> None:
     if state.drag is not None:
         return
+    state.playing = False  # a hand on the cage stops the animation where it is
     cursor = editing.to_image(state.view, (x, y))
     index = pick(state, x, y)
     live = state.live
@@ -152,7 +158,10 @@ def _press(state: AppState, x: float, y: float, button: int, shift: bool = False
         if problem:
             state.say(f"cannot add a point there: {problem}", error=True)
             return
-        commit(state, live.replace(cage=cage, target=target), f"added control point {index}")
+        keyframes = _map_keyframes(live, lambda points: editing.insert_point(live.cage, points, cursor)[1])
+        commit(
+            state, live.replace(cage=cage, target=target, keyframes=keyframes), f"added control point {index}"
+        )
         state.selected = index
         state.group = frozenset({index})
         state.drag = Drag("source", index, np.zeros(2), state.live, indices=(index,))
@@ -176,7 +185,7 @@ def fit(state: AppState, rect=None, points: int | None = None) -> None:
     live = state.live
     points = points or (live.n if live.n >= 8 else 16)
     cage, note = fit_or_ellipse(state.image, points, rect)
-    commit(state, live.replace(cage=cage, target=cage), note)
+    commit(state, live.replace(cage=cage, target=cage, keyframes=()), note + _dropped(live))
 
 
 def band_corners(state: AppState) -> tuple[np.ndarray, np.ndarray] | None:
@@ -218,7 +227,11 @@ def _move(state: AppState, x: float, y: float) -> None:
     else:  # the target points come along with their source points
         shift = position - before.cage[drag.index]
         cage = editing.move_points(before.cage, indices, shift)
-        state.live = state.live.replace(cage=cage, target=editing.move_points(before.target, indices, shift))
+        # Every keyframe's points come along too: the animation keeps its moves relative to the cage.
+        keyframes = _map_keyframes(before, lambda points: editing.move_points(points, indices, shift))
+        state.live = state.live.replace(
+            cage=cage, target=editing.move_points(before.target, indices, shift), keyframes=keyframes
+        )
 
 
 def _active(state: AppState) -> str:
@@ -298,12 +311,15 @@ def delete(state: AppState, index: int | None = None) -> None:
     except ValueError as error:
         state.say(str(error), error=True)
         return
+    keyframes = _map_keyframes(state.live, lambda points: np.delete(points, indices, axis=0))
     what = f"point {indices[0]}" if len(indices) == 1 else f"{len(indices)} points"
     problem = editing.cage_problem(cage)
     if problem:
         state.say(f"cannot delete {what}: {problem}", error=True)
         return
-    commit(state, state.live.replace(cage=cage, target=target), f"deleted control {what}")
+    commit(
+        state, state.live.replace(cage=cage, target=target, keyframes=keyframes), f"deleted control {what}"
+    )
     state.selected = None
     state.group = frozenset()
 
@@ -324,7 +340,11 @@ def command(state: AppState, name: str, value=None) -> bool:
     Commands: undo, redo, cancel, new_cage, confirm (Enter), reset_target, fit, subdivide, delete,
     mode, content, kernel, cycle_kernel (value "previous" goes back), power, shift, toggle (a bool
     field of the state), outside, canvas (the export settings of app.framing), fit_view, zoom ("in",
-    "out" or a scale, 1.0 for 100 %), help.
+    "out" or a scale, 1.0 for 100 %), help; and the timeline's: add_keyframe (at the current time,
+    or at time `value`, from the target shown; one at the same time is replaced), delete_keyframe
+    (index, default the selected one), keyframe_time ((index, seconds)), select_keyframe (index or
+    None), seek (seconds), seek_by (seconds, forward or back), playback (play or pause),
+    interpolation (a name of app.keyframes.INTERPOLATIONS).
     The window handles the ones that need it (open, save, export, quit).
     """
     live = state.live
@@ -369,7 +389,9 @@ def command(state: AppState, name: str, value=None) -> bool:
             state.say("place at least 3 control points first", error=True)
         else:
             cage, target = editing.subdivide(live.cage), editing.subdivide(live.target)
-            commit(state, live.replace(cage=cage, target=target), f"subdivided: {len(cage)} control points")
+            keyframes = _map_keyframes(live, editing.subdivide)
+            message = f"subdivided: {len(cage)} control points"
+            commit(state, live.replace(cage=cage, target=target, keyframes=keyframes), message)
             state.selected = None
     elif name == "delete":
         delete(state, value)
@@ -415,13 +437,137 @@ def command(state: AppState, name: str, value=None) -> bool:
             zoom(state, float(value) / state.view.scale)
     elif name == "help":
         state.show_help = not state.show_help
+    elif not _timeline_command(state, name, value):
+        return False
+    return True
+
+
+# -- keyframes and the timeline ---------------------------------------------------------
+
+
+def _map_keyframes(snapshot: Snapshot, change) -> tuple[Keyframe, ...]:
+    """`snapshot`'s keyframes with ``change(target)`` applied to each target (n, 2) -> (n', 2)."""
+    return tuple(Keyframe(keyframe.time, change(keyframe.target)) for keyframe in snapshot.keyframes)
+
+
+def _dropped(snapshot: Snapshot) -> str:
+    """What a new cage does to the keyframes of `snapshot`, for the status line."""
+    count = len(snapshot.keyframes)
+    return f"; its {count} keyframe{'s' * (count != 1)} cleared (Ctrl+Z brings them back)" if count else ""
+
+
+def show_time(state: AppState) -> None:
+    """Show the animation at ``state.time``: the live target becomes the keyframes' interpolation.
+
+    Nothing is recorded in the history: the document's target changes only when
+    the user edits what is shown (a drag, a new keyframe).  Does nothing without
+    keyframes, or while a drag or a new cage is in progress.
+    """
+    live = state.live
+    if not live.keyframes or state.drag is not None or state.drawing is not None:
+        return
+    state.live = live.replace(target=interpolate(live.keyframes, state.time, live.interpolation))
+
+
+def advance(state: AppState, seconds: float) -> None:
+    """Playback: move the time on by `seconds`, looping or stopping at the last keyframe, and show it."""
+    span = state.live.time_span
+    if not state.playing or span is None:
+        state.playing = False
+        return
+    first, last = span
+    time = state.time + seconds
+    if time > last:
+        if state.loop and last > first:
+            time = first + (time - first) % (last - first)
+        else:
+            time, state.playing = last, False
+    state.time = max(time, first)
+    show_time(state)
+
+
+def _timeline_command(state: AppState, name: str, value) -> bool:
+    """The timeline's commands (see `command`); False if `name` is not one of them."""
+    live = state.live
+    keyframes = live.keyframes
+    if name == "add_keyframe":
+        time = state.time if value is None else float(value)
+        if not 0.0 <= time <= MAX_TIME:
+            state.say(f"a keyframe needs a time within 0..{MAX_TIME:g} s", error=True)
+            return True
+        kept = tuple(k for k in keyframes if abs(k.time - time) >= TIME_RESOLUTION)
+        replaced = len(kept) < len(keyframes)
+        snapshot = live.replace(keyframes=(*kept, Keyframe(time, live.target)))
+        count = len(snapshot.keyframes)
+        verb = "replaced" if replaced else "added"
+        commit(state, snapshot, f"{verb} the keyframe at {time:.2f} s ({count} keyframe{'s' * (count != 1)})")
+        state.time = time
+        state.keyframe = next(i for i, k in enumerate(snapshot.keyframes) if k.time == time)
+    elif name == "delete_keyframe":
+        index = state.keyframe if value is None else int(value)
+        if index is None or not 0 <= index < len(keyframes):
+            state.say("select a keyframe first (click it on the timeline)", error=True)
+            return True
+        time = keyframes[index].time
+        remaining = keyframes[:index] + keyframes[index + 1 :]
+        commit(state, live.replace(keyframes=remaining), f"deleted the keyframe at {time:.2f} s")
+        state.keyframe = None
+        show_time(state)
+    elif name == "keyframe_time":
+        index, time = int(value[0]), float(value[1])
+        if not 0 <= index < len(keyframes):
+            return True
+        if not 0.0 <= time <= MAX_TIME:
+            state.say(f"keyframe times lie within 0..{MAX_TIME:g} s", error=True)
+            return True
+        others = keyframes[:index] + keyframes[index + 1 :]
+        if any(abs(k.time - time) < TIME_RESOLUTION for k in others):
+            state.say(f"there is a keyframe at {time:.2f} s already", error=True)
+            return True
+        moved = Keyframe(time, keyframes[index].target)
+        snapshot = live.replace(keyframes=(*others, moved))
+        commit(state, snapshot, f"moved a keyframe from {keyframes[index].time:.2f} s to {time:.2f} s")
+        state.keyframe = snapshot.keyframes.index(moved)
+        state.time = time
+        show_time(state)
+    elif name == "select_keyframe":
+        index = None if value is None else int(value)
+        if index is not None and 0 <= index < len(keyframes):
+            state.keyframe, state.time, state.playing = index, keyframes[index].time, False
+            show_time(state)
+        else:
+            state.keyframe = None
+    elif name in ("seek", "seek_by"):
+        time = float(value) + (state.time if name == "seek_by" else 0.0)
+        state.time = min(max(time, 0.0), MAX_TIME)
+        show_time(state)
+    elif name == "playback":
+        span = live.time_span
+        if state.playing:
+            state.playing = False
+            state.say(f"paused at {state.time:.2f} s")
+        elif span is None or span[0] == span[1]:
+            state.say("add two keyframes at different times to play (the Keyframe button, or I)", error=True)
+        else:
+            if state.time >= span[1] or state.time < span[0]:
+                state.time = span[0]
+            state.playing = True
+            state.say("playing (Space pauses)")
+            show_time(state)
+    elif name == "interpolation":
+        if value in INTERPOLATIONS:
+            commit(state, live.replace(interpolation=value), f"interpolation: {value}")
+            show_time(state)
     else:
         return False
     return True
 
 
 #: Commands that change the document: refused while a new cage is drawn.
-_EDITS = ("redo", "reset_target", "fit", "subdivide", "mode", "kernel", "cycle_kernel", "power", "shift")
+_EDITS = (
+    *("redo", "reset_target", "fit", "subdivide", "mode", "kernel", "cycle_kernel", "power", "shift"),
+    *("add_keyframe", "delete_keyframe", "keyframe_time", "interpolation", "playback", "seek", "seek_by"),
+)
 
 
 def _drawing_command(state: AppState, name: str) -> bool:

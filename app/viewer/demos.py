@@ -7,11 +7,12 @@ paper's starfish of Fig. 11), a figure with arms and legs, and a patterned
 horseshoe whose checkerboard makes every distortion visible and whose two ends
 can be pulled together (where mean value coordinates fold over).
 
-``assets/NAME.png``, ``assets/NAME.cage.json`` and ``assets/NAME.script.json``
-are written by ``python -m app.viewer.demos`` (``--output DIR`` elsewhere) and
-shipped in the package (`app.bundled`); when they cannot be found as files, the
-demo is drawn again into the cache directory, so every demo is also embedded in
-the code.
+``assets/NAME.png``, ``assets/NAME.cage.json``, ``assets/NAME.script.json`` and
+``assets/NAME.session.json`` (a session whose keyframes are the script's moves,
+`script_keyframes`, for ``demo NAME --play`` and ``animate``) are written by
+``python -m app.viewer.demos`` (``--output DIR`` elsewhere) and shipped in the
+package (`app.bundled`); when they cannot be found as files, the demo is drawn
+again into the cache directory, so every demo is also embedded in the code.
 
 `SCRIPT_FORMAT` says what a script file holds; `ScriptPlayer` turns its moves
 into the same input events the window produces.
@@ -31,8 +32,20 @@ import cv2
 import numpy as np
 
 from app.bundled import bundled_directory
-from app.files import InputError, read_cage, read_json, write_cage, write_json, write_png
-from app.viewer.editing import curve_points
+from app.files import (
+    InputError,
+    Session,
+    read_cage,
+    read_json,
+    read_session,
+    session_keyframes,
+    write_cage,
+    write_json,
+    write_png,
+    write_session,
+)
+from app.keyframes import DEFAULT_INTERPOLATION, Keyframe, keyframes_json
+from app.viewer.editing import curve_points, default_max_edge
 
 SIZE = (640, 480)
 DEFAULT_DEMO = "starfish"
@@ -277,6 +290,7 @@ class DemoFiles:
     image: Path
     cage: Path
     script: Path
+    session: Path
 
 
 def demo_files(name: str = DEFAULT_DEMO) -> DemoFiles:
@@ -293,26 +307,72 @@ def demo_files(name: str = DEFAULT_DEMO) -> DemoFiles:
         if directory is None:
             continue
         files = _files_in(directory, name)
-        if all(path.is_file() for path in (files.image, files.cage, files.script)):
+        if all(path.is_file() for path in (files.image, files.cage, files.script, files.session)):
             return files
     write_demo(name, _cache_directory())
     return _files_in(_cache_directory(), name)
 
 
 def write_demo(name: str, directory: Path) -> DemoFiles:
-    """Draw demo `name` and write its image, cage and script into `directory`."""
+    """Draw demo `name` and write its image, cage, script and keyframed session into `directory`."""
     image, cage, moves = DEMOS[name].draw()
     directory.mkdir(parents=True, exist_ok=True)
     files = _files_in(directory, name)
     write_png(files.image, image)
     write_cage(files.cage, cage)
     write_json(files.script, {"demo": name, "moves": moves})
+    cage = read_cage(files.cage)  # rounded as in the file
+    keyframes = script_keyframes(cage, read_script(files.script, len(cage)))
+    extra = {
+        "keyframes": keyframes_json(keyframes),
+        "interpolation": DEFAULT_INTERPOLATION,
+        "mesh": {"max_edge": default_max_edge(cage)},  # the viewer's mesh: animate shows what it plays
+    }
+    write_session(files.session, Session(files.image, cage, cage, "harmonic-like", extra=extra))
     return files
+
+
+def demo_keyframes(files: DemoFiles) -> tuple[Keyframe, ...]:
+    """The keyframes of a demo's session file (`InputError` if it cannot be read)."""
+    return session_keyframes(read_session(files.session), files.session)[0]
+
+
+#: Seconds from the last move of a script back to the start, so that the animation loops.
+RETURN_SECONDS = 1.5
+
+
+def script_keyframes(cage: np.ndarray, moves: list[Move]) -> tuple[Keyframe, ...]:
+    """Keyframes of a script: the cage at 0 s, the pose after each move when it ends, and back.
+
+    Parameters
+    ----------
+    cage : ndarray of shape (n, 2)
+        Source control points; the script's moves start from them (target = cage).
+    moves : list of Move
+
+    Returns
+    -------
+    tuple of Keyframe
+        ``len(moves) + 2`` keyframes: the rest pose at 0 s, one per move at its
+        end time, and the rest pose again `RETURN_SECONDS` after the last.
+    """
+    pose = np.array(cage, dtype=np.float64)
+    keyframes = [Keyframe(0.0, pose)]
+    for move in moves:
+        pose = pose.copy()
+        pose[move.point] = move.to
+        keyframes.append(Keyframe(move.at + move.duration, pose))
+    keyframes.append(Keyframe(keyframes[-1].time + RETURN_SECONDS, cage))
+    return tuple(keyframes)
 
 
 def _files_in(directory: Path, name: str) -> DemoFiles:
     return DemoFiles(
-        name, directory / f"{name}.png", directory / f"{name}.cage.json", directory / f"{name}.script.json"
+        name,
+        directory / f"{name}.png",
+        directory / f"{name}.cage.json",
+        directory / f"{name}.script.json",
+        directory / f"{name}.session.json",
     )
 
 
@@ -446,7 +506,7 @@ def main(argv: list[str] | None = None) -> int:
         type=Path,
         default=ASSETS,
         required=ASSETS is None,
-        help="folder to write NAME.png, NAME.cage.json and NAME.script.json into "
+        help="folder to write NAME.png, NAME.cage.json, NAME.script.json and NAME.session.json into "
         "(default: the bundled assets, assets/ in the source tree)",
     )
     args = parser.parse_args(argv)

@@ -30,7 +30,7 @@ def start(state: AppState) -> None:
     state.drawing = Drawing(before)
     state.drag = None
     empty = np.zeros((0, 2))
-    state.live = before.replace(cage=empty, target=empty)
+    state.live = before.replace(cage=empty, target=empty, keyframes=())
     state.mode = "cage"
     state.selected = state.hovered = None
     state.group = frozenset()
@@ -90,7 +90,7 @@ def confirm(state: AppState) -> Snapshot | None:
     points = state.live.cage
     state.live = state.drawing.before
     state.drawing = None
-    return state.live.replace(cage=points, target=points)
+    return state.live.replace(cage=points, target=points, keyframes=())
 
 
 def remove_last(state: AppState) -> None:
@@ -115,4 +115,4 @@ def abandon(state: AppState) -> None:
 
 
 def _set(state: AppState, points: np.ndarray) -> None:
-    state.live = state.live.replace(cage=points, target=points)
+    state.live = state.live.replace(cage=points, target=points, keyframes=())

@@ -14,6 +14,7 @@ import numpy as np
 from imgui_bundle import imgui
 
 from app.files import kernel_names
+from app.keyframes import MAX_TIME
 from app.render import BAND_COLOURS, BAND_START, BAND_WIDTH, HEAT_NEGATIVE, HEAT_STOPS
 from app.viewer.controller import STATUS_HEIGHT
 from app.viewer.state import SHIFTS, AppState
@@ -76,7 +77,12 @@ def _path_prompt(state: AppState, commands: list[tuple], size: tuple[float, floa
             "Open",
             "open_path",
         ),
-        "export": ("Export the warped image", "Write the PNG to:", "Export", "export_path"),
+        "export": (
+            "Export the warped image or the animation",
+            "Write to (a .png image; the keyframes' animation as .mp4, .gif, or PNG frames in a folder/):",
+            "Export",
+            "export_path",
+        ),
     }[kind]
     imgui.set_next_window_pos((width / 2, height / 3), imgui.Cond_.appearing, (0.5, 0.5))
     imgui.set_next_window_size((min(640.0, 0.9 * width), 0), imgui.Cond_.appearing)
@@ -209,6 +215,8 @@ def _panel(state: AppState, commands: list, extras: dict, height: float) -> None
     if state.folded_count:
         imgui.text_colored((1.0, 0.5, 0.8, 1.0), f"{state.folded_count} folded triangles")
 
+    _timeline(state, commands, extras)
+
     imgui.separator_text("File")
     if imgui.button("Open image..."):
         commands.append(("open", None))
@@ -216,7 +224,7 @@ def _panel(state: AppState, commands: list, extras: dict, height: float) -> None
     if imgui.button("Save"):
         commands.append(("save", None))
     imgui.same_line()
-    if imgui.button("Export PNG"):
+    if imgui.button("Export..."):
         commands.append(("export", None))
     if imgui.button("Start over"):
         commands.append(("start_over", None))
@@ -236,6 +244,96 @@ def _panel(state: AppState, commands: list, extras: dict, height: float) -> None
         commands.append(("quit", None))
     state.canvas_left = PANEL_WIDTH
     imgui.end()
+
+
+#: Window pixels of the timeline strip.
+TIMELINE_HEIGHT = 26.0
+#: A click this close (window pixels) to a keyframe's mark selects it instead of seeking.
+KEYFRAME_PICK = 6.0
+
+
+def timeline_end(state: AppState) -> float:
+    """The time (seconds) at the right end of the timeline: past the last keyframe and the current time."""
+    span = state.live.time_span
+    last = span[1] if span else 0.0
+    return max(1.0, 1.1 * last, state.time)
+
+
+def _timeline(state: AppState, commands: list, extras: dict) -> None:
+    """Keyframes on a strip of time: click or drag to scrub, click a mark to select its keyframe."""
+    live = state.live
+    imgui.separator_text("Animation")
+    if imgui.button("Pause" if state.playing else "Play"):
+        commands.append(("playback", None))
+    imgui.same_line()
+    if imgui.button("Keyframe"):
+        commands.append(("add_keyframe", None))
+    if imgui.is_item_hovered():
+        imgui.set_tooltip("a keyframe at the current time from the target shown (I); one there is replaced")
+    imgui.same_line()
+    imgui.begin_disabled(state.keyframe is None)
+    if imgui.button("Delete key"):
+        commands.append(("delete_keyframe", None))
+    imgui.end_disabled()
+
+    end = timeline_end(state)
+    left, top = imgui.get_cursor_screen_pos()
+    width = PANEL_WIDTH - 2 * imgui.get_style().window_padding.x
+    state.spots["timeline"] = (left, top, left + width, top + TIMELINE_HEIGHT, end)
+    imgui.invisible_button("##timeline", (width, TIMELINE_HEIGHT))
+    marks = [left + width * keyframe.time / end for keyframe in live.keyframes]
+    if imgui.is_item_activated():
+        x = imgui.get_io().mouse_pos.x
+        near = [i for i, mark in enumerate(marks) if abs(mark - x) <= KEYFRAME_PICK]
+        if near:
+            commands.append(("select_keyframe", min(near, key=lambda i: abs(marks[i] - x))))
+        else:
+            commands.append(("seek", end * (x - left) / width))
+    elif imgui.is_item_active() and imgui.get_io().mouse_delta.x != 0:
+        x = min(max(imgui.get_io().mouse_pos.x, left), left + width)
+        commands.append(("seek", end * (x - left) / width))
+    draw = imgui.get_window_draw_list()
+    middle = top + TIMELINE_HEIGHT / 2
+    draw.add_rect_filled((left, top), (left + width, top + TIMELINE_HEIGHT), _colour((0.2, 0.2, 0.23)))
+    for second in range(int(end) + 1):
+        x = left + width * second / end
+        draw.add_line((x, top + TIMELINE_HEIGHT - 6), (x, top + TIMELINE_HEIGHT), _colour((0.6, 0.6, 0.6)))
+    for index, x in enumerate(marks):
+        colour = (1.0, 0.86, 0.2) if index == state.keyframe else (0.22, 0.48, 1.0)
+        size = 7.0 if index == state.keyframe else 5.5
+        corners = [(x, middle - size), (x + size, middle), (x, middle + size), (x - size, middle)]
+        draw.add_quad_filled(*corners, _colour(colour))
+    now = left + width * state.time / end
+    draw.add_line((now, top), (now, top + TIMELINE_HEIGHT), _colour((1.0, 1.0, 1.0)), 2.0)
+
+    span = live.time_span
+    total = f" of {span[0]:.2f}..{span[1]:.2f} s" if span else ", no keyframes"
+    imgui.text(f"t = {state.time:.2f} s{total}")
+    if state.keyframe is not None and state.keyframe < len(live.keyframes):
+        keyframe_time = live.keyframes[state.keyframe].time
+        # The field edits a draft; the keyframe moves (one undo step) when it is released.
+        if state.time_draft is None or not imgui.is_any_item_active():
+            state.time_draft = keyframe_time
+        imgui.set_next_item_width(120)
+        _, state.time_draft = imgui.drag_float(
+            "keyframe time (s)", state.time_draft, 0.01, 0.0, MAX_TIME, "%.2f"
+        )
+        if imgui.is_item_deactivated_after_edit():
+            commands.append(("keyframe_time", (state.keyframe, round(state.time_draft, 3))))
+    changed, _ = imgui.checkbox("Loop", state.loop)
+    if changed:
+        commands.append(("toggle", "loop"))
+    imgui.same_line()
+    for name, label in (("catmull-rom", "smooth"), ("linear", "linear")):
+        imgui.same_line()
+        if imgui.radio_button(label, live.interpolation == name):
+            commands.append(("interpolation", name))
+    if imgui.is_item_hovered():
+        imgui.set_tooltip("between keyframes: smooth (Catmull-Rom, C1 in time) or linear (constant speed)")
+    if extras.get("exporting") is not None:
+        imgui.progress_bar(
+            extras["exporting"], (-1, 0), f"exporting {100 * extras['exporting']:.0f}% (Esc stops)"
+        )
 
 
 def _status(state: AppState, width: float, height: float) -> None:

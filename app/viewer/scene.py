@@ -4,8 +4,9 @@
 - new basis functions: upload the mesh (the only time vertex arrays are built);
 - a changed target: during a drag of one point, the rank-one update
   x' += G[:, i] (P'_i(new) - P'_i(old)) of float32 positions, O(V) whatever n is,
-  and one in-place buffer write; otherwise (undo, release, script) the exact
-  product G @ P' in float64, the one `python -m app warp` uses;
+  and one in-place buffer write; otherwise (undo, release, script, keyframe
+  playback) the exact product G @ P' in float64, the one `python -m app warp`
+  uses (folded triangles are counted again only when playback stops);
 - the field of the basis-function or height view when it changes;
 - the overlay of curves, control polygons and handles (a few kilobytes) every frame.
 """
@@ -111,6 +112,7 @@ class Scene:
         self._drawn_target: np.ndarray | None = None
         self._positions: np.ndarray | None = None
         self._exact = False
+        self._folds_stale = False
         self._field = None
         #: CPU time of the last per-drag position update (ms), for the status line and tests.
         self.update_ms = 0.0
@@ -146,6 +148,8 @@ class Scene:
         dragging = state.drag is not None and state.drag.kind == "target"
         drawn = self._drawn_target
         if drawn is not None and np.array_equal(drawn, target) and (self._exact or dragging):
+            if self._folds_stale and not state.playing:
+                self._count_folds(state, basis.basis @ target)
             return
         started = time.perf_counter()
         changed = None if drawn is None else np.flatnonzero(np.any(drawn != target, axis=1))
@@ -161,7 +165,10 @@ class Scene:
             deformed = basis.basis @ target
             self._positions = deformed.astype(np.float32)
             self._exact = True
-            self._count_folds(state, deformed)
+            if state.playing:  # counting costs more than the product: not every frame of playback
+                self._folds_stale = True
+            else:
+                self._count_folds(state, deformed)
         self.renderer.set_positions(self._positions)
         self._drawn_target = np.array(target)
         self.update_ms = 1e3 * (time.perf_counter() - started)
@@ -170,6 +177,7 @@ class Scene:
         import core
 
         state.folded_count = int(np.count_nonzero(core.folded_triangles(self._basis.mesh, deformed)))
+        self._folds_stale = False
 
     def _update_field(self, state: AppState) -> None:
         basis = self._basis

@@ -4,9 +4,11 @@ The session file is the one of DESIGN.md (``image``, ``cage``, ``target``,
 ``kernel``, ``view``) plus keys of its own that `python -m app warp --session`
 also reads, so that it exports exactly what the viewer showed: ``kernel_params``
 (the ``power`` kernel's ``power`` and ``shift``) and ``mesh`` (``{"max_edge":
-h}``, the mesh the viewer used).  ``viewer`` keeps what only the viewer needs
+h}``, the mesh the viewer used), and the animation that ``animate`` renders:
+``keyframes`` (``[{"time": s, "target": {cage}}, ...]``) and ``interpolation``
+(`app.keyframes`).  ``viewer`` keeps what only the viewer needs
 (mode, what is shown, the power family's settings while another kernel is
-chosen) and ``history`` the undo and redo steps (the newest `SAVED_STEPS` of
+chosen, the timeline's time and loop) and ``history`` the undo and redo steps (the newest `SAVED_STEPS` of
 each), so that Ctrl+Z still works after a restart.
 
 Without ``--session`` every image has its own file (`session_path_for`), which
@@ -33,11 +35,13 @@ from app.files import (
     read_session,
     reported_as_input,
     session_kernel_params,
+    session_keyframes,
     session_max_edge,
     session_output,
     write_session,
 )
 from app.framing import CANVASES, OUTSIDES
+from app.keyframes import DEFAULT_INTERPOLATION, MAX_TIME, Keyframe, keyframes_json
 from app.render import View
 from app.viewer.session_files import backups, keep_aside, rotate_backups, session_path_for
 from app.viewer.state import CONTENTS, DEFAULT_POWER, DEFAULT_SHIFT, MODES, SHIFTS, AppState, Snapshot
@@ -197,7 +201,10 @@ def restore(path: Path, max_edge: float | None = None) -> Document:
     if shift not in SHIFTS:
         shift = DEFAULT_SHIFT
     image = Path(session.image).resolve()
-    snapshot = Snapshot(image, session.cage, session.target, session.kernel, power, shift)
+    keyframes, interpolation = session_keyframes(session, path)
+    snapshot = Snapshot(
+        image, session.cage, session.target, session.kernel, power, shift, keyframes, interpolation
+    )
     notices: list[str] = []
     try:
         undo, redo = history_of(session.extra.get("history"), image)
@@ -225,6 +232,8 @@ def _step(snapshot: Snapshot) -> dict:
         "kernel": snapshot.kernel,
         "power": snapshot.power,
         "shift": snapshot.shift,
+        "keyframes": keyframes_json(snapshot.keyframes),
+        "interpolation": snapshot.interpolation,
     }
 
 
@@ -232,7 +241,8 @@ def history_json(state: AppState) -> dict:
     """The ``history`` object of the session file: the newest `SAVED_STEPS` undo and redo steps.
 
     Steps are ``{"cage": [[x, y], ...], "target": [[x, y], ...], "kernel", "power",
-    "shift"}`` of the session's image; ``undo`` is oldest first, ``redo`` has the
+    "shift", "keyframes", "interpolation"}`` of the session's image (the keyframes as in
+    the session file); ``undo`` is oldest first, ``redo`` has the
     next step last (`History` order).
     """
     image = state.history.current.image
@@ -275,7 +285,13 @@ def history_of(value, image: Path) -> tuple[list[Snapshot], list[Snapshot]]:
             cage, target = np.asarray(step["cage"], float), np.asarray(step["target"], float)
             if cage.ndim != 2 or cage.shape[1:] != (2,) or len(cage) < 3:
                 raise ValueError(f"{name}[{index}] cage must be 3 or more [x, y] pairs")
-            result.append(Snapshot(image, cage, target, kernel, float(step["power"]), step["shift"]))
+            keyframes = [
+                Keyframe(float(item["time"]), np.asarray(item["target"]["control_points"], float))
+                for item in step.get("keyframes", [])  # absent in the steps of older sessions
+            ]
+            interpolation = step.get("interpolation", DEFAULT_INTERPOLATION)
+            power, shift = float(step["power"]), step["shift"]
+            result.append(Snapshot(image, cage, target, kernel, power, shift, keyframes, interpolation))
         return result
 
     return snapshots("undo"), snapshots("redo")
@@ -293,7 +309,7 @@ def start_snapshot(current: Snapshot, image: np.ndarray, cage: Path | None) -> t
         points = read_cage(cage)
         cage_curve(points, str(cage))
         note = f"the cage of {cage.name}"
-    return current.replace(cage=points, target=points), note
+    return current.replace(cage=points, target=points, keyframes=()), note
 
 
 def begin_with(document: Document, snapshot: Snapshot, message: str) -> None:
@@ -339,6 +355,11 @@ def apply_preferences(state: AppState, preferences: dict | None) -> None:
         state.outside = preferences["outside"]
     if preferences.get("canvas") in CANVASES:
         state.canvas = preferences["canvas"]
+    if isinstance(preferences.get("loop"), bool):
+        state.loop = preferences["loop"]
+    time = preferences.get("time")
+    if isinstance(time, (int, float)) and not isinstance(time, bool) and 0 <= time <= MAX_TIME:
+        state.time = float(time)
     selected = preferences.get("selected")
     if isinstance(selected, int) and 0 <= selected < state.live.n:
         state.selected = selected
@@ -357,6 +378,8 @@ def session_of(state: AppState, max_edge: float | None) -> Session:
             "selected": state.selected,
             "power": snapshot.power,
             "shift": snapshot.shift,
+            "time": state.time,
+            "loop": state.loop,
         }
     }
     if snapshot.kernel_params():
@@ -364,6 +387,8 @@ def session_of(state: AppState, max_edge: float | None) -> Session:
     if max_edge is not None:
         extra["mesh"] = {"max_edge": float(max_edge)}
     extra["outside"], extra["canvas"] = state.outside, state.canvas
+    extra["keyframes"] = keyframes_json(snapshot.keyframes)
+    extra["interpolation"] = snapshot.interpolation
     extra["history"] = history_json(state)
     return Session(
         snapshot.image,

@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
+from app.keyframes import DEFAULT_INTERPOLATION, INTERPOLATIONS, Keyframe, sorted_keyframes
 from app.render import View
 
 #: Parameters of the ``power`` kernel family (Eq. 19) when a session does not say.
@@ -55,6 +56,11 @@ class Snapshot:
         A name of `app.files.kernel_names`.
     power, shift : float, str
         Parameters of the ``power`` kernel (ignored by the others).
+    keyframes : tuple of app.keyframes.Keyframe
+        The animation, sorted by time, each target of n points (`app.keyframes`);
+        adding, moving or deleting one is an edit like any other.
+    interpolation : str
+        One of `app.keyframes.INTERPOLATIONS`.
     """
 
     image: Path
@@ -63,6 +69,8 @@ class Snapshot:
     kernel: str = "harmonic-like"
     power: float = DEFAULT_POWER
     shift: str = DEFAULT_SHIFT
+    keyframes: tuple[Keyframe, ...] = ()
+    interpolation: str = DEFAULT_INTERPOLATION
 
     def __post_init__(self):
         cage = _frozen_points(self.cage, "cage")
@@ -71,6 +79,11 @@ class Snapshot:
             raise ValueError(f"target has {len(target)} control points but cage has {len(cage)}")
         if self.shift not in SHIFTS:
             raise ValueError(f"shift must be one of {', '.join(SHIFTS)}, got {self.shift!r}")
+        if self.interpolation not in INTERPOLATIONS:
+            raise ValueError(
+                f"interpolation must be one of {', '.join(INTERPOLATIONS)}, got {self.interpolation!r}"
+            )
+        object.__setattr__(self, "keyframes", sorted_keyframes(self.keyframes, len(cage)))
         object.__setattr__(self, "image", Path(self.image))
         object.__setattr__(self, "cage", cage)
         object.__setattr__(self, "target", target)
@@ -80,6 +93,11 @@ class Snapshot:
     def n(self) -> int:
         """Number of control points."""
         return len(self.cage)
+
+    @property
+    def time_span(self) -> tuple[float, float] | None:
+        """(first, last) keyframe time in seconds, or None without keyframes."""
+        return (self.keyframes[0].time, self.keyframes[-1].time) if self.keyframes else None
 
     def kernel_params(self) -> dict:
         """Keyword parameters of the kernel for `core.mesh_basis_functions`."""
@@ -101,6 +119,8 @@ class Snapshot:
             and self.shift == other.shift
             and np.array_equal(self.cage, other.cage)
             and np.array_equal(self.target, other.target)
+            and self.keyframes == other.keyframes
+            and self.interpolation == other.interpolation
         )
 
     __hash__ = None  # mutable-looking arrays inside: compare, do not hash
@@ -301,6 +321,11 @@ class AppState:
     outside: str = "transparent"  # what exports show outside the deformed region (app.framing)
     canvas: str = "source"  # "grow": exports widen to hold the whole target
     power_draft: float | None = None  # the power slider while it is dragged
+    time: float = 0.0  # the timeline's current time, seconds
+    playing: bool = False  # the keyframes play (Space)
+    loop: bool = True  # playback starts again at the first keyframe after the last
+    keyframe: int | None = None  # the keyframe selected on the timeline
+    time_draft: float | None = None  # the selected keyframe's time field while it is dragged
     max_edge: float | None = None  # forced mesh edge length (None: from the cage's area)
     basis: BasisResult | None = None  # the result drawn (perhaps of another kernel)
     progress: float | None = None  # fraction of the running precompute, None when idle

@@ -54,7 +54,8 @@ class Options:
     stats: bool = False
     max_edge: float | None = None
     script: Path | None = None  # a script to replay (demo --play or --script)
-    play: bool = False  # start replaying at once
+    play: bool = False  # start replaying the script at once
+    playback: bool = False  # start playing the keyframes at once (looping)
     frames: Path | None = None  # write every replayed frame here (and quit at the end)
     fps: float = 30.0
     export: Path | None = None  # where Ctrl+E writes (default: beside the session)
@@ -73,7 +74,14 @@ def _key_table():
         (glfw.KEY_ESCAPE, 0, "cancel", None, "Esc", "cancel the drag in progress, close a list or the help"),
         (glfw.KEY_O, ctrl, "open", None, "Ctrl+O", "open an image (or drop a file on the window)"),
         (glfw.KEY_S, ctrl, "save", None, "Ctrl+S", "save the session now (it also saves itself)"),
-        (glfw.KEY_E, ctrl, "export", None, "Ctrl+E", "export the warped image as PNG, full resolution"),
+        (
+            glfw.KEY_E,
+            ctrl,
+            "export",
+            None,
+            "Ctrl+E",
+            "export the warped image as PNG, full resolution, or the animation (name it .mp4, .gif, folder/)",
+        ),
         (glfw.KEY_E, ctrl | shift, "export", "again", "Ctrl+Shift+E", "export again to the last file"),
         (glfw.KEY_Q, ctrl, "quit", None, "Ctrl+Q", "quit"),
         (glfw.KEY_TAB, 0, "mode", None, "Tab", "switch between deforming and editing the cage"),
@@ -122,6 +130,19 @@ def _key_table():
         (glfw.KEY_V, 0, "toggle", "show_overlay", "V", "show the curves and handles"),
         (glfw.KEY_HOME, 0, "fit_view", None, None, None),
         (glfw.KEY_P, 0, "play", None, "P", "play or stop the demo script"),
+        (
+            glfw.KEY_SPACE,
+            0,
+            "playback",
+            None,
+            "Space",
+            "play or pause the keyframes (the timeline in the panel)",
+        ),
+        (glfw.KEY_I, 0, "add_keyframe", None, "I", "a keyframe at the current time from the target shown"),
+        (glfw.KEY_RIGHT, 0, "seek_by", 0.1, "Left, Right", "the time 1/10 s back or on (Shift: 1 s)"),
+        (glfw.KEY_LEFT, 0, "seek_by", -0.1, None, None),
+        (glfw.KEY_RIGHT, shift, "seek_by", 1.0, None, None),
+        (glfw.KEY_LEFT, shift, "seek_by", -1.0, None, None),
         (glfw.KEY_F1, 0, "help", None, "F1, H", "this help"),
         (glfw.KEY_H, 0, "help", None, None, None),
     ]
@@ -179,6 +200,10 @@ class Viewer:
         self._popup_is_open = False
         self._typing = False
         self._last_export: Path | None = options.export
+        self._export: AnimationExport | None = None
+        self._playback_clock: float | None = None
+        self._playback_first_frame = 0
+        self._drag_first_frame: int | None = None
         self.window = None
 
     # -- lifetime -------------------------------------------------------------------
@@ -191,6 +216,10 @@ class Viewer:
             try:
                 if self.options.script is not None and self.options.play:
                     self._toggle_script()
+                if self.options.playback:
+                    self.state.loop = True
+                    self.state.time = 0.0
+                    self.command("playback")
                 while not self.state.quit:
                     self._frame()
             finally:
@@ -385,7 +414,11 @@ class Viewer:
             else:
                 self._ask_export_path()
         elif name == "export_path":
-            self.export(Path(value).expanduser())
+            self.export(Path(value).expanduser(), value)
+        elif name == "cancel" and self._export is not None:
+            self._export.writer.abort()
+            self._export = None
+            state.say("animation export stopped; nothing was written")
         elif name == "cancel" and self._popup_is_open:
             self._close_popups = True
         elif name == "open":
@@ -460,7 +493,9 @@ class Viewer:
                 problem = editing.cage_problem(cage)
                 if problem:
                     raise InputError(f"{path}: {problem}")
-                controller.commit(state, state.live.replace(cage=cage, target=cage), f"cage from {path}")
+                controller.commit(
+                    state, state.live.replace(cage=cage, target=cage, keyframes=()), f"cage from {path}"
+                )
                 return
             read_image(path)  # a bad file is reported before the current session is left
             document = open_document(path)
@@ -506,9 +541,17 @@ class Viewer:
 
         self._save_dialog = pfd.save_file("Export the warped image", str(proposed), ["PNG images", "*.png"])
 
-    def export(self, path: Path) -> Path | None:
-        """Write the warped image at the image's full resolution, like ``warp --session``."""
+    def export(self, path: Path, typed: str | None = None) -> Path | None:
+        """Write the warped image at the image's full resolution, like ``warp --session``.
+
+        A name ending in .mp4 or .gif, or in a slash (`typed`, the text as typed),
+        starts exporting the animation instead, like ``animate``: one frame per
+        drawn frame of the viewer, until it is complete (Esc stops it).
+        """
         state = self.state
+        if path.suffix.lower() in (".mp4", ".gif") or (typed or "").endswith(("/", os.sep)):
+            self._start_animation_export(path, typed)
+            return None
         if path.suffix.lower() != ".png":
             path = path.with_name(path.name + ".png")
         pixels = self._render_export()
@@ -524,6 +567,95 @@ class Viewer:
         state.say(f"exported {path} (Ctrl+Shift+E writes it again)")
         self._announce(f"exported {path}")
         return path
+
+    def _start_animation_export(self, path: Path, typed: str | None) -> None:
+        from app.animate import WRITERS, check_output, frame_region, output_kind
+        from app.keyframes import frame_times
+
+        state = self.state
+        live = state.live
+        if not live.keyframes:
+            state.say("no keyframes to export: add some first (I, or the Keyframe button)", error=True)
+            return
+        if state.basis is None or state.basis.key != self._wanted or not self.scene.mesh_matches(state):
+            state.say("nothing to export yet: the basis functions are still being computed", error=True)
+            return
+        try:
+            kind = output_kind(path, typed)
+            check_output(path, kind)
+            times = frame_times(live.keyframes, self.options.fps)
+            height, width = state.image.shape[:2]
+            region = frame_region((width, height), live.keyframes, live.interpolation, times, state.canvas)
+            size, view = output_frame(region)
+            writer = WRITERS[kind](path, size, self.options.fps)
+        except (InputError, ValueError, OSError) as error:
+            state.say(str(error), error=True)
+            return
+        state.playing = False
+        self._export = AnimationExport(writer, times, size, view, live, state.basis.basis, state.outside)
+        self._last_export = path
+        state.say(f"exporting {len(times)} frames to {path} (Esc stops)")
+
+    def _export_frame(self) -> None:
+        """Render and write the next frame of the animation being exported; finish after the last."""
+        export, state = self._export, self.state
+        if export is None:
+            return
+        from app.keyframes import interpolate
+
+        snapshot = export.snapshot
+        target = interpolate(snapshot.keyframes, float(export.times[export.written]), snapshot.interpolation)
+        self.renderer.set_positions(export.basis @ target)
+        self.scene.invalidate_positions()
+        try:
+            export.writer.add(
+                self.renderer.render(export.size, export.view, backdrop=export.outside == "original")
+            )
+            export.written += 1
+            if export.written == len(export.times):
+                export.writer.finish()
+        except (OSError, ValueError) as error:
+            export.writer.abort()
+            self._export = None
+            state.say(f"cannot export the animation: {error}", error=True)
+            return
+        if export.written == len(export.times):
+            self._export = None
+            state.say(f"exported {len(export.times)} frames to {export.writer.path}")
+            self._announce(f"exported {export.writer.path}")
+
+    def _announce_drag_frames(self) -> None:
+        """Test mode: the frame times of each drag of a target point, to compare playback with."""
+        dragging = self.state.drag is not None and self.state.drag.kind == "target"
+        if dragging and self._drag_first_frame is None:
+            self._drag_first_frame = len(self.state.frame_ms)
+        elif not dragging and self._drag_first_frame is not None:
+            from app.viewer.gui import frame_statistics
+
+            count, median, _ = frame_statistics(self.state.frame_ms[self._drag_first_frame :])
+            self._announce(f"drag done frames={count} median_frame_ms={median:.2f}")
+            self._drag_first_frame = None
+
+    def _advance_playback(self) -> None:
+        """Move the playing animation on by the wall time since the last frame."""
+        state, now = self.state, time.perf_counter()
+        if not state.playing:
+            if self._playback_clock is not None:
+                from app.viewer.gui import frame_statistics
+
+                count, median, _ = frame_statistics(state.frame_ms[self._playback_first_frame :])
+                self._announce(f"playback paused frames={count} median_frame_ms={median:.2f}")
+            self._playback_clock = None
+            return
+        ready = state.basis is not None and state.basis.key == self._wanted and self.scene.mesh_matches(state)
+        if self._playback_clock is None:
+            self._playback_first_frame = len(state.frame_ms)
+            self._announce("playback started")
+        elif not ready:  # the animation waits, its time standing still, until it can be seen
+            self._playback_first_frame = len(state.frame_ms)
+        else:
+            controller.advance(state, now - self._playback_clock)
+        self._playback_clock = now
 
     def _render_export(self) -> np.ndarray | None:
         state = self.state
@@ -690,8 +822,8 @@ class Viewer:
         # Input wakes the loop at once; without input, draw only as often as something
         # changes on its own, so that an idle or waiting viewer leaves the CPU to the
         # precompute (the worker runs at lower priority and gets what the UI leaves).
-        if self._player is not None and self._script_clock is not None:
-            glfw.poll_events()  # a replay animates every frame
+        if (self._player is not None and self._script_clock is not None) or state.playing or self._export:
+            glfw.poll_events()  # a replay, playback or an export animates every frame
         elif not imgui.get_current_context().input_events_queue.empty():
             glfw.poll_events()  # imgui takes queued input a few events a frame (typed text)
         elif self._events or self._frames_to_draw > 0:
@@ -707,6 +839,9 @@ class Viewer:
         self._follow_window_size(glfw.get_window_size(self.window))
         self._script_events()
         self._apply_events()
+        if self.test_mode:
+            self._announce_drag_frames()
+        self._advance_playback()
         self._poll_dialog()
         self._update_precompute()
 
@@ -717,7 +852,11 @@ class Viewer:
             self._close_popups = False
         from app.viewer.gui import gui
 
-        extras = {"script": self.options.script is not None, "playing": self._player is not None}
+        extras = {
+            "script": self.options.script is not None,
+            "playing": self._player is not None,
+            "exporting": None if self._export is None else self._export.written / len(self._export.times),
+        }
         commands = gui(state, self.shortcuts, extras)
         any_popup = imgui.PopupFlags_.any_popup_id | imgui.PopupFlags_.any_popup_level
         popup = imgui.is_popup_open("", any_popup)
@@ -742,6 +881,7 @@ class Viewer:
         imgui.render()
         self.imgui_renderer.render(imgui.get_draw_data())
         self._write_frame()
+        self._export_frame()
         glfw.swap_buffers(self.window)
         state.frame_ms.append(1e3 * (time.perf_counter() - started))
         self._save_if_needed()
@@ -760,6 +900,36 @@ class Viewer:
 
     def _title(self) -> str:
         return f"Transfinite warp - {Path(self.state.live.image).name}"
+
+
+@dataclass
+class AnimationExport:
+    """An animation export in progress in the viewer: one frame written per drawn frame.
+
+    Attributes
+    ----------
+    writer : app.animate.FrameWriter
+    times : ndarray of shape (F,)
+        Seconds of every frame (`app.keyframes.frame_times`).
+    size, view
+        Output size (width, height) and image-to-output `View` (`app.framing`).
+    snapshot : Snapshot
+        The document when the export started (its keyframes and interpolation).
+    basis : ndarray of shape (V, n)
+        G of the mesh drawn.
+    outside : str
+    written : int
+        Frames written so far.
+    """
+
+    writer: object
+    times: np.ndarray
+    size: tuple[int, int]
+    view: object
+    snapshot: Snapshot
+    basis: np.ndarray
+    outside: str
+    written: int = 0
 
 
 def default_export_path(image: Path) -> Path:
