@@ -48,6 +48,9 @@ def figure(domains, study) -> np.ndarray:
     targets = {(d.name, f.label): f.target for d in domains for f in d.deformations}
     height = LABEL_HEIGHT + len(hardest) * PANEL
     canvas = np.full((height, ROW_LABEL_WIDTH + len(kernels) * PANEL, 3), 255, dtype=np.uint8)
+    _text(canvas, "red: folded", (8, 14), 0.38, FOLDED)
+    _text(canvas, "orange: outside", (8, 26), 0.38, OUTSIDE)
+    _text(canvas, "blue: target curve", (8, 38), 0.38, TARGET)
     for column, result in enumerate(kernels):
         left = ROW_LABEL_WIDTH + column * PANEL
         summary = result.summary()
@@ -100,5 +103,5 @@ def figure(domains, study) -> np.ndarray:
     return np.dstack([rgb, np.full(rgb.shape[:2], 255, dtype=np.uint8)])
 
 
-def _text(canvas: np.ndarray, text: str, origin: tuple[int, int], size: float) -> None:
-    cv2.putText(canvas, text, origin, FONT, size, (0, 0, 0), 1, cv2.LINE_AA)
+def _text(canvas: np.ndarray, text: str, origin: tuple[int, int], size: float, colour=(0, 0, 0)) -> None:
+    cv2.putText(canvas, text, origin, FONT, size, colour, 1, cv2.LINE_AA)
