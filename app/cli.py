@@ -58,7 +58,7 @@ from app.render import ContextUnavailableError
 from app.viewer.demos import SCRIPT_FORMAT
 from core.compilation import MESSAGE as COMPILING
 
-DEFAULT_KERNEL = "harmonic-like"
+DEFAULT_KERNEL = "harmonic"  # core.mesh_basis.DEFAULT_KERNEL, the deformation default
 # cv2.Error.StsNoMem, without importing cv2 for the commands that never use it.
 _OPENCV_NO_MEMORY = -4
 

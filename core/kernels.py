@@ -12,7 +12,7 @@ maximum-likelihood             omega = 1                                        
 pseudo-harmonic                omega = 1 / r                                     Eq. 18
 power                          omega = 1 / r^k, optional shift                   Eq. 19
 harmonic-like                  omega = 1 / r^4 + int 1 / r^4                     Eq. 20
-inverse-cube-mean              omega = 1 / r^3 + mean of 1 / r^3                 Eq. 19, k = 3
+inverse-cube-mean (default)    omega = 1 / r^3 + mean of 1 / r^3                 Eq. 19, k = 3
 wachspress, laplace            three-point family, convex domains only           Sec. 1.1
 =============================  ===============================================  ==============
 
@@ -62,7 +62,9 @@ KERNELS = (
     "wachspress",
     "laplace",
 )
-DEFAULT_KERNEL = "harmonic-like"
+# For point evaluation, where the finite-element harmonic basis does not apply: the quality
+# study's best transfinite kernel (README, "Which kernel?").
+DEFAULT_KERNEL = "inverse-cube-mean"
 
 _IDENTIFIERS = {
     "maximum-likelihood": solver.MAXIMUM_LIKELIHOOD,
