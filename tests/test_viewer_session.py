@@ -1,5 +1,6 @@
 """Opening and saving viewer documents (app.viewer.session) and the session keys `warp` reads."""
 
+import dataclasses
 import json
 import re
 from pathlib import Path
@@ -114,8 +115,20 @@ def test_a_saved_session_reads_back_with_the_shared_reader(tmp_path):
     state = AppState(History(document.snapshot), document.snapshot, document.image, path)
     sessions.save(state, None)
     session = read_session(path)
-    assert session.image.resolve() == files.image.resolve() and session.kernel == "harmonic-like"
+    assert session.image.resolve() == files.image.resolve() and session.kernel == "harmonic"
     assert "mesh" not in session.extra and "kernel_params" not in session.extra
+
+
+def test_a_session_keeps_the_kernel_it_names_whatever_the_default(tmp_path):
+    # The default changed from harmonic-like to harmonic (README, "Which kernel?"): an older
+    # session that names harmonic-like must reopen with it.
+    files = demo_files("character")
+    path = tmp_path / "c.json"
+    document = sessions.open_document(files.image, files.cage, path)
+    snapshot = dataclasses.replace(document.snapshot, kernel="harmonic-like")
+    sessions.save(AppState(History(snapshot), snapshot, document.image, path), None)
+    reopened = sessions.open_document(session=path)
+    assert reopened.snapshot.kernel == "harmonic-like"
 
 
 def edited(state: AppState, step: int) -> None:
@@ -149,7 +162,7 @@ def test_reopening_an_image_restores_its_state_and_undo_history():
     assert len(again.undo) == 3 and len(again.redo) == 0  # the kernel change dropped the redo step
     assert again.notices[-1].startswith("restored starfish.png from the session (3 undo steps)")
     history = opened_state(again).history
-    assert history.undo().kernel == "harmonic-like" and history.undo() == again.undo[1]
+    assert history.undo().kernel == "harmonic" and history.undo() == again.undo[1]
     assert sessions.open_document().snapshot == state.history.current  # the bare viewer too
 
 

@@ -66,7 +66,7 @@ class Snapshot:
     image: Path
     cage: np.ndarray
     target: np.ndarray
-    kernel: str = "harmonic-like"
+    kernel: str = "harmonic"  # core.mesh_basis.DEFAULT_KERNEL
     power: float = DEFAULT_POWER
     shift: str = DEFAULT_SHIFT
     keyframes: tuple[Keyframe, ...] = ()
