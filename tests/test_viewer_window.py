@@ -424,6 +424,14 @@ def test_kill_and_relaunch_brings_back_the_work_and_its_undo(display, environmen
         again.kill()
 
 
+def starfish_viewer(environment, state_name: str) -> tuple[ViewerProcess, Path]:
+    """``view`` on the starfish image and cage with a state directory of its own (folder/state_name)."""
+    env, folder = environment
+    state = folder / state_name
+    command = ["view", str(ASSETS / "starfish.png"), "--cage", str(ASSETS / "starfish.cage.json")]
+    return ViewerProcess(command, {**env, "TRANSFINITE_STATE_DIR": str(state)}, ROOT), state
+
+
 def wait_for_session(path: Path, predicate, timeout: float = 10.0):
     """The session file's (cage, target, value) once `predicate` holds for them."""
     deadline = time.monotonic() + timeout
@@ -440,12 +448,7 @@ def test_rough_edges_redraw_escape_delete_group_moves_zoom_and_resize(display, e
     from app.viewer import controller
     from app.viewer.state import AppState, History, Snapshot
 
-    env, folder = environment
-    state = folder / "state-edges"
-    env = {**env, "TRANSFINITE_STATE_DIR": str(state)}
-    viewer = ViewerProcess(
-        ["view", str(ASSETS / "starfish.png"), "--cage", str(ASSETS / "starfish.cage.json")], env, ROOT
-    )
+    viewer, state = starfish_viewer(environment, "state-edges")
     try:
         window = viewer.wait_for("ready window=", 30).split("=")[1]
         combo = viewer.wait_for("spot kernel=").split("=")[1].split(",")
@@ -523,12 +526,7 @@ def test_rough_edges_redraw_escape_delete_group_moves_zoom_and_resize(display, e
 
 
 def test_drawing_a_new_cage_with_clicks_backspace_enter_and_escape(display, environment):
-    env, folder = environment
-    state = folder / "state-draw"
-    env = {**env, "TRANSFINITE_STATE_DIR": str(state)}
-    viewer = ViewerProcess(
-        ["view", str(ASSETS / "starfish.png"), "--cage", str(ASSETS / "starfish.cage.json")], env, ROOT
-    )
+    viewer, state = starfish_viewer(environment, "state-draw")
     try:
         window = viewer.wait_for("ready window=", 30).split("=")[1]
         viewer.wait_for("basis ", 60)
