@@ -195,21 +195,23 @@ def _panel(state: AppState, commands: list, extras: dict, height: float) -> None
         _, state.backdrop_opacity = imgui.slider_float(
             "source image", state.backdrop_opacity, 0.0, 1.0, "%.2f"
         )
-    imgui.text("Outside the warp:")
-    for outside, label in (("transparent", "transparent"), ("original", "the original image")):
+    imgui.text("Outside:")
+    for outside, label in (("transparent", "transparent"), ("original", "original")):
         imgui.same_line()
         if imgui.radio_button(label, state.outside == outside):
             commands.append(("outside", outside))
     if imgui.is_item_hovered():
         imgui.set_tooltip(
-            "the original image: the untouched picture around the warp (inside the source cage, where the "
-            "target does not cover it, the original is seen); exports and warp --outside do the same"
+            "original: the untouched picture around the warp (inside the source cage, where the target "
+            "does not cover it, the original is seen); exports and warp --outside do the same"
         )
-    imgui.text("Export canvas:")
-    for canvas, label in (("source", "image size"), ("grow", "grow to the target")):
+    imgui.text("Canvas: ")
+    for canvas, label in (("source", "image size"), ("grow", "grow to target")):
         imgui.same_line()
         if imgui.radio_button(label, state.canvas == canvas):
             commands.append(("canvas", canvas))
+    if imgui.is_item_hovered():
+        imgui.set_tooltip("what exports frame: the image, or (grow) the image and the whole target curve")
     if imgui.button("Fit view"):
         commands.append(("fit_view", None))
     if state.folded_count:
