@@ -190,28 +190,28 @@ def _panel(state: AppState, commands: list, extras: dict, height: float) -> None
         changed, _ = imgui.checkbox(label, getattr(state, field))
         if changed:
             commands.append(("toggle", field))
-    imgui.set_next_item_width(150)
     if state.outside == "transparent":
+        imgui.set_next_item_width(150)
         _, state.backdrop_opacity = imgui.slider_float(
             "source image", state.backdrop_opacity, 0.0, 1.0, "%.2f"
         )
-    imgui.text("Outside:")
-    for outside, label in (("transparent", "transparent"), ("original", "original")):
-        imgui.same_line()
-        if imgui.radio_button(label, state.outside == outside):
-            commands.append(("outside", outside))
-    if imgui.is_item_hovered():
-        imgui.set_tooltip(
-            "original: the untouched picture around the warp (inside the source cage, where the target "
-            "does not cover it, the original is seen); exports and warp --outside do the same"
-        )
-    imgui.text("Canvas: ")
-    for canvas, label in (("source", "image size"), ("grow", "grow to target")):
-        imgui.same_line()
-        if imgui.radio_button(label, state.canvas == canvas):
-            commands.append(("canvas", canvas))
-    if imgui.is_item_hovered():
-        imgui.set_tooltip("what exports frame: the image, or (grow) the image and the whole target curve")
+    _choice_row(
+        commands,
+        "Outside:",
+        "outside",
+        state.outside,
+        (("transparent", "transparent"), ("original", "original")),
+        "original: the untouched picture around the warp (inside the source cage, where the target does "
+        "not cover it, the original is seen); exports and warp --outside do the same",
+    )
+    _choice_row(
+        commands,
+        "Canvas: ",
+        "canvas",
+        state.canvas,
+        (("source", "image size"), ("grow", "grow to target")),
+        "what exports frame: the image, or (grow) the image and the whole target curve",
+    )
     if imgui.button("Fit view"):
         commands.append(("fit_view", None))
     if state.folded_count:
@@ -336,6 +336,18 @@ def _timeline(state: AppState, commands: list, extras: dict) -> None:
         imgui.progress_bar(
             extras["exporting"], (-1, 0), f"exporting {100 * extras['exporting']:.0f}% (Esc stops)"
         )
+
+
+def _choice_row(commands: list, title: str, command: str, current: str, choices: tuple, tooltip: str) -> None:
+    """`title` and one radio button per (value, label) of `choices` on one line; a click gives
+    the command ``(command, value)``.  `tooltip` shows over the row's last button."""
+    imgui.text(title)
+    for value, label in choices:
+        imgui.same_line()
+        if imgui.radio_button(label, current == value):
+            commands.append((command, value))
+    if imgui.is_item_hovered():
+        imgui.set_tooltip(tooltip)
 
 
 def _status(state: AppState, width: float, height: float) -> None:
