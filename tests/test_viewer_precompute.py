@@ -100,3 +100,23 @@ def test_meshes_from_the_worker_are_core_meshes(cache):
         payload["vertices"], payload["triangles"], payload["boundary"], payload["boundary_parameters"]
     )
     assert not core.folded_triangles(mesh, payload["basis"] @ STAR).any()
+
+
+def test_the_worker_ends_quietly_when_the_viewer_is_gone(cache):
+    """A viewer killed with kill -9 closes its ends of the pipes: the worker must end, without a
+    traceback, both while waiting for a request and in the middle of one."""
+    import multiprocessing
+
+    from app.viewer.precompute import _serve
+
+    request_reader, request_writer = multiprocessing.Pipe(duplex=False)
+    result_reader, result_writer = multiprocessing.Pipe(duplex=False)
+    request_writer.close()  # waiting for a request: EOF
+    _serve(request_reader, result_writer, 0)
+
+    request_reader, request_writer = multiprocessing.Pipe(duplex=False)
+    result_reader, result_writer = multiprocessing.Pipe(duplex=False)
+    request_writer.send(make_request(Snapshot(Path("x.png"), STAR, STAR), 20.0))
+    request_writer.close()
+    result_reader.close()  # nobody reads the progress or the result: a broken pipe
+    _serve(request_reader, result_writer, 0)

@@ -274,12 +274,20 @@ class _Superseded(Exception):
 
 
 def _serve(requests, results, nice: int) -> None:
-    """The worker process: compute requests one at a time, newest first."""
+    """The worker process: compute requests one at a time, newest first, until told to stop or
+    until the viewer is gone (closed, or killed: its ends of the pipes are closed)."""
     if nice and hasattr(os, "nice"):
         try:
             os.nice(nice)
         except OSError:
             pass
+    try:
+        _serve_requests(requests, results)
+    except (EOFError, BrokenPipeError, ConnectionResetError):
+        return  # nobody left to answer: end quietly, not with a traceback
+
+
+def _serve_requests(requests, results) -> None:
     waiting = []
     while True:
         request = waiting.pop() if waiting else requests.recv()
