@@ -26,7 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
-from app.files import InputError, read_image, read_json, write_png
+from app.files import InputError, read_json, write_png
 from app.framing import output_frame, output_region
 from app.viewer import controller, editing
 from app.viewer.precompute import Precompute, make_request
@@ -497,8 +497,7 @@ class Viewer:
                     state, state.live.replace(cage=cage, target=cage, keyframes=()), f"cage from {path}"
                 )
                 return
-            read_image(path)  # a bad file is reported before the current session is left
-            document = open_document(path)
+            document = open_document(path)  # raises before the current session is left
         except (InputError, OSError) as error:
             state.say(str(error), error=True)
             return
