@@ -353,3 +353,62 @@ def test_bad_keyframes_in_a_session_are_named(tmp_path):
         session = Session(Path("x.png"), points, points, "harmonic-like", extra=value)
         with pytest.raises(InputError, match=message):
             session_keyframes(session, "s.json")
+
+
+def _hold_lock(session: Path, state: Path):
+    """A process that locks `session` as a viewer would, and says so once it holds it."""
+    import os
+    import subprocess
+    import sys
+
+    code = (
+        "import sys, time; from pathlib import Path; from app.viewer.session_lock import lock_session; "
+        "lock = lock_session(Path(sys.argv[1])); print('held', flush=True); time.sleep(120)"
+    )
+    environment = dict(os.environ, TRANSFINITE_STATE_DIR=str(state))
+    holder = subprocess.Popen(
+        [sys.executable, "-c", code, str(session)], stdout=subprocess.PIPE, text=True, env=environment
+    )
+    assert holder.stdout.readline().strip() == "held"
+    return holder
+
+
+def test_a_second_viewer_of_the_same_image_is_refused_until_the_first_is_gone(tmp_path):
+    import os
+    import subprocess
+    import sys
+
+    from app.viewer.session_lock import SessionBusy
+
+    files = demo_files("starfish")
+    document = sessions.open_document(files.image, files.cage)
+    assert sessions.open_document(files.image, files.cage).lock is document.lock  # this process: shared
+    sessions.save(opened_state(document), None)
+    written = document.session_path.read_bytes()
+    document.lock.release()
+    del document
+    holder = _hold_lock(session_path_for(files.image), tmp_path / "state")
+    try:
+        with pytest.raises(SessionBusy, match=rf"open in another viewer \(process {holder.pid}\).*--session"):
+            sessions.open_document(files.image, files.cage)
+        with pytest.raises(SessionBusy):
+            sessions.open_document(files.image, files.cage, fresh=True)  # --fresh must not rename it either
+        environment = {**os.environ, "TRANSFINITE_STATE_DIR": str(tmp_path / "state")}
+        result = subprocess.run(
+            [sys.executable, "-m", "app", "view", str(files.image), "--cage", str(files.cage)],
+            capture_output=True,
+            text=True,
+            env=environment,
+            timeout=120,
+        )
+        assert result.returncode == 2
+        assert result.stderr.strip().count("\n") == 0 and "open in another viewer" in result.stderr
+        assert session_path_for(files.image).read_bytes() == written  # untouched, nothing kept aside
+        assert sorted(p.name for p in session_path_for(files.image).parent.iterdir()) == [
+            session_path_for(files.image).name
+        ]
+    finally:
+        holder.kill()  # as kill -9: the operating system drops the lock
+        holder.wait()
+    reopened = sessions.open_document(files.image, files.cage)
+    assert reopened.restored and reopened.lock is not None

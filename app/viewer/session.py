@@ -44,6 +44,7 @@ from app.framing import CANVASES, OUTSIDES
 from app.keyframes import DEFAULT_INTERPOLATION, MAX_TIME, Keyframe, keyframes_json
 from app.render import View
 from app.viewer.session_files import backups, keep_aside, rotate_backups, session_path_for
+from app.viewer.session_lock import SessionLock, lock_session
 from app.viewer.state import CONTENTS, DEFAULT_POWER, DEFAULT_SHIFT, MODES, SHIFTS, AppState, Snapshot
 
 #: Undo steps (and redo steps) written into the session file.
@@ -77,6 +78,9 @@ class Document:
         None: fit the cage to the image).
     notices : list of str
         What the user should hear about the opening (restored, kept aside, ...).
+    lock : SessionLock or None
+        This process's lock of `session_path` (`app.viewer.session_lock`): held
+        as long as the document (or the viewer showing it) keeps it.
     """
 
     snapshot: Snapshot
@@ -90,6 +94,7 @@ class Document:
     restored: bool = False
     start_cage: Path | None = None
     notices: list[str] = field(default_factory=list)
+    lock: SessionLock | None = None
 
 
 def open_document(
@@ -111,10 +116,15 @@ def open_document(
       goes back to); with `fresh` it is kept aside and the document starts anew:
       from ``--cage``, or a cage fitted to the image's subject, or an ellipse.
 
+    The session file is locked first (`lock_session`), so that a second viewer
+    of the same session cannot overwrite this one's autosaves.
+
     Raises
     ------
     InputError
         Unreadable files, or IMAGE / ``--cage`` / ``--fresh`` with an existing ``--session``.
+    SessionBusy
+        The session is open in a viewer of another process.
     """
     if session is not None and session.exists():
         given = [name for name, value in (("IMAGE", image), ("--cage", cage), ("--fresh", fresh)) if value]
@@ -123,18 +133,23 @@ def open_document(
                 f"{session} exists: open it alone with --session, or start {' and '.join(given)} "
                 "in a new session file"
             )
-        return restore(session, max_edge)
+        lock = lock_session(session)
+        document = restore(session, max_edge)
+        document.lock = lock
+        return document
     if image is None:
         from app.viewer.demos import DEFAULT_DEMO, demo_files
 
         files = demo_files(demo_name or DEFAULT_DEMO)
         image, cage = files.image, cage or files.cage
     path = session or session_path_for(image)
+    lock = lock_session(path)
     notices: list[str] = []
     if session is None and not fresh:
         document = recover(path, Path(image), max_edge, notices)
         if document is not None:
             document.start_cage = cage
+            document.lock = lock
             return document
     elif fresh and path.exists():
         aside = keep_aside(path, "replaced")
@@ -152,7 +167,14 @@ def open_document(
             preferences["outside"] = "original"
     snapshot = Snapshot(Path(image).resolve(), control_points, control_points)
     return Document(
-        snapshot, pixels, path, max_edge=max_edge, preferences=preferences, start_cage=cage, notices=notices
+        snapshot,
+        pixels,
+        path,
+        max_edge=max_edge,
+        preferences=preferences,
+        start_cage=cage,
+        notices=notices,
+        lock=lock,
     )
 
 

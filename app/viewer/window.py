@@ -184,6 +184,7 @@ class Viewer:
             window_size=options.size,
         )
         self._edges: dict[bytes, float] = {}
+        self._session_lock = None
         self._load(document)
         self._wanted: str | None = None
         self._failed: set[str] = set()
@@ -293,6 +294,10 @@ class Viewer:
             self._edges[document.snapshot.cage.tobytes()] = document.max_edge
         self._document_view = document.view
         self._start_cage = document.start_cage
+        previous = self._session_lock
+        if previous is not None and previous is not document.lock:
+            previous.release()  # the session left behind is never written again: another viewer may open it
+        self._session_lock = document.lock
         # What the session file holds now: an autosave of anything else is a new version.
         self._saved: Snapshot | None = document.snapshot if document.restored else None
         if document.notices:
