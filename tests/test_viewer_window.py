@@ -663,6 +663,20 @@ def test_keyframes_are_added_played_exported_and_saved(display, environment):
 
         with Image.open(movie) as gif:
             assert gif.n_frames == 31  # 1 s at 30 fps, both ends included
+        # A folder of PNG frames, then Ctrl+Shift+E: the same folder again (it once wrote frames.png).
+        frame_folder = movie.with_name("frames")
+        xdotool(display, "key", "ctrl+e")
+        viewer.wait_for("text input on", 10)
+        xdotool(display, "key", "ctrl+a")
+        xdotool(display, "type", f"{frame_folder}/")
+        xdotool(display, "key", "Return")
+        assert viewer.wait_for("exported", 60) == f"exported {frame_folder}"
+        assert len(list(frame_folder.glob("*.png"))) == 31
+        for frame in frame_folder.glob("*.png"):
+            frame.unlink()
+        xdotool(display, "key", "ctrl+shift+e")
+        assert viewer.wait_for("exported", 60) == f"exported {frame_folder}"
+        assert len(list(frame_folder.glob("*.png"))) == 31 and not frame_folder.with_suffix(".png").exists()
         xdotool(display, "key", "ctrl+q")
         code, stderr = viewer.finish()
         assert code == 0, stderr

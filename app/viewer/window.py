@@ -200,7 +200,8 @@ class Viewer:
         self._close_popups = False
         self._popup_is_open = False
         self._typing = False
-        self._last_export: Path | None = options.export
+        # Where the last export went, as typed (a folder of frames ends in a slash).
+        self._last_export: str | None = None if options.export is None else str(options.export)
         self._export: AnimationExport | None = None
         self._playback_clock: float | None = None
         self._playback_first_frame = 0
@@ -415,7 +416,7 @@ class Viewer:
             self._save_if_needed(force=True, announce=True)
         elif name == "export":
             if value == "again" and self._last_export is not None:
-                self.export(self._last_export)
+                self.export(Path(self._last_export).expanduser(), self._last_export)
             else:
                 self._ask_export_path()
         elif name == "export_path":
@@ -567,7 +568,7 @@ class Viewer:
         except InputError as error:
             state.say(str(error), error=True)
             return None
-        self._last_export = path
+        self._last_export = str(path)
         state.say(f"exported {path} (Ctrl+Shift+E writes it again)")
         self._announce(f"exported {path}")
         return path
@@ -597,7 +598,7 @@ class Viewer:
             return
         state.playing = False
         self._export = AnimationExport(writer, times, size, view, live, state.basis.basis, state.outside)
-        self._last_export = path
+        self._last_export = str(path) + os.sep if kind == "png" else str(path)
         state.say(f"exporting {len(times)} frames to {path} (Esc stops)")
 
     def _export_frame(self) -> None:
