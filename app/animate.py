@@ -39,6 +39,7 @@ import numpy as np
 from app.files import InputError, check_writable, encode_png
 from app.framing import output_frame, output_region
 from app.keyframes import Keyframe, interpolate
+from core.atomic_write import remove_stale_temporaries
 
 #: Straight RGB that MP4 and GIF frames show where the warp is transparent.
 BACKGROUND = (255, 255, 255)
@@ -112,6 +113,8 @@ def flatten(rgba: np.ndarray) -> np.ndarray:
 
 
 def _temporary(path: Path, suffix: str = "") -> Path:
+    """A new temporary name beside `path` (those of a killed earlier run are removed first)."""
+    remove_stale_temporaries(path)
     return path.parent / f".{path.name}.{os.getpid()}.{secrets.token_hex(4)}.tmp{suffix}"
 
 

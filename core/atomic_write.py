@@ -13,6 +13,7 @@ import contextlib
 import os
 import re
 import secrets
+import shutil
 from collections.abc import Callable
 from pathlib import Path
 from typing import BinaryIO
@@ -47,9 +48,13 @@ def write_atomically(path: str | os.PathLike, write: Callable[[BinaryIO], None])
 
 
 def remove_stale_temporaries(path: str | os.PathLike) -> list[Path]:
-    """Remove the temporaries of `path` left by processes that no longer run; return them."""
+    """Remove the temporaries of `path` left by processes that no longer run; return them.
+
+    Temporaries are ``.NAME.PID.RANDOM.tmp``, optionally with a suffix of their own
+    (``.tmp.mp4``, ``.tmp.old``), files or folders (a folder of frames).
+    """
     path = Path(path)
-    pattern = re.compile(rf"\.{re.escape(path.name)}\.(\d+)\.[0-9a-f]{{8}}\.tmp")
+    pattern = re.compile(rf"\.{re.escape(path.name)}\.(\d+)\.[0-9a-f]{{8}}\.tmp(\.\w+)?")
     removed = []
     try:
         names = os.listdir(path.parent)
@@ -58,9 +63,13 @@ def remove_stale_temporaries(path: str | os.PathLike) -> list[Path]:
     for name in names:
         match = pattern.fullmatch(name)
         if match and not _running(int(match.group(1))):
+            stale = path.parent / name
             with contextlib.suppress(OSError):
-                os.remove(path.parent / name)
-                removed.append(path.parent / name)
+                if stale.is_dir() and not stale.is_symlink():
+                    shutil.rmtree(stale)
+                else:
+                    os.remove(stale)
+                removed.append(stale)
     return removed
 
 

@@ -164,8 +164,17 @@ def test_bad_input_is_one_line_and_writes_nothing(tmp_path, capfd, case):
     assert sorted(p.name for p in tmp_path.rglob("*")) == before
 
 
-@pytest.mark.parametrize("output", ["long.mp4", "long/"])
-def test_ctrl_c_leaves_no_output_and_no_temporary(tmp_path, output):
+@pytest.mark.parametrize(
+    ("output", "stop"),
+    [
+        ("long.mp4", signal.SIGINT),
+        ("long/", signal.SIGINT),
+        ("long.mp4", signal.SIGKILL),
+        ("long/", signal.SIGKILL),
+    ],
+)
+def test_ctrl_c_leaves_no_output_and_no_temporary(tmp_path, output, stop, capfd):
+    """Ctrl+C cleans up at once; after kill -9 the next run to the same output removes the leftovers."""
     write_png(tmp_path / "picture.png", picture())
     moved = transformed(CAGE)
     (tmp_path / "s.json").write_text(json.dumps(session(CAGE, [(0, CAGE), (600, moved)])))
@@ -189,7 +198,19 @@ def test_ctrl_c_leaves_no_output_and_no_temporary(tmp_path, output):
         assert process.poll() is None and time.monotonic() < deadline, process.communicate()
         time.sleep(0.05)
     time.sleep(0.3)
-    process.send_signal(signal.SIGINT)
+    process.send_signal(stop)
     _, err = process.communicate(timeout=60)
-    assert process.returncode == 130 and err.strip().splitlines()[-1] == "interrupted"
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["picture.png", "s.json"]
+    if stop == signal.SIGINT:
+        assert process.returncode == 130 and err.strip().splitlines()[-1] == "interrupted"
+        assert sorted(p.name for p in tmp_path.iterdir()) == ["picture.png", "s.json"]
+        return
+    assert process.returncode == -signal.SIGKILL
+    assert any(p.name.startswith(".long") for p in tmp_path.iterdir())  # what kill -9 leaves
+    (tmp_path / "s.json").write_text(json.dumps(session(CAGE, [(0, CAGE), (0.1, moved)])))
+    code, _, err = run_main(["animate", tmp_path / "s.json", "--output", f"{tmp_path}/{output}"], capfd)
+    assert code == 0, err
+    assert sorted(p.name for p in tmp_path.iterdir()) == [
+        "long" + output[4:].rstrip("/"),
+        "picture.png",
+        "s.json",
+    ]
