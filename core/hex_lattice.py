@@ -93,6 +93,42 @@ class HexLattice:
         down = np.stack([below + c + 1 - p, above + c + 1, above + c], axis=1)
         return np.where(kind[:, None] == 0, up, down)
 
+    def triangles_within(self, nodes: np.ndarray) -> np.ndarray:
+        """bool (triangle_count,): the triangles whose three corners are all in `nodes`.
+
+        Parameters
+        ----------
+        nodes : ndarray of shape (node_count,), bool
+        """
+        grid = np.asarray(nodes, dtype=bool).reshape(self.rows, self.columns)
+        bottom_left, bottom_right = grid[:-1, :-1], grid[:-1, 1:]
+        top_left, top_right = grid[1:, :-1], grid[1:, 1:]
+        odd = (np.arange(self.rows - 1) % 2 == 1)[:, None]
+        up = bottom_left & bottom_right & np.where(odd, top_right, top_left)
+        down = np.where(odd, bottom_left, bottom_right) & top_right & top_left
+        return np.stack([up, down], axis=-1).ravel()
+
+    def nodes_near(self, points: np.ndarray, radius: float) -> np.ndarray:
+        """bool (node_count,): True for every node within `radius` of one of `points` (M, 2), and
+        for some nodes a little farther (whole rows and columns of a window around each point)."""
+        near = np.zeros((self.rows, self.columns), dtype=bool)
+        if points.shape[0] == 0:
+            return near.ravel()
+        local = points - self.origin
+        row = np.floor(local[:, 1] / self.height).astype(np.int64)
+        column = np.floor(local[:, 0] / self.spacing).astype(np.int64)
+        # Only cells that a point falls in or next to: points closer than a spacing apart
+        # mark the same window, so one point per cell is enough.
+        cells = np.unique(np.stack([row, column], axis=1), axis=0)
+        rows = int(math.ceil(radius / self.height)) + 1
+        columns = int(math.ceil(radius / self.spacing)) + 1
+        dr, dc = np.meshgrid(np.arange(-rows, rows + 1), np.arange(-columns, columns + 1), indexing="ij")
+        r = (cells[:, 0, None] + dr.ravel()).ravel()
+        c = (cells[:, 1, None] + dc.ravel()).ravel()
+        valid = (r >= 0) & (r < self.rows) & (c >= 0) & (c < self.columns)
+        near[r[valid], c[valid]] = True
+        return near.ravel()
+
     def circumdisk_hits(self, points: np.ndarray, selected: np.ndarray) -> np.ndarray:
         """Ids of the `selected` triangles whose open circumdisk holds one of `points` (M, 2).
 

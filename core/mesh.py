@@ -333,8 +333,11 @@ class _Sizing:
             ]
             self.t = np.sort(np.concatenate([self.t, *inserted]))
         fine = self.h < max_edge
+        self.fine_points = self.points[fine]  # (F, 2), where h < max_edge
         self._fine_h = self.h[fine]
-        self._fine_tree = cKDTree(self.points[fine]) if fine.any() else None
+        self._fine_tree = cKDTree(self.fine_points) if fine.any() else None
+        # Farther than this from every fine sample, h is max_edge.
+        self.reach = (max_edge - self._fine_h.min(initial=max_edge)) / GRADATION
 
     def _measure(self, curve: ClosedBSpline) -> None:
         """Samples, arc lengths and graded target lengths h at the parameters self.t."""
@@ -363,14 +366,26 @@ class _Sizing:
         self.h = self._graded(np.clip(h, self.max_edge / SMALLEST_FRACTION, self.max_edge))
 
     def _graded(self, h: np.ndarray) -> np.ndarray:
-        """Smallest h with h_i <= h_j + GRADATION |p_i - p_j| between nearby samples."""
+        """Smallest h with h_i <= h_j + GRADATION |p_i - p_j| between nearby samples.
+
+        Only samples within (max_edge - min h) / GRADATION of a sample with h below
+        max_edge can be lowered, so only those are visited.
+        """
+        fine = h < self.max_edge
+        if not fine.any():
+            return h
+        reach = (self.max_edge - h.min()) / GRADATION
+        near = np.flatnonzero(
+            cKDTree(self.points[fine]).query(self.points, distance_upper_bound=reach)[0] <= reach
+        )
         k = min(32, h.shape[0])
-        distance, index = self.tree.query(self.points, k=k)
+        distance, index = self.tree.query(self.points[near], k=k)
         for _ in range(h.shape[0]):  # each pass carries the bound at least one sample on
-            graded = np.minimum(h, (h[index] + GRADATION * distance).min(axis=1))
-            if np.array_equal(graded, h):
+            graded = np.minimum(h[near], (h[index] + GRADATION * distance).min(axis=1))
+            if np.array_equal(graded, h[near]):
                 break
-            h = graded
+            h = h.copy()
+            h[near] = graded
         return h
 
     def __call__(self, x: np.ndarray) -> np.ndarray:
@@ -378,9 +393,8 @@ class _Sizing:
         result = np.full(x.shape[0], self.max_edge)
         if self._fine_tree is None or x.shape[0] == 0:
             return result
-        reach = (self.max_edge - self._fine_h.min()) / GRADATION
         k = min(8, self._fine_h.size)
-        distance, index = self._fine_tree.query(x, k=k, distance_upper_bound=reach)
+        distance, index = self._fine_tree.query(x, k=k, distance_upper_bound=self.reach)
         distance = distance.reshape(-1, k)
         index = np.minimum(index.reshape(-1, k), self._fine_h.size - 1)  # misses: index == size
         return np.minimum(result, (self._fine_h[index] + GRADATION * distance).min(axis=1))
@@ -484,7 +498,9 @@ def _empty_disk_radii(points, normals, wedge, tree, largest) -> np.ndarray:
     active = np.arange(count)
     for _ in range(100):
         centres = points[active] + radius[active, None] * normals[active]
-        distance, neighbours = tree.query(centres, k=k)
+        # Samples beyond the largest radius cannot shrink any disk: the tree skips them.
+        distance, neighbours = tree.query(centres, k=k, distance_upper_bound=radius[active].max())
+        neighbours = np.minimum(neighbours, count - 1)  # misses: index == count, distance inf
         valid = (
             (neighbours != active[:, None])
             & ((wedge[active, None] < 0) | (wedge[neighbours] != wedge[active, None]))
@@ -524,6 +540,10 @@ class _Refinement:
         self.lattice, nodes, self.core = _lattice(sizing, self.boundary_points)
         self.node_index = np.full(self.lattice.node_count, -1, dtype=np.int64)
         self.node_index[nodes] = np.arange(nodes.size)
+        self.core_ids = np.flatnonzero(self.core)  # (C,) the lattice triangles core at first
+        self.core_corners = self.node_index[self.lattice.triangle_corners(self.core_ids)]  # (C, 3)
+        self.core_kept = np.ones(self.core_ids.size, dtype=bool)  # (C,) not demoted since
+        self._front_cache = None
         self.nodes = self.lattice.node_points(nodes)  # (K, 2); smoothing moves the free ones
         self.alive = np.ones(nodes.size, dtype=bool)
         self.steiner = np.zeros((0, 2))
@@ -537,10 +557,7 @@ class _Refinement:
         self.tri: Delaunay | None = None
         self.inside: np.ndarray | None = None
         self.band: np.ndarray | None = None  # indices into self.nodes of the band's nodes
-
-    def _core_corners(self) -> np.ndarray:
-        """Corners (C, 3) of the core triangles as indices into self.nodes, counter-clockwise."""
-        return self.node_index[self.lattice.triangle_corners(np.flatnonzero(self.core))]
+        self.conformed = False  # self.tri is the triangulation of the current points
 
     def _front(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The band's nodes (Nb,), which nodes are core corners (K,) bool, and the front.
@@ -549,24 +566,31 @@ class _Refinement:
         triangle shares, with the core on their left.  A node with six core
         triangles is inside the core and not in the band.
         """
-        corners = self._core_corners()
-        count = np.bincount(corners.ravel(), minlength=self.nodes.shape[0])
-        band = np.flatnonzero(self.alive & (count < 6))
-        # A front edge has an end with fewer than six core triangles: look only there.
-        near = corners[(count[corners] < 6).any(axis=1)]
-        edges = near[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
-        low, high = np.sort(edges, axis=1).T
-        keys = low * self.nodes.shape[0] + high
-        _, inverse, counts = np.unique(keys, return_inverse=True, return_counts=True)
-        # Both triangles of an edge with such an end are in `near`; other edges are inside.
-        front = (counts[inverse] == 1) & (count[edges] < 6).any(axis=1)
-        return band, count > 0, edges[front]
+        if self._front_cache is None:
+            corners = self.core_corners[self.core_kept]
+            count = np.bincount(corners.ravel(), minlength=self.nodes.shape[0])
+            # A front edge has an end with fewer than six core triangles: look only there.
+            near = corners[(count[corners] < 6).any(axis=1)]
+            edges = near[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
+            low, high = np.sort(edges, axis=1).T
+            _, inverse, counts = np.unique(
+                low * self.nodes.shape[0] + high, return_inverse=True, return_counts=True
+            )
+            # Both triangles of an edge with such an end are in `near`; other edges are inside.
+            front = (counts[inverse] == 1) & (count[edges] < 6).any(axis=1)
+            self._front_cache = count, edges[front]
+        count, front = self._front_cache
+        return np.flatnonzero(self.alive & (count < 6)), count > 0, front
+
+    def _demote(self, positions: np.ndarray) -> None:
+        """Move the core triangles at `positions` of self.core_ids to the band."""
+        self.core[self.core_ids[positions]] = False
+        self.core_kept[positions] = False
+        self._front_cache = None
 
     def _demote_at(self, nodes: np.ndarray) -> None:
         """Move the core triangles with a corner among `nodes` (indices into self.nodes) to the band."""
-        ids = np.flatnonzero(self.core)
-        corners = self.node_index[self.lattice.triangle_corners(ids)]
-        self.core[ids[np.isin(corners, nodes).any(axis=1)]] = False
+        self._demote(np.flatnonzero(self.core_kept & np.isin(self.core_corners, nodes).any(axis=1)))
 
     def _split(self, chords: np.ndarray) -> None:
         """Insert the curve point at the middle arc length of each boundary chord k -> k+1."""
@@ -578,14 +602,18 @@ class _Refinement:
         middle = self.sizing.parameter(0.5 * (self.sizing.arc_length(start) + self.sizing.arc_length(stop)))
         self.parameters = np.unique(np.concatenate([self.parameters, middle]))
         self.boundary_points = self.curve(self.parameters)
+        self.conformed = False
 
     def _conform(self) -> None:
         """Triangulate the band until every boundary chord and front edge is a Delaunay edge.
 
         Free points inside the diametral circle of a chord are deleted first
         (Ruppert's encroachment); chords that are still not Delaunay edges (other
-        parts of the curve too near) are split.
+        parts of the curve too near) are split.  Nothing to do if nothing moved since
+        the last call.
         """
+        if self.conformed:
+            return
         for _ in range(MAX_ROUNDS):
             count = self.parameters.shape[0]
             if count < 3 or np.diff(self.parameters).min(initial=np.inf) <= 1e-12 * self.curve.n:
@@ -600,7 +628,7 @@ class _Refinement:
                 continue
             entered = self.lattice.circumdisk_hits(np.vstack([self.boundary_points, self.steiner]), self.core)
             if entered.size:
-                self.core[entered] = False
+                self._demote(np.searchsorted(self.core_ids, entered))
                 continue
             tri = Delaunay(np.vstack([self.boundary_points, self.nodes[band], self.steiner, self.frame]))
             if tri.coplanar.size:
@@ -629,6 +657,7 @@ class _Refinement:
             self.tri = tri
             self.band = band
             self.inside = _inside_triangles(tri, chord, count, self.orientation, local[front], front_side)
+            self.conformed = True
             return
         raise RuntimeError("boundary refinement did not converge")
 
@@ -698,6 +727,7 @@ class _Refinement:
         if splits.size:
             self._split(splits)
         self.steiner = np.vstack([self.steiner, accepted])
+        self.conformed = False
         return bad.size
 
     def smooth(self, passes: int, pass_done: Callable[[float], None] | None = None) -> None:
@@ -739,7 +769,6 @@ class _Refinement:
                 pass_done((done + 1) / passes)
         self.nodes[self.band] = points[count : count + self.band.size]
         self.steiner = points[count + self.band.size :]
-        self._conform()
 
     def mesh(self) -> Mesh:
         """The core triangles and the band's triangles inside the curve, as one `Mesh`."""
@@ -750,7 +779,7 @@ class _Refinement:
             [np.arange(count), count + self.band, count + nodes + np.arange(self.steiner.shape[0])]
         )
         band = _counter_clockwise(self.band_points, self.tri.simplices[self.inside])
-        simplices = np.vstack([count + self._core_corners(), index[band]])
+        simplices = np.vstack([count + self.core_corners[self.core_kept], index[band]])
         used = np.zeros(points.shape[0], dtype=bool)
         used[simplices] = True
         if not used[:count].all():
@@ -814,14 +843,20 @@ def _lattice(sizing: _Sizing, polygon: np.ndarray) -> tuple[HexLattice, np.ndarr
     lattice = HexLattice(polygon.min(axis=0), polygon.max(axis=0), spacing)
     nodes = np.flatnonzero(lattice.inside(polygon))
     points = lattice.node_points(nodes)
-    h = sizing(points)
-    distance = sizing.distance_to_curve(points, CORE_CLEARANCE * spacing)
+    # Only nodes near the curve (or near where h is fine) need the tree queries.
+    h = np.full(nodes.size, spacing)
+    if sizing.fine_points.shape[0]:
+        near = lattice.nodes_near(sizing.fine_points, sizing.reach)[nodes]
+        h[near] = sizing(points[near])
+    reach = CORE_CLEARANCE * spacing
+    distance = np.full(nodes.size, np.inf)
+    near = lattice.nodes_near(sizing.points, reach)[nodes]
+    distance[near] = sizing.distance_to_curve(points[near], reach)
     keep = (h >= 0.75 * spacing) & (distance >= 0.6 * h)
     clear = np.zeros(lattice.node_count, dtype=bool)
     large_enough = h >= lattice.circumradius * (1.0 / SIZE_FACTOR + GRADATION)
     clear[nodes] = keep & large_enough & (distance >= CORE_CLEARANCE * h)
-    core = clear[lattice.triangle_corners(np.arange(lattice.triangle_count))].all(axis=1)
-    return lattice, nodes[keep], core
+    return lattice, nodes[keep], lattice.triangles_within(clear)
 
 
 def _cross(u: np.ndarray, v: np.ndarray) -> np.ndarray:
