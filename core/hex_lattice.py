@@ -50,7 +50,10 @@ class HexLattice:
     def node_points(self, nodes: np.ndarray) -> np.ndarray:
         """Positions (M, 2) of the nodes with ids `nodes` (M,)."""
         r, c = np.divmod(np.asarray(nodes, dtype=np.int64), self.columns)
-        return self.origin + np.stack([(c + 0.5 * (r % 2)) * self.spacing, r * self.height], axis=1)
+        result = np.empty((r.size, 2))
+        result[:, 0] = self.origin[0] + (c + 0.5 * (r & 1)) * self.spacing
+        result[:, 1] = self.origin[1] + r * self.height
+        return result
 
     def inside(self, polygon: np.ndarray) -> np.ndarray:
         """bool (rows * columns,): the nodes inside the closed polygon (B, 2), by crossing parity.
@@ -87,11 +90,15 @@ class HexLattice:
         """Node ids (M, 3) of the corners of triangles `triangles` (M,), counter-clockwise (y up)."""
         cell, kind = np.divmod(np.asarray(triangles, dtype=np.int64), 2)
         r, c = np.divmod(cell, self.columns - 1)
-        p = r % 2
-        below, above = r * self.columns, (r + 1) * self.columns
-        up = np.stack([below + c, below + c + 1, above + c + p], axis=1)
-        down = np.stack([below + c + 1 - p, above + c + 1, above + c], axis=1)
-        return np.where(kind[:, None] == 0, up, down)
+        p = r & 1  # odd rows are shifted half a spacing to the right
+        below = r * self.columns + c
+        above = below + self.columns
+        up = kind == 0
+        result = np.empty((up.size, 3), dtype=np.int64)
+        result[:, 0] = np.where(up, below, below + 1 - p)
+        result[:, 1] = np.where(up, below + 1, above + 1)
+        result[:, 2] = np.where(up, above + p, above)
+        return result
 
     def triangles_within(self, nodes: np.ndarray) -> np.ndarray:
         """bool (triangle_count,): the triangles whose three corners are all in `nodes`.

@@ -17,15 +17,20 @@ on `scipy.spatial.Delaunay`):
 2. Boundary vertices at equal steps of the integral of ds / h(s) along the arc,
    with every sharp corner (a doubled control point) a vertex.
 3. Interior vertices on a hexagonal lattice of spacing ``max_edge`` where h is
-   coarse, away from the curve.
-4. Repeat: Delaunay triangulation; delete interior vertices inside the diametral
-   circle of a boundary edge and split (at the curve point of the middle arc
-   length) every boundary edge that is not a Delaunay edge, until the boundary
-   polygon is a set of Delaunay edges; then insert the circumcentre of every
-   triangle that is too large or whose circumradius exceeds sqrt(2) times its
-   shortest edge (all angles >= 20.7 degrees), or split the boundary edge that
-   the circumcentre encroaches.
-5. Laplacian smoothing of the interior vertices, then step 4 again.
+   coarse, away from the curve (`core.hex_lattice`).  The lattice's own
+   equilateral triangles whose corners are at least `CORE_CLEARANCE` h from the
+   curve are final (the core): their triangulation is known, so only the band
+   between the core and the curve is triangulated, and its size grows with the
+   curve's length, not the domain's area.
+4. Repeat, in the band: Delaunay triangulation; delete free vertices inside the
+   diametral circle of a boundary edge and split (at the curve point of the
+   middle arc length) every boundary edge that is not a Delaunay edge, until the
+   boundary polygon and the core's border are sets of Delaunay edges (a core
+   triangle whose circumcircle a band vertex enters joins the band); then insert
+   the circumcentre of every band triangle that is too large or whose
+   circumradius exceeds sqrt(2) times its shortest edge (all angles >= 20.7
+   degrees), or split the boundary edge that the circumcentre encroaches.
+5. Laplacian smoothing of the band's free vertices, then step 4 again.
 
 Coordinates are (x, y); "counter-clockwise" means in a y-up frame (positive
 ``cross(b - a, c - a)``), which is clockwise on screen when y points down.
@@ -33,6 +38,7 @@ Coordinates are (x, y); "counter-clockwise" means in a y-up frame (positive
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -735,8 +741,9 @@ class _Refinement:
 
         Free points are the Steiner points and the band's nodes that are no core
         corner.  Each pass keeps every band triangle at least a tenth of its area
-        before the pass (moves that would not are undone); then the band is
-        triangulated again.  `pass_done` gets the fraction of the passes done after
+        before the pass (moves that would not are undone), so the triangles stay
+        valid; the next `refine` checks their quality and triangulates again only
+        if one is bad.  `pass_done` gets the fraction of the passes done after
         each one.
         """
         points = self.band_points
@@ -892,8 +899,11 @@ def _encroached_chords(points: np.ndarray, centres: np.ndarray, radii: np.ndarra
     if points.shape[0] == 0:
         return chord
     hits = cKDTree(points).query_ball_point(centres, radii * (1.0 - 1e-12), return_sorted=False)
-    for index, group in enumerate(hits):
-        chord[group] = index
+    lengths = np.fromiter(map(len, hits), dtype=np.int64, count=len(hits))
+    total = int(lengths.sum())
+    if total:
+        inside = np.fromiter(itertools.chain.from_iterable(hits), dtype=np.int64, count=total)
+        chord[inside] = np.repeat(np.arange(len(hits)), lengths)
     return chord
 
 
