@@ -239,8 +239,8 @@ def triangulate(
         ``curve.diameter / 50``.
     progress : callable, optional
         Called with the fraction done, in [0, 1], after each phase and each
-        refinement round (an estimate: the vertices so far against the count that
-        the area and `max_edge` predict); it may raise to abandon the meshing.
+        refinement round (an estimate: within a refinement, the share of the bad
+        triangles fixed); it may raise to abandon the meshing.
 
     Returns
     -------
@@ -282,15 +282,14 @@ def triangulate(
         )
     report = _Progress(progress)
     try:
-        # The fractions are the phases' shares of the time on dense meshes (250k vertices).
+        # The fractions are the phases' shares of the time on dense meshes (300k vertices).
         sizing = _Sizing(curve, max_edge)
-        report.phase(0.01)
+        report.phase(0.05)
         mesher = _Refinement(curve, sizing)
-        report.phase(0.03)
-        mesher.refine(lambda bad: report.rounds(bad, 0.03, 0.2))
-        mesher.smooth(SMOOTHING_PASSES, lambda done: report.phase(0.2 + 0.45 * done))
-        report.phase(0.78)
-        mesher.refine(lambda bad: report.rounds(bad, 0.78, 0.97))
+        report.phase(0.3)
+        mesher.refine(lambda bad: report.rounds(bad, 0.3, 0.65))
+        mesher.smooth(SMOOTHING_PASSES, lambda done: report.phase(0.65 + 0.07 * done))
+        mesher.refine(lambda bad: report.rounds(bad, 0.72, 0.92))
         mesh = mesher.mesh()
         report.phase(1.0)
         return mesh
@@ -812,6 +811,7 @@ class _Progress:
     def __init__(self, callback: Callable[[float], None] | None):
         self.callback = callback
         self.done = 0.0
+        self.refinement = None  # start of the refinement phase under way
         self.most_bad = 0
 
     def phase(self, fraction: float) -> None:
@@ -826,6 +826,8 @@ class _Progress:
         The fraction of the phase is the share of the most bad triangles seen so far
         that is done (an estimate: fixing triangles near the curve can make more).
         """
+        if start != self.refinement:  # a new refinement phase
+            self.refinement, self.most_bad = start, 0
         self.most_bad = max(self.most_bad, bad, 1)
         self.phase(start + (stop - start) * (1.0 - bad / self.most_bad) * 0.99)
 
