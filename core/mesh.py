@@ -17,15 +17,20 @@ on `scipy.spatial.Delaunay`):
 2. Boundary vertices at equal steps of the integral of ds / h(s) along the arc,
    with every sharp corner (a doubled control point) a vertex.
 3. Interior vertices on a hexagonal lattice of spacing ``max_edge`` where h is
-   coarse, away from the curve.
-4. Repeat: Delaunay triangulation; delete interior vertices inside the diametral
-   circle of a boundary edge and split (at the curve point of the middle arc
-   length) every boundary edge that is not a Delaunay edge, until the boundary
-   polygon is a set of Delaunay edges; then insert the circumcentre of every
-   triangle that is too large or whose circumradius exceeds sqrt(2) times its
-   shortest edge (all angles >= 20.7 degrees), or split the boundary edge that
-   the circumcentre encroaches.
-5. Laplacian smoothing of the interior vertices, then step 4 again.
+   coarse, away from the curve (`core.hex_lattice`).  The lattice's own
+   equilateral triangles whose corners are at least `CORE_CLEARANCE` h from the
+   curve are final (the core): their triangulation is known, so only the band
+   between the core and the curve is triangulated, and its size grows with the
+   curve's length, not the domain's area.
+4. Repeat, in the band: Delaunay triangulation; delete free vertices inside the
+   diametral circle of a boundary edge and split (at the curve point of the
+   middle arc length) every boundary edge that is not a Delaunay edge, until the
+   boundary polygon and the core's border are sets of Delaunay edges (a core
+   triangle whose circumcircle a band vertex enters joins the band); then insert
+   the circumcentre of every band triangle that is too large or whose
+   circumradius exceeds sqrt(2) times its shortest edge (all angles >= 20.7
+   degrees), or split the boundary edge that the circumcentre encroaches.
+5. Laplacian smoothing of the band's free vertices, then step 4 again.
 
 Coordinates are (x, y); "counter-clockwise" means in a y-up frame (positive
 ``cross(b - a, c - a)``), which is clockwise on screen when y points down.
@@ -33,6 +38,7 @@ Coordinates are (x, y); "counter-clockwise" means in a y-up frame (positive
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -43,6 +49,7 @@ from scipy.sparse.csgraph import connected_components
 from scipy.spatial import Delaunay, cKDTree
 
 from core.bspline import ClosedBSpline
+from core.hex_lattice import HexLattice
 from core.validation import as_points, positive_float
 
 # Largest angle (radians) between the curve tangents at the two ends of a boundary edge.
@@ -70,6 +77,9 @@ SMALLEST_FRACTION = 1000.0
 # No refinement for quality of triangles whose shortest edge is below this times h(x):
 # only next to a sharp corner, where small angles are unavoidable.
 QUALITY_FLOOR = 0.05
+# Lattice triangles whose corners are this many h from the curve are final (the core);
+# the lattice nodes nearer than that stay free to move in the smoothing.
+CORE_CLEARANCE = 1.2
 SMOOTHING_PASSES = 3
 MAX_ROUNDS = 200
 MAX_VERTICES = 5_000_000
@@ -229,8 +239,8 @@ def triangulate(
         ``curve.diameter / 50``.
     progress : callable, optional
         Called with the fraction done, in [0, 1], after each phase and each
-        refinement round (an estimate: the vertices so far against the count that
-        the area and `max_edge` predict); it may raise to abandon the meshing.
+        refinement round (an estimate: within a refinement, the share of the bad
+        triangles fixed); it may raise to abandon the meshing.
 
     Returns
     -------
@@ -270,17 +280,16 @@ def triangulate(
             f"max_edge={max_edge:.6g} is too small: the mesh would have about {estimate:.3g} "
             f"vertices, more than the {MAX_VERTICES:,} allowed; use max_edge >= {smallest:.3g}"
         )
-    report = _Progress(progress, estimate)
+    report = _Progress(progress)
     try:
-        # The fractions are the phases' shares of the time on dense meshes (250k vertices).
+        # The fractions are the phases' shares of the time on dense meshes (300k vertices).
         sizing = _Sizing(curve, max_edge)
-        report.phase(0.01)
+        report.phase(0.05)
         mesher = _Refinement(curve, sizing)
-        report.phase(0.03)
-        mesher.refine(lambda: report.vertices(mesher.points.shape[0], 0.03, 0.2))
-        mesher.smooth(SMOOTHING_PASSES, lambda done: report.phase(0.2 + 0.45 * done))
-        report.phase(0.78)
-        mesher.refine(lambda: report.vertices(mesher.points.shape[0], 0.78, 0.97))
+        report.phase(0.3)
+        mesher.refine(lambda bad: report.rounds(bad, 0.3, 0.65))
+        mesher.smooth(SMOOTHING_PASSES, lambda done: report.phase(0.65 + 0.07 * done))
+        mesher.refine(lambda bad: report.rounds(bad, 0.72, 0.92))
         mesh = mesher.mesh()
         report.phase(1.0)
         return mesh
@@ -329,8 +338,11 @@ class _Sizing:
             ]
             self.t = np.sort(np.concatenate([self.t, *inserted]))
         fine = self.h < max_edge
+        self.fine_points = self.points[fine]  # (F, 2), where h < max_edge
         self._fine_h = self.h[fine]
-        self._fine_tree = cKDTree(self.points[fine]) if fine.any() else None
+        self._fine_tree = cKDTree(self.fine_points) if fine.any() else None
+        # Farther than this from every fine sample, h is max_edge.
+        self.reach = (max_edge - self._fine_h.min(initial=max_edge)) / GRADATION
 
     def _measure(self, curve: ClosedBSpline) -> None:
         """Samples, arc lengths and graded target lengths h at the parameters self.t."""
@@ -359,14 +371,26 @@ class _Sizing:
         self.h = self._graded(np.clip(h, self.max_edge / SMALLEST_FRACTION, self.max_edge))
 
     def _graded(self, h: np.ndarray) -> np.ndarray:
-        """Smallest h with h_i <= h_j + GRADATION |p_i - p_j| between nearby samples."""
+        """Smallest h with h_i <= h_j + GRADATION |p_i - p_j| between nearby samples.
+
+        Only samples within (max_edge - min h) / GRADATION of a sample with h below
+        max_edge can be lowered, so only those are visited.
+        """
+        fine = h < self.max_edge
+        if not fine.any():
+            return h
+        reach = (self.max_edge - h.min()) / GRADATION
+        near = np.flatnonzero(
+            cKDTree(self.points[fine]).query(self.points, distance_upper_bound=reach)[0] <= reach
+        )
         k = min(32, h.shape[0])
-        distance, index = self.tree.query(self.points, k=k)
+        distance, index = self.tree.query(self.points[near], k=k)
         for _ in range(h.shape[0]):  # each pass carries the bound at least one sample on
-            graded = np.minimum(h, (h[index] + GRADATION * distance).min(axis=1))
-            if np.array_equal(graded, h):
+            graded = np.minimum(h[near], (h[index] + GRADATION * distance).min(axis=1))
+            if np.array_equal(graded, h[near]):
                 break
-            h = graded
+            h = h.copy()
+            h[near] = graded
         return h
 
     def __call__(self, x: np.ndarray) -> np.ndarray:
@@ -374,17 +398,16 @@ class _Sizing:
         result = np.full(x.shape[0], self.max_edge)
         if self._fine_tree is None or x.shape[0] == 0:
             return result
-        reach = (self.max_edge - self._fine_h.min()) / GRADATION
         k = min(8, self._fine_h.size)
-        distance, index = self._fine_tree.query(x, k=k, distance_upper_bound=reach)
+        distance, index = self._fine_tree.query(x, k=k, distance_upper_bound=self.reach)
         distance = distance.reshape(-1, k)
         index = np.minimum(index.reshape(-1, k), self._fine_h.size - 1)  # misses: index == size
         return np.minimum(result, (self._fine_h[index] + GRADATION * distance).min(axis=1))
 
-    def distance_to_curve(self, x: np.ndarray) -> np.ndarray:
+    def distance_to_curve(self, x: np.ndarray, reach: float) -> np.ndarray:
         """Distance to the nearest dense curve sample (within half a sample spacing of exact),
-        or inf beyond max_edge."""
-        return self.tree.query(x, distance_upper_bound=self.max_edge)[0]
+        or inf beyond `reach`."""
+        return self.tree.query(x, distance_upper_bound=reach)[0]
 
     def arc_length(self, t: np.ndarray) -> np.ndarray:
         """Arc length from t = 0 along the dense polyline, for t in [0, 2 n)."""
@@ -480,7 +503,9 @@ def _empty_disk_radii(points, normals, wedge, tree, largest) -> np.ndarray:
     active = np.arange(count)
     for _ in range(100):
         centres = points[active] + radius[active, None] * normals[active]
-        distance, neighbours = tree.query(centres, k=k)
+        # Samples beyond the largest radius cannot shrink any disk: the tree skips them.
+        distance, neighbours = tree.query(centres, k=k, distance_upper_bound=radius[active].max())
+        neighbours = np.minimum(neighbours, count - 1)  # misses: index == count, distance inf
         valid = (
             (neighbours != active[:, None])
             & ((wedge[active, None] < 0) | (wedge[neighbours] != wedge[active, None]))
@@ -501,7 +526,15 @@ def _empty_disk_radii(points, normals, wedge, tree, largest) -> np.ndarray:
 
 
 class _Refinement:
-    """State of the conforming Delaunay refinement: boundary parameters and interior points."""
+    """State of the refinement: boundary parameters, the lattice core and the band's points.
+
+    The lattice triangles marked `core` are final; the band (the rest of the
+    domain) is triangulated by Delaunay from the boundary vertices, the lattice
+    nodes not inside the core, and the inserted (Steiner) points.  A core
+    triangle whose circumdisk a band point enters, or whose corner encroaches a
+    boundary chord, is demoted to the band, so that the core's border (the
+    front) is always a set of Delaunay edges of the band's points.
+    """
 
     def __init__(self, curve: ClosedBSpline, sizing: _Sizing):
         self.curve = curve
@@ -509,7 +542,16 @@ class _Refinement:
         self.orientation = 1.0 if curve.is_counterclockwise else -1.0
         self.parameters = sizing.boundary_parameters(curve.corners()[:, 0])
         self.boundary_points = curve(self.parameters)
-        self.interior = _lattice(sizing, self.boundary_points)
+        self.lattice, nodes, self.core = _lattice(sizing, self.boundary_points)
+        self.node_index = np.full(self.lattice.node_count, -1, dtype=np.int64)
+        self.node_index[nodes] = np.arange(nodes.size)
+        self.core_ids = np.flatnonzero(self.core)  # (C,) the lattice triangles core at first
+        self.core_corners = self.node_index[self.lattice.triangle_corners(self.core_ids)]  # (C, 3)
+        self.core_kept = np.ones(self.core_ids.size, dtype=bool)  # (C,) not demoted since
+        self._front_cache = None
+        self.nodes = self.lattice.node_points(nodes)  # (K, 2); smoothing moves the free ones
+        self.alive = np.ones(nodes.size, dtype=bool)
+        self.steiner = np.zeros((0, 2))
         # A ring of far points keeps the curve off the convex hull, where qhull would make
         # flat triangles out of collinear boundary vertices (the straight spans at corners).
         low, high = self.boundary_points.min(axis=0), self.boundary_points.max(axis=0)
@@ -519,10 +561,41 @@ class _Refinement:
         )
         self.tri: Delaunay | None = None
         self.inside: np.ndarray | None = None
+        self.band: np.ndarray | None = None  # indices into self.nodes of the band's nodes
+        self.conformed = False  # self.tri is the triangulation of the current points
 
-    @property
-    def points(self) -> np.ndarray:
-        return np.vstack([self.boundary_points, self.interior])
+    def _front(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The band's nodes (Nb,), which nodes are core corners (K,) bool, and the front.
+
+        The front is the directed edges (F, 2) of core triangles that no other core
+        triangle shares, with the core on their left.  A node with six core
+        triangles is inside the core and not in the band.
+        """
+        if self._front_cache is None:
+            corners = self.core_corners[self.core_kept]
+            count = np.bincount(corners.ravel(), minlength=self.nodes.shape[0])
+            # A front edge has an end with fewer than six core triangles: look only there.
+            near = corners[(count[corners] < 6).any(axis=1)]
+            edges = near[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
+            low, high = np.sort(edges, axis=1).T
+            _, inverse, counts = np.unique(
+                low * self.nodes.shape[0] + high, return_inverse=True, return_counts=True
+            )
+            # Both triangles of an edge with such an end are in `near`; other edges are inside.
+            front = (counts[inverse] == 1) & (count[edges] < 6).any(axis=1)
+            self._front_cache = count, edges[front]
+        count, front = self._front_cache
+        return np.flatnonzero(self.alive & (count < 6)), count > 0, front
+
+    def _demote(self, positions: np.ndarray) -> None:
+        """Move the core triangles at `positions` of self.core_ids to the band."""
+        self.core[self.core_ids[positions]] = False
+        self.core_kept[positions] = False
+        self._front_cache = None
+
+    def _demote_at(self, nodes: np.ndarray) -> None:
+        """Move the core triangles with a corner among `nodes` (indices into self.nodes) to the band."""
+        self._demote(np.flatnonzero(self.core_kept & np.isin(self.core_corners, nodes).any(axis=1)))
 
     def _split(self, chords: np.ndarray) -> None:
         """Insert the curve point at the middle arc length of each boundary chord k -> k+1."""
@@ -534,26 +607,43 @@ class _Refinement:
         middle = self.sizing.parameter(0.5 * (self.sizing.arc_length(start) + self.sizing.arc_length(stop)))
         self.parameters = np.unique(np.concatenate([self.parameters, middle]))
         self.boundary_points = self.curve(self.parameters)
+        self.conformed = False
 
     def _conform(self) -> None:
-        """Triangulate until every boundary chord is a Delaunay edge.
+        """Triangulate the band until every boundary chord and front edge is a Delaunay edge.
 
-        Interior points inside the diametral circle of a chord are deleted first
+        Free points inside the diametral circle of a chord are deleted first
         (Ruppert's encroachment); chords that are still not Delaunay edges (other
-        parts of the curve too near) are split.
+        parts of the curve too near) are split.  Nothing to do if nothing moved since
+        the last call.
         """
+        if self.conformed:
+            return
         for _ in range(MAX_ROUNDS):
             count = self.parameters.shape[0]
             if count < 3 or np.diff(self.parameters).min(initial=np.inf) <= 1e-12 * self.curve.n:
                 raise RuntimeError("boundary refinement did not converge (boundary edges collapsed)")
+            band, fixed, front = self._front()
             middle, half = _chord_circles(self.boundary_points)
-            self.interior = self.interior[_encroached_chords(self.interior, middle, half) < 0]
-            tri = Delaunay(np.vstack([self.points, self.frame]))
+            self.steiner = self.steiner[_encroached_chords(self.steiner, middle, half) < 0]
+            encroaching = band[_encroached_chords(self.nodes[band], middle, half) >= 0]
+            if encroaching.size:
+                self.alive[encroaching[~fixed[encroaching]]] = False
+                self._demote_at(encroaching[fixed[encroaching]])
+                continue
+            entered = self.lattice.circumdisk_hits(np.vstack([self.boundary_points, self.steiner]), self.core)
+            if entered.size:
+                self._demote(np.searchsorted(self.core_ids, entered))
+                continue
+            tri = Delaunay(np.vstack([self.boundary_points, self.nodes[band], self.steiner, self.frame]))
             if tri.coplanar.size:
-                dropped = tri.coplanar[:, 0]
-                if (dropped < count).any():
+                dropped = tri.coplanar[:, 0] - count
+                if (dropped < 0).any() or (dropped >= band.size + self.steiner.shape[0]).any():
                     raise RuntimeError("boundary vertices coincide; the curve is degenerate")
-                self.interior = np.delete(self.interior, dropped - count, axis=0)
+                nodes = band[dropped[dropped < band.size]]
+                self.alive[nodes[~fixed[nodes]]] = False
+                self._demote_at(nodes[fixed[nodes]])
+                self.steiner = np.delete(self.steiner, dropped[dropped >= band.size] - band.size, axis=0)
                 continue
             chord = _chord_sides(tri.simplices, count)
             found = np.zeros(count, dtype=bool)
@@ -561,27 +651,44 @@ class _Refinement:
             if not found.all():
                 self._split(np.flatnonzero(~found))
                 continue
+            local = np.full(self.nodes.shape[0], -1, dtype=np.int64)
+            local[band] = count + np.arange(band.size)
+            front_side = _front_sides(tri.simplices, local[front])
+            found = np.zeros(front.shape[0], dtype=bool)
+            found[front_side[front_side >= 0]] = True
+            if not found.all():  # only if a point sits on a core circumcircle: rare
+                self._demote_at(front[~found].ravel())
+                continue
             self.tri = tri
-            self.inside = _inside_triangles(tri, chord, count, self.orientation)
+            self.band = band
+            self.inside = _inside_triangles(tri, chord, count, self.orientation, local[front], front_side)
+            self.conformed = True
             return
         raise RuntimeError("boundary refinement did not converge")
 
-    def refine(self, round_done: Callable[[], None] | None = None) -> None:
-        """Conform, then insert circumcentres of bad triangles until none is left.
+    @property
+    def band_points(self) -> np.ndarray:
+        """Points (B + Nb + S, 2) of the last band triangulation: boundary, band nodes, Steiner."""
+        return np.vstack([self.boundary_points, self.nodes[self.band], self.steiner])
 
-        `round_done` is called after each round's triangulation.
+    def refine(self, round_done: Callable[[int], None] | None = None) -> None:
+        """Conform, then insert circumcentres of bad band triangles until none is left.
+
+        `round_done` is called with the number of bad triangles after each round's
+        triangulation.
         """
         for _ in range(MAX_ROUNDS):
             self._conform()
+            bad = self._improve()
             if round_done is not None:
-                round_done()
-            if not self._improve():
+                round_done(bad)
+            if not bad:
                 return
         raise RuntimeError("mesh refinement did not converge")
 
-    def _improve(self) -> bool:
-        """One batch of Ruppert insertions; False if every triangle is good."""
-        points = self.points
+    def _improve(self) -> int:
+        """One batch of Ruppert insertions; returns the number of bad triangles (0: none left)."""
+        points = self.band_points
         simplices = self.tri.simplices[self.inside]
         corners = points[simplices]
         a = np.linalg.norm(corners[:, 1] - corners[:, 2], axis=1)
@@ -595,7 +702,7 @@ class _Refinement:
             (radius > RADIUS_EDGE_RATIO * shortest) & (shortest > QUALITY_FLOOR * h)
         )
         if not bad.any():
-            return False
+            return 0
         bad = np.flatnonzero(bad)
         priority = bad[np.argsort(-(radius[bad] / shortest[bad]))]
         centres = _circumcentres(corners[priority])
@@ -621,21 +728,26 @@ class _Refinement:
             lengths = 2.0 * half[splits]
             splits = splits[lengths > QUALITY_FLOOR * self.sizing(middle[splits])]
         if not splits.size and not accepted.size:
-            return False
+            return 0
         if splits.size:
             self._split(splits)
-        self.interior = np.vstack([self.interior, accepted])
-        return True
+        self.steiner = np.vstack([self.steiner, accepted])
+        self.conformed = False
+        return bad.size
 
     def smooth(self, passes: int, pass_done: Callable[[float], None] | None = None) -> None:
-        """Laplacian smoothing: move interior vertices to the mean of their neighbours.
+        """Laplacian smoothing of the band: move free points to the mean of their neighbours.
 
-        Each pass keeps every triangle at least a tenth of its area before the
-        pass (moves that would not are undone); then the points are triangulated
-        again.  `pass_done` gets the fraction of the passes done after each one.
+        Free points are the Steiner points and the band's nodes that are no core
+        corner.  Each pass keeps every band triangle at least a tenth of its area
+        before the pass (moves that would not are undone), so the triangles stay
+        valid; the next `refine` checks their quality and triangulates again only
+        if one is bad.  `pass_done` gets the fraction of the passes done after
+        each one.
         """
-        points = self.points
+        points = self.band_points
         count = self.parameters.shape[0]
+        _, fixed, _ = self._front()
         simplices = _counter_clockwise(points, self.tri.simplices[self.inside])
         edges = _unique_edges(simplices)
         total = points.shape[0]
@@ -644,8 +756,10 @@ class _Refinement:
             shape=(total, total),
         ).tocsr()
         degree = np.asarray(adjacency.sum(axis=1)).ravel()
-        movable = np.arange(count, total)
-        movable = movable[degree[movable] > 0]
+        movable = np.ones(total, dtype=bool)
+        movable[:count] = False
+        movable[count : count + self.band.size] = ~fixed[self.band]
+        movable = np.flatnonzero(movable & (degree > 0))
         for done in range(passes):
             moved = points.copy()
             moved[movable] = (adjacency @ points)[movable] / degree[movable, None]
@@ -659,21 +773,27 @@ class _Refinement:
             points = moved
             if pass_done is not None:
                 pass_done((done + 1) / passes)
-        self.interior = points[count:]
-        self._conform()
+        self.nodes[self.band] = points[count : count + self.band.size]
+        self.steiner = points[count + self.band.size :]
 
     def mesh(self) -> Mesh:
-        points = self.points
-        simplices = _counter_clockwise(points, self.tri.simplices[self.inside])
+        """The core triangles and the band's triangles inside the curve, as one `Mesh`."""
+        count = self.parameters.shape[0]
+        nodes = self.nodes.shape[0]
+        points = np.vstack([self.boundary_points, self.nodes, self.steiner])
+        index = np.concatenate(
+            [np.arange(count), count + self.band, count + nodes + np.arange(self.steiner.shape[0])]
+        )
+        band = _counter_clockwise(self.band_points, self.tri.simplices[self.inside])
+        simplices = np.vstack([count + self.core_corners[self.core_kept], index[band]])
         used = np.zeros(points.shape[0], dtype=bool)
         used[simplices] = True
-        count = self.parameters.shape[0]
         if not used[:count].all():
             raise RuntimeError("a boundary vertex is in no triangle")
-        index = np.cumsum(used) - 1
+        renumber = np.cumsum(used) - 1
         return Mesh(
             vertices=points[used],
-            triangles=index[simplices],
+            triangles=renumber[simplices],
             boundary=np.arange(count, dtype=np.int64),
             boundary_parameters=self.parameters.copy(),
         )
@@ -686,15 +806,13 @@ class _Progress:
     ----------
     callback : callable or None
         Takes the fraction done in [0, 1].
-    estimate : float
-        Vertices expected from the area and the edge length (refinement near
-        narrow parts adds more, so the fraction of a phase is capped at its end).
     """
 
-    def __init__(self, callback: Callable[[float], None] | None, estimate: float):
+    def __init__(self, callback: Callable[[float], None] | None):
         self.callback = callback
-        self.estimate = max(estimate, 1.0)
         self.done = 0.0
+        self.refinement = None  # start of the refinement phase under way
+        self.most_bad = 0
 
     def phase(self, fraction: float) -> None:
         """A phase ended at `fraction`."""
@@ -702,38 +820,52 @@ class _Progress:
             self.done = fraction
             self.callback(fraction)
 
-    def vertices(self, count: int, start: float, stop: float) -> None:
-        """A refinement round of the phase [start, stop] ended with `count` vertices."""
-        self.phase(start + (stop - start) * min(count / self.estimate, 0.99))
+    def rounds(self, bad: int, start: float, stop: float) -> None:
+        """A refinement round of the phase [start, stop] left `bad` triangles to refine.
+
+        The fraction of the phase is the share of the most bad triangles seen so far
+        that is done (an estimate: fixing triangles near the curve can make more).
+        """
+        if start != self.refinement:  # a new refinement phase
+            self.refinement, self.most_bad = start, 0
+        self.most_bad = max(self.most_bad, bad, 1)
+        self.phase(start + (stop - start) * (1.0 - bad / self.most_bad) * 0.99)
 
 
-def _lattice(sizing: _Sizing, polygon: np.ndarray) -> np.ndarray:
-    """Hexagonal lattice points of spacing max_edge inside the polygon (B, 2), where h is coarse.
+def _lattice(sizing: _Sizing, polygon: np.ndarray) -> tuple[HexLattice, np.ndarray, np.ndarray]:
+    """The hexagonal lattice of spacing max_edge inside the polygon (B, 2) and its core triangles.
 
-    Rows are scanned against the polygon's edges (crossing parity); points nearer
-    to the curve than 0.6 h are left to the refinement.
+    Nodes nearer to the curve than 0.6 h, or where h is below 0.75 max_edge, are
+    left to the refinement.  A lattice triangle is core (final) when its corners
+    are at least `CORE_CLEARANCE` h from the curve and h at its corners is large
+    enough for its circumradius (h is GRADATION-Lipschitz, so the bound holds at
+    its centroid too).
+
+    Returns
+    -------
+    lattice : HexLattice
+    nodes : ndarray of shape (K,), int64
+        Ids of the nodes kept, increasing.
+    core : ndarray of shape (lattice.triangle_count,), bool
     """
     spacing = sizing.max_edge
-    low = polygon.min(axis=0)
-    high = polygon.max(axis=0)
-    rows = np.arange(low[1] + 0.5 * spacing, high[1], 0.5 * math.sqrt(3.0) * spacing)
-    following = np.roll(polygon, -1, axis=0)
-    result = []
-    for r, y in enumerate(rows):
-        crossing = (polygon[:, 1] > y) != (following[:, 1] > y)
-        if not crossing.any():
-            continue
-        a, b = polygon[crossing], following[crossing]
-        xs = np.sort(a[:, 0] + (y - a[:, 1]) * (b[:, 0] - a[:, 0]) / (b[:, 1] - a[:, 1]))
-        x = np.arange(low[0] + (0.5 + 0.5 * (r % 2)) * spacing, high[0], spacing)
-        x = x[np.searchsorted(xs, x) % 2 == 1]
-        result.append(np.stack([x, np.full(x.shape, y)], axis=1))
-    if not result:
-        return np.zeros((0, 2))
-    points = np.vstack(result)
-    h = sizing(points)
-    keep = (h >= 0.75 * spacing) & (sizing.distance_to_curve(points) >= 0.6 * h)
-    return points[keep]
+    lattice = HexLattice(polygon.min(axis=0), polygon.max(axis=0), spacing)
+    nodes = np.flatnonzero(lattice.inside(polygon))
+    points = lattice.node_points(nodes)
+    # Only nodes near the curve (or near where h is fine) need the tree queries.
+    h = np.full(nodes.size, spacing)
+    if sizing.fine_points.shape[0]:
+        near = lattice.nodes_near(sizing.fine_points, sizing.reach)[nodes]
+        h[near] = sizing(points[near])
+    reach = CORE_CLEARANCE * spacing
+    distance = np.full(nodes.size, np.inf)
+    near = lattice.nodes_near(sizing.points, reach)[nodes]
+    distance[near] = sizing.distance_to_curve(points[near], reach)
+    keep = (h >= 0.75 * spacing) & (distance >= 0.6 * h)
+    clear = np.zeros(lattice.node_count, dtype=bool)
+    large_enough = h >= lattice.circumradius * (1.0 / SIZE_FACTOR + GRADATION)
+    clear[nodes] = keep & large_enough & (distance >= CORE_CLEARANCE * h)
+    return lattice, nodes[keep], lattice.triangles_within(clear)
 
 
 def _cross(u: np.ndarray, v: np.ndarray) -> np.ndarray:
@@ -769,8 +901,11 @@ def _encroached_chords(points: np.ndarray, centres: np.ndarray, radii: np.ndarra
     if points.shape[0] == 0:
         return chord
     hits = cKDTree(points).query_ball_point(centres, radii * (1.0 - 1e-12), return_sorted=False)
-    for index, group in enumerate(hits):
-        chord[group] = index
+    lengths = np.fromiter(map(len, hits), dtype=np.int64, count=len(hits))
+    total = int(lengths.sum())
+    if total:
+        inside = np.fromiter(itertools.chain.from_iterable(hits), dtype=np.int64, count=total)
+        chord[inside] = np.repeat(np.arange(len(hits)), lengths)
     return chord
 
 
@@ -853,30 +988,76 @@ def _chord_sides(simplices: np.ndarray, boundary_count: int) -> np.ndarray:
     return result
 
 
-def _inside_triangles(
-    tri: Delaunay, chord: np.ndarray, boundary_count: int, orientation: float
-) -> np.ndarray:
-    """Indices of the Delaunay triangles inside the boundary polygon (vertices 0..B-1 in order).
+def _front_sides(simplices: np.ndarray, front: np.ndarray) -> np.ndarray:
+    """Which front edge each triangle side is, int64 (T, 3) with -1 for none.
 
-    Triangles are grouped into connected regions that no boundary chord
-    separates; a region is inside when it lies to the interior side of a chord,
-    outside when it lies to the exterior side of one or on the convex hull.
-    A region on both sides means the polygon is not simple (a refinement bug).
+    Side k of a triangle is opposite its vertex k; `front` (F, 2) holds the
+    front edges as pairs of point indices (either direction matches).
+    """
+    result = np.full(simplices.shape, -1, dtype=np.int64)
+    if front.shape[0] == 0:
+        return result
+    size = simplices.max() + 1
+    front_keys = np.minimum(front[:, 0], front[:, 1]) * size + np.maximum(front[:, 0], front[:, 1])
+    order = np.argsort(front_keys)
+    sorted_keys = front_keys[order]
+    for k in range(3):
+        u = simplices[:, (k + 1) % 3]
+        v = simplices[:, (k + 2) % 3]
+        keys = np.minimum(u, v) * size + np.maximum(u, v)
+        position = np.minimum(np.searchsorted(sorted_keys, keys), sorted_keys.size - 1)
+        match = sorted_keys[position] == keys
+        result[match, k] = order[position[match]]
+    return result
+
+
+def _inside_triangles(
+    tri: Delaunay,
+    chord: np.ndarray,
+    boundary_count: int,
+    orientation: float,
+    front: np.ndarray,
+    front_side: np.ndarray,
+) -> np.ndarray:
+    """Indices of the Delaunay triangles of the band: inside the boundary polygon, outside the core.
+
+    Triangles are grouped into connected regions that no boundary chord or front
+    edge separates; a region is inside when it lies to the interior side of a
+    chord or to the right of a front edge (the core is on its left), outside when
+    it lies on the other side of one or on the convex hull.  A region on both
+    sides means the polygon is not simple (a refinement bug).
+
+    Parameters
+    ----------
+    chord : ndarray of shape (T, 3)
+        `_chord_sides` of the triangles.
+    front : ndarray of shape (F, 2)
+        Front edges (tail, head) as point indices, the core on their left.
+    front_side : ndarray of shape (T, 3)
+        `_front_sides` of the triangles.
     """
     simplices = tri.simplices
     neighbours = tri.neighbors
     points = tri.points
     count = simplices.shape[0]
     is_chord = chord >= 0
-    join = ~is_chord & (neighbours >= 0)
+    is_front = front_side >= 0
+    join = ~is_chord & ~is_front & (neighbours >= 0)
     rows = np.nonzero(join)[0]
     graph = coo_matrix((np.ones(rows.shape[0]), (rows, neighbours[join])), shape=(count, count))
     _, labels = connected_components(graph, directed=False)
     a = np.where(is_chord, chord, 0)
     b = (a + 1) % boundary_count
     side = orientation * _cross(points[b] - points[a], points[simplices] - points[a])
-    interior_side = (is_chord & (side > 0)).any(axis=1)
-    exterior_side = ((is_chord & (side < 0)) | (~is_chord & (neighbours < 0))).any(axis=1)
+    edge = np.zeros((*simplices.shape, 2), dtype=np.int64)
+    if front.shape[0]:
+        edge = front[np.where(is_front, front_side, 0)]
+    tail, head = points[edge[..., 0]], points[edge[..., 1]]
+    core_side = _cross(head - tail, points[simplices] - tail) > 0
+    interior_side = (is_chord & (side > 0)).any(axis=1) | (is_front & ~core_side).any(axis=1)
+    exterior_side = (
+        (is_chord & (side < 0)) | (is_front & core_side) | (~is_chord & ~is_front & (neighbours < 0))
+    ).any(axis=1)
     inside_label = np.zeros(labels.max() + 1, dtype=bool)
     inside_label[labels[interior_side]] = True
     outside_label = np.zeros(labels.max() + 1, dtype=bool)

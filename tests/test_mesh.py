@@ -6,8 +6,9 @@ from conftest import l_polygon as l_shape
 from conftest import near_cusp, pixel_blob, wavy_star
 
 import core
+from core import examples
 from core.closest_point import distance_to_curve
-from core.mesh import Mesh, folded_triangles, triangulate
+from core.mesh import Mesh, _Refinement, _Sizing, folded_triangles, triangulate
 
 
 def starfish(arms=5, n=20):
@@ -245,6 +246,84 @@ def test_mesh_arrays_are_read_only():
         mesh.vertices[0, 0] = 1.0
     assert mesh.triangles.dtype == np.int64 and mesh.boundary.dtype == np.int64
     assert mesh.interior.size == mesh.vertices.shape[0] - mesh.boundary.size
+
+
+# ---------------------------------------------------------------- the lattice core
+
+
+def test_dense_mesh_is_the_lattice_away_from_the_curve_with_the_expected_vertex_count():
+    curve = core.ClosedBSpline(examples.blob() * 1000.0)
+    count = 20_000  # as `python -m app bench` picks max_edge from a vertex count
+    max_edge = np.sqrt(2.0 * abs(curve.area) / (np.sqrt(3.0) * count))
+    mesh = triangulate(curve, max_edge=max_edge)
+    assert 0.98 * count <= mesh.vertices.shape[0] <= 1.04 * count
+    assert np.degrees(mesh.angles()).min() >= 20.0
+    sides = np.linalg.norm(
+        mesh.vertices[mesh.triangles] - mesh.vertices[np.roll(mesh.triangles, 1, axis=1)], axis=2
+    )
+    equilateral = (np.abs(sides - max_edge) <= 1e-9 * max_edge).all(axis=1)
+    assert equilateral.mean() >= 0.9
+    assert_disk_bounded_by_the_chords(mesh)
+
+
+def refined(points):
+    curve = core.ClosedBSpline(points)
+    mesher = _Refinement(curve, _Sizing(curve, curve.diameter / 50))
+    mesher.refine()
+    return curve, mesher
+
+
+def assert_valid_mesh(curve, mesh):
+    assert np.all(mesh.signed_areas() > 0)
+    assert_disk_bounded_by_the_chords(mesh)
+    assert_simple_boundary_polygon(mesh)
+    assert curve.contains(mesh.vertices[mesh.interior]).all()
+    assert curve.contains(mesh.vertices[mesh.triangles].mean(axis=1)).all()
+    assert np.unique(mesh.vertices, axis=0).shape[0] == mesh.vertices.shape[0]
+
+
+def test_a_point_entering_a_core_circumcircle_moves_that_triangle_to_the_band():
+    curve, mesher = refined(pixel_blob())
+    kept = mesher.core_kept.sum()
+    _, _, front = mesher._front()
+    tail, head = mesher.nodes[front[0]]
+    right = np.array([head[1] - tail[1], tail[0] - head[0]])  # the band side: the core is on the left
+    point = 0.5 * (tail + head) + 0.05 * right  # inside the circumcircle of the core triangle
+    mesher.steiner = np.vstack([mesher.steiner, point])
+    mesher.conformed = False
+    mesher.refine()
+    assert mesher.core_kept.sum() < kept
+    mesh = mesher.mesh()
+    assert np.linalg.norm(mesh.vertices - point, axis=1).min() == 0.0
+    assert_valid_mesh(curve, mesh)
+    assert np.degrees(mesh.angles()).min() >= 20.0
+
+
+def test_a_core_corner_encroaching_a_boundary_edge_leaves_the_core_and_is_deleted():
+    curve, mesher = refined(pixel_blob())
+    band, fixed, _ = mesher._front()
+    corner = band[fixed[band]][0]
+    a, b = mesher.boundary_points[:2]
+    mesher.nodes[corner] = 0.5 * (a + b) + 0.01 * np.array([b[1] - a[1], a[0] - b[0]]) * mesher.orientation
+    mesher.conformed = False
+    mesher.refine()
+    assert not mesher.alive[corner]
+    assert not np.isin(mesher.core_corners[mesher.core_kept], corner).any()
+    assert_valid_mesh(curve, mesher.mesh())
+
+
+def test_a_point_on_a_band_node_is_dropped():
+    curve, mesher = refined(pixel_blob())
+    band, fixed, _ = mesher._front()
+    node = mesher.nodes[band[~fixed[band]][0]]
+    mesher.steiner = np.vstack([mesher.steiner, node])
+    mesher.conformed = False
+    mesher.refine()
+    points = mesher.band_points
+    assert np.unique(points, axis=0).shape[0] == points.shape[0]
+    mesh = mesher.mesh()
+    assert_valid_mesh(curve, mesh)
+    assert np.linalg.norm(mesh.vertices - node, axis=1).min() == 0.0
 
 
 # ---------------------------------------------------------------- near-cusps

@@ -1,0 +1,170 @@
+"""The triangular lattice of equilateral triangles that meshes the inside of a domain in one step.
+
+`core.triangulate` covers the part of the domain away from the curve with this
+lattice (its triangles are known, no Delaunay triangulation needed) and refines
+only the band between the lattice and the curve.  Everything here is index
+arithmetic on (row, column) pairs, vectorised over arrays.
+
+Node (r, c) is at ``origin + ((c + (r % 2) / 2) s, r s sqrt(3) / 2)`` for the
+spacing s; its id is ``r * columns + c``.  Cell (r, c), for ``r < rows - 1`` and
+``c < columns - 1``, holds two triangles, apex up (kind 0) and apex down (kind 1),
+with id ``2 (r (columns - 1) + c) + kind``.  Coordinates are (x, y), y up.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+SQRT3 = math.sqrt(3.0)
+
+
+class HexLattice:
+    """A triangular lattice of spacing `spacing` covering the box [low, high].
+
+    Parameters
+    ----------
+    low, high : array_like of shape (2,)
+        Corners of the box; the first node is half a spacing inside `low`.
+    spacing : float
+        Edge length of the triangles.
+    """
+
+    def __init__(self, low, high, spacing: float):
+        low = np.asarray(low, dtype=np.float64)
+        high = np.asarray(high, dtype=np.float64)
+        self.spacing = float(spacing)
+        self.height = 0.5 * SQRT3 * self.spacing  # between rows
+        self.origin = low + 0.5 * self.spacing
+        self.rows = max(int((high[1] - self.origin[1]) // self.height) + 1, 1)
+        self.columns = max(int((high[0] - self.origin[0]) // self.spacing) + 1, 1)
+        self.node_count = self.rows * self.columns
+        self.triangle_count = 2 * max(self.rows - 1, 0) * max(self.columns - 1, 0)
+
+    @property
+    def circumradius(self) -> float:
+        """Radius of the circumcircle of every triangle, s / sqrt(3)."""
+        return self.spacing / SQRT3
+
+    def node_points(self, nodes: np.ndarray) -> np.ndarray:
+        """Positions (M, 2) of the nodes with ids `nodes` (M,)."""
+        r, c = np.divmod(np.asarray(nodes, dtype=np.int64), self.columns)
+        result = np.empty((r.size, 2))
+        result[:, 0] = self.origin[0] + (c + 0.5 * (r & 1)) * self.spacing
+        result[:, 1] = self.origin[1] + r * self.height
+        return result
+
+    def inside(self, polygon: np.ndarray) -> np.ndarray:
+        """bool (rows * columns,): the nodes inside the closed polygon (B, 2), by crossing parity.
+
+        Each polygon edge crosses the rows between its ends' heights; a node is
+        inside when an odd number of crossings of its row lie to its right.
+        """
+        polygon = np.asarray(polygon, dtype=np.float64)
+        following = np.roll(polygon, -1, axis=0)
+        low_y = np.minimum(polygon[:, 1], following[:, 1])
+        high_y = np.maximum(polygon[:, 1], following[:, 1])
+        first = np.clip(np.floor((low_y - self.origin[1]) / self.height).astype(np.int64), 0, self.rows)
+        last = np.clip(np.ceil((high_y - self.origin[1]) / self.height).astype(np.int64) + 1, 0, self.rows)
+        spans = last - first
+        edge = np.repeat(np.arange(polygon.shape[0]), spans)
+        row = np.repeat(first - np.cumsum(spans) + spans, spans) + np.arange(spans.sum())
+        y = self.origin[1] + row * self.height
+        a, b = polygon[edge], following[edge]
+        crossing = (a[:, 1] > y) != (b[:, 1] > y)
+        edge, row, y, a, b = edge[crossing], row[crossing], y[crossing], a[crossing], b[crossing]
+        x = a[:, 0] + (y - a[:, 1]) * (b[:, 0] - a[:, 0]) / (b[:, 1] - a[:, 1])
+        # One sorted key per crossing: its row first, then x.
+        width = (self.columns + 2) * self.spacing + np.ptp(np.append(x, self.origin[0]))
+        offset = min(self.origin[0], x.min(initial=self.origin[0])) - self.spacing
+        keys = np.sort(row * width + (x - offset))
+        row_end = np.searchsorted(keys, (np.arange(self.rows) + 1) * width)
+        nodes = np.arange(self.node_count)
+        node_row = nodes // self.columns
+        node_x = self.node_points(nodes)[:, 0]
+        right = row_end[node_row] - np.searchsorted(keys, node_row * width + (node_x - offset), side="right")
+        return right % 2 == 1
+
+    def triangle_corners(self, triangles: np.ndarray) -> np.ndarray:
+        """Node ids (M, 3) of the corners of triangles `triangles` (M,), counter-clockwise (y up)."""
+        cell, kind = np.divmod(np.asarray(triangles, dtype=np.int64), 2)
+        r, c = np.divmod(cell, self.columns - 1)
+        p = r & 1  # odd rows are shifted half a spacing to the right
+        below = r * self.columns + c
+        above = below + self.columns
+        up = kind == 0
+        result = np.empty((up.size, 3), dtype=np.int64)
+        result[:, 0] = np.where(up, below, below + 1 - p)
+        result[:, 1] = np.where(up, below + 1, above + 1)
+        result[:, 2] = np.where(up, above + p, above)
+        return result
+
+    def triangles_within(self, nodes: np.ndarray) -> np.ndarray:
+        """bool (triangle_count,): the triangles whose three corners are all in `nodes`.
+
+        Parameters
+        ----------
+        nodes : ndarray of shape (node_count,), bool
+        """
+        grid = np.asarray(nodes, dtype=bool).reshape(self.rows, self.columns)
+        bottom_left, bottom_right = grid[:-1, :-1], grid[:-1, 1:]
+        top_left, top_right = grid[1:, :-1], grid[1:, 1:]
+        odd = (np.arange(self.rows - 1) % 2 == 1)[:, None]
+        up = bottom_left & bottom_right & np.where(odd, top_right, top_left)
+        down = np.where(odd, bottom_left, bottom_right) & top_right & top_left
+        return np.stack([up, down], axis=-1).ravel()
+
+    def nodes_near(self, points: np.ndarray, radius: float) -> np.ndarray:
+        """bool (node_count,): True for every node within `radius` of one of `points` (M, 2), and
+        for some nodes a little farther (whole rows and columns of a window around each point)."""
+        near = np.zeros((self.rows, self.columns), dtype=bool)
+        if points.shape[0] == 0:
+            return near.ravel()
+        local = points - self.origin
+        row = np.floor(local[:, 1] / self.height).astype(np.int64)
+        column = np.floor(local[:, 0] / self.spacing).astype(np.int64)
+        # Only cells that a point falls in or next to: points closer than a spacing apart
+        # mark the same window, so one point per cell is enough.
+        cells = np.unique(np.stack([row, column], axis=1), axis=0)
+        rows = int(math.ceil(radius / self.height)) + 1
+        columns = int(math.ceil(radius / self.spacing)) + 1
+        dr, dc = np.meshgrid(np.arange(-rows, rows + 1), np.arange(-columns, columns + 1), indexing="ij")
+        r = (cells[:, 0, None] + dr.ravel()).ravel()
+        c = (cells[:, 1, None] + dc.ravel()).ravel()
+        valid = (r >= 0) & (r < self.rows) & (c >= 0) & (c < self.columns)
+        near[r[valid], c[valid]] = True
+        return near.ravel()
+
+    def circumdisk_hits(self, points: np.ndarray, selected: np.ndarray) -> np.ndarray:
+        """Ids of the `selected` triangles whose open circumdisk holds one of `points` (M, 2).
+
+        Parameters
+        ----------
+        selected : ndarray of shape (triangle_count,), bool
+            The triangles to test.
+
+        Returns
+        -------
+        ndarray of shape (H,), int64, sorted and unique.
+        """
+        if points.shape[0] == 0 or self.triangle_count == 0:
+            return np.zeros(0, dtype=np.int64)
+        local = points - self.origin
+        r0 = np.floor(local[:, 1] / self.height).astype(np.int64)
+        c0 = np.floor(local[:, 0] / self.spacing).astype(np.int64)
+        # A disk of radius s / sqrt(3) around a point reaches the centres of triangles
+        # in the rows r0 - 1 .. r0 + 1 and the columns c0 - 2 .. c0 + 1 only.
+        dr, dc, kind = np.meshgrid(np.arange(-1, 2), np.arange(-2, 2), np.arange(2), indexing="ij")
+        r = r0[:, None] + dr.ravel()[None, :]
+        c = c0[:, None] + dc.ravel()[None, :]
+        kind = np.broadcast_to(kind.ravel()[None, :], r.shape)
+        valid = (r >= 0) & (r < self.rows - 1) & (c >= 0) & (c < self.columns - 1)
+        p = r % 2
+        centre_x = np.where(kind == 0, c + 0.5 + 0.5 * p, c + 1.0 - 0.5 * p) * self.spacing
+        centre_y = (r + np.where(kind == 0, 1.0 / 3.0, 2.0 / 3.0)) * self.height
+        squared = (local[:, None, 0] - centre_x) ** 2 + (local[:, None, 1] - centre_y) ** 2
+        ids = 2 * (r * (self.columns - 1) + c) + kind
+        hit = valid & (squared < (self.circumradius * (1.0 - 1e-9)) ** 2)
+        hit[hit] = selected[ids[hit]]
+        return np.unique(ids[hit])
