@@ -29,60 +29,58 @@ from numba import njit
 from core import solver
 
 
-@njit(cache=True, error_model="numpy")
-def _weight_derivative(
-    kernel, power, shift, px, py, tx, ty, sx, sy, w, x, y, j, ux, uy, inv_r, r_min, constant
-):
-    """a~_j and grad a~_j (a~ as in `solver._weights`, up to one factor common to all j).
+@njit(cache=True, error_model="numpy", inline="always")
+def _weight_derivative(kernel, power, px, py, tx, ty, sx, sy, w, x, y, ux, uy, r_inv, r_min, omega, constant):
+    """a~_j and grad a~_j of one node (a~ as in `solver._weights`, up to one factor common to all j).
 
-    `constant` is the shift of Eq. 19-20 in the units of q = r_min / r (its
-    gradient is added by the caller).  Returns (a~, da~/dx, da~/dy).
+    Scalars only (no array arguments: a call per node must not touch reference
+    counts).  `omega` is q^k, q = r_min / r, for the power kernels, and `constant`
+    the shift of Eq. 19-20 in the same units (its gradient is added by the caller).
+    Returns (a~, da~/dx, da~/dy).
     """
     if kernel == solver.MAXIMUM_LIKELIHOOD:
-        return w[j], 0.0, 0.0
-    r_inv = inv_r[j]
+        return w, 0.0, 0.0
     if kernel == solver.PSEUDO_HARMONIC:
-        value = w[j] * r_min * r_inv
-        return value, value * ux[j] * r_inv, value * uy[j] * r_inv
+        value = w * r_min * r_inv
+        return value, value * ux * r_inv, value * uy * r_inv
     if kernel == solver.POWER or kernel == solver.HARMONIC_LIKE:
         k = 4.0 if kernel == solver.HARMONIC_LIKE else power
-        omega = (r_min * r_inv) ** k
-        slope = w[j] * k * omega * r_inv  # |grad q^k| w: grad r = -u
-        return w[j] * (omega + constant), slope * ux[j], slope * uy[j]
+        slope = w * k * omega * r_inv  # |grad q^k| w: grad r = -u
+        return w * (omega + constant), slope * ux, slope * uy
     if kernel == solver.MODIFIED_MEAN_VALUE or kernel == solver.MODIFIED_MEAN_VALUE_SQUARED:
         # omega = |(p - x) x p'| / r^2 (Eq. 23): grad (p - x) x p' = (-p'_y, p'_x), grad r = -u.
-        turn = (ux[j] * ty[j] - uy[j] * tx[j]) * r_inv * r_min  # signed (u x p') / r
+        turn = (ux * ty - uy * tx) * r_inv * r_min  # signed (u x p') / r
         sign = 1.0 if turn >= 0.0 else -1.0
-        gx = sign * (-ty[j]) * r_inv * r_inv * r_min + 2.0 * abs(turn) * ux[j] * r_inv
-        gy = sign * tx[j] * r_inv * r_inv * r_min + 2.0 * abs(turn) * uy[j] * r_inv
+        gx = sign * (-ty) * r_inv * r_inv * r_min + 2.0 * abs(turn) * ux * r_inv
+        gy = sign * tx * r_inv * r_inv * r_min + 2.0 * abs(turn) * uy * r_inv
         if kernel == solver.MODIFIED_MEAN_VALUE:
-            return w[j] * abs(turn), w[j] * gx, w[j] * gy
-        return w[j] * turn * turn, 2.0 * w[j] * abs(turn) * gx, 2.0 * w[j] * abs(turn) * gy
+            return w * abs(turn), w * gx, w * gy
+        return w * turn * turn, 2.0 * w * abs(turn) * gx, 2.0 * w * abs(turn) * gy
     if kernel == solver.MEAN_VALUE:
         # mu = (p - x) x p' / r^3 (Eq. 5).
         q = r_min * r_inv
-        cross = (ux[j] * ty[j] - uy[j] * tx[j]) * q * q
-        gx = -ty[j] * r_inv * q * q + 3.0 * cross * ux[j] * r_inv
-        gy = tx[j] * r_inv * q * q + 3.0 * cross * uy[j] * r_inv
-        return w[j] * cross, w[j] * gx, w[j] * gy
+        cross = (ux * ty - uy * tx) * q * q
+        gx = -ty * r_inv * q * q + 3.0 * cross * ux * r_inv
+        gy = tx * r_inv * q * q + 3.0 * cross * uy * r_inv
+        return w * cross, w * gx, w * gy
     # WACHSPRESS or LAPLACE (Sec. 1.1), a curve node.
-    speed2 = tx[j] * tx[j] + ty[j] * ty[j]
-    dx = px[j] - x
-    dy = py[j] - y
-    cross = dx * ty[j] - dy * tx[j]
-    curvature = tx[j] * sy[j] - ty[j] * sx[j]
+    speed2 = tx * tx + ty * ty
+    dx = px - x
+    dy = py - y
+    cross = dx * ty - dy * tx
+    curvature = tx * sy - ty * sx
     if speed2 == 0.0 or cross == 0.0:
         return 0.0, 0.0, 0.0
-    cx = -ty[j]
-    cy = tx[j]
+    cx = -ty
+    cy = tx
     if kernel == solver.WACHSPRESS:
         mu = curvature / (cross * cross)
-        return w[j] * mu, w[j] * (-2.0 * mu * cx / cross), w[j] * (-2.0 * mu * cy / cross)
+        return w * mu, w * (-2.0 * mu * cx / cross), w * (-2.0 * mu * cy / cross)
     r2 = dx * dx + dy * dy
     mu = (2.0 * speed2 * cross - r2 * curvature) / (cross * cross)
     gx = (2.0 * speed2 * cx + 2.0 * curvature * dx) / (cross * cross) - 2.0 * mu * cx / cross
     gy = (2.0 * speed2 * cy + 2.0 * curvature * dy) / (cross * cross) - 2.0 * mu * cy / cross
-    return w[j] * mu, w[j] * gx, w[j] * gy
+    return w * mu, w * gx, w * gy
 
 
 @njit(cache=True, error_model="numpy")
@@ -115,43 +113,63 @@ def _corner_derivative(kernel, corners, c, bx, by, x, y):
     return -mass, -gx, -gy
 
 
+@njit(cache=True, error_model="numpy", inline="always")
+def _power(q, k):
+    """q^k, by multiplication for the powers 3 and 4 of the named kernels."""
+    if k == 3.0:
+        return q * q * q
+    if k == 4.0:
+        q2 = q * q
+        return q2 * q2
+    return q**k
+
+
 @njit(cache=True, error_model="numpy")
-def _shift(kernel, power, shift, w, inv_r, ux, uy, r_min, count):
-    """The shift of Eq. 19-20 (q = r_min / r units) and its gradient: (c, dc/dx, dc/dy)."""
-    mode = solver.SHIFT_INTEGRAL if kernel == solver.HARMONIC_LIKE else shift
-    if not (kernel == solver.POWER or kernel == solver.HARMONIC_LIKE) or mode == solver.SHIFT_NONE:
+def _shift(kernel, power, shift, w, inv_r, ux, uy, r_min, count, omega):
+    """omega_j = q_j^k (into `omega`) and the shift of Eq. 19-20 with its gradient: (c, dc/dx, dc/dy).
+
+    Only for the power kernels (Eq. 19-20), in the units of q = r_min / r.
+    """
+    if not (kernel == solver.POWER or kernel == solver.HARMONIC_LIKE):
         return 0.0, 0.0, 0.0
+    mode = solver.SHIFT_INTEGRAL if kernel == solver.HARMONIC_LIKE else shift
     k = 4.0 if kernel == solver.HARMONIC_LIKE else power
     integral = 0.0
     gx = 0.0
     gy = 0.0
     length = 0.0
     for j in range(count):
-        omega = (r_min * inv_r[j]) ** k
-        integral += w[j] * omega
-        slope = w[j] * k * omega * inv_r[j]
+        value = _power(r_min * inv_r[j], k)
+        omega[j] = value
+        integral += w[j] * value
+        slope = w[j] * k * value * inv_r[j]
         gx += slope * ux[j]
         gy += slope * uy[j]
         length += w[j]
     if mode == solver.SHIFT_MEAN:
         return integral / length, gx / length, gy / length
-    return integral, gx, gy
+    if mode == solver.SHIFT_INTEGRAL:
+        return integral, gx, gy
+    return 0.0, 0.0, 0.0
 
 
 @njit(cache=True, error_model="numpy")
 def _differentiate(
-    kernel, power, shift, px, py, tx, ty, sx, sy, w, t, ux, uy, inv_r, a, s, total, nodes, corners,
-    x, y, r_min, row, row_x, row_y, mode, period, out_step, out_count, control_count,
+    kernel, power, shift, px, py, tx, ty, sx, sy, w, ux, uy, inv_r, a, s, inv_s, total, nodes, corners,
+    x, y, r_min, omega, grad_x, grad_y,
 ):  # fmt: skip
-    """Accumulate lambda_j and grad lambda_j of the `total` nodes into row, row_x, row_y.
+    """grad lambda_j of the `total` nodes into grad_x, grad_y (each (total,) or longer).
 
     On entry `a` holds lambda_j (normalised, as `solver._finish` leaves it), `s`
-    holds s_j = 1 + phi . u_j for the maximum-likelihood family; nodes >= `nodes`
-    are corner point masses (three-point family).  See `core.gradients`.
+    and `inv_s` hold s_j = 1 + phi . u_j and 1 / s_j for the maximum-likelihood
+    family; nodes >= `nodes` are corner point masses (three-point family).
+    `omega` is scratch for q_j^k of the power kernels.  See
+    `core.gradients` for the formulas.
     """
     newton = kernel <= solver.MODIFIED_MEAN_VALUE_SQUARED
-    constant, shift_x, shift_y = _shift(kernel, power, shift, w, inv_r, ux, uy, r_min, nodes)
-    # Pass 1: sums of a~ and b, H, K, v, D~ and the least squares of phi from s - 1 = phi . u.
+    constant, shift_x, shift_y = _shift(kernel, power, shift, w, inv_r, ux, uy, r_min, nodes, omega)
+    # Pass 1: grad a~_j (kept in grad_x, grad_y), the sums of a~ and b, H, K, v, D~ and the
+    # least squares of phi from s_j - 1 = phi . u_j.
     sum_a = 0.0
     sum_b = 0.0
     hxx = hxy = hyy = 0.0
@@ -163,22 +181,24 @@ def _differentiate(
     for j in range(total):
         if j < nodes:
             value, gx, gy = _weight_derivative(
-                kernel, power, shift, px, py, tx, ty, sx, sy, w, x, y, j, ux, uy, inv_r, r_min, constant
-            )
+                kernel, power, px[j], py[j], tx[j], ty[j], sx[j], sy[j], w[j], x, y, ux[j], uy[j], inv_r[j],
+                r_min, omega[j], constant,
+            )  # fmt: skip
             gx += w[j] * shift_x
             gy += w[j] * shift_y
         else:
             value, gx, gy = _corner_derivative(kernel, corners, j - nodes, px[j], py[j], x, y)
+        grad_x[j] = gx
+        grad_y[j] = gy
         sum_a += value
         if not newton:
             continue
         u0 = ux[j]
         u1 = uy[j]
-        inv = 1.0 / s[j]
+        inv = inv_s[j]
         lam = a[j] * inv
-        b = a[j] * s[j] / inv_r[j]
-        sum_b += b
         hb = lam / inv_r[j]
+        sum_b += hb * s[j] * s[j]
         hxx += hb * u0 * u0
         hxy += hb * u0 * u1
         hyy += hb * u1 * u1
@@ -196,59 +216,101 @@ def _differentiate(
         lyy += u1 * u1
         rx += u0 * (s[j] - 1.0)
         ry += u1 * (s[j] - 1.0)
-    phix = phiy = 0.0
-    fxx = fxy = fyx = fyy = 0.0
-    if newton:
-        kappa = sum_b / sum_a
-        normal = lxx * lyy - lxy * lxy
-        phix = (lyy * rx - lxy * ry) / normal
-        phiy = (lxx * ry - lxy * rx) / normal
-        # dg/dx, column beta = kappa D~ e_beta - e_beta + K e_beta + v phi_beta.
-        mxx = kappa * dxx - 1.0 + kxx + vx * phix
-        mxy = kappa * dxy + kxy + vx * phiy
-        myx = kappa * dyx + kxy + vy * phix
-        myy = kappa * dyy - 1.0 + kyy + vy * phiy
-        determinant = hxx * hyy - hxy * hxy
-        fxx = (hyy * mxx - hxy * myx) / determinant
-        fxy = (hyy * mxy - hxy * myy) / determinant
-        fyx = (hxx * myx - hxy * mxx) / determinant
-        fyy = (hxx * myy - hxy * mxy) / determinant
-    else:
-        kappa = 1.0 / sum_a
-    # Pass 2: dc_j, accumulated; the normalisation's share is removed below.
-    total_x = 0.0
-    total_y = 0.0
+    if not newton:
+        # lambda_j = m_j / M: grad lambda_j = grad m_j / M - lambda_j sum_k grad m_k / M.
+        _normalise(grad_x, grad_y, a, total, 1.0 / sum_a)
+        return
+    kappa = sum_b / sum_a
+    normal = lxx * lyy - lxy * lxy
+    phix = (lyy * rx - lxy * ry) / normal
+    phiy = (lxx * ry - lxy * rx) / normal
+    # dg/dx (*), column beta: kappa D~ e_beta - e_beta + K e_beta + v phi_beta.
+    mxx = kappa * dxx - 1.0 + kxx + vx * phix
+    mxy = kappa * dxy + kxy + vx * phiy
+    myx = kappa * dyx + kxy + vy * phix
+    myy = kappa * dyy - 1.0 + kyy + vy * phiy
+    determinant = hxx * hyy - hxy * hxy
+    fxx = (hyy * mxx - hxy * myx) / determinant
+    fxy = (hyy * mxy - hxy * myy) / determinant
+    fyx = (hxx * myx - hxy * mxx) / determinant
+    fyy = (hxx * myy - hxy * mxy) / determinant
+    # Pass 2: dc_j = grad b_j / (r_j s_j) + lambda_j (u_j / r_j - grad s_j / s_j).
     for j in range(total):
-        if j < nodes:
-            _, gx, gy = _weight_derivative(
-                kernel, power, shift, px, py, tx, ty, sx, sy, w, x, y, j, ux, uy, inv_r, r_min, constant
-            )
-            gx += w[j] * shift_x
-            gy += w[j] * shift_y
-        else:
-            _, gx, gy = _corner_derivative(kernel, corners, j - nodes, px[j], py[j], x, y)
-        gx *= kappa
-        gy *= kappa
+        u0 = ux[j]
+        u1 = uy[j]
+        r_inv = inv_r[j]
+        inv = inv_s[j]
         lam = a[j]
-        if newton:
-            u0 = ux[j]
-            u1 = uy[j]
-            r_inv = inv_r[j]
-            inv = 1.0 / s[j]
-            # grad s_j at the moving phi: Phi^T u_j + d(phi . u_j)/dx, du/dx = -(I - u u^T) / r.
-            dsx = fxx * u0 + fyx * u1 - (phix - (s[j] - 1.0) * u0) * r_inv
-            dsy = fxy * u0 + fyy * u1 - (phiy - (s[j] - 1.0) * u1) * r_inv
-            gx = gx * r_inv * inv + lam * (u0 * r_inv - dsx * inv)
-            gy = gy * r_inv * inv + lam * (u1 * r_inv - dsy * inv)
-        total_x += gx
-        total_y += gy
+        excess = s[j] - 1.0
+        # grad s_j at the moving phi: Phi^T u_j + d(phi . u_j)/dx, du/dx = -(I - u u^T) / r.
+        dsx = fxx * u0 + fyx * u1 - (phix - excess * u0) * r_inv
+        dsy = fxy * u0 + fyy * u1 - (phiy - excess * u1) * r_inv
+        grad_x[j] = kappa * grad_x[j] * r_inv * inv + lam * (u0 * r_inv - dsx * inv)
+        grad_y[j] = kappa * grad_y[j] * r_inv * inv + lam * (u1 * r_inv - dsy * inv)
+    _normalise(grad_x, grad_y, a, total, 1.0)
+
+
+@njit(cache=True, error_model="numpy")
+def _normalise(grad_x, grad_y, a, total, scale):
+    """grad_j <- scale grad_j - a_j sum_k scale grad_k: the derivative of dividing by the sum."""
+    sum_x = 0.0
+    sum_y = 0.0
+    for j in range(total):
+        grad_x[j] *= scale
+        grad_y[j] *= scale
+        sum_x += grad_x[j]
+        sum_y += grad_y[j]
+    for j in range(total):
+        grad_x[j] -= a[j] * sum_x
+        grad_y[j] -= a[j] * sum_y
+
+
+@njit(cache=True, error_model="numpy")
+def _accumulate_nodes(
+    a, grad_x, grad_y, t, total, period, mode, out_step, out_count, control_count, row, row_x, row_y
+):
+    """Add lambda_j and grad lambda_j at the nodes' parameters t_j into the output rows."""
+    for j in range(total):
         tj = t[j] - math.floor(t[j] / period) * period
-        solver._accumulate(row, mode, lam, tj, out_step, out_count, control_count)
-        solver._accumulate(row_x, mode, gx, tj, out_step, out_count, control_count)
-        solver._accumulate(row_y, mode, gy, tj, out_step, out_count, control_count)
-    for i in range(row.shape[0]):
-        row_x[i] -= total_x * row[i]
-        row_y[i] -= total_y * row[i]
+        if mode == solver.OUTPUT_SAMPLES:
+            solver._accumulate(row, mode, a[j], tj, out_step, out_count, control_count)
+            solver._accumulate(row_x, mode, grad_x[j], tj, out_step, out_count, control_count)
+            solver._accumulate(row_y, mode, grad_y[j], tj, out_step, out_count, control_count)
+            continue
+        # The three B-spline basis functions non-zero at t_j (Sec. 4.3), as in `solver._accumulate`.
+        segment = int(math.floor(tj))
+        if segment >= control_count:
+            segment = control_count - 1
+        u = tj - segment
+        b0 = 0.5 * (1.0 - u) * (1.0 - u)
+        b1 = 0.5 * (-2.0 * u * u + 2.0 * u + 1.0)
+        b2 = 0.5 * u * u
+        before = segment - 1 if segment > 0 else control_count - 1
+        after = segment + 1 if segment + 1 < control_count else 0
+        for out, value in ((row, a[j]), (row_x, grad_x[j]), (row_y, grad_y[j])):
+            out[before] += value * b0
+            out[segment] += value * b1
+            out[after] += value * b2
+
+
+@njit(cache=True, error_model="numpy")
+def _accumulate_samples(a, grad_x, grad_y, count, basis0, basis1, basis2, control_count, row, row_x, row_y):
+    """Fold lambda_k and grad lambda_k at the N uniform samples onto the B-spline basis, span by span."""
+    per = count // control_count
+    for i in range(control_count):
+        before = i - 1 if i > 0 else control_count - 1
+        after = i + 1 if i + 1 < control_count else 0
+        for out, values in ((row, a), (row_x, grad_x), (row_y, grad_y)):
+            s0 = 0.0
+            s1 = 0.0
+            s2 = 0.0
+            for k in range(i * per, (i + 1) * per):
+                s0 += values[k] * basis0[k]
+                s1 += values[k] * basis1[k]
+                s2 += values[k] * basis2[k]
+            out[before] += s0
+            out[i] += s1
+            out[after] += s2
 
 
 @njit(cache=True, error_model="numpy")
@@ -264,7 +326,7 @@ def _gradient_point(x, y, settings, curve, geometry, row, row_x, row_y, scratch,
     window_start, window_stop, window_t, window_d = windows
     (
         sample_x, sample_y, tangent_x, tangent_y, second_x, second_y, spacing, uniform, sample_t,
-        _, _, _, step, sinh_step, out_step,
+        basis0, basis1, basis2, step, sinh_step, out_step,
     ) = curve  # fmt: skip
     (px, py, tx, ty, sx, sy, w, t, ux, uy, inv_r, a, s, inv_s, trial, trial_inv, blend) = scratch
     count = sample_x.shape[0]
@@ -315,9 +377,18 @@ def _gradient_point(x, y, settings, curve, geometry, row, row_x, row_y, scratch,
             )  # fmt: skip
             _differentiate(
                 kernel, power, shift, sample_x, sample_y, tangent_x, tangent_y, second_x, second_y,
-                uniform, sample_t, ux, uy, inv_r, a, s, total, count, corners, x, y, nearest,
-                row, row_x, row_y, mode, period, out_step, out_count, control_count,
+                uniform, ux, uy, inv_r, a, s, inv_s, total, count, corners, x, y, nearest, blend, trial,
+                trial_inv,
             )  # fmt: skip
+            if mode == solver.OUTPUT_BASIS:
+                _accumulate_samples(
+                    a, trial, trial_inv, count, basis0, basis1, basis2, control_count, row, row_x, row_y
+                )
+            else:
+                _accumulate_nodes(
+                    a, trial, trial_inv, sample_t, total, period, mode, out_step, out_count, control_count,
+                    row, row_x, row_y,
+                )  # fmt: skip
             return iterations, status, residual
         nodes = 0
         for k in range(count):
@@ -379,9 +450,12 @@ def _gradient_point(x, y, settings, curve, geometry, row, row_x, row_y, scratch,
         px, py, w, step, x, y, tolerance * diameter,
     )  # fmt: skip
     _differentiate(
-        kernel, power, shift, px, py, tx, ty, sx, sy, w, t, ux, uy, inv_r, a, s, total, nodes, corners,
-        x, y, r_min, row, row_x, row_y, mode, period, out_step, out_count, control_count,
+        kernel, power, shift, px, py, tx, ty, sx, sy, w, ux, uy, inv_r, a, s, inv_s, total, nodes, corners,
+        x, y, r_min, blend, trial, trial_inv,
     )  # fmt: skip
+    _accumulate_nodes(
+        a, trial, trial_inv, t, total, period, mode, out_step, out_count, control_count, row, row_x, row_y
+    )
     return iterations, status, residual
 
 
