@@ -8,6 +8,9 @@ near-boundary rule, and the error messages.
 
 from __future__ import annotations
 
+import re
+import warnings
+
 import numpy as np
 import pytest
 from conftest import interior_points
@@ -174,3 +177,86 @@ def test_bad_input_is_refused_with_one_clear_message(blob, ellipse):
         core.basis_gradients(blob, [[0.0, 0.0]], kernel="wachspress")
     with pytest.raises(ValueError, match="x has 1 point"):
         core.basis_gradients(ellipse, [[np.nan, 0.0]])
+
+
+# ---------------------------------------------------------------- at mesh vertices, cached
+
+
+@pytest.fixture
+def cache_directory(tmp_path, monkeypatch):
+    directory = tmp_path / "cache"
+    monkeypatch.setenv("TRANSFINITE_CACHE_DIR", str(directory))
+    return directory
+
+
+@pytest.fixture(scope="module")
+def mesh_setup():
+    curve = core.ClosedBSpline(np.repeat(examples.starfish(), 2, axis=0))
+    return curve, core.triangulate(curve, max_edge=0.3)
+
+
+def gradient_entry(cache_directory):
+    """The path of the gradient entry (the one whose array has a trailing axis of 2)."""
+    (path,) = [path for path in cache_directory.glob("*.npz") if np.load(path)["basis"].ndim == 3]
+    return path
+
+
+def test_mesh_gradients_are_the_basis_gradients_at_the_interior_vertices(
+    mesh_setup, cache_directory, monkeypatch
+):
+    curve, mesh = mesh_setup
+    values, gradients = core.mesh_basis_functions(curve, mesh, kernel="inverse-cube-mean", gradients=True)
+    assert gradients.shape == (mesh.vertices.shape[0], curve.n, 2)
+    np.testing.assert_array_equal(values, core.mesh_basis_functions(curve, mesh, kernel="inverse-cube-mean"))
+    interior = mesh.interior
+    np.testing.assert_array_equal(gradients[interior], core.basis_gradients(curve, mesh.vertices[interior]))
+    assert np.isnan(gradients[mesh.boundary]).all()
+    assert len(list(cache_directory.glob("*.npz"))) == 2  # the values' entry and the gradients'
+
+    def fail(*args, **kwargs):
+        raise AssertionError("recomputed instead of reading the cache")
+
+    monkeypatch.setattr(core.gradients, "basis_gradients", fail)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        _, again = core.mesh_basis_functions(curve, mesh, kernel="inverse-cube-mean", gradients=True)
+    np.testing.assert_array_equal(again, gradients)
+
+
+@pytest.mark.parametrize(
+    ("damage", "problem"),
+    [
+        ("one bit flipped", "checksum mismatch"),
+        ("rescaled, checksummed", "misses the identity"),
+        ("a column added, checksummed", "sum to 0 only within"),
+    ],
+)
+def test_a_damaged_gradient_entry_is_recomputed_and_reported(mesh_setup, cache_directory, damage, problem):
+    curve, mesh = mesh_setup
+    _, expected = core.mesh_basis_functions(curve, mesh, kernel="pseudo-harmonic", gradients=True)
+    path = gradient_entry(cache_directory)
+    with np.load(path) as file:
+        stored, errors, checksum = file["basis"], file["errors"], str(file["checksum"])
+    wrong = stored.copy()
+    if damage == "one bit flipped":
+        wrong.reshape(-1).view(np.uint64)[7] ^= np.uint64(1) << np.uint64(30)
+    elif damage == "rescaled, checksummed":
+        wrong *= 1.0 + 1e-6
+        checksum = core.cache._checksum(path.stem, wrong, errors)
+    else:
+        wrong[:, 0] += 1e-6 * np.abs(stored).max()
+        checksum = core.cache._checksum(path.stem, wrong, errors)
+    with open(path, "wb") as stream:
+        np.savez(stream, basis=wrong, errors=errors, checksum=np.array(checksum))
+    with pytest.warns(core.CacheWarning, match=re.escape(problem)):
+        _, gradients = core.mesh_basis_functions(curve, mesh, kernel="pseudo-harmonic", gradients=True)
+    np.testing.assert_array_equal(gradients, expected)
+
+
+@pytest.mark.parametrize("kernel", ["harmonic", "pgw"])
+def test_mesh_only_kernels_have_no_pointwise_gradients(mesh_setup, kernel):
+    curve, mesh = mesh_setup
+    with pytest.raises(
+        ValueError, match=f"kernel '{kernel}' has no pointwise gradients; use the per-triangle"
+    ):
+        core.mesh_basis_functions(curve, mesh, kernel=kernel, gradients=True, cache=False)
