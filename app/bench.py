@@ -31,6 +31,8 @@ from core import examples
 # The paper's Fig. 7 setting: a 12-point domain, N = 100 n samples, 26,000 points.
 SAMPLES_PER_SEGMENT = 100
 SCALE = 1000.0  # the example domain in pixels
+#: The kernel whose gradients are timed against its values (the default point kernel).
+GRADIENT_KERNEL = "inverse-cube-mean"
 #: How many of a failed child's last stderr lines `run_child` shows.
 CHILD_ERROR_LINES = 20
 
@@ -108,6 +110,7 @@ def _warm_up(curve: core.ClosedBSpline) -> None:
         for name in core.KERNELS:
             if name not in ("wachspress", "laplace"):
                 core.basis_functions(curve, x, name)
+        core.basis_gradients(curve, x, GRADIENT_KERNEL)
         core.pgw_basis(curve, x[:5])
 
 
@@ -176,10 +179,32 @@ def _point_kernels(curve, sizes, repeats, quick) -> None:
     seconds, _ = _median_time(lambda: reference_kernel(boundary, x), repeats)
     reference_rate = seconds / x.shape[0]
     _row("numpy reference (baseline)", x.shape[0], samples, seconds, "-")
+    gradient_ratio = _gradients(curve, sizes[0], samples, repeats)
     print(
         f"\nharmonic-like vs the numpy reference: {reference_rate / default_rate:.1f}x faster; "
-        f"vs PGW: {pgw_rate / default_rate:.1f}x faster (per point, same process)\n"
+        f"vs PGW: {pgw_rate / default_rate:.1f}x faster (per point, same process)"
     )
+    print(
+        f"gradients grad G vs values G ({GRADIENT_KERNEL}, same points, same process, median of "
+        f"alternating runs): {gradient_ratio:.2f}x the values' time (goal: at most 2x)\n"
+    )
+
+
+def _gradients(curve, count, samples, repeats) -> float:
+    """Time `core.basis_gradients` and `core.basis_functions` on the same points, alternating;
+    print the gradients' row and return the ratio of the medians."""
+    x = _points(curve, count, seed=1)
+    values, gradients = [], []
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        for _ in range(max(repeats, 3)):
+            for times, function in ((values, core.basis_functions), (gradients, core.basis_gradients)):
+                start = time.perf_counter()
+                function(curve, x, GRADIENT_KERNEL)
+                times.append(time.perf_counter() - start)
+    seconds = statistics.median(gradients)
+    _row(f"gradients ({GRADIENT_KERNEL})", count, samples, seconds, "-")
+    return seconds / statistics.median(values)
 
 
 def _fem_comparison(curve, vertices, repeats) -> None:

@@ -199,6 +199,16 @@ def build_parser(prog: str = "python -m app") -> argparse.ArgumentParser:
         action="store_true",
         help="allow --output to be the input image (otherwise refused)",
     )
+    warp.add_argument(
+        "--report",
+        action="store_true",
+        help="print on stdout, one line each, the deformation's smallest det J (area change), largest "
+        "conformal distortion sigma1/sigma2 (over det J > 0) and how many points fold (det J <= 0), with "
+        "where the extremes are in source-image pixels.  Point kernels: the exact Jacobian "
+        "sum_i P'_i grad G_i at the interior mesh vertices (core.basis_gradients); harmonic and pgw have "
+        "no pointwise gradients: the per-triangle Jacobian of the piecewise linear map at triangle "
+        "centroids (exact for the finite-element harmonic basis)",
+    )
     warp.set_defaults(run=_warp)
 
     fit = _command(
@@ -550,6 +560,9 @@ def _warp(args: argparse.Namespace) -> int:
         if compiling.seconds is not None:
             note(f"compiled the solver in {compiling.seconds:.1f} s (first run only; numba caches it)")
         deformed = basis @ target
+        if args.report:
+            with reported_as_input(f"{cage_source}: kernel {kernel!r}: gradients"):
+                report = _distortion_report(curve, mesh, kernel, target, deformed, params)
         folded = np.count_nonzero(core.folded_triangles(mesh, deformed))
         if folded:
             note(
@@ -567,7 +580,37 @@ def _warp(args: argparse.Namespace) -> int:
         note(f"wrote {args.output} ({size[0]}x{size[1]}) in {time.perf_counter() - started:.1f} s")
     finally:
         ctx.release()
+    if args.report:
+        print("\n".join(report))
     return EXIT_OK
+
+
+def _distortion_report(curve, mesh, kernel, target, deformed, params) -> list[str]:
+    """The lines of ``warp --report``: worst det J, worst sigma1/sigma2, folded count, with where."""
+    import core
+    from core.distortion import triangle_jacobians, vertex_jacobians, worst_distortion
+
+    if kernel in core.MESH_ONLY_KERNELS:
+        jacobians = triangle_jacobians(mesh.vertices, deformed, mesh.triangles)
+        where = mesh.vertices[mesh.triangles].mean(axis=1)
+        points = "triangles (per-triangle Jacobian, at centroids)"
+    else:
+        _, gradients = core.mesh_basis_functions(curve, mesh, kernel=kernel, gradients=True, **params)
+        jacobians = vertex_jacobians(gradients[mesh.interior], target)
+        where = mesh.vertices[mesh.interior]
+        points = "interior vertices (exact Jacobian)"
+    worst = worst_distortion(jacobians, where)
+
+    def at(point) -> str:
+        return (
+            f"at ({point[0]:.1f}, {point[1]:.1f}) px" if np.isfinite(point).all() else "(no unfolded point)"
+        )
+
+    return [
+        f"min det J: {worst.smallest_determinant:.6g} {at(worst.smallest_at)}",
+        f"max sigma1/sigma2: {worst.largest_distortion:.6g} {at(worst.largest_at)}",
+        f"det J <= 0: {worst.folded} of {worst.count} {points}",
+    ]
 
 
 def _fit(args: argparse.Namespace) -> int:

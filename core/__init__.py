@@ -8,6 +8,7 @@ from core.basis import basis_functions
 from core.boundary import Boundary
 from core.bspline import ClosedBSpline
 from core.compilation import compile_solver
+from core.gradients import basis_gradients, kernel_gradients
 from core.harmonic import harmonic_basis
 from core.kernels import KERNELS, ConvergenceWarning, SolveReport, kernel
 from core.mesh import Mesh, folded_triangles, triangulate
@@ -24,10 +25,12 @@ __all__ = [
     "Mesh",
     "SolveReport",
     "basis_functions",
+    "basis_gradients",
     "compile_solver",
     "folded_triangles",
     "harmonic_basis",
     "kernel",
+    "kernel_gradients",
     "mesh_basis_functions",
     "pgw_basis",
     "triangulate",

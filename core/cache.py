@@ -1,4 +1,4 @@
-"""On-disk cache of basis-function matrices G (V x n) at mesh vertices.
+"""On-disk cache of basis-function matrices G (V x n) at mesh vertices, and of their gradients.
 
 Computing G once per (cage, mesh, kernel) is the precompute of Sec. 4.3; it can
 take seconds, so the result is kept in a ``.npz`` file named by the SHA-256 of
@@ -38,6 +38,8 @@ NUMERICAL_MODULES = (
     "boundary.py",
     "bspline.py",
     "diameter.py",
+    "gradient_solver.py",
+    "gradients.py",
     "harmonic.py",
     "kernels.py",
     "mesh_basis.py",
@@ -67,15 +69,16 @@ def cache_key(
     kernel: str,
     samples_per_segment: int,
     params: dict,
+    quantity: str = "basis functions",
 ) -> str:
     """Hex SHA-256 of the format version, the numerical code, the cage, the mesh, the kernel
-    and its parameters.
+    and its parameters, and what is stored (``"basis functions"`` or ``"basis gradients"``).
 
     Arrays enter with their dtype and shape, so that equal bytes of different
     shapes give different keys.
     """
     digest = hashlib.sha256()
-    digest.update(f"transfinite-warp basis functions, format {FORMAT_VERSION}\n".encode())
+    digest.update(f"transfinite-warp {quantity}, format {FORMAT_VERSION}\n".encode())
     digest.update(_code_digest().encode())
     for array, dtype in (
         (control_points, np.float64),
@@ -120,7 +123,7 @@ def entry_path(key: str) -> Path:
     return cache_directory() / f"{key}.npz"
 
 
-def load(key: str, shape: tuple[int, int]) -> Entry:
+def load(key: str, shape: tuple[int, ...]) -> Entry:
     """The intact float64 array of `shape` stored for `key`, or why there is none."""
     path = entry_path(key)
     try:
@@ -143,7 +146,7 @@ def load(key: str, shape: tuple[int, int]) -> Entry:
 
 
 def store(key: str, values: np.ndarray, errors: np.ndarray) -> bool:
-    """Write `values` (V, n) and their invariant `errors` (2,) for `key` atomically.
+    """Write `values` (V, n), or gradients (V, n, 2), and their invariant `errors` (2,) for `key` atomically.
 
     Returns whether it was written; warns (never raises) if the directory is not writable.
     """

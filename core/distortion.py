@@ -9,9 +9,15 @@ collapsed.  The conformal distortion sigma_1 / sigma_2 is 1 for a similarity and
 grows with the anisotropy of the stretch.  These are the measures of the quality
 study (`app.quality`), which compares kernels by how well the deformations they give
 keep the mapping injective and inside the target curve (the paper's Fig. 11).
+
+The transfinite deformation itself, x -> sum_i P'_i G_i(x), has the Jacobian
+J(x) = sum_i P'_i (grad G_i(x))^T (`vertex_jacobians`, from `core.basis_gradients`),
+exact at any point, not per triangle; `worst_distortion` summarises J over points.
 """
 
 from __future__ import annotations
+
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -132,6 +138,100 @@ def folded_area_fraction(source_areas, singular_values) -> float:
     sigma = np.asarray(singular_values, dtype=np.float64)
     folded = sigma[:, 0] * sigma[:, 1] <= COLLAPSE
     return float(areas[folded].sum() / areas.sum())
+
+
+def vertex_jacobians(gradients, target) -> np.ndarray:
+    """J = sum_i P'_i (grad G_i)^T at each point, ndarray of shape (M, 2, 2).
+
+    Parameters
+    ----------
+    gradients : array_like of shape (M, n, 2)
+        grad G_i at M points (`core.basis_gradients`, `core.mesh_basis_functions`
+        with gradients=True).
+    target : array_like of shape (n, 2)
+        The deformed control points P'_i.
+
+    Returns
+    -------
+    ndarray of shape (M, 2, 2)
+        ``J[m, d, e]`` = d x'_d / d x_e at point m; rows of NaN gradients give NaN.
+    """
+    gradients = np.asarray(gradients, dtype=np.float64)
+    target = as_points(target, "target")
+    if gradients.ndim != 3 or gradients.shape[1:] != (target.shape[0], 2):
+        raise ValueError(
+            f"gradients must have shape (M, {target.shape[0]}, 2) for {target.shape[0]} target points, "
+            f"got {gradients.shape}"
+        )
+    return np.einsum("id,mie->mde", target, gradients)
+
+
+@dataclass(frozen=True)
+class WorstDistortion:
+    """The extremes of a set of Jacobians J (`worst_distortion`).
+
+    Attributes
+    ----------
+    smallest_determinant : float
+        min det J (area change; <= 0 where the map folds over or collapses).
+    smallest_at : ndarray of shape (2,)
+        Where it is.
+    largest_distortion : float
+        max sigma_1 / sigma_2 over the points with det J > 0 (inf if there are none).
+    largest_at : ndarray of shape (2,)
+        Where it is (NaN if there are none).
+    folded : int
+        Points with det J <= 0.
+    count : int
+        Points with a finite J (NaN rows, e.g. boundary vertices, are left out).
+    """
+
+    smallest_determinant: float
+    smallest_at: np.ndarray
+    largest_distortion: float
+    largest_at: np.ndarray
+    folded: int
+    count: int
+
+
+def worst_distortion(jacobians, locations) -> WorstDistortion:
+    """min det J, max sigma_1 / sigma_2 and the folded count of Jacobians at `locations`.
+
+    Parameters
+    ----------
+    jacobians : array_like of shape (M, 2, 2)
+        Rows with NaN are left out.
+    locations : array_like of shape (M, 2)
+        Where each J holds (reported with the extremes).
+    """
+    j = np.asarray(jacobians, dtype=np.float64)
+    where = np.asarray(locations, dtype=np.float64)
+    if j.ndim != 3 or j.shape[1:] != (2, 2) or where.shape != (j.shape[0], 2):
+        raise ValueError(
+            f"jacobians (M, 2, 2) and locations (M, 2) must match, got {j.shape} and {where.shape}"
+        )
+    finite = np.isfinite(j).all(axis=(1, 2))
+    j, where = j[finite], where[finite]
+    if j.shape[0] == 0:
+        raise ValueError("no finite Jacobian to report on")
+    sigma = signed_singular_values(j)
+    determinant = sigma[:, 0] * sigma[:, 1]
+    smallest = int(np.argmin(determinant))
+    unfolded = np.flatnonzero(determinant > 0)
+    if unfolded.size:
+        ratio = sigma[unfolded, 0] / sigma[unfolded, 1]
+        largest = int(unfolded[np.argmax(ratio)])
+        distortion, largest_at = float(ratio.max()), where[largest].copy()
+    else:
+        distortion, largest_at = float("inf"), np.full(2, np.nan)
+    return WorstDistortion(
+        float(determinant[smallest]),
+        where[smallest].copy(),
+        distortion,
+        largest_at,
+        int((determinant <= 0).sum()),
+        int(j.shape[0]),
+    )
 
 
 def _edge_matrices(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:

@@ -53,9 +53,10 @@ def mesh_basis_functions(
     progress: Callable[[float], None] | None = None,
     cache: bool = True,
     compiling: Callable[[float], None] | None = None,
+    gradients: bool = False,
     **params,
-) -> np.ndarray:
-    """Basis functions G_i at every vertex of `mesh`.
+):
+    """Basis functions G_i at every vertex of `mesh`, and optionally their gradients.
 
     Parameters
     ----------
@@ -79,6 +80,12 @@ def mesh_basis_functions(
         Called with the fraction compiled in [0, 1] when a point kernel needs the
         solver compiled first (the first run only, see `core.compile_solver`);
         not called when G comes from the cache or the compiled solver is cached.
+    gradients : bool
+        Also return grad G_i at the vertices (`core.basis_gradients`), for the
+        point kernels of `core.KERNELS` only: ``"harmonic"`` and ``"pgw"`` have no
+        pointwise gradients (the per-triangle Jacobians of `core.distortion` are
+        exact for the piecewise linear ``"harmonic"`` basis).  Cached like G, in an
+        entry of its own checked by `gradient_invariant_problem`.
     **params
         Kernel parameters: those of `core.basis_functions` for the point kernels,
         ``angles`` for ``"pgw"``, none for ``"harmonic"``.
@@ -88,6 +95,9 @@ def mesh_basis_functions(
     ndarray of shape (V, n)
         Row v holds G_1..G_n at ``mesh.vertices[v]``; rows ``mesh.boundary`` are
         exactly ``curve.basis_matrix(mesh.boundary_parameters)``.
+    ndarray of shape (V, n, 2), with gradients=True
+        ``[v, i]`` is grad G_i at ``mesh.vertices[v]``; NaN on the boundary rows
+        (the Lagrange limit has no gradient there).
 
     Raises
     ------
@@ -110,6 +120,14 @@ def mesh_basis_functions(
     for name, callback in (("progress", progress), ("compiling", compiling)):
         if callback is not None and not callable(callback):
             raise ValueError(f"{name} must be a callable taking a fraction, got {callback!r}")
+    if gradients:
+        if kernel in MESH_ONLY_KERNELS:
+            raise ValueError(
+                f"kernel {kernel!r} has no pointwise gradients; use the per-triangle Jacobians "
+                "(core.distortion.triangle_jacobians) or a kernel of core.KERNELS"
+            )
+        values = mesh_basis_functions(curve, mesh, kernel, per, progress, cache, compiling, **params)
+        return values, _vertex_gradients(curve, mesh, kernel, per, cache, params)
     shape = (mesh.vertices.shape[0], curve.n)
     if not cache:
         if kernel not in MESH_ONLY_KERNELS:
@@ -185,6 +203,80 @@ def invariant_problem(
     if not linear <= allowed:
         return f"G @ P misses the vertices by {linear:.3g}, more than {allowed:.3g}"
     return None
+
+
+def gradient_invariant_errors(curve: ClosedBSpline, gradients: np.ndarray) -> np.ndarray:
+    """Errors of the differentiated invariants of grad G (M, n, 2), ndarray of shape (2,).
+
+    ``max |sum_i grad G_i|`` and ``max |sum_i P_i (grad G_i)^T - I_2|`` over the rows.
+    """
+    partition = float(np.abs(gradients.sum(axis=1)).max(initial=0.0))
+    identity = np.einsum("id,mie->mde", curve.control_points, gradients) - np.eye(2)
+    return np.array([partition, float(np.abs(identity).max(initial=0.0))])
+
+
+def gradient_invariant_problem(
+    curve: ClosedBSpline, gradients: np.ndarray, recorded: np.ndarray
+) -> str | None:
+    """What is wrong with stored interior gradients (M, n, 2), or None.
+
+    Both differentiated invariants must hold as well as when they were stored
+    (`recorded` (2,)), twice over for rounding.
+    """
+    rounding = ROUNDING_ULPS * curve.n * np.finfo(np.float64).eps
+    partition, linear = gradient_invariant_errors(curve, gradients)
+    scale = float(np.abs(gradients).max(initial=0.0)) * max(1.0, float(np.abs(curve.control_points).max()))
+    if not partition <= 2.0 * max(float(recorded[0]), rounding * scale):
+        return f"gradients sum to 0 only within {partition:.3g}"
+    if not linear <= 2.0 * max(float(recorded[1]), rounding * scale):
+        return f"sum_i P_i grad G_i misses the identity by {linear:.3g}"
+    return None
+
+
+def _vertex_gradients(curve, mesh, kernel, samples_per_segment, cache, params) -> np.ndarray:
+    """grad G (V, n, 2) at the vertices: NaN rows on the boundary; interior rows cached."""
+    from core.gradients import basis_gradients
+
+    result = np.full((mesh.vertices.shape[0], curve.n, 2), np.nan)
+    interior = mesh.interior
+    if interior.size == 0:
+        return result
+    shape = (interior.size, curve.n, 2)
+    key = None
+    problem = None
+    if cache:
+        key = disk_cache.cache_key(
+            curve.control_points,
+            mesh.vertices,
+            mesh.triangles,
+            mesh.boundary,
+            mesh.boundary_parameters,
+            kernel,
+            samples_per_segment,
+            params,
+            quantity="basis gradients",
+        )
+        entry = disk_cache.load(key, shape)
+        problem = entry.problem
+        if entry.values is not None:
+            problem = gradient_invariant_problem(curve, entry.values, entry.errors)
+            if problem is None:
+                result[interior] = entry.values
+                return result
+    computed = basis_gradients(
+        curve, mesh.vertices[interior], kernel=kernel, samples_per_segment=samples_per_segment, **params
+    )
+    if key is not None:
+        replaced = disk_cache.store(key, computed, gradient_invariant_errors(curve, computed))
+        if problem is not None:
+            warnings.warn(
+                f"the cached basis gradients {disk_cache.entry_path(key)} were damaged ({problem}); "
+                f"recomputed them{' and replaced the file' if replaced else ''}",
+                CacheWarning,
+                stacklevel=3,
+            )
+    result[interior] = computed
+    return result
 
 
 def _compute(curve, mesh, kernel, samples_per_segment, progress, params) -> np.ndarray:

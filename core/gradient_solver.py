@@ -1,0 +1,490 @@
+"""Per-point gradients of the barycentric kernels, compiled with numba next to `core.solver`.
+
+One point x is evaluated exactly as `core.solver` evaluates it (the same nodes
+t_j and weights w_j: the trapezoid rule far from the boundary, the graded sinh
+rule near it; the same weights, Newton solve and normalisation, by calling the
+solver's own helpers), and then the x-derivative of every quadrature-weighted
+kernel value lambda_j = w_j lambda(x, t_j) is formed in closed form.  The
+derivation is in `core.gradients`; the notation here follows it:
+
+    a~_j      the unnormalised weight w_j omega_x(t_j) (Eq. 18-20, 23) or the
+              explicit kernel w_j mu(x, t_j) (Eq. 5, Sec. 1.1), and grad a~_j,
+    b_j       = lambda_j r_j s_j, proportional to a~_j (Eq. 14 and 17),
+    H         = sum_j b_j u_j u_j^T / s_j^2, the Hessian of F (Eq. 16),
+    Phi       = d phi / d x = H^-1 (D - I + K + v phi^T)   (implicit function theorem),
+    dc_j      = grad b_j / (r_j s_j) + lambda_j (u_j / r_j - grad s_j / s_j),
+    grad lambda_j = dc_j - lambda_j sum_k dc_k.
+
+Rows of gradients are accumulated like the values (lumped onto samples or
+folded onto the B-spline basis, `solver._accumulate`).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from core import solver
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _weight_derivative(kernel, power, px, py, tx, ty, sx, sy, w, x, y, ux, uy, r_inv, r_min, omega, constant):
+    """a~_j and grad a~_j of one node (a~ as in `solver._weights`, up to one factor common to all j).
+
+    Scalars only (no array arguments: a call per node must not touch reference
+    counts).  `omega` is q^k, q = r_min / r, for the power kernels, and `constant`
+    the shift of Eq. 19-20 in the same units (its gradient is added by the caller).
+    Returns (a~, da~/dx, da~/dy).
+    """
+    if kernel == solver.MAXIMUM_LIKELIHOOD:
+        return w, 0.0, 0.0
+    if kernel == solver.PSEUDO_HARMONIC:
+        value = w * r_min * r_inv
+        return value, value * ux * r_inv, value * uy * r_inv
+    if kernel == solver.POWER or kernel == solver.HARMONIC_LIKE:
+        k = 4.0 if kernel == solver.HARMONIC_LIKE else power
+        slope = w * k * omega * r_inv  # |grad q^k| w: grad r = -u
+        return w * (omega + constant), slope * ux, slope * uy
+    if kernel == solver.MODIFIED_MEAN_VALUE or kernel == solver.MODIFIED_MEAN_VALUE_SQUARED:
+        # omega = |(p - x) x p'| / r^2 (Eq. 23): grad (p - x) x p' = (-p'_y, p'_x), grad r = -u.
+        turn = (ux * ty - uy * tx) * r_inv * r_min  # signed (u x p') / r
+        sign = 1.0 if turn >= 0.0 else -1.0
+        gx = sign * (-ty) * r_inv * r_inv * r_min + 2.0 * abs(turn) * ux * r_inv
+        gy = sign * tx * r_inv * r_inv * r_min + 2.0 * abs(turn) * uy * r_inv
+        if kernel == solver.MODIFIED_MEAN_VALUE:
+            return w * abs(turn), w * gx, w * gy
+        return w * turn * turn, 2.0 * w * abs(turn) * gx, 2.0 * w * abs(turn) * gy
+    if kernel == solver.MEAN_VALUE:
+        # mu = (p - x) x p' / r^3 (Eq. 5).
+        q = r_min * r_inv
+        cross = (ux * ty - uy * tx) * q * q
+        gx = -ty * r_inv * q * q + 3.0 * cross * ux * r_inv
+        gy = tx * r_inv * q * q + 3.0 * cross * uy * r_inv
+        return w * cross, w * gx, w * gy
+    # WACHSPRESS or LAPLACE (Sec. 1.1), a curve node.
+    speed2 = tx * tx + ty * ty
+    dx = px - x
+    dy = py - y
+    cross = dx * ty - dy * tx
+    curvature = tx * sy - ty * sx
+    if speed2 == 0.0 or cross == 0.0:
+        return 0.0, 0.0, 0.0
+    cx = -ty
+    cy = tx
+    if kernel == solver.WACHSPRESS:
+        mu = curvature / (cross * cross)
+        return w * mu, w * (-2.0 * mu * cx / cross), w * (-2.0 * mu * cy / cross)
+    r2 = dx * dx + dy * dy
+    mu = (2.0 * speed2 * cross - r2 * curvature) / (cross * cross)
+    gx = (2.0 * speed2 * cx + 2.0 * curvature * dx) / (cross * cross) - 2.0 * mu * cx / cross
+    gy = (2.0 * speed2 * cy + 2.0 * curvature * dy) / (cross * cross) - 2.0 * mu * cy / cross
+    return w * mu, w * gx, w * gy
+
+
+@njit(cache=True, error_model="numpy")
+def _corner_derivative(kernel, corners, c, bx, by, x, y):
+    """The point mass of sharp corner c of the three-point family and its gradient.
+
+    mass = q.A / q x A - q.B / q x B with q = corner - x (see `solver._weights`);
+    Wachspress divides it by |q|^2, Laplace negates it.  Returns (a~, da~/dx, da~/dy).
+    """
+    qx = bx - x
+    qy = by - y
+    mass = 0.0
+    gx = 0.0
+    gy = 0.0
+    for side in range(2):
+        ex = corners[c, 1 + 2 * side]
+        ey = corners[c, 2 + 2 * side]
+        dot = qx * ex + qy * ey
+        cross = qx * ey - qy * ex
+        if cross == 0.0:
+            return 0.0, 0.0, 0.0
+        sign = 1.0 if side == 0 else -1.0
+        mass += sign * dot / cross
+        # d/dq (dot / cross) = e / cross - dot (e_y, -e_x) / cross^2; d/dx = -d/dq.
+        gx -= sign * (ex / cross - dot * ey / (cross * cross))
+        gy -= sign * (ey / cross + dot * ex / (cross * cross))
+    if kernel == solver.WACHSPRESS:
+        q2 = qx * qx + qy * qy
+        return mass / q2, gx / q2 + 2.0 * mass * qx / (q2 * q2), gy / q2 + 2.0 * mass * qy / (q2 * q2)
+    return -mass, -gx, -gy
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _power(q, k):
+    """q^k, by multiplication for the powers 3 and 4 of the named kernels."""
+    if k == 3.0:
+        return q * q * q
+    if k == 4.0:
+        q2 = q * q
+        return q2 * q2
+    return q**k
+
+
+@njit(cache=True, error_model="numpy")
+def _shift(kernel, power, shift, w, inv_r, ux, uy, r_min, count, omega):
+    """omega_j = q_j^k (into `omega`) and the shift of Eq. 19-20 with its gradient: (c, dc/dx, dc/dy).
+
+    Only for the power kernels (Eq. 19-20), in the units of q = r_min / r.
+    """
+    if not (kernel == solver.POWER or kernel == solver.HARMONIC_LIKE):
+        return 0.0, 0.0, 0.0
+    mode = solver.SHIFT_INTEGRAL if kernel == solver.HARMONIC_LIKE else shift
+    k = 4.0 if kernel == solver.HARMONIC_LIKE else power
+    integral = 0.0
+    gx = 0.0
+    gy = 0.0
+    length = 0.0
+    for j in range(count):
+        value = _power(r_min * inv_r[j], k)
+        omega[j] = value
+        integral += w[j] * value
+        slope = w[j] * k * value * inv_r[j]
+        gx += slope * ux[j]
+        gy += slope * uy[j]
+        length += w[j]
+    if mode == solver.SHIFT_MEAN:
+        return integral / length, gx / length, gy / length
+    if mode == solver.SHIFT_INTEGRAL:
+        return integral, gx, gy
+    return 0.0, 0.0, 0.0
+
+
+@njit(cache=True, error_model="numpy")
+def _differentiate(
+    kernel, power, shift, px, py, tx, ty, sx, sy, w, ux, uy, inv_r, a, s, inv_s, total, nodes, corners,
+    x, y, r_min, omega, grad_x, grad_y,
+):  # fmt: skip
+    """grad lambda_j of the `total` nodes into grad_x, grad_y (each (total,) or longer).
+
+    On entry `a` holds lambda_j (normalised, as `solver._finish` leaves it), `s`
+    and `inv_s` hold s_j = 1 + phi . u_j and 1 / s_j for the maximum-likelihood
+    family; nodes >= `nodes` are corner point masses (three-point family).
+    `omega` is scratch for q_j^k of the power kernels.  See
+    `core.gradients` for the formulas.
+    """
+    newton = kernel <= solver.MODIFIED_MEAN_VALUE_SQUARED
+    constant, shift_x, shift_y = _shift(kernel, power, shift, w, inv_r, ux, uy, r_min, nodes, omega)
+    # Pass 1: grad a~_j (kept in grad_x, grad_y), the sums of a~ and b, H, K, v, D~ and the
+    # least squares of phi from s_j - 1 = phi . u_j.
+    sum_a = 0.0
+    sum_b = 0.0
+    hxx = hxy = hyy = 0.0
+    kxx = kxy = kyy = 0.0
+    vx = vy = 0.0
+    dxx = dxy = dyx = dyy = 0.0
+    lxx = lxy = lyy = 0.0
+    rx = ry = 0.0
+    for j in range(total):
+        if j < nodes:
+            value, gx, gy = _weight_derivative(
+                kernel, power, px[j], py[j], tx[j], ty[j], sx[j], sy[j], w[j], x, y, ux[j], uy[j], inv_r[j],
+                r_min, omega[j], constant,
+            )  # fmt: skip
+            gx += w[j] * shift_x
+            gy += w[j] * shift_y
+        else:
+            value, gx, gy = _corner_derivative(kernel, corners, j - nodes, px[j], py[j], x, y)
+        grad_x[j] = gx
+        grad_y[j] = gy
+        sum_a += value
+        if not newton:
+            continue
+        u0 = ux[j]
+        u1 = uy[j]
+        inv = inv_s[j]
+        lam = a[j] * inv
+        hb = lam / inv_r[j]
+        sum_b += hb * s[j] * s[j]
+        hxx += hb * u0 * u0
+        hxy += hb * u0 * u1
+        hyy += hb * u1 * u1
+        kxx += lam * u0 * u0
+        kxy += lam * u0 * u1
+        kyy += lam * u1 * u1
+        vx += lam * u0
+        vy += lam * u1
+        dxx += u0 * gx * inv
+        dxy += u0 * gy * inv
+        dyx += u1 * gx * inv
+        dyy += u1 * gy * inv
+        lxx += u0 * u0
+        lxy += u0 * u1
+        lyy += u1 * u1
+        rx += u0 * (s[j] - 1.0)
+        ry += u1 * (s[j] - 1.0)
+    if not newton:
+        # lambda_j = m_j / M: grad lambda_j = grad m_j / M - lambda_j sum_k grad m_k / M.
+        _normalise(grad_x, grad_y, a, total, 1.0 / sum_a)
+        return
+    kappa = sum_b / sum_a
+    normal = lxx * lyy - lxy * lxy
+    phix = (lyy * rx - lxy * ry) / normal
+    phiy = (lxx * ry - lxy * rx) / normal
+    # dg/dx (*), column beta: kappa D~ e_beta - e_beta + K e_beta + v phi_beta.
+    mxx = kappa * dxx - 1.0 + kxx + vx * phix
+    mxy = kappa * dxy + kxy + vx * phiy
+    myx = kappa * dyx + kxy + vy * phix
+    myy = kappa * dyy - 1.0 + kyy + vy * phiy
+    determinant = hxx * hyy - hxy * hxy
+    fxx = (hyy * mxx - hxy * myx) / determinant
+    fxy = (hyy * mxy - hxy * myy) / determinant
+    fyx = (hxx * myx - hxy * mxx) / determinant
+    fyy = (hxx * myy - hxy * mxy) / determinant
+    # Pass 2: dc_j = grad b_j / (r_j s_j) + lambda_j (u_j / r_j - grad s_j / s_j).
+    for j in range(total):
+        u0 = ux[j]
+        u1 = uy[j]
+        r_inv = inv_r[j]
+        inv = inv_s[j]
+        lam = a[j]
+        excess = s[j] - 1.0
+        # grad s_j at the moving phi: Phi^T u_j + d(phi . u_j)/dx, du/dx = -(I - u u^T) / r.
+        dsx = fxx * u0 + fyx * u1 - (phix - excess * u0) * r_inv
+        dsy = fxy * u0 + fyy * u1 - (phiy - excess * u1) * r_inv
+        grad_x[j] = kappa * grad_x[j] * r_inv * inv + lam * (u0 * r_inv - dsx * inv)
+        grad_y[j] = kappa * grad_y[j] * r_inv * inv + lam * (u1 * r_inv - dsy * inv)
+    _normalise(grad_x, grad_y, a, total, 1.0)
+
+
+@njit(cache=True, error_model="numpy")
+def _normalise(grad_x, grad_y, a, total, scale):
+    """grad_j <- scale grad_j - a_j sum_k scale grad_k: the derivative of dividing by the sum."""
+    sum_x = 0.0
+    sum_y = 0.0
+    for j in range(total):
+        grad_x[j] *= scale
+        grad_y[j] *= scale
+        sum_x += grad_x[j]
+        sum_y += grad_y[j]
+    for j in range(total):
+        grad_x[j] -= a[j] * sum_x
+        grad_y[j] -= a[j] * sum_y
+
+
+@njit(cache=True, error_model="numpy")
+def _accumulate_nodes(
+    a, grad_x, grad_y, t, total, period, mode, out_step, out_count, control_count, row, row_x, row_y
+):
+    """Add lambda_j and grad lambda_j at the nodes' parameters t_j into the output rows."""
+    for j in range(total):
+        tj = t[j] - math.floor(t[j] / period) * period
+        if mode == solver.OUTPUT_SAMPLES:
+            solver._accumulate(row, mode, a[j], tj, out_step, out_count, control_count)
+            solver._accumulate(row_x, mode, grad_x[j], tj, out_step, out_count, control_count)
+            solver._accumulate(row_y, mode, grad_y[j], tj, out_step, out_count, control_count)
+            continue
+        # The three B-spline basis functions non-zero at t_j (Sec. 4.3), as in `solver._accumulate`.
+        segment = int(math.floor(tj))
+        if segment >= control_count:
+            segment = control_count - 1
+        u = tj - segment
+        b0 = 0.5 * (1.0 - u) * (1.0 - u)
+        b1 = 0.5 * (-2.0 * u * u + 2.0 * u + 1.0)
+        b2 = 0.5 * u * u
+        before = segment - 1 if segment > 0 else control_count - 1
+        after = segment + 1 if segment + 1 < control_count else 0
+        for out, value in ((row, a[j]), (row_x, grad_x[j]), (row_y, grad_y[j])):
+            out[before] += value * b0
+            out[segment] += value * b1
+            out[after] += value * b2
+
+
+@njit(cache=True, error_model="numpy")
+def _accumulate_samples(a, grad_x, grad_y, count, basis0, basis1, basis2, control_count, row, row_x, row_y):
+    """Fold lambda_k and grad lambda_k at the N uniform samples onto the B-spline basis, span by span."""
+    per = count // control_count
+    for i in range(control_count):
+        before = i - 1 if i > 0 else control_count - 1
+        after = i + 1 if i + 1 < control_count else 0
+        for out, values in ((row, a), (row_x, grad_x), (row_y, grad_y)):
+            s0 = 0.0
+            s1 = 0.0
+            s2 = 0.0
+            for k in range(i * per, (i + 1) * per):
+                s0 += values[k] * basis0[k]
+                s1 += values[k] * basis1[k]
+                s2 += values[k] * basis2[k]
+            out[before] += s0
+            out[i] += s1
+            out[after] += s2
+
+
+@njit(cache=True, error_model="numpy")
+def _gradient_point(x, y, settings, curve, geometry, row, row_x, row_y, scratch, windows):
+    """Evaluate one point and its gradient; returns (iterations, status, residual).
+
+    The nodes are built exactly as in `solver._solve_point` (pass 1, the windows
+    and `solver._refined_nodes`); a point on the boundary gets its Lagrange-limit
+    row and NaN gradients.
+    """
+    kernel, power, shift, mode, orientation, diameter, control_count, tolerance = settings
+    coefficients, piece_length, corners = geometry
+    window_start, window_stop, window_t, window_d = windows
+    (
+        sample_x, sample_y, tangent_x, tangent_y, second_x, second_y, spacing, uniform, sample_t,
+        basis0, basis1, basis2, step, sinh_step, out_step,
+    ) = curve  # fmt: skip
+    (px, py, tx, ty, sx, sy, w, t, ux, uy, inv_r, a, s, inv_s, trial, trial_inv, blend) = scratch
+    count = sample_x.shape[0]
+    out_count = int(round(count * step / out_step))
+    period = count * step
+    window_count = 0
+    in_run = False
+    nearest = 1e300
+    nearest_index = np.int64(0)
+    for k in range(count):
+        dx = sample_x[k] - x
+        dy = sample_y[k] - y
+        r = math.sqrt(dx * dx + dy * dy)
+        inv = 1.0 / r
+        ux[k] = dx * inv
+        uy[k] = dy * inv
+        inv_r[k] = inv
+        if r < nearest:
+            nearest = r
+            nearest_index = k
+        if r < solver.NEAR_SPACINGS * spacing[k]:
+            if not in_run:
+                if window_count < solver.MAX_WINDOWS:
+                    window_start[window_count] = k
+                window_count += 1
+                in_run = True
+            if window_count <= solver.MAX_WINDOWS:
+                window_stop[window_count - 1] = k
+        else:
+            in_run = False
+    window_count = solver._merge_windows(
+        window_start, window_stop, min(window_count, solver.MAX_WINDOWS), count, nearest_index
+    )
+    three_point = kernel == solver.WACHSPRESS or kernel == solver.LAPLACE
+    corner_count = corners.shape[0] if three_point else 0
+    if window_count == 0:
+        if not solver._inside_polygon(sample_x, sample_y, x, y):
+            return 0, solver.STATUS_OUTSIDE, nearest
+        if corner_count == 0:
+            # The trapezoid rule on the shared samples, as in the solver's common case.
+            total = solver._weights(
+                kernel, power, shift, sample_x, sample_y, tangent_x, tangent_y, second_x, second_y,
+                uniform, x, y, count, corners, ux, uy, inv_r, nearest, a,
+            )  # fmt: skip
+            iterations, status, residual = solver._finish(
+                kernel, ux, uy, inv_r, a, s, inv_s, trial, trial_inv, blend, total,
+                sample_x, sample_y, uniform, step, x, y, tolerance * diameter,
+            )  # fmt: skip
+            _differentiate(
+                kernel, power, shift, sample_x, sample_y, tangent_x, tangent_y, second_x, second_y,
+                uniform, ux, uy, inv_r, a, s, inv_s, total, count, corners, x, y, nearest, blend, trial,
+                trial_inv,
+            )  # fmt: skip
+            if mode == solver.OUTPUT_BASIS:
+                _accumulate_samples(
+                    a, trial, trial_inv, count, basis0, basis1, basis2, control_count, row, row_x, row_y
+                )
+            else:
+                _accumulate_nodes(
+                    a, trial, trial_inv, sample_t, total, period, mode, out_step, out_count, control_count,
+                    row, row_x, row_y,
+                )  # fmt: skip
+            return iterations, status, residual
+        nodes = 0
+        for k in range(count):
+            t[nodes] = sample_t[k]
+            w[nodes] = step
+            nodes += 1
+    else:
+        closest_t = nearest_index * step
+        closest_d = nearest
+        for i in range(window_count):
+            ti, di = solver._closest_parameter(
+                coefficients, piece_length, x, y, window_start[i] * step, window_stop[i] * step
+            )
+            window_t[i] = ti
+            window_d[i] = di
+            if di < closest_d:
+                closest_d = di
+                closest_t = ti
+        if closest_d <= solver.ON_BOUNDARY * diameter:
+            solver._accumulate(
+                row, mode, 1.0, solver._wrap(closest_t, period), out_step, out_count, control_count
+            )
+            for i in range(row.shape[0]):
+                row_x[i] = math.nan
+                row_y[i] = math.nan
+            return 0, solver.STATUS_CONVERGED, 0.0
+        if solver._side_of_curve(coefficients, piece_length, closest_t, x, y, orientation) < 0:
+            return 0, solver.STATUS_OUTSIDE, closest_d
+        nodes = solver._refined_nodes(
+            window_start, window_stop, window_t, window_d, window_count, count, step, sinh_step,
+            coefficients, piece_length, t, w,
+        )  # fmt: skip
+    for j in range(nodes):
+        k = int(round(t[j] / step))
+        if abs(t[j] - k * step) <= 1e-12 * step:
+            k = k % count
+            px[j] = sample_x[k]
+            py[j] = sample_y[k]
+            tx[j] = tangent_x[k]
+            ty[j] = tangent_y[k]
+            sx[j] = second_x[k]
+            sy[j] = second_y[k]
+        else:
+            px[j], py[j], tx[j], ty[j], sx[j], sy[j] = solver._evaluate_curve(
+                coefficients, piece_length, t[j]
+            )
+    for c in range(corner_count):
+        px[nodes + c], py[nodes + c], _, _, _, _ = solver._evaluate_curve(
+            coefficients, piece_length, corners[c, 0]
+        )
+        t[nodes + c] = corners[c, 0]
+        w[nodes + c] = 1.0
+    r_min = solver._directions(px, py, x, y, nodes, ux, uy, inv_r)
+    total = solver._weights(
+        kernel, power, shift, px, py, tx, ty, sx, sy, w, x, y, nodes, corners, ux, uy, inv_r, r_min, a
+    )
+    iterations, status, residual = solver._finish(
+        kernel, ux, uy, inv_r, a, s, inv_s, trial, trial_inv, blend, total,
+        px, py, w, step, x, y, tolerance * diameter,
+    )  # fmt: skip
+    _differentiate(
+        kernel, power, shift, px, py, tx, ty, sx, sy, w, ux, uy, inv_r, a, s, inv_s, total, nodes, corners,
+        x, y, r_min, blend, trial, trial_inv,
+    )  # fmt: skip
+    _accumulate_nodes(
+        a, trial, trial_inv, t, total, period, mode, out_step, out_count, control_count, row, row_x, row_y
+    )
+    return iterations, status, residual
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def gradient_points(
+    points, settings, curve, geometry, out, gradients, iterations, status, residual, first, stride
+):
+    """Values (M, columns) and gradients (M, 2, columns) of the points first, first + stride, ...
+
+    Arguments as in `solver.solve_points`; gradients[m, 0] and gradients[m, 1]
+    are the x- and y-derivatives of the row out[m].  Releases the GIL.
+    """
+    count = curve[0].shape[0]
+    capacity = count + solver.MAX_WINDOWS * solver.MAX_WINDOW_NODES + geometry[2].shape[0] + 8
+    scratch = (
+        np.empty(capacity), np.empty(capacity), np.empty(capacity), np.empty(capacity),
+        np.empty(capacity), np.empty(capacity), np.empty(capacity), np.empty(capacity),
+        np.empty(capacity), np.empty(capacity), np.empty(capacity), np.empty(capacity),
+        np.empty(capacity), np.empty(capacity), np.empty(capacity), np.empty(capacity),
+        np.empty(capacity),
+    )  # fmt: skip
+    windows = (
+        np.empty(solver.MAX_WINDOWS + 1, dtype=np.int64),
+        np.empty(solver.MAX_WINDOWS + 1, dtype=np.int64),
+        np.empty(solver.MAX_WINDOWS + 1),
+        np.empty(solver.MAX_WINDOWS + 1),
+    )
+    for m in range(first, points.shape[0], stride):
+        iterations[m], status[m], residual[m] = _gradient_point(
+            points[m, 0], points[m, 1], settings, curve, geometry, out[m], gradients[m, 0], gradients[m, 1],
+            scratch, windows,
+        )  # fmt: skip
