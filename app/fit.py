@@ -405,9 +405,12 @@ def refined_subject(
     allowed[top:bottom, left:right] = True
     for _ in range(rounds):
         band = max(2, round(REFINE_BAND * np.sqrt(float(subject.sum()))))
-        core = cv2.erode(subject, _disk(band)) > 0
-        outer = (cv2.dilate(subject, _disk(band)) > 0) & allowed
-        ring = (cv2.dilate(subject, _disk(REFINE_RING * band)) > 0) & ~outer
+        # Distances cost the same for any band, an erosion or dilation by a disk grows with it.
+        inside = cv2.distanceTransform(subject, cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+        outside = cv2.distanceTransform(1 - subject, cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+        core = inside > band
+        outer = (outside <= band) & allowed
+        ring = (outside <= REFINE_RING * band) & ~outer
         if core.sum() < MIN_SAMPLES or ring.sum() < MIN_SAMPLES:
             break
         # GrabCut learns its models from every pixel of the image it is given: give it the
@@ -420,8 +423,13 @@ def refined_subject(
         labels = np.where(subject > 0, cv2.GC_PR_FGD, cv2.GC_PR_BGD).astype(np.uint8)
         labels[~outer] = cv2.GC_BGD
         labels[core] = cv2.GC_FGD
-        cv2.grabCut(bgr, labels, None, *models, 1, cv2.GC_EVAL_FREEZE_MODEL)
-        found = ((labels == cv2.GC_FGD) | (labels == cv2.GC_PR_FGD)).astype(np.uint8)
+        # Only the band is undecided: the graph cut runs on its box, a pixel wider.
+        x, y, w, h = cv2.boundingRect(outer.astype(np.uint8))
+        box = slice(max(y - 1, 0), y + h + 1), slice(max(x - 1, 0), x + w + 1)
+        cut = np.ascontiguousarray(labels[box])
+        cv2.grabCut(np.ascontiguousarray(bgr[box]), cut, None, *models, 1, cv2.GC_EVAL_FREEZE_MODEL)
+        found = np.zeros_like(subject)
+        found[box] = (cut == cv2.GC_FGD) | (cut == cv2.GC_PR_FGD)
         x, y, w, h = cv2.boundingRect(subject)
         subject = _cleaned(found, (x, y, x + w, y + h))
         if not subject.any():
@@ -612,11 +620,6 @@ def _central_component(mask: np.ndarray, centre: np.ndarray, extent: np.ndarray)
         thickness = max(3, round(0.5 * nearest[part - 1]))
         cv2.line(region, tuple(int(v) for v in start), tuple(int(v) for v in end), 1, thickness)
     return region
-
-
-def _disk(radius: int) -> np.ndarray:
-    """A disk of `radius` pixels, uint8 (2 radius + 1, 2 radius + 1), for erosion and dilation."""
-    return cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * radius + 1, 2 * radius + 1))
 
 
 def _resized(mask: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
