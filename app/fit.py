@@ -8,12 +8,14 @@ The subject (`subject_mask`) is, in this order of trust:
   that threshold, in the polarity in which it does not touch the border;
 - otherwise a photograph: GrabCut (Rother, Kolmogorov and Blake 2004) on a copy of
   about `SEGMENT_PIXELS` pixels.  Outside the rectangle is background; inside it
-  the fine-grained static saliency of opencv-contrib (`cv2.saliency`), weighted by
-  a centre prior, seeds the probable subject.  Of what GrabCut keeps, the largest
-  and most central region is taken, its holes filled and its outline smoothed; the
-  cage goes `SUBJECT_MARGIN` outside it, because a segmentation is uncertain by a
-  few pixels and a cage that cuts into the subject tears it when deformed, while
-  a thin band of background inside the cage just moves along.
+  the geodesic boundary saliency (`boundary_saliency`) seeds the probable subject.
+  Of what GrabCut keeps, the largest and most central region is taken, its holes
+  filled and its outline smoothed; then the band along its outline is decided
+  anew on a finer copy (`refined_subject`), from the colours of the subject's core
+  and of the background next to it.  The cage goes `SUBJECT_MARGIN` outside the
+  result, because a segmentation is uncertain by a few pixels and a cage that cuts
+  into the subject tears it when deformed, while a thin band of background inside
+  the cage just moves along.
 
 Alpha channels and plain silhouettes are exact to the pixel and get no margin.  The
 outer contour of the subject is parameterised by arc length and the n control
@@ -339,10 +341,12 @@ def photo_subject(image: np.ndarray, rect=None) -> np.ndarray:
     rectangle is background; inside, the pixels whose `boundary_saliency` exceeds
     `SEED_LEVEL` of its Otsu threshold are probable subject, the others probable
     background.  The result is opened, its most central large component kept
-    (`_central_component`), its holes filled, closed, and scaled back to (H, W)
-    with bilinear interpolation of the 0/1 mask.  A result smaller than
+    (`_central_component`), its holes filled and closed.  A result smaller than
     `MIN_SUBJECT` of the rectangle is a detail: GrabCut runs again from the
     rectangle alone (all of it probable subject) and the larger result is kept.
+    That result is scaled to a copy of about `REFINE_PIXELS` pixels, refined there
+    (`refined_subject`, nothing outside the rectangle), and scaled back to (H, W),
+    each time by bilinear interpolation of the 0/1 mask.
     """
     height, width = image.shape[:2]
     small, scale = downscaled(np.ascontiguousarray(image[..., :3]), SEGMENT_PIXELS)
@@ -380,9 +384,9 @@ def refined_subject(
     the learned model then keeps a band of background all around it.  Here the
     subject's colours are learned from its core only (`subject` eroded by the band
     half-width b = `REFINE_BAND` sqrt(area)), the background's from the ring between
-    b and `REFINE_RING` b outside the outline, so from the background next to the
-    subject rather than from distant parts of the picture that may share its
-    colours.  With these models frozen, one graph cut (OpenCV's
+    b and `REFINE_RING` b outside the outline (within `bounds`), so from the
+    background next to the subject rather than from distant parts of the picture
+    that may share its colours.  With these models frozen, one graph cut (OpenCV's
     ``GC_EVAL_FREEZE_MODEL``) decides the band within b of the outline; the result is
     cleaned up as in `_grabcut_region`.  `rounds` such rounds are made.
 
@@ -393,7 +397,7 @@ def refined_subject(
     subject : ndarray of shape (h, w), uint8
         1 on the subject.
     bounds : (left, top, right, bottom)
-        The pixels that may belong to the subject (the rectangle).
+        The pixels that may belong to the subject (the rectangle); `subject` is cut to them.
 
     Returns
     -------
@@ -403,6 +407,7 @@ def refined_subject(
     left, top, right, bottom = bounds
     allowed = np.zeros(subject.shape, bool)
     allowed[top:bottom, left:right] = True
+    subject = np.where(allowed, subject, 0).astype(np.uint8)
     for _ in range(rounds):
         band = max(2, round(REFINE_BAND * np.sqrt(float(subject.sum()))))
         # Distances cost the same for any band, an erosion or dilation by a disk grows with it.
@@ -410,7 +415,7 @@ def refined_subject(
         outside = cv2.distanceTransform(1 - subject, cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
         core = inside > band
         outer = (outside <= band) & allowed
-        ring = (outside <= REFINE_RING * band) & ~outer
+        ring = (outside <= REFINE_RING * band) & ~outer & allowed
         if core.sum() < MIN_SAMPLES or ring.sum() < MIN_SAMPLES:
             break
         # GrabCut learns its models from every pixel of the image it is given: give it the

@@ -20,6 +20,7 @@ from app.fit import (
     fit_cage,
     fit_closed_bspline,
     mask_outline,
+    refined_subject,
     silhouette_mask,
     snap_corners,
     subject_mask,
@@ -353,6 +354,27 @@ def test_synthetic_photograph_cage_matches_the_object(name):
     assert (region & mask).sum() >= 0.99 * mask.sum(), "the cage must go around the object, not into it"
     found = subject_mask(image)
     assert (found & mask).sum() / (found | mask).sum() >= 0.9
+
+
+def test_refined_subject_removes_a_band_of_background_and_stays_in_bounds():
+    # GrabCut's failure on gravel: the subject found is the object and a band of 12 px of
+    # gravel around it.  The refinement learns the colours of the core and of the nearby ring.
+    image, mask, _ = scene("blue-boot-on-gravel")
+    bgr = np.ascontiguousarray(image[..., ::-1])
+    outside = cv2.distanceTransform((~mask).astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+    halo = (outside <= 12).astype(np.uint8)
+    everywhere = (0, 0, SCENE_WIDTH, SCENE_HEIGHT)
+    found = refined_subject(bgr, halo, everywhere) > 0
+    assert (halo.astype(bool) & mask).sum() / (halo.astype(bool) | mask).sum() < 0.8
+    assert (found & mask).sum() / (found | mask).sum() >= 0.95
+    # Nothing outside the bounds, even where the object is.
+    left = 260
+    found = refined_subject(bgr, halo, (left, 0, SCENE_WIDTH, SCENE_HEIGHT)) > 0
+    assert not found[:, :left].any() and found[:, left:].sum() >= 0.95 * mask[:, left:].sum()
+    # A subject too thin to have a core is left as it is.
+    thin = np.zeros_like(halo)
+    thin[100:104, 50:400] = 1
+    assert np.array_equal(refined_subject(bgr, thin, everywhere), thin)
 
 
 def test_scenes_are_what_their_comments_say():
