@@ -217,7 +217,8 @@ def build_parser(prog: str = "python -m app") -> argparse.ArgumentParser:
         "fit a cage around the main subject of an image",
         "Write a cage (a closed quadratic B-spline) around the main subject of IMAGE: its\n"
         "alpha channel when it has one, a silhouette on a plain background, else the\n"
-        "subject of the photograph (GrabCut, seeded by saliency; --rect says where it is).\n"
+        "subject of the photograph (GrabCut, seeded by saliency, its outline then refined\n"
+        "from the colours on either side; --rect says where it is).\n"
         "Around a photograph's subject the cage keeps a margin of 1.5% of its size.",
         ("%(prog)s photo.jpg --output cage.json", None),
         ("%(prog)s photo.jpg --output cage.json --rect 120,40,300,420", "only what is inside the rectangle"),

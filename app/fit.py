@@ -8,12 +8,14 @@ The subject (`subject_mask`) is, in this order of trust:
   that threshold, in the polarity in which it does not touch the border;
 - otherwise a photograph: GrabCut (Rother, Kolmogorov and Blake 2004) on a copy of
   about `SEGMENT_PIXELS` pixels.  Outside the rectangle is background; inside it
-  the fine-grained static saliency of opencv-contrib (`cv2.saliency`), weighted by
-  a centre prior, seeds the probable subject.  Of what GrabCut keeps, the largest
-  and most central region is taken, its holes filled and its outline smoothed; the
-  cage goes `SUBJECT_MARGIN` outside it, because a segmentation is uncertain by a
-  few pixels and a cage that cuts into the subject tears it when deformed, while
-  a thin band of background inside the cage just moves along.
+  the geodesic boundary saliency (`boundary_saliency`) seeds the probable subject.
+  Of what GrabCut keeps, the largest and most central region is taken, its holes
+  filled and its outline smoothed; then the band along its outline is decided
+  anew on a finer copy (`refined_subject`), from the colours of the subject's core
+  and of the background next to it.  The cage goes `SUBJECT_MARGIN` outside the
+  result, because a segmentation is uncertain by a few pixels and a cage that cuts
+  into the subject tears it when deformed, while a thin band of background inside
+  the cage just moves along.
 
 Alpha channels and plain silhouettes are exact to the pixel and get no margin.  The
 outer contour of the subject is parameterised by arc length and the n control
@@ -83,6 +85,19 @@ SMOOTHING = 0.02
 #: The cage of a segmented subject goes around it grown by this fraction of the
 #: diagonal of its bounding box.
 SUBJECT_MARGIN = 0.015
+#: GrabCut's outline is refined (`refined_subject`) on a copy of about this many pixels
+#: (362 x 362): twice as fine as `SEGMENT_PIXELS` in each direction.
+REFINE_PIXELS = 1 << 17
+#: Half the width of the band of the outline that the refinement decides anew, as a
+#: fraction of the square root of the subject's area (5.7 % of the side of a square).
+REFINE_BAND = 0.1
+#: The background's colours are learned out to this many band widths from the outline.
+REFINE_RING = 3
+#: Rounds of the refinement: each can move the outline by one band width.
+REFINE_ROUNDS = 2
+#: The refinement needs this many pixels of the core and of the ring to learn its models
+#: (GrabCut's mixtures have five components).
+MIN_SAMPLES = 50
 
 
 class CageFitWarning(UserWarning):
@@ -326,10 +341,12 @@ def photo_subject(image: np.ndarray, rect=None) -> np.ndarray:
     rectangle is background; inside, the pixels whose `boundary_saliency` exceeds
     `SEED_LEVEL` of its Otsu threshold are probable subject, the others probable
     background.  The result is opened, its most central large component kept
-    (`_central_component`), its holes filled, closed, and scaled back to (H, W)
-    with bilinear interpolation of the 0/1 mask.  A result smaller than
+    (`_central_component`), its holes filled and closed.  A result smaller than
     `MIN_SUBJECT` of the rectangle is a detail: GrabCut runs again from the
     rectangle alone (all of it probable subject) and the larger result is kept.
+    That result is scaled to a copy of about `REFINE_PIXELS` pixels, refined there
+    (`refined_subject`, nothing outside the rectangle), and scaled back to (H, W),
+    each time by bilinear interpolation of the 0/1 mask.
     """
     height, width = image.shape[:2]
     small, scale = downscaled(np.ascontiguousarray(image[..., :3]), SEGMENT_PIXELS)
@@ -348,9 +365,81 @@ def photo_subject(image: np.ndarray, rect=None) -> np.ndarray:
     if subject.sum() < MIN_SUBJECT * (right - left) * (bottom - top):
         seeds[inside] = cv2.GC_PR_FGD
         subject = max(subject, _grabcut_region(bgr, seeds, bounds), key=np.sum)
-    if scale[0] != 1 or scale[1] != 1:
-        subject = cv2.resize(subject.astype(np.float32), (width, height), interpolation=cv2.INTER_LINEAR)
-    return subject >= 0.5
+    fine, fine_scale = downscaled(np.ascontiguousarray(image[..., :3]), REFINE_PIXELS)
+    subject = _resized(subject, fine.shape[:2])
+    limits = (0, 0, fine.shape[1], fine.shape[0])
+    if rect is not None:
+        limits = _pixel_bounds(np.asarray(rect) / np.tile(fine_scale, 2), fine.shape[:2])
+    subject = refined_subject(np.ascontiguousarray(fine[..., ::-1]), subject, limits)
+    return _resized(subject, (height, width)) > 0
+
+
+def refined_subject(
+    bgr: np.ndarray, subject: np.ndarray, bounds: tuple[int, int, int, int], rounds: int = REFINE_ROUNDS
+) -> np.ndarray:
+    """GrabCut's `subject` (h, w) uint8 decided anew near its outline from local colour models.
+
+    GrabCut learns the subject's colours from everything seeded as probable subject,
+    which on a busy background (gravel, foliage) includes a halo around the subject;
+    the learned model then keeps a band of background all around it.  Here the
+    subject's colours are learned from its core only (`subject` eroded by the band
+    half-width b = `REFINE_BAND` sqrt(area)), the background's from the ring between
+    b and `REFINE_RING` b outside the outline (within `bounds`), so from the
+    background next to the subject rather than from distant parts of the picture
+    that may share its colours.  With these models frozen, one graph cut (OpenCV's
+    ``GC_EVAL_FREEZE_MODEL``) decides the band within b of the outline; the result is
+    cleaned up as in `_grabcut_region`.  `rounds` such rounds are made.
+
+    Parameters
+    ----------
+    bgr : ndarray of shape (h, w, 3), uint8
+        The picture, BGR.
+    subject : ndarray of shape (h, w), uint8
+        1 on the subject.
+    bounds : (left, top, right, bottom)
+        The pixels that may belong to the subject (the rectangle); `subject` is cut to them.
+
+    Returns
+    -------
+    ndarray of shape (h, w), uint8
+        1 on the subject; `subject` itself when it is too thin to have a core.
+    """
+    left, top, right, bottom = bounds
+    allowed = np.zeros(subject.shape, bool)
+    allowed[top:bottom, left:right] = True
+    subject = np.where(allowed, subject, 0).astype(np.uint8)
+    for _ in range(rounds):
+        band = max(2, round(REFINE_BAND * np.sqrt(float(subject.sum()))))
+        # Distances cost the same for any band, an erosion or dilation by a disk grows with it.
+        inside = cv2.distanceTransform(subject, cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+        outside = cv2.distanceTransform(1 - subject, cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+        core = inside > band
+        outer = (outside <= band) & allowed
+        ring = (outside <= REFINE_RING * band) & ~outer & allowed
+        if core.sum() < MIN_SAMPLES or ring.sum() < MIN_SAMPLES:
+            break
+        # GrabCut learns its models from every pixel of the image it is given: give it the
+        # core and the ring alone, as a column of pixels.
+        samples = np.ascontiguousarray(np.concatenate([bgr[core], bgr[ring]])[:, None, :])
+        sides = np.repeat(np.uint8([cv2.GC_FGD, cv2.GC_BGD]), [core.sum(), ring.sum()])[:, None]
+        cv2.setRNGSeed(0)
+        models = np.zeros((1, 65)), np.zeros((1, 65))
+        cv2.grabCut(samples, sides, None, *models, 0, cv2.GC_INIT_WITH_MASK)
+        labels = np.where(subject > 0, cv2.GC_PR_FGD, cv2.GC_PR_BGD).astype(np.uint8)
+        labels[~outer] = cv2.GC_BGD
+        labels[core] = cv2.GC_FGD
+        # Only the band is undecided: the graph cut runs on its box, a pixel wider.
+        x, y, w, h = cv2.boundingRect(outer.astype(np.uint8))
+        box = slice(max(y - 1, 0), y + h + 1), slice(max(x - 1, 0), x + w + 1)
+        cut = np.ascontiguousarray(labels[box])
+        cv2.grabCut(np.ascontiguousarray(bgr[box]), cut, None, *models, 1, cv2.GC_EVAL_FREEZE_MODEL)
+        found = np.zeros_like(subject)
+        found[box] = (cut == cv2.GC_FGD) | (cut == cv2.GC_PR_FGD)
+        x, y, w, h = cv2.boundingRect(subject)
+        subject = _cleaned(found, (x, y, x + w, y + h))
+        if not subject.any():
+            break
+    return subject
 
 
 def boundary_saliency(image: np.ndarray) -> np.ndarray:
@@ -482,12 +571,21 @@ def _salient_bounds(salient: np.ndarray) -> tuple[int, int, int, int]:
 
 def _grabcut_region(bgr: np.ndarray, seeds: np.ndarray, bounds: tuple[int, int, int, int]) -> np.ndarray:
     """GrabCut of `bgr` (h, w, 3) from `seeds` (h, w), cleaned up: uint8 (h, w), 1 on the subject."""
-    left, top, right, bottom = bounds
     labels = seeds.copy()
     cv2.setRNGSeed(0)  # GrabCut's k-means starts from OpenCV's global random generator
     models = np.zeros((1, 65)), np.zeros((1, 65))
     cv2.grabCut(bgr, labels, None, *models, GRABCUT_ITERATIONS, cv2.GC_INIT_WITH_MASK)
     found = ((labels == cv2.GC_FGD) | (labels == cv2.GC_PR_FGD)).astype(np.uint8)
+    return _cleaned(found, bounds)
+
+
+def _cleaned(found: np.ndarray, bounds: tuple[int, int, int, int]) -> np.ndarray:
+    """GrabCut's `found` (h, w) uint8 opened, its main region (`_central_component`) filled and closed.
+
+    The kernels are `SMOOTHING` of the shorter side of `bounds` (left, top, right, bottom),
+    whose centre is the centre of `_central_component`.
+    """
+    left, top, right, bottom = bounds
     size = max(3, round(SMOOTHING * min(right - left, bottom - top)) | 1)
     kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (size, size))
     found = cv2.morphologyEx(found, cv2.MORPH_OPEN, kernel)
@@ -527,6 +625,14 @@ def _central_component(mask: np.ndarray, centre: np.ndarray, extent: np.ndarray)
         thickness = max(3, round(0.5 * nearest[part - 1]))
         cv2.line(region, tuple(int(v) for v in start), tuple(int(v) for v in end), 1, thickness)
     return region
+
+
+def _resized(mask: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
+    """0/1 `mask` (h, w) resized to `shape` (H, W) by bilinear interpolation: uint8 (H, W)."""
+    if mask.shape == tuple(shape):
+        return mask.astype(np.uint8)
+    resized = cv2.resize(mask.astype(np.float32), shape[::-1], interpolation=cv2.INTER_LINEAR)
+    return (resized >= 0.5).astype(np.uint8)
 
 
 def _filled(mask: np.ndarray) -> np.ndarray:
