@@ -63,6 +63,17 @@ HEAT_STOPS = np.array(
 )
 HEAT_NEGATIVE = np.array([0.10, 0.75, 0.80])
 
+#: The distortion view (``content="distortion"``, `app.viewer.distortion_view`): RGB
+#: of a shrunk and a grown area, of the strongest anisotropy and of folded vertices,
+#: full colour at |log2| = DISTORTION_RANGE.
+DISTORTION_SHRUNK = np.array([0.16, 0.36, 0.85])
+DISTORTION_GROWN = np.array([0.85, 0.18, 0.12])
+DISTORTION_SHEARED = np.array([0.45, 0.12, 0.62])
+DISTORTION_FOLDED = np.array([0.0, 0.0, 0.0])
+DISTORTION_RANGE = 2.0
+#: `set_distortion_measure` codes of the shader.
+DISTORTION_MEASURES = {"area": 0, "conformal": 1}
+
 #: Floats per overlay vertex: x, y (image pixels), r, g, b, a (straight alpha),
 #: size (line width or handle diameter, framebuffer pixels).
 OVERLAY_FLOATS = 7
@@ -159,6 +170,9 @@ class WarpRenderer:
             vertex_shader=vertex, fragment_shader=load_shader("solid.frag.glsl")
         )
         self._heat_program = ctx.program(vertex_shader=vertex, fragment_shader=load_shader("heat.frag.glsl"))
+        self._distortion_program = ctx.program(
+            vertex_shader=vertex, fragment_shader=load_shader("distortion.frag.glsl")
+        )
         self._folds_program = ctx.program(
             vertex_shader=vertex,
             geometry_shader=load_shader("folds.geom.glsl"),
@@ -178,6 +192,7 @@ class WarpRenderer:
             self._field_program,
             self._solid_program,
             self._heat_program,
+            self._distortion_program,
             self._folds_program,
             self._line_program,
             self._point_program,
@@ -187,6 +202,15 @@ class WarpRenderer:
         self._field_program["u_band_width"].value = BAND_WIDTH
         self._heat_program["u_stops"].write(HEAT_STOPS.astype("f4").tobytes())
         self._heat_program["u_negative"].value = tuple(HEAT_NEGATIVE)
+        for name, colour in (
+            ("u_shrunk", DISTORTION_SHRUNK),
+            ("u_grown", DISTORTION_GROWN),
+            ("u_sheared", DISTORTION_SHEARED),
+            ("u_folded", DISTORTION_FOLDED),
+        ):
+            self._distortion_program[name].value = tuple(colour)
+        self._distortion_program["u_range"].value = DISTORTION_RANGE
+        self._distortion_program["u_measure"].value = 0
         self._image_program["u_opacity"].value = 1.0
         self._texture: moderngl.Texture | None = None
         self._sampler: moderngl.Sampler | None = None
@@ -316,6 +340,11 @@ class WarpRenderer:
             [(self._positions, "2f", "in_position"), (self._values, "1f", "in_value")],
             index_buffer=self._triangles,
         )
+        self._distortion_vao = ctx.vertex_array(
+            self._distortion_program,
+            [(self._positions, "2f", "in_position"), (self._values, "1f", "in_value")],
+            index_buffer=self._triangles,
+        )
         self._folds_vao = ctx.vertex_array(
             self._folds_program,
             [(self._positions, "2f", "in_position"), (self._uv, "2f", "in_uv")],
@@ -323,6 +352,7 @@ class WarpRenderer:
         )
         self._mesh_objects = [
             self._heat_vao,
+            self._distortion_vao,
             self._folds_vao,
             self._image_vao,
             self._field_vao,
@@ -352,8 +382,12 @@ class WarpRenderer:
             raise ValueError(f"positions must have shape {self._vertices.shape}, got {positions.shape}")
         self._positions.write(np.ascontiguousarray(positions, dtype="f4").tobytes())
 
+    def set_distortion_measure(self, measure: str) -> None:
+        """How ``content="distortion"`` colours its field: ``"area"`` (log2 det J) or ``"conformal"``."""
+        self._distortion_program["u_measure"].value = DISTORTION_MEASURES[measure]
+
     def set_field(self, values: np.ndarray) -> None:
-        """Write the per-vertex scalar field drawn by ``content="field"`` or ``"heat"``.
+        """Write the per-vertex scalar field drawn by ``content="field"``, ``"heat"`` or ``"distortion"``.
 
         Parameters
         ----------
@@ -412,9 +446,10 @@ class WarpRenderer:
             Image-to-framebuffer transform.
         viewport_size : tuple of int
             (width, height) of the viewport in framebuffer pixels.
-        content : {"image", "field", "heat", "none"}
+        content : {"image", "field", "heat", "distortion", "none"}
             The warped image, the scalar field in height bands (Fig. 1), the scalar
-            field as a heat map (Fig. 8), or only overlays.
+            field as a heat map (Fig. 8), the field as the distortion view
+            (`app.viewer.distortion_view`), or only overlays.
         wireframe : bool
             Draw the mesh edges on top.
         highlight : bool
@@ -424,11 +459,13 @@ class WarpRenderer:
             GPU, like `core.folded_triangles`) on top.
         """
         self._require_mesh()
-        if content not in ("image", "field", "heat", "none"):
-            raise ValueError(f"content must be 'image', 'field', 'heat' or 'none', got {content!r}")
+        if content not in ("image", "field", "heat", "distortion", "none"):
+            raise ValueError(
+                f"content must be 'image', 'field', 'heat', 'distortion' or 'none', got {content!r}"
+            )
         if content == "image" and self._texture is None:
             raise RuntimeError("draw(content='image') needs set_image first")
-        if content in ("field", "heat") and not self._field_ready:
+        if content in ("field", "heat", "distortion") and not self._field_ready:
             raise RuntimeError(f"draw(content={content!r}) needs set_field first")
         self._set_view(
             (
@@ -436,6 +473,7 @@ class WarpRenderer:
                 self._field_program,
                 self._solid_program,
                 self._heat_program,
+                self._distortion_program,
                 self._folds_program,
             ),
             view,
@@ -454,6 +492,8 @@ class WarpRenderer:
             self._field_vao.render()
         elif content == "heat":
             self._heat_vao.render()
+        elif content == "distortion":
+            self._distortion_vao.render()
         if folds:
             self._folds_program["u_colour"].value = HIGHLIGHT_COLOUR
             self._folds_vao.render()

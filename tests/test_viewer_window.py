@@ -33,6 +33,7 @@ from app.viewer.window import IDLE_WAIT
 ROOT = Path(__file__).resolve().parent.parent
 ASSETS = ROOT / "assets"
 PANEL_RIGHT, STATUS_TOP = 300, 990  # window pixels: the side panel and the status line
+COLOUR_BAR_LEFT = 1020  # window pixels: the colour bar of the field views, bottom right
 
 
 @pytest.fixture(scope="module")
@@ -683,3 +684,43 @@ def test_keyframes_are_added_played_exported_and_saved(display, environment):
     finally:
         viewer.kill()
     assert len(json.loads(session.read_text())["keyframes"]) == 2
+
+
+def test_distortion_view_shows_the_exact_folds_of_a_point_kernel(display, environment):
+    from app.files import Session, write_session
+
+    env, folder = environment
+    cage = np.array(json.loads((ASSETS / "starfish.cage.json").read_text())["control_points"])
+    target = cage.copy()
+    target[0] = (320.0, 300.0)  # the top arm's tip pulled down through the body: a fold
+    session = folder / "distortion.json"
+    view = {"scale": 1.4, "offset": [360.0, 40.0]}
+    extra = {"viewer": {"content": "distortion", "distortion": "area"}}
+    write_session(
+        session,
+        Session(ASSETS / "starfish.png", cage, target, "inverse-cube-mean", 1.4, (360.0, 40.0), extra),
+    )
+    viewer = ViewerProcess(["view", "--session", str(session)], env, ROOT)
+    try:
+        viewer.wait_for("ready window=", 30)
+        line = viewer.wait_for("distortion ", 300)  # the first run compiles the gradient solver
+        fields = dict(part.split("=") for part in line.split()[1:])
+        assert fields["measure"] == "area" and int(fields["exact"]) > 0.9 * int(fields["vertices"])
+        assert int(fields["folded"]) > 0 and float(fields["min_det"]) < 0
+        folded = shot(display, folder, "distortion-area")
+        canvas = folded[:STATUS_TOP, PANEL_RIGHT:COLOUR_BAR_LEFT]
+        black = canvas.max(axis=-1) < 8  # folded vertices are drawn black
+        # The fold is where the tip went: around the deformed top arm, inside the target.
+        rows, columns = np.nonzero(black)
+        tip = window_pixel(view, target[0]) - (PANEL_RIGHT, 0)
+        assert black.sum() > 200
+        assert np.median(np.hypot(columns - tip[0], rows - tip[1])) < 200 * view["scale"]
+        xdotool(display, "key", "shift+1")  # the warped image: no black anywhere
+        image = shot(display, folder, "distortion-image")
+        assert (image[:STATUS_TOP, PANEL_RIGHT:COLOUR_BAR_LEFT].max(axis=-1) < 8).sum() < 0.05 * black.sum()
+        xdotool(display, "key", "ctrl+q")
+        code, stderr = viewer.finish()
+        assert code == 0, stderr
+    finally:
+        viewer.kill()
+    assert json.loads(session.read_text())["viewer"]["content"] == "image"

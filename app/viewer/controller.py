@@ -28,7 +28,7 @@ from app.framing import CANVASES, OUTSIDES
 from app.keyframes import INTERPOLATIONS, MAX_TIME, TIME_RESOLUTION, Keyframe, interpolate
 from app.render import View
 from app.viewer import drawing, editing
-from app.viewer.state import CONTENTS, MODES, SHIFTS, AppState, Drag, Snapshot
+from app.viewer.state import CONTENTS, MEASURES, MODES, SHIFTS, AppState, Drag, Snapshot
 
 LEFT, RIGHT, MIDDLE = 0, 1, 2
 #: Window pixels of the status line at the bottom (kept in step with app.viewer.gui).
@@ -403,6 +403,10 @@ def command(state: AppState, name: str, value=None) -> bool:
     elif name == "content":
         if value in CONTENTS:
             state.content = value
+            state.session_dirty = True
+    elif name == "distortion_measure":
+        if value in MEASURES:
+            state.distortion_measure = value
             state.session_dirty = True
     elif name == "kernel":
         if value not in kernel_names():

@@ -15,7 +15,18 @@ from imgui_bundle import imgui
 
 from app.files import kernel_names
 from app.keyframes import MAX_TIME
-from app.render import BAND_COLOURS, BAND_START, BAND_WIDTH, HEAT_NEGATIVE, HEAT_STOPS
+from app.render import (
+    BAND_COLOURS,
+    BAND_START,
+    BAND_WIDTH,
+    DISTORTION_FOLDED,
+    DISTORTION_GROWN,
+    DISTORTION_RANGE,
+    DISTORTION_SHEARED,
+    DISTORTION_SHRUNK,
+    HEAT_NEGATIVE,
+    HEAT_STOPS,
+)
 from app.viewer.controller import STATUS_HEIGHT
 from app.viewer.state import SHIFTS, AppState
 
@@ -31,6 +42,7 @@ _CONTENT_LABELS = {
     "image": "Warped image",
     "basis": "Basis function G_i (Fig. 8)",
     "height": "Height interpolant (Fig. 1)",
+    "distortion": "Distortion (Jacobian)",
 }
 
 
@@ -182,6 +194,16 @@ def _panel(state: AppState, commands: list, extras: dict, height: float) -> None
     for content, label in _CONTENT_LABELS.items():
         if imgui.radio_button(label, state.content == content):
             commands.append(("content", content))
+    if state.content == "distortion":
+        _choice_row(
+            commands,
+            "  measure:",
+            "distortion_measure",
+            state.distortion_measure,
+            (("area", "area"), ("conformal", "angles")),
+            "area: log2 det J, the area change; angles: log2 sigma1/sigma2, how much the\n"
+            "stretch differs between directions. Folded vertices (det J <= 0) are black.",
+        )
     for field, label in (
         ("show_folds", "Folded triangles"),
         ("show_wireframe", "Mesh edges"),
@@ -388,14 +410,16 @@ def _status(state: AppState, width: float, height: float) -> None:
 
 
 def _colour_bar(state: AppState, width: float, height: float) -> None:
-    bar_width, bar_height = 240.0, 96.0
+    bar_width, bar_height = 240.0, (116.0 if state.content == "distortion" else 96.0)
     imgui.set_next_window_pos((width - bar_width - 10, height - STATUS_HEIGHT - bar_height - 10))
     imgui.set_next_window_size((bar_width, bar_height))
     imgui.begin("##colour bar", None, _FIXED | imgui.WindowFlags_.no_title_bar | imgui.WindowFlags_.no_inputs)
     draw = imgui.get_window_draw_list()
     left, top = imgui.get_cursor_screen_pos()
     span = bar_width - 24
-    if state.content == "height":
+    if state.content == "distortion":
+        _distortion_bar(state, draw, left, top, span)
+    elif state.content == "height":
         imgui.text("height, bands [k, k+1]/10 (Fig. 1)")
         top += 20
         count = len(BAND_COLOURS)
@@ -424,6 +448,40 @@ def _colour_bar(state: AppState, width: float, height: float) -> None:
         imgui.dummy((span, 48))
         imgui.text_disabled("isolines every 0.1, white at 0")
     imgui.end()
+
+
+def _distortion_bar(state: AppState, draw, left: float, top: float, span: float) -> None:
+    """The distortion view's colour bar and its worst values (`app.viewer.distortion_view`)."""
+    white = (1.0, 1.0, 1.0)
+    area = state.distortion_measure == "area"
+    imgui.text("area change det J" if area else "anisotropy sigma1/sigma2")
+    top += 20
+    folded = 0.12 * span
+    draw.add_rect_filled((left, top), (left + folded, top + 22), _colour(DISTORTION_FOLDED))
+    draw.add_rect((left, top), (left + folded, top + 22), _colour(white))
+    stops = (DISTORTION_SHRUNK, white, DISTORTION_GROWN) if area else (white, DISTORTION_SHEARED)
+    width = (span - folded) / (len(stops) - 1)
+    for k in range(len(stops) - 1):
+        a, b = _colour(stops[k]), _colour(stops[k + 1])
+        x0 = left + folded + width * k
+        draw.add_rect_filled_multi_color((x0, top), (x0 + width, top + 22), a, b, b, a)
+    full = 2.0**DISTORTION_RANGE
+    labels = (("fold", 0.0), (f"1/{full:g}", folded), ("1", folded + width), (f"{full:g}", span - 8))
+    if not area:
+        labels = (("fold", 0.0), ("1", folded), (f"{full:g}", span - 8))
+    for text, x in labels:
+        draw.add_text((left + x, top + 26), _colour(white), text)
+    imgui.dummy((span, 48))
+    summary = state.distortion
+    if summary is not None:
+        worst = f"min det {summary.min_det:.3g}" if area else f"max {summary.max_ratio:.3g}"
+        imgui.text_disabled(f"{worst}, {summary.folded} folded")
+        if imgui.is_item_hovered():
+            imgui.set_tooltip(
+                f"{summary.exact:,} of {summary.vertices:,} vertices exact (from the gradients of the "
+                "basis functions); the others from their triangles (FEM harmonic, boundary, or "
+                "gradients still being computed)"
+            )
 
 
 def _help(state: AppState, shortcuts: list[tuple[str, str]], width: float, height: float) -> None:

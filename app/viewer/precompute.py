@@ -55,6 +55,8 @@ class Request:
         Kernel parameters (``power``, ``shift``).
     max_edge : float
         Mesh edge length, image pixels.
+    gradients : bool
+        Also grad G at the vertices (the distortion view; point kernels only).
     """
 
     key: str
@@ -62,25 +64,39 @@ class Request:
     kernel: str
     params: dict
     max_edge: float
+    gradients: bool = False
 
 
-def basis_key(snapshot: Snapshot, max_edge: float) -> str:
-    """Identity of the basis functions a snapshot needs: its cage, kernel, parameters and mesh size."""
+def has_gradients(kernel: str) -> bool:
+    """Whether `kernel` has pointwise gradients (`core.mesh_basis_functions(gradients=True)`)."""
+    import core
+
+    return kernel in core.KERNELS
+
+
+def basis_key(snapshot: Snapshot, max_edge: float, gradients: bool = False) -> str:
+    """Identity of the basis functions a snapshot needs: its cage, kernel, parameters and mesh size
+    (and whether their gradients are wanted too)."""
     digest = hashlib.sha256()
     digest.update(np.ascontiguousarray(snapshot.cage, dtype=np.float64).tobytes())
     settings = {"kernel": snapshot.kernel, "params": snapshot.kernel_params(), "max_edge": float(max_edge)}
+    if gradients:
+        settings["gradients"] = True
     digest.update(json.dumps(settings, sort_keys=True).encode())
     return digest.hexdigest()[:24]
 
 
-def make_request(snapshot: Snapshot, max_edge: float) -> Request:
-    """The `Request` for a snapshot's basis functions."""
+def make_request(snapshot: Snapshot, max_edge: float, gradients: bool = False) -> Request:
+    """The `Request` for a snapshot's basis functions (with their gradients if `gradients` and
+    the kernel has them)."""
+    gradients = gradients and has_gradients(snapshot.kernel)
     return Request(
-        basis_key(snapshot, max_edge),
+        basis_key(snapshot, max_edge, gradients),
         np.array(snapshot.cage),
         snapshot.kernel,
         snapshot.kernel_params(),
         float(max_edge),
+        gradients,
     )
 
 
@@ -100,6 +116,7 @@ def result_from_message(key: str, payload: dict) -> BasisResult:
         columns=np.asfortranarray(basis, dtype=np.float32),
         kernel=payload["kernel"],
         seconds=payload["seconds"],
+        gradients=payload.get("gradients"),
     )
 
 
@@ -110,7 +127,8 @@ def compute(request: Request, progress=None) -> dict:
     -------
     dict
         ``cage`` (n, 2), the mesh's ``vertices`` (V, 2), ``triangles`` (T, 3),
-        ``boundary`` and ``boundary_parameters``, ``basis`` (V, n), ``kernel``, ``seconds``.
+        ``boundary`` and ``boundary_parameters``, ``basis`` (V, n), ``kernel``, ``seconds``,
+        ``gradients`` ((V, n, 2), or None unless the request asked for them).
 
     Raises
     ------
@@ -149,8 +167,17 @@ def compute(request: Request, progress=None) -> dict:
 
     report(0.0)
     basis = core.mesh_basis_functions(
-        curve, mesh, kernel=request.kernel, progress=report, compiling=compiling, **request.params
+        curve,
+        mesh,
+        kernel=request.kernel,
+        progress=report,
+        compiling=compiling,
+        gradients=request.gradients,
+        **request.params,
     )
+    gradients = None
+    if request.gradients:
+        basis, gradients = basis
     return {
         "cage": np.array(request.cage),
         "vertices": mesh.vertices,
@@ -160,6 +187,7 @@ def compute(request: Request, progress=None) -> dict:
         "basis": basis,
         "kernel": request.kernel,
         "seconds": time.perf_counter() - started,
+        "gradients": gradients,
     }
 
 

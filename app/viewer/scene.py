@@ -7,7 +7,8 @@
   and one in-place buffer write; otherwise (undo, release, script, keyframe
   playback) the exact product G @ P' in float64, the one `python -m app warp`
   uses (folded triangles are counted again only when playback stops);
-- the field of the basis-function or height view when it changes;
+- the field of the basis-function, height or distortion view when it changes (the
+  distortion view's after every change of the target: `app.viewer.distortion_view`);
 - the overlay of curves, control polygons and handles (a few kilobytes) every frame.
 """
 
@@ -19,6 +20,7 @@ import numpy as np
 
 from app.render import View, WarpRenderer
 from app.viewer.controller import band_corners
+from app.viewer.distortion_view import vertex_distortion
 from app.viewer.editing import curve_points, to_image
 from app.viewer.state import AppState
 from core.examples import wave_heights
@@ -29,6 +31,8 @@ TARGET_COLOUR = (0.22, 0.48, 1.00)
 SELECTED_COLOUR = (1.00, 0.86, 0.20)
 HOVER_COLOUR = (1.00, 1.00, 1.00)
 BACKGROUND = (0.13, 0.13, 0.14)
+#: The renderer's content for each of the viewer's views.
+_DRAWN = {"image": "image", "basis": "heat", "height": "field", "distortion": "distortion"}
 
 
 def overlay_arrays(state: AppState) -> tuple[np.ndarray, np.ndarray]:
@@ -192,6 +196,21 @@ class Scene:
             if signature != self._field:
                 self.renderer.set_field(basis.basis @ wave_heights(basis.basis.shape[1]))
                 self._field = signature
+        elif state.content == "distortion":
+            target = state.live.target
+            signature = ("distortion", basis.key, state.distortion_measure, target.tobytes())
+            if signature != self._field:
+                values, state.distortion = vertex_distortion(
+                    basis.mesh.vertices,
+                    basis.mesh.triangles,
+                    basis.basis,
+                    basis.gradients,
+                    target,
+                    state.distortion_measure,
+                )
+                self.renderer.set_field(values)
+                self._field = signature
+            self.renderer.set_distortion_measure(state.distortion_measure)
 
     def invalidate_positions(self) -> None:
         """Someone else wrote the position buffer: recompute it at the next `sync`."""
@@ -208,7 +227,7 @@ class Scene:
         renderer = self.renderer
         view = View(state.view.scale * pixel_ratio, tuple(v * pixel_ratio for v in state.view.offset))
         meshed = self.mesh_matches(state)
-        content = {"image": "image", "basis": "heat", "height": "field"}[state.content]
+        content = _DRAWN[state.content]
         warped = meshed and (state.mode == "deform" or content != "image")
         # The faded source image costs a full textured pass of a software rasteriser: only on request.
         opacity = (1.0 if state.outside == "original" else state.backdrop_opacity) if warped else 1.0
@@ -221,7 +240,7 @@ class Scene:
                 framebuffer_size,
                 content=content,
                 wireframe=state.show_wireframe,
-                folds=state.show_folds,
+                folds=state.show_folds and content != "distortion",  # that view shows folds per vertex
             )
         if state.show_overlay:
             segments, points = overlay_arrays(state)

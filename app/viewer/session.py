@@ -45,7 +45,16 @@ from app.keyframes import DEFAULT_INTERPOLATION, MAX_TIME, Keyframe, keyframes_j
 from app.render import View
 from app.viewer.session_files import backups, keep_aside, rotate_backups, session_path_for
 from app.viewer.session_lock import SessionLock, lock_session
-from app.viewer.state import CONTENTS, DEFAULT_POWER, DEFAULT_SHIFT, MODES, SHIFTS, AppState, Snapshot
+from app.viewer.state import (
+    CONTENTS,
+    DEFAULT_POWER,
+    DEFAULT_SHIFT,
+    MEASURES,
+    MODES,
+    SHIFTS,
+    AppState,
+    Snapshot,
+)
 
 #: Undo steps (and redo steps) written into the session file.
 SAVED_STEPS = 100
@@ -370,6 +379,8 @@ def apply_preferences(state: AppState, preferences: dict | None) -> None:
         state.mode = preferences["mode"]
     if preferences.get("content") in CONTENTS:
         state.content = preferences["content"]
+    if preferences.get("distortion") in MEASURES:
+        state.distortion_measure = preferences["distortion"]
     for name in ("show_folds", "show_wireframe", "show_overlay"):
         if isinstance(preferences.get(name), bool):
             setattr(state, name, preferences[name])
@@ -394,6 +405,7 @@ def session_of(state: AppState, max_edge: float | None) -> Session:
         "viewer": {
             "mode": state.mode,
             "content": state.content,
+            "distortion": state.distortion_measure,
             "show_folds": state.show_folds,
             "show_wireframe": state.show_wireframe,
             "show_overlay": state.show_overlay,

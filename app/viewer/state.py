@@ -27,7 +27,9 @@ DEFAULT_SHIFT = "mean"
 SHIFTS = ("none", "integral", "mean")
 
 #: What the canvas shows.
-CONTENTS = ("image", "basis", "height")
+CONTENTS = ("image", "basis", "height", "distortion")
+#: What the distortion view shows: log2 det J, or log2 sigma_1 / sigma_2 (app.viewer.distortion_view).
+MEASURES = ("area", "conformal")
 #: What a left click edits: the target (deform) or the source cage.
 MODES = ("deform", "cage")
 
@@ -278,6 +280,9 @@ class BasisResult:
         The kernel it was computed with (shown while another one is computed).
     seconds : float
         Wall time of the precompute (0 when it came from a cache).
+    gradients : ndarray of shape (V, n, 2) or None
+        grad G at the vertices (NaN on the boundary) for the distortion view, if
+        they were asked for and the kernel has them (a point kernel).
     """
 
     key: str
@@ -287,6 +292,7 @@ class BasisResult:
     columns: np.ndarray
     kernel: str
     seconds: float
+    gradients: np.ndarray | None = None
 
 
 @dataclass
@@ -304,6 +310,8 @@ class AppState:
     view: View = field(default_factory=View)
     mode: str = "deform"
     content: str = "image"
+    distortion_measure: str = "area"  # of the distortion view: "area" (det J) or "conformal"
+    distortion: object | None = None  # app.viewer.distortion_view.DistortionSummary of the view shown
     selected: int | None = None  # the last handle clicked: its basis function is shown
     group: frozenset = frozenset()  # the handles moved together (Shift+click, rubber band)
     view_fitted: bool = True  # the view is `fit_view`'s (a window resize fits it again)

@@ -116,6 +116,14 @@ def _key_table():
         (glfw.KEY_1, shift, "content", "image", "Shift+1", "show the warped image"),
         (glfw.KEY_2, shift, "content", "basis", "Shift+2", "show the selected point's basis function"),
         (glfw.KEY_3, shift, "content", "height", "Shift+3", "show a height interpolant in bands (Fig. 1)"),
+        (
+            glfw.KEY_4,
+            shift,
+            "content",
+            "distortion",
+            "Shift+4",
+            "show the distortion: area change or anisotropy of the Jacobian, folded vertices black",
+        ),
         (glfw.KEY_EQUAL, 0, "zoom", "in", "+, -", "zoom in, out (about the canvas centre)"),
         (glfw.KEY_EQUAL, shift, "zoom", "in", None, None),
         (glfw.KEY_KP_ADD, 0, "zoom", "in", None, None),
@@ -731,7 +739,7 @@ class Viewer:
         if state.drag is not None or state.drawing is not None or state.live.n < 3:
             return
         live = state.live
-        wanted = make_request(live, self._max_edge(live.cage))
+        wanted = make_request(live, self._max_edge(live.cage), gradients=state.content == "distortion")
         self._wanted = wanted.key
         if state.basis is not None and state.basis.key == wanted.key:
             return
@@ -876,7 +884,15 @@ class Viewer:
             self.command(name, value)
         self._update_precompute()  # a kernel chosen in the panel starts computing this frame
 
+        shown = state.distortion
         self.scene.sync(state)
+        if state.distortion is not shown and state.content == "distortion":
+            d = state.distortion
+            self._announce(
+                f"distortion measure={state.distortion_measure} folded={d.folded} exact={d.exact} "
+                f"vertices={d.vertices} min_det={d.min_det:.6g} "
+                f"at={d.min_det_at[0]:.1f},{d.min_det_at[1]:.1f}"
+            )
         width, height = glfw.get_framebuffer_size(self.window)
         ratio = width / max(state.window_size[0], 1)
         self.ctx.screen.use()
