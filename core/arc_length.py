@@ -7,18 +7,23 @@ span the same parameter length whatever its length in the plane; the arc length
 
     s(t) = int_0^t |p'(tau)| d tau,   S_j = s(j),  l_j = S_{j+1} - S_j,
 
-gives every stretch of curve a parameter length equal to its length.  The map is
-monotone on each span j (|p'| > 0 there but possibly at a sharp corner's knot)
-and computed once per cage: S_j and l_j in closed form (`core.solver.span_arc_length`),
-its inverse t(s) = j + u by safeguarded Newton (`core.solver.natural_parameter`).
+gives every stretch of curve a parameter length proportional to its length.  Like
+the reparameterisations of Fig. 12 it keeps the parameter interval [0, n): the
+parameter is the normalised arc length n s(t) / L (L the curve's length), written s
+from here on, so that a curve of uniform speed keeps its parameter and the kernels
+whose weights depend on the parameter's scale (the integral shift of Eq. 19-20)
+compare like with like.  The map is monotone on each span j (|p'| > 0 there but
+possibly at a sharp corner's knot) and computed once per cage: the span lengths in
+closed form (`core.solver.span_arc_length`), the inverse t(s) = j + u by safeguarded
+Newton (`core.solver.natural_parameter`).
 
-The arc-length curve q(s) = p(t(s)) is sampled uniformly in s, s_k = k L / N, and
-handed to the solver like any `Boundary`: the quadrature (the trapezoid rule of
-Sec. 4.1 and the near-boundary refined rule) is uniform in s, while the B-spline
-basis N_i of Sec. 4.3 is evaluated at t(s).  The solver recognises the curve by
-the third channel of its coefficients (n, 3, 3): channels 0, 1 are the natural
-quadratic pieces of `ClosedBSpline.piecewise_polynomial`, channel 2 holds
-(S_j, l_j, 0) per span.
+The curve q(s) = p(t(s)) is sampled uniformly in s, s_k = k n / N, and handed to
+the solver like any `Boundary`: the quadrature (the trapezoid rule of Sec. 4.1 and
+the near-boundary refined rule) is uniform in s, while the B-spline basis N_i of
+Sec. 4.3 is evaluated at t(s).  The solver recognises the curve by the third
+channel of its coefficients (n, 3, 3): channels 0, 1 are the natural quadratic
+pieces of `ClosedBSpline.piecewise_polynomial`, channel 2 holds (S_j, l_j, L / n)
+per span, S_j and l_j the span's start and length in s.
 """
 
 from __future__ import annotations
@@ -41,7 +46,7 @@ def checked_parameterization(value) -> str:
 
 
 class ArcLengthCurve:
-    """A closed quadratic piecewise curve as a function of its arc length s in [0, L).
+    """A closed quadratic piecewise curve as a function of its normalised arc length s in [0, n).
 
     Parameters
     ----------
@@ -61,47 +66,47 @@ class ArcLengthCurve:
         coefficients = np.zeros((spans, 3, 3))
         coefficients[:, :, :2] = natural
         lengths = np.array([solver.span_arc_length(coefficients, j, 1.0) for j in range(spans)])
-        coefficients[:, 0, 2] = np.concatenate([[0.0], np.cumsum(lengths)[:-1]])
-        coefficients[:, 1, 2] = lengths
+        self.length = float(lengths.sum())
+        scale = self.length / spans
+        coefficients[:, 0, 2] = np.concatenate([[0.0], np.cumsum(lengths)[:-1]]) / scale
+        coefficients[:, 1, 2] = lengths / scale
+        coefficients[:, 2, 2] = scale
         self.coefficients = coefficients
-        self.length = float(coefficients[-1, 0, 2] + lengths[-1])
-        # Makes period = spans * piece_length hold as for `PiecewisePolynomial`; the solver
-        # uses it only as the scale of its one-sided chords at sharp corners.
-        self.piece_length = self.length / spans
+        self.piece_length = 1.0
 
     @property
     def period(self) -> float:
-        """L, the length of the whole curve."""
-        return self.length
+        """n, the parameter length of the whole curve (as in the natural parameter)."""
+        return float(self.coefficients.shape[0])
 
     @property
     def knots(self) -> np.ndarray:
-        """S_j = s(j), the arc length at the natural knots, ndarray of shape (n,)."""
+        """s(j), the parameter s at the natural knots j = 0..n-1, ndarray of shape (n,)."""
         return self.coefficients[:, 0, 2].copy()
 
     def evaluate(self, s) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """q(s), q'(s), q''(s) (derivatives in s), each of shape (m, 2)."""
+        """q(s), q'(s), q''(s) (derivatives in s, |q'| = L / n), each of shape (m, 2)."""
         values = solver.arc_length_samples(self.coefficients, as_parameters(s))
         return values[:, 0:2], values[:, 2:4], values[:, 4:6]
 
     def natural(self, s) -> np.ndarray:
-        """t(s), the natural parameter in [0, n] of arc lengths s of shape (m,)."""
+        """t(s), the natural parameter in [0, n] of parameters s of shape (m,)."""
         spans, local = solver.natural_parameters(self.coefficients, as_parameters(s))
         return spans + local
 
     def arc_length(self, t) -> np.ndarray:
-        """s(t) in [0, L] for natural parameters t of shape (m,) (periodic)."""
+        """s(t) = n (arc length from p(0) to p(t)) / L in [0, n] for natural t of shape (m,) (periodic)."""
         spans = self.coefficients.shape[0]
         t = np.mod(as_parameters(t), spans)
         span = np.minimum(np.floor(t).astype(np.int64), spans - 1)
         within = [
             solver.span_arc_length(self.coefficients, j, u) for j, u in zip(span, t - span, strict=True)
         ]
-        return self.coefficients[span, 0, 2] + np.array(within)
+        return self.coefficients[span, 0, 2] + np.array(within) / self.coefficients[0, 2, 2]
 
 
 def arc_length_boundary(pieces: PiecewisePolynomial, count: int, corners: np.ndarray) -> Boundary:
-    """The curve sampled at N = `count` arc lengths s_k = k L / N (a `Boundary` in s).
+    """The curve sampled at N = `count` normalised arc lengths s_k = k n / N (a `Boundary` in s).
 
     Parameters
     ----------
@@ -114,7 +119,7 @@ def arc_length_boundary(pieces: PiecewisePolynomial, count: int, corners: np.nda
         first); returned at their arc length.
     """
     curve = ArcLengthCurve(pieces)
-    step = curve.length / count
+    step = curve.period / count
     s = np.arange(count) * step
     value, first, second = curve.evaluate(s)
     # s = 0 is the knot t = 0, where q'' jumps: the trapezoid rule wants the mean of both sides.
@@ -136,4 +141,5 @@ def _span_end(curve: ArcLengthCurve, span: int) -> tuple[np.ndarray, np.ndarray,
     if speed == 0.0:
         return c.sum(axis=0), np.zeros(2), np.zeros(2)
     tangent = first / speed
-    return c.sum(axis=0), tangent, (second - (second @ tangent) * tangent) / speed**2
+    scale = curve.coefficients[span, 2, 2]
+    return c.sum(axis=0), scale * tangent, (second - (second @ tangent) * tangent) * (scale / speed) ** 2

@@ -136,8 +136,8 @@ class ClosedBSpline:
         Returns a `Boundary` that also keeps the exact curve, so quadrature can be
         refined near the boundary at any parameter.  At the knots, where p'' jumps,
         the second derivative is the mean of its one-sided values.  With
-        ``parameterization="arc-length"`` the N samples are uniform in the arc
-        length s instead, s_k = k L / N, and the boundary is the curve q(s) of
+        ``parameterization="arc-length"`` the N samples are uniform in the (normalised) arc
+        length s instead, s_k = k n / N, and the boundary is the curve q(s) of
         `core.arc_length` (Fig. 12c).
         """
         per = checked_samples_per_segment(samples_per_segment, self.n)

@@ -187,8 +187,8 @@ def kernel(
         Also return a `SolveReport`.
     parameterization : str
         ``"natural"``: the boundary's own parameter t.  ``"arc-length"``: the
-        kernel in the arc length s (Fig. 12c) at the N samples s_k = k L / N of
-        `core.arc_length.arc_length_boundary`, h = L / N below; needs a boundary
+        kernel in the arc length s (Fig. 12c) at the N samples s_k = k n / N (normalised arc length) of
+        `core.arc_length.arc_length_boundary`; needs a boundary
         from `ClosedBSpline.sample` (natural).
 
     Returns

@@ -19,6 +19,7 @@ from collections.abc import Callable
 import numpy as np
 
 from core import cache as disk_cache
+from core.arc_length import checked_parameterization
 from core.bspline import ClosedBSpline
 from core.compilation import compile_solver
 from core.harmonic import harmonic_basis
@@ -53,6 +54,7 @@ def mesh_basis_functions(
     progress: Callable[[float], None] | None = None,
     cache: bool = True,
     compiling: Callable[[float], None] | None = None,
+    parameterization: str = "natural",
     **params,
 ) -> np.ndarray:
     """Basis functions G_i at every vertex of `mesh`.
@@ -79,6 +81,11 @@ def mesh_basis_functions(
         Called with the fraction compiled in [0, 1] when a point kernel needs the
         solver compiled first (the first run only, see `core.compile_solver`);
         not called when G comes from the cache or the compiled solver is cached.
+    parameterization : str
+        ``"natural"`` or ``"arc-length"``: the boundary parameter of the point
+        kernels' integrals (Fig. 12, `core.basis_functions`); part of the cache
+        key.  ``"pgw"`` and ``"harmonic"`` do not depend on one and take only
+        ``"natural"``.
     **params
         Kernel parameters: those of `core.basis_functions` for the point kernels,
         ``angles`` for ``"pgw"``, none for ``"harmonic"``.
@@ -107,6 +114,11 @@ def mesh_basis_functions(
             raise ValueError(
                 f"kernel {kernel!r} does not take parameter(s) {', '.join(unknown)} (it takes: {allowed})"
             )
+    if checked_parameterization(parameterization) != "natural" and kernel in MESH_ONLY_KERNELS:
+        raise ValueError(
+            f"kernel {kernel!r} does not depend on the boundary's parameterization; "
+            f"parameterization={parameterization!r} applies to the point kernels ({', '.join(KERNELS)})"
+        )
     for name, callback in (("progress", progress), ("compiling", compiling)):
         if callback is not None and not callable(callback):
             raise ValueError(f"{name} must be a callable taking a fraction, got {callback!r}")
@@ -114,7 +126,7 @@ def mesh_basis_functions(
     if not cache:
         if kernel not in MESH_ONLY_KERNELS:
             compile_solver(compiling)
-        return _compute(curve, mesh, kernel, per, progress, params)
+        return _compute(curve, mesh, kernel, per, progress, parameterization, params)
     key = disk_cache.cache_key(
         curve.control_points,
         mesh.vertices,
@@ -124,6 +136,7 @@ def mesh_basis_functions(
         kernel,
         per,
         params,
+        parameterization,
     )
     entry = disk_cache.load(key, shape)
     problem = entry.problem
@@ -135,7 +148,7 @@ def mesh_basis_functions(
             return entry.values
     if kernel not in MESH_ONLY_KERNELS:
         compile_solver(compiling)
-    values = _compute(curve, mesh, kernel, per, progress, params)
+    values = _compute(curve, mesh, kernel, per, progress, parameterization, params)
     replaced = disk_cache.store(key, values, invariant_errors(curve, mesh, values))
     if problem is not None:
         warnings.warn(
@@ -187,7 +200,7 @@ def invariant_problem(
     return None
 
 
-def _compute(curve, mesh, kernel, samples_per_segment, progress, params) -> np.ndarray:
+def _compute(curve, mesh, kernel, samples_per_segment, progress, parameterization, params) -> np.ndarray:
     if kernel == "harmonic":
         if progress is not None:
             progress(0.0)
@@ -220,6 +233,7 @@ def _compute(curve, mesh, kernel, samples_per_segment, progress, params) -> np.n
             kernel=kernel,
             samples_per_segment=samples_per_segment,
             progress=progress,
+            parameterization=parameterization,
             **params,
         )
     return values

@@ -74,7 +74,7 @@ ARMIJO = 1e-4
 def _evaluate_curve(coefficients, piece_length, t):
     """p(t), p'(t), p''(t) of a closed piecewise polynomial (see core.boundary).
 
-    A third channel makes the argument the arc length s (`core.arc_length`).
+    A third channel makes the argument the normalised arc length s (`core.arc_length`).
     """
     if coefficients.shape[2] == 3:
         return arc_length_curve(coefficients, t)
@@ -147,15 +147,15 @@ def _speed_primitive(wx, wy, cx, cy, c, h):
 
 @njit(cache=True, error_model="numpy")
 def natural_parameter(coefficients, s):
-    """(span, u): the natural parameter t = span + u of arc length s (periodic), by
-    safeguarded Newton on `span_arc_length` (|p'| is its derivative).
+    """(span, u): the natural parameter t = span + u of normalised arc length s (periodic),
+    by safeguarded Newton on `span_arc_length` (|p'| is its derivative).
 
     coefficients (n, 3, 3): the natural quadratic pieces (channels 0, 1) and, in
-    channel 2, each span's start arc length S_j and length l_j (`core.arc_length`).
+    channel 2, each span's start S_j and length l_j in the normalised arc length
+    (period n) and the scale L / n of the lengths (`core.arc_length`).
     """
     spans = coefficients.shape[0]
-    period = coefficients[spans - 1, 0, 2] + coefficients[spans - 1, 1, 2]
-    s = s - math.floor(s / period) * period
+    s = s - math.floor(s / spans) * spans
     lo_span = 0
     hi_span = spans - 1
     while lo_span < hi_span:  # the last span starting at or before s
@@ -165,8 +165,9 @@ def natural_parameter(coefficients, s):
         else:
             hi_span = middle - 1
     span = lo_span
-    length = coefficients[span, 1, 2]
-    target = s - coefficients[span, 0, 2]
+    scale = coefficients[span, 2, 2]
+    length = coefficients[span, 1, 2] * scale
+    target = (s - coefficients[span, 0, 2]) * scale
     if target >= length:
         return span, 1.0
     if target <= 0.0:
@@ -199,12 +200,16 @@ def natural_parameter(coefficients, s):
 
 @njit(cache=True, error_model="numpy")
 def arc_length_curve(coefficients, s):
-    """q(s) = p(t(s)), q'(s) and q''(s) of the arc-length reparameterised curve.
+    """q(s) = p(t(s)), q'(s) and q''(s) of the curve in its normalised arc length s.
 
-    q' = p' / |p'| and q'' = (p'' - (p'' . q') q') / |p'|^2 at t(s); both are 0 where
-    p' = 0 (a sharp corner, like the natural samples there).
+    With c = L / n the speed, q' = c T and q'' = c^2 (p'' - (p'' . T) T) / |p'|^2 at
+    t(s), T = p' / |p'|.  Where p' = 0 (a sharp corner's knot, between two straight
+    spans) T jumps: q' is c times the mean of its one-sided limits (what the trapezoid
+    rule wants there, and no false stationary point for the closest-point search) and
+    q'' = 0.
     """
     span, u = natural_parameter(coefficients, s)
+    spans = coefficients.shape[0]
     px = coefficients[span, 0, 0] + u * (coefficients[span, 1, 0] + u * coefficients[span, 2, 0])
     py = coefficients[span, 0, 1] + u * (coefficients[span, 1, 1] + u * coefficients[span, 2, 1])
     fx = coefficients[span, 1, 0] + 2.0 * u * coefficients[span, 2, 0]
@@ -212,21 +217,30 @@ def arc_length_curve(coefficients, s):
     gx = 2.0 * coefficients[span, 2, 0]
     gy = 2.0 * coefficients[span, 2, 1]
     speed = math.sqrt(fx * fx + fy * fy)
-    if speed == 0.0:
-        return px, py, 0.0, 0.0, 0.0, 0.0
+    scale = coefficients[span, 2, 2]
+    if speed == 0.0:  # a corner: p' = -(1 - u) c before it, u c after it
+        before = (span - 1) % spans if u < 0.5 else span
+        after = span if u < 0.5 else (span + 1) % spans
+        bx = coefficients[before, 2, 0]
+        by = coefficients[before, 2, 1]
+        ax = coefficients[after, 2, 0]
+        ay = coefficients[after, 2, 1]
+        nb = math.sqrt(bx * bx + by * by)
+        na = math.sqrt(ax * ax + ay * ay)
+        return px, py, 0.5 * scale * (ax / na - bx / nb), 0.5 * scale * (ay / na - by / nb), 0.0, 0.0
     tx = fx / speed
     ty = fy / speed
     along = gx * tx + gy * ty
-    inverse2 = 1.0 / (speed * speed)
-    return px, py, tx, ty, (gx - along * tx) * inverse2, (gy - along * ty) * inverse2
+    bend = scale * scale / (speed * speed)
+    return px, py, scale * tx, scale * ty, (gx - along * tx) * bend, (gy - along * ty) * bend
 
 
 @njit(cache=True, error_model="numpy")
 def span_first_sample(coefficients, count, control_count, step, span):
     """Index of the first of the `count` samples (step h) on span `span` (0..n; n gives count).
 
-    Natural parameter: span * count / n.  Arc length (three channels): the first
-    k with k h >= S_span, i.e. ceil(S_span / h).
+    Natural parameter: span * count / n.  Normalised arc length (three channels):
+    the first k with k h >= S_span, i.e. ceil(S_span / h).
     """
     if span >= control_count:
         return count
