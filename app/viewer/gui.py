@@ -17,7 +17,7 @@ from app.files import kernel_names
 from app.keyframes import MAX_TIME
 from app.render import BAND_COLOURS, BAND_START, BAND_WIDTH, HEAT_NEGATIVE, HEAT_STOPS
 from app.viewer.controller import STATUS_HEIGHT
-from app.viewer.state import SHIFTS, AppState
+from app.viewer.state import PARAMETERIZATIONS, SHIFTS, AppState
 
 PANEL_WIDTH = 300.0
 
@@ -167,6 +167,7 @@ def _panel(state: AppState, commands: list, extras: dict, height: float) -> None
                 if clicked and shift != live.shift:
                     commands.append(("shift", shift))
             imgui.end_combo()
+    _parameterization_choice(live, commands)
     if state.progress is not None:
         imgui.progress_bar(state.progress, (-1, 0), f"{state.progress_label} {100 * state.progress:.0f}%")
     elif state.basis_error:
@@ -458,3 +459,18 @@ def frame_statistics(frame_ms: list[float]) -> tuple[int, float, float]:
         return 0, 0.0, 0.0
     values = np.asarray(frame_ms)
     return len(values), float(np.median(values)), float(np.percentile(values, 95))
+
+
+def _parameterization_choice(live, commands: list) -> None:
+    """The boundary parameter of the point kernels (Fig. 12); greyed for harmonic and pgw."""
+    imgui.begin_disabled(not live.parameterized)
+    _choice_row(
+        commands,
+        "boundary",
+        "parameterization",
+        live.parameterization,
+        tuple(zip(PARAMETERIZATIONS, ("natural", "arc length"), strict=True)),
+        "the parameter of the kernel's boundary integrals: the B-spline's own or the arc length "
+        "(the paper's Fig. 12); harmonic and pgw do not depend on it",
+    )
+    imgui.end_disabled()

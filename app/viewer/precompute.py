@@ -52,7 +52,8 @@ class Request:
     cage : ndarray of shape (n, 2)
     kernel : str
     params : dict
-        Kernel parameters (``power``, ``shift``).
+        Keyword arguments of `core.mesh_basis_functions` (``power``, ``shift``,
+        ``parameterization``; `Snapshot.basis_params`).
     max_edge : float
         Mesh edge length, image pixels.
     """
@@ -68,7 +69,7 @@ def basis_key(snapshot: Snapshot, max_edge: float) -> str:
     """Identity of the basis functions a snapshot needs: its cage, kernel, parameters and mesh size."""
     digest = hashlib.sha256()
     digest.update(np.ascontiguousarray(snapshot.cage, dtype=np.float64).tobytes())
-    settings = {"kernel": snapshot.kernel, "params": snapshot.kernel_params(), "max_edge": float(max_edge)}
+    settings = {"kernel": snapshot.kernel, "params": snapshot.basis_params(), "max_edge": float(max_edge)}
     digest.update(json.dumps(settings, sort_keys=True).encode())
     return digest.hexdigest()[:24]
 
@@ -79,7 +80,7 @@ def make_request(snapshot: Snapshot, max_edge: float) -> Request:
         basis_key(snapshot, max_edge),
         np.array(snapshot.cage),
         snapshot.kernel,
-        snapshot.kernel_params(),
+        snapshot.basis_params(),
         float(max_edge),
     )
 
