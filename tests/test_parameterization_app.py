@@ -4,6 +4,7 @@ line (warp, compare, view), the viewer's state, precompute and panel command, th
 from __future__ import annotations
 
 import json
+import os
 import re
 
 import numpy as np
@@ -167,3 +168,56 @@ def test_view_starts_with_the_command_lines_parameterization(tmp_path, monkeypat
     document = opened.pop("document")
     assert document.snapshot.parameterization == "arc-length"
     assert document.undo[-1].parameterization == "natural"  # the session's state, a Ctrl+Z away
+
+
+def test_the_real_window_switches_to_arc_length_and_back(tmp_path):
+    # The panel's choice in the real window (Xvfb, llvmpipe): a click on "arc length" next to
+    # a point kernel recomputes the basis, changes the picture and is saved; Ctrl+Z goes back.
+    from test_viewer_window import (
+        changed_fraction,
+        drag_point,
+        main_session,
+        park_mouse,
+        session_points,
+        shot,
+        starfish_viewer,
+        wait_for_session,
+        window_pixel,
+    )
+    from viewer_harness import start_xvfb, xdotool
+
+    process, display = start_xvfb()
+    env = {
+        **os.environ,
+        "DISPLAY": display,
+        "TRANSFINITE_CACHE_DIR": str(tmp_path / "cache"),
+        "TRANSFINITE_STATE_DIR": str(tmp_path / "state"),
+    }
+    viewer, state = starfish_viewer((env, tmp_path), "state-arc")
+    try:
+        window = viewer.wait_for("ready window=", 30).split("=")[1]
+        arc_button = viewer.wait_for("spot arc-length=").split("=")[1].split(",")
+        viewer.wait_for("basis ", 60)
+        session = main_session(state, "starfish")
+        _, target, value = session_points(session)
+        drag_point(display, window, window_pixel(value["view"], target[0]), np.array([150.0, 60.0]))
+        xdotool(display, "key", "k")  # the next kernel: a point kernel
+        natural_key = viewer.wait_for("basis key=", 120).split()[1]
+        _, _, value = wait_for_session(session, lambda c, t, v: v["kernel"] != "harmonic")
+        assert value["parameterization"] == "natural"
+        park_mouse(display, window)
+        natural = shot(display, tmp_path, "parameterization-natural")
+        xdotool(display, "mousemove", "--window", window, *arc_button)
+        xdotool(display, "click", "1")
+        assert viewer.wait_for("basis key=", 120).split()[1] != natural_key  # a new precompute
+        wait_for_session(session, lambda c, t, v: v["parameterization"] == "arc-length")
+        park_mouse(display, window)
+        arc = shot(display, tmp_path, "parameterization-arc-length")
+        # The canvas of two shots of one state is identical; here about 0.2 % of it changes.
+        assert changed_fraction(natural, arc) > 0.001  # the picture follows the new basis
+        xdotool(display, "key", "ctrl+z")
+        wait_for_session(session, lambda c, t, v: v["parameterization"] == "natural")
+    finally:
+        viewer.kill()
+        process.terminate()
+        process.wait(timeout=10)
