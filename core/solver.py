@@ -174,11 +174,12 @@ def natural_parameter(coefficients, s):
         return span, 0.0
     lo = 0.0
     hi = 1.0
-    u = target / length
     ax = coefficients[span, 1, 0]
     ay = coefficients[span, 1, 1]
     cx = 2.0 * coefficients[span, 2, 0]
     cy = 2.0 * coefficients[span, 2, 1]
+    bend = math.sqrt(cx * cx + cy * cy)  # |p''|, bounds how far Newton's step is off
+    u = target / length
     for _ in range(100):
         f = span_arc_length(coefficients, span, u) - target
         if f == 0.0:
@@ -191,6 +192,9 @@ def natural_parameter(coefficients, s):
         candidate = u - f / speed if speed > 0.0 else -1.0
         if not (lo < candidate < hi):
             candidate = 0.5 * (lo + hi)
+        elif (candidate - u) ** 2 * bend <= 1e-16 * speed:
+            u = candidate  # the Newton step's own error, (step^2 / 2) |p''| / |p'|, is below 1e-16
+            break
         if abs(candidate - u) <= 4e-16 or hi - lo <= 4e-16:
             u = candidate
             break
