@@ -296,6 +296,10 @@ def build_parser(prog: str = "python -m app") -> argparse.ArgumentParser:
         ("%(prog)s", "the table for every kernel (under a minute)"),
         ("%(prog)s --output quality.png", "also a figure of the hardest deformations"),
         ("%(prog)s --kernel power:power=2.5,shift=mean", "add a kernel with parameters"),
+        (
+            "%(prog)s --kernel harmonic-like:parameterization=arc-length",
+            "a kernel in the arc length (Fig. 12)",
+        ),
         ("%(prog)s --search", "the weight family 1/r^k, k in [1, 6], each shift (Eq. 19-20): ~10 minutes"),
     )
     quality.add_argument("--output", type=Path, metavar="FIG.png", help="figure PNG")

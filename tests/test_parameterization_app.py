@@ -221,3 +221,17 @@ def test_the_real_window_switches_to_arc_length_and_back(tmp_path):
         viewer.kill()
         process.terminate()
         process.wait(timeout=10)
+
+
+def test_quality_takes_the_parameterization_as_a_kernel_parameter():
+    from app.files import InputError
+    from app.quality import KernelChoice, parse_kernel
+
+    choice = parse_kernel("harmonic-like:parameterization=arc-length")
+    assert choice == KernelChoice(
+        "harmonic-like:parameterization=arc-length", "harmonic-like", {"parameterization": "arc-length"}
+    )
+    with pytest.raises(InputError, match="unknown parameterization 'chord'"):
+        parse_kernel("harmonic-like:parameterization=chord")
+    with pytest.raises(InputError, match="does not take parameter"):
+        parse_kernel("harmonic-like:shift=mean,parameterization=arc-length")
