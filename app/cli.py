@@ -51,12 +51,14 @@ from app.files import (
     session_kernel_params,
     session_max_edge,
     session_output,
+    session_parameterization,
     write_cage,
     write_png,
 )
 from app.framing import CANVASES, OUTSIDES, output_frame, output_region
 from app.render import ContextUnavailableError
 from app.viewer.demos import SCRIPT_FORMAT
+from core.arc_length import PARAMETERIZATIONS
 from core.compilation import MESSAGE as COMPILING
 
 DEFAULT_KERNEL = "harmonic"  # core.mesh_basis.DEFAULT_KERNEL, the deformation default
@@ -168,6 +170,13 @@ def build_parser(prog: str = "python -m app") -> argparse.ArgumentParser:
         help=f"one of {', '.join(kernels)} (default: {DEFAULT_KERNEL}, or the session's)",
     )
     warp.add_argument(
+        "--parameterization",
+        choices=PARAMETERIZATIONS,
+        help="the boundary parameter of the point kernels' integrals: natural (the B-spline's, the "
+        "default, or the session's) or arc-length (the paper's Fig. 12; harmonic and pgw do not "
+        "depend on it)",
+    )
+    warp.add_argument(
         "--max-edge", type=_positive(float), metavar="PX", help="longest mesh edge in image pixels"
     )
     size = warp.add_mutually_exclusive_group()
@@ -251,6 +260,10 @@ def build_parser(prog: str = "python -m app") -> argparse.ArgumentParser:
         "and draw them side by side in height bands.",
         ("%(prog)s --cage cage.json --output compare.png", None),
         ("%(prog)s --cage cage.json --output compare.png --kernel harmonic-like --kernel mean-value", None),
+        (
+            "%(prog)s --cage cage.json --output compare.png --kernel harmonic-like --parameterization both",
+            "the natural and the arc-length parameterisation side by side",
+        ),
     )
     compare.add_argument("--cage", type=Path, required=True, help="domain cage JSON")
     compare.add_argument(
@@ -265,6 +278,13 @@ def build_parser(prog: str = "python -m app") -> argparse.ArgumentParser:
         metavar="NAME",
         help=f"compare only this kernel, repeatable: {', '.join(kernels)} (harmonic, the reference, "
         "is always shown)",
+    )
+    compare.add_argument(
+        "--parameterization",
+        choices=(*PARAMETERIZATIONS, "both"),
+        default="natural",
+        help="the boundary parameter of the point kernels: natural (default), arc-length, or both side by "
+        "side (the paper's Fig. 12)",
     )
     compare.add_argument(
         "--max-edge",
@@ -287,6 +307,10 @@ def build_parser(prog: str = "python -m app") -> argparse.ArgumentParser:
         ("%(prog)s", "the table for every kernel (under a minute)"),
         ("%(prog)s --output quality.png", "also a figure of the hardest deformations"),
         ("%(prog)s --kernel power:power=2.5,shift=mean", "add a kernel with parameters"),
+        (
+            "%(prog)s --kernel harmonic-like:parameterization=arc-length",
+            "a kernel in the arc length (Fig. 12)",
+        ),
         ("%(prog)s --search", "the weight family 1/r^k, k in [1, 6], each shift (Eq. 19-20): ~10 minutes"),
     )
     quality.add_argument("--output", type=Path, metavar="FIG.png", help="figure PNG")
@@ -459,6 +483,12 @@ def _add_viewer_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--export", type=Path, metavar="PNG", help="where Ctrl+E writes (default: beside the session)"
     )
+    parser.add_argument(
+        "--parameterization",
+        choices=PARAMETERIZATIONS,
+        help="start with this boundary parameter of the point kernels: natural or arc-length (default: "
+        "the session's, else natural; the panel switches it)",
+    )
 
 
 def _command(commands, name: str, summary: str, description: str, *examples) -> argparse.ArgumentParser:
@@ -488,6 +518,7 @@ def _examples(*examples: tuple[str, str | None]) -> str:
 def _warp(args: argparse.Namespace) -> int:
     import core
     from app.render import WarpRenderer, create_headless_context
+    from core.mesh_basis import MESH_ONLY_KERNELS
     from core.validation import checked_samples_per_segment
 
     check_writable(args.output, suffix=".png")
@@ -503,6 +534,7 @@ def _warp(args: argparse.Namespace) -> int:
         kernel = session.kernel if args.kernel is None else args.kernel
         # The viewer's kernel parameters and mesh, so that the output is exactly what it showed.
         session_params = session_kernel_params(session, args.session) if kernel == session.kernel else {}
+        parameterization = session_parameterization(session, args.session)
         if args.max_edge is None:
             args.max_edge = session_max_edge(session, args.session)
         outside, canvas = session_output(session, args.session)
@@ -518,6 +550,7 @@ def _warp(args: argparse.Namespace) -> int:
         image_path = args.image
         cage, target = read_cage(args.cage), read_cage(args.target)
         kernel = DEFAULT_KERNEL if args.kernel is None else args.kernel
+        parameterization = "natural"
         outside, canvas = OUTSIDES[0], CANVASES[0]
         session_params = {}
         cage_source, target_source = str(args.cage), str(args.target)
@@ -542,6 +575,15 @@ def _warp(args: argparse.Namespace) -> int:
     params = dict(session_params)
     if args.samples_per_segment is not None:
         params["samples_per_segment"] = args.samples_per_segment
+    if args.parameterization is not None:
+        parameterization = args.parameterization
+        if kernel in MESH_ONLY_KERNELS and parameterization != "natural":
+            raise InputError(
+                f"--parameterization {parameterization}: kernel {kernel!r} does not depend on the boundary's "
+                "parameterization; choose a point kernel (--kernel) or leave it out"
+            )
+    if kernel not in MESH_ONLY_KERNELS:  # a session's choice does not bind the mesh-based kernels
+        params["parameterization"] = parameterization
 
     # The GL context comes first: without one there is no point in the long precompute.
     ctx = create_headless_context()
@@ -672,6 +714,7 @@ def _view(args: argparse.Namespace) -> int:
     if args.cage is not None and args.image is None:
         raise InputError("--cage needs an IMAGE")
     document = open_document(args.image, args.cage, args.session, args.max_edge, fresh=args.fresh)
+    _choose_parameterization(document, args.parameterization)
     _tell(document.notices)
     script = None
     if args.image is None and (args.session is None or not args.session.exists()):
@@ -699,6 +742,7 @@ def _demo(args: argparse.Namespace) -> int:
             start = start.replace(keyframes=demo_keyframes(files))
         what = "play its animation" if playback else "replay its script"
         begin_with(document, start, f"back to the demo's start to {what} (Ctrl+Z: your last state)")
+    _choose_parameterization(document, args.parameterization)
     _tell(document.notices)
     script = args.script or files.script
     read_script(script, document.snapshot.n)  # bad scripts fail here, before the window opens
@@ -715,6 +759,15 @@ def _demo(args: argparse.Namespace) -> int:
         export=args.export,
     )
     return run(document, options)
+
+
+def _choose_parameterization(document, parameterization: str | None) -> None:
+    """Start the viewer with the boundary parameterization of the command line, one undoable step."""
+    from app.viewer.session import begin_with
+
+    if parameterization is not None:
+        changed = document.snapshot.replace(parameterization=parameterization)
+        begin_with(document, changed, f"parameterization: {parameterization} (Ctrl+Z: the session's)")
 
 
 def _tell(notices: list[str]) -> None:

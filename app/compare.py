@@ -4,8 +4,11 @@ For a cage with n control points and boundary values F_1..F_n, the interpolant o
 each kernel is g = G F with G from `core.mesh_basis_functions` at the vertices of
 one mesh of the domain (Sec. 4.3).  Every interpolant is compared with the
 harmonic one (Sec. 4.2), the paper's reference, by its area-weighted RMS and its
-maximum distance over the vertices; the figure shows each one from above in
-height bands of 0.1 (negative red, above 1 green, blue to yellow in between).
+maximum distance over the vertices.  The point kernels integrate over the boundary
+in its natural B-spline parameter, in its arc length (``--parameterization
+arc-length``, `core.arc_length`) or both, side by side (the paper's Fig. 12).  The
+figure shows each one from above in height bands of 0.1 (negative red, above 1
+green, blue to yellow in between).
 """
 
 from __future__ import annotations
@@ -29,6 +32,7 @@ from app.files import (
     write_png,
 )
 from core.compilation import MESSAGE as COMPILING
+from core.mesh_basis import MESH_ONLY_KERNELS
 
 #: Reference kernel of the comparison.
 REFERENCE = "harmonic"
@@ -51,11 +55,16 @@ class Interpolant:
     maximum: float = 0.0
 
 
-def kernel_variants(kernels: list[str] | None = None) -> list[tuple[str, str, dict]]:
+def kernel_variants(
+    kernels: list[str] | None = None, parameterization: str = "natural"
+) -> list[tuple[str, str, dict]]:
     """(label, kernel, params) of every interpolant to compare, the reference first.
 
     ``power`` appears with each shift of Eq. 19 (DESIGN.md, numerical notes) so the
-    figure shows how much the shift changes the interpolant.
+    figure shows how much the shift changes the interpolant.  The point kernels
+    appear in the `parameterization` (``"natural"``, ``"arc-length"``, or
+    ``"both"``: the natural one, then the arc-length one); ``harmonic`` and
+    ``pgw`` do not depend on it and appear once.
     """
     names = kernels if kernels else kernel_names()
     variants = [(REFERENCE, REFERENCE, {})]
@@ -69,7 +78,18 @@ def kernel_variants(kernels: list[str] | None = None) -> list[tuple[str, str, di
             ]
         else:
             variants.append((name, name, {}))
-    return variants
+    if parameterization == "natural":
+        return variants
+    natural = parameterization == "both"
+    parameterized = []
+    for label, kernel, params in variants:
+        if kernel in MESH_ONLY_KERNELS:
+            parameterized.append((label, kernel, params))
+            continue
+        if natural:
+            parameterized.append((label, kernel, params))
+        parameterized.append((f"{label}, arc length", kernel, {**params, "parameterization": "arc-length"}))
+    return parameterized
 
 
 def run_compare(args: argparse.Namespace) -> int:
@@ -91,7 +111,9 @@ def run_compare(args: argparse.Namespace) -> int:
         with reported_as_input(f"{args.cage}: meshing"):
             mesh = core.triangulate(curve, max_edge=max_edge)
         note(f"mesh: {len(mesh.vertices)} vertices, {len(mesh.triangles)} triangles")
-        interpolants = compare_kernels(curve, mesh, values, args.kernel, str(args.cage))
+        interpolants = compare_kernels(
+            curve, mesh, values, args.kernel, str(args.cage), args.parameterization
+        )
         print(format_table(interpolants))
         write_png(args.output, figure(ctx, mesh, interpolants))
     finally:
@@ -101,7 +123,7 @@ def run_compare(args: argparse.Namespace) -> int:
 
 
 def compare_kernels(
-    curve, mesh, values: np.ndarray, kernels: list[str] | None, source: str
+    curve, mesh, values: np.ndarray, kernels: list[str] | None, source: str, parameterization: str = "natural"
 ) -> list[Interpolant]:
     """Interpolants g = G F of every kernel variant, with their distances to the harmonic one.
 
@@ -117,6 +139,8 @@ def compare_kernels(
         Kernels to compare (`kernel_variants`); all by default.
     source : str
         Where the cage came from, for messages.
+    parameterization : str
+        ``"natural"``, ``"arc-length"`` or ``"both"`` (`kernel_variants`).
 
     Returns
     -------
@@ -126,7 +150,7 @@ def compare_kernels(
     import core
 
     interpolants = []
-    for label, kernel, params in kernel_variants(kernels):
+    for label, kernel, params in kernel_variants(kernels, parameterization):
         started = time.perf_counter()
         try:
             with ProgressBar(COMPILING) as compiling, ProgressBar(label) as bar:

@@ -3,7 +3,8 @@
 Cage files are JSON ``{"control_points": [[x, y], ...]}`` in image pixels (x to
 the right, y down, origin at the image's top-left corner); session files hold
 ``image``, ``cage``, ``target``, ``kernel`` and ``view`` (see DESIGN.md), and
-optionally ``kernel_params`` and ``mesh`` (what the viewer computed with).  Every
+optionally ``kernel_params``, ``parameterization`` and ``mesh`` (what the viewer
+computed with).  Every
 reader validates its input and raises `InputError` with one line naming the file
 and what is wrong in it; every writer is atomic (a temporary file in the same
 directory, then `os.replace`), so a failed or interrupted write leaves an existing
@@ -353,6 +354,19 @@ def session_output(session: Session, path: str | os.PathLike = "session") -> tup
             raise InputError(f'{path}: "{key}" must be one of {", ".join(choices)}, got {value!r}')
         settings.append(value)
     return settings[0], settings[1]
+
+
+def session_parameterization(session: Session, path: str | os.PathLike = "session") -> str:
+    """The session's ``parameterization`` of the boundary for the point kernels (Fig. 12):
+    ``"natural"`` (also when absent, as in older sessions) or ``"arc-length"``."""
+    from core.arc_length import DEFAULT_PARAMETERIZATION, PARAMETERIZATIONS
+
+    value = session.extra.get("parameterization", DEFAULT_PARAMETERIZATION)
+    if value not in PARAMETERIZATIONS:
+        raise InputError(
+            f'{path}: "parameterization" must be one of {", ".join(PARAMETERIZATIONS)}, got {value!r}'
+        )
+    return value
 
 
 def session_keyframes(

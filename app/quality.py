@@ -36,6 +36,7 @@ import core
 from app.console import EXIT_OK, ProgressBar, note
 from app.files import InputError, kernel_names, reported_as_input
 from core import distortion
+from core.arc_length import checked_parameterization
 from core.kernels import kernel_parameters
 
 #: The reference of the distances: the finite-element harmonic basis (Sec. 4.2).
@@ -132,7 +133,8 @@ def weight_family() -> list[KernelChoice]:
 
 def parse_kernel(text: str) -> KernelChoice:
     """``NAME[:param=value,...]`` as a KernelChoice; numbers become floats.  The parameters of
-    the point kernels are checked here (`InputError`), those of ``pgw`` when it runs.
+    the point kernels, and their ``parameterization`` (natural or arc-length), are checked
+    here (`InputError`), those of ``pgw`` when it runs.
 
     >>> parse_kernel("power:power=2.5,shift=mean").params
     {'power': 2.5, 'shift': 'mean'}
@@ -153,7 +155,10 @@ def parse_kernel(text: str) -> KernelChoice:
             params[key] = value
     if name in core.KERNELS:
         with reported_as_input(f"--kernel {text}"):
-            kernel_parameters(name, params)
+            checked_parameterization(params.get("parameterization", "natural"))
+            kernel_parameters(
+                name, {key: value for key, value in params.items() if key != "parameterization"}
+            )
     return KernelChoice(text if params else name, name, params)
 
 

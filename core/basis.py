@@ -23,6 +23,7 @@ def basis_functions(
     progress: Progress | None = None,
     tolerance: float = DEFAULT_TOLERANCE,
     return_report: bool = False,
+    parameterization: str = "natural",
     **params,
 ):
     """Basis functions G_i(x_m) of the n control points.
@@ -44,6 +45,10 @@ def basis_functions(
         Newton tolerance on the linear-precision residual, relative to the diameter.
     return_report : bool
         Also return the `core.SolveReport`.
+    parameterization : str
+        ``"natural"`` (the B-spline parameter t, the paper's choice) or
+        ``"arc-length"``: the kernel's integrals run over the arc length s and
+        G_i(x) = int lambda(x, s) N_i(t(s)) ds (Fig. 12, `core.arc_length`).
 
     Returns
     -------
@@ -53,7 +58,7 @@ def basis_functions(
     if not isinstance(curve, ClosedBSpline):
         raise ValueError(f"curve must be a core.ClosedBSpline, got {type(curve).__name__}")
     per = positive_int(samples_per_segment, "samples_per_segment", minimum=2)
-    boundary = curve.sample(per)
+    boundary = curve.sample(per, parameterization)
     values, report = evaluate(boundary, x, kernel, solver.OUTPUT_BASIS, curve.n, progress, tolerance, params)
     return (values, report) if return_report else values
 

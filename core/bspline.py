@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from core.arc_length import arc_length_boundary, checked_parameterization
 from core.boundary import Boundary, PiecewisePolynomial
 from core.diameter import point_set_diameter
 from core.validation import as_parameters, as_points, checked_samples_per_segment
@@ -129,15 +130,20 @@ class ClosedBSpline:
         np.add.at(matrix, (rows, index.ravel()), weights.ravel())
         return matrix
 
-    def sample(self, samples_per_segment: int = 100) -> Boundary:
+    def sample(self, samples_per_segment: int = 100, parameterization: str = "natural") -> Boundary:
         """Sample N = samples_per_segment * n parameters t_k = k h, h = 1 / samples_per_segment.
 
         Returns a `Boundary` that also keeps the exact curve, so quadrature can be
         refined near the boundary at any parameter.  At the knots, where p'' jumps,
-        the second derivative is the mean of its one-sided values.
+        the second derivative is the mean of its one-sided values.  With
+        ``parameterization="arc-length"`` the N samples are uniform in the (normalised) arc
+        length s instead, s_k = k n / N, and the boundary is the curve q(s) of
+        `core.arc_length` (Fig. 12c).
         """
         per = checked_samples_per_segment(samples_per_segment, self.n)
         count = per * self.n
+        if checked_parameterization(parameterization) == "arc-length":
+            return arc_length_boundary(self.piecewise_polynomial(), count, self.corners())
         t = np.arange(count) * (self.n / count)
         value, first, second = self.evaluate(t)
         # p'' jumps at the knots (every per-th sample); the trapezoid rule wants the

@@ -34,6 +34,7 @@ FORMAT_VERSION = 2
 ENVIRONMENT_VARIABLE = "TRANSFINITE_CACHE_DIR"
 # The modules whose code decides the cached values (hashed into every key).
 NUMERICAL_MODULES = (
+    "arc_length.py",
     "basis.py",
     "boundary.py",
     "bspline.py",
@@ -69,10 +70,12 @@ def cache_key(
     kernel: str,
     samples_per_segment: int,
     params: dict,
+    parameterization: str = "natural",
     quantity: str = "basis functions",
 ) -> str:
-    """Hex SHA-256 of the format version, the numerical code, the cage, the mesh, the kernel
-    and its parameters, and what is stored (``"basis functions"`` or ``"basis gradients"``).
+    """Hex SHA-256 of the format version, the numerical code, the cage, the mesh, the kernel,
+    its parameters, the boundary's parameterisation (`core.arc_length`) and what is stored
+    (``"basis functions"`` or ``"basis gradients"``).
 
     Arrays enter with their dtype and shape, so that equal bytes of different
     shapes give different keys.
@@ -93,6 +96,7 @@ def cache_key(
     settings = {
         "kernel": kernel,
         "samples_per_segment": int(samples_per_segment),
+        "parameterization": parameterization,
         "params": sorted((name, _canonical(value)) for name, value in params.items()),
     }
     digest.update(json.dumps(settings, sort_keys=True).encode())

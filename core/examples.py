@@ -64,6 +64,16 @@ def dumbbell() -> np.ndarray:
     )
 
 
+def crowded(dense: int = 6, sparse: int = 6, arc: float = 0.5) -> np.ndarray:
+    """Control points on the unit circle, `dense` of them crowded into an arc of `arc` radians
+    around angle 0 and `sparse` spread over the rest: very uneven spacing, like the domain of
+    the paper's Fig. 12, where the boundary's parameterisation shows."""
+    crowd = np.linspace(-arc / 2, arc / 2, dense)
+    rest = np.linspace(arc / 2, 2 * np.pi - arc / 2, sparse + 2)[1:-1]
+    angles = np.concatenate([crowd, rest])
+    return np.stack([np.cos(angles), np.sin(angles)], axis=1)
+
+
 def wave_heights(count: int) -> np.ndarray:
     """Heights F_i in [0, 1] at `count` control points, two waves around the curve like the data
     of the paper's Fig. 1, shape (count,): the default data of ``compare`` and of the viewer's

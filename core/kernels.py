@@ -47,6 +47,7 @@ import numba
 import numpy as np
 
 from core import solver
+from core.arc_length import arc_length_boundary, checked_parameterization
 from core.boundary import Boundary
 from core.validation import as_points, positive_float
 
@@ -163,6 +164,7 @@ def kernel(
     progress: Progress | None = None,
     tolerance: float = DEFAULT_TOLERANCE,
     return_report: bool = False,
+    parameterization: str = "natural",
     **params,
 ):
     """Kernel values lambda(x_m, t_k) at the N samples of a boundary.
@@ -183,6 +185,11 @@ def kernel(
         tolerance * diameter.
     return_report : bool
         Also return a `SolveReport`.
+    parameterization : str
+        ``"natural"``: the boundary's own parameter t.  ``"arc-length"``: the
+        kernel in the arc length s (Fig. 12c) at the N samples s_k = k n / N (normalised arc length) of
+        `core.arc_length.arc_length_boundary`; needs a boundary
+        from `ClosedBSpline.sample` (natural).
 
     Returns
     -------
@@ -196,6 +203,8 @@ def kernel(
     """
     if not isinstance(boundary, Boundary):
         raise ValueError(f"boundary must be a core.Boundary, got {type(boundary).__name__}")
+    if checked_parameterization(parameterization) == "arc-length":
+        boundary = arc_length_boundary(boundary.curve, boundary.count, boundary.corners)
     values, report = evaluate(
         boundary, x, kernel, solver.OUTPUT_SAMPLES, boundary.count, progress, tolerance, params
     )
@@ -323,8 +332,7 @@ def _curve_arrays(boundary: Boundary, mode: int, columns: int, factor: int, out_
     """The per-sample arrays `core.solver.solve_points` shares between points."""
     count = boundary.count
     if mode == solver.OUTPUT_BASIS:
-        per = count // columns
-        u = (np.arange(count) % per) / per
+        u = _local_parameters(boundary, columns)
         basis = (0.5 * (1 - u) ** 2, 0.5 * (-2 * u * u + 2 * u + 1), 0.5 * u * u)
     else:
         basis = (np.zeros(count),) * 3
@@ -344,6 +352,25 @@ def _curve_arrays(boundary: Boundary, mode: int, columns: int, factor: int, out_
         solver.SINH_STEP / factor,
         float(out_step),
     )
+
+
+def _local_parameters(boundary: Boundary, spans: int) -> np.ndarray:
+    """u in [0, 1] of every sample within the B-spline span the solver files it under, shape (N,).
+
+    The spans' sample ranges are `core.solver.span_first_sample`'s: `per` samples
+    each in the natural parameter, the samples from ceil(S_j / h) on in arc length
+    (`core.arc_length`), where u = t(s_k) - j.
+    """
+    count = boundary.count
+    coefficients = boundary.curve.coefficients
+    if coefficients.shape[2] == 2:
+        per = count // spans
+        return (np.arange(count) % per) / per
+    firsts = [
+        solver.span_first_sample(coefficients, count, spans, boundary.step, j) for j in range(spans + 1)
+    ]
+    span = np.repeat(np.arange(spans), np.diff(firsts))
+    return np.clip(boundary.curve.natural(boundary.parameters) - span, 0.0, 1.0)
 
 
 def _sample_spacing(points: np.ndarray) -> np.ndarray:

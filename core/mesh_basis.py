@@ -19,6 +19,7 @@ from collections.abc import Callable
 import numpy as np
 
 from core import cache as disk_cache
+from core.arc_length import checked_parameterization
 from core.bspline import ClosedBSpline
 from core.compilation import compile_solver
 from core.harmonic import harmonic_basis
@@ -54,6 +55,7 @@ def mesh_basis_functions(
     cache: bool = True,
     compiling: Callable[[float], None] | None = None,
     gradients: bool = False,
+    parameterization: str = "natural",
     **params,
 ):
     """Basis functions G_i at every vertex of `mesh`, and optionally their gradients.
@@ -82,10 +84,16 @@ def mesh_basis_functions(
         not called when G comes from the cache or the compiled solver is cached.
     gradients : bool
         Also return grad G_i at the vertices (`core.basis_gradients`), for the
-        point kernels of `core.KERNELS` only: ``"harmonic"`` and ``"pgw"`` have no
-        pointwise gradients (the per-triangle Jacobians of `core.distortion` are
-        exact for the piecewise linear ``"harmonic"`` basis).  Cached like G, in an
-        entry of its own checked by `gradient_invariant_problem`.
+        point kernels of `core.KERNELS` and the natural parameterisation only:
+        ``"harmonic"`` and ``"pgw"`` have no pointwise gradients (the
+        per-triangle Jacobians of `core.distortion` are exact for the piecewise
+        linear ``"harmonic"`` basis).  Cached like G, in an entry of its own
+        checked by `gradient_invariant_problem`.
+    parameterization : str
+        ``"natural"`` or ``"arc-length"``: the boundary parameter of the point
+        kernels' integrals (Fig. 12, `core.basis_functions`); part of the cache
+        key.  ``"pgw"`` and ``"harmonic"`` do not depend on one and take only
+        ``"natural"``.
     **params
         Kernel parameters: those of `core.basis_functions` for the point kernels,
         ``angles`` for ``"pgw"``, none for ``"harmonic"``.
@@ -117,6 +125,11 @@ def mesh_basis_functions(
             raise ValueError(
                 f"kernel {kernel!r} does not take parameter(s) {', '.join(unknown)} (it takes: {allowed})"
             )
+    if checked_parameterization(parameterization) != "natural" and kernel in MESH_ONLY_KERNELS:
+        raise ValueError(
+            f"kernel {kernel!r} does not depend on the boundary's parameterization; "
+            f"parameterization={parameterization!r} applies to the point kernels ({', '.join(KERNELS)})"
+        )
     for name, callback in (("progress", progress), ("compiling", compiling)):
         if callback is not None and not callable(callback):
             raise ValueError(f"{name} must be a callable taking a fraction, got {callback!r}")
@@ -126,13 +139,18 @@ def mesh_basis_functions(
                 f"kernel {kernel!r} has no pointwise gradients; use the per-triangle Jacobians "
                 "(core.distortion.triangle_jacobians) or a kernel of core.KERNELS"
             )
+        if parameterization != "natural":
+            raise ValueError(
+                "gradients are computed for the natural parameterization only, "
+                f"not for parameterization={parameterization!r}"
+            )
         values = mesh_basis_functions(curve, mesh, kernel, per, progress, cache, compiling, **params)
         return values, _vertex_gradients(curve, mesh, kernel, per, cache, params)
     shape = (mesh.vertices.shape[0], curve.n)
     if not cache:
         if kernel not in MESH_ONLY_KERNELS:
             compile_solver(compiling)
-        return _compute(curve, mesh, kernel, per, progress, params)
+        return _compute(curve, mesh, kernel, per, progress, parameterization, params)
     key = disk_cache.cache_key(
         curve.control_points,
         mesh.vertices,
@@ -142,6 +160,7 @@ def mesh_basis_functions(
         kernel,
         per,
         params,
+        parameterization,
     )
     entry = disk_cache.load(key, shape)
     problem = entry.problem
@@ -153,7 +172,7 @@ def mesh_basis_functions(
             return entry.values
     if kernel not in MESH_ONLY_KERNELS:
         compile_solver(compiling)
-    values = _compute(curve, mesh, kernel, per, progress, params)
+    values = _compute(curve, mesh, kernel, per, progress, parameterization, params)
     replaced = disk_cache.store(key, values, invariant_errors(curve, mesh, values))
     if problem is not None:
         warnings.warn(
@@ -279,7 +298,7 @@ def _vertex_gradients(curve, mesh, kernel, samples_per_segment, cache, params) -
     return result
 
 
-def _compute(curve, mesh, kernel, samples_per_segment, progress, params) -> np.ndarray:
+def _compute(curve, mesh, kernel, samples_per_segment, progress, parameterization, params) -> np.ndarray:
     if kernel == "harmonic":
         if progress is not None:
             progress(0.0)
@@ -312,6 +331,7 @@ def _compute(curve, mesh, kernel, samples_per_segment, progress, params) -> np.n
             kernel=kernel,
             samples_per_segment=samples_per_segment,
             progress=progress,
+            parameterization=parameterization,
             **params,
         )
     return values

@@ -155,6 +155,7 @@ def test_cache_key_changes_with_each_input(setup):
         "kernel": "harmonic-like",
         "samples_per_segment": 101,
         "params": {"power": 3.0, "shift": "mean"},
+        "parameterization": "arc-length",
     }
     for name, value in changes.items():
         assert disk_cache.cache_key(**(arguments | {name: value})) != key, name

@@ -28,7 +28,7 @@ from app.framing import CANVASES, OUTSIDES
 from app.keyframes import INTERPOLATIONS, MAX_TIME, TIME_RESOLUTION, Keyframe, interpolate
 from app.render import View
 from app.viewer import drawing, editing
-from app.viewer.state import CONTENTS, MEASURES, MODES, SHIFTS, AppState, Drag, Snapshot
+from app.viewer.state import CONTENTS, MEASURES, MODES, PARAMETERIZATIONS, SHIFTS, AppState, Drag, Snapshot
 
 LEFT, RIGHT, MIDDLE = 0, 1, 2
 #: Window pixels of the status line at the bottom (kept in step with app.viewer.gui).
@@ -338,7 +338,8 @@ def command(state: AppState, name: str, value=None) -> bool:
     """Run a named command of the panel or the keyboard; False if `name` is not one of these.
 
     Commands: undo, redo, cancel, new_cage, confirm (Enter), reset_target, fit, subdivide, delete,
-    mode, content, kernel, cycle_kernel (value "previous" goes back), power, shift, toggle (a bool
+    mode, content, kernel, cycle_kernel (value "previous" goes back), power, shift,
+    parameterization (natural or arc-length), toggle (a bool
     field of the state), outside, canvas (the export settings of app.framing), fit_view, zoom ("in",
     "out" or a scale, 1.0 for 100 %), help; and the timeline's: add_keyframe (at the current time,
     or at time `value`, from the target shown; one at the same time is replaced), delete_keyframe
@@ -418,6 +419,11 @@ def command(state: AppState, name: str, value=None) -> bool:
         index = names.index(live.kernel) if live.kernel in names else -1
         kernel = names[(index + (-1 if value == "previous" else 1)) % len(names)]
         commit(state, live.replace(kernel=kernel), f"kernel: {kernel}")
+    elif name == "parameterization":
+        if value not in PARAMETERIZATIONS:
+            state.say(f"unknown parameterization {value!r}", error=True)
+        else:
+            commit(state, live.replace(parameterization=value), f"parameterization: {value}")
     elif name == "power":
         if float(value) > 0:
             commit(state, live.replace(power=float(value)))
@@ -570,6 +576,7 @@ def _timeline_command(state: AppState, name: str, value) -> bool:
 #: Commands that change the document: refused while a new cage is drawn.
 _EDITS = (
     *("redo", "reset_target", "fit", "subdivide", "mode", "kernel", "cycle_kernel", "power", "shift"),
+    "parameterization",
     *("add_keyframe", "delete_keyframe", "keyframe_time", "interpolation", "playback", "seek", "seek_by"),
 )
 

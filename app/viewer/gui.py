@@ -28,7 +28,7 @@ from app.render import (
     HEAT_STOPS,
 )
 from app.viewer.controller import STATUS_HEIGHT
-from app.viewer.state import SHIFTS, AppState
+from app.viewer.state import PARAMETERIZATIONS, SHIFTS, AppState
 
 PANEL_WIDTH = 300.0
 
@@ -179,6 +179,7 @@ def _panel(state: AppState, commands: list, extras: dict, height: float) -> None
                 if clicked and shift != live.shift:
                     commands.append(("shift", shift))
             imgui.end_combo()
+    _parameterization_choice(state, live, commands)
     if state.progress is not None:
         imgui.progress_bar(state.progress, (-1, 0), f"{state.progress_label} {100 * state.progress:.0f}%")
     elif state.basis_error:
@@ -516,3 +517,21 @@ def frame_statistics(frame_ms: list[float]) -> tuple[int, float, float]:
         return 0, 0.0, 0.0
     values = np.asarray(frame_ms)
     return len(values), float(np.median(values)), float(np.percentile(values, 95))
+
+
+def _parameterization_choice(state: AppState, live, commands: list) -> None:
+    """The boundary parameter of the point kernels (Fig. 12); greyed for harmonic and pgw.
+    Its last button's centre is ``state.spots["arc-length"]`` (for the window tests)."""
+    imgui.begin_disabled(not live.parameterized)
+    _choice_row(
+        commands,
+        "boundary",
+        "parameterization",
+        live.parameterization,
+        tuple(zip(PARAMETERIZATIONS, ("natural", "arc length"), strict=True)),
+        "the parameter of the kernel's boundary integrals: the B-spline's own or the arc length "
+        "(the paper's Fig. 12); harmonic and pgw do not depend on it",
+    )
+    low, high = imgui.get_item_rect_min(), imgui.get_item_rect_max()
+    state.spots["arc-length"] = (0.5 * (low.x + high.x), 0.5 * (low.y + high.y))
+    imgui.end_disabled()

@@ -52,7 +52,8 @@ class Request:
     cage : ndarray of shape (n, 2)
     kernel : str
     params : dict
-        Kernel parameters (``power``, ``shift``).
+        Keyword arguments of `core.mesh_basis_functions` (``power``, ``shift``,
+        ``parameterization``; `Snapshot.basis_params`).
     max_edge : float
         Mesh edge length, image pixels.
     gradients : bool
@@ -67,11 +68,12 @@ class Request:
     gradients: bool = False
 
 
-def has_gradients(kernel: str) -> bool:
-    """Whether `kernel` has pointwise gradients (`core.mesh_basis_functions(gradients=True)`)."""
+def has_gradients(kernel: str, parameterization: str = "natural") -> bool:
+    """Whether `kernel` has pointwise gradients (`core.mesh_basis_functions(gradients=True)`):
+    the point kernels, with the natural parameterisation."""
     import core
 
-    return kernel in core.KERNELS
+    return kernel in core.KERNELS and parameterization == "natural"
 
 
 def basis_key(snapshot: Snapshot, max_edge: float, gradients: bool = False) -> str:
@@ -79,7 +81,7 @@ def basis_key(snapshot: Snapshot, max_edge: float, gradients: bool = False) -> s
     (and whether their gradients are wanted too)."""
     digest = hashlib.sha256()
     digest.update(np.ascontiguousarray(snapshot.cage, dtype=np.float64).tobytes())
-    settings = {"kernel": snapshot.kernel, "params": snapshot.kernel_params(), "max_edge": float(max_edge)}
+    settings = {"kernel": snapshot.kernel, "params": snapshot.basis_params(), "max_edge": float(max_edge)}
     if gradients:
         settings["gradients"] = True
     digest.update(json.dumps(settings, sort_keys=True).encode())
@@ -89,12 +91,12 @@ def basis_key(snapshot: Snapshot, max_edge: float, gradients: bool = False) -> s
 def make_request(snapshot: Snapshot, max_edge: float, gradients: bool = False) -> Request:
     """The `Request` for a snapshot's basis functions (with their gradients if `gradients` and
     the kernel has them)."""
-    gradients = gradients and has_gradients(snapshot.kernel)
+    gradients = gradients and has_gradients(snapshot.kernel, snapshot.parameterization)
     return Request(
         basis_key(snapshot, max_edge, gradients),
         np.array(snapshot.cage),
         snapshot.kernel,
-        snapshot.kernel_params(),
+        snapshot.basis_params(),
         float(max_edge),
         gradients,
     )

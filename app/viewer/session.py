@@ -3,8 +3,9 @@
 The session file is the one of DESIGN.md (``image``, ``cage``, ``target``,
 ``kernel``, ``view``) plus keys of its own that `python -m app warp --session`
 also reads, so that it exports exactly what the viewer showed: ``kernel_params``
-(the ``power`` kernel's ``power`` and ``shift``) and ``mesh`` (``{"max_edge":
-h}``, the mesh the viewer used), and the animation that ``animate`` renders:
+(the ``power`` kernel's ``power`` and ``shift``), ``parameterization`` (``"natural"``,
+the default of older sessions, or ``"arc-length"``: `core.arc_length`) and ``mesh``
+(``{"max_edge": h}``, the mesh the viewer used), and the animation that ``animate`` renders:
 ``keyframes`` (``[{"time": s, "target": {cage}}, ...]``) and ``interpolation``
 (`app.keyframes`).  ``viewer`` keeps what only the viewer needs
 (mode, what is shown, the power family's settings while another kernel is
@@ -38,6 +39,7 @@ from app.files import (
     session_keyframes,
     session_max_edge,
     session_output,
+    session_parameterization,
     write_session,
 )
 from app.framing import CANVASES, OUTSIDES
@@ -234,7 +236,15 @@ def restore(path: Path, max_edge: float | None = None) -> Document:
     image = Path(session.image).resolve()
     keyframes, interpolation = session_keyframes(session, path)
     snapshot = Snapshot(
-        image, session.cage, session.target, session.kernel, power, shift, keyframes, interpolation
+        image,
+        session.cage,
+        session.target,
+        session.kernel,
+        power,
+        shift,
+        keyframes,
+        interpolation,
+        session_parameterization(session, path),
     )
     notices: list[str] = []
     try:
@@ -265,6 +275,7 @@ def _step(snapshot: Snapshot) -> dict:
         "shift": snapshot.shift,
         "keyframes": keyframes_json(snapshot.keyframes),
         "interpolation": snapshot.interpolation,
+        "parameterization": snapshot.parameterization,
     }
 
 
@@ -272,7 +283,7 @@ def history_json(state: AppState) -> dict:
     """The ``history`` object of the session file: the newest `SAVED_STEPS` undo and redo steps.
 
     Steps are ``{"cage": [[x, y], ...], "target": [[x, y], ...], "kernel", "power",
-    "shift", "keyframes", "interpolation"}`` of the session's image (the keyframes as in
+    "shift", "keyframes", "interpolation", "parameterization"}`` of the session's image (the keyframes as in
     the session file); ``undo`` is oldest first, ``redo`` has the
     next step last (`History` order).
     """
@@ -322,7 +333,12 @@ def history_of(value, image: Path) -> tuple[list[Snapshot], list[Snapshot]]:
             ]
             interpolation = step.get("interpolation", DEFAULT_INTERPOLATION)
             power, shift = float(step["power"]), step["shift"]
-            result.append(Snapshot(image, cage, target, kernel, power, shift, keyframes, interpolation))
+            parameterization = step.get("parameterization", "natural")  # absent in older sessions
+            result.append(
+                Snapshot(
+                    image, cage, target, kernel, power, shift, keyframes, interpolation, parameterization
+                )
+            )
         return result
 
     return snapshots("undo"), snapshots("redo")
@@ -423,6 +439,7 @@ def session_of(state: AppState, max_edge: float | None) -> Session:
     extra["outside"], extra["canvas"] = state.outside, state.canvas
     extra["keyframes"] = keyframes_json(snapshot.keyframes)
     extra["interpolation"] = snapshot.interpolation
+    extra["parameterization"] = snapshot.parameterization
     extra["history"] = history_json(state)
     return Session(
         snapshot.image,

@@ -26,6 +26,9 @@ DEFAULT_POWER = 4.0
 DEFAULT_SHIFT = "mean"
 SHIFTS = ("none", "integral", "mean")
 
+#: The boundary's parameter of the point kernels (`core.arc_length`, the paper's Fig. 12).
+PARAMETERIZATIONS = ("natural", "arc-length")
+
 #: What the canvas shows.
 CONTENTS = ("image", "basis", "height", "distortion")
 #: What the distortion view shows: log2 det J, or log2 sigma_1 / sigma_2 (app.viewer.distortion_view).
@@ -58,6 +61,9 @@ class Snapshot:
         A name of `app.files.kernel_names`.
     power, shift : float, str
         Parameters of the ``power`` kernel (ignored by the others).
+    parameterization : str
+        One of `PARAMETERIZATIONS`: the boundary parameter of the point kernels'
+        integrals (ignored by ``harmonic`` and ``pgw``).
     keyframes : tuple of app.keyframes.Keyframe
         The animation, sorted by time, each target of n points (`app.keyframes`);
         adding, moving or deleting one is an edit like any other.
@@ -73,6 +79,7 @@ class Snapshot:
     shift: str = DEFAULT_SHIFT
     keyframes: tuple[Keyframe, ...] = ()
     interpolation: str = DEFAULT_INTERPOLATION
+    parameterization: str = "natural"
 
     def __post_init__(self):
         cage = _frozen_points(self.cage, "cage")
@@ -81,6 +88,11 @@ class Snapshot:
             raise ValueError(f"target has {len(target)} control points but cage has {len(cage)}")
         if self.shift not in SHIFTS:
             raise ValueError(f"shift must be one of {', '.join(SHIFTS)}, got {self.shift!r}")
+        if self.parameterization not in PARAMETERIZATIONS:
+            raise ValueError(
+                f"parameterization must be one of {', '.join(PARAMETERIZATIONS)}, "
+                f"got {self.parameterization!r}"
+            )
         if self.interpolation not in INTERPOLATIONS:
             raise ValueError(
                 f"interpolation must be one of {', '.join(INTERPOLATIONS)}, got {self.interpolation!r}"
@@ -107,6 +119,19 @@ class Snapshot:
             return {"power": self.power, "shift": self.shift}
         return {}
 
+    @property
+    def parameterized(self) -> bool:
+        """Whether the kernel depends on the boundary's parameterization (a point kernel)."""
+        return self.kernel not in ("harmonic", "pgw")  # core.MESH_ONLY_KERNELS
+
+    def basis_params(self) -> dict:
+        """Keyword arguments of `core.mesh_basis_functions` besides the kernel: `kernel_params`
+        and, for the point kernels, a parameterization other than the natural one."""
+        params = self.kernel_params()
+        if self.parameterized and self.parameterization != "natural":
+            params["parameterization"] = self.parameterization
+        return params
+
     def replace(self, **changes) -> Snapshot:
         """A copy with some fields changed."""
         return dataclasses.replace(self, **changes)
@@ -123,6 +148,7 @@ class Snapshot:
             and np.array_equal(self.target, other.target)
             and self.keyframes == other.keyframes
             and self.interpolation == other.interpolation
+            and self.parameterization == other.parameterization
         )
 
     __hash__ = None  # mutable-looking arrays inside: compare, do not hash

@@ -910,8 +910,9 @@ class Viewer:
             self._announced_ready = True
             window_id = glfw.get_x11_window(self.window) if sys.platform.startswith("linux") else 0
             self._announce(f"ready window={window_id}")
-            x, y = state.spots.get("kernel", (0, 0))
-            self._announce(f"spot kernel={x:.0f},{y:.0f}")
+            for name in ("kernel", "arc-length"):
+                x, y = state.spots.get(name, (0, 0))
+                self._announce(f"spot {name}={x:.0f},{y:.0f}")
         if glfw.window_should_close(self.window):
             state.quit = True
 
