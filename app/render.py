@@ -65,12 +65,12 @@ HEAT_NEGATIVE = np.array([0.10, 0.75, 0.80])
 
 #: The distortion view (``content="distortion"``, `app.viewer.distortion_view`): RGB
 #: of a shrunk and a grown area, of the strongest anisotropy and of folded vertices,
-#: full colour at |log2| = DISTORTION_RANGE.
+#: full colour at |log2| = DISTORTION_RANGE (twice or half the area).
 DISTORTION_SHRUNK = np.array([0.16, 0.36, 0.85])
 DISTORTION_GROWN = np.array([0.85, 0.18, 0.12])
 DISTORTION_SHEARED = np.array([0.45, 0.12, 0.62])
 DISTORTION_FOLDED = np.array([0.0, 0.0, 0.0])
-DISTORTION_RANGE = 2.0
+DISTORTION_RANGE = 1.0
 #: `set_distortion_measure` codes of the shader.
 DISTORTION_MEASURES = {"area": 0, "conformal": 1}
 

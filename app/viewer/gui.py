@@ -457,7 +457,7 @@ def _distortion_bar(state: AppState, draw, left: float, top: float, span: float)
     area = state.distortion_measure == "area"
     imgui.text("area change det J" if area else "anisotropy sigma1/sigma2")
     top += 20
-    folded = 0.12 * span
+    folded = 0.16 * span
     draw.add_rect_filled((left, top), (left + folded, top + 22), _colour(DISTORTION_FOLDED))
     draw.add_rect((left, top), (left + folded, top + 22), _colour(white))
     stops = (DISTORTION_SHRUNK, white, DISTORTION_GROWN) if area else (white, DISTORTION_SHEARED)
@@ -467,9 +467,9 @@ def _distortion_bar(state: AppState, draw, left: float, top: float, span: float)
         x0 = left + folded + width * k
         draw.add_rect_filled_multi_color((x0, top), (x0 + width, top + 22), a, b, b, a)
     full = 2.0**DISTORTION_RANGE
-    labels = (("fold", 0.0), (f"1/{full:g}", folded), ("1", folded + width), (f"{full:g}", span - 8))
+    labels = (("fold", 0.0), (f"1/{full:g}", folded + 4), ("1", folded + width - 3), (f"{full:g}", span - 8))
     if not area:
-        labels = (("fold", 0.0), ("1", folded), (f"{full:g}", span - 8))
+        labels = (("fold", 0.0), ("1", folded + 4), (f"{full:g}", span - 8))
     for text, x in labels:
         draw.add_text((left + x, top + 26), _colour(white), text)
     imgui.dummy((span, 48))
