@@ -241,11 +241,11 @@ def test_positions_update_in_place(renderer):
     vertices, triangles, _ = ellipse_mesh((160, 120), (100, 70), 12)
     renderer.set_image(image)
     renderer.set_mesh(vertices, triangles)
-    buffer, vertex_array = renderer._positions.glo, renderer._image_vao.glo
+    buffer, vertex_array = renderer._positions.glo, renderer._vaos["caller"]["image"].glo
     first = renderer.render((320, 240))
     renderer.set_positions(vertices + (20.0, 0.0))
     second = renderer.render((320, 240))
-    assert (renderer._positions.glo, renderer._image_vao.glo) == (buffer, vertex_array)
+    assert (renderer._positions.glo, renderer._vaos["caller"]["image"].glo) == (buffer, vertex_array)
     # A whole-pixel move shifts the picture exactly.
     assert np.array_equal(second[:, 40:], first[:, 20:-20])
 
