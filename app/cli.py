@@ -437,7 +437,10 @@ def _add_viewer_options(parser: argparse.ArgumentParser) -> None:
         "beside the new one, renamed)",
     )
     parser.add_argument(
-        "--stats", action="store_true", help="on exit, print frames=N median_frame_ms=X p95_frame_ms=Y"
+        "--stats",
+        action="store_true",
+        help="on exit, print frames=N median_frame_ms=X p95_frame_ms=Y median_drag_frame_ms=Z (Z: the frames "
+        "drawn while a control point is dragged; 0 without any)",
     )
     parser.add_argument(
         "--max-edge",
