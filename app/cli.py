@@ -317,6 +317,9 @@ def build_parser(prog: str = "python -m app") -> argparse.ArgumentParser:
     bench.add_argument("--skip-fem", action="store_true", help="no finite-element comparison")
     bench.add_argument("--skip-memory", action="store_true", help="no 1,000,000-point memory run")
     bench.add_argument("--skip-warp", action="store_true", help="no end-to-end 4K warp")
+    bench.add_argument(
+        "--skip-drag", action="store_true", help="no viewer drag frame at 6k and 400k vertices (Xvfb)"
+    )
     bench.set_defaults(run=_bench)
 
     view = _command(
