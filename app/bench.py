@@ -5,7 +5,10 @@ measured in the same process (the plain numpy reference of `core.reference`, and
 the finite-element harmonic solve the paper compares against), so that ratios
 stay meaningful on a shared, noisy machine.  The 1,000,000-point memory run and
 the 4K warp run as child processes, to measure their own peak memory and their
-whole time from process start.
+whole time from process start.  The drag frame is measured in the real viewer:
+a child ``python -m app demo starfish`` in a window on a private Xvfb server,
+replaying a scripted drag of one control point through the mouse's input path,
+and its ``--stats`` line (``median_drag_frame_ms``) read on exit.
 """
 
 from __future__ import annotations
@@ -14,10 +17,14 @@ import argparse
 import json
 import math
 import os
+import re
+import shutil
+import signal
 import statistics
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 import warnings
 from pathlib import Path
@@ -35,6 +42,12 @@ SCALE = 1000.0  # the example domain in pixels
 GRADIENT_KERNEL = "inverse-cube-mean"
 #: How many of a failed child's last stderr lines `run_child` shows.
 CHILD_ERROR_LINES = 20
+#: Mesh sizes of the viewer's drag-frame rows: the viewer's default, and a dense mesh.
+DRAG_VERTICES = (6_000, 400_000)
+#: Seconds the scripted drag lasts (every frame of it is drawn while the point is dragged).
+DRAG_SECONDS = 4.0
+#: Seconds a viewer child may take, its precompute included (400k vertices: minutes).
+DRAG_TIMEOUT = 900
 
 
 def run_bench(args: argparse.Namespace) -> int:
@@ -60,6 +73,8 @@ def run_bench(args: argparse.Namespace) -> int:
         children.append(lambda: _memory(curve, 20_000 if args.quick else 1_000_000))
     if not args.skip_warp:
         children.append(lambda: _warp_4k((640, 360) if args.quick else (3840, 2160)))
+    if not args.skip_drag:
+        children.append(lambda: _drag_frames(DRAG_VERTICES[:1] if args.quick else DRAG_VERTICES))
     code = EXIT_OK
     for child in children:
         try:
@@ -315,3 +330,97 @@ def _warp_4k(size) -> None:
         f"warp {width}x{height} end to end (process start to PNG written, basis not cached): "
         f"{seconds:.2f} s ({written / 2**20:.1f} MiB PNG)"
     )
+
+
+def _drag_frames(vertex_counts) -> None:
+    """The viewer's median drag frame at about each of `vertex_counts` vertices, under Xvfb."""
+    if shutil.which("Xvfb") is None:
+        print("viewer drag frame: skipped: no Xvfb (apt-get install xvfb)")
+        return
+    from app.files import read_cage
+    from app.viewer.demos import demo_files
+    from app.viewer.editing import default_max_edge
+
+    files = demo_files("starfish")
+    cage = read_cage(files.cage)
+    with tempfile.TemporaryDirectory() as folder:
+        folder = Path(folder)
+        script = folder / "drag.json"
+        # Point 0 (the top arm's tip) out and back: two moves, every frame a drag frame.
+        out = (cage[0] + (60.0, 30.0)).tolist()
+        moves = [
+            {"at": 0.0, "duration": DRAG_SECONDS / 2, "point": 0, "to": out},
+            {"at": DRAG_SECONDS / 2, "duration": DRAG_SECONDS / 2, "point": 0, "to": cage[0].tolist()},
+        ]
+        script.write_text(json.dumps({"moves": moves}))
+        server, display = _start_xvfb(folder)
+        try:
+            print(
+                "viewer drag frame (Xvfb 1280x1024, scripted drag through the mouse path, median over frames)"
+            )
+            for count in vertex_counts:
+                max_edge = default_max_edge(cage, count)
+                vertices, median = _drag_child(folder, display, script, max_edge, count)
+                print(f"  {vertices:>9,} vertices (max edge {max_edge} px): {median:7.1f} ms")
+        finally:
+            server.terminate()
+            server.wait(timeout=10)
+    print()
+
+
+def _start_xvfb(folder: Path) -> tuple[subprocess.Popen, str]:
+    """A private Xvfb server, 1280x1024, on a display number it chose itself; (process, ":N")."""
+    read, write = os.pipe()
+    server = subprocess.Popen(
+        ["Xvfb", "-displayfd", str(write), "-screen", "0", "1280x1024x24", "-nolisten", "tcp"],
+        pass_fds=(write,),
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
+    os.close(write)
+    with os.fdopen(read) as pipe:
+        number = pipe.readline().strip()
+    if not number:
+        server.kill()
+        server.wait()
+        raise StepFailed("the viewer drag frame failed: Xvfb did not start")
+    return server, f":{number}"
+
+
+def _drag_child(folder: Path, display: str, script: Path, max_edge: float, count: int) -> tuple[int, float]:
+    """Run the demo viewer on `script` at `max_edge`; (vertices, median drag frame in ms)."""
+    environment = dict(
+        os.environ,
+        DISPLAY=display,
+        TRANSFINITE_VIEWER_TEST="1",
+        TRANSFINITE_STATE_DIR=str(folder / "state"),
+    )
+    session = folder / f"session-{count}.json"
+    command = [sys.executable, "-m", "app", "demo", "starfish", "--script", str(script), "--session"]
+    command += [str(session), "--max-edge", str(max_edge), "--stats"]
+    what = f"the viewer drag frame at {count:,} vertices"
+    child = subprocess.Popen(
+        command, env=environment, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+    )
+    vertices, lines = 0, []
+    watchdog = threading.Timer(DRAG_TIMEOUT, child.kill)
+    watchdog.start()
+    try:
+        for line in child.stdout:  # the test hook's milestones, one a line
+            lines.append(line.strip())
+            if line.startswith("basis "):
+                vertices = int(re.search(r"vertices=(\d+)", line).group(1))
+            if line.startswith("script done"):
+                child.send_signal(signal.SIGTERM)  # quits cleanly, printing --stats
+        child.wait(timeout=60)
+    finally:
+        watchdog.cancel()
+        if child.poll() is None:
+            child.kill()
+            child.wait()
+    stats = [m for m in map(re.compile(r".*median_drag_frame_ms=([\d.]+)").fullmatch, lines) if m]
+    if child.returncode != 0 or not stats or not vertices:
+        errors = child.stderr.read().strip().splitlines()[-CHILD_ERROR_LINES:] or ["(no output on stderr)"]
+        details = "\n".join(f"    {line}" for line in [*lines[-3:], *errors])
+        raise StepFailed(f"{what} failed with exit code {child.returncode}:\n{details}")
+    return vertices, float(stats[-1].group(1))

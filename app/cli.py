@@ -352,6 +352,9 @@ def build_parser(prog: str = "python -m app") -> argparse.ArgumentParser:
     bench.add_argument("--skip-fem", action="store_true", help="no finite-element comparison")
     bench.add_argument("--skip-memory", action="store_true", help="no 1,000,000-point memory run")
     bench.add_argument("--skip-warp", action="store_true", help="no end-to-end 4K warp")
+    bench.add_argument(
+        "--skip-drag", action="store_true", help="no viewer drag frame at 6k and 400k vertices (Xvfb)"
+    )
     bench.set_defaults(run=_bench)
 
     view = _command(
@@ -472,7 +475,10 @@ def _add_viewer_options(parser: argparse.ArgumentParser) -> None:
         "beside the new one, renamed)",
     )
     parser.add_argument(
-        "--stats", action="store_true", help="on exit, print frames=N median_frame_ms=X p95_frame_ms=Y"
+        "--stats",
+        action="store_true",
+        help="on exit, print frames=N median_frame_ms=X p95_frame_ms=Y median_drag_frame_ms=Z (Z: the frames "
+        "drawn while a control point is dragged; 0 without any)",
     )
     parser.add_argument(
         "--max-edge",

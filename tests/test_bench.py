@@ -33,7 +33,7 @@ def test_a_failed_row_is_reported_and_the_others_still_run(monkeypatch, capsys):
     monkeypatch.setattr(bench, "_memory", fail)
     monkeypatch.setattr(bench, "_warp_4k", lambda size: ran.append("warp"))
     args = argparse.Namespace(
-        quick=True, repeats=1, large=False, skip_fem=True, skip_memory=False, skip_warp=False
+        quick=True, repeats=1, large=False, skip_fem=True, skip_memory=False, skip_warp=False, skip_drag=True
     )
     assert bench.run_bench(args) == 1
     assert ran == ["memory", "warp"]
@@ -41,3 +41,9 @@ def test_a_failed_row_is_reported_and_the_others_still_run(monkeypatch, capsys):
         capsys.readouterr().err
         == "bench: the 20,000-point memory run failed with exit code 1:\n    MemoryError\n"
     )
+
+
+def test_the_drag_frame_says_it_is_skipped_without_xvfb(monkeypatch, capsys):
+    monkeypatch.setattr(bench.shutil, "which", lambda name: None)
+    bench._drag_frames((6_000,))
+    assert capsys.readouterr().out == "viewer drag frame: skipped: no Xvfb (apt-get install xvfb)\n"

@@ -100,7 +100,9 @@ def park_mouse(display: str, window: str) -> None:
 
 def stats_line(lines: list[str]) -> re.Match:
     for line in lines:
-        match = re.fullmatch(r"frames=(\d+) median_frame_ms=([\d.]+) p95_frame_ms=([\d.]+)", line)
+        match = re.fullmatch(
+            r"frames=(\d+) median_frame_ms=([\d.]+) p95_frame_ms=([\d.]+) median_drag_frame_ms=([\d.]+)", line
+        )
         if match:
             return match
     raise AssertionError(f"no stats line in {lines}")
@@ -231,6 +233,7 @@ def test_drag_undo_redo_export_quit_and_restore(display, environment):
         assert code == 0, stderr
         frames = stats_line(viewer.lines)
         assert int(frames.group(1)) > 10
+        assert float(frames.group(4)) > 0  # frames were drawn while the arm was dragged
     finally:
         viewer.kill()
 
@@ -245,7 +248,7 @@ def test_drag_undo_redo_export_quit_and_restore(display, environment):
         close_window(display, int(window))
         code, stderr = reopened.finish()
         assert code == 0, stderr
-        stats_line(reopened.lines)
+        assert float(stats_line(reopened.lines).group(4)) == 0  # nothing was dragged
         assert np.array_equal(session_points(session)[1], target_after)
     finally:
         reopened.kill()

@@ -4,9 +4,10 @@
 - new basis functions: upload the mesh (the only time vertex arrays are built);
 - a changed target: during a drag of one point, the rank-one update
   x' += G[:, i] (P'_i(new) - P'_i(old)) of float32 positions, O(V) whatever n is,
-  and one in-place buffer write; otherwise (undo, release, script, keyframe
-  playback) the exact product G @ P' in float64, the one `python -m app warp`
-  uses (folded triangles are counted again only when playback stops);
+  and one in-place buffer write (rows of x' and G kept in the renderer's vertex
+  order); otherwise (undo, release, script, keyframe playback) the exact
+  product G @ P' in float64, the one `python -m app warp` uses (folded
+  triangles are counted again only when playback stops);
 - the field of the basis-function, height or distortion view when it changes (the
   distortion view's after every change of the target: `app.viewer.distortion_view`);
 - the overlay of curves, control polygons and handles (a few kilobytes) every frame.
@@ -114,7 +115,9 @@ class Scene:
         self._image = None
         self._basis = None
         self._drawn_target: np.ndarray | None = None
-        self._positions: np.ndarray | None = None
+        self._positions: np.ndarray | None = None  # float32, in the renderer's vertex order
+        self._order: np.ndarray | None = None
+        self._columns: np.ndarray | None = None
         self._exact = False
         self._folds_stale = False
         self._field = None
@@ -140,6 +143,9 @@ class Scene:
         if basis is not None and basis is not self._basis:
             renderer.set_mesh(basis.mesh.vertices, basis.mesh.triangles)
             self._basis = basis
+            # The columns of G in the renderer's row order, so a drag writes without a gather.
+            self._order = renderer.vertex_order
+            self._columns = np.asfortranarray(basis.columns[self._order])
             self._drawn_target = None
             self._field = None
         if not self.mesh_matches(state):
@@ -161,19 +167,19 @@ class Scene:
             # The per-drag path: one column of G per moved point, O(V) work for any n.
             for i in changed:
                 delta = (target[i] - drawn[i]).astype(np.float32)
-                column = basis.columns[:, i]
+                column = self._columns[:, i]
                 self._positions[:, 0] += column * delta[0]
                 self._positions[:, 1] += column * delta[1]
             self._exact = False
         else:
             deformed = basis.basis @ target
-            self._positions = deformed.astype(np.float32)
+            self._positions = deformed[self._order].astype(np.float32)
             self._exact = True
             if state.playing:  # counting costs more than the product: not every frame of playback
                 self._folds_stale = True
             else:
                 self._count_folds(state, deformed)
-        self.renderer.set_positions(self._positions)
+        self.renderer.set_ordered_positions(self._positions)
         self._drawn_target = np.array(target)
         self.update_ms = 1e3 * (time.perf_counter() - started)
 

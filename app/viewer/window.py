@@ -214,6 +214,8 @@ class Viewer:
         self._playback_clock: float | None = None
         self._playback_first_frame = 0
         self._drag_first_frame: int | None = None
+        #: Times (ms) of the frames drawn while a control point was dragged, for --stats.
+        self._drag_frame_ms: list[float] = []
         self.window = None
 
     # -- lifetime -------------------------------------------------------------------
@@ -241,7 +243,12 @@ class Viewer:
             from app.viewer.gui import frame_statistics
 
             count, median, p95 = frame_statistics(self.state.frame_ms)
-            print(f"frames={count} median_frame_ms={median:.2f} p95_frame_ms={p95:.2f}", flush=True)
+            _, drag_median, _ = frame_statistics(self._drag_frame_ms)
+            print(
+                f"frames={count} median_frame_ms={median:.2f} p95_frame_ms={p95:.2f} "
+                f"median_drag_frame_ms={drag_median:.2f}",
+                flush=True,
+            )
         return 0
 
     def _open_window(self) -> None:
@@ -905,6 +912,8 @@ class Viewer:
         self._export_frame()
         glfw.swap_buffers(self.window)
         state.frame_ms.append(1e3 * (time.perf_counter() - started))
+        if state.drag is not None and state.drag.kind in ("target", "source"):
+            self._drag_frame_ms.append(state.frame_ms[-1])
         self._save_if_needed()
         if not self._announced_ready:
             self._announced_ready = True
