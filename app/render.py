@@ -211,6 +211,7 @@ class WarpRenderer:
             self._distortion_program[name].value = tuple(colour)
         self._distortion_program["u_range"].value = DISTORTION_RANGE
         self._distortion_program["u_measure"].value = 0
+        self._distortion_program["u_folds_only"].value = False
         self._image_program["u_opacity"].value = 1.0
         self._texture: moderngl.Texture | None = None
         self._sampler: moderngl.Sampler | None = None
@@ -521,6 +522,10 @@ class WarpRenderer:
             vaos["heat"].render()
         elif content == "distortion":
             vaos["distortion"].render()
+            # Folded vertices again on top: where the mesh overlaps itself they would be hidden.
+            self._distortion_program["u_folds_only"].value = True
+            vaos["distortion"].render()
+            self._distortion_program["u_folds_only"].value = False
         if folds:
             self._folds_program["u_colour"].value = HIGHLIGHT_COLOUR
             vaos["folds"].render()
