@@ -67,6 +67,10 @@ MAX_NEWTON = 100
 # Blending factors of the path-following fallback (see _continuation), ending at 0.
 CONTINUATION = (0.5, 0.1, 1e-2, 1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 0.0)
 MAX_BACKTRACKS = 60
+# Warm start of far points (_coarse_start): the coarse rule's spacing is at most the point's
+# distance over this many, and it keeps at least this many nodes.
+COARSE_SPACINGS = 3.0
+MIN_COARSE_NODES = 96
 ARMIJO = 1e-4
 
 
@@ -405,41 +409,31 @@ def _weights(kernel, power, shift, px, py, tx, ty, sx, sy, w, x, y, count, corne
 def _newton(ux, uy, inv_r, a, s, inv_s, trial, trial_inv, count, tolerance, phix, phiy):
     """Minimise F(phi) = -sum a_j log(1 + phi . u_j) (Eq. 16 with phi_0 = 1).
 
-    Newton's method with Armijo backtracking from (phix, phiy), phi = 0 in the
-    paper (Sec. 4.1), which must be feasible; a trial with
+    Newton's method with Armijo backtracking from (phix, phiy): phi = 0 in the
+    paper (Sec. 4.1), or a warm start (`_coarse_start`); a start outside the
+    feasible set is replaced by phi = 0.  A trial with
     any 1 + phi . u_j <= 0 is rejected like an Armijo failure.  One fused pass per
     trial gives the gradient, Hessian and D at the trial point and, with
     z_j = s_j(trial) / s_j - 1, the log-free bound
 
-        F(trial) - F(phi) = -sum a_j log(1 + z_j) <= -sum a_j z_j + sum a_j z_j^2 / (2 m),
+        F(trial) - F(phi) = -sum a_j log(1 + z_j) <= -sum a_j z_j + sum a_j z_j^2 / (2 m_j),
 
-    m = min(1, 1 + min_j z_j), from log(1 + z) >= z - z^2 / (2 min(1, 1 + z)).  If the
-    bound meets the Armijo condition the step is accepted; only otherwise is the
-    exact change (sum of log1p, free of cancellation) computed.
+    m_j = min(1, 1 + z_j), from log(1 + z) >= z - z^2 / (2 min(1, 1 + z)) for z > -1;
+    1 / m_j = max(1, s_j / s_j(trial)) needs no division of its own.  If the bound
+    meets the Armijo condition the step is accepted; only otherwise is the exact
+    change (sum of log1p, free of cancellation) computed.  The loops carry no
+    min/max reduction (feasibility is a count), so that they vectorise.
 
     On return `s` and `inv_s` hold 1 + phi . u_j and its inverse.  Returns
     (iterations, status, residual, phix, phiy), residual = |grad F| / D in length
     units: the linear-precision error of the discrete kernel.
     """
-    gx = 0.0
-    gy = 0.0
-    hxx = 0.0
-    hxy = 0.0
-    hyy = 0.0
-    d = 0.0
-    for j in range(count):
-        sj = 1.0 + phix * ux[j] + phiy * uy[j]
-        inv = 1.0 / sj
-        s[j] = sj
-        inv_s[j] = inv
-        ia = a[j] * inv
-        gx -= ia * ux[j]
-        gy -= ia * uy[j]
-        ib = ia * inv
-        hxx += ib * ux[j] * ux[j]
-        hxy += ib * ux[j] * uy[j]
-        hyy += ib * uy[j] * uy[j]
-        d += ia * inv_r[j]
+    gx, gy, hxx, hxy, hyy, d, infeasible = _newton_terms(ux, uy, inv_r, a, s, inv_s, count, phix, phiy)
+    if infeasible > 0:
+        # A warm start outside the feasible set: start from phi = 0 (always feasible).
+        phix = 0.0
+        phiy = 0.0
+        gx, gy, hxx, hxy, hyy, d, infeasible = _newton_terms(ux, uy, inv_r, a, s, inv_s, count, phix, phiy)
     residual = math.sqrt(gx * gx + gy * gy) / d
     status = STATUS_NOT_CONVERGED
     iterations = 0
@@ -461,7 +455,7 @@ def _newton(ux, uy, inv_r, a, s, inv_s, trial, trial_inv, count, tolerance, phix
         alpha = 1.0
         accepted = False
         for _ in range(MAX_BACKTRACKS):
-            smallest = 0.0
+            infeasible = 0
             linear = 0.0
             quadratic = 0.0
             ngx = 0.0
@@ -473,14 +467,15 @@ def _newton(ux, uy, inv_r, a, s, inv_s, trial, trial_inv, count, tolerance, phix
             for j in range(count):
                 step_dot = alpha * (deltax * ux[j] + deltay * uy[j])
                 z = step_dot * inv_s[j]
-                smallest = min(smallest, z)
-                aj = a[j]
-                linear += aj * z
-                quadratic += aj * z * z
                 sj = s[j] + step_dot
                 inv = 1.0 / sj
                 trial[j] = sj
                 trial_inv[j] = inv
+                infeasible += sj <= 0.0
+                aj = a[j]
+                linear += aj * z
+                ratio = s[j] * inv
+                quadratic += aj * z * z * (ratio if ratio > 1.0 else 1.0)
                 ia = aj * inv
                 ngx -= ia * ux[j]
                 ngy -= ia * uy[j]
@@ -489,8 +484,8 @@ def _newton(ux, uy, inv_r, a, s, inv_s, trial, trial_inv, count, tolerance, phix
                 nxy += ib * ux[j] * uy[j]
                 nyy += ib * uy[j] * uy[j]
                 nd += ia * inv_r[j]
-            if smallest > -1.0:
-                bound = -linear + quadratic / (2.0 * min(1.0, 1.0 + smallest))
+            if infeasible == 0:
+                bound = -linear + 0.5 * quadratic
                 if (
                     bound <= ARMIJO * alpha * slope
                     or _exact_change(a, ux, uy, inv_s, deltax, deltay, alpha, count) <= ARMIJO * alpha * slope
@@ -514,6 +509,37 @@ def _newton(ux, uy, inv_r, a, s, inv_s, trial, trial_inv, count, tolerance, phix
             trial[j] = s[j]
             trial_inv[j] = inv_s[j]
     return iterations, status, residual, phix, phiy
+
+
+@njit(cache=True, error_model="numpy", fastmath={"contract", "arcp", "reassoc", "nsz"})
+def _newton_terms(ux, uy, inv_r, a, s, inv_s, count, phix, phiy):
+    """Gradient, Hessian and D of F (Eq. 16) at phi; fills s_j = 1 + phi . u_j and 1 / s_j.
+
+    Returns (gx, gy, hxx, hxy, hyy, D, the number of s_j <= 0); the terms are
+    meaningful only if that number is 0 (phi feasible).
+    """
+    gx = 0.0
+    gy = 0.0
+    hxx = 0.0
+    hxy = 0.0
+    hyy = 0.0
+    d = 0.0
+    infeasible = 0
+    for j in range(count):
+        sj = 1.0 + phix * ux[j] + phiy * uy[j]
+        infeasible += sj <= 0.0
+        inv = 1.0 / sj
+        s[j] = sj
+        inv_s[j] = inv
+        ia = a[j] * inv
+        gx -= ia * ux[j]
+        gy -= ia * uy[j]
+        ib = ia * inv
+        hxx += ib * ux[j] * ux[j]
+        hxy += ib * ux[j] * uy[j]
+        hyy += ib * uy[j] * uy[j]
+        d += ia * inv_r[j]
+    return gx, gy, hxx, hxy, hyy, d, infeasible
 
 
 @njit(cache=True, error_model="numpy")
@@ -546,6 +572,46 @@ def _continuation(ux, uy, inv_r, a, w, blend, s, inv_s, trial, trial_inv, count,
         if status != STATUS_CONVERGED:
             break
     return iterations, status, residual
+
+
+@njit(cache=True, error_model="numpy")
+def _coarse_start(ux, uy, inv_r, a, count, separation, coarse, tolerance):
+    """Warm start of Newton for a far point: the minimiser of Eq. 16 on every stride-th node.
+
+    The trapezoid rule on a subset of the uniform samples converges geometrically
+    in the point's distance over the subset's spacing, so at a point `separation`
+    sample spacings from the boundary the coarse minimiser, on
+    stride <= separation / COARSE_SPACINGS times fewer nodes, is within a few
+    Newton steps' contraction of the full one; Newton on all nodes
+    (`_newton`) then polishes it, usually in one step, to the same tolerance.  The
+    answer stays the minimiser of the full rule; only the starting point changes.
+    `coarse` holds four scratch arrays for the subset (u_x, u_y, 1 / r, a) and
+    four for Newton.  Returns (phix, phiy), (0, 0) where no subset applies or the
+    coarse Newton did not converge.
+    """
+    stride = 1
+    while (
+        2 * stride * COARSE_SPACINGS <= separation
+        and count % (2 * stride) == 0
+        and count // (2 * stride) >= MIN_COARSE_NODES
+    ):
+        stride *= 2
+    if stride == 1:
+        return 0.0, 0.0
+    coarse_ux, coarse_uy, coarse_inv_r, coarse_a, s, inv_s, trial, trial_inv = coarse
+    nodes = count // stride
+    for j in range(nodes):
+        k = j * stride
+        coarse_ux[j] = ux[k]
+        coarse_uy[j] = uy[k]
+        coarse_inv_r[j] = inv_r[k]
+        coarse_a[j] = a[k]
+    _, status, _, phix, phiy = _newton(
+        coarse_ux, coarse_uy, coarse_inv_r, coarse_a, s, inv_s, trial, trial_inv, nodes, tolerance, 0.0, 0.0
+    )
+    if status != STATUS_CONVERGED:
+        return 0.0, 0.0
+    return phix, phiy
 
 
 @njit(cache=True, error_model="numpy")
@@ -584,7 +650,8 @@ def _solve_point(x, y, settings, curve, geometry, row, scratch, windows):
         sinh_step,
         out_step,
     ) = curve
-    (px, py, tx, ty, sx, sy, w, t, ux, uy, inv_r, a, s, inv_s, trial, trial_inv, blend) = scratch
+    (px, py, tx, ty, sx, sy, w, t, ux, uy, inv_r, a, s, inv_s, trial, trial_inv, blend) = scratch[:17]
+    coarse = scratch[17:]
     count = sample_x.shape[0]
     out_count = int(round(count * step / out_step))
     # Pass 1: directions to the samples, and the stretches closer than NEAR_SPACINGS.
@@ -645,6 +712,11 @@ def _solve_point(x, y, settings, curve, geometry, row, scratch, windows):
                 nearest,
                 a,
             )
+            phix, phiy = 0.0, 0.0
+            if kernel <= MODIFIED_MEAN_VALUE_SQUARED:
+                phix, phiy = _coarse_start(
+                    ux, uy, inv_r, a, count, nearest / spacing[nearest_index], coarse, tolerance * diameter
+                )
             iterations, status, residual = _finish(
                 kernel,
                 ux,
@@ -664,6 +736,8 @@ def _solve_point(x, y, settings, curve, geometry, row, scratch, windows):
                 x,
                 y,
                 tolerance * diameter,
+                phix,
+                phiy,
             )
             if mode == OUTPUT_SAMPLES and out_count == count:
                 for k in range(count):
@@ -761,6 +835,8 @@ def _solve_point(x, y, settings, curve, geometry, row, scratch, windows):
         x,
         y,
         tolerance * diameter,
+        0.0,
+        0.0,
     )
     period = count * step
     for j in range(total):
@@ -775,17 +851,36 @@ def _wrap(t, period):
 
 @njit(cache=True, error_model="numpy")
 def _finish(
-    kernel, ux, uy, inv_r, a, s, inv_s, trial, trial_inv, blend, total, px, py, w, step, x, y, tolerance
+    kernel,
+    ux,
+    uy,
+    inv_r,
+    a,
+    s,
+    inv_s,
+    trial,
+    trial_inv,
+    blend,
+    total,
+    px,
+    py,
+    w,
+    step,
+    x,
+    y,
+    tolerance,
+    phix,
+    phiy,
 ):
     """Turn normalised weights `a` into the quadrature-weighted kernel w_j lambda_j (in `a`).
 
-    Maximum-likelihood family: Newton on Eq. 16, then Eq. 14 and 17,
-    c_j = a_j / (r_j s_j) normalised.  Explicit kernels: `a` already is it.
-    Returns (iterations, status, residual).
+    Maximum-likelihood family: Newton on Eq. 16 from (phix, phiy) (0, 0 or a warm
+    start), then Eq. 14 and 17, c_j = a_j / (r_j s_j) normalised.  Explicit
+    kernels: `a` already is it.  Returns (iterations, status, residual).
     """
     if kernel <= MODIFIED_MEAN_VALUE_SQUARED:
         iterations, status, residual, phix, phiy = _newton(
-            ux, uy, inv_r, a, s, inv_s, trial, trial_inv, total, tolerance, 0.0, 0.0
+            ux, uy, inv_r, a, s, inv_s, trial, trial_inv, total, tolerance, phix, phiy
         )
         if status != STATUS_CONVERGED:
             iterations, status, residual = _continuation(
@@ -971,6 +1066,14 @@ def solve_points(points, settings, curve, geometry, out, iterations, status, res
         np.empty(capacity),
         np.empty(capacity),
         np.empty(capacity),
+        np.empty(count),
+        np.empty(count),
+        np.empty(count),
+        np.empty(count),
+        np.empty(count),
+        np.empty(count),
+        np.empty(count),
+        np.empty(count),
     )
     window_start = np.empty(MAX_WINDOWS + 1, dtype=np.int64)
     window_stop = np.empty(MAX_WINDOWS + 1, dtype=np.int64)
