@@ -71,6 +71,8 @@ MAX_BACKTRACKS = 60
 # distance over this many, and it keeps at least this many nodes.
 COARSE_SPACINGS = 3.0
 MIN_COARSE_NODES = 96
+# Near points start from every fourth node of their refined rule (the separation that gives it).
+NEAR_START_SEPARATION = 4.0 * COARSE_SPACINGS
 ARMIJO = 1e-4
 
 
@@ -311,7 +313,40 @@ def _directions(px, py, x, y, count, ux, uy, inv_r):
     return r_min
 
 
+@njit(cache=True, error_model="numpy", fastmath={"contract", "arcp", "reassoc", "nsz"})
+def _sample_directions(sample_x, sample_y, spacing, x, y, ux, uy, inv_r):
+    """Unit directions u_k = (p_k - x) / r_k and 1 / r_k to the N samples, one vectorised pass.
+
+    Returns the number of samples closer than NEAR_SPACINGS times their spacing
+    (a point on a sample, r_k = 0, counts; the near-point scan of `_solve_point`
+    recomputes its directions).  No min reduction here: it would stop the loop
+    from vectorising (see `_largest`).
+    """
+    near = 0
+    for k in range(sample_x.shape[0]):
+        dx = sample_x[k] - x
+        dy = sample_y[k] - y
+        r2 = dx * dx + dy * dy
+        inv = 1.0 / math.sqrt(r2)
+        ux[k] = dx * inv
+        uy[k] = dy * inv
+        inv_r[k] = inv
+        limit = NEAR_SPACINGS * spacing[k]
+        near += r2 < limit * limit
+    return near
+
+
 @njit(cache=True, error_model="numpy")
+def _largest(values, count):
+    """max_k values_k over the first `count` entries."""
+    largest = values[0]
+    for k in range(1, count):
+        if values[k] > largest:
+            largest = values[k]
+    return largest
+
+
+@njit(cache=True, error_model="numpy", fastmath={"contract", "arcp", "reassoc", "nsz"})
 def _weights(kernel, power, shift, px, py, tx, ty, sx, sy, w, x, y, count, corners, ux, uy, inv_r, r_min, a):
     """Normalised weights a_j = w_j omega_j / sum (maximum-likelihood family), or
     normalised w_j mu_j for the explicit kernels (Eq. 5 and Sec. 1.1).
@@ -590,11 +625,7 @@ def _coarse_start(ux, uy, inv_r, a, count, separation, coarse, tolerance):
     coarse Newton did not converge.
     """
     stride = 1
-    while (
-        2 * stride * COARSE_SPACINGS <= separation
-        and count % (2 * stride) == 0
-        and count // (2 * stride) >= MIN_COARSE_NODES
-    ):
+    while 2 * stride * COARSE_SPACINGS <= separation and count // (2 * stride) >= MIN_COARSE_NODES:
         stride *= 2
     if stride == 1:
         return 0.0, 0.0
@@ -624,11 +655,12 @@ def _exact_change(a, ux, uy, inv_s, deltax, deltay, alpha, count):
 
 
 @njit(cache=True, error_model="numpy")
-def _solve_point(x, y, settings, curve, geometry, row, scratch, windows):
+def _solve_point(x, y, settings, curve, geometry, largest_spacing, row, scratch, windows):
     """Evaluate one point; writes its output row and returns (iterations, status, residual).
 
     `settings`, `curve` and `geometry` are the shared tuples of `solve_points`,
-    `scratch` and `windows` per-thread work arrays.
+    `largest_spacing` the largest of the sample spacings, `scratch` and `windows`
+    per-thread work arrays.
     """
     kernel, power, shift, mode, orientation, diameter, control_count, tolerance = settings
     coefficients, piece_length, corners = geometry
@@ -654,12 +686,14 @@ def _solve_point(x, y, settings, curve, geometry, row, scratch, windows):
     coarse = scratch[17:]
     count = sample_x.shape[0]
     out_count = int(round(count * step / out_step))
-    # Pass 1: directions to the samples, and the stretches closer than NEAR_SPACINGS.
+    # Pass 1: directions to the samples and, for a point near the boundary, the
+    # stretches closer than NEAR_SPACINGS (found in a second, sequential scan).
+    near = _sample_directions(sample_x, sample_y, spacing, x, y, ux, uy, inv_r)
+    nearest = 1.0 / _largest(inv_r, count) if near == 0 else 1e300
     window_count = 0
     in_run = False
-    nearest = 1e300
     nearest_index = np.int64(0)  # not a literal: one specialisation of _merge_windows
-    for k in range(count):
+    for k in range(count if near > 0 else 0):
         dx = sample_x[k] - x
         dy = sample_y[k] - y
         r = math.sqrt(dx * dx + dy * dy)
@@ -715,7 +749,7 @@ def _solve_point(x, y, settings, curve, geometry, row, scratch, windows):
             phix, phiy = 0.0, 0.0
             if kernel <= MODIFIED_MEAN_VALUE_SQUARED:
                 phix, phiy = _coarse_start(
-                    ux, uy, inv_r, a, count, nearest / spacing[nearest_index], coarse, tolerance * diameter
+                    ux, uy, inv_r, a, count, nearest / largest_spacing, coarse, tolerance * diameter
                 )
             iterations, status, residual = _finish(
                 kernel,
@@ -746,18 +780,7 @@ def _solve_point(x, y, settings, curve, geometry, row, scratch, windows):
                 for k in range(count):
                     _accumulate(row, mode, a[k], sample_t[k], out_step, out_count, control_count)
             else:
-                per = count // control_count
-                for j in range(control_count):
-                    s0 = 0.0
-                    s1 = 0.0
-                    s2 = 0.0
-                    for k in range(j * per, (j + 1) * per):
-                        s0 += a[k] * basis0[k]
-                        s1 += a[k] * basis1[k]
-                        s2 += a[k] * basis2[k]
-                    row[(j - 1) % control_count] += s0
-                    row[j] += s1
-                    row[(j + 1) % control_count] += s2
+                _fold_onto_basis(row, a, basis0, basis1, basis2, control_count)
             return iterations, status, residual
         nodes = 0
         for k in range(count):
@@ -816,6 +839,11 @@ def _solve_point(x, y, settings, curve, geometry, row, scratch, windows):
     total = _weights(
         kernel, power, shift, px, py, tx, ty, sx, sy, w, x, y, nodes, corners, ux, uy, inv_r, r_min, a
     )
+    phix, phiy = 0.0, 0.0
+    if kernel <= MODIFIED_MEAN_VALUE_SQUARED:
+        phix, phiy = _coarse_start(
+            ux, uy, inv_r, a, total, NEAR_START_SEPARATION, coarse, tolerance * diameter
+        )
     iterations, status, residual = _finish(
         kernel,
         ux,
@@ -835,8 +863,8 @@ def _solve_point(x, y, settings, curve, geometry, row, scratch, windows):
         x,
         y,
         tolerance * diameter,
-        0.0,
-        0.0,
+        phix,
+        phiy,
     )
     period = count * step
     for j in range(total):
@@ -844,12 +872,33 @@ def _solve_point(x, y, settings, curve, geometry, row, scratch, windows):
     return iterations, status, residual
 
 
+@njit(cache=True, error_model="numpy", fastmath={"contract", "arcp", "reassoc", "nsz"})
+def _fold_onto_basis(row, a, basis0, basis1, basis2, control_count):
+    """row_i += sum_k a_k N_i(t_k) over the N uniform samples (Sec. 4.3), shape (n,).
+
+    The samples of span j (N / n of them) touch only N_(j-1), N_j and N_(j+1),
+    whose values at the samples are basis0, basis1 and basis2, each (N,).
+    """
+    per = basis0.shape[0] // control_count
+    for j in range(control_count):
+        s0 = 0.0
+        s1 = 0.0
+        s2 = 0.0
+        for k in range(j * per, (j + 1) * per):
+            s0 += a[k] * basis0[k]
+            s1 += a[k] * basis1[k]
+            s2 += a[k] * basis2[k]
+        row[(j - 1) % control_count] += s0
+        row[j] += s1
+        row[(j + 1) % control_count] += s2
+
+
 @njit(cache=True, error_model="numpy")
 def _wrap(t, period):
     return t - math.floor(t / period) * period
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", fastmath={"contract", "arcp", "reassoc", "nsz"})
 def _finish(
     kernel,
     ux,
@@ -1066,21 +1115,22 @@ def solve_points(points, settings, curve, geometry, out, iterations, status, res
         np.empty(capacity),
         np.empty(capacity),
         np.empty(capacity),
-        np.empty(count),
-        np.empty(count),
-        np.empty(count),
-        np.empty(count),
-        np.empty(count),
-        np.empty(count),
-        np.empty(count),
-        np.empty(count),
+        np.empty(capacity),
+        np.empty(capacity),
+        np.empty(capacity),
+        np.empty(capacity),
+        np.empty(capacity),
+        np.empty(capacity),
+        np.empty(capacity),
+        np.empty(capacity),
     )
     window_start = np.empty(MAX_WINDOWS + 1, dtype=np.int64)
     window_stop = np.empty(MAX_WINDOWS + 1, dtype=np.int64)
     window_t = np.empty(MAX_WINDOWS + 1)
     window_d = np.empty(MAX_WINDOWS + 1)
     windows = (window_start, window_stop, window_t, window_d)
+    largest_spacing = curve[6].max()
     for m in range(first, points.shape[0], stride):
         iterations[m], status[m], residual[m] = _solve_point(
-            points[m, 0], points[m, 1], settings, curve, geometry, out[m], scratch, windows
+            points[m, 0], points[m, 1], settings, curve, geometry, largest_spacing, out[m], scratch, windows
         )
