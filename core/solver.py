@@ -165,13 +165,14 @@ def _accumulate(row, mode, value, t, step, count, control_count):
     else:
         period = float(control_count)
         t = t - math.floor(t / period) * period
-        segment = int(math.floor(t))
-        if segment >= control_count:
-            segment = control_count - 1
+        segment = min(int(t), control_count - 1)  # t >= 0 here
         u = t - segment
-        row[(segment - 1) % control_count] += value * 0.5 * (1.0 - u) * (1.0 - u)
-        row[segment % control_count] += value * 0.5 * (-2.0 * u * u + 2.0 * u + 1.0)
-        row[(segment + 1) % control_count] += value * 0.5 * u * u
+        # The neighbouring spans, cyclically, without integer modulo (this runs per node).
+        before = segment - 1 if segment > 0 else control_count - 1
+        after = segment + 1 if segment + 1 < control_count else 0
+        row[before] += value * 0.5 * (1.0 - u) * (1.0 - u)
+        row[segment] += value * 0.5 * (-2.0 * u * u + 2.0 * u + 1.0)
+        row[after] += value * 0.5 * u * u
 
 
 @njit(cache=True, error_model="numpy")
@@ -297,20 +298,20 @@ def _graded_nodes(center, scale, start, stop, step, times, weights, offset):
     return count
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", fastmath={"contract", "arcp", "reassoc", "nsz"})
 def _directions(px, py, x, y, count, ux, uy, inv_r):
-    """Unit directions u_j = (p_j - x) / r_j and 1 / r_j; returns min r_j."""
-    r_min = 1e300
+    """Unit directions u_j = (p_j - x) / r_j and 1 / r_j; returns min r_j.
+
+    The minimum is taken in a second loop (`_largest`) so that this one vectorises.
+    """
     for j in range(count):
         dx = px[j] - x
         dy = py[j] - y
-        r = math.sqrt(dx * dx + dy * dy)
-        inv = 1.0 / r
+        inv = 1.0 / math.sqrt(dx * dx + dy * dy)
         ux[j] = dx * inv
         uy[j] = dy * inv
         inv_r[j] = inv
-        r_min = min(r_min, r)
-    return r_min
+    return 1.0 / _largest(inv_r, count)
 
 
 @njit(cache=True, error_model="numpy", fastmath={"contract", "arcp", "reassoc", "nsz"})
