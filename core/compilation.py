@@ -28,6 +28,9 @@ from core import solver
 
 #: What waiting callers show.
 MESSAGE = "compiling the solver (first run only)"
+# Set once the solver is compiled or loaded in this process: later calls cost nothing
+# (reading the solver's source for the progress weights took tens of milliseconds a call).
+_loaded = threading.Event()
 
 
 def compile_solver(progress: Callable[[float], None] | None = None) -> bool:
@@ -49,8 +52,11 @@ def compile_solver(progress: Callable[[float], None] | None = None) -> bool:
     Returns
     -------
     bool
-        True if anything was compiled (a first run), False if all came from the cache.
+        True if anything was compiled (a first run), False if all came from the
+        cache, or at once if the solver is already loaded in this process.
     """
+    if _loaded.is_set():
+        return False
     from core.basis import basis_functions
     from core.bspline import ClosedBSpline
 
@@ -60,6 +66,7 @@ def compile_solver(progress: Callable[[float], None] | None = None) -> bool:
         basis_functions(square, np.array([[0.5, 0.5]]), samples_per_segment=4, parameterization="arc-length")
     if listener.compiled and progress is not None:
         progress(1.0)
+    _loaded.set()
     return listener.compiled
 
 

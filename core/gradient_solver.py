@@ -373,7 +373,7 @@ def _gradient_point(x, y, settings, curve, geometry, row, row_x, row_y, scratch,
             )  # fmt: skip
             iterations, status, residual = solver._finish(
                 kernel, ux, uy, inv_r, a, s, inv_s, trial, trial_inv, blend, total,
-                sample_x, sample_y, uniform, step, x, y, tolerance * diameter,
+                sample_x, sample_y, uniform, step, x, y, tolerance * diameter, 0.0, 0.0,
             )  # fmt: skip
             _differentiate(
                 kernel, power, shift, sample_x, sample_y, tangent_x, tangent_y, second_x, second_y,
@@ -447,7 +447,7 @@ def _gradient_point(x, y, settings, curve, geometry, row, row_x, row_y, scratch,
     )
     iterations, status, residual = solver._finish(
         kernel, ux, uy, inv_r, a, s, inv_s, trial, trial_inv, blend, total,
-        px, py, w, step, x, y, tolerance * diameter,
+        px, py, w, step, x, y, tolerance * diameter, 0.0, 0.0,
     )  # fmt: skip
     _differentiate(
         kernel, power, shift, px, py, tx, ty, sx, sy, w, ux, uy, inv_r, a, s, inv_s, total, nodes, corners,

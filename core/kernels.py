@@ -104,7 +104,9 @@ class SolveReport:
     Attributes
     ----------
     iterations : ndarray of shape (M,)
-        Newton iterations (0 for the explicit kernels and boundary points).
+        Newton iterations on the point's full quadrature (0 for the explicit
+        kernels and boundary points); those of the warm start on a subset of the
+        nodes (`core.solver._coarse_start`) are not counted.
     status : ndarray of shape (M,)
         0 converged, 1 not converged, 3 converged but the minimiser is at the edge
         of the feasible set (lambda-hat is under-resolved by the quadrature).

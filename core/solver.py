@@ -67,6 +67,12 @@ MAX_NEWTON = 100
 # Blending factors of the path-following fallback (see _continuation), ending at 0.
 CONTINUATION = (0.5, 0.1, 1e-2, 1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 0.0)
 MAX_BACKTRACKS = 60
+# Warm start of far points (_coarse_start): the coarse rule's spacing is at most the point's
+# distance over this many, and it keeps at least this many nodes.
+COARSE_SPACINGS = 3.0
+MIN_COARSE_NODES = 96
+# Near points start from every fourth node of their refined rule (the separation that gives it).
+NEAR_START_SEPARATION = 4.0 * COARSE_SPACINGS
 ARMIJO = 1e-4
 
 
@@ -343,13 +349,14 @@ def _accumulate(row, mode, value, t, step, count, control_count):
     else:
         period = float(control_count)
         t = t - math.floor(t / period) * period
-        segment = int(math.floor(t))
-        if segment >= control_count:
-            segment = control_count - 1
+        segment = min(int(t), control_count - 1)  # t >= 0 here
         u = t - segment
-        row[(segment - 1) % control_count] += value * 0.5 * (1.0 - u) * (1.0 - u)
-        row[segment % control_count] += value * 0.5 * (-2.0 * u * u + 2.0 * u + 1.0)
-        row[(segment + 1) % control_count] += value * 0.5 * u * u
+        # The neighbouring spans, cyclically, without integer modulo (this runs per node).
+        before = segment - 1 if segment > 0 else control_count - 1
+        after = segment + 1 if segment + 1 < control_count else 0
+        row[before] += value * 0.5 * (1.0 - u) * (1.0 - u)
+        row[segment] += value * 0.5 * (-2.0 * u * u + 2.0 * u + 1.0)
+        row[after] += value * 0.5 * u * u
 
 
 @njit(cache=True, error_model="numpy")
@@ -475,23 +482,56 @@ def _graded_nodes(center, scale, start, stop, step, times, weights, offset):
     return count
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", fastmath={"contract", "arcp", "reassoc", "nsz"})
 def _directions(px, py, x, y, count, ux, uy, inv_r):
-    """Unit directions u_j = (p_j - x) / r_j and 1 / r_j; returns min r_j."""
-    r_min = 1e300
+    """Unit directions u_j = (p_j - x) / r_j and 1 / r_j; returns min r_j.
+
+    The minimum is taken in a second loop (`_largest`) so that this one vectorises.
+    """
     for j in range(count):
         dx = px[j] - x
         dy = py[j] - y
-        r = math.sqrt(dx * dx + dy * dy)
-        inv = 1.0 / r
+        inv = 1.0 / math.sqrt(dx * dx + dy * dy)
         ux[j] = dx * inv
         uy[j] = dy * inv
         inv_r[j] = inv
-        r_min = min(r_min, r)
-    return r_min
+    return 1.0 / _largest(inv_r, count)
+
+
+@njit(cache=True, error_model="numpy", fastmath={"contract", "arcp", "reassoc", "nsz"})
+def _sample_directions(sample_x, sample_y, spacing, x, y, ux, uy, inv_r):
+    """Unit directions u_k = (p_k - x) / r_k and 1 / r_k to the N samples, one vectorised pass.
+
+    Returns the number of samples closer than NEAR_SPACINGS times their spacing
+    (a point on a sample, r_k = 0, counts; the near-point scan of `_solve_point`
+    recomputes its directions).  No min reduction here: it would stop the loop
+    from vectorising (see `_largest`).
+    """
+    near = 0
+    for k in range(sample_x.shape[0]):
+        dx = sample_x[k] - x
+        dy = sample_y[k] - y
+        r2 = dx * dx + dy * dy
+        inv = 1.0 / math.sqrt(r2)
+        ux[k] = dx * inv
+        uy[k] = dy * inv
+        inv_r[k] = inv
+        limit = NEAR_SPACINGS * spacing[k]
+        near += r2 < limit * limit
+    return near
 
 
 @njit(cache=True, error_model="numpy")
+def _largest(values, count):
+    """max_k values_k over the first `count` entries."""
+    largest = values[0]
+    for k in range(1, count):
+        if values[k] > largest:
+            largest = values[k]
+    return largest
+
+
+@njit(cache=True, error_model="numpy", fastmath={"contract", "arcp", "reassoc", "nsz"})
 def _weights(kernel, power, shift, px, py, tx, ty, sx, sy, w, x, y, count, corners, ux, uy, inv_r, r_min, a):
     """Normalised weights a_j = w_j omega_j / sum (maximum-likelihood family), or
     normalised w_j mu_j for the explicit kernels (Eq. 5 and Sec. 1.1).
@@ -589,41 +629,31 @@ def _weights(kernel, power, shift, px, py, tx, ty, sx, sy, w, x, y, count, corne
 def _newton(ux, uy, inv_r, a, s, inv_s, trial, trial_inv, count, tolerance, phix, phiy):
     """Minimise F(phi) = -sum a_j log(1 + phi . u_j) (Eq. 16 with phi_0 = 1).
 
-    Newton's method with Armijo backtracking from (phix, phiy), phi = 0 in the
-    paper (Sec. 4.1), which must be feasible; a trial with
+    Newton's method with Armijo backtracking from (phix, phiy): phi = 0 in the
+    paper (Sec. 4.1), or a warm start (`_coarse_start`); a start outside the
+    feasible set is replaced by phi = 0.  A trial with
     any 1 + phi . u_j <= 0 is rejected like an Armijo failure.  One fused pass per
     trial gives the gradient, Hessian and D at the trial point and, with
     z_j = s_j(trial) / s_j - 1, the log-free bound
 
-        F(trial) - F(phi) = -sum a_j log(1 + z_j) <= -sum a_j z_j + sum a_j z_j^2 / (2 m),
+        F(trial) - F(phi) = -sum a_j log(1 + z_j) <= -sum a_j z_j + sum a_j z_j^2 / (2 m_j),
 
-    m = min(1, 1 + min_j z_j), from log(1 + z) >= z - z^2 / (2 min(1, 1 + z)).  If the
-    bound meets the Armijo condition the step is accepted; only otherwise is the
-    exact change (sum of log1p, free of cancellation) computed.
+    m_j = min(1, 1 + z_j), from log(1 + z) >= z - z^2 / (2 min(1, 1 + z)) for z > -1;
+    1 / m_j = max(1, s_j / s_j(trial)) needs no division of its own.  If the bound
+    meets the Armijo condition the step is accepted; only otherwise is a tighter
+    bound computed (`_change_bound`, log1p only where z_j < -1/2).  The loops carry no
+    min/max reduction (feasibility is a count), so that they vectorise.
 
     On return `s` and `inv_s` hold 1 + phi . u_j and its inverse.  Returns
     (iterations, status, residual, phix, phiy), residual = |grad F| / D in length
     units: the linear-precision error of the discrete kernel.
     """
-    gx = 0.0
-    gy = 0.0
-    hxx = 0.0
-    hxy = 0.0
-    hyy = 0.0
-    d = 0.0
-    for j in range(count):
-        sj = 1.0 + phix * ux[j] + phiy * uy[j]
-        inv = 1.0 / sj
-        s[j] = sj
-        inv_s[j] = inv
-        ia = a[j] * inv
-        gx -= ia * ux[j]
-        gy -= ia * uy[j]
-        ib = ia * inv
-        hxx += ib * ux[j] * ux[j]
-        hxy += ib * ux[j] * uy[j]
-        hyy += ib * uy[j] * uy[j]
-        d += ia * inv_r[j]
+    gx, gy, hxx, hxy, hyy, d, infeasible = _newton_terms(ux, uy, inv_r, a, s, inv_s, count, phix, phiy)
+    if infeasible > 0:
+        # A warm start outside the feasible set: start from phi = 0 (always feasible).
+        phix = 0.0
+        phiy = 0.0
+        gx, gy, hxx, hxy, hyy, d, infeasible = _newton_terms(ux, uy, inv_r, a, s, inv_s, count, phix, phiy)
     residual = math.sqrt(gx * gx + gy * gy) / d
     status = STATUS_NOT_CONVERGED
     iterations = 0
@@ -645,7 +675,7 @@ def _newton(ux, uy, inv_r, a, s, inv_s, trial, trial_inv, count, tolerance, phix
         alpha = 1.0
         accepted = False
         for _ in range(MAX_BACKTRACKS):
-            smallest = 0.0
+            infeasible = 0
             linear = 0.0
             quadratic = 0.0
             ngx = 0.0
@@ -657,14 +687,15 @@ def _newton(ux, uy, inv_r, a, s, inv_s, trial, trial_inv, count, tolerance, phix
             for j in range(count):
                 step_dot = alpha * (deltax * ux[j] + deltay * uy[j])
                 z = step_dot * inv_s[j]
-                smallest = min(smallest, z)
-                aj = a[j]
-                linear += aj * z
-                quadratic += aj * z * z
                 sj = s[j] + step_dot
                 inv = 1.0 / sj
                 trial[j] = sj
                 trial_inv[j] = inv
+                infeasible += sj <= 0.0
+                aj = a[j]
+                linear += aj * z
+                ratio = s[j] * inv
+                quadratic += aj * z * z * (ratio if ratio > 1.0 else 1.0)
                 ia = aj * inv
                 ngx -= ia * ux[j]
                 ngy -= ia * uy[j]
@@ -673,11 +704,11 @@ def _newton(ux, uy, inv_r, a, s, inv_s, trial, trial_inv, count, tolerance, phix
                 nxy += ib * ux[j] * uy[j]
                 nyy += ib * uy[j] * uy[j]
                 nd += ia * inv_r[j]
-            if smallest > -1.0:
-                bound = -linear + quadratic / (2.0 * min(1.0, 1.0 + smallest))
+            if infeasible == 0:
+                bound = -linear + 0.5 * quadratic
                 if (
                     bound <= ARMIJO * alpha * slope
-                    or _exact_change(a, ux, uy, inv_s, deltax, deltay, alpha, count) <= ARMIJO * alpha * slope
+                    or _change_bound(a, ux, uy, inv_s, deltax, deltay, alpha, count) <= ARMIJO * alpha * slope
                 ):
                     accepted = True
                     break
@@ -698,6 +729,37 @@ def _newton(ux, uy, inv_r, a, s, inv_s, trial, trial_inv, count, tolerance, phix
             trial[j] = s[j]
             trial_inv[j] = inv_s[j]
     return iterations, status, residual, phix, phiy
+
+
+@njit(cache=True, error_model="numpy", fastmath={"contract", "arcp", "reassoc", "nsz"})
+def _newton_terms(ux, uy, inv_r, a, s, inv_s, count, phix, phiy):
+    """Gradient, Hessian and D of F (Eq. 16) at phi; fills s_j = 1 + phi . u_j and 1 / s_j.
+
+    Returns (gx, gy, hxx, hxy, hyy, D, the number of s_j <= 0); the terms are
+    meaningful only if that number is 0 (phi feasible).
+    """
+    gx = 0.0
+    gy = 0.0
+    hxx = 0.0
+    hxy = 0.0
+    hyy = 0.0
+    d = 0.0
+    infeasible = 0
+    for j in range(count):
+        sj = 1.0 + phix * ux[j] + phiy * uy[j]
+        infeasible += sj <= 0.0
+        inv = 1.0 / sj
+        s[j] = sj
+        inv_s[j] = inv
+        ia = a[j] * inv
+        gx -= ia * ux[j]
+        gy -= ia * uy[j]
+        ib = ia * inv
+        hxx += ib * ux[j] * ux[j]
+        hxy += ib * ux[j] * uy[j]
+        hyy += ib * uy[j] * uy[j]
+        d += ia * inv_r[j]
+    return gx, gy, hxx, hxy, hyy, d, infeasible
 
 
 @njit(cache=True, error_model="numpy")
@@ -733,20 +795,69 @@ def _continuation(ux, uy, inv_r, a, w, blend, s, inv_s, trial, trial_inv, count,
 
 
 @njit(cache=True, error_model="numpy")
-def _exact_change(a, ux, uy, inv_s, deltax, deltay, alpha, count):
-    """F(phi + alpha delta) - F(phi) = -sum a_j log1p(z_j), all z_j > -1 (Eq. 16)."""
+def _coarse_start(ux, uy, inv_r, a, count, separation, coarse, tolerance):
+    """Warm start of Newton for a far point: the minimiser of Eq. 16 on every stride-th node.
+
+    The trapezoid rule on a subset of the uniform samples converges geometrically
+    in the point's distance over the subset's spacing, so at a point `separation`
+    sample spacings from the boundary the coarse minimiser, on
+    stride <= separation / COARSE_SPACINGS times fewer nodes, is within a few
+    Newton steps' contraction of the full one; Newton on all nodes
+    (`_newton`) then polishes it, usually in one step, to the same tolerance.  The
+    answer stays the minimiser of the full rule; only the starting point changes.
+    `coarse` holds four scratch arrays for the subset (u_x, u_y, 1 / r, a) and
+    four for Newton.  Returns (phix, phiy), (0, 0) where no subset applies or the
+    coarse Newton did not converge.
+    """
+    stride = 1
+    while 2 * stride * COARSE_SPACINGS <= separation and count // (2 * stride) >= MIN_COARSE_NODES:
+        stride *= 2
+    if stride == 1:
+        return 0.0, 0.0
+    coarse_ux, coarse_uy, coarse_inv_r, coarse_a, s, inv_s, trial, trial_inv = coarse
+    nodes = count // stride
+    for j in range(nodes):
+        k = j * stride
+        coarse_ux[j] = ux[k]
+        coarse_uy[j] = uy[k]
+        coarse_inv_r[j] = inv_r[k]
+        coarse_a[j] = a[k]
+    _, status, _, phix, phiy = _newton(
+        coarse_ux, coarse_uy, coarse_inv_r, coarse_a, s, inv_s, trial, trial_inv, nodes, tolerance, 0.0, 0.0
+    )
+    if status != STATUS_CONVERGED:
+        return 0.0, 0.0
+    return phix, phiy
+
+
+@njit(cache=True, error_model="numpy")
+def _change_bound(a, ux, uy, inv_s, deltax, deltay, alpha, count):
+    """An upper bound on F(phi + alpha delta) - F(phi) = -sum a_j log1p(z_j), all z_j > -1 (Eq. 16).
+
+    Exact (log1p) for the few nodes with z_j < -1/2, where a polynomial bound is
+    loose; elsewhere -log(1 + z) <= -z + z^2 / 2 (z >= 0) and, from the series
+    sum_k |z|^k / k, -log(1 + z) <= -z + z^2 / 2 + |z|^3 / (3 (1 + z)) (z < 0),
+    within 3 % of the log at z = -1/2 and far closer at the usual small z.
+    """
     change = 0.0
     for j in range(count):
-        change -= a[j] * math.log1p(alpha * (deltax * ux[j] + deltay * uy[j]) * inv_s[j])
+        z = alpha * (deltax * ux[j] + deltay * uy[j]) * inv_s[j]
+        if z < -0.5:
+            change -= a[j] * math.log1p(z)
+        elif z < 0.0:
+            change += a[j] * (-z + 0.5 * z * z - z * z * z / (3.0 * (1.0 + z)))
+        else:
+            change += a[j] * (-z + 0.5 * z * z)
     return change
 
 
 @njit(cache=True, error_model="numpy")
-def _solve_point(x, y, settings, curve, geometry, row, scratch, windows):
+def _solve_point(x, y, settings, curve, geometry, largest_spacing, row, scratch, windows):
     """Evaluate one point; writes its output row and returns (iterations, status, residual).
 
     `settings`, `curve` and `geometry` are the shared tuples of `solve_points`,
-    `scratch` and `windows` per-thread work arrays.
+    `largest_spacing` the largest of the sample spacings, `scratch` and `windows`
+    per-thread work arrays.
     """
     kernel, power, shift, mode, orientation, diameter, control_count, tolerance = settings
     coefficients, piece_length, corners = geometry
@@ -768,15 +879,18 @@ def _solve_point(x, y, settings, curve, geometry, row, scratch, windows):
         sinh_step,
         out_step,
     ) = curve
-    (px, py, tx, ty, sx, sy, w, t, ux, uy, inv_r, a, s, inv_s, trial, trial_inv, blend) = scratch
+    (px, py, tx, ty, sx, sy, w, t, ux, uy, inv_r, a, s, inv_s, trial, trial_inv, blend) = scratch[:17]
+    coarse = scratch[17:]
     count = sample_x.shape[0]
     out_count = int(round(count * step / out_step))
-    # Pass 1: directions to the samples, and the stretches closer than NEAR_SPACINGS.
+    # Pass 1: directions to the samples and, for a point near the boundary, the
+    # stretches closer than NEAR_SPACINGS (found in a second, sequential scan).
+    near = _sample_directions(sample_x, sample_y, spacing, x, y, ux, uy, inv_r)
+    nearest = 1.0 / _largest(inv_r, count) if near == 0 else 1e300
     window_count = 0
     in_run = False
-    nearest = 1e300
     nearest_index = np.int64(0)  # not a literal: one specialisation of _merge_windows
-    for k in range(count):
+    for k in range(count if near > 0 else 0):
         dx = sample_x[k] - x
         dy = sample_y[k] - y
         r = math.sqrt(dx * dx + dy * dy)
@@ -829,6 +943,11 @@ def _solve_point(x, y, settings, curve, geometry, row, scratch, windows):
                 nearest,
                 a,
             )
+            phix, phiy = 0.0, 0.0
+            if kernel <= MODIFIED_MEAN_VALUE_SQUARED:
+                phix, phiy = _coarse_start(
+                    ux, uy, inv_r, a, count, nearest / largest_spacing, coarse, tolerance * diameter
+                )
             iterations, status, residual = _finish(
                 kernel,
                 ux,
@@ -848,6 +967,8 @@ def _solve_point(x, y, settings, curve, geometry, row, scratch, windows):
                 x,
                 y,
                 tolerance * diameter,
+                phix,
+                phiy,
             )
             if mode == OUTPUT_SAMPLES and out_count == count:
                 for k in range(count):
@@ -856,20 +977,7 @@ def _solve_point(x, y, settings, curve, geometry, row, scratch, windows):
                 for k in range(count):
                     _accumulate(row, mode, a[k], sample_t[k], out_step, out_count, control_count)
             else:
-                for j in range(control_count):
-                    s0 = 0.0
-                    s1 = 0.0
-                    s2 = 0.0
-                    first_sample = span_first_sample(coefficients, count, control_count, step, j)
-                    for k in range(
-                        first_sample, span_first_sample(coefficients, count, control_count, step, j + 1)
-                    ):
-                        s0 += a[k] * basis0[k]
-                        s1 += a[k] * basis1[k]
-                        s2 += a[k] * basis2[k]
-                    row[(j - 1) % control_count] += s0
-                    row[j] += s1
-                    row[(j + 1) % control_count] += s2
+                _fold_onto_basis(row, a, basis0, basis1, basis2, control_count, coefficients, step)
             return iterations, status, residual
         nodes = 0
         for k in range(count):
@@ -929,6 +1037,11 @@ def _solve_point(x, y, settings, curve, geometry, row, scratch, windows):
     total = _weights(
         kernel, power, shift, px, py, tx, ty, sx, sy, w, x, y, nodes, corners, ux, uy, inv_r, r_min, a
     )
+    phix, phiy = 0.0, 0.0
+    if kernel <= MODIFIED_MEAN_VALUE_SQUARED:
+        phix, phiy = _coarse_start(
+            ux, uy, inv_r, a, total, NEAR_START_SEPARATION, coarse, tolerance * diameter
+        )
     iterations, status, residual = _finish(
         kernel,
         ux,
@@ -948,6 +1061,8 @@ def _solve_point(x, y, settings, curve, geometry, row, scratch, windows):
         x,
         y,
         tolerance * diameter,
+        phix,
+        phiy,
     )
     period = count * step
     for j in range(total):
@@ -958,24 +1073,69 @@ def _solve_point(x, y, settings, curve, geometry, row, scratch, windows):
     return iterations, status, residual
 
 
+@njit(cache=True, error_model="numpy", fastmath={"contract", "arcp", "reassoc", "nsz"})
+def _fold_onto_basis(row, a, basis0, basis1, basis2, control_count, coefficients, step):
+    """row_i += sum_k a_k N_i(t_k) over the N uniform samples (Sec. 4.3), shape (n,).
+
+    The samples of span j (`span_first_sample`: N / n of them in the natural
+    parameter, as many as its share of the length in arc length) touch only
+    N_(j-1), N_j and N_(j+1), whose values at the samples are basis0, basis1 and
+    basis2, each (N,).
+    """
+    count = basis0.shape[0]
+    first = span_first_sample(coefficients, count, control_count, step, 0)
+    for j in range(control_count):
+        s0 = 0.0
+        s1 = 0.0
+        s2 = 0.0
+        last = span_first_sample(coefficients, count, control_count, step, j + 1)
+        for k in range(first, last):
+            s0 += a[k] * basis0[k]
+            s1 += a[k] * basis1[k]
+            s2 += a[k] * basis2[k]
+        first = last
+        row[(j - 1) % control_count] += s0
+        row[j] += s1
+        row[(j + 1) % control_count] += s2
+
+
 @njit(cache=True, error_model="numpy")
 def _wrap(t, period):
     return t - math.floor(t / period) * period
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", fastmath={"contract", "arcp", "reassoc", "nsz"})
 def _finish(
-    kernel, ux, uy, inv_r, a, s, inv_s, trial, trial_inv, blend, total, px, py, w, step, x, y, tolerance
+    kernel,
+    ux,
+    uy,
+    inv_r,
+    a,
+    s,
+    inv_s,
+    trial,
+    trial_inv,
+    blend,
+    total,
+    px,
+    py,
+    w,
+    step,
+    x,
+    y,
+    tolerance,
+    phix,
+    phiy,
 ):
     """Turn normalised weights `a` into the quadrature-weighted kernel w_j lambda_j (in `a`).
 
-    Maximum-likelihood family: Newton on Eq. 16, then Eq. 14 and 17,
-    c_j = a_j / (r_j s_j) normalised.  Explicit kernels: `a` already is it.
-    Returns (iterations, status, residual).
+    Maximum-likelihood family: Newton on Eq. 16 from (phix, phiy) (0, 0 or a warm
+    start), then Eq. 14 and 17, c_j = a_j / (r_j s_j) normalised.  Explicit
+    kernels: `a` already is it.  Returns (iterations, status, residual).
     """
     if kernel <= MODIFIED_MEAN_VALUE_SQUARED:
         iterations, status, residual, phix, phiy = _newton(
-            ux, uy, inv_r, a, s, inv_s, trial, trial_inv, total, tolerance, 0.0, 0.0
+            ux, uy, inv_r, a, s, inv_s, trial, trial_inv, total, tolerance, phix, phiy
         )
         if status != STATUS_CONVERGED:
             iterations, status, residual = _continuation(
@@ -1161,13 +1321,22 @@ def solve_points(points, settings, curve, geometry, out, iterations, status, res
         np.empty(capacity),
         np.empty(capacity),
         np.empty(capacity),
+        np.empty(capacity),
+        np.empty(capacity),
+        np.empty(capacity),
+        np.empty(capacity),
+        np.empty(capacity),
+        np.empty(capacity),
+        np.empty(capacity),
+        np.empty(capacity),
     )
     window_start = np.empty(MAX_WINDOWS + 1, dtype=np.int64)
     window_stop = np.empty(MAX_WINDOWS + 1, dtype=np.int64)
     window_t = np.empty(MAX_WINDOWS + 1)
     window_d = np.empty(MAX_WINDOWS + 1)
     windows = (window_start, window_stop, window_t, window_d)
+    largest_spacing = curve[6].max()
     for m in range(first, points.shape[0], stride):
         iterations[m], status[m], residual[m] = _solve_point(
-            points[m, 0], points[m, 1], settings, curve, geometry, out[m], scratch, windows
+            points[m, 0], points[m, 1], settings, curve, geometry, largest_spacing, out[m], scratch, windows
         )

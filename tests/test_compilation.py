@@ -55,3 +55,20 @@ def test_a_cold_cache_compiles_once_with_progress_and_the_next_run_loads_it(tmp_
     assert cold["signatures"] == dict.fromkeys(solver_weights(), 1)
     warm = _run_child(tmp_path)
     assert not warm["compiled"] and warm["fractions"] == []
+
+
+def test_once_loaded_in_a_process_compile_solver_returns_at_once(monkeypatch):
+    # mesh_basis_functions calls it before every solve: a second call must neither read the
+    # solver's source for progress weights nor run a trial solve.
+    from core import compilation
+
+    compilation.compile_solver()
+
+    def forbidden(*args, **kwargs):
+        raise AssertionError("compile_solver did work although the solver is loaded")
+
+    monkeypatch.setattr(compilation, "solver_weights", forbidden)
+    monkeypatch.setattr("core.basis.basis_functions", forbidden)
+    fractions = []
+    assert compilation.compile_solver(fractions.append) is False
+    assert fractions == []

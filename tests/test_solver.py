@@ -1,0 +1,92 @@
+"""core.solver: the Newton solve of Eq. 16 and its warm start, below the public kernels.
+
+The answer must not depend on where Newton starts: from phi = 0 (the paper), from
+the minimiser on a subset of the nodes (`_coarse_start`) or from an infeasible
+guess (replaced by phi = 0), the minimiser of the full rule is the same to the
+Newton tolerance.  The backtracking test must bound the true change of F from above.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from conftest import interior_points
+
+from core import solver
+
+TOLERANCE = 1e-11  # of the diameter, as core.kernels.DEFAULT_TOLERANCE
+
+
+def _problem(curve, x):
+    """Directions, 1 / r and normalised harmonic-like weights (Eq. 20) of x, each (N,)."""
+    boundary = curve.sample(100)
+    offset = boundary.points - x
+    r = np.linalg.norm(offset, axis=1)
+    omega = (r.min() / r) ** 4
+    a = boundary.step * (omega + boundary.step * omega.sum())
+    return offset[:, 0] / r, offset[:, 1] / r, 1.0 / r, a / a.sum(), boundary
+
+
+def _newton(ux, uy, inv_r, a, tolerance, phi):
+    work = [np.empty(ux.size) for _ in range(4)]
+    return solver._newton(ux, uy, inv_r, a, *work, ux.size, tolerance, *phi)
+
+
+def test_change_bound_is_an_upper_bound_close_to_the_exact_change():
+    rng = np.random.default_rng(5)
+    count = 500
+    angle = rng.uniform(0.0, 2.0 * np.pi, count)
+    ux, uy = np.cos(angle), np.sin(angle)
+    a = rng.uniform(0.0, 1.0, count)
+    inv_s = rng.uniform(0.5, 2.0, count)
+    for length in (1e-6, 1e-2, 0.3, 0.9):
+        for direction in rng.uniform(0.0, 2.0 * np.pi, 20):
+            delta = length * np.array([np.cos(direction), np.sin(direction)])
+            z = (delta[0] * ux + delta[1] * uy) * inv_s
+            alpha = min(1.0, 0.999 / -z.min()) if z.min() <= -1.0 else 1.0
+            exact = -(a * np.log1p(alpha * z)).sum()
+            bound = solver._change_bound(a, ux, uy, inv_s, delta[0], delta[1], alpha, count)
+            scale = (a * np.abs(alpha * z)).sum()
+            assert bound >= exact - 1e-15 * scale
+            # The polynomial bounds are off by at most |z|^3 / 3 (z >= 0) or
+            # |z|^3 / (3 (1 + z)) <= 2 |z|^3 / 3 (-1/2 <= z < 0); below -1/2 exact.
+            assert bound <= exact + (a * np.abs(alpha * z) ** 3).sum() * 2.0 / 3.0 + 1e-15 * scale
+
+
+def test_an_infeasible_start_falls_back_to_phi_zero(blob):
+    x = interior_points(blob, 5, seed=3)
+    for point in x:
+        ux, uy, inv_r, a, _ = _problem(blob, point)
+        tolerance = TOLERANCE * blob.diameter
+        _, status, _, *cold = _newton(ux, uy, inv_r, a, tolerance, (0.0, 0.0))
+        _, infeasible_status, _, *fallback = _newton(ux, uy, inv_r, a, tolerance, (3.0, -2.0))
+        assert status == infeasible_status == solver.STATUS_CONVERGED
+        np.testing.assert_allclose(fallback, cold, rtol=0.0, atol=1e-12)
+
+
+def test_coarse_warm_start_reaches_the_full_minimiser_in_fewer_steps(blob):
+    x = interior_points(blob, 40, seed=4, margin=0.1)
+    tolerance = TOLERANCE * blob.diameter
+    cold_steps, warm_steps = [], []
+    for point in x:
+        ux, uy, inv_r, a, boundary = _problem(blob, point)
+        spacing = np.linalg.norm(np.diff(boundary.points, axis=0, append=boundary.points[:1]), axis=1).max()
+        separation = (1.0 / inv_r.max()) / spacing
+        coarse = tuple(np.empty(ux.size) for _ in range(8))
+        start = solver._coarse_start(ux, uy, inv_r, a, ux.size, separation, coarse, tolerance)
+        assert start != (0.0, 0.0), "points this far from the boundary get a coarse start"
+        assert (1.0 + start[0] * ux + start[1] * uy).min() > 0.0  # feasible for the full rule
+        cold, status, residual, *phi = _newton(ux, uy, inv_r, a, tolerance, (0.0, 0.0))
+        warm, warm_status, warm_residual, *warm_phi = _newton(ux, uy, inv_r, a, tolerance, start)
+        assert status == warm_status == solver.STATUS_CONVERGED
+        assert max(residual, warm_residual) <= tolerance
+        # Both meet |grad F| / D <= tolerance, so they differ by at most
+        # 2 tolerance D / lambda_min(H) (H, D of Eq. 16 at the minimiser), plus rounding.
+        s = 1.0 + phi[0] * ux + phi[1] * uy
+        u = np.stack([ux, uy], axis=1)
+        hessian = (u.T * (a / s**2)) @ u
+        allowed = 2.0 * tolerance * (a * inv_r / s).sum() / np.linalg.eigvalsh(hessian)[0]
+        assert np.linalg.norm(np.subtract(warm_phi, phi)) <= allowed + 1e-14
+        cold_steps.append(cold)
+        warm_steps.append(warm)
+    assert max(warm_steps) <= 2
+    assert np.median(warm_steps) < np.median(cold_steps)
