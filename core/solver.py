@@ -1083,7 +1083,7 @@ def _fold_onto_basis(row, a, basis0, basis1, basis2, control_count, coefficients
     basis2, each (N,).
     """
     count = basis0.shape[0]
-    first = span_first_sample(coefficients, count, control_count, step, 0)
+    first = 0  # span 0 starts at sample 0 in either parameter
     for j in range(control_count):
         s0 = 0.0
         s1 = 0.0
