@@ -46,6 +46,27 @@ def test_compute_meshes_and_interpolates(cache):
     assert progress[0] == "meshing" and "basis functions" in progress
 
 
+def test_the_distortion_view_gets_gradients_for_point_kernels_only(cache):
+    from app.viewer.precompute import GRADIENTS_PHASE
+
+    point = snapshot(kernel="inverse-cube-mean")
+    wanted = make_request(point, 8.0, gradients=True)
+    assert wanted.gradients and wanted.key != make_request(point, 8.0).key
+    progress = []
+    payload = compute(wanted, lambda fraction, phase: progress.append(phase))
+    gradients, vertices = payload["gradients"], payload["vertices"]
+    assert gradients.shape == (len(vertices), len(STAR), 2)
+    interior = np.isfinite(gradients).all(axis=(1, 2))
+    assert 0.5 * len(vertices) < interior.sum() < len(vertices)  # NaN rows on the boundary only
+    identity = np.einsum("id,mie->mde", STAR, gradients[interior])  # linear precision, differentiated
+    np.testing.assert_allclose(identity, np.broadcast_to(np.eye(2), identity.shape), rtol=0, atol=1e-6)
+    assert progress.index(GRADIENTS_PHASE) > progress.index("basis functions")
+    # FEM harmonic and the arc-length parameterisation have no pointwise gradients: not asked for.
+    for other in (snapshot(), point.replace(parameterization="arc-length")):
+        request = make_request(other, 8.0, gradients=True)
+        assert not request.gradients and request.key == make_request(other, 8.0).key
+
+
 def test_the_worker_process_computes_supersedes_and_reports_errors(cache):
     precompute = Precompute()
     try:

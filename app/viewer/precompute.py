@@ -39,6 +39,8 @@ from app.viewer.state import BasisResult, Snapshot
 MEMORY_RESULTS = 6
 #: Seconds between two progress messages of the worker.
 PROGRESS_INTERVAL = 0.05
+#: The phase shown while grad G is computed for the distortion view.
+GRADIENTS_PHASE = "gradients of the basis functions (the first time: compiling, ~15 s)"
 
 
 @dataclass(frozen=True)
@@ -169,17 +171,19 @@ def compute(request: Request, progress=None) -> dict:
 
     report(0.0)
     basis = core.mesh_basis_functions(
-        curve,
-        mesh,
-        kernel=request.kernel,
-        progress=report,
-        compiling=compiling,
-        gradients=request.gradients,
-        **request.params,
+        curve, mesh, kernel=request.kernel, progress=report, compiling=compiling, **request.params
     )
     gradients = None
     if request.gradients:
-        basis, gradients = basis
+        # G is in the disk cache now; grad G has no progress of its own, and its first use
+        # compiles the gradient solver: the phase says so rather than sitting at an unexplained 0 %.
+        if superseded:
+            raise _Superseded
+        if progress is not None:
+            progress(0.0, GRADIENTS_PHASE)
+        _, gradients = core.mesh_basis_functions(
+            curve, mesh, kernel=request.kernel, gradients=True, **request.params
+        )
     return {
         "cage": np.array(request.cage),
         "vertices": mesh.vertices,
