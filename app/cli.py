@@ -214,9 +214,9 @@ def build_parser(prog: str = "python -m app") -> argparse.ArgumentParser:
         help="print on stdout, one line each, the deformation's smallest det J (area change), largest "
         "conformal distortion sigma1/sigma2 (over det J > 0) and how many points fold (det J <= 0), with "
         "where the extremes are in source-image pixels.  Point kernels: the exact Jacobian "
-        "sum_i P'_i grad G_i at the interior mesh vertices (core.basis_gradients); harmonic and pgw have "
-        "no pointwise gradients: the per-triangle Jacobian of the piecewise linear map at triangle "
-        "centroids (exact for the finite-element harmonic basis)",
+        "sum_i P'_i grad G_i at the interior mesh vertices (core.basis_gradients); harmonic, pgw and "
+        "--parameterization arc-length have no pointwise gradients: the per-triangle Jacobian of the "
+        "piecewise linear map at triangle centroids (exact for the finite-element harmonic basis)",
     )
     warp.set_defaults(run=_warp)
 
@@ -639,7 +639,9 @@ def _distortion_report(curve, mesh, kernel, target, deformed, params) -> list[st
     import core
     from core.distortion import triangle_jacobians, vertex_jacobians, worst_distortion
 
-    if kernel in core.MESH_ONLY_KERNELS:
+    if kernel in core.MESH_ONLY_KERNELS or params.get("parameterization", "natural") != "natural":
+        # No pointwise gradients (FEM, PGW; the arc-length parameterisation): the Jacobians of
+        # the piecewise linear map, exact for the FEM basis.
         jacobians = triangle_jacobians(mesh.vertices, deformed, mesh.triangles)
         where = mesh.vertices[mesh.triangles].mean(axis=1)
         points = "triangles (per-triangle Jacobian, at centroids)"

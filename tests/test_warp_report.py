@@ -31,10 +31,16 @@ def parse(out: str) -> dict:
 
 @pytest.mark.parametrize(
     ("kernel", "points"),
-    [("harmonic", "triangles (per-triangle"), ("inverse-cube-mean", "interior vertices (exact")],
+    [
+        ("harmonic", "triangles (per-triangle"),
+        ("inverse-cube-mean", "interior vertices (exact"),
+        ("inverse-cube-mean:arc-length", "triangles (per-triangle"),  # no pointwise gradients there
+    ],
 )
 def test_an_affine_move_reports_its_own_jacobian_everywhere(files, capfd, kernel, points):  # noqa: F811
-    code, out, err = run_main([*warp_argv(files), "--kernel", kernel, "--report"], capfd)
+    kernel, _, parameterization = kernel.partition(":")
+    extra = ["--parameterization", parameterization] if parameterization else []
+    code, out, err = run_main([*warp_argv(files), "--kernel", kernel, *extra, "--report"], capfd)
     assert code == 0, err
     report = parse(out)
     # Linear precision: J = A at every point (exact per triangle for the P1 harmonic basis, to the
