@@ -421,26 +421,10 @@ def _gradient_point(x, y, settings, curve, geometry, row, row_x, row_y, scratch,
             window_start, window_stop, window_t, window_d, window_count, count, step, sinh_step,
             coefficients, piece_length, t, w,
         )  # fmt: skip
-    for j in range(nodes):
-        k = int(round(t[j] / step))
-        if abs(t[j] - k * step) <= 1e-12 * step:
-            k = k % count
-            px[j] = sample_x[k]
-            py[j] = sample_y[k]
-            tx[j] = tangent_x[k]
-            ty[j] = tangent_y[k]
-            sx[j] = second_x[k]
-            sy[j] = second_y[k]
-        else:
-            px[j], py[j], tx[j], ty[j], sx[j], sy[j] = solver._evaluate_curve(
-                coefficients, piece_length, t[j]
-            )
-    for c in range(corner_count):
-        px[nodes + c], py[nodes + c], _, _, _, _ = solver._evaluate_curve(
-            coefficients, piece_length, corners[c, 0]
-        )
-        t[nodes + c] = corners[c, 0]
-        w[nodes + c] = 1.0
+    solver._node_geometry(
+        t, w, nodes, step, count, sample_x, sample_y, tangent_x, tangent_y, second_x, second_y,
+        coefficients, piece_length, corners, corner_count, px, py, tx, ty, sx, sy,
+    )  # fmt: skip
     r_min = solver._directions(px, py, x, y, nodes, ux, uy, inv_r)
     total = solver._weights(
         kernel, power, shift, px, py, tx, ty, sx, sy, w, x, y, nodes, corners, ux, uy, inv_r, r_min, a

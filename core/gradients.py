@@ -59,15 +59,13 @@ Points on the boundary (the Lagrange limit of the values) get NaN gradients.
 
 from __future__ import annotations
 
-import warnings
-
 import numba
 import numpy as np
 
 from core import gradient_solver, kernels, solver
 from core.boundary import Boundary
 from core.bspline import ClosedBSpline
-from core.kernels import DEFAULT_KERNEL, DEFAULT_TOLERANCE, REFINEMENTS, ConvergenceWarning, SolveReport
+from core.kernels import DEFAULT_KERNEL, DEFAULT_TOLERANCE, REFINEMENTS, checked_report
 from core.validation import as_points, positive_float, positive_int
 
 
@@ -187,22 +185,7 @@ def _evaluate(boundary, x, kernel, mode, columns, tolerance, params):
             diagnostics[2][broken] = np.inf
             values[chunk], gradients[chunk] = rows, derivatives
             iterations[chunk], status[chunk], residual[chunk] = diagnostics
-    outside = status == solver.STATUS_OUTSIDE
-    if outside.any():
-        first = int(np.flatnonzero(outside)[0])
-        raise ValueError(
-            f"{int(outside.sum())} of {count} points of x are outside the domain "
-            f"(first: index {first}, {points[first].tolist()})"
-        )
-    report = SolveReport(iterations, status, residual)
-    if report.failed.any():
-        warnings.warn(
-            f"{int(report.failed.sum())} of {count} points did not converge cleanly with kernel "
-            f"{kernel!r} (worst linear-precision residual {residual[report.failed].max():.3g}); "
-            "see return_report=True for which",
-            ConvergenceWarning,
-            stacklevel=3,
-        )
+    report = checked_report(points, kernel, iterations, status, residual, stacklevel=4)
     return values, np.ascontiguousarray(gradients.transpose(0, 2, 1)), report
 
 

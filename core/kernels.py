@@ -246,6 +246,24 @@ def evaluate(
             break
         out[again] = 0.0
         run.solve(boundary.refined(factor), again, out, iterations, status, residual, None, factor)
+    return out, checked_report(points, kernel, iterations, status, residual, stacklevel=4)
+
+
+def checked_report(points, kernel: str, iterations, status, residual, stacklevel: int) -> SolveReport:
+    """The `SolveReport` of a solve of `points` (M, 2), after its two checks.
+
+    Raises
+    ------
+    ValueError
+        Some points are outside the domain (how many, and the first).
+
+    Warns
+    -----
+    ConvergenceWarning
+        Some points did not converge cleanly (`stacklevel` is that of `warnings.warn`,
+        counted from this function).
+    """
+    count = points.shape[0]
     outside = status == solver.STATUS_OUTSIDE
     if outside.any():
         first = int(np.flatnonzero(outside)[0])
@@ -262,9 +280,9 @@ def evaluate(
             f"{int((status == solver.STATUS_AT_FEASIBLE_EDGE).sum())} at the feasible edge); "
             "see return_report=True for which",
             ConvergenceWarning,
-            stacklevel=3,
+            stacklevel=stacklevel,
         )
-    return out, report
+    return report
 
 
 @dataclass

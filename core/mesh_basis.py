@@ -151,17 +151,7 @@ def mesh_basis_functions(
         if kernel not in MESH_ONLY_KERNELS:
             compile_solver(compiling)
         return _compute(curve, mesh, kernel, per, progress, parameterization, params)
-    key = disk_cache.cache_key(
-        curve.control_points,
-        mesh.vertices,
-        mesh.triangles,
-        mesh.boundary,
-        mesh.boundary_parameters,
-        kernel,
-        per,
-        params,
-        parameterization,
-    )
+    key = _cache_key(curve, mesh, kernel, per, params, parameterization=parameterization)
     entry = disk_cache.load(key, shape)
     problem = entry.problem
     if entry.values is not None:
@@ -264,17 +254,7 @@ def _vertex_gradients(curve, mesh, kernel, samples_per_segment, cache, params) -
     key = None
     problem = None
     if cache:
-        key = disk_cache.cache_key(
-            curve.control_points,
-            mesh.vertices,
-            mesh.triangles,
-            mesh.boundary,
-            mesh.boundary_parameters,
-            kernel,
-            samples_per_segment,
-            params,
-            quantity="basis gradients",
-        )
+        key = _cache_key(curve, mesh, kernel, samples_per_segment, params, quantity="basis gradients")
         entry = disk_cache.load(key, shape)
         problem = entry.problem
         if entry.values is not None:
@@ -296,6 +276,21 @@ def _vertex_gradients(curve, mesh, kernel, samples_per_segment, cache, params) -
             )
     result[interior] = computed
     return result
+
+
+def _cache_key(curve, mesh, kernel, samples_per_segment, params, **what) -> str:
+    """`core.cache.cache_key` of this cage, mesh and kernel (`what`: parameterization, quantity)."""
+    return disk_cache.cache_key(
+        curve.control_points,
+        mesh.vertices,
+        mesh.triangles,
+        mesh.boundary,
+        mesh.boundary_parameters,
+        kernel,
+        samples_per_segment,
+        params,
+        **what,
+    )
 
 
 def _compute(curve, mesh, kernel, samples_per_segment, progress, parameterization, params) -> np.ndarray:

@@ -1017,22 +1017,10 @@ def _solve_point(x, y, settings, curve, geometry, largest_spacing, row, scratch,
             w,
         )
     # Pass 2 (near points, corners): the nodes' curve data and directions.
-    for j in range(nodes):
-        k = int(round(t[j] / step))
-        if abs(t[j] - k * step) <= 1e-12 * step:
-            k = k % count
-            px[j] = sample_x[k]
-            py[j] = sample_y[k]
-            tx[j] = tangent_x[k]
-            ty[j] = tangent_y[k]
-            sx[j] = second_x[k]
-            sy[j] = second_y[k]
-        else:
-            px[j], py[j], tx[j], ty[j], sx[j], sy[j] = _evaluate_curve(coefficients, piece_length, t[j])
-    for c in range(corner_count):
-        px[nodes + c], py[nodes + c], _, _, _, _ = _evaluate_curve(coefficients, piece_length, corners[c, 0])
-        t[nodes + c] = corners[c, 0]
-        w[nodes + c] = 1.0
+    _node_geometry(
+        t, w, nodes, step, count, sample_x, sample_y, tangent_x, tangent_y, second_x, second_y,
+        coefficients, piece_length, corners, corner_count, px, py, tx, ty, sx, sy,
+    )  # fmt: skip
     r_min = _directions(px, py, x, y, nodes, ux, uy, inv_r)
     total = _weights(
         kernel, power, shift, px, py, tx, ty, sx, sy, w, x, y, nodes, corners, ux, uy, inv_r, r_min, a
@@ -1097,6 +1085,36 @@ def _fold_onto_basis(row, a, basis0, basis1, basis2, control_count, coefficients
         row[(j - 1) % control_count] += s0
         row[j] += s1
         row[(j + 1) % control_count] += s2
+
+
+@njit(cache=True, error_model="numpy")
+def _node_geometry(
+    t, w, nodes, step, count, sample_x, sample_y, tangent_x, tangent_y, second_x, second_y,
+    coefficients, piece_length, corners, corner_count, px, py, tx, ty, sx, sy,
+):  # fmt: skip
+    """p, p', p'' (px, py, tx, ty, sx, sy) at the `nodes` parameters t of a refined rule, then
+    the `corner_count` corner point masses appended (their t and weight 1 in t, w).
+
+    A node on a uniform sample (step h, `count` of them) takes the sample's stored
+    values, so that the refined rule agrees with the plain one there; others are
+    evaluated on the curve.
+    """
+    for j in range(nodes):
+        k = int(round(t[j] / step))
+        if abs(t[j] - k * step) <= 1e-12 * step:
+            k = k % count
+            px[j] = sample_x[k]
+            py[j] = sample_y[k]
+            tx[j] = tangent_x[k]
+            ty[j] = tangent_y[k]
+            sx[j] = second_x[k]
+            sy[j] = second_y[k]
+        else:
+            px[j], py[j], tx[j], ty[j], sx[j], sy[j] = _evaluate_curve(coefficients, piece_length, t[j])
+    for c in range(corner_count):
+        px[nodes + c], py[nodes + c], _, _, _, _ = _evaluate_curve(coefficients, piece_length, corners[c, 0])
+        t[nodes + c] = corners[c, 0]
+        w[nodes + c] = 1.0
 
 
 @njit(cache=True, error_model="numpy")
