@@ -9,7 +9,8 @@ arrays are built only when the mesh itself changes.
 For the viewer it also draws what goes on top of and under the mesh: the source
 image as a faded backdrop (`draw_backdrop`), one basis function G_i as a heat map
 (``content="heat"``, the paper's Fig. 8), the folded-over triangles found on the
-GPU (``folds=True``), and overlays of antialiased lines and round handles
+GPU (``folds=True``), a lighter preview mesh of the same domain for dense meshes
+while a handle moves (`set_preview_mesh`), and overlays of antialiased lines and round handles
 (`set_overlay`, `draw_overlay`) for the curves, control polygons and control
 points of the paper's Fig. 11.
 
@@ -27,6 +28,7 @@ import moderngl
 import numpy as np
 
 from app.shaders import load_shader
+from core.mesh import unique_edges
 
 #: Height bands of the paper's Fig. 1: [k, k + 1] / 10 for k = -1..10.
 BAND_START = -0.1
@@ -220,8 +222,8 @@ class WarpRenderer:
         self._overlay_capacity = 0
         self._overlay_counts = (0, 0)
         self._image_size: tuple[int, int] | None = None
-        self._mesh_objects: list = []
-        self._vertices: np.ndarray | None = None
+        self._mesh: _MeshObjects | None = None
+        self._preview: _MeshObjects | None = None
         self._highlight_count = 0
         self._field_ready = False
         self._target: tuple[tuple[int, int], int, list] | None = None
@@ -263,8 +265,10 @@ class WarpRenderer:
         )
         changed = self._image_size != (width, height)
         self._image_size = (width, height)
-        if changed and self._vertices is not None:
-            self._uv.write(self._source_uv().tobytes())
+        if changed:
+            for mesh in (self._mesh, self._preview):
+                if mesh is not None:
+                    mesh.uv.write(self._source_uv(mesh).tobytes())
         # The whole image as two triangles, for the viewer's backdrop.
         corners = np.array([[0, 0], [width, 0], [0, height], [width, height]], dtype="f4")
         uv = np.array([[0, 0], [1, 0], [0, 1], [1, 1]], dtype="f4")
@@ -277,8 +281,8 @@ class WarpRenderer:
     def set_mesh(self, vertices: np.ndarray, triangles: np.ndarray) -> None:
         """Set the undeformed mesh; positions start undeformed, the field at 0.
 
-        This (re)builds buffers and vertex arrays: call it when the mesh changes,
-        not per drag.
+        This (re)builds buffers and vertex arrays, and drops the preview mesh: call it
+        when the mesh changes, not per drag.
 
         Parameters
         ----------
@@ -288,89 +292,34 @@ class WarpRenderer:
             Vertex indices; triangles sharing an edge share its two vertices, which
             is what keeps the rendering free of cracks.
         """
-        vertices = np.asarray(vertices, dtype=np.float64)
-        triangles = np.asarray(triangles)
-        if vertices.ndim != 2 or vertices.shape[1] != 2 or vertices.shape[0] < 3:
-            raise ValueError(f"vertices must have shape (V, 2) with V >= 3, got {vertices.shape}")
-        if not np.isfinite(vertices).all():
-            raise ValueError("vertices contain NaN or infinite values")
-        if triangles.ndim != 2 or triangles.shape[1] != 3 or triangles.shape[0] < 1:
-            raise ValueError(f"triangles must have shape (T, 3) with T >= 1, got {triangles.shape}")
-        if (
-            not np.issubdtype(triangles.dtype, np.integer)
-            or triangles.min() < 0
-            or triangles.max() >= len(vertices)
-        ):
-            raise ValueError(f"triangles must be integer indices into the {len(vertices)} vertices")
+        vertices, triangles = _checked_mesh(vertices, triangles)
         self._release_mesh()
-        self._vertices = vertices
-        ctx = self.ctx
-        count = vertices.shape[0]
-        # Vertices renumbered, and triangles drawn on screen, in the order of a space-filling
-        # curve: a software rasteriser shades vertices in chunks of the index buffer, and on a
-        # dense mesh in the mesher's order it re-shades most of them (llvmpipe, 800k triangles:
-        # the textured pass 1.4-2.6x and the fold pass 1.8-3.9x slower, depending on the load).
-        # `render` keeps the caller's triangle order, so that where folded triangles overlap
-        # the exported picture does not depend on the renderer.
-        self._order = np.argsort(_morton_codes(vertices), kind="stable")
-        renumber = np.empty(count, dtype=np.int64)
-        renumber[self._order] = np.arange(count)
-        indices = renumber[triangles].astype("u4")
-        screen = np.argsort(_morton_codes(vertices[triangles].mean(axis=1)), kind="stable")
-        edges = _unique_edges(indices).astype("u4")
-        self._positions = ctx.buffer(vertices[self._order].astype("f4").tobytes(), dynamic=True)
-        self._uv = ctx.buffer(self._source_uv().tobytes())
-        self._values = ctx.buffer(reserve=4 * count, dynamic=True)
-        self._edges = ctx.buffer(edges.tobytes())
-        self._highlighted = ctx.buffer(reserve=indices.nbytes, dynamic=True)
-        self._triangle_indices = indices
-        self._mesh_objects = [self._positions, self._uv, self._values, self._edges, self._highlighted]
-        self._vaos = {}
-        for order, triangle_order in (("screen", screen), ("caller", None)):
-            ordered = indices if triangle_order is None else indices[triangle_order]
-            index_buffer = ctx.buffer(np.ascontiguousarray(ordered).tobytes())
-            self._vaos[order] = vaos = {
-                "image": ctx.vertex_array(
-                    self._image_program,
-                    [(self._positions, "2f", "in_position"), (self._uv, "2f", "in_uv")],
-                    index_buffer=index_buffer,
-                ),
-                "field": ctx.vertex_array(
-                    self._field_program,
-                    [(self._positions, "2f", "in_position"), (self._values, "1f", "in_value")],
-                    index_buffer=index_buffer,
-                ),
-                "heat": ctx.vertex_array(
-                    self._heat_program,
-                    [(self._positions, "2f", "in_position"), (self._values, "1f", "in_value")],
-                    index_buffer=index_buffer,
-                ),
-                "distortion": ctx.vertex_array(
-                    self._distortion_program,
-                    [(self._positions, "2f", "in_position"), (self._values, "1f", "in_value")],
-                    index_buffer=index_buffer,
-                ),
-                "folds": ctx.vertex_array(
-                    self._folds_program,
-                    [(self._positions, "2f", "in_position"), (self._uv, "2f", "in_uv")],
-                    index_buffer=index_buffer,
-                ),
-            }
-            self._mesh_objects += [*vaos.values(), index_buffer]
-        self._edge_vao = ctx.vertex_array(
-            self._solid_program,
-            [(self._positions, "2f", "in_position")],
-            index_buffer=self._edges,
-            mode=moderngl.LINES,
-        )
-        self._highlight_vao = ctx.vertex_array(
-            self._solid_program,
-            [(self._positions, "2f", "in_position")],
-            index_buffer=self._highlighted,
-        )
-        self._mesh_objects += [self._edge_vao, self._highlight_vao]
+        self._mesh = self._build_mesh(vertices, triangles)
         self._highlight_count = 0
         self._field_ready = False
+
+    def set_preview_mesh(self, vertices: np.ndarray, triangles: np.ndarray) -> None:
+        """Set a lighter mesh of the same domain, drawn instead of the mesh by ``draw(preview=True)``.
+
+        A software rasteriser's frame grows with the triangle count (llvmpipe, 1280x1024:
+        ~170 ms for 800k triangles, ~30 ms for 50k), so the viewer draws a dense
+        mesh's deformation through a preview mesh of ~20k vertices while a handle moves,
+        with positions the dense mesh's P1 interpolant gives there (`core.mesh_transfer`).
+
+        Parameters
+        ----------
+        vertices, triangles
+            As in `set_mesh`.
+        """
+        self._require_mesh()
+        vertices, triangles = _checked_mesh(vertices, triangles)
+        self._release_preview()
+        self._preview = self._build_mesh(vertices, triangles)
+
+    @property
+    def has_preview(self) -> bool:
+        """Whether a preview mesh is set (`set_preview_mesh`) for the current mesh."""
+        return self._preview is not None
 
     def set_positions(self, positions: np.ndarray) -> None:
         """Write deformed vertex positions in place (the per-drag update).
@@ -381,16 +330,23 @@ class WarpRenderer:
             Deformed vertices in image pixels, in the order of `set_mesh`.
         """
         self._require_mesh()
+        mesh = self._mesh
         positions = np.asarray(positions)
-        if positions.shape != self._vertices.shape:
-            raise ValueError(f"positions must have shape {self._vertices.shape}, got {positions.shape}")
-        self._positions.write(np.asarray(positions, dtype="f4")[self._order].tobytes())
+        if positions.shape != mesh.vertices.shape:
+            raise ValueError(f"positions must have shape {mesh.vertices.shape}, got {positions.shape}")
+        mesh.positions.write(np.asarray(positions, dtype="f4")[mesh.order].tobytes())
 
     @property
     def vertex_order(self) -> np.ndarray:
         """ndarray of shape (V,): the vertex of `set_mesh` that each GPU buffer row holds."""
         self._require_mesh()
-        return self._order
+        return self._mesh.order
+
+    @property
+    def preview_vertex_order(self) -> np.ndarray:
+        """ndarray of shape (V',): the vertex of `set_preview_mesh` that each GPU buffer row holds."""
+        self._require_preview()
+        return self._preview.order
 
     def set_ordered_positions(self, positions: np.ndarray) -> None:
         """`set_positions` for positions already in `vertex_order`: no gather, one buffer write.
@@ -401,9 +357,12 @@ class WarpRenderer:
             ``deformed[vertex_order]``, image pixels.
         """
         self._require_mesh()
-        if positions.shape != self._vertices.shape or positions.dtype != np.float32:
-            raise ValueError(f"positions must be float32 of shape {self._vertices.shape}")
-        self._positions.write(np.ascontiguousarray(positions))
+        self._mesh.write_ordered_positions(positions)
+
+    def set_preview_positions(self, positions: np.ndarray) -> None:
+        """Deformed preview vertices, in `preview_vertex_order`: float32 of shape (V', 2)."""
+        self._require_preview()
+        self._preview.write_ordered_positions(positions)
 
     def set_distortion_measure(self, measure: str) -> None:
         """How ``content="distortion"`` colours its field: ``"area"`` (log2 det J) or ``"conformal"``."""
@@ -417,10 +376,11 @@ class WarpRenderer:
         values : ndarray of shape (V,)
         """
         self._require_mesh()
+        mesh = self._mesh
         values = np.asarray(values)
-        if values.shape != (self._vertices.shape[0],):
-            raise ValueError(f"values must have shape ({self._vertices.shape[0]},), got {values.shape}")
-        self._values.write(np.asarray(values, dtype="f4")[self._order].tobytes())
+        if values.shape != (mesh.vertices.shape[0],):
+            raise ValueError(f"values must have shape ({mesh.vertices.shape[0]},), got {values.shape}")
+        mesh.values.write(np.asarray(values, dtype="f4")[mesh.order].tobytes())
         self._field_ready = True
 
     def set_highlighted(self, triangles: np.ndarray) -> None:
@@ -433,7 +393,8 @@ class WarpRenderer:
         """
         self._require_mesh()
         triangles = np.asarray(triangles)
-        count = len(self._triangle_indices)
+        indices = self._mesh.triangle_indices
+        count = len(indices)
         if triangles.dtype == bool:
             if triangles.shape != (count,):
                 raise ValueError(f"a triangle mask must have shape ({count},), got {triangles.shape}")
@@ -444,9 +405,9 @@ class WarpRenderer:
             not np.issubdtype(triangles.dtype, np.integer) or triangles.min() < 0 or triangles.max() >= count
         ):
             raise ValueError(f"triangles must be a mask or indices in 0..{count - 1}")
-        selected = self._triangle_indices[triangles].reshape(-1, 3)
+        selected = indices[triangles].reshape(-1, 3)
         if len(selected):
-            self._highlighted.write(selected.tobytes())
+            self._mesh.highlighted.write(selected.tobytes())
         self._highlight_count = len(selected)
 
     # -- drawing ------------------------------------------------------------
@@ -460,6 +421,7 @@ class WarpRenderer:
         wireframe: bool = False,
         highlight: bool = False,
         folds: bool = False,
+        preview: bool = False,
     ) -> None:
         """Draw into the bound framebuffer with premultiplied-alpha blending.
 
@@ -480,12 +442,19 @@ class WarpRenderer:
         folds : bool
             Fill the triangles that the current positions fold over (found on the
             GPU, like `core.folded_triangles`) on top.
+        preview : bool
+            Draw the preview mesh (`set_preview_mesh`) instead: ``content`` "image" or
+            "none", and folds, only.
         """
-        self._draw(view, viewport_size, "screen", content, wireframe, highlight, folds)
+        self._draw(view, viewport_size, "screen", content, wireframe, highlight, folds, preview)
 
-    def _draw(self, view, viewport_size, order, content, wireframe, highlight, folds) -> None:
+    def _draw(self, view, viewport_size, order, content, wireframe, highlight, folds, preview=False) -> None:
         """`draw` with the triangles in ``order``: "screen" (fastest) or "caller" (as given to `set_mesh`)."""
         self._require_mesh()
+        if preview:
+            self._require_preview()
+            if content not in ("image", "none") or wireframe or highlight:
+                raise ValueError("the preview mesh draws the image and its folds only")
         if content not in ("image", "field", "heat", "distortion", "none"):
             raise ValueError(
                 f"content must be 'image', 'field', 'heat', 'distortion' or 'none', got {content!r}"
@@ -507,7 +476,8 @@ class WarpRenderer:
             viewport_size,
         )
         self._blending()
-        vaos = self._vaos[order]
+        mesh = self._preview if preview else self._mesh
+        vaos = mesh.vaos[order]
         if content == "image":
             self._sampler.use(location=0)
             self._image_program["u_image"].value = 0
@@ -531,10 +501,10 @@ class WarpRenderer:
             vaos["folds"].render()
         if highlight and self._highlight_count:
             self._solid_program["u_colour"].value = HIGHLIGHT_COLOUR
-            self._highlight_vao.render(vertices=3 * self._highlight_count)
+            mesh.highlight_vao.render(vertices=3 * self._highlight_count)
         if wireframe:
             self._solid_program["u_colour"].value = WIREFRAME_COLOUR
-            self._edge_vao.render()
+            mesh.edge_vao.render()
 
     def draw_backdrop(self, view: View, viewport_size: tuple[int, int], opacity: float = 1.0) -> None:
         """Draw the whole undeformed source image, faded by `opacity`, into the bound framebuffer.
@@ -728,19 +698,75 @@ class WarpRenderer:
         ctx.enable(moderngl.BLEND)
         ctx.blend_func = moderngl.ONE, moderngl.ONE_MINUS_SRC_ALPHA
 
-    def _source_uv(self) -> np.ndarray:
+    def _build_mesh(self, vertices: np.ndarray, triangles: np.ndarray) -> _MeshObjects:
+        """Buffers and vertex arrays of one mesh, positions undeformed."""
+        ctx = self.ctx
+        count = vertices.shape[0]
+        # Vertices renumbered, and triangles drawn on screen, in the order of a space-filling
+        # curve: a software rasteriser shades vertices in chunks of the index buffer, and on a
+        # dense mesh in the mesher's order it re-shades most of them (llvmpipe, 800k triangles:
+        # the textured pass 1.4-2.6x and the fold pass 1.8-3.9x slower, depending on the load).
+        # `render` keeps the caller's triangle order, so that where folded triangles overlap
+        # the exported picture does not depend on the renderer.
+        order = np.argsort(_morton_codes(vertices), kind="stable")
+        renumber = np.empty(count, dtype=np.int64)
+        renumber[order] = np.arange(count)
+        indices = renumber[triangles].astype("u4")
+        screen = np.argsort(_morton_codes(vertices[triangles].mean(axis=1)), kind="stable")
+        mesh = _MeshObjects(vertices, order, indices)
+        mesh.positions = ctx.buffer(vertices[order].astype("f4").tobytes(), dynamic=True)
+        mesh.uv = ctx.buffer(self._source_uv(mesh).tobytes())
+        mesh.values = ctx.buffer(reserve=4 * count, dynamic=True)
+        edges = ctx.buffer(unique_edges(indices).astype("u4").tobytes())
+        mesh.highlighted = ctx.buffer(reserve=indices.nbytes, dynamic=True)
+        mesh.objects = [mesh.positions, mesh.uv, mesh.values, edges, mesh.highlighted]
+        programs = {
+            "image": (self._image_program, "in_uv"),
+            "field": (self._field_program, "in_value"),
+            "heat": (self._heat_program, "in_value"),
+            "distortion": (self._distortion_program, "in_value"),
+            "folds": (self._folds_program, "in_uv"),
+        }
+        for name, triangle_order in (("screen", screen), ("caller", None)):
+            ordered = indices if triangle_order is None else indices[triangle_order]
+            index_buffer = ctx.buffer(np.ascontiguousarray(ordered).tobytes())
+            mesh.vaos[name] = vaos = {}
+            for kind, (program, attribute) in programs.items():
+                second = (mesh.uv, "2f", "in_uv") if attribute == "in_uv" else (mesh.values, "1f", "in_value")
+                vaos[kind] = ctx.vertex_array(
+                    program, [(mesh.positions, "2f", "in_position"), second], index_buffer=index_buffer
+                )
+            mesh.objects += [*vaos.values(), index_buffer]
+        position = [(mesh.positions, "2f", "in_position")]
+        mesh.edge_vao = ctx.vertex_array(
+            self._solid_program, position, index_buffer=edges, mode=moderngl.LINES
+        )
+        mesh.highlight_vao = ctx.vertex_array(self._solid_program, position, index_buffer=mesh.highlighted)
+        mesh.objects += [mesh.edge_vao, mesh.highlight_vao]
+        return mesh
+
+    def _source_uv(self, mesh: _MeshObjects) -> np.ndarray:
         size = self._image_size or (1, 1)
-        return (self._vertices[self._order] / np.array(size, dtype=np.float64)).astype("f4")
+        return (mesh.vertices[mesh.order] / np.array(size, dtype=np.float64)).astype("f4")
 
     def _require_mesh(self) -> None:
-        if self._vertices is None:
+        if self._mesh is None:
             raise RuntimeError("the renderer has no mesh yet: call set_mesh first")
 
+    def _require_preview(self) -> None:
+        if self._preview is None:
+            raise RuntimeError("the renderer has no preview mesh: call set_preview_mesh first")
+
     def _release_mesh(self) -> None:
-        for item in self._mesh_objects:
-            item.release()
-        self._mesh_objects = []
-        self._vertices = None
+        self._release_preview()
+        if self._mesh is not None:
+            self._mesh.release()
+        self._mesh = None
+
+    def _release_preview(self) -> None:
+        if self._preview is not None:
+            self._preview.release()
+        self._preview = None
 
     def _release_image(self) -> None:
         for item in (*self._backdrop_objects, self._sampler, self._texture):
@@ -764,6 +790,58 @@ class WarpRenderer:
             for item in self._target[2]:
                 item.release()
         self._target = None
+
+
+class _MeshObjects:
+    """The GL objects of one mesh: buffers in `order` (a Z-order of the vertices) and vertex arrays.
+
+    Attributes
+    ----------
+    vertices : ndarray of shape (V, 2)
+        Undeformed, in the caller's order.
+    order : ndarray of shape (V,)
+        The caller's vertex held by each buffer row.
+    triangle_indices : ndarray of shape (T, 3), uint32
+        The caller's triangles, in buffer rows.
+    vaos : dict
+        ``vaos[order][kind]``: order "screen" (Z-ordered triangles) or "caller", kind
+        "image", "field", "heat", "distortion" or "folds".
+    """
+
+    def __init__(self, vertices: np.ndarray, order: np.ndarray, triangle_indices: np.ndarray):
+        self.vertices, self.order, self.triangle_indices = vertices, order, triangle_indices
+        self.vaos: dict = {}
+        self.objects: list = []
+
+    def write_ordered_positions(self, positions: np.ndarray) -> None:
+        """Write float32 positions (V, 2), already in `order`, into the position buffer."""
+        if positions.shape != self.vertices.shape or positions.dtype != np.float32:
+            raise ValueError(f"positions must be float32 of shape {self.vertices.shape}")
+        self.positions.write(np.ascontiguousarray(positions))
+
+    def release(self) -> None:
+        for item in self.objects:
+            item.release()
+        self.objects = []
+
+
+def _checked_mesh(vertices, triangles) -> tuple[np.ndarray, np.ndarray]:
+    """(vertices (V, 2) float64, triangles (T, 3)), or ValueError saying what is wrong."""
+    vertices = np.asarray(vertices, dtype=np.float64)
+    triangles = np.asarray(triangles)
+    if vertices.ndim != 2 or vertices.shape[1] != 2 or vertices.shape[0] < 3:
+        raise ValueError(f"vertices must have shape (V, 2) with V >= 3, got {vertices.shape}")
+    if not np.isfinite(vertices).all():
+        raise ValueError("vertices contain NaN or infinite values")
+    if triangles.ndim != 2 or triangles.shape[1] != 3 or triangles.shape[0] < 1:
+        raise ValueError(f"triangles must have shape (T, 3) with T >= 1, got {triangles.shape}")
+    if (
+        not np.issubdtype(triangles.dtype, np.integer)
+        or triangles.min() < 0
+        or triangles.max() >= len(vertices)
+    ):
+        raise ValueError(f"triangles must be integer indices into the {len(vertices)} vertices")
+    return vertices, triangles
 
 
 def _anisotropy(ctx: moderngl.Context) -> float:
@@ -822,9 +900,3 @@ def _morton_codes(points: np.ndarray) -> np.ndarray:
         bits = (bits | (bits << 1)) & 0x55555555
         spread.append(bits)
     return spread[0] | (spread[1] << 1)
-
-
-def _unique_edges(triangles: np.ndarray) -> np.ndarray:
-    """Each undirected edge of the triangles once, shape (E, 2)."""
-    pairs = np.concatenate([triangles[:, [0, 1]], triangles[:, [1, 2]], triangles[:, [2, 0]]])
-    return np.unique(np.sort(pairs, axis=1), axis=0)

@@ -241,11 +241,12 @@ def test_positions_update_in_place(renderer):
     vertices, triangles, _ = ellipse_mesh((160, 120), (100, 70), 12)
     renderer.set_image(image)
     renderer.set_mesh(vertices, triangles)
-    buffer, vertex_array = renderer._positions.glo, renderer._vaos["caller"]["image"].glo
+    mesh = renderer._mesh
+    buffer, vertex_array = mesh.positions.glo, mesh.vaos["caller"]["image"].glo
     first = renderer.render((320, 240))
     renderer.set_positions(vertices + (20.0, 0.0))
     second = renderer.render((320, 240))
-    assert (renderer._positions.glo, renderer._vaos["caller"]["image"].glo) == (buffer, vertex_array)
+    assert (mesh.positions.glo, mesh.vaos["caller"]["image"].glo) == (buffer, vertex_array)
     # A whole-pixel move shifts the picture exactly.
     assert np.array_equal(second[:, 40:], first[:, 20:-20])
 
@@ -257,18 +258,18 @@ def test_screen_order_draws_the_picture_of_the_callers_order(renderer):
     vertices, triangles, _ = ellipse_mesh((160, 120), (100, 70), 6)
     renderer.set_image(image)
     renderer.set_mesh(vertices, triangles)
-    screen, caller = renderer._vaos["screen"], renderer._vaos["caller"]
+    screen, caller = renderer._mesh.vaos["screen"], renderer._mesh.vaos["caller"]
     assert not np.array_equal(renderer.vertex_order, np.arange(len(vertices)))  # reordered indeed
     deformed = vertices + 12.0 * np.sin(vertices[:, ::-1] / 25.0)  # smooth, nothing folds
     renderer.set_positions(deformed)
     renderer.set_field(deformed[:, 0] / 320.0)
     for content in ("image", "field", "heat"):
         expected = renderer.render((320, 240), content=content, folds=True)
-        renderer._vaos["caller"] = screen
+        renderer._mesh.vaos["caller"] = screen
         try:
             drawn = renderer.render((320, 240), content=content, folds=True)
         finally:
-            renderer._vaos["caller"] = caller
+            renderer._mesh.vaos["caller"] = caller
         assert np.array_equal(drawn, expected), content
     # A fold: the highlighted triangles agree between the two orders.
     folded = deformed.copy()
@@ -277,11 +278,11 @@ def test_screen_order_draws_the_picture_of_the_callers_order(renderer):
     renderer.set_positions(folded)
     expected = renderer.render((320, 240), content="none", folds=True, background=(1, 1, 1, 1))
     assert (expected[..., :3] < 250).any()  # something is folded
-    renderer._vaos["caller"] = screen
+    renderer._mesh.vaos["caller"] = screen
     try:
         drawn = renderer.render((320, 240), content="none", folds=True, background=(1, 1, 1, 1))
     finally:
-        renderer._vaos["caller"] = caller
+        renderer._mesh.vaos["caller"] = caller
     assert np.array_equal(drawn, expected)
 
 

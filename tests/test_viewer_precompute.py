@@ -141,3 +141,33 @@ def test_the_worker_ends_quietly_when_the_viewer_is_gone(cache):
     request_writer.close()
     result_reader.close()  # nobody reads the progress or the result: a broken pipe
     _serve(request_reader, result_writer, 0)
+
+
+def test_a_dense_mesh_gets_a_preview_mesh_that_draws_its_interpolant(cache, monkeypatch):
+    """Above PREVIEW_FROM_VERTICES vertices the result carries a coarser mesh and G moved onto it
+    (core.mesh_transfer); below, none.  Thresholds lowered so that a small mesh shows both."""
+    from app.viewer import precompute as module
+    from app.viewer.precompute import PREVIEW_PHASE, result_from_message
+    from core.mesh_transfer import interpolation_matrix
+
+    request = make_request(snapshot(), 3.0)
+    assert compute(request)["preview"] is None  # a few thousand vertices: no preview
+    monkeypatch.setattr(module, "PREVIEW_FROM_VERTICES", 1000)
+    monkeypatch.setattr(module, "PREVIEW_VERTICES", 400)
+    progress = []
+    payload = compute(request, lambda fraction, phase: progress.append(phase))
+    assert progress[-1] == PREVIEW_PHASE
+    result = result_from_message(request.key, payload)
+    preview = result.preview
+    assert len(result.mesh.vertices) > 1000 and 250 < len(preview.vertices) < 650
+    assert preview.basis.shape == (len(preview.vertices), len(STAR))
+    np.testing.assert_allclose(preview.basis.sum(axis=1), 1.0, atol=1e-10)
+    np.testing.assert_allclose(preview.basis @ STAR, preview.vertices, atol=1e-5)
+    # Away from the boundary a preview vertex moves exactly as the dense mesh's P1 interpolant.
+    curve = core.ClosedBSpline(STAR)
+    coarse = core.triangulate(curve, max_edge=3.0 * np.sqrt(len(result.mesh.vertices) / 400))
+    assert np.array_equal(coarse.vertices, preview.vertices)
+    interior = np.setdiff1d(np.arange(len(coarse.vertices)), coarse.boundary)
+    target = STAR + np.random.default_rng(4).normal(0.0, 5.0, STAR.shape)
+    expected = interpolation_matrix(result.mesh, coarse.vertices[interior]) @ (result.basis @ target)
+    np.testing.assert_allclose((preview.basis @ target)[interior], expected, atol=1e-9)

@@ -150,3 +150,132 @@ def test_one_drag_event_at_100k_vertices_is_cheap(renderer):
     state.drag = None
     exact = basis @ state.live.target
     np.testing.assert_allclose(scene._positions, exact[renderer.vertex_order], atol=1e-2)
+
+
+def preview_setup(renderer):
+    """A dense FEM mesh of a blob in a 320 x 240 image, its G, and a preview mesh with G moved onto it."""
+    from app.viewer.state import PreviewMesh
+    from core import examples
+    from core.mesh_transfer import transfer_basis
+
+    cage = examples.blob() * (240.0, 200.0) + (40.0, 15.0)
+    curve = core.ClosedBSpline(cage)
+    dense = core.triangulate(curve, max_edge=1.5)
+    basis = core.harmonic_basis(curve, dense)
+    coarse = core.triangulate(curve, max_edge=6.0)
+    preview = PreviewMesh(coarse.vertices, coarse.triangles, transfer_basis(curve, dense, basis, coarse))
+    result = BasisResult(
+        "k", cage, dense, basis, np.asfortranarray(basis, np.float32), "harmonic", 1.0, preview=preview
+    )
+    y, x = np.mgrid[0:240, 0:320]
+    image = np.zeros((240, 320, 4), np.uint8)
+    image[..., 0] = 127 + 120 * np.sin(x / 9.0)
+    image[..., 1] = 127 + 120 * np.cos(y / 7.0)
+    image[..., 2] = ((x // 16 + y // 16) % 2) * 255
+    image[..., 3] = 255
+    renderer.set_image(image)
+    return result, cage
+
+
+def framebuffer_pixels(renderer, **options) -> np.ndarray:
+    fbo = renderer.ctx.simple_framebuffer((320, 240))
+    fbo.use()
+    fbo.clear(0, 0, 0, 0)
+    renderer.draw(View(), (320, 240), **options)
+    pixels = np.frombuffer(fbo.read(components=4), np.uint8).reshape(240, 320, 4)[::-1].astype(float)
+    fbo.release()
+    return pixels
+
+
+def test_the_preview_mesh_draws_the_dense_mesh_picture(renderer):
+    """A dense mesh's deformation drawn through the preview mesh (4x coarser edges): the same picture
+    up to the P1 interpolation error, PSNR >= 30 dB over the covered pixels; folds drawn on it too."""
+    from app.viewer.scene import combined_columns
+
+    result, cage = preview_setup(renderer)
+    assert len(result.mesh.vertices) > 10 * len(result.preview.vertices)
+    target = cage + 15.0 * np.sin(cage[:, ::-1] / 40.0)
+    renderer.set_mesh(result.mesh.vertices, result.mesh.triangles)
+    renderer.set_positions(result.basis @ target)
+    renderer.set_preview_mesh(result.preview.vertices, result.preview.triangles)
+    order = renderer.preview_vertex_order
+    columns = np.asfortranarray(result.preview.basis[order], dtype=np.float32)
+    renderer.set_preview_positions(combined_columns(columns, target))
+    dense = framebuffer_pixels(renderer)
+    preview = framebuffer_pixels(renderer, preview=True)
+    covered = (dense[..., 3] == 255) & (preview[..., 3] == 255)
+    assert covered.mean() > 0.3
+    error = np.mean((dense[covered, :3] - preview[covered, :3]) ** 2)
+    psnr = 10 * np.log10(255.0**2 / error)
+    print(f"preview vs dense: PSNR {psnr:.1f} dB over {covered.sum()} pixels")
+    assert psnr >= 30.0
+    # Only the image and folds: other contents need the dense mesh's field.
+    with pytest.raises(ValueError, match="preview"):
+        renderer.draw(View(), (320, 240), content="heat", preview=True)
+    with pytest.raises(ValueError, match="preview"):
+        renderer.draw(View(), (320, 240), wireframe=True, preview=True)
+    # Folds on the preview: pull one control point through the blob.
+    folded = target.copy()
+    folded[0] = folded[len(cage) // 2] + (folded[len(cage) // 2] - folded[0])
+    renderer.set_preview_positions(combined_columns(columns, folded))
+    assert (framebuffer_pixels(renderer, content="none", folds=True, preview=True)[..., 3] > 0).any()
+    # A new mesh drops the preview of the old one.
+    renderer.set_mesh(result.mesh.vertices, result.mesh.triangles)
+    assert not renderer.has_preview
+    with pytest.raises(RuntimeError, match="preview"):
+        renderer.draw(View(), (320, 240), preview=True)
+
+
+def test_combined_columns_is_the_product(renderer):
+    from app.viewer.scene import combined_columns
+
+    rng = np.random.default_rng(7)
+    basis, target = rng.random((1000, 13)), rng.normal(0, 300, (13, 2))
+    result = combined_columns(np.asfortranarray(basis, np.float32), target)
+    assert result.dtype == np.float32 and result.flags.c_contiguous
+    np.testing.assert_allclose(result, basis @ target, rtol=1e-5, atol=1e-3)
+
+
+def test_the_scene_draws_the_preview_while_the_target_moves(renderer):
+    """While a target point is dragged (or keyframes play) in the image view, only the preview's
+    positions are written; on release the dense mesh gets the exact G @ P'.  The wireframe, the
+    other views and the cage mode keep the dense mesh."""
+    result, cage = preview_setup(renderer)
+    snapshot = Snapshot(Path("x.png"), cage, cage)
+    state = AppState(History(snapshot), snapshot, opaque_image(), Path("s.json"), basis=result)
+    state.mode = "deform"
+    scene = Scene(renderer)
+    scene.sync(state)
+    assert not scene.previewing and renderer.has_preview
+
+    def dense_positions():
+        rows = np.frombuffer(renderer._mesh.positions.read(), np.float32).reshape(-1, 2)
+        return rows[np.argsort(renderer.vertex_order)]
+
+    def preview_positions():
+        rows = np.frombuffer(renderer._preview.positions.read(), np.float32).reshape(-1, 2)
+        return rows[np.argsort(renderer.preview_vertex_order)]
+
+    before = dense_positions()
+    np.testing.assert_allclose(before, result.mesh.vertices, atol=1e-3)
+    state.drag = Drag("target", 3, np.zeros(2), snapshot)
+    target = cage.copy()
+    target[3] += (30.0, -12.0)
+    state.live = state.live.replace(target=target)
+    scene.sync(state)
+    assert scene.previewing
+    np.testing.assert_array_equal(dense_positions(), before)  # the dense mesh is left alone
+    np.testing.assert_allclose(preview_positions(), result.preview.basis @ target, atol=1e-3)
+    for setting, value in (("show_wireframe", True), ("content", "heat"), ("mode", "cage")):
+        original = getattr(state, setting)
+        setattr(state, setting, value)
+        scene.sync(state)
+        assert not scene.previewing, setting
+        setattr(state, setting, original)
+    state.drag = None  # released: the exact product on the dense mesh
+    scene.sync(state)
+    assert not scene.previewing
+    np.testing.assert_allclose(dense_positions(), result.basis @ target, atol=1e-3)
+    state.playing = True  # keyframe playback moves the target every frame: the preview again
+    scene.sync(state)
+    assert scene.previewing

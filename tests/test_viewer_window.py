@@ -727,3 +727,64 @@ def test_distortion_view_shows_the_exact_folds_of_a_point_kernel(display, enviro
     finally:
         viewer.kill()
     assert json.loads(session.read_text())["viewer"]["content"] == "image"
+
+
+def test_a_dense_mesh_is_dragged_through_its_preview_mesh(display, environment):
+    """~55k vertices: the precompute adds a ~20k-vertex preview mesh, drawn while the handle is held;
+    mid-drag the screen shows the moved arm, and on release the dense mesh's exact picture differs
+    from that preview frame in almost no pixel."""
+    from app.files import read_cage
+    from app.viewer.editing import default_max_edge
+
+    env, folder = environment
+    session = folder / "dense-session.json"
+    max_edge = default_max_edge(read_cage(ASSETS / "starfish.cage.json"), 55_000)
+    viewer = ViewerProcess(
+        [
+            "view",
+            str(ASSETS / "starfish.png"),
+            "--cage",
+            str(ASSETS / "starfish.cage.json"),
+            "--session",
+            str(session),
+            "--max-edge",
+            str(max_edge),
+            "--stats",
+        ],
+        env,
+        ROOT,
+    )
+    try:
+        window = viewer.wait_for("ready window=", 30).split("=")[1]
+        basis = viewer.wait_for("basis ", 180)
+        fields = dict(item.split("=") for item in basis.split()[1:])
+        assert int(fields["vertices"]) > 50_000 and 15_000 < int(fields["preview"]) < 25_000, basis
+        cage, target, value = session_points(session)
+        view = value["view"]
+        park_mouse(display, window)
+        before = shot(display, folder, "dense-1-start")
+        start = window_pixel(view, target[0])
+        drag = np.array([90.0, 40.0])
+        xdotool(display, "mousemove", "--window", window, *(f"{v:.0f}" for v in start))
+        time.sleep(0.2)
+        xdotool(display, "mousedown", "1")
+        for step in np.linspace(0.1, 1.0, 10):
+            xdotool(display, "mousemove", "--window", window, *(f"{v:.0f}" for v in start + step * drag))
+            time.sleep(0.03)
+        viewer.wait_for("preview on", 10)
+        held = shot(display, folder, "dense-2-held")  # the preview mesh, button still down
+        xdotool(display, "mouseup", "1")
+        viewer.wait_for("preview off", 10)
+        viewer.wait_for("saved", 10)
+        released = shot(display, folder, "dense-3-released")  # the dense mesh, exact
+        _, target_after, _ = session_points(session)
+        sides = curve_matrix(len(target))[[SAMPLES_PER_SPAN // 5, SAMPLES_PER_SPAN * 4 // 5]]
+        new_arm = window_pixel(view, (sides @ target_after).mean(axis=0))
+        assert box_difference(before, held, new_arm, 5) > 30  # the arm moved while held
+        assert changed_fraction(held, released) < 0.002
+        xdotool(display, "key", "ctrl+q")
+        code, stderr = viewer.finish()
+        assert code == 0, stderr
+        assert float(stats_line(viewer.lines).group(4)) > 0  # frames were drawn while dragging
+    finally:
+        viewer.kill()

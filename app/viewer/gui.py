@@ -382,6 +382,8 @@ def _status(state: AppState, width: float, height: float) -> None:
     live = state.live
     kernel = live.kernel + (f" (k={live.power:g}, shift {live.shift})" if live.kernel == "power" else "")
     vertices = f"{len(state.basis.mesh.vertices):,} vertices" if state.basis is not None else "no mesh yet"
+    if state.basis is not None and state.basis.preview is not None:
+        vertices += f" ({len(state.basis.preview.vertices):,} while moving)"
     precompute = (
         f"precompute {state.last_precompute_seconds:.2f} s"
         if state.last_precompute_seconds is not None

@@ -309,6 +309,9 @@ class BasisResult:
     gradients : ndarray of shape (V, n, 2) or None
         grad G at the vertices (NaN on the boundary) for the distortion view, if
         they were asked for and the kernel has them (a point kernel).
+    preview : PreviewMesh or None
+        A lighter mesh drawn while a handle moves, for a dense mesh
+        (`app.viewer.precompute.PREVIEW_FROM_VERTICES` vertices or more).
     """
 
     key: str
@@ -319,6 +322,26 @@ class BasisResult:
     kernel: str
     seconds: float
     gradients: np.ndarray | None = None
+    preview: PreviewMesh | None = None
+
+
+@dataclass(frozen=True)
+class PreviewMesh:
+    """A coarser mesh of the same domain and the rows of G that draw on it what the dense mesh draws.
+
+    Attributes
+    ----------
+    vertices : ndarray of shape (V', 2)
+        Undeformed, image pixels.
+    triangles : ndarray of shape (T', 3)
+    basis : ndarray of shape (V', n), float64
+        ``core.mesh_transfer.transfer_basis`` of the dense mesh's G: the preview's
+        deformed vertices are ``basis @ target``.
+    """
+
+    vertices: np.ndarray
+    triangles: np.ndarray
+    basis: np.ndarray
 
 
 @dataclass

@@ -216,6 +216,7 @@ class Viewer:
         self._drag_first_frame: int | None = None
         #: Times (ms) of the frames drawn while a control point was dragged, for --stats.
         self._drag_frame_ms: list[float] = []
+        self._previewing = False  # the last frame drew the preview mesh (announced in test mode)
         self.window = None
 
     # -- lifetime -------------------------------------------------------------------
@@ -768,7 +769,8 @@ class Viewer:
             state.last_precompute_seconds = result.seconds
             state.progress = None
         vertices = len(result.mesh.vertices)
-        self._announce(f"basis key={result.key} vertices={vertices} kernel={result.kernel}")
+        preview = 0 if result.preview is None else len(result.preview.vertices)
+        self._announce(f"basis key={result.key} vertices={vertices} kernel={result.kernel} preview={preview}")
 
     # -- scripts --------------------------------------------------------------------------
 
@@ -893,6 +895,9 @@ class Viewer:
 
         shown = state.distortion
         self.scene.sync(state)
+        if self.test_mode and self.scene.previewing != self._previewing:
+            self._previewing = self.scene.previewing
+            self._announce(f"preview {'on' if self._previewing else 'off'}")
         if state.distortion is not shown and state.content == "distortion":
             d = state.distortion
             self._announce(
