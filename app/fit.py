@@ -436,6 +436,8 @@ def border_contrast(bgr: np.ndarray) -> np.ndarray:
         The picture, BGR.
     """
     frame = _frame(bgr.shape[:2])
+    if frame.all():  # a picture of a few pixels is all border
+        return np.zeros(frame.shape, bool)
     model = _colour_model(bgr[frame], bgr[~frame])
     surprise = -_log_likelihood(model, bgr)
     return surprise > np.percentile(surprise[frame], 95) + BORDER_CONTRAST

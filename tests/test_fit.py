@@ -151,6 +151,9 @@ def test_errors():
     tiny[20:26, 20:26, 3] = 255
     with pytest.raises(ValueError, match="too few for 16 control points"):
         fit_cage(tiny)
+    speck = np.random.default_rng(0).integers(0, 256, (2, 2, 3)).astype(np.uint8)  # a photograph, all border
+    with pytest.raises(ValueError, match="found no subject"):
+        fit_cage(speck)
     with pytest.raises(ValueError, match=r"\(H, W, 3\) or \(H, W, 4\) uint8"):
         fit_cage(np.zeros((50, 50), dtype=np.uint8))
 
