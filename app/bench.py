@@ -366,8 +366,9 @@ def _drag_frames(vertex_counts) -> None:
             )
             for count in vertex_counts:
                 max_edge = default_max_edge(cage, count)
-                vertices, median = _drag_child(folder, display, script, max_edge, count)
-                print(f"  {vertices:>9,} vertices (max edge {max_edge} px): {median:7.1f} ms")
+                vertices, preview, median = _drag_child(folder, display, script, max_edge, count)
+                drawn = f", drawn through a {preview:,}-vertex preview" if preview else ""
+                print(f"  {vertices:>9,} vertices (max edge {max_edge} px{drawn}): {median:7.1f} ms")
         finally:
             server.terminate()
             server.wait(timeout=10)
@@ -393,8 +394,11 @@ def _start_xvfb(folder: Path) -> tuple[subprocess.Popen, str]:
     return server, f":{number}"
 
 
-def _drag_child(folder: Path, display: str, script: Path, max_edge: float, count: int) -> tuple[int, float]:
-    """Run the demo viewer on `script` at `max_edge`; (vertices, median drag frame in ms)."""
+def _drag_child(
+    folder: Path, display: str, script: Path, max_edge: float, count: int
+) -> tuple[int, int, float]:
+    """Run the demo viewer on `script` at `max_edge`; (vertices, preview vertices or 0, median drag
+    frame in ms)."""
     environment = dict(
         os.environ,
         DISPLAY=display,
@@ -408,7 +412,7 @@ def _drag_child(folder: Path, display: str, script: Path, max_edge: float, count
     child = subprocess.Popen(
         command, env=environment, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
     )
-    vertices, lines = 0, []
+    vertices, preview, lines = 0, 0, []
     watchdog = threading.Timer(DRAG_TIMEOUT, child.kill)
     watchdog.start()
     try:
@@ -416,6 +420,7 @@ def _drag_child(folder: Path, display: str, script: Path, max_edge: float, count
             lines.append(line.strip())
             if line.startswith("basis "):
                 vertices = int(re.search(r"vertices=(\d+)", line).group(1))
+                preview = int(re.search(r"preview=(\d+)", line).group(1))
             if line.startswith("script done"):
                 child.send_signal(signal.SIGTERM)  # quits cleanly, printing --stats
         child.wait(timeout=60)
@@ -429,4 +434,4 @@ def _drag_child(folder: Path, display: str, script: Path, max_edge: float, count
         errors = child.stderr.read().strip().splitlines()[-CHILD_ERROR_LINES:] or ["(no output on stderr)"]
         details = "\n".join(f"    {line}" for line in [*lines[-3:], *errors])
         raise StepFailed(f"{what} failed with exit code {child.returncode}:\n{details}")
-    return vertices, float(stats[-1].group(1))
+    return vertices, preview, float(stats[-1].group(1))
