@@ -279,3 +279,29 @@ def test_the_scene_draws_the_preview_while_the_target_moves(renderer):
     state.playing = True  # keyframe playback moves the target every frame: the preview again
     scene.sync(state)
     assert scene.previewing
+
+
+def test_playback_frames_skip_the_exact_product_and_the_fold_count_until_it_stops(renderer):
+    rng = np.random.default_rng(2)
+    vertices, triangles = grid_mesh(count=41, size=100.0)
+    basis = rng.random((len(vertices), 8))
+    basis /= basis.sum(axis=1, keepdims=True)
+    cage = rng.uniform(0, 100, (8, 2))
+    mesh = core.Mesh(vertices, triangles, np.zeros(0, int), np.zeros(0))
+    result = BasisResult("k", cage, mesh, basis, np.asfortranarray(basis, np.float32), "harmonic", 1.0)
+    snapshot = Snapshot(Path("x.png"), cage, cage)
+    state = AppState(History(snapshot), snapshot, opaque_image(), Path("s.json"), basis=result)
+    scene = Scene(renderer)
+    scene.sync(state)
+    counted = state.folded_count
+    state.playing = True
+    target = cage + rng.normal(0, 40, cage.shape)  # folds some triangles
+    state.live = state.live.replace(target=target)
+    scene.sync(state)
+    np.testing.assert_allclose(scene._positions, (basis @ target)[renderer.vertex_order], atol=1e-3)
+    assert state.folded_count == counted  # not counted while playing
+    state.playing = False  # stopped on that frame: exact float64 positions, folds counted
+    scene.sync(state)
+    exact = basis @ target
+    assert np.array_equal(scene._positions, exact[renderer.vertex_order].astype(np.float32))
+    assert state.folded_count == np.count_nonzero(core.folded_triangles(mesh, exact)) > 0

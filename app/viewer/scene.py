@@ -9,9 +9,10 @@
 - a changed target otherwise: during a drag of one point, the rank-one update
   x' += G[:, i] (P'_i(new) - P'_i(old)) of float32 positions, O(V) whatever n is,
   and one in-place buffer write (rows of x' and G kept in the renderer's vertex
-  order); otherwise (undo, release, script, keyframe playback) the exact
-  product G @ P' in float64, the one `python -m app warp` uses (folded
-  triangles are counted again only when playback stops);
+  order); during keyframe playback G @ P' in float32 without BLAS
+  (`combined_columns`); otherwise (undo, release, script, playback stopped) the
+  exact product G @ P' in float64, the one `python -m app warp` uses, and the
+  count of folded triangles;
 - the field of the basis-function, height or distortion view when it changes (the
   distortion view's after every change of the target: `app.viewer.distortion_view`);
 - the overlay of curves, control polygons and handles (a few kilobytes) every frame.
@@ -146,7 +147,6 @@ class Scene:
         self._order: np.ndarray | None = None
         self._columns: np.ndarray | None = None
         self._exact = False
-        self._folds_stale = False
         self._field = None
         # The preview mesh's G, float32, column-major, rows in the renderer's preview vertex order.
         self._preview_columns: np.ndarray | None = None
@@ -217,9 +217,7 @@ class Scene:
         basis, target = self._basis, state.live.target
         dragging = state.drag is not None and state.drag.kind == "target"
         drawn = self._drawn_target
-        if drawn is not None and np.array_equal(drawn, target) and (self._exact or dragging):
-            if self._folds_stale and not state.playing:
-                self._count_folds(state, basis.basis @ target)
+        if drawn is not None and np.array_equal(drawn, target) and (self._exact or dragging or state.playing):
             return
         started = time.perf_counter()
         changed = None if drawn is None else np.flatnonzero(np.any(drawn != target, axis=1))
@@ -231,14 +229,16 @@ class Scene:
                 self._positions[:, 0] += column * delta[0]
                 self._positions[:, 1] += column * delta[1]
             self._exact = False
+        elif state.playing:
+            # Every frame of playback: float32 and no BLAS (`combined_columns`); the exact product,
+            # and the count of folded triangles (which costs more than the product), when it stops.
+            self._positions = combined_columns(self._columns, target)
+            self._exact = False
         else:
             deformed = basis.basis @ target
             self._positions = deformed[self._order].astype(np.float32)
             self._exact = True
-            if state.playing:  # counting costs more than the product: not every frame of playback
-                self._folds_stale = True
-            else:
-                self._count_folds(state, deformed)
+            self._count_folds(state, deformed)
         self.renderer.set_ordered_positions(self._positions)
         self._drawn_target = np.array(target)
         self.update_ms = 1e3 * (time.perf_counter() - started)
@@ -247,7 +247,6 @@ class Scene:
         import core
 
         state.folded_count = int(np.count_nonzero(core.folded_triangles(self._basis.mesh, deformed)))
-        self._folds_stale = False
 
     def _update_field(self, state: AppState) -> None:
         basis = self._basis
