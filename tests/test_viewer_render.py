@@ -279,6 +279,17 @@ def test_the_scene_draws_the_preview_while_the_target_moves(renderer):
     state.playing = True  # keyframe playback moves the target every frame: the preview again
     scene.sync(state)
     assert scene.previewing
+    state.playing = False
+    scene.sync(state)
+    exact = scene._positions
+    # A pan or a wheel zoom: the preview while the view moves, and afterwards the dense mesh
+    # as it was (the target did not change: nothing recomputed).
+    state.view_moving = True
+    scene.sync(state)
+    assert scene.previewing
+    state.view_moving = False
+    scene.sync(state)
+    assert not scene.previewing and scene._positions is exact
 
 
 def test_playback_frames_skip_the_exact_product_and_the_fold_count_until_it_stops(renderer):

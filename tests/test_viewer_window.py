@@ -771,10 +771,10 @@ def test_a_dense_mesh_is_dragged_through_its_preview_mesh(display, environment):
         for step in np.linspace(0.1, 1.0, 10):
             xdotool(display, "mousemove", "--window", window, *(f"{v:.0f}" for v in start + step * drag))
             time.sleep(0.03)
-        viewer.wait_for("preview on", 10)
+        viewer.wait_for("preview on", 30)  # a loaded machine draws the first frames slowly
         held = shot(display, folder, "dense-2-held")  # the preview mesh, button still down
         xdotool(display, "mouseup", "1")
-        viewer.wait_for("preview off", 10)
+        viewer.wait_for("preview off", 30)
         viewer.wait_for("saved", 10)
         released = shot(display, folder, "dense-3-released")  # the dense mesh, exact
         _, target_after, _ = session_points(session)

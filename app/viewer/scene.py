@@ -4,8 +4,8 @@
 - new basis functions: upload the mesh (the only time vertex arrays are built);
 - a changed target of a dense mesh (one with a `PreviewMesh`) while a handle moves or
   keyframes play, with the image view: only the preview mesh's ~20k positions
-  (its G @ P'), drawn instead of the dense mesh; the dense mesh's exact positions
-  when the motion stops;
+  (its G @ P'), drawn instead of the dense mesh, which is also drawn so while the
+  view pans or zooms; the dense mesh's exact positions when the motion stops;
 - a changed target otherwise: during a drag of one point, the rank-one update
   x' += G[:, i] (P'_i(new) - P'_i(old)) of float32 positions, O(V) whatever n is,
   and one in-place buffer write (rows of x' and G kept in the renderer's vertex
@@ -194,10 +194,11 @@ class Scene:
         self._update_field(state)
 
     def _preview_wanted(self, state: AppState) -> bool:
-        """Whether this frame draws the preview mesh: a dense mesh's image while its target moves."""
+        """Whether this frame draws the preview mesh: a dense mesh's image while its target or the
+        view moves."""
         moving = (state.drag is not None and state.drag.kind == "target") or state.playing
         return (
-            moving
+            (moving or state.view_moving)
             and self._preview_columns is not None
             and state.content == "image"
             and state.mode == "deform"
@@ -208,8 +209,8 @@ class Scene:
         """The preview mesh's positions, G' @ P' (~20k rows: cheaper than any update of the dense mesh)."""
         started = time.perf_counter()
         self.renderer.set_preview_positions(combined_columns(self._preview_columns, state.live.target))
-        # The dense mesh is left as it was: exact positions again once the motion stops.
-        self._drawn_target = None
+        # The dense mesh is left as it was (`_drawn_target` with it): once the motion stops it gets
+        # the exact positions if the target changed meanwhile.
         self.previewing = True
         self.update_ms = 1e3 * (time.perf_counter() - started)
 

@@ -399,6 +399,7 @@ class AppState:
     spots: dict = field(default_factory=dict)  # window points inside some widgets (for tests)
     session_dirty: bool = False  # an edit to save now
     view_dirty: bool = False  # a zoom or pan to save soon
+    view_moving: bool = False  # a pan or a wheel zoom is under way (the window sets it every frame)
     quit: bool = False
 
     def say(self, message: str, error: bool = False) -> None:

@@ -37,6 +37,10 @@ TEST_VARIABLE = "TRANSFINITE_VIEWER_TEST"
 WINDOW_SIZE = (1280, 1024)
 #: Seconds after the last zoom or pan before the view is saved.
 VIEW_SAVE_DELAY = 0.5
+#: Seconds after the last wheel zoom or pan motion during which the view counts as moving
+#: (a dense mesh is drawn through its preview mesh meanwhile); below VIEW_SAVE_DELAY, so the
+#: frames drawn while the zoom or pan waits to be saved show the dense mesh again.
+VIEW_SETTLE = 0.25
 IMAGE_FILTERS = [
     "Images",
     "*.png *.jpg *.jpeg *.bmp *.tif *.tiff *.webp",
@@ -894,6 +898,9 @@ class Viewer:
         self._update_precompute()  # a kernel chosen in the panel starts computing this frame
 
         shown = state.distortion
+        state.view_moving = (state.drag is not None and state.drag.kind == "pan") or (
+            time.perf_counter() - self._view_changed_at < VIEW_SETTLE
+        )
         self.scene.sync(state)
         if self.test_mode and self.scene.previewing != self._previewing:
             self._previewing = self.scene.previewing
