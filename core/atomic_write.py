@@ -53,24 +53,34 @@ def remove_stale_temporaries(path: str | os.PathLike) -> list[Path]:
     Temporaries are ``.NAME.PID.RANDOM.tmp``, optionally with a suffix of their own
     (``.tmp.mp4``, ``.tmp.old``), files or folders (a folder of frames).
     """
+    removed = []
+    for stale in abandoned_temporaries(path):
+        with contextlib.suppress(OSError):
+            if stale.is_dir() and not stale.is_symlink():
+                shutil.rmtree(stale)
+            else:
+                os.remove(stale)
+            removed.append(stale)
+    return removed
+
+
+def abandoned_temporaries(path: str | os.PathLike) -> list[Path]:
+    """The temporaries of `path` (see `remove_stale_temporaries`) whose process no longer runs,
+    the most recently modified first.  A process killed after writing one whole but before the
+    rename leaves the newest version of `path` there."""
     path = Path(path)
     pattern = re.compile(rf"\.{re.escape(path.name)}\.(\d+)\.[0-9a-f]{{8}}\.tmp(\.\w+)?")
-    removed = []
     try:
         names = os.listdir(path.parent)
     except OSError:
-        return removed
+        return []
+    found = []
     for name in names:
         match = pattern.fullmatch(name)
         if match and not _running(int(match.group(1))):
-            stale = path.parent / name
             with contextlib.suppress(OSError):
-                if stale.is_dir() and not stale.is_symlink():
-                    shutil.rmtree(stale)
-                else:
-                    os.remove(stale)
-                removed.append(stale)
-    return removed
+                found.append((os.lstat(path.parent / name).st_mtime_ns, path.parent / name))
+    return [stale for _, stale in sorted(found, reverse=True)]
 
 
 def _running(pid: int) -> bool:

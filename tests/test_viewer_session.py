@@ -412,3 +412,56 @@ def test_a_second_viewer_of_the_same_image_is_refused_until_the_first_is_gone(tm
         holder.wait()
     reopened = sessions.open_document(files.image, files.cage)
     assert reopened.restored and reopened.lock is not None
+
+
+def _dead_pid() -> int:
+    import subprocess
+    import sys
+
+    child = subprocess.Popen([sys.executable, "-c", "pass"])
+    child.wait()
+    return child.pid
+
+
+@pytest.mark.parametrize("given", ["image", "--session"])
+def test_an_autosave_killed_before_its_rename_is_finished_on_the_next_open(given):
+    """kill -9 between an autosave's write and its rename left the newest state in a temporary
+    file: the next open takes it (the old file becomes backup 1), not a partial one, not one of a
+    viewer still running, and not one older than the session."""
+    import os
+
+    files = demo_files("starfish")
+    state = opened_state(sessions.open_document(files.image, files.cage))
+    path = state.session_path
+    edited(state, 1)
+    sessions.save(state, None)
+    saved = path.read_bytes()
+    edited(state, 2)
+    newest = state.history.current
+    interrupted = path.parent / f".{path.name}.{_dead_pid()}.0123abcd.tmp"
+    sessions.write_session(interrupted, sessions.session_of(state, None))
+    edited(state, 3)
+    running = path.parent / f".{path.name}.{os.getpid()}.00000000.tmp"  # this process is running
+    sessions.write_session(running, sessions.session_of(state, None))
+    partial = path.parent / f".{path.name}.{_dead_pid()}.89abcdef.tmp"
+    partial.write_bytes(running.read_bytes()[:-40])  # killed while writing
+    stamp = path.stat().st_mtime
+    for offset, file in ((1, interrupted), (2, partial), (3, running)):
+        os.utime(file, (stamp + offset, stamp + offset))
+    if given == "image":
+        document = sessions.open_document(files.image, files.cage)
+    else:
+        document = sessions.open_document(session=path)
+    assert document.snapshot == newest
+    assert "finished the last autosave" in document.notices[0]
+    assert backup_path(path, 1).read_bytes() == saved
+    assert not interrupted.exists() and partial.exists() and running.exists()
+    # Once finished, an older leftover is not taken again.
+    edited(state, 4)
+    sessions.save(state, None)
+    current = path.read_bytes()
+    stale = path.parent / f".{path.name}.{_dead_pid()}.fedcba98.tmp"
+    stale.write_bytes(saved)
+    os.utime(stale, (stamp - 10, stamp - 10))
+    again = sessions.open_document(session=path)
+    assert path.read_bytes() == current and not any("finished" in n for n in again.notices)

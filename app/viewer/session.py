@@ -20,6 +20,7 @@ cannot be read is kept aside too, and the newest readable backup is restored.
 
 from __future__ import annotations
 
+import os
 import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -57,6 +58,7 @@ from app.viewer.state import (
     AppState,
     Snapshot,
 )
+from core.atomic_write import abandoned_temporaries
 
 #: Undo steps (and redo steps) written into the session file.
 SAVED_STEPS = 100
@@ -145,7 +147,9 @@ def open_document(
                 "in a new session file"
             )
         lock = lock_session(session)
+        finished = finish_interrupted_save(session)
         document = restore(session, max_edge)
+        document.notices[:0] = finished
         document.lock = lock
         return document
     if image is None:
@@ -155,7 +159,7 @@ def open_document(
         image, cage = files.image, cage or files.cage
     path = session or session_path_for(image)
     lock = lock_session(path)
-    notices: list[str] = []
+    notices: list[str] = finish_interrupted_save(path)
     if session is None and not fresh:
         document = recover(path, Path(image), max_edge, notices)
         if document is not None:
@@ -187,6 +191,38 @@ def open_document(
         notices=notices,
         lock=lock,
     )
+
+
+def finish_interrupted_save(path: Path) -> list[str]:
+    """Complete an autosave of `path` that a killed viewer wrote whole but did not rename.
+
+    An autosave writes a temporary file, flushes it and renames it over `path`
+    (`core.atomic_write`); ``kill -9`` between the write and the rename left the
+    newest state in the temporary, which the next write would delete.  The newest
+    such temporary that is a readable session and newer than `path` becomes `path`
+    (the old `path` becomes backup 1); a partly written one is left to be removed.
+    Call it with the session locked, so that no running viewer is writing one.
+
+    Returns
+    -------
+    list of str
+        The notice for the status line, or nothing when there was nothing to finish.
+    """
+    newest = path.stat().st_mtime_ns if path.exists() else -1
+    for temporary in abandoned_temporaries(path):
+        try:
+            if temporary.stat().st_mtime_ns <= newest or not temporary.is_file():
+                continue
+            read_session(temporary)
+        except (InputError, OSError):
+            continue
+        try:
+            rotate_backups(path)
+            os.replace(temporary, path)
+        except OSError as error:
+            return [f"cannot finish the last autosave, interrupted in {temporary} ({error})"]
+        return [f"finished the last autosave, which the viewer was killed while writing ({path.name})"]
+    return []
 
 
 def recover(path: Path, image: Path, max_edge: float | None, notices: list[str]) -> Document | None:

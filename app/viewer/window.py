@@ -865,6 +865,10 @@ class Viewer:
         self._follow_window_size(glfw.get_window_size(self.window))
         self._script_events()
         self._apply_events()
+        # An edit is saved before this frame's drawing: on a dense mesh the frame after a release
+        # (exact positions, fold count, the whole mesh drawn) takes ~0.7 s, and a viewer killed
+        # meanwhile lost the drag.
+        self._save_if_needed()
         if self.test_mode:
             self._announce_drag_frames()
         self._advance_playback()
