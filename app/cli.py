@@ -487,7 +487,11 @@ def _add_viewer_options(parser: argparse.ArgumentParser) -> None:
         help="longest mesh edge in image pixels (default: about 6,000 vertices in the cage)",
     )
     parser.add_argument(
-        "--export", type=Path, metavar="PNG", help="where Ctrl+E writes (default: beside the session)"
+        "--export",
+        type=Path,
+        metavar="PNG",
+        help="where Ctrl+E writes (default: asks, proposing STEM-warped.png beside the image, or in "
+        "the current folder for a bundled demo or a read-only folder)",
     )
     parser.add_argument(
         "--parameterization",

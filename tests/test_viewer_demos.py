@@ -118,3 +118,18 @@ def test_demo_sessions_hold_their_scripts_as_keyframes(name):
     session = read_session(files.session)
     assert session.image.resolve() == files.image.resolve()
     np.testing.assert_array_equal(session.cage, cage)
+
+
+def test_export_of_a_demo_is_proposed_in_the_current_folder_not_in_the_package(tmp_path, monkeypatch):
+    from app.viewer.demos import demo_files, is_demo_file
+    from app.viewer.window import default_export_path
+
+    monkeypatch.chdir(tmp_path)
+    demo = demo_files("starfish").image
+    assert is_demo_file(demo) and default_export_path(demo) == tmp_path / "starfish-warped.png"
+    photo = tmp_path / "photos" / "cat.png"
+    photo.parent.mkdir()
+    photo.write_bytes(b"")
+    assert not is_demo_file(photo) and default_export_path(photo) == photo.with_name("cat-warped.png")
+    photo.with_name("cat-warped.png").write_bytes(b"")
+    assert default_export_path(photo) == photo.with_name("cat-warped-2.png")  # never over a file

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 import sys
 import warnings
 from collections.abc import Callable
@@ -311,6 +312,15 @@ def demo_files(name: str = DEFAULT_DEMO) -> DemoFiles:
             return files
     write_demo(name, _cache_directory())
     return _files_in(_cache_directory(), name)
+
+
+def is_demo_file(path: str | os.PathLike) -> bool:
+    """Whether `path` is one of the bundled demos' files (shipped, or drawn into the cache)."""
+    folder = Path(path).resolve().parent
+    return any(
+        directory is not None and folder == Path(directory).resolve()
+        for directory in (ASSETS, _cache_directory())
+    )
 
 
 def write_demo(name: str, directory: Path) -> DemoFiles:

@@ -62,7 +62,7 @@ class Options:
     playback: bool = False  # start playing the keyframes at once (looping)
     frames: Path | None = None  # write every replayed frame here (and quit at the end)
     fps: float = 30.0
-    export: Path | None = None  # where Ctrl+E writes (default: beside the session)
+    export: Path | None = None  # where Ctrl+E writes (default: ask; see `default_export_path`)
     size: tuple[int, int] = WINDOW_SIZE
 
 
@@ -980,9 +980,12 @@ class AnimationExport:
 
 
 def default_export_path(image: Path) -> Path:
-    """Where Ctrl+E proposes to write: ``STEM-warped.png`` beside the image, numbered if it exists."""
+    """Where Ctrl+E proposes to write: ``STEM-warped.png`` beside the image, numbered if it exists;
+    in the current folder for a bundled demo (inside the installed package) or a read-only folder."""
+    from app.viewer.demos import is_demo_file
+
     image = Path(image)
-    if not os.access(image.parent, os.W_OK):  # a bundled demo, a read-only folder
+    if is_demo_file(image) or not os.access(image.parent, os.W_OK):
         image = Path.cwd() / image.name
     for number in range(1, 1000):
         suffix = "" if number == 1 else f"-{number}"
