@@ -620,7 +620,7 @@ def _warp(args: argparse.Namespace) -> int:
         if folded:
             note(
                 f"warning: the deformation folds over in {folded} of {len(mesh.triangles)} triangles "
-                f"({target_source} may need a gentler move)"
+                f"({_why_folded(target, target_source)})"
             )
         with WarpRenderer(ctx) as renderer:
             with reported_as_input(str(image_path)):
@@ -636,6 +636,17 @@ def _warp(args: argparse.Namespace) -> int:
     if args.report:
         print("\n".join(report))
     return EXIT_OK
+
+
+def _why_folded(target: np.ndarray, target_source: str) -> str:
+    """What to say of a target that folds the deformation: that it crosses itself, if it does."""
+    import core
+
+    try:
+        core.ClosedBSpline(target)
+    except ValueError as error:
+        return f"{target_source}: {error}"
+    return f"{target_source} may need a gentler move"
 
 
 def _distortion_report(curve, mesh, kernel, target, deformed, params) -> list[str]:

@@ -65,8 +65,18 @@ def test_a_folding_move_is_found_where_it_folds(files, capfd):  # noqa: F811
     report = parse(out)
     determinant, where = report["min det J"]
     assert determinant < 0 and report["folded"][0] > 0
+    assert "fold.json may need a gentler move" in err  # the target curve itself is simple
     # The worst fold is near the moved point's span, in the top half of the source cage.
     assert 30 <= where[0] <= 130 and where[1] <= 60
+
+
+def test_a_target_that_crosses_itself_is_named_in_the_fold_warning(files, capfd):  # noqa: F811
+    target = np.array(CAGE, dtype=float)
+    target[1] = [80.0, 160.0]  # through the bottom side: the target curve crosses itself
+    (files / "crossed.json").write_text(json.dumps({"control_points": target.tolist()}))
+    code, _, err = run_main([*warp_argv(files, **{"--target": files / "crossed.json"})], capfd)
+    assert code == 0, err  # a legitimate request: the picture is written, folds and all
+    assert "crossed.json: the curve crosses or touches itself near control points 1 and 5" in err
 
 
 def test_worst_distortion_matches_the_jacobians_it_is_given():
