@@ -79,6 +79,10 @@ def test_save_and_restore_everything(tmp_path):
     assert (again.mode, again.content, again.selected) == ("cage", "height", 2)
     with pytest.raises(InputError, match="exists: open it alone with --session"):
         sessions.open_document(files.image, None, path)
+    broken = path.with_name("broken.json")
+    broken.write_text("{ not json")
+    with pytest.raises(InputError, match=r"broken.json exists but cannot be read \(not valid JSON"):
+        sessions.open_document(files.image, None, broken)
 
 
 def session_with(extra, kernel="power"):

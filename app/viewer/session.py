@@ -142,8 +142,13 @@ def open_document(
     if session is not None and session.exists():
         given = [name for name, value in (("IMAGE", image), ("--cage", cage), ("--fresh", fresh)) if value]
         if given:
+            try:
+                read_session(session)
+                state = "exists"
+            except InputError as error:  # say so: opening it alone is no fix then
+                state = f"exists but cannot be read ({str(error).removeprefix(f'{session}: ')})"
             raise InputError(
-                f"{session} exists: open it alone with --session, or start {' and '.join(given)} "
+                f"{session} {state}: open it alone with --session, or start {' and '.join(given)} "
                 "in a new session file"
             )
         lock = lock_session(session)
