@@ -316,3 +316,25 @@ def test_playback_frames_skip_the_exact_product_and_the_fold_count_until_it_stop
     exact = basis @ target
     assert np.array_equal(scene._positions, exact[renderer.vertex_order].astype(np.float32))
     assert state.folded_count == np.count_nonzero(core.folded_triangles(mesh, exact)) > 0
+
+
+def test_the_export_frame_is_shown_when_the_target_leaves_the_image():
+    from app.viewer.scene import export_frame, overlay_arrays
+
+    cage = np.array([[20.0, 20.0], [80.0, 20.0], [80.0, 80.0], [20.0, 80.0]])
+    snapshot = Snapshot(Path("x.png"), cage, cage)
+    state = AppState(History(snapshot), snapshot, opaque_image(), Path("s.json"))
+    state.mode = "deform"
+    assert export_frame(state) is None  # inside the image: the export is what is seen
+    target = cage.copy()
+    target[1] = [140.0, -30.0]
+    state.live = state.live.replace(target=target)
+    np.testing.assert_array_equal(export_frame(state), [[0, 0], [100, 0], [100, 100], [0, 100]])
+    state.canvas = "grow"
+    frame = export_frame(state)
+    assert frame[0, 1] < 0 and frame[1, 0] > 100 and frame[2, 1] == 100  # widened up and right
+    segments, _ = overlay_arrays(state)
+    drawn = {tuple(np.round(segment[0, :2], 6)) for segment in segments}
+    assert all(tuple(corner) in drawn for corner in frame)
+    state.mode = "cage"
+    assert export_frame(state) is None

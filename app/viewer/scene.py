@@ -24,6 +24,7 @@ import time
 
 import numpy as np
 
+from app.framing import output_region
 from app.render import View, WarpRenderer
 from app.viewer.controller import band_corners
 from app.viewer.distortion_view import vertex_distortion
@@ -36,6 +37,8 @@ SOURCE_COLOUR = (0.16, 0.80, 0.28)
 TARGET_COLOUR = (0.22, 0.48, 1.00)
 SELECTED_COLOUR = (1.00, 0.86, 0.20)
 HOVER_COLOUR = (1.00, 1.00, 1.00)
+#: The frame of what an export holds, when the target leaves the image (`export_frame`).
+EXPORT_FRAME_COLOUR = (0.85, 0.85, 0.85)
 BACKGROUND = (0.13, 0.13, 0.14)
 #: The renderer's content for each of the viewer's views.
 _DRAWN = {"image": "image", "basis": "heat", "height": "field", "distortion": "distortion"}
@@ -88,6 +91,9 @@ def overlay_arrays(state: AppState) -> tuple[np.ndarray, np.ndarray]:
                     handles[index, 2:5] = fill
                     handles[index, 6] = size + grow
         points.append(handles)
+    frame = export_frame(state)
+    if frame is not None:
+        segments.append(_closed_segments(frame, EXPORT_FRAME_COLOUR, 0.8, 1.0))
     band = band_corners(state)
     if band is not None:
         (x0, y0), (x1, y1) = band
@@ -95,6 +101,23 @@ def overlay_arrays(state: AppState) -> tuple[np.ndarray, np.ndarray]:
         segments.append(_closed_segments(corners, SELECTED_COLOUR, 0.9, 1.0))
     segments = np.concatenate(segments) if segments else np.zeros((0, 2, 7))
     return segments, np.concatenate(points)
+
+
+def export_frame(state: AppState) -> np.ndarray | None:
+    """Corners (4, 2), image pixels, of what an export holds (`app.framing.output_region`), or None.
+
+    Shown in deform mode when the target curve leaves the image: with ``canvas="source"``
+    the export is clipped there, with ``"grow"`` it widens to this frame.
+    """
+    target = state.live.target
+    if state.mode != "deform" or len(target) < 3 or state.image is None:
+        return None
+    height, width = state.image.shape[:2]
+    curve = curve_points(target)
+    if curve.min() >= 0 and (curve <= (width, height)).all():
+        return None
+    x0, y0, x1, y1 = output_region((width, height), target, state.canvas)
+    return np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]])
 
 
 def _closed_segments(polyline: np.ndarray, colour, alpha: float, width: float) -> np.ndarray:
