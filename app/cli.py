@@ -487,6 +487,13 @@ def _add_viewer_options(parser: argparse.ArgumentParser) -> None:
         help="longest mesh edge in image pixels (default: about 6,000 vertices in the cage)",
     )
     parser.add_argument(
+        "--vertices",
+        type=_positive(int),
+        metavar="N",
+        help="mesh every cage with about N vertices instead (50,000 or more: dragged through a "
+        "~20,000-vertex preview)",
+    )
+    parser.add_argument(
         "--export",
         type=Path,
         metavar="PNG",
@@ -742,7 +749,10 @@ def _view(args: argparse.Namespace) -> int:
     script = None
     if args.image is None and (args.session is None or not args.session.exists()):
         script = demo_files(DEFAULT_DEMO).script
-    return run(document, Options(stats=args.stats, max_edge=args.max_edge, script=script, export=args.export))
+    options = Options(
+        stats=args.stats, max_edge=args.max_edge, vertices=args.vertices, script=script, export=args.export
+    )
+    return run(document, options)
 
 
 def _demo(args: argparse.Namespace) -> int:
@@ -774,6 +784,7 @@ def _demo(args: argparse.Namespace) -> int:
     options = Options(
         stats=args.stats,
         max_edge=args.max_edge,
+        vertices=args.vertices,
         script=script,
         play=replay,
         playback=playback,
@@ -800,6 +811,8 @@ def _tell(notices: list[str]) -> None:
 
 
 def _check_viewer_outputs(args: argparse.Namespace) -> None:
+    if args.max_edge is not None and args.vertices is not None:
+        raise InputError("--max-edge and --vertices both set the mesh size: give one")
     if args.session is not None:
         check_writable(args.session, suffix=".json")
     if args.export is not None:

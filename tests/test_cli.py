@@ -291,7 +291,11 @@ def test_options_without_a_command_are_the_viewers(monkeypatch, tmp_path):
     monkeypatch.setattr("app.viewer.window.run", lambda document, options: opened.append(options) or 0)
     monkeypatch.setenv("TRANSFINITE_STATE_DIR", str(tmp_path))
     assert main(["--stats", "--max-edge", "20"]) == 0
-    assert [(options.stats, options.max_edge) for options in opened] == [(True, 20.0)]
+    assert main(["--vertices", "90000"]) == 0
+    assert [(options.stats, options.max_edge, options.vertices) for options in opened] == [
+        (True, 20.0, None),
+        (False, None, 90000),
+    ]
 
 
 @pytest.mark.parametrize(
@@ -300,6 +304,8 @@ def test_options_without_a_command_are_the_viewers(monkeypatch, tmp_path):
         (["demo", "nosuch"], r"unknown demo 'nosuch'; choose one of starfish, character, pattern"),
         (["view", "--cage", "cage.json"], r"--cage needs an IMAGE"),
         (["view", "missing.png"], r"missing.png: no such file"),
+        (["demo", "--max-edge", "2", "--vertices", "9000"], r"--max-edge and --vertices both set the mesh"),
+        (["view", "--vertices", "0"], r"--vertices: .*"),
     ],
 )
 def test_viewer_commands_report_bad_input(capfd, monkeypatch, tmp_path, argv, message):

@@ -733,12 +733,8 @@ def test_a_dense_mesh_is_dragged_through_its_preview_mesh(display, environment):
     """~55k vertices: the precompute adds a ~20k-vertex preview mesh, drawn while the handle is held;
     mid-drag the screen shows the moved arm, and on release the dense mesh's exact picture differs
     from that preview frame in almost no pixel."""
-    from app.files import read_cage
-    from app.viewer.editing import default_max_edge
-
     env, folder = environment
     session = folder / "dense-session.json"
-    max_edge = default_max_edge(read_cage(ASSETS / "starfish.cage.json"), 55_000)
     viewer = ViewerProcess(
         [
             "view",
@@ -747,8 +743,8 @@ def test_a_dense_mesh_is_dragged_through_its_preview_mesh(display, environment):
             str(ASSETS / "starfish.cage.json"),
             "--session",
             str(session),
-            "--max-edge",
-            str(max_edge),
+            "--vertices",
+            "55000",
             "--stats",
         ],
         env,

@@ -57,6 +57,7 @@ class Options:
 
     stats: bool = False
     max_edge: float | None = None
+    vertices: int | None = None  # mesh with about this many vertices (default editing.TARGET_VERTICES)
     script: Path | None = None  # a script to replay (demo --play or --script)
     play: bool = False  # start replaying the script at once
     playback: bool = False  # start playing the keyframes at once (looping)
@@ -311,7 +312,7 @@ class Viewer:
         state.drag = state.drawing = None
         state.selected = None
         apply_preferences(state, document.preferences)
-        if document.max_edge is not None:
+        if document.max_edge is not None and self.options.vertices is None:
             self._edges[document.snapshot.cage.tobytes()] = document.max_edge
         self._document_view = document.view
         self._start_cage = document.start_cage
@@ -728,7 +729,8 @@ class Viewer:
             return self.options.max_edge
         key = cage.tobytes()
         if key not in self._edges:
-            self._edges[key] = editing.default_max_edge(cage)
+            vertices = self.options.vertices or editing.TARGET_VERTICES
+            self._edges[key] = editing.default_max_edge(cage, vertices)
         return self._edges[key]
 
     def _update_precompute(self) -> None:
