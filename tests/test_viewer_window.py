@@ -614,8 +614,8 @@ def test_keyframes_are_added_played_exported_and_saved(display, environment):
             xdotool(display, "mousemove", "--window", window, *(f"{v:.0f}" for v in start + step * shift))
             time.sleep(0.02)
         xdotool(display, "mouseup", "1")
+        viewer.wait_for("saved", 10)  # the release is saved first, before the frame that draws it
         dragged = viewer.wait_for("drag done", 10)
-        viewer.wait_for("saved", 10)
         xdotool(display, "key", "i")
         viewer.wait_for("saved", 10)
         keyframes = json.loads(session.read_text())["keyframes"]
