@@ -227,6 +227,9 @@ class WarpRenderer:
         self._highlight_count = 0
         self._field_ready = False
         self._target: tuple[tuple[int, int], int, list] | None = None
+        #: Counts the changes of what `draw` and `draw_backdrop` would draw (image, meshes,
+        #: positions, fields): a picture drawn at one revision can be reused until the next.
+        self.revision = 0
 
     # -- data ---------------------------------------------------------------
 
@@ -238,6 +241,7 @@ class WarpRenderer:
         image : ndarray of shape (H, W, 4), uint8
             RGBA with straight (non-premultiplied) alpha, row 0 at the top.
         """
+        self.revision += 1
         image = np.asarray(image)
         if image.dtype != np.uint8 or image.ndim != 3 or image.shape[2] != 4:
             raise ValueError(
@@ -292,6 +296,7 @@ class WarpRenderer:
             Vertex indices; triangles sharing an edge share its two vertices, which
             is what keeps the rendering free of cracks.
         """
+        self.revision += 1
         vertices, triangles = _checked_mesh(vertices, triangles)
         self._release_mesh()
         self._mesh = self._build_mesh(vertices, triangles)
@@ -311,6 +316,7 @@ class WarpRenderer:
         vertices, triangles
             As in `set_mesh`.
         """
+        self.revision += 1
         self._require_mesh()
         vertices, triangles = _checked_mesh(vertices, triangles)
         self._release_preview()
@@ -329,6 +335,7 @@ class WarpRenderer:
         positions : ndarray of shape (V, 2)
             Deformed vertices in image pixels, in the order of `set_mesh`.
         """
+        self.revision += 1
         self._require_mesh()
         mesh = self._mesh
         positions = np.asarray(positions)
@@ -356,17 +363,22 @@ class WarpRenderer:
         positions : ndarray of shape (V, 2), float32, C-contiguous
             ``deformed[vertex_order]``, image pixels.
         """
+        self.revision += 1
         self._require_mesh()
         self._mesh.write_ordered_positions(positions)
 
     def set_preview_positions(self, positions: np.ndarray) -> None:
         """Deformed preview vertices, in `preview_vertex_order`: float32 of shape (V', 2)."""
+        self.revision += 1
         self._require_preview()
         self._preview.write_ordered_positions(positions)
 
     def set_distortion_measure(self, measure: str) -> None:
         """How ``content="distortion"`` colours its field: ``"area"`` (log2 det J) or ``"conformal"``."""
-        self._distortion_program["u_measure"].value = DISTORTION_MEASURES[measure]
+        code = DISTORTION_MEASURES[measure]
+        if self._distortion_program["u_measure"].value != code:
+            self.revision += 1
+            self._distortion_program["u_measure"].value = code
 
     def set_field(self, values: np.ndarray) -> None:
         """Write the per-vertex scalar field drawn by ``content="field"``, ``"heat"`` or ``"distortion"``.
@@ -375,6 +387,7 @@ class WarpRenderer:
         ----------
         values : ndarray of shape (V,)
         """
+        self.revision += 1
         self._require_mesh()
         mesh = self._mesh
         values = np.asarray(values)
@@ -391,6 +404,7 @@ class WarpRenderer:
         triangles : ndarray of shape (K,), int or bool of shape (T,)
             Indices into the triangles of `set_mesh`, or a mask over them.
         """
+        self.revision += 1
         self._require_mesh()
         triangles = np.asarray(triangles)
         indices = self._mesh.triangle_indices

@@ -338,3 +338,46 @@ def test_the_export_frame_is_shown_when_the_target_leaves_the_image():
     assert all(tuple(corner) in drawn for corner in frame)
     state.mode = "cage"
     assert export_frame(state) is None
+
+
+def test_the_mesh_layer_is_drawn_again_only_when_what_it_shows_changes(renderer, monkeypatch):
+    """Frames that change only the overlays (a hovered handle) copy the kept backdrop-and-mesh
+    layer; a new target, view or setting draws it again.  The pixels are those of a full redraw."""
+    result, cage = preview_setup(renderer)
+    snapshot = Snapshot(Path("x.png"), cage, cage)
+    state = AppState(History(snapshot), snapshot, opaque_image(), Path("s.json"), basis=result)
+    state.mode, state.view = "deform", View(1.0, (0.0, 0.0))
+    scene = Scene(renderer)
+    drawn = []
+    draw = renderer.draw
+    monkeypatch.setattr(renderer, "draw", lambda *a, **k: drawn.append(1) or draw(*a, **k))
+    screen = renderer.ctx.simple_framebuffer((320, 240))
+
+    def frame() -> np.ndarray:
+        screen.use()
+        scene.sync(state)
+        scene.draw(state, (320, 240))
+        return np.frombuffer(screen.read(components=4), np.uint8).reshape(240, 320, 4)
+
+    first = frame()
+    assert len(drawn) == 1
+    frame()
+    assert len(drawn) == 1  # nothing changed: the layer is copied
+    state.hovered = 3
+    hovered = frame()
+    assert len(drawn) == 1 and not np.array_equal(hovered, first)  # the overlay did change
+    for change in (
+        lambda: setattr(state, "live", state.live.replace(target=cage + (4.0, 0.0))),
+        lambda: setattr(state, "view", View(1.5, (-20.0, 0.0))),
+        lambda: setattr(state, "show_folds", not state.show_folds),
+        lambda: setattr(state, "outside", "original"),
+    ):
+        before = len(drawn)
+        change()
+        frame()
+        assert len(drawn) == before + 1
+    cached = frame()
+    scene.layer_key = None  # a forced full redraw gives the same pixels as the copied layer
+    assert np.array_equal(frame(), cached)
+    scene.release()
+    screen.release()

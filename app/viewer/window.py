@@ -339,6 +339,7 @@ class Viewer:
         self._save_if_needed(force=True)
         if self.window is None:
             return
+        self.scene.release()
         self.renderer.release()
         self.imgui_renderer.shutdown()
         self.imgui.destroy_context()
