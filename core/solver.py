@@ -74,6 +74,8 @@ MIN_COARSE_NODES = 96
 # Near points start from every fourth node of their refined rule (the separation that gives it).
 NEAR_START_SEPARATION = 4.0 * COARSE_SPACINGS
 ARMIJO = 1e-4
+# Newton steps with |delta| <= FULL_STEP (1 - |phi|) are accepted without a trial (see _newton).
+FULL_STEP = 0.25
 
 
 @njit(cache=True, error_model="numpy")
@@ -359,21 +361,29 @@ def _accumulate(row, mode, value, t, step, count, control_count):
         row[after] += value * 0.5 * u * u
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", fastmath={"contract", "arcp", "reassoc", "nsz"})
 def _inside_polygon(sample_x, sample_y, x, y):
-    """Crossing-number test of (x, y) against the closed sample polygon."""
+    """Crossing-number test of (x, y) against the closed sample polygon.
+
+    An edge (i - 1, i) crosses the horizontal ray to the right of (x, y) if its ends
+    lie on either side of y and (x, y) is left of it: (x - x_i) (y_(i-1) - y_i) <
+    (y - y_i) (x_(i-1) - x_i) when the edge rises, the reverse when it falls.  The
+    products replace a division, and the count vectorises.
+    """
     count = sample_x.shape[0]
-    inside = False
-    j = count - 1
-    for i in range(count):
-        yi = sample_y[i]
-        yj = sample_y[j]
-        if (yi > y) != (yj > y):
-            xcross = sample_x[i] + (y - yi) / (yj - yi) * (sample_x[j] - sample_x[i])
-            if x < xcross:
-                inside = not inside
-        j = i
-    return inside
+    crossings = _crosses(sample_x[count - 1], sample_y[count - 1], sample_x[0], sample_y[0], x, y)
+    for i in range(1, count):
+        crossings += _crosses(sample_x[i - 1], sample_y[i - 1], sample_x[i], sample_y[i], x, y)
+    return crossings % 2 == 1
+
+
+@njit(cache=True, error_model="numpy", fastmath={"contract", "arcp", "reassoc", "nsz"})
+def _crosses(xj, yj, xi, yi, x, y):
+    """1 if the edge from (xj, yj) to (xi, yi) crosses the ray from (x, y) to +x, else 0."""
+    left = (x - xi) * (yj - yi)
+    right = (y - yi) * (xj - xi)
+    inside = left < right if yj > yi else left > right
+    return 1 if ((yi > y) != (yj > y)) and inside else 0
 
 
 @njit(cache=True, error_model="numpy")
@@ -551,16 +561,18 @@ def _weights(kernel, power, shift, px, py, tx, ty, sx, sy, w, x, y, count, corne
         k = 4.0 if kernel == HARMONIC_LIKE else power
         integral = 0.0
         length = 0.0
-        for j in range(count):
-            q = r_min * inv_r[j]
-            if k == 4.0:
+        if k == 4.0:
+            for j in range(count):
+                q = r_min * inv_r[j]
                 q2 = q * q
-                omega = q2 * q2
-            else:
-                omega = q**k
-            a[j] = omega
-            integral += w[j] * omega
-            length += w[j]
+                a[j] = q2 * q2
+                integral += w[j] * a[j]
+                length += w[j]
+        else:
+            for j in range(count):
+                a[j] = (r_min * inv_r[j]) ** k
+                integral += w[j] * a[j]
+                length += w[j]
         mode = SHIFT_INTEGRAL if kernel == HARMONIC_LIKE else shift
         # Eq. 19-20: omega + int omega over the whole parameter interval (or its mean).
         constant = 0.0
@@ -568,8 +580,11 @@ def _weights(kernel, power, shift, px, py, tx, ty, sx, sy, w, x, y, count, corne
             constant = integral
         elif mode == SHIFT_MEAN:
             constant = integral / length
+        # The sum of w (omega + constant) is known: normalise in the same pass.
+        inverse = 1.0 / (integral + constant * length)
         for j in range(count):
-            a[j] = w[j] * (a[j] + constant)
+            a[j] = w[j] * (a[j] + constant) * inverse
+        return count
     elif kernel == MODIFIED_MEAN_VALUE or kernel == MODIFIED_MEAN_VALUE_SQUARED:
         for j in range(count):
             # |d theta / dt| = |(p - x) x p'| / r^2 (Eq. 23).
@@ -641,7 +656,10 @@ def _newton(ux, uy, inv_r, a, s, inv_s, trial, trial_inv, count, tolerance, phix
     m_j = min(1, 1 + z_j), from log(1 + z) >= z - z^2 / (2 min(1, 1 + z)) for z > -1;
     1 / m_j = max(1, s_j / s_j(trial)) needs no division of its own.  If the bound
     meets the Armijo condition the step is accepted; only otherwise is a tighter
-    bound computed (`_change_bound`, log1p only where z_j < -1/2).  The loops carry no
+    bound computed (`_change_bound`, log1p only where z_j < -1/2).  A step short
+    enough that it is feasible and meets the bound for sure (|delta| <= FULL_STEP
+    (1 - |phi|), the usual last step from a warm start) needs no trial: one
+    `_newton_terms` pass at the new phi, without the bound's sums.  The loops carry no
     min/max reduction (feasibility is a count), so that they vectorise.
 
     On return `s` and `inv_s` hold 1 + phi . u_j and its inverse.  Returns
@@ -672,6 +690,19 @@ def _newton(ux, uy, inv_r, a, s, inv_s, trial, trial_inv, count, tolerance, phix
         slope = gx * deltax + gy * deltay
         if not slope < 0.0:
             break
+        # |z_j| <= |delta| / min s_j <= |delta| / (1 - |phi|) (|u_j| = 1).  Below FULL_STEP the
+        # full step is feasible and the bound below meets the Armijo condition for sure:
+        # -sum a z = slope, sum a z^2 / m <= -slope / (1 - zeta), so the bound is at most
+        # slope (1 - 1 / (2 (1 - zeta))) <= ARMIJO slope.  It is taken without the trial
+        # pass, and one `_newton_terms` pass at the new phi gives the next step's terms.
+        reach = 1.0 - math.sqrt(phix * phix + phiy * phiy)
+        if reach > 0.0 and math.sqrt(deltax * deltax + deltay * deltay) <= FULL_STEP * reach:
+            iterations += 1
+            phix += deltax
+            phiy += deltay
+            gx, gy, hxx, hxy, hyy, d, _ = _newton_terms(ux, uy, inv_r, a, s, inv_s, count, phix, phiy)
+            residual = math.sqrt(gx * gx + gy * gy) / d
+            continue
         alpha = 1.0
         accepted = False
         for _ in range(MAX_BACKTRACKS):
