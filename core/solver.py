@@ -513,8 +513,8 @@ def _sample_directions(sample_x, sample_y, spacing, x, y, ux, uy, inv_r):
     """Unit directions u_k = (p_k - x) / r_k and 1 / r_k to the N samples, one vectorised pass.
 
     Returns the number of samples closer than NEAR_SPACINGS times their spacing
-    (a point on a sample, r_k = 0, counts; the near-point scan of `_solve_point`
-    recomputes its directions).  No min reduction here: it would stop the loop
+    (a point on a sample, r_k = 0, counts: it is on the boundary, and its
+    directions are not used).  No min reduction here: it would stop the loop
     from vectorising (see `_largest`).
     """
     near = 0
@@ -921,18 +921,17 @@ def _solve_point(x, y, settings, curve, geometry, largest_spacing, row, scratch,
     window_count = 0
     in_run = False
     nearest_index = np.int64(0)  # not a literal: one specialisation of _merge_windows
+    # Squared distances: the directions of pass 1 stand, the scan needs no root or division.
+    nearest_squared = math.inf
     for k in range(count if near > 0 else 0):
         dx = sample_x[k] - x
         dy = sample_y[k] - y
-        r = math.sqrt(dx * dx + dy * dy)
-        inv = 1.0 / r
-        ux[k] = dx * inv
-        uy[k] = dy * inv
-        inv_r[k] = inv
-        if r < nearest:
-            nearest = r
+        r2 = dx * dx + dy * dy
+        if r2 < nearest_squared:
+            nearest_squared = r2
             nearest_index = k
-        if r < NEAR_SPACINGS * spacing[k]:
+        limit = NEAR_SPACINGS * spacing[k]
+        if r2 < limit * limit:
             if not in_run:
                 if window_count < MAX_WINDOWS:
                     window_start[window_count] = k
@@ -942,6 +941,8 @@ def _solve_point(x, y, settings, curve, geometry, largest_spacing, row, scratch,
                 window_stop[window_count - 1] = k
         else:
             in_run = False
+    if near > 0:
+        nearest = math.sqrt(nearest_squared)
     window_count = _merge_windows(
         window_start, window_stop, min(window_count, MAX_WINDOWS), count, nearest_index
     )
@@ -1083,13 +1084,63 @@ def _solve_point(x, y, settings, curve, geometry, largest_spacing, row, scratch,
         phix,
         phiy,
     )
-    period = count * step
-    for j in range(total):
-        _accumulate(
-            row, mode, a[j], _output_parameter(coefficients, mode, _wrap(t[j], period)), out_step, out_count,
-            control_count,
-        )  # fmt: skip
+    _accumulate_nodes(row, mode, a, t, total, count * step, out_step, out_count, control_count, coefficients)
     return iterations, status, residual
+
+
+@njit(cache=True, error_model="numpy")
+def _accumulate_nodes(row, mode, a, t, total, period, out_step, out_count, control_count, coefficients):
+    """`_accumulate` of a_j at the output parameter of every node t_j, j < total (each (total,)).
+
+    For the B-spline basis (OUTPUT_BASIS) the three weights of a run of nodes on one
+    span are summed in registers and added to the row when the span changes: the
+    nodes come in increasing t but for the wrap and the appended corners, so this is
+    a few additions per span instead of three read-modify-writes of the row per node.
+    """
+    if mode != OUTPUT_BASIS:
+        for j in range(total):
+            _accumulate(row, mode, a[j], _wrap(t[j], period), out_step, out_count, control_count)
+        return
+    current = -1
+    s0 = 0.0
+    s1 = 0.0
+    s2 = 0.0
+    spans = float(control_count)
+    arc_length = coefficients.shape[2] == 3  # a call per node costs more than the rest
+    for j in range(total):
+        # Most nodes are in range already: math.floor costs a library call, skip it.
+        tj = t[j]
+        if not 0.0 <= tj < period:
+            tj = _wrap(tj, period)
+        if arc_length:
+            tj = _output_parameter(coefficients, mode, tj)
+        if not 0.0 <= tj < spans:
+            tj = _wrap(tj, spans)
+        segment = min(int(tj), control_count - 1)  # tj >= 0 here
+        if segment != current:
+            if current >= 0:
+                _add_span(row, current, control_count, s0, s1, s2)
+            current = segment
+            s0 = 0.0
+            s1 = 0.0
+            s2 = 0.0
+        u = tj - segment
+        value = 0.5 * a[j]
+        s0 += value * (1.0 - u) * (1.0 - u)
+        s1 += value * (-2.0 * u * u + 2.0 * u + 1.0)
+        s2 += value * u * u
+    if current >= 0:
+        _add_span(row, current, control_count, s0, s1, s2)
+
+
+@njit(cache=True, error_model="numpy")
+def _add_span(row, segment, control_count, s0, s1, s2):
+    """Add the sums s0, s1, s2 of a span's nodes to N_(segment-1), N_segment, N_(segment+1) (cyclic)."""
+    before = segment - 1 if segment > 0 else control_count - 1
+    after = segment + 1 if segment + 1 < control_count else 0
+    row[before] += s0
+    row[segment] += s1
+    row[after] += s2
 
 
 @njit(cache=True, error_model="numpy", fastmath={"contract", "arcp", "reassoc", "nsz"})
@@ -1130,10 +1181,17 @@ def _node_geometry(
     values, so that the refined rule agrees with the plain one there; others are
     evaluated on the curve.
     """
+    inverse = 1.0 / step
     for j in range(nodes):
-        k = int(round(t[j] / step))
+        # The nearest sample index, round(t / step), without a division or a library call.
+        q = t[j] * inverse
+        k = int(q + 0.5) if q >= 0.0 else -int(0.5 - q)
         if abs(t[j] - k * step) <= 1e-12 * step:
-            k = k % count
+            # k % count without an integer division (k is at most a period out of range).
+            while k < 0:
+                k += count
+            while k >= count:
+                k -= count
             px[j] = sample_x[k]
             py[j] = sample_y[k]
             tx[j] = tangent_x[k]
