@@ -78,8 +78,9 @@ NEAR_START_SEPARATION = 4.0 * COARSE_SPACINGS
 # on all N, against 4 to 6 from phi = 0.
 FAR_START_SEPARATION = 2.0 * COARSE_SPACINGS
 ARMIJO = 1e-4
-# Newton steps with |delta| <= FULL_STEP (1 - |phi|) are accepted without a trial (see _newton).
-FULL_STEP = 0.25
+# Newton steps with |delta| <= FULL_STEP (1 - |phi|) are accepted without a trial (see _newton):
+# feasible, and Armijo holds for any FULL_STEP < 1/2 (0.45: the bound is 0.09 slope <= ARMIJO slope).
+FULL_STEP = 0.45
 
 
 @njit(cache=True, error_model="numpy")
@@ -654,7 +655,7 @@ def _newton(ux, uy, inv_r, a, s, inv_s, trial, trial_inv, count, tolerance, phix
     meets the Armijo condition the step is accepted; only otherwise is a tighter
     bound computed (`_change_bound`, log1p only where z_j < -1/2).  A step short
     enough that it is feasible and meets the bound for sure (|delta| <= FULL_STEP
-    (1 - |phi|), the usual last step from a warm start) needs no trial: one
+    (1 - |phi|): every late step, from phi = 0 or a warm start) needs no trial: one
     `_newton_terms` pass at the new phi, without the bound's sums.  The loops carry no
     min/max reduction (feasibility is a count), so that they vectorise.
 
