@@ -1154,9 +1154,7 @@ def _fold_onto_basis(row, a, basis0, basis1, basis2, control_count, coefficients
     The samples of span j (`span_first_sample`: N / n of them in the natural
     parameter, as many as its share of the length in arc length) touch only
     N_(j-1), N_j and N_(j+1), whose values at the samples are basis0, basis1 and
-    basis2, each (N,).  The inner loop runs over range(length), not range(first,
-    last), and calls nothing: either form was several times slower (no
-    vectorisation, a call per span).
+    basis2, each (N,).
     """
     count = basis0.shape[0]
     first = 0  # span 0 starts at sample 0 in either parameter
@@ -1165,11 +1163,16 @@ def _fold_onto_basis(row, a, basis0, basis1, basis2, control_count, coefficients
         s0 = 0.0
         s1 = 0.0
         s2 = 0.0
-        for i in range(last - first):
-            k = first + i
-            s0 += a[k] * basis0[k]
-            s1 += a[k] * basis1[k]
-            s2 += a[k] * basis2[k]
+        # Views and an index from 0: a computed index first + i might be negative for all
+        # numba knows, and the wrap-around check per element stops the loop vectorising.
+        span_a = a[first:last]
+        span0 = basis0[first:last]
+        span1 = basis1[first:last]
+        span2 = basis2[first:last]
+        for i in range(span_a.shape[0]):
+            s0 += span_a[i] * span0[i]
+            s1 += span_a[i] * span1[i]
+            s2 += span_a[i] * span2[i]
         first = last
         row[(j - 1) % control_count] += s0
         row[j] += s1
