@@ -71,6 +71,9 @@ MAX_BACKTRACKS = 60
 # distance over this many, and it keeps at least this many nodes.
 COARSE_SPACINGS = 3.0
 MIN_COARSE_NODES = 96
+# The coarse minimiser is a start only, off the full one by the subset's quadrature error
+# anyway: its Newton stops at this many times the tolerance (one step fewer, as many on all N).
+COARSE_LOOSER = 1e3
 # Near points start from every fourth node of their refined rule (the separation that gives it).
 NEAR_START_SEPARATION = 4.0 * COARSE_SPACINGS
 # Far points start from every other sample at least: nearer than 2 COARSE_SPACINGS spacings
@@ -834,8 +837,8 @@ def _coarse_start(ux, uy, inv_r, a, count, separation, coarse, tolerance):
     (`_newton`) then polishes it, usually in one step, to the same tolerance.  The
     answer stays the minimiser of the full rule; only the starting point changes.
     `coarse` holds four scratch arrays for the subset (u_x, u_y, 1 / r, a) and
-    four for Newton.  Returns (phix, phiy), (0, 0) where no subset applies or the
-    coarse Newton did not converge.
+    four for Newton, which stops at COARSE_LOOSER times `tolerance`.  Returns
+    (phix, phiy), (0, 0) where no subset applies or the coarse Newton did not converge.
     """
     stride = 1
     while 2 * stride * COARSE_SPACINGS <= separation and count // (2 * stride) >= MIN_COARSE_NODES:
@@ -851,7 +854,18 @@ def _coarse_start(ux, uy, inv_r, a, count, separation, coarse, tolerance):
         coarse_inv_r[j] = inv_r[k]
         coarse_a[j] = a[k]
     _, status, _, phix, phiy = _newton(
-        coarse_ux, coarse_uy, coarse_inv_r, coarse_a, s, inv_s, trial, trial_inv, nodes, tolerance, 0.0, 0.0
+        coarse_ux,
+        coarse_uy,
+        coarse_inv_r,
+        coarse_a,
+        s,
+        inv_s,
+        trial,
+        trial_inv,
+        nodes,
+        COARSE_LOOSER * tolerance,
+        0.0,
+        0.0,
     )
     if status != STATUS_CONVERGED:
         return 0.0, 0.0
