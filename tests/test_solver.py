@@ -126,3 +126,21 @@ def test_a_newton_step_within_the_full_step_radius_meets_the_armijo_bound():
         slope = g @ delta
         assert bound <= solver.ARMIJO * slope
     assert near_the_edge >= 20
+
+
+def test_the_graded_side_solves_its_end_spacing_equation():
+    # _graded_side picks m intervals and the sinh scale s' <= scale with
+    # sqrt(s'^2 + edge^2) asinh(edge / s') = m h: the rule t = s' sinh(sigma), sigma = i dsigma,
+    # ends at the window edge with the node spacing of the samples there.
+    rng = np.random.default_rng(11)
+    for _ in range(300):
+        step = 10.0 ** rng.uniform(-3.0, -1.0)
+        edge = step * rng.uniform(2.0, 40.0)
+        scale = edge * 10.0 ** rng.uniform(-12.0, 0.0)
+        intervals, sinh_scale, sigma_step = solver._graded_side(edge, scale, step)
+        if intervals == solver.MAX_WINDOW_NODES // 2 - 1:
+            continue  # over the node budget: no exact end spacing (documented)
+        assert 0.0 < sinh_scale <= scale
+        length = np.hypot(sinh_scale, edge) * np.arcsinh(edge / sinh_scale)
+        assert abs(length - intervals * step) <= 1e-13 * intervals * step
+        np.testing.assert_allclose(sinh_scale * np.sinh(intervals * sigma_step), edge, rtol=1e-13)
