@@ -1139,7 +1139,7 @@ def _accumulate_nodes(row, mode, a, t, total, period, out_step, out_count, contr
         for j in range(total):
             _accumulate(row, mode, a[j], _wrap(t[j], period), out_step, out_count, control_count)
         return
-    current = -1
+    current = np.int64(-1)  # not a literal: one specialisation of _add_span
     s0 = 0.0
     s1 = 0.0
     s2 = 0.0
