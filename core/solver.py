@@ -71,9 +71,19 @@ MAX_BACKTRACKS = 60
 # distance over this many, and it keeps at least this many nodes.
 COARSE_SPACINGS = 3.0
 MIN_COARSE_NODES = 96
+# The coarse minimiser is a start only, off the full one by the subset's quadrature error
+# anyway: its Newton stops at this many times the tolerance (one step fewer, as many on all N).
+COARSE_LOOSER = 1e3
 # Near points start from every fourth node of their refined rule (the separation that gives it).
 NEAR_START_SEPARATION = 4.0 * COARSE_SPACINGS
+# Far points start from every other sample at least: nearer than 2 COARSE_SPACINGS spacings
+# that subset is a cruder rule, but Newton from its minimiser still takes about 1 step
+# on all N, against 4 to 6 from phi = 0.
+FAR_START_SEPARATION = 2.0 * COARSE_SPACINGS
 ARMIJO = 1e-4
+# Newton steps with |delta| <= FULL_STEP (1 - |phi|) are accepted without a trial (see _newton):
+# feasible, and Armijo holds for any FULL_STEP < 1/2 (0.45: the bound is 0.09 slope <= ARMIJO slope).
+FULL_STEP = 0.45
 
 
 @njit(cache=True, error_model="numpy")
@@ -423,13 +433,33 @@ def _graded_side(edge, scale, step):
     while math.sqrt(low * low + edge * edge) * math.asinh(edge / low) <= target and low > 1e-300:
         low *= 0.5
     high = scale
+    # Safeguarded Newton in s' on g(s') = sqrt(s'^2 + edge^2) asinh(edge / s') - target,
+    # g' = s' asinh(edge / s') / sqrt(s'^2 + edge^2) - edge / s' < 0, inside the bracket
+    # g(low) > 0 >= g(high); a geometric bisection step wherever Newton leaves it.
+    # Bisection alone took 64 steps of a square root and an asinh each.
+    current = high
     for _ in range(64):
-        middle = math.sqrt(low * high)
-        if math.sqrt(middle * middle + edge * edge) * math.asinh(edge / middle) > target:
-            low = middle
+        root = math.sqrt(current * current + edge * edge)
+        spread = math.asinh(edge / current)
+        excess = root * spread - target
+        if excess > 0.0:
+            low = current
         else:
-            high = middle
-    return intervals, high, math.asinh(edge / high) / intervals
+            high = current
+        if excess == 0.0:
+            break
+        slope = current * spread / root - edge / current
+        candidate = current - excess / slope if slope < 0.0 else -1.0
+        if not (low < candidate < high):
+            candidate = math.sqrt(low * high)
+        if abs(candidate - current) <= 4e-16 * current:
+            current = candidate
+            break
+        if high - low <= 4e-16 * high:
+            current = high
+            break
+        current = candidate
+    return intervals, current, math.asinh(edge / current) / intervals
 
 
 @njit(cache=True, error_model="numpy")
@@ -503,8 +533,8 @@ def _sample_directions(sample_x, sample_y, spacing, x, y, ux, uy, inv_r):
     """Unit directions u_k = (p_k - x) / r_k and 1 / r_k to the N samples, one vectorised pass.
 
     Returns the number of samples closer than NEAR_SPACINGS times their spacing
-    (a point on a sample, r_k = 0, counts; the near-point scan of `_solve_point`
-    recomputes its directions).  No min reduction here: it would stop the loop
+    (a point on a sample, r_k = 0, counts: it is on the boundary, and its
+    directions are not used).  No min reduction here: it would stop the loop
     from vectorising (see `_largest`).
     """
     near = 0
@@ -551,16 +581,18 @@ def _weights(kernel, power, shift, px, py, tx, ty, sx, sy, w, x, y, count, corne
         k = 4.0 if kernel == HARMONIC_LIKE else power
         integral = 0.0
         length = 0.0
-        for j in range(count):
-            q = r_min * inv_r[j]
-            if k == 4.0:
+        if k == 4.0:
+            for j in range(count):
+                q = r_min * inv_r[j]
                 q2 = q * q
-                omega = q2 * q2
-            else:
-                omega = q**k
-            a[j] = omega
-            integral += w[j] * omega
-            length += w[j]
+                a[j] = q2 * q2
+                integral += w[j] * a[j]
+                length += w[j]
+        else:
+            for j in range(count):
+                a[j] = (r_min * inv_r[j]) ** k
+                integral += w[j] * a[j]
+                length += w[j]
         mode = SHIFT_INTEGRAL if kernel == HARMONIC_LIKE else shift
         # Eq. 19-20: omega + int omega over the whole parameter interval (or its mean).
         constant = 0.0
@@ -568,8 +600,11 @@ def _weights(kernel, power, shift, px, py, tx, ty, sx, sy, w, x, y, count, corne
             constant = integral
         elif mode == SHIFT_MEAN:
             constant = integral / length
+        # The sum of w (omega + constant) is known: normalise in the same pass.
+        inverse = 1.0 / (integral + constant * length)
         for j in range(count):
-            a[j] = w[j] * (a[j] + constant)
+            a[j] = w[j] * (a[j] + constant) * inverse
+        return count
     elif kernel == MODIFIED_MEAN_VALUE or kernel == MODIFIED_MEAN_VALUE_SQUARED:
         for j in range(count):
             # |d theta / dt| = |(p - x) x p'| / r^2 (Eq. 23).
@@ -641,7 +676,10 @@ def _newton(ux, uy, inv_r, a, s, inv_s, trial, trial_inv, count, tolerance, phix
     m_j = min(1, 1 + z_j), from log(1 + z) >= z - z^2 / (2 min(1, 1 + z)) for z > -1;
     1 / m_j = max(1, s_j / s_j(trial)) needs no division of its own.  If the bound
     meets the Armijo condition the step is accepted; only otherwise is a tighter
-    bound computed (`_change_bound`, log1p only where z_j < -1/2).  The loops carry no
+    bound computed (`_change_bound`, log1p only where z_j < -1/2).  A step short
+    enough that it is feasible and meets the bound for sure (|delta| <= FULL_STEP
+    (1 - |phi|): every late step, from phi = 0 or a warm start) needs no trial: one
+    `_newton_terms` pass at the new phi, without the bound's sums.  The loops carry no
     min/max reduction (feasibility is a count), so that they vectorise.
 
     On return `s` and `inv_s` hold 1 + phi . u_j and its inverse.  Returns
@@ -672,6 +710,19 @@ def _newton(ux, uy, inv_r, a, s, inv_s, trial, trial_inv, count, tolerance, phix
         slope = gx * deltax + gy * deltay
         if not slope < 0.0:
             break
+        # |z_j| <= |delta| / min s_j <= |delta| / (1 - |phi|) (|u_j| = 1).  Below FULL_STEP the
+        # full step is feasible and the bound below meets the Armijo condition for sure:
+        # -sum a z = slope, sum a z^2 / m <= -slope / (1 - zeta), so the bound is at most
+        # slope (1 - 1 / (2 (1 - zeta))) <= ARMIJO slope.  It is taken without the trial
+        # pass, and one `_newton_terms` pass at the new phi gives the next step's terms.
+        reach = 1.0 - math.sqrt(phix * phix + phiy * phiy)
+        if reach > 0.0 and math.sqrt(deltax * deltax + deltay * deltay) <= FULL_STEP * reach:
+            iterations += 1
+            phix += deltax
+            phiy += deltay
+            gx, gy, hxx, hxy, hyy, d, _ = _newton_terms(ux, uy, inv_r, a, s, inv_s, count, phix, phiy)
+            residual = math.sqrt(gx * gx + gy * gy) / d
+            continue
         alpha = 1.0
         accepted = False
         for _ in range(MAX_BACKTRACKS):
@@ -806,8 +857,8 @@ def _coarse_start(ux, uy, inv_r, a, count, separation, coarse, tolerance):
     (`_newton`) then polishes it, usually in one step, to the same tolerance.  The
     answer stays the minimiser of the full rule; only the starting point changes.
     `coarse` holds four scratch arrays for the subset (u_x, u_y, 1 / r, a) and
-    four for Newton.  Returns (phix, phiy), (0, 0) where no subset applies or the
-    coarse Newton did not converge.
+    four for Newton, which stops at COARSE_LOOSER times `tolerance`.  Returns
+    (phix, phiy), (0, 0) where no subset applies or the coarse Newton did not converge.
     """
     stride = 1
     while 2 * stride * COARSE_SPACINGS <= separation and count // (2 * stride) >= MIN_COARSE_NODES:
@@ -823,7 +874,18 @@ def _coarse_start(ux, uy, inv_r, a, count, separation, coarse, tolerance):
         coarse_inv_r[j] = inv_r[k]
         coarse_a[j] = a[k]
     _, status, _, phix, phiy = _newton(
-        coarse_ux, coarse_uy, coarse_inv_r, coarse_a, s, inv_s, trial, trial_inv, nodes, tolerance, 0.0, 0.0
+        coarse_ux,
+        coarse_uy,
+        coarse_inv_r,
+        coarse_a,
+        s,
+        inv_s,
+        trial,
+        trial_inv,
+        nodes,
+        COARSE_LOOSER * tolerance,
+        0.0,
+        0.0,
     )
     if status != STATUS_CONVERGED:
         return 0.0, 0.0
@@ -890,18 +952,17 @@ def _solve_point(x, y, settings, curve, geometry, largest_spacing, row, scratch,
     window_count = 0
     in_run = False
     nearest_index = np.int64(0)  # not a literal: one specialisation of _merge_windows
+    # Squared distances: the directions of pass 1 stand, the scan needs no root or division.
+    nearest_squared = math.inf
     for k in range(count if near > 0 else 0):
         dx = sample_x[k] - x
         dy = sample_y[k] - y
-        r = math.sqrt(dx * dx + dy * dy)
-        inv = 1.0 / r
-        ux[k] = dx * inv
-        uy[k] = dy * inv
-        inv_r[k] = inv
-        if r < nearest:
-            nearest = r
+        r2 = dx * dx + dy * dy
+        if r2 < nearest_squared:
+            nearest_squared = r2
             nearest_index = k
-        if r < NEAR_SPACINGS * spacing[k]:
+        limit = NEAR_SPACINGS * spacing[k]
+        if r2 < limit * limit:
             if not in_run:
                 if window_count < MAX_WINDOWS:
                     window_start[window_count] = k
@@ -911,6 +972,8 @@ def _solve_point(x, y, settings, curve, geometry, largest_spacing, row, scratch,
                 window_stop[window_count - 1] = k
         else:
             in_run = False
+    if near > 0:
+        nearest = math.sqrt(nearest_squared)
     window_count = _merge_windows(
         window_start, window_stop, min(window_count, MAX_WINDOWS), count, nearest_index
     )
@@ -946,7 +1009,14 @@ def _solve_point(x, y, settings, curve, geometry, largest_spacing, row, scratch,
             phix, phiy = 0.0, 0.0
             if kernel <= MODIFIED_MEAN_VALUE_SQUARED:
                 phix, phiy = _coarse_start(
-                    ux, uy, inv_r, a, count, nearest / largest_spacing, coarse, tolerance * diameter
+                    ux,
+                    uy,
+                    inv_r,
+                    a,
+                    count,
+                    max(nearest / largest_spacing, FAR_START_SEPARATION),
+                    coarse,
+                    tolerance * diameter,
                 )
             iterations, status, residual = _finish(
                 kernel,
@@ -970,14 +1040,14 @@ def _solve_point(x, y, settings, curve, geometry, largest_spacing, row, scratch,
                 phix,
                 phiy,
             )
-            if mode == OUTPUT_SAMPLES and out_count == count:
+            if mode == OUTPUT_BASIS:
+                _fold_onto_basis(row, a, basis0, basis1, basis2, control_count, coefficients, step)
+            elif out_count == count:
                 for k in range(count):
                     row[k] += a[k] / step
-            elif mode == OUTPUT_SAMPLES:
+            else:
                 for k in range(count):
                     _accumulate(row, mode, a[k], sample_t[k], out_step, out_count, control_count)
-            else:
-                _fold_onto_basis(row, a, basis0, basis1, basis2, control_count, coefficients, step)
             return iterations, status, residual
         nodes = 0
         for k in range(count):
@@ -1052,13 +1122,63 @@ def _solve_point(x, y, settings, curve, geometry, largest_spacing, row, scratch,
         phix,
         phiy,
     )
-    period = count * step
-    for j in range(total):
-        _accumulate(
-            row, mode, a[j], _output_parameter(coefficients, mode, _wrap(t[j], period)), out_step, out_count,
-            control_count,
-        )  # fmt: skip
+    _accumulate_nodes(row, mode, a, t, total, count * step, out_step, out_count, control_count, coefficients)
     return iterations, status, residual
+
+
+@njit(cache=True, error_model="numpy")
+def _accumulate_nodes(row, mode, a, t, total, period, out_step, out_count, control_count, coefficients):
+    """`_accumulate` of a_j at the output parameter of every node t_j, j < total (each (total,)).
+
+    For the B-spline basis (OUTPUT_BASIS) the three weights of a run of nodes on one
+    span are summed in registers and added to the row when the span changes: the
+    nodes come in increasing t but for the wrap and the appended corners, so this is
+    a few additions per span instead of three read-modify-writes of the row per node.
+    """
+    if mode != OUTPUT_BASIS:
+        for j in range(total):
+            _accumulate(row, mode, a[j], _wrap(t[j], period), out_step, out_count, control_count)
+        return
+    current = np.int64(-1)  # not a literal: one specialisation of _add_span
+    s0 = 0.0
+    s1 = 0.0
+    s2 = 0.0
+    spans = float(control_count)
+    arc_length = coefficients.shape[2] == 3  # a call per node costs more than the rest
+    for j in range(total):
+        # Most nodes are in range already: math.floor costs a library call, skip it.
+        tj = t[j]
+        if not 0.0 <= tj < period:
+            tj = _wrap(tj, period)
+        if arc_length:
+            tj = _output_parameter(coefficients, mode, tj)
+        if not 0.0 <= tj < spans:
+            tj = _wrap(tj, spans)
+        segment = min(int(tj), control_count - 1)  # tj >= 0 here
+        if segment != current:
+            if current >= 0:
+                _add_span(row, current, control_count, s0, s1, s2)
+            current = segment
+            s0 = 0.0
+            s1 = 0.0
+            s2 = 0.0
+        u = tj - segment
+        value = 0.5 * a[j]
+        s0 += value * (1.0 - u) * (1.0 - u)
+        s1 += value * (-2.0 * u * u + 2.0 * u + 1.0)
+        s2 += value * u * u
+    if current >= 0:
+        _add_span(row, current, control_count, s0, s1, s2)
+
+
+@njit(cache=True, error_model="numpy")
+def _add_span(row, segment, control_count, s0, s1, s2):
+    """Add the sums s0, s1, s2 of a span's nodes to N_(segment-1), N_segment, N_(segment+1) (cyclic)."""
+    before = segment - 1 if segment > 0 else control_count - 1
+    after = segment + 1 if segment + 1 < control_count else 0
+    row[before] += s0
+    row[segment] += s1
+    row[after] += s2
 
 
 @njit(cache=True, error_model="numpy", fastmath={"contract", "arcp", "reassoc", "nsz"})
@@ -1073,14 +1193,20 @@ def _fold_onto_basis(row, a, basis0, basis1, basis2, control_count, coefficients
     count = basis0.shape[0]
     first = 0  # span 0 starts at sample 0 in either parameter
     for j in range(control_count):
+        last = span_first_sample(coefficients, count, control_count, step, j + 1)
         s0 = 0.0
         s1 = 0.0
         s2 = 0.0
-        last = span_first_sample(coefficients, count, control_count, step, j + 1)
-        for k in range(first, last):
-            s0 += a[k] * basis0[k]
-            s1 += a[k] * basis1[k]
-            s2 += a[k] * basis2[k]
+        # Views and an index from 0: a computed index first + i might be negative for all
+        # numba knows, and the wrap-around check per element stops the loop vectorising.
+        span_a = a[first:last]
+        span0 = basis0[first:last]
+        span1 = basis1[first:last]
+        span2 = basis2[first:last]
+        for i in range(span_a.shape[0]):
+            s0 += span_a[i] * span0[i]
+            s1 += span_a[i] * span1[i]
+            s2 += span_a[i] * span2[i]
         first = last
         row[(j - 1) % control_count] += s0
         row[j] += s1
@@ -1099,10 +1225,17 @@ def _node_geometry(
     values, so that the refined rule agrees with the plain one there; others are
     evaluated on the curve.
     """
+    inverse = 1.0 / step
     for j in range(nodes):
-        k = int(round(t[j] / step))
+        # The nearest sample index, round(t / step), without a division or a library call.
+        q = t[j] * inverse
+        k = int(q + 0.5) if q >= 0.0 else -int(0.5 - q)
         if abs(t[j] - k * step) <= 1e-12 * step:
-            k = k % count
+            # k % count without an integer division (k is at most a period out of range).
+            while k < 0:
+                k += count
+            while k >= count:
+                k -= count
             px[j] = sample_x[k]
             py[j] = sample_y[k]
             tx[j] = tangent_x[k]

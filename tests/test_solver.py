@@ -90,3 +90,57 @@ def test_coarse_warm_start_reaches_the_full_minimiser_in_fewer_steps(blob):
         warm_steps.append(warm)
     assert max(warm_steps) <= 2
     assert np.median(warm_steps) < np.median(cold_steps)
+
+
+def test_a_newton_step_within_the_full_step_radius_meets_the_armijo_bound():
+    # _newton takes a Newton step delta = -H^-1 g with |delta| <= FULL_STEP (1 - |phi|) without
+    # its trial pass: the trial's log-free bound -sum a z + sum a z^2 max(1, s / s') / 2 must
+    # then meet the Armijo condition g . delta ARMIJO for sure.  Random problems of Eq. 16
+    # (weights over six decades, phi anywhere in the unit disk); the steps near the
+    # radius are the hard cases, and there must be some.
+    rng = np.random.default_rng(7)
+    count = 64
+    near_the_edge = 0
+    for _ in range(4000):
+        angle = rng.uniform(0.0, 2.0 * np.pi, count)
+        ux, uy = np.cos(angle), np.sin(angle)
+        a = 10.0 ** rng.uniform(-6.0, 0.0, count)
+        phi = np.sqrt(rng.uniform(0.0, 0.9)) * np.array([np.cos(angle[0]), np.sin(angle[0])])
+        phi = -phi if rng.uniform() < 0.5 else phi
+        s = 1.0 + phi[0] * ux + phi[1] * uy
+        if s.min() <= 0.0:
+            continue
+        g = -np.array([(a * ux / s).sum(), (a * uy / s).sum()])
+        h = a / s**2
+        hessian = np.array(
+            [[(h * ux * ux).sum(), (h * ux * uy).sum()], [(h * ux * uy).sum(), (h * uy * uy).sum()]]
+        )
+        delta = -np.linalg.solve(hessian, g)
+        radius = solver.FULL_STEP * (1.0 - np.linalg.norm(phi))
+        if np.linalg.norm(delta) > radius:
+            continue
+        near_the_edge += np.linalg.norm(delta) > 0.5 * radius
+        z = (delta[0] * ux + delta[1] * uy) / s
+        assert z.min() > -1.0  # feasible
+        bound = -(a * z).sum() + 0.5 * (a * z * z * np.maximum(1.0, 1.0 / (1.0 + z))).sum()
+        slope = g @ delta
+        assert bound <= solver.ARMIJO * slope
+    assert near_the_edge >= 20
+
+
+def test_the_graded_side_solves_its_end_spacing_equation():
+    # _graded_side picks m intervals and the sinh scale s' <= scale with
+    # sqrt(s'^2 + edge^2) asinh(edge / s') = m h: the rule t = s' sinh(sigma), sigma = i dsigma,
+    # ends at the window edge with the node spacing of the samples there.
+    rng = np.random.default_rng(11)
+    for _ in range(300):
+        step = 10.0 ** rng.uniform(-3.0, -1.0)
+        edge = step * rng.uniform(2.0, 40.0)
+        scale = edge * 10.0 ** rng.uniform(-12.0, 0.0)
+        intervals, sinh_scale, sigma_step = solver._graded_side(edge, scale, step)
+        if intervals == solver.MAX_WINDOW_NODES // 2 - 1:
+            continue  # over the node budget: no exact end spacing (documented)
+        assert 0.0 < sinh_scale <= scale
+        length = np.hypot(sinh_scale, edge) * np.arcsinh(edge / sinh_scale)
+        assert abs(length - intervals * step) <= 1e-13 * intervals * step
+        np.testing.assert_allclose(sinh_scale * np.sinh(intervals * sigma_step), edge, rtol=1e-13)
