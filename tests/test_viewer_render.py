@@ -341,8 +341,9 @@ def test_the_export_frame_is_shown_when_the_target_leaves_the_image():
 
 
 def test_the_mesh_layer_is_drawn_again_only_when_what_it_shows_changes(renderer, monkeypatch):
-    """Frames that change only the overlays (a hovered handle) copy the kept backdrop-and-mesh
-    layer; a new target, view or setting draws it again.  The pixels are those of a full redraw."""
+    """A frame that changes the picture draws it straight away; the next frame that shows the same
+    picture keeps it in a layer, and the frames after it (a hovered handle) copy that layer and
+    draw only the overlays.  The pixels are those of a full redraw."""
     result, cage = preview_setup(renderer)
     snapshot = Snapshot(Path("x.png"), cage, cage)
     state = AppState(History(snapshot), snapshot, opaque_image(), Path("s.json"), basis=result)
@@ -360,12 +361,12 @@ def test_the_mesh_layer_is_drawn_again_only_when_what_it_shows_changes(renderer,
         return np.frombuffer(screen.read(components=4), np.uint8).reshape(240, 320, 4)
 
     first = frame()
-    assert len(drawn) == 1
-    frame()
-    assert len(drawn) == 1  # nothing changed: the layer is copied
+    assert len(drawn) == 1 and scene.layer_key is None  # drawn straight into the framebuffer
+    assert np.array_equal(frame(), first) and len(drawn) == 2  # the same again: into the layer
+    assert np.array_equal(frame(), first) and len(drawn) == 2  # copied
     state.hovered = 3
     hovered = frame()
-    assert len(drawn) == 1 and not np.array_equal(hovered, first)  # the overlay did change
+    assert len(drawn) == 2 and not np.array_equal(hovered, first)  # only the overlay changed
     for change in (
         lambda: setattr(state, "live", state.live.replace(target=cage + (4.0, 0.0))),
         lambda: setattr(state, "view", View(1.5, (-20.0, 0.0))),
@@ -374,10 +375,9 @@ def test_the_mesh_layer_is_drawn_again_only_when_what_it_shows_changes(renderer,
     ):
         before = len(drawn)
         change()
-        frame()
-        assert len(drawn) == before + 1
-    cached = frame()
-    scene.layer_key = None  # a forced full redraw gives the same pixels as the copied layer
-    assert np.array_equal(frame(), cached)
+        changed = frame()
+        assert len(drawn) == before + 1  # straight away
+        assert np.array_equal(frame(), changed) and np.array_equal(frame(), changed)
+        assert len(drawn) == before + 2  # kept once, then copied
     scene.release()
     screen.release()
