@@ -786,3 +786,35 @@ def test_a_dense_mesh_is_dragged_through_its_preview_mesh(display, environment):
         assert float(stats_line(viewer.lines).group(4)) > 0  # frames were drawn while dragging
     finally:
         viewer.kill()
+
+
+def test_a_press_queued_behind_a_slow_frame_grabs_the_handle_it_was_made_on(display, environment):
+    """Press, motion and release sent in one burst (as when frames are slow and events queue up):
+    the press counts where it was made, not where the pointer is when the viewer reads it."""
+    env, folder = environment
+    session = folder / "burst-session.json"
+    viewer = ViewerProcess(
+        ["view", str(ASSETS / "starfish.png"), "--cage", str(ASSETS / "starfish.cage.json"), "--session",
+         str(session)],
+        env,
+        ROOT,
+    )  # fmt: skip
+    try:
+        window = viewer.wait_for("ready window=", 30).split("=")[1]
+        viewer.wait_for("basis ", 60)
+        _, target, value = session_points(session)
+        start = window_pixel(value["view"], target[0])
+        xdotool(display, "mousemove", "--window", window, *(f"{v:.0f}" for v in start))
+        time.sleep(0.3)
+        offset, burst = np.array([70.0, 30.0]), ["mousedown", "1"]
+        for step in np.linspace(0.1, 1.0, 10):
+            burst += ["mousemove", "--window", window, *(f"{v:.0f}" for v in start + step * offset)]
+        xdotool(display, *burst, "mouseup", "1")
+        viewer.wait_for("saved", 20)
+        _, after, _ = session_points(session)
+        assert np.flatnonzero(np.any(after != target, axis=1)).tolist() == [0]
+        np.testing.assert_allclose(after[0] - target[0], offset / value["view"]["scale"], atol=1.5)
+        xdotool(display, "key", "ctrl+q")
+        assert viewer.finish()[0] == 0
+    finally:
+        viewer.kill()

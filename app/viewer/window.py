@@ -353,6 +353,10 @@ class Viewer:
     def _chain_callbacks(self, glfw) -> None:
         """Wrap imgui's glfw callbacks: imgui sees every event first, the canvas what imgui leaves."""
         window, io = self.window, self.imgui.get_io()
+        # The pointer as of the event being handled.  glfw.get_cursor_pos asks the X server where
+        # the pointer is now: after a slow frame (a dense mesh arriving) the queued press was placed
+        # where the drag had already moved on to, and grabbed nothing.
+        pointer = list(glfw.get_cursor_pos(window))
 
         def chained(setter, handler):
             previous = setter(window, None)
@@ -366,7 +370,7 @@ class Viewer:
             setter(window, callback)
 
         def mouse_button(_, button, action, mods):
-            x, y = glfw.get_cursor_pos(window)
+            x, y = pointer
             if action == glfw.RELEASE:
                 self._events.append(("pointer", "release", x, y, button, 0.0, False, False))
             elif not io.want_capture_mouse_unless_popup_close:
@@ -375,13 +379,14 @@ class Viewer:
                 self._events.append(("pointer", "press", x, y, button, 0.0, shift, ctrl))
 
         def cursor(_, x, y):
+            pointer[:] = x, y
             # A drag keeps its events even over a panel.
             if self.state.drag is not None or not io.want_capture_mouse:
                 self._events.append(("pointer", "move", x, y, 0, 0.0, False, False))
 
         def scroll(_, dx, dy):
             if not io.want_capture_mouse:
-                x, y = glfw.get_cursor_pos(window)
+                x, y = pointer
                 self._events.append(("pointer", "scroll", x, y, 0, dy, False, False))
 
         def key(_, key, scancode, action, mods):
