@@ -413,6 +413,7 @@ def test_kill_and_relaunch_brings_back_the_work_and_its_undo(display, environmen
         xdotool(display, "key", "ctrl+o")
         again.wait_for("text input on", 10)  # typed before, the letters would be shortcuts
         xdotool(display, "key", "ctrl+a")
+        time.sleep(0.3)  # select-all handled before the typing (else the text was appended)
         xdotool(display, "type", "--delay", "5", str(ASSETS / "pattern.png"))
         xdotool(display, "key", "Return")
         opened = session
@@ -660,6 +661,7 @@ def test_keyframes_are_added_played_exported_and_saved(display, environment):
         xdotool(display, "key", "ctrl+e")
         viewer.wait_for("text input on", 10)
         xdotool(display, "key", "ctrl+a")
+        time.sleep(0.3)  # select-all handled before the typing (else the text was appended)
         xdotool(display, "type", str(movie))
         xdotool(display, "key", "Return")
         assert viewer.wait_for("exported", 60) == f"exported {movie}"
@@ -672,6 +674,7 @@ def test_keyframes_are_added_played_exported_and_saved(display, environment):
         xdotool(display, "key", "ctrl+e")
         viewer.wait_for("text input on", 10)
         xdotool(display, "key", "ctrl+a")
+        time.sleep(0.3)  # select-all handled before the typing (else the text was appended)
         xdotool(display, "type", f"{frame_folder}/")
         xdotool(display, "key", "Return")
         assert viewer.wait_for("exported", 60) == f"exported {frame_folder}"
