@@ -331,6 +331,7 @@ def test_open_prompt_when_no_dialog_program_is_installed(display, environment):
         xdotool(display, "key", "ctrl+o")
         viewer.wait_for("text input on", 10)  # typed before, the letters would be shortcuts
         xdotool(display, "key", "ctrl+a")  # replace the proposed folder
+        time.sleep(0.3)  # select-all handled before the typing
         xdotool(display, "type", "--delay", "5", path)
         xdotool(display, "key", "Return")
         # The image opens in its own session file; the one given with --session keeps the starfish.
