@@ -348,14 +348,19 @@ def test_open_prompt_when_no_dialog_program_is_installed(display, environment):
             viewer.process.kill()
 
 
-def drag_point(display: str, window: str, start: np.ndarray, offset: np.ndarray) -> None:
-    """Press on `start` (window pixels), move by `offset` in ten steps, release: real X events."""
+def press_and_move(display: str, window: str, start: np.ndarray, offset: np.ndarray) -> None:
+    """Press on `start` (window pixels) and move by `offset` in ten steps, button still down."""
     xdotool(display, "mousemove", "--window", window, *(f"{v:.0f}" for v in start))
     time.sleep(0.2)
     xdotool(display, "mousedown", "1")
     for step in np.linspace(0.1, 1.0, 10):
         xdotool(display, "mousemove", "--window", window, *(f"{v:.0f}" for v in start + step * offset))
         time.sleep(0.03)
+
+
+def drag_point(display: str, window: str, start: np.ndarray, offset: np.ndarray) -> None:
+    """`press_and_move`, then release: real X events."""
+    press_and_move(display, window, start, offset)
     xdotool(display, "mouseup", "1")
 
 
@@ -763,14 +768,7 @@ def test_a_dense_mesh_is_dragged_through_its_preview_mesh(display, environment):
         view = value["view"]
         park_mouse(display, window)
         before = shot(display, folder, "dense-1-start")
-        start = window_pixel(view, target[0])
-        drag = np.array([90.0, 40.0])
-        xdotool(display, "mousemove", "--window", window, *(f"{v:.0f}" for v in start))
-        time.sleep(0.2)
-        xdotool(display, "mousedown", "1")
-        for step in np.linspace(0.1, 1.0, 10):
-            xdotool(display, "mousemove", "--window", window, *(f"{v:.0f}" for v in start + step * drag))
-            time.sleep(0.03)
+        press_and_move(display, window, window_pixel(view, target[0]), np.array([90.0, 40.0]))
         viewer.wait_for("preview on", 30)  # a loaded machine draws the first frames slowly
         held = shot(display, folder, "dense-2-held")  # the preview mesh, button still down
         xdotool(display, "mouseup", "1")
