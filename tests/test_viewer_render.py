@@ -287,6 +287,9 @@ def test_the_scene_draws_the_preview_while_the_target_moves(renderer):
     state.view_moving = True
     scene.sync(state)
     assert scene.previewing
+    revision = renderer.revision
+    scene.sync(state)  # the view goes on moving, the target does not: nothing written again
+    assert scene.previewing and renderer.revision == revision
     state.view_moving = False
     scene.sync(state)
     assert not scene.previewing and scene._positions is exact

@@ -173,6 +173,7 @@ class Scene:
         self._field = None
         # The preview mesh's G, float32, column-major, rows in the renderer's preview vertex order.
         self._preview_columns: np.ndarray | None = None
+        self._preview_target: np.ndarray | None = None  # what the preview's positions were made for
         #: Whether the frame being drawn shows the preview mesh (`sync` decides).
         self.previewing = False
         # The backdrop-and-mesh layer (`draw`) and what it was drawn with.
@@ -206,7 +207,7 @@ class Scene:
             self._columns = np.asfortranarray(basis.columns[self._order])
             self._drawn_target = None
             self._field = None
-            self._preview_columns = None
+            self._preview_columns = self._preview_target = None
             if basis.preview is not None:
                 renderer.set_preview_mesh(basis.preview.vertices, basis.preview.triangles)
                 rows = basis.preview.basis[renderer.preview_vertex_order]
@@ -234,11 +235,15 @@ class Scene:
 
     def _update_preview(self, state: AppState) -> None:
         """The preview mesh's positions, G' @ P' (~20k rows: cheaper than any update of the dense mesh)."""
+        self.previewing = True
+        target = state.live.target
+        if self._preview_target is not None and np.array_equal(self._preview_target, target):
+            return  # a pan or zoom: the positions are those of the last frame
         started = time.perf_counter()
-        self.renderer.set_preview_positions(combined_columns(self._preview_columns, state.live.target))
+        self.renderer.set_preview_positions(combined_columns(self._preview_columns, target))
+        self._preview_target = np.array(target)
         # The dense mesh is left as it was (`_drawn_target` with it): once the motion stops it gets
         # the exact positions if the target changed meanwhile.
-        self.previewing = True
         self.update_ms = 1e3 * (time.perf_counter() - started)
 
     def _update_positions(self, state: AppState) -> None:
