@@ -24,7 +24,10 @@ import numpy as np
 from numba.core import event
 from numba.core.registry import CPUDispatcher
 
-from core import solver
+from core import crossing_slabs, solver
+
+#: The modules compiled on first use, with progress: the solver and its inside test.
+SOLVER_MODULES = (solver, crossing_slabs)
 
 #: What waiting callers show.
 MESSAGE = "compiling the solver (first run only)"
@@ -71,16 +74,17 @@ def compile_solver(progress: Callable[[float], None] | None = None) -> bool:
 
 
 def solver_weights() -> dict[str, int]:
-    """Source lines of every compiled function of `core.solver`, by name."""
+    """Source lines of every compiled function of `SOLVER_MODULES`, by name."""
     return {
         name: len(inspect.getsourcelines(function.py_func)[0])
-        for name, function in vars(solver).items()
-        if isinstance(function, CPUDispatcher)
+        for module in SOLVER_MODULES
+        for name, function in vars(module).items()
+        if isinstance(function, CPUDispatcher) and function.py_func.__module__ == module.__name__
     }
 
 
 class _Progress(event.Listener):
-    """Turns numba's compile events for `core.solver` into a compiled fraction."""
+    """Turns numba's compile events for `SOLVER_MODULES` into a compiled fraction."""
 
     def __init__(self, progress: Callable[[float], None] | None):
         self.progress = progress
@@ -92,7 +96,8 @@ class _Progress(event.Listener):
 
     def _name(self, data) -> str | None:
         function = data["dispatcher"].py_func
-        if function.__module__ != solver.__name__ or threading.get_ident() != self.thread:
+        modules = {module.__name__ for module in SOLVER_MODULES}
+        if function.__module__ not in modules or threading.get_ident() != self.thread:
             return None  # another module's function, or another thread's compilation
         return function.__name__
 

@@ -27,6 +27,7 @@ import numpy as np
 from numba import njit
 
 from core import solver
+from core.crossing_slabs import inside_polygon
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -326,7 +327,7 @@ def _gradient_point(x, y, settings, curve, geometry, row, row_x, row_y, scratch,
     window_start, window_stop, window_t, window_d = windows
     (
         sample_x, sample_y, tangent_x, tangent_y, second_x, second_y, spacing, uniform, sample_t,
-        basis0, basis1, basis2, step, sinh_step, out_step,
+        basis0, basis1, basis2, step, sinh_step, out_step, slabs,
     ) = curve  # fmt: skip
     (px, py, tx, ty, sx, sy, w, t, ux, uy, inv_r, a, s, inv_s, trial, trial_inv, blend) = scratch
     count = sample_x.shape[0]
@@ -363,7 +364,7 @@ def _gradient_point(x, y, settings, curve, geometry, row, row_x, row_y, scratch,
     three_point = kernel == solver.WACHSPRESS or kernel == solver.LAPLACE
     corner_count = corners.shape[0] if three_point else 0
     if window_count == 0:
-        if not solver._inside_polygon(sample_x, sample_y, x, y):
+        if not inside_polygon(sample_x, sample_y, slabs, x, y):
             return 0, solver.STATUS_OUTSIDE, nearest
         if corner_count == 0:
             # The trapezoid rule on the shared samples, as in the solver's common case.

@@ -49,6 +49,7 @@ import numpy as np
 from core import solver
 from core.arc_length import arc_length_boundary, checked_parameterization
 from core.boundary import Boundary
+from core.crossing_slabs import crossing_slabs
 from core.validation import as_points, positive_float
 
 KERNELS = (
@@ -371,6 +372,7 @@ def _curve_arrays(boundary: Boundary, mode: int, columns: int, factor: int, out_
         float(boundary.step),
         solver.SINH_STEP / factor,
         float(out_step),
+        crossing_slabs(boundary.points[:, 1]),
     )
 
 

@@ -26,6 +26,8 @@ import math
 import numpy as np
 from numba import njit
 
+from core.crossing_slabs import inside_polygon
+
 # Kernel identifiers shared with core.kernels.
 MAXIMUM_LIKELIHOOD = 0
 PSEUDO_HARMONIC = 1
@@ -84,6 +86,9 @@ ARMIJO = 1e-4
 # Newton steps with |delta| <= FULL_STEP (1 - |phi|) are accepted without a trial (see _newton):
 # feasible, and Armijo holds for any FULL_STEP < 1/2 (0.45: the bound is 0.09 slope <= ARMIJO slope).
 FULL_STEP = 0.45
+# Slack for rounding (in u_j and s_j, ~1e-16) in the bound that skips the peak scan
+# (`_maximum_likelihood`).
+ROUNDING_SLACK = 1e-12
 
 
 @njit(cache=True, error_model="numpy")
@@ -367,23 +372,6 @@ def _accumulate(row, mode, value, t, step, count, control_count):
         row[before] += value * 0.5 * (1.0 - u) * (1.0 - u)
         row[segment] += value * 0.5 * (-2.0 * u * u + 2.0 * u + 1.0)
         row[after] += value * 0.5 * u * u
-
-
-@njit(cache=True, error_model="numpy")
-def _inside_polygon(sample_x, sample_y, x, y):
-    """Crossing-number test of (x, y) against the closed sample polygon."""
-    count = sample_x.shape[0]
-    inside = False
-    j = count - 1
-    for i in range(count):
-        yi = sample_y[i]
-        yj = sample_y[j]
-        if (yi > y) != (yj > y):
-            xcross = sample_x[i] + (y - yi) / (yj - yi) * (sample_x[j] - sample_x[i])
-            if x < xcross:
-                inside = not inside
-        j = i
-    return inside
 
 
 @njit(cache=True, error_model="numpy")
@@ -683,8 +671,9 @@ def _newton(ux, uy, inv_r, a, s, inv_s, trial, trial_inv, count, tolerance, phix
     min/max reduction (feasibility is a count), so that they vectorise.
 
     On return `s` and `inv_s` hold 1 + phi . u_j and its inverse.  Returns
-    (iterations, status, residual, phix, phiy), residual = |grad F| / D in length
-    units: the linear-precision error of the discrete kernel.
+    (iterations, status, residual, phix, phiy, D), residual = |grad F| / D in length
+    units: the linear-precision error of the discrete kernel; D = sum a_j / (r_j s_j)
+    at the returned phi is the normaliser of Eq. 17.
     """
     gx, gy, hxx, hxy, hyy, d, infeasible = _newton_terms(ux, uy, inv_r, a, s, inv_s, count, phix, phiy)
     if infeasible > 0:
@@ -779,7 +768,7 @@ def _newton(ux, uy, inv_r, a, s, inv_s, trial, trial_inv, count, tolerance, phix
         for j in range(count):
             trial[j] = s[j]
             trial_inv[j] = inv_s[j]
-    return iterations, status, residual, phix, phiy
+    return iterations, status, residual, phix, phiy, d
 
 
 @njit(cache=True, error_model="numpy", fastmath={"contract", "arcp", "reassoc", "nsz"})
@@ -823,7 +812,7 @@ def _continuation(ux, uy, inv_r, a, w, blend, s, inv_s, trial, trial_inv, count,
     unweighted one (omega = 1, well conditioned); mu falls to 0 and each stage starts
     from the previous minimiser.  The last stage is exactly the problem of Eq. 16,
     so the result is the same minimiser, only reached.  Returns (iterations,
-    status, residual) of the whole path.
+    status, residual) of the whole path and D (see `_newton`) at its end.
     """
     length = 0.0
     for j in range(count):
@@ -832,17 +821,18 @@ def _continuation(ux, uy, inv_r, a, w, blend, s, inv_s, trial, trial_inv, count,
     phiy = 0.0
     status = STATUS_NOT_CONVERGED
     residual = math.inf
+    d = 1.0
     for mu in CONTINUATION:
         for j in range(count):
             blend[j] = (1.0 - mu) * a[j] + mu * w[j] / length
         stage_tolerance = tolerance if mu == 0.0 else 1e4 * tolerance
-        taken, status, residual, phix, phiy = _newton(
+        taken, status, residual, phix, phiy, d = _newton(
             ux, uy, inv_r, blend, s, inv_s, trial, trial_inv, count, stage_tolerance, phix, phiy
         )
         iterations += taken
         if status != STATUS_CONVERGED:
             break
-    return iterations, status, residual
+    return iterations, status, residual, d
 
 
 @njit(cache=True, error_model="numpy")
@@ -873,7 +863,7 @@ def _coarse_start(ux, uy, inv_r, a, count, separation, coarse, tolerance):
         coarse_uy[j] = uy[k]
         coarse_inv_r[j] = inv_r[k]
         coarse_a[j] = a[k]
-    _, status, _, phix, phiy = _newton(
+    _, status, _, phix, phiy, _ = _newton(
         coarse_ux,
         coarse_uy,
         coarse_inv_r,
@@ -940,6 +930,7 @@ def _solve_point(x, y, settings, curve, geometry, largest_spacing, row, scratch,
         step,
         sinh_step,
         out_step,
+        slabs,
     ) = curve
     (px, py, tx, ty, sx, sy, w, t, ux, uy, inv_r, a, s, inv_s, trial, trial_inv, blend) = scratch[:17]
     coarse = scratch[17:]
@@ -981,7 +972,7 @@ def _solve_point(x, y, settings, curve, geometry, largest_spacing, row, scratch,
     three_point = kernel == WACHSPRESS or kernel == LAPLACE
     corner_count = corners.shape[0] if three_point else 0
     if window_count == 0:
-        if not _inside_polygon(sample_x, sample_y, x, y):
+        if not inside_polygon(sample_x, sample_y, slabs, x, y):
             return 0, STATUS_OUTSIDE, nearest
         if corner_count == 0:
             # The common case: the plain trapezoid rule on the shared samples.
@@ -1006,8 +997,8 @@ def _solve_point(x, y, settings, curve, geometry, largest_spacing, row, scratch,
                 nearest,
                 a,
             )
-            phix, phiy = 0.0, 0.0
-            if kernel <= MODIFIED_MEAN_VALUE_SQUARED:
+            likelihood = kernel <= MODIFIED_MEAN_VALUE_SQUARED
+            if likelihood:
                 phix, phiy = _coarse_start(
                     ux,
                     uy,
@@ -1018,30 +1009,32 @@ def _solve_point(x, y, settings, curve, geometry, largest_spacing, row, scratch,
                     coarse,
                     tolerance * diameter,
                 )
-            iterations, status, residual = _finish(
-                kernel,
-                ux,
-                uy,
-                inv_r,
-                a,
-                s,
-                inv_s,
-                trial,
-                trial_inv,
-                blend,
-                total,
-                sample_x,
-                sample_y,
-                uniform,
-                step,
-                x,
-                y,
-                tolerance * diameter,
-                phix,
-                phiy,
-            )
+                # No sample is within NEAR_SPACINGS spacings: |u_(k+1) - u_k| <= chord / nearest
+                # (2 |p - q| / (|p| + |q|) bounds |p / |p| - q / |q||), so the peak scan is skipped.
+                iterations, status, residual, d = _maximum_likelihood(
+                    ux, uy, inv_r, a, s, inv_s, trial, trial_inv, blend, uniform, step, count,
+                    tolerance * diameter, phix, phiy, largest_spacing / nearest,
+                )  # fmt: skip
+                if mode == OUTPUT_BASIS:
+                    # Eq. 17's normalisation folded into the basis sums: no pass of its own.
+                    _fold_onto_basis(
+                        row, a, inv_r, inv_s, 1.0 / d, likelihood, basis0, basis1, basis2, control_count,
+                        coefficients, step,
+                    )  # fmt: skip
+                    return iterations, status, residual
+                inverse = 1.0 / d
+                for k in range(count):
+                    a[k] = a[k] * inv_r[k] * inv_s[k] * inverse
+            else:
+                iterations, status, residual = _finish(
+                    kernel, ux, uy, inv_r, a, s, inv_s, trial, trial_inv, blend, total, sample_x, sample_y,
+                    uniform, step, x, y, tolerance * diameter, 0.0, 0.0,
+                )  # fmt: skip
             if mode == OUTPUT_BASIS:
-                _fold_onto_basis(row, a, basis0, basis1, basis2, control_count, coefficients, step)
+                _fold_onto_basis(
+                    row, a, inv_r, inv_s, 1.0, likelihood, basis0, basis1, basis2, control_count,
+                    coefficients, step,
+                )  # fmt: skip
             elif out_count == count:
                 for k in range(count):
                     row[k] += a[k] / step
@@ -1182,13 +1175,16 @@ def _add_span(row, segment, control_count, s0, s1, s2):
 
 
 @njit(cache=True, error_model="numpy", fastmath={"contract", "arcp", "reassoc", "nsz"})
-def _fold_onto_basis(row, a, basis0, basis1, basis2, control_count, coefficients, step):
-    """row_i += sum_k a_k N_i(t_k) over the N uniform samples (Sec. 4.3), shape (n,).
+def _fold_onto_basis(
+    row, a, inv_r, inv_s, factor, likelihood, basis0, basis1, basis2, control_count, coefficients, step
+):
+    """row_i += sum_k c_k N_i(t_k) over the N uniform samples (Sec. 4.3), shape (n,).
 
-    The samples of span j (`span_first_sample`: N / n of them in the natural
-    parameter, as many as its share of the length in arc length) touch only
-    N_(j-1), N_j and N_(j+1), whose values at the samples are basis0, basis1 and
-    basis2, each (N,).
+    c_k = a_k, or with `likelihood` c_k = factor a_k / (r_k s_k) (Eq. 14 and 17,
+    factor = 1 / D), so that the kernel needs no pass of its own.  The samples of
+    span j (`span_first_sample`: N / n of them in the natural parameter, as many as
+    its share of the length in arc length) touch only N_(j-1), N_j and N_(j+1),
+    whose values at the samples are basis0, basis1 and basis2, each (N,).
     """
     count = basis0.shape[0]
     first = 0  # span 0 starts at sample 0 in either parameter
@@ -1200,17 +1196,26 @@ def _fold_onto_basis(row, a, basis0, basis1, basis2, control_count, coefficients
         # Views and an index from 0: a computed index first + i might be negative for all
         # numba knows, and the wrap-around check per element stops the loop vectorising.
         span_a = a[first:last]
+        span_r = inv_r[first:last]
+        span_s = inv_s[first:last]
         span0 = basis0[first:last]
         span1 = basis1[first:last]
         span2 = basis2[first:last]
-        for i in range(span_a.shape[0]):
-            s0 += span_a[i] * span0[i]
-            s1 += span_a[i] * span1[i]
-            s2 += span_a[i] * span2[i]
+        if likelihood:
+            for i in range(span_a.shape[0]):
+                c = span_a[i] * span_r[i] * span_s[i]
+                s0 += c * span0[i]
+                s1 += c * span1[i]
+                s2 += c * span2[i]
+        else:
+            for i in range(span_a.shape[0]):
+                s0 += span_a[i] * span0[i]
+                s1 += span_a[i] * span1[i]
+                s2 += span_a[i] * span2[i]
         first = last
-        row[(j - 1) % control_count] += s0
-        row[j] += s1
-        row[(j + 1) % control_count] += s2
+        row[(j - 1) % control_count] += factor * s0
+        row[j] += factor * s1
+        row[(j + 1) % control_count] += factor * s2
 
 
 @njit(cache=True, error_model="numpy")
@@ -1280,35 +1285,32 @@ def _finish(
 ):
     """Turn normalised weights `a` into the quadrature-weighted kernel w_j lambda_j (in `a`).
 
-    Maximum-likelihood family: Newton on Eq. 16 from (phix, phiy) (0, 0 or a warm
-    start), then Eq. 14 and 17, c_j = a_j / (r_j s_j) normalised.  Explicit
-    kernels: `a` already is it.  Returns (iterations, status, residual).
+    Maximum-likelihood family: `_maximum_likelihood`, then Eq. 14 and 17,
+    c_j = a_j / (r_j s_j) normalised.  Explicit kernels: `a` already is it.
+    Returns (iterations, status, residual).
     """
     if kernel <= MODIFIED_MEAN_VALUE_SQUARED:
-        iterations, status, residual, phix, phiy = _newton(
-            ux, uy, inv_r, a, s, inv_s, trial, trial_inv, total, tolerance, phix, phiy
+        iterations, status, residual, d = _maximum_likelihood(
+            ux,
+            uy,
+            inv_r,
+            a,
+            s,
+            inv_s,
+            trial,
+            trial_inv,
+            blend,
+            w,
+            step,
+            total,
+            tolerance,
+            phix,
+            phiy,
+            math.inf,
         )
-        if status != STATUS_CONVERGED:
-            iterations, status, residual = _continuation(
-                ux, uy, inv_r, a, w, blend, s, inv_s, trial, trial_inv, total, tolerance, iterations
-            )
-        smallest = 1.0
-        peak = np.int64(0)  # not a literal: one specialisation of _peak_unresolved
+        inverse = 1.0 / d
         for j in range(total):
-            if s[j] < smallest:
-                smallest = s[j]
-                peak = j
-        # The peak's share of the constraint sum_j a_j / s_j = 1 (Eq. 12 with phi_0 = 1).
-        share = a[peak] * inv_s[peak]
-        if status == STATUS_CONVERGED and _peak_unresolved(ux, uy, share, w, step, total, peak, smallest):
-            status = STATUS_AT_FEASIBLE_EDGE
-        norm = 0.0
-        for j in range(total):
-            a[j] = a[j] * inv_r[j] * inv_s[j]
-            norm += a[j]
-        inverse = 1.0 / norm
-        for j in range(total):
-            a[j] *= inverse
+            a[j] = a[j] * inv_r[j] * inv_s[j] * inverse
         return iterations, status, residual
     # Explicit kernels: the linear-precision residual is the quadrature's own.
     ex = 0.0
@@ -1317,6 +1319,46 @@ def _finish(
         ex += a[j] * (px[j] - x)
         ey += a[j] * (py[j] - y)
     return 0, STATUS_CONVERGED, math.sqrt(ex * ex + ey * ey)
+
+
+@njit(cache=True, error_model="numpy")
+def _maximum_likelihood(
+    ux, uy, inv_r, a, s, inv_s, trial, trial_inv, blend, w, step, total, tolerance, phix, phiy, spread
+):
+    """Minimise Eq. 16 for the normalised weights `a` and check that lambda-hat is resolved.
+
+    Newton (`_newton`) from (phix, phiy), the path-following fallback
+    (`_continuation`) if it fails, then `_peak_unresolved` at the peak of 1 / s_j.
+    `spread` bounds |u_(j+1) - u_j| over all neighbouring nodes (math.inf if
+    unknown).  Every s_j >= 1 - |phi| (|u_j| = 1), so when spread^2 < 2 (1 - |phi|)
+    the peak passes `_peak_unresolved` for sure, and the scan for it is skipped.
+
+    On return `s`, `inv_s` hold 1 + phi . u_j and its inverse at the minimiser.
+    Returns (iterations, status, residual, D), D = sum a_j / (r_j s_j), so that
+    lambda_j w_j = a_j / (r_j s_j D) (Eq. 14 and 17).
+    """
+    iterations, status, residual, phix, phiy, d = _newton(
+        ux, uy, inv_r, a, s, inv_s, trial, trial_inv, total, tolerance, phix, phiy
+    )
+    reach = 1.0 - math.sqrt(phix * phix + phiy * phiy)
+    if status != STATUS_CONVERGED:
+        iterations, status, residual, d = _continuation(
+            ux, uy, inv_r, a, w, blend, s, inv_s, trial, trial_inv, total, tolerance, iterations
+        )
+        reach = 0.0  # the path's phi is not returned: scan
+    resolved = (spread + ROUNDING_SLACK) ** 2 < 2.0 * (reach - ROUNDING_SLACK)
+    if status == STATUS_CONVERGED and not resolved:
+        smallest = 1.0
+        peak = np.int64(0)  # not a literal: one specialisation of _peak_unresolved
+        for j in range(total):
+            if s[j] < smallest:
+                smallest = s[j]
+                peak = j
+        # The peak's share of the constraint sum_j a_j / s_j = 1 (Eq. 12 with phi_0 = 1).
+        share = a[peak] * inv_s[peak]
+        if _peak_unresolved(ux, uy, share, w, step, total, peak, smallest):
+            status = STATUS_AT_FEASIBLE_EDGE
+    return iterations, status, residual, d
 
 
 @njit(cache=True, error_model="numpy")
@@ -1442,11 +1484,12 @@ def solve_points(points, settings, curve, geometry, out, iterations, status, res
     settings = (kernel, power, shift, output mode, orientation (+1 counter-clockwise),
     diameter, n control points, Newton tolerance relative to the diameter).
     curve = (sample_x, sample_y, tangent_x, tangent_y, second_x, second_y,
-    spacing, uniform weights, t_k, basis0, basis1, basis2, h, sinh_step, out_step):
+    spacing, uniform weights, t_k, basis0, basis1, basis2, h, sinh_step, out_step, slabs):
     twelve contiguous float64 arrays of shape (N,) (basis* are the three non-zero
     B-spline basis values at t_k, used in OUTPUT_BASIS mode), the sample step, the
-    sinh step of the near-boundary rule, and the step of the output samples
-    (OUTPUT_SAMPLES lumps onto that grid, which may be coarser than the samples).
+    sinh step of the near-boundary rule, the step of the output samples
+    (OUTPUT_SAMPLES lumps onto that grid, which may be coarser than the samples), and
+    `core.crossing_slabs.crossing_slabs(sample_y)` for the inside test of far points.
     geometry = (piecewise-polynomial coefficients (P, D + 1, 2), piece length,
     corners (C, 5)): the exact curve between samples.
     """

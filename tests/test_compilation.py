@@ -20,7 +20,7 @@ import json, warnings
 import numpy as np
 from numba.core.registry import CPUDispatcher
 import core
-from core import examples, solver
+from core import crossing_slabs, examples, solver
 warnings.simplefilter("ignore")
 fractions = []
 compiled = core.compile_solver(fractions.append)
@@ -32,7 +32,12 @@ core.basis_functions(blob, x, "power", power=8.0)
 core.kernel(blob.sample(20), x, "mean-value")
 square = core.ClosedBSpline(np.repeat([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]], 2, axis=0))
 core.basis_functions(square, [[0.3, 0.6]], "wachspress")
-signatures = {n: len(f.signatures) for n, f in vars(solver).items() if isinstance(f, CPUDispatcher)}
+signatures = {
+    n: len(f.signatures)
+    for module in (solver, crossing_slabs)
+    for n, f in vars(module).items()
+    if isinstance(f, CPUDispatcher) and f.py_func.__module__ == module.__name__
+}
 print(json.dumps({"compiled": compiled, "fractions": fractions, "signatures": signatures}))
 """
 

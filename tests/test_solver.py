@@ -57,8 +57,8 @@ def test_an_infeasible_start_falls_back_to_phi_zero(blob):
     for point in x:
         ux, uy, inv_r, a, _ = _problem(blob, point)
         tolerance = TOLERANCE * blob.diameter
-        _, status, _, *cold = _newton(ux, uy, inv_r, a, tolerance, (0.0, 0.0))
-        _, infeasible_status, _, *fallback = _newton(ux, uy, inv_r, a, tolerance, (3.0, -2.0))
+        _, status, _, *cold, _ = _newton(ux, uy, inv_r, a, tolerance, (0.0, 0.0))
+        _, infeasible_status, _, *fallback, _ = _newton(ux, uy, inv_r, a, tolerance, (3.0, -2.0))
         assert status == infeasible_status == solver.STATUS_CONVERGED
         np.testing.assert_allclose(fallback, cold, rtol=0.0, atol=1e-12)
 
@@ -75,13 +75,15 @@ def test_coarse_warm_start_reaches_the_full_minimiser_in_fewer_steps(blob):
         start = solver._coarse_start(ux, uy, inv_r, a, ux.size, separation, coarse, tolerance)
         assert start != (0.0, 0.0), "points this far from the boundary get a coarse start"
         assert (1.0 + start[0] * ux + start[1] * uy).min() > 0.0  # feasible for the full rule
-        cold, status, residual, *phi = _newton(ux, uy, inv_r, a, tolerance, (0.0, 0.0))
-        warm, warm_status, warm_residual, *warm_phi = _newton(ux, uy, inv_r, a, tolerance, start)
+        cold, status, residual, *phi, d = _newton(ux, uy, inv_r, a, tolerance, (0.0, 0.0))
+        warm, warm_status, warm_residual, *warm_phi, _ = _newton(ux, uy, inv_r, a, tolerance, start)
         assert status == warm_status == solver.STATUS_CONVERGED
         assert max(residual, warm_residual) <= tolerance
+        s = 1.0 + phi[0] * ux + phi[1] * uy
+        # D of Eq. 17 comes back at the returned phi: Eq. 17's normaliser needs no pass of its own.
+        assert abs(d - (a * inv_r / s).sum()) <= 1e-14 * d
         # Both meet |grad F| / D <= tolerance, so they differ by at most
         # 2 tolerance D / lambda_min(H) (H, D of Eq. 16 at the minimiser), plus rounding.
-        s = 1.0 + phi[0] * ux + phi[1] * uy
         u = np.stack([ux, uy], axis=1)
         hessian = (u.T * (a / s**2)) @ u
         allowed = 2.0 * tolerance * (a * inv_r / s).sum() / np.linalg.eigvalsh(hessian)[0]
@@ -144,3 +146,36 @@ def test_the_graded_side_solves_its_end_spacing_equation():
         length = np.hypot(sinh_scale, edge) * np.arcsinh(edge / sinh_scale)
         assert abs(length - intervals * step) <= 1e-13 * intervals * step
         np.testing.assert_allclose(sinh_scale * np.sinh(intervals * sigma_step), edge, rtol=1e-13)
+
+
+def test_the_peak_scan_is_skipped_only_where_it_passes_for_sure(blob):
+    # _maximum_likelihood skips the scan for the peak of 1 / s when spread^2 < 2 (1 - |phi|),
+    # spread bounding |u_(k+1) - u_k|; for the samples that is the largest chord over the
+    # distance to the nearest sample.  On far points, with weights whose peaks the scan does
+    # flag (the unshifted power 8 of Sec. 3.3), the result must be that of the forced scan.
+    boundary = blob.sample(100)
+    chords = np.linalg.norm(np.roll(boundary.points, -1, axis=0) - boundary.points, axis=1)
+    weights = np.full(boundary.count, boundary.step)
+    tolerance = TOLERANCE * blob.diameter
+    skipped = flagged = 0
+    for power in (4.0, 8.0):
+        for point in interior_points(blob, 60, seed=12, margin=0.03):
+            ux, uy, inv_r, _, _ = _problem(blob, point)
+            omega = (inv_r / inv_r.max()) ** power
+            a = omega / omega.sum()
+            spread = chords.max() * inv_r.max()
+            assert spread < 1.0 / solver.NEAR_SPACINGS  # a far point
+            results = []
+            for bound in (spread, np.inf):
+                work = [np.empty(ux.size) for _ in range(5)]
+                results.append(
+                    solver._maximum_likelihood(
+                        ux, uy, inv_r, a, *work, weights, boundary.step, ux.size, tolerance, 0.0, 0.0, bound
+                    )
+                )
+            assert results[0] == results[1]
+            _, status, _, phix, phiy, _ = _newton(ux, uy, inv_r, a, tolerance, (0.0, 0.0))
+            if status == solver.STATUS_CONVERGED:
+                skipped += spread**2 < 2.0 * (1.0 - np.hypot(phix, phiy))
+            flagged += results[1][1] == solver.STATUS_AT_FEASIBLE_EDGE
+    assert skipped > 0 and flagged > 0  # both branches are exercised
