@@ -76,6 +76,11 @@ MIN_COARSE_NODES = 96
 # The coarse minimiser is a start only, off the full one by the subset's quadrature error
 # anyway: its Newton stops at this many times the tolerance (one step fewer, as many on all N).
 COARSE_LOOSER = 1e3
+# A far point's Newton starts from the last minimisers of its block of BLOCK points (see
+# solve_points and _predicted_start) when they are closer than WARM_REACH times its distance to
+# the boundary (phi varies on that scale); otherwise from a coarse solve.
+WARM_REACH = 1.0
+BLOCK = 64
 # Near points start from every fourth node of their refined rule (the separation that gives it).
 NEAR_START_SEPARATION = 4.0 * COARSE_SPACINGS
 # Far points start from every other sample at least: nearer than 2 COARSE_SPACINGS spacings
@@ -836,7 +841,7 @@ def _continuation(ux, uy, inv_r, a, w, blend, s, inv_s, trial, trial_inv, count,
 
 
 @njit(cache=True, error_model="numpy")
-def _coarse_start(ux, uy, inv_r, a, count, separation, coarse, tolerance):
+def _coarse_start(ux, uy, inv_r, a, count, separation, coarse, tolerance, phix, phiy):
     """Warm start of Newton for a far point: the minimiser of Eq. 16 on every stride-th node.
 
     The trapezoid rule on a subset of the uniform samples converges geometrically
@@ -847,14 +852,15 @@ def _coarse_start(ux, uy, inv_r, a, count, separation, coarse, tolerance):
     (`_newton`) then polishes it, usually in one step, to the same tolerance.  The
     answer stays the minimiser of the full rule; only the starting point changes.
     `coarse` holds four scratch arrays for the subset (u_x, u_y, 1 / r, a) and
-    four for Newton, which stops at COARSE_LOOSER times `tolerance`.  Returns
-    (phix, phiy), (0, 0) where no subset applies or the coarse Newton did not converge.
+    four for Newton, which starts from (phix, phiy) (a neighbour's minimiser, or 0)
+    and stops at COARSE_LOOSER times `tolerance`.  Returns the coarse minimiser;
+    (phix, phiy) where no subset applies, (0, 0) if the coarse Newton did not converge.
     """
     stride = 1
     while 2 * stride * COARSE_SPACINGS <= separation and count // (2 * stride) >= MIN_COARSE_NODES:
         stride *= 2
     if stride == 1:
-        return 0.0, 0.0
+        return phix, phiy
     coarse_ux, coarse_uy, coarse_inv_r, coarse_a, s, inv_s, trial, trial_inv = coarse
     nodes = count // stride
     for j in range(nodes):
@@ -874,12 +880,35 @@ def _coarse_start(ux, uy, inv_r, a, count, separation, coarse, tolerance):
         trial_inv,
         nodes,
         COARSE_LOOSER * tolerance,
-        0.0,
-        0.0,
+        phix,
+        phiy,
     )
     if status != STATUS_CONVERGED:
         return 0.0, 0.0
     return phix, phiy
+
+
+@njit(cache=True, error_model="numpy")
+def _predicted_start(x, y, history, reach):
+    """A start for Newton at (x, y) from the last two minimisers of its block.
+
+    history = (x1, y1, phix1, phiy1, x2, y2, phix2, phiy2), the last point first
+    (NaN where missing).  If both lie within `reach` of each other and of (x, y)
+    (mesh neighbours along a row), phi is extrapolated linearly along x2 -> x1,
+    which is within ~1e-3 of the minimiser and needs no coarse solve (returns
+    (phix, phiy, True)); if only the last is that close, its phi is the coarse
+    solve's start; else phi = 0.  Any start gives the same minimiser (`_newton`).
+    """
+    x1, y1, phix1, phiy1, x2, y2, phix2, phiy2 = history
+    if not math.hypot(x - x1, y - y1) <= reach:  # also NaN
+        return 0.0, 0.0, False
+    dx = x1 - x2
+    dy = y1 - y2
+    length2 = dx * dx + dy * dy
+    if not (0.0 < length2 <= reach * reach):
+        return phix1, phiy1, False
+    along = min(max(((x - x1) * dx + (y - y1) * dy) / length2, 0.0), 1.0)
+    return phix1 + along * (phix1 - phix2), phiy1 + along * (phiy1 - phiy2), True
 
 
 @njit(cache=True, error_model="numpy")
@@ -904,12 +933,15 @@ def _change_bound(a, ux, uy, inv_s, deltax, deltay, alpha, count):
 
 
 @njit(cache=True, error_model="numpy")
-def _solve_point(x, y, settings, curve, geometry, largest_spacing, row, scratch, windows):
-    """Evaluate one point; writes its output row and returns (iterations, status, residual).
+def _solve_point(x, y, settings, curve, geometry, largest_spacing, row, scratch, windows, start):
+    """Evaluate one point; writes its output row and returns (iterations, status, residual, phix, phiy).
 
     `settings`, `curve` and `geometry` are the shared tuples of `solve_points`,
     `largest_spacing` the largest of the sample spacings, `scratch` and `windows`
-    per-thread work arrays.
+    per-thread work arrays.  `start` holds the last two points of the block and their
+    minimisers, from which a far point's Newton starts (`_predicted_start`).
+    phix, phiy is this point's minimiser of Eq. 16 on the plain rule, NaN where
+    there is none to pass on (explicit kernels, near points).
     """
     kernel, power, shift, mode, orientation, diameter, control_count, tolerance = settings
     coefficients, piece_length, corners = geometry
@@ -932,8 +964,8 @@ def _solve_point(x, y, settings, curve, geometry, largest_spacing, row, scratch,
         out_step,
         slabs,
     ) = curve
-    (px, py, tx, ty, sx, sy, w, t, ux, uy, inv_r, a, s, inv_s, trial, trial_inv, blend) = scratch[:17]
-    coarse = scratch[17:]
+    (px, py, tx, ty, sx, sy, w, t, ux, uy, inv_r, a, s, inv_s, trial, trial_inv, blend, ones) = scratch[:18]
+    coarse = scratch[18:]
     count = sample_x.shape[0]
     out_count = int(round(count * step / out_step))
     # Pass 1: directions to the samples and, for a point near the boundary, the
@@ -973,7 +1005,7 @@ def _solve_point(x, y, settings, curve, geometry, largest_spacing, row, scratch,
     corner_count = corners.shape[0] if three_point else 0
     if window_count == 0:
         if not inside_polygon(sample_x, sample_y, slabs, x, y):
-            return 0, STATUS_OUTSIDE, nearest
+            return 0, STATUS_OUTSIDE, nearest, math.nan, math.nan
         if corner_count == 0:
             # The common case: the plain trapezoid rule on the shared samples.
             total = _weights(
@@ -999,29 +1031,33 @@ def _solve_point(x, y, settings, curve, geometry, largest_spacing, row, scratch,
             )
             likelihood = kernel <= MODIFIED_MEAN_VALUE_SQUARED
             if likelihood:
-                phix, phiy = _coarse_start(
-                    ux,
-                    uy,
-                    inv_r,
-                    a,
-                    count,
-                    max(nearest / largest_spacing, FAR_START_SEPARATION),
-                    coarse,
-                    tolerance * diameter,
-                )
+                phix, phiy, predicted = _predicted_start(x, y, start, WARM_REACH * nearest)
+                if not predicted:
+                    phix, phiy = _coarse_start(
+                        ux,
+                        uy,
+                        inv_r,
+                        a,
+                        count,
+                        max(nearest / largest_spacing, FAR_START_SEPARATION),
+                        coarse,
+                        tolerance * diameter,
+                        phix,
+                        phiy,
+                    )
                 # No sample is within NEAR_SPACINGS spacings: |u_(k+1) - u_k| <= chord / nearest
                 # (2 |p - q| / (|p| + |q|) bounds |p / |p| - q / |q||), so the peak scan is skipped.
-                iterations, status, residual, d = _maximum_likelihood(
+                iterations, status, residual, d, phix, phiy = _maximum_likelihood(
                     ux, uy, inv_r, a, s, inv_s, trial, trial_inv, blend, uniform, step, count,
                     tolerance * diameter, phix, phiy, largest_spacing / nearest,
                 )  # fmt: skip
                 if mode == OUTPUT_BASIS:
                     # Eq. 17's normalisation folded into the basis sums: no pass of its own.
                     _fold_onto_basis(
-                        row, a, inv_r, inv_s, 1.0 / d, likelihood, basis0, basis1, basis2, control_count,
+                        row, a, inv_r, inv_s, 1.0 / d, basis0, basis1, basis2, control_count,
                         coefficients, step,
                     )  # fmt: skip
-                    return iterations, status, residual
+                    return iterations, status, residual, phix, phiy
                 inverse = 1.0 / d
                 for k in range(count):
                     a[k] = a[k] * inv_r[k] * inv_s[k] * inverse
@@ -1032,7 +1068,7 @@ def _solve_point(x, y, settings, curve, geometry, largest_spacing, row, scratch,
                 )  # fmt: skip
             if mode == OUTPUT_BASIS:
                 _fold_onto_basis(
-                    row, a, inv_r, inv_s, 1.0, likelihood, basis0, basis1, basis2, control_count,
+                    row, a, ones, ones, 1.0, basis0, basis1, basis2, control_count,
                     coefficients, step,
                 )  # fmt: skip
             elif out_count == count:
@@ -1041,7 +1077,9 @@ def _solve_point(x, y, settings, curve, geometry, largest_spacing, row, scratch,
             else:
                 for k in range(count):
                     _accumulate(row, mode, a[k], sample_t[k], out_step, out_count, control_count)
-            return iterations, status, residual
+            if likelihood:
+                return iterations, status, residual, phix, phiy
+            return iterations, status, residual, math.nan, math.nan
         nodes = 0
         for k in range(count):
             t[nodes] = sample_t[k]
@@ -1062,9 +1100,9 @@ def _solve_point(x, y, settings, curve, geometry, largest_spacing, row, scratch,
         if closest_d <= ON_BOUNDARY * diameter:
             closest_t = _output_parameter(coefficients, mode, _wrap(closest_t, count * step))
             _accumulate(row, mode, 1.0, closest_t, out_step, out_count, control_count)
-            return 0, STATUS_CONVERGED, 0.0
+            return 0, STATUS_CONVERGED, 0.0, math.nan, math.nan
         if _side_of_curve(coefficients, piece_length, closest_t, x, y, orientation) < 0:
-            return 0, STATUS_OUTSIDE, closest_d
+            return 0, STATUS_OUTSIDE, closest_d, math.nan, math.nan
         nodes = _refined_nodes(
             window_start,
             window_stop,
@@ -1091,7 +1129,7 @@ def _solve_point(x, y, settings, curve, geometry, largest_spacing, row, scratch,
     phix, phiy = 0.0, 0.0
     if kernel <= MODIFIED_MEAN_VALUE_SQUARED:
         phix, phiy = _coarse_start(
-            ux, uy, inv_r, a, total, NEAR_START_SEPARATION, coarse, tolerance * diameter
+            ux, uy, inv_r, a, total, NEAR_START_SEPARATION, coarse, tolerance * diameter, 0.0, 0.0
         )
     iterations, status, residual = _finish(
         kernel,
@@ -1116,7 +1154,7 @@ def _solve_point(x, y, settings, curve, geometry, largest_spacing, row, scratch,
         phiy,
     )
     _accumulate_nodes(row, mode, a, t, total, count * step, out_step, out_count, control_count, coefficients)
-    return iterations, status, residual
+    return iterations, status, residual, math.nan, math.nan
 
 
 @njit(cache=True, error_model="numpy")
@@ -1175,13 +1213,13 @@ def _add_span(row, segment, control_count, s0, s1, s2):
 
 
 @njit(cache=True, error_model="numpy", fastmath={"contract", "arcp", "reassoc", "nsz"})
-def _fold_onto_basis(
-    row, a, inv_r, inv_s, factor, likelihood, basis0, basis1, basis2, control_count, coefficients, step
-):
+def _fold_onto_basis(row, a, inv_r, inv_s, factor, basis0, basis1, basis2, control_count, coefficients, step):
     """row_i += sum_k c_k N_i(t_k) over the N uniform samples (Sec. 4.3), shape (n,).
 
-    c_k = a_k, or with `likelihood` c_k = factor a_k / (r_k s_k) (Eq. 14 and 17,
-    factor = 1 / D), so that the kernel needs no pass of its own.  The samples of
+    c_k = factor a_k inv_r_k inv_s_k: for the maximum-likelihood kernels 1 / r_k,
+    1 / s_k and factor = 1 / D (Eq. 14 and 17), so that the kernel needs no pass of
+    its own; for the explicit kernels, whose `a` is the kernel, arrays of ones (a
+    flag choosing the product would stop the loop vectorising).  The samples of
     span j (`span_first_sample`: N / n of them in the natural parameter, as many as
     its share of the length in arc length) touch only N_(j-1), N_j and N_(j+1),
     whose values at the samples are basis0, basis1 and basis2, each (N,).
@@ -1201,17 +1239,11 @@ def _fold_onto_basis(
         span0 = basis0[first:last]
         span1 = basis1[first:last]
         span2 = basis2[first:last]
-        if likelihood:
-            for i in range(span_a.shape[0]):
-                c = span_a[i] * span_r[i] * span_s[i]
-                s0 += c * span0[i]
-                s1 += c * span1[i]
-                s2 += c * span2[i]
-        else:
-            for i in range(span_a.shape[0]):
-                s0 += span_a[i] * span0[i]
-                s1 += span_a[i] * span1[i]
-                s2 += span_a[i] * span2[i]
+        for i in range(span_a.shape[0]):
+            c = span_a[i] * span_r[i] * span_s[i]
+            s0 += c * span0[i]
+            s1 += c * span1[i]
+            s2 += c * span2[i]
         first = last
         row[(j - 1) % control_count] += factor * s0
         row[j] += factor * s1
@@ -1290,7 +1322,7 @@ def _finish(
     Returns (iterations, status, residual).
     """
     if kernel <= MODIFIED_MEAN_VALUE_SQUARED:
-        iterations, status, residual, d = _maximum_likelihood(
+        iterations, status, residual, d, _, _ = _maximum_likelihood(
             ux,
             uy,
             inv_r,
@@ -1334,8 +1366,9 @@ def _maximum_likelihood(
     the peak passes `_peak_unresolved` for sure, and the scan for it is skipped.
 
     On return `s`, `inv_s` hold 1 + phi . u_j and its inverse at the minimiser.
-    Returns (iterations, status, residual, D), D = sum a_j / (r_j s_j), so that
-    lambda_j w_j = a_j / (r_j s_j D) (Eq. 14 and 17).
+    Returns (iterations, status, residual, D, phix, phiy), D = sum a_j / (r_j s_j), so
+    that lambda_j w_j = a_j / (r_j s_j D) (Eq. 14 and 17); phi is NaN after the
+    path-following fallback.
     """
     iterations, status, residual, phix, phiy, d = _newton(
         ux, uy, inv_r, a, s, inv_s, trial, trial_inv, total, tolerance, phix, phiy
@@ -1345,7 +1378,8 @@ def _maximum_likelihood(
         iterations, status, residual, d = _continuation(
             ux, uy, inv_r, a, w, blend, s, inv_s, trial, trial_inv, total, tolerance, iterations
         )
-        reach = 0.0  # the path's phi is not returned: scan
+        phix, phiy = math.nan, math.nan  # the path's phi is not returned
+        reach = 0.0  # so scan
     resolved = (spread + ROUNDING_SLACK) ** 2 < 2.0 * (reach - ROUNDING_SLACK)
     if status == STATUS_CONVERGED and not resolved:
         smallest = 1.0
@@ -1358,7 +1392,7 @@ def _maximum_likelihood(
         share = a[peak] * inv_s[peak]
         if _peak_unresolved(ux, uy, share, w, step, total, peak, smallest):
             status = STATUS_AT_FEASIBLE_EDGE
-    return iterations, status, residual, d
+    return iterations, status, residual, d, phix, phiy
 
 
 @njit(cache=True, error_model="numpy")
@@ -1478,8 +1512,11 @@ def solve_points(points, settings, curve, geometry, out, iterations, status, res
     Per-point diagnostics go to iterations, status and residual, each (M,).
     The GIL is released, so that `core.kernels` runs one call per thread with
     `stride` threads: cheaper to compile than numba's parallel loops, and as fast.
-    Points are dealt out round-robin so that the costlier near-boundary points
-    spread evenly.
+    Points are dealt out round-robin in blocks of BLOCK, so that the costlier
+    near-boundary points spread evenly.  Within a block a far point's Newton starts
+    from the last minimiser (`_solve_point`): neighbours in a mesh's vertex order,
+    their minimisers are close.  A block is solved in order by one thread, so the
+    result depends on the points' order, never on the number of threads.
 
     settings = (kernel, power, shift, output mode, orientation (+1 counter-clockwise),
     diameter, n control points, Newton tolerance relative to the diameter).
@@ -1515,6 +1552,7 @@ def solve_points(points, settings, curve, geometry, out, iterations, status, res
         np.empty(capacity),
         np.empty(capacity),
         np.empty(capacity),
+        np.ones(capacity),  # c_k = a_k in `_fold_onto_basis` for the explicit kernels
         np.empty(capacity),
         np.empty(capacity),
         np.empty(capacity),
@@ -1530,7 +1568,15 @@ def solve_points(points, settings, curve, geometry, out, iterations, status, res
     window_d = np.empty(MAX_WINDOWS + 1)
     windows = (window_start, window_stop, window_t, window_d)
     largest_spacing = curve[6].max()
-    for m in range(first, points.shape[0], stride):
-        iterations[m], status[m], residual[m] = _solve_point(
-            points[m, 0], points[m, 1], settings, curve, geometry, largest_spacing, out[m], scratch, windows
-        )
+    count = points.shape[0]
+    for block in range(first, (count + BLOCK - 1) // BLOCK, stride):
+        nan = math.nan
+        history = (nan, nan, nan, nan, nan, nan, nan, nan)
+        for m in range(block * BLOCK, min(count, (block + 1) * BLOCK)):
+            x = points[m, 0]
+            y = points[m, 1]
+            iterations[m], status[m], residual[m], phix, phiy = _solve_point(
+                x, y, settings, curve, geometry, largest_spacing, out[m], scratch, windows, history
+            )
+            if not math.isnan(phix):
+                history = (x, y, phix, phiy, history[0], history[1], history[2], history[3])

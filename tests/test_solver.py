@@ -9,6 +9,7 @@ Newton tolerance.  The backtracking test must bound the true change of F from ab
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from conftest import interior_points
 
 from core import solver
@@ -72,7 +73,7 @@ def test_coarse_warm_start_reaches_the_full_minimiser_in_fewer_steps(blob):
         spacing = np.linalg.norm(np.diff(boundary.points, axis=0, append=boundary.points[:1]), axis=1).max()
         separation = (1.0 / inv_r.max()) / spacing
         coarse = tuple(np.empty(ux.size) for _ in range(8))
-        start = solver._coarse_start(ux, uy, inv_r, a, ux.size, separation, coarse, tolerance)
+        start = solver._coarse_start(ux, uy, inv_r, a, ux.size, separation, coarse, tolerance, 0.0, 0.0)
         assert start != (0.0, 0.0), "points this far from the boundary get a coarse start"
         assert (1.0 + start[0] * ux + start[1] * uy).min() > 0.0  # feasible for the full rule
         cold, status, residual, *phi, d = _newton(ux, uy, inv_r, a, tolerance, (0.0, 0.0))
@@ -173,9 +174,70 @@ def test_the_peak_scan_is_skipped_only_where_it_passes_for_sure(blob):
                         ux, uy, inv_r, a, *work, weights, boundary.step, ux.size, tolerance, 0.0, 0.0, bound
                     )
                 )
-            assert results[0] == results[1]
+            np.testing.assert_array_equal(results[0], results[1])  # NaN phi after path-following
             _, status, _, phix, phiy, _ = _newton(ux, uy, inv_r, a, tolerance, (0.0, 0.0))
             if status == solver.STATUS_CONVERGED:
                 skipped += spread**2 < 2.0 * (1.0 - np.hypot(phix, phiy))
             flagged += results[1][1] == solver.STATUS_AT_FEASIBLE_EDGE
     assert skipped > 0 and flagged > 0  # both branches are exercised
+
+
+def _solve_points(curve, x, first=0, stride=1, out=None):
+    """`solver.solve_points` of the harmonic-like basis at x (M, 2); returns (G, iterations)."""
+    from core import kernels
+
+    boundary = curve.sample(100)
+    arrays = kernels._curve_arrays(boundary, solver.OUTPUT_BASIS, curve.n, 1, boundary.step)
+    settings = (
+        solver.HARMONIC_LIKE, 0.0, 0, solver.OUTPUT_BASIS, 1.0 if boundary.area > 0 else -1.0,
+        boundary.diameter, curve.n, TOLERANCE,
+    )  # fmt: skip
+    geometry = (boundary.curve.coefficients, boundary.curve.piece_length, boundary.corners)
+    count = x.shape[0]
+    out = np.zeros((count, curve.n)) if out is None else out
+    iterations = np.zeros(count, dtype=np.int64)
+    status = np.zeros(count, dtype=np.int64)
+    residual = np.zeros(count)
+    solver.solve_points(x, settings, arrays, geometry, out, iterations, status, residual, first, stride)
+    return out, iterations
+
+
+def test_mesh_order_starts_reach_the_cold_minimiser_and_the_thread_split_does_not_matter(blob):
+    # Far points start Newton from the last minimisers of their block (_predicted_start): in
+    # a mesh's vertex order that saves the coarse solve.  Any start reaches the same minimiser
+    # to the Newton tolerance, so G agrees with a shuffled order (no useful neighbours) to
+    # about the tolerance; and one thread or two, the blocks are the same: bitwise equal.
+    import core
+
+    mesh = core.triangulate(blob, max_edge=0.02 * blob.diameter)
+    x = np.ascontiguousarray(mesh.vertices[mesh.interior])
+    ordered, iterations = _solve_points(blob, x)
+    order = np.random.default_rng(13).permutation(x.shape[0])
+    shuffled, cold_iterations = _solve_points(blob, np.ascontiguousarray(x[order]))
+    np.testing.assert_allclose(shuffled, ordered[order], rtol=0.0, atol=1e-9)
+    # Predicted starts skip the coarse solve and take a step or two more on all N; shuffled, none is.
+    assert np.median(iterations) >= 2 and np.median(cold_iterations) == 1
+    split = np.zeros_like(ordered)
+    for first in (0, 1):
+        _solve_points(blob, x, first, 2, out=split)
+    np.testing.assert_array_equal(split, ordered)
+
+
+def test_the_predicted_start_extrapolates_along_the_last_two_points():
+    nan = np.nan
+    history = (1.0, 0.0, 0.3, 0.1, 0.0, 0.0, 0.2, 0.1)  # phi grows by 0.1 in x per unit
+    assert solver._predicted_start(2.0, 0.0, history, 1.5) == (pytest.approx(0.4), 0.1, True)
+    assert solver._predicted_start(1.5, 0.5, history, 1.5)[:2] == pytest.approx((0.35, 0.1))
+    # Too far from the last point: phi = 0; the last two too far apart: the last phi, no prediction.
+    assert solver._predicted_start(3.0, 0.0, history, 1.5) == (0.0, 0.0, False)
+    assert solver._predicted_start(1.5, 0.0, (1.0, 0.0, 0.3, 0.1, -2.0, 0.0, 0.0, 0.0), 1.5) == (
+        0.3,
+        0.1,
+        False,
+    )
+    assert solver._predicted_start(1.5, 0.0, (1.0, 0.0, 0.3, 0.1, nan, nan, nan, nan), 1.5) == (
+        0.3,
+        0.1,
+        False,
+    )
+    assert solver._predicted_start(0.0, 0.0, (nan,) * 8, 1.5) == (0.0, 0.0, False)
