@@ -46,6 +46,8 @@ CHILD_ERROR_LINES = 20
 DRAG_VERTICES = (6_000, 400_000)
 #: Seconds the scripted drag lasts (every frame of it is drawn while the point is dragged).
 DRAG_SECONDS = 4.0
+#: Seconds before each timed run of the FEM comparison (see `_alternating_medians`).
+BLAS_SETTLE = 0.3
 #: Seconds a viewer child may take, its precompute included (400k vertices: minutes).
 DRAG_TIMEOUT = 900
 
@@ -149,6 +151,25 @@ def _median_time(function, repeats: int) -> tuple[float, object]:
     return statistics.median(times), result
 
 
+def _alternating_medians(functions, repeats: int) -> list[float]:
+    """The median seconds of each of `functions`, run in turn `repeats` times.
+
+    Each run waits BLAS_SETTLE seconds first: OpenBLAS's worker threads busy-wait
+    for a while after a call (the FEM solve's sparse factorisation calls BLAS), and
+    on a 2-core machine whichever solve came next was timed against them (the
+    transfinite solve measured 1.2-1.4x slower straight after the FEM solve).
+    Alternating spreads the machine's drifts over both.
+    """
+    times = [[] for _ in functions]
+    for _ in range(repeats):
+        for function, spent in zip(functions, times, strict=True):
+            time.sleep(BLAS_SETTLE)
+            start = time.perf_counter()
+            function()
+            spent.append(time.perf_counter() - start)
+    return [statistics.median(spent) for spent in times]
+
+
 def _row(name: str, count: int, samples: int, seconds: float, newton: str) -> None:
     rate = 1e6 * seconds / count
     print(f"{name:<28} {count:>10,} {samples:>10,} {seconds:>9.3f} {rate:>9.2f} {newton:>15}")
@@ -240,10 +261,9 @@ def _fem_comparison(curve, vertices, repeats) -> None:
         def transfinite(mesh=mesh):
             return core.mesh_basis_functions(curve, mesh, "harmonic-like", cache=False)
 
-        fem, _ = _median_time(fem_solve, repeats)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            ours, _ = _median_time(transfinite, repeats)
+            fem, ours = _alternating_medians((fem_solve, transfinite), repeats)
             # The same solve, untimed, for its per-vertex Newton iterations on the N samples.
             _, report = core.basis_functions(
                 curve, mesh.vertices[mesh.interior], "harmonic-like", return_report=True

@@ -47,3 +47,18 @@ def test_the_drag_frame_says_it_is_skipped_without_xvfb(monkeypatch, capsys):
     monkeypatch.setattr(bench.shutil, "which", lambda name: None)
     bench._drag_frames((6_000,))
     assert capsys.readouterr().out == "viewer drag frame: skipped: no Xvfb (apt-get install xvfb)\n"
+
+
+def test_the_fem_comparison_alternates_its_runs_after_a_pause(monkeypatch):
+    # Each method is timed in turn, after a pause that lets the other's BLAS threads sleep.
+    events = []
+    monkeypatch.setattr(bench.time, "sleep", lambda seconds: events.append(("sleep", seconds)))
+    clock = iter(range(100))
+    monkeypatch.setattr(bench.time, "perf_counter", lambda: next(clock) ** 2)
+    fem, ours = bench._alternating_medians(
+        (lambda: events.append("fem"), lambda: events.append("ours")), repeats=3
+    )
+    pause = ("sleep", bench.BLAS_SETTLE)
+    assert events == [pause, "fem", pause, "ours"] * 3
+    # Runs take 1, 5, 9, 13, 17, 21 clock units (squares of consecutive readings), in turn.
+    assert (fem, ours) == (9, 13)
