@@ -333,31 +333,12 @@ def _gradient_point(x, y, settings, curve, geometry, row, row_x, row_y, scratch,
     count = sample_x.shape[0]
     out_count = int(round(count * step / out_step))
     period = count * step
-    window_count = 0
-    in_run = False
-    nearest = 1e300
-    nearest_index = np.int64(0)
-    for k in range(count):
-        dx = sample_x[k] - x
-        dy = sample_y[k] - y
-        r = math.sqrt(dx * dx + dy * dy)
-        inv = 1.0 / r
-        ux[k] = dx * inv
-        uy[k] = dy * inv
-        inv_r[k] = inv
-        if r < nearest:
-            nearest = r
-            nearest_index = k
-        if r < solver.NEAR_SPACINGS * spacing[k]:
-            if not in_run:
-                if window_count < solver.MAX_WINDOWS:
-                    window_start[window_count] = k
-                window_count += 1
-                in_run = True
-            if window_count <= solver.MAX_WINDOWS:
-                window_stop[window_count - 1] = k
-        else:
-            in_run = False
+    # Pass 1 and the near stretches, as in `solver._solve_point`.
+    near = solver._sample_directions(sample_x, sample_y, spacing, x, y, ux, uy, inv_r)
+    nearest = 1.0 / solver._largest(inv_r, count) if near == 0 else 1e300
+    window_count, nearest_index, nearest = solver._near_stretches(
+        sample_x, sample_y, spacing, x, y, near, nearest, windows
+    )
     window_count = solver._merge_windows(
         window_start, window_stop, min(window_count, solver.MAX_WINDOWS), count, nearest_index
     )

@@ -972,31 +972,9 @@ def _solve_point(x, y, settings, curve, geometry, largest_spacing, row, scratch,
     # stretches closer than NEAR_SPACINGS (found in a second, sequential scan).
     near = _sample_directions(sample_x, sample_y, spacing, x, y, ux, uy, inv_r)
     nearest = 1.0 / _largest(inv_r, count) if near == 0 else 1e300
-    window_count = 0
-    in_run = False
-    nearest_index = np.int64(0)  # not a literal: one specialisation of _merge_windows
-    # Squared distances: the directions of pass 1 stand, the scan needs no root or division.
-    nearest_squared = math.inf
-    for k in range(count if near > 0 else 0):
-        dx = sample_x[k] - x
-        dy = sample_y[k] - y
-        r2 = dx * dx + dy * dy
-        if r2 < nearest_squared:
-            nearest_squared = r2
-            nearest_index = k
-        limit = NEAR_SPACINGS * spacing[k]
-        if r2 < limit * limit:
-            if not in_run:
-                if window_count < MAX_WINDOWS:
-                    window_start[window_count] = k
-                window_count += 1
-                in_run = True
-            if window_count <= MAX_WINDOWS:
-                window_stop[window_count - 1] = k
-        else:
-            in_run = False
-    if near > 0:
-        nearest = math.sqrt(nearest_squared)
+    window_count, nearest_index, nearest = _near_stretches(
+        sample_x, sample_y, spacing, x, y, near, nearest, windows
+    )
     window_count = _merge_windows(
         window_start, window_stop, min(window_count, MAX_WINDOWS), count, nearest_index
     )
@@ -1416,6 +1394,44 @@ def _peak_unresolved(ux, uy, share, w, step, count, peak, smallest):
         math.sqrt((ux[after] - ux[peak]) ** 2 + (uy[after] - uy[peak]) ** 2),
     )
     return spread > math.sqrt(2.0 * max(smallest, 0.0))
+
+
+@njit(cache=True, error_model="numpy")
+def _near_stretches(sample_x, sample_y, spacing, x, y, near, nearest, windows):
+    """The stretches of samples closer to (x, y) than NEAR_SPACINGS spacings, into `windows`.
+
+    A sequential scan, run only when pass 1 (`_sample_directions`) counted `near`
+    > 0 such samples (`core.gradient_solver` shares it).  Squared distances: no root
+    or division.  Returns (the number of stretches, the nearest sample's index, its distance;
+    `nearest` unchanged when near == 0).
+    """
+    window_start, window_stop, _, _ = windows
+    count = sample_x.shape[0]
+    window_count = 0
+    in_run = False
+    nearest_index = np.int64(0)  # not a literal: one specialisation of _merge_windows
+    nearest_squared = math.inf
+    for k in range(count if near > 0 else 0):
+        dx = sample_x[k] - x
+        dy = sample_y[k] - y
+        r2 = dx * dx + dy * dy
+        if r2 < nearest_squared:
+            nearest_squared = r2
+            nearest_index = k
+        limit = NEAR_SPACINGS * spacing[k]
+        if r2 < limit * limit:
+            if not in_run:
+                if window_count < MAX_WINDOWS:
+                    window_start[window_count] = k
+                window_count += 1
+                in_run = True
+            if window_count <= MAX_WINDOWS:
+                window_stop[window_count - 1] = k
+        else:
+            in_run = False
+    if near > 0:
+        nearest = math.sqrt(nearest_squared)
+    return window_count, nearest_index, nearest
 
 
 @njit(cache=True, error_model="numpy")
