@@ -324,7 +324,7 @@ def _gradient_point(x, y, settings, curve, geometry, row, row_x, row_y, scratch,
     """
     kernel, power, shift, mode, orientation, diameter, control_count, tolerance = settings
     coefficients, piece_length, corners = geometry
-    window_start, window_stop, window_t, window_d = windows
+    window_start, window_stop, window_t, window_d, runs = windows
     (
         sample_x, sample_y, tangent_x, tangent_y, second_x, second_y, spacing, uniform, sample_t,
         basis0, basis1, basis2, step, sinh_step, out_step, slabs,
@@ -377,6 +377,10 @@ def _gradient_point(x, y, settings, curve, geometry, row, row_x, row_y, scratch,
             t[nodes] = sample_t[k]
             w[nodes] = step
             nodes += 1
+        runs[0, 0] = 0  # every sample, one run
+        runs[0, 1] = 0
+        runs[0, 2] = count
+        run_count = 1
     else:
         closest_t = nearest_index * step
         closest_d = nearest
@@ -401,11 +405,12 @@ def _gradient_point(x, y, settings, curve, geometry, row, row_x, row_y, scratch,
             return 0, solver.STATUS_OUTSIDE, closest_d
         nodes = solver._refined_nodes(
             window_start, window_stop, window_t, window_d, window_count, count, step, sinh_step,
-            coefficients, piece_length, t, w,
+            coefficients, piece_length, t, w, runs,
         )  # fmt: skip
+        run_count = window_count
     solver._node_geometry(
-        t, w, nodes, step, count, sample_x, sample_y, tangent_x, tangent_y, second_x, second_y,
-        coefficients, piece_length, corners, corner_count, px, py, tx, ty, sx, sy,
+        t, w, nodes, runs, run_count, step, count, sample_x, sample_y, tangent_x, tangent_y, second_x,
+        second_y, coefficients, piece_length, corners, corner_count, px, py, tx, ty, sx, sy,
     )  # fmt: skip
     r_min = solver._directions(px, py, x, y, nodes, ux, uy, inv_r)
     total = solver._weights(
@@ -448,6 +453,7 @@ def gradient_points(
         np.empty(solver.MAX_WINDOWS + 1, dtype=np.int64),
         np.empty(solver.MAX_WINDOWS + 1),
         np.empty(solver.MAX_WINDOWS + 1),
+        np.empty((solver.MAX_WINDOWS + 1, 3), dtype=np.int64),
     )
     for m in range(first, points.shape[0], stride):
         iterations[m], status[m], residual[m] = _gradient_point(

@@ -945,7 +945,7 @@ def _solve_point(x, y, settings, curve, geometry, largest_spacing, row, scratch,
     """
     kernel, power, shift, mode, orientation, diameter, control_count, tolerance = settings
     coefficients, piece_length, corners = geometry
-    window_start, window_stop, window_t, window_d = windows
+    window_start, window_stop, window_t, window_d, runs = windows
     (
         sample_x,
         sample_y,
@@ -1063,6 +1063,10 @@ def _solve_point(x, y, settings, curve, geometry, largest_spacing, row, scratch,
             t[nodes] = sample_t[k]
             w[nodes] = step
             nodes += 1
+        runs[0, 0] = 0  # every sample, one run
+        runs[0, 1] = 0
+        runs[0, 2] = count
+        run_count = 1
     else:
         closest_t = nearest_index * step
         closest_d = nearest
@@ -1094,11 +1098,13 @@ def _solve_point(x, y, settings, curve, geometry, largest_spacing, row, scratch,
             piece_length,
             t,
             w,
+            runs,
         )
+        run_count = window_count
     # Pass 2 (near points, corners): the nodes' curve data and directions.
     _node_geometry(
-        t, w, nodes, step, count, sample_x, sample_y, tangent_x, tangent_y, second_x, second_y,
-        coefficients, piece_length, corners, corner_count, px, py, tx, ty, sx, sy,
+        t, w, nodes, runs, run_count, step, count, sample_x, sample_y, tangent_x, tangent_y, second_x,
+        second_y, coefficients, piece_length, corners, corner_count, px, py, tx, ty, sx, sy,
     )  # fmt: skip
     r_min = _directions(px, py, x, y, nodes, ux, uy, inv_r)
     total = _weights(
@@ -1131,18 +1137,26 @@ def _solve_point(x, y, settings, curve, geometry, largest_spacing, row, scratch,
         phix,
         phiy,
     )
-    _accumulate_nodes(row, mode, a, t, total, count * step, out_step, out_count, control_count, coefficients)
+    _accumulate_nodes(
+        row, mode, a, t, total, count * step, out_step, out_count, control_count, coefficients, runs,
+        run_count, curve,
+    )  # fmt: skip
     return iterations, status, residual, math.nan, math.nan
 
 
 @njit(cache=True, error_model="numpy")
-def _accumulate_nodes(row, mode, a, t, total, period, out_step, out_count, control_count, coefficients):
+def _accumulate_nodes(
+    row, mode, a, t, total, period, out_step, out_count, control_count, coefficients, runs, run_count, curve
+):  # fmt: skip
     """`_accumulate` of a_j at the output parameter of every node t_j, j < total (each (total,)).
 
-    For the B-spline basis (OUTPUT_BASIS) the three weights of a run of nodes on one
+    For the B-spline basis (OUTPUT_BASIS) the `run_count` runs of uniform samples
+    (`_refined_nodes`) are folded with the samples' stored basis values
+    (`_fold_run`); for the other nodes the three weights of a run of nodes on one
     span are summed in registers and added to the row when the span changes: the
     nodes come in increasing t but for the wrap and the appended corners, so this is
     a few additions per span instead of three read-modify-writes of the row per node.
+    `curve` is the tuple of `solve_points`.
     """
     if mode != OUTPUT_BASIS:
         for j in range(total):
@@ -1154,30 +1168,85 @@ def _accumulate_nodes(row, mode, a, t, total, period, out_step, out_count, contr
     s2 = 0.0
     spans = float(control_count)
     arc_length = coefficients.shape[2] == 3  # a call per node costs more than the rest
-    for j in range(total):
-        # Most nodes are in range already: math.floor costs a library call, skip it.
-        tj = t[j]
-        if not 0.0 <= tj < period:
-            tj = _wrap(tj, period)
-        if arc_length:
-            tj = _output_parameter(coefficients, mode, tj)
-        if not 0.0 <= tj < spans:
-            tj = _wrap(tj, spans)
-        segment = min(int(tj), control_count - 1)  # tj >= 0 here
-        if segment != current:
+    j = 0
+    for r in range(run_count + 1):
+        stop = runs[r, 0] if r < run_count else total
+        for node in range(j, stop):
+            # Most nodes are in range already: math.floor costs a library call, skip it.
+            tj = t[node]
+            if not 0.0 <= tj < period:
+                tj = _wrap(tj, period)
+            if arc_length:
+                tj = _output_parameter(coefficients, mode, tj)
+            if not 0.0 <= tj < spans:
+                tj = _wrap(tj, spans)
+            segment = min(int(tj), control_count - 1)  # tj >= 0 here
+            if segment != current:
+                if current >= 0:
+                    _add_span(row, current, control_count, s0, s1, s2)
+                current = segment
+                s0 = 0.0
+                s1 = 0.0
+                s2 = 0.0
+            u = tj - segment
+            value = 0.5 * a[node]
+            s0 += value * (1.0 - u) * (1.0 - u)
+            s1 += value * (-2.0 * u * u + 2.0 * u + 1.0)
+            s2 += value * u * u
+        if r < run_count:
             if current >= 0:
                 _add_span(row, current, control_count, s0, s1, s2)
-            current = segment
+            current = -1
+            _fold_run(row, a, runs[r, 0], runs[r, 1], runs[r, 2], control_count, coefficients, curve)
+            j = runs[r, 0] + runs[r, 2]
+    if current >= 0:
+        _add_span(row, current, control_count, s0, s1, s2)
+
+
+@njit(cache=True, error_model="numpy", fastmath={"contract", "arcp", "reassoc", "nsz"})
+def _fold_run(row, a, first, sample, length, control_count, coefficients, curve):
+    """row_i += sum a_node N_i(t_k) over a run of uniform samples k = sample, sample + 1, ...
+    (mod N) at nodes first, first + 1, ... (`length` of them), with the samples'
+    stored basis values (basis0..2 of `curve`, see `_fold_onto_basis`).
+    """
+    count = curve[0].shape[0]
+    basis0, basis1, basis2, step = curve[9], curve[10], curve[11], curve[12]
+    sample = sample % count
+    while length > 0:  # at most twice: the run may wrap past sample N - 1
+        end = min(count, sample + length)
+        span = _span_of_sample(coefficients, count, control_count, step, sample)
+        k = sample
+        while k < end:
+            stop = min(end, span_first_sample(coefficients, count, control_count, step, span + 1))
+            offset = first - sample
+            span_a = a[k + offset : stop + offset]
+            span0 = basis0[k:stop]
+            span1 = basis1[k:stop]
+            span2 = basis2[k:stop]
             s0 = 0.0
             s1 = 0.0
             s2 = 0.0
-        u = tj - segment
-        value = 0.5 * a[j]
-        s0 += value * (1.0 - u) * (1.0 - u)
-        s1 += value * (-2.0 * u * u + 2.0 * u + 1.0)
-        s2 += value * u * u
-    if current >= 0:
-        _add_span(row, current, control_count, s0, s1, s2)
+            for i in range(span_a.shape[0]):
+                s0 += span_a[i] * span0[i]
+                s1 += span_a[i] * span1[i]
+                s2 += span_a[i] * span2[i]
+            _add_span(row, span, control_count, s0, s1, s2)
+            k = stop
+            span += 1
+        first += end - sample
+        length -= end - sample
+        sample = 0
+
+
+@njit(cache=True, error_model="numpy")
+def _span_of_sample(coefficients, count, control_count, step, k):
+    """The span whose samples (`span_first_sample`) include sample k, 0 <= k < count."""
+    span = min(k * control_count // count, control_count - 1)
+    while span > 0 and span_first_sample(coefficients, count, control_count, step, span) > k:
+        span -= 1
+    while span_first_sample(coefficients, count, control_count, step, span + 1) <= k:
+        span += 1
+    return span
 
 
 @njit(cache=True, error_model="numpy")
@@ -1230,35 +1299,55 @@ def _fold_onto_basis(row, a, inv_r, inv_s, factor, basis0, basis1, basis2, contr
 
 @njit(cache=True, error_model="numpy")
 def _node_geometry(
-    t, w, nodes, step, count, sample_x, sample_y, tangent_x, tangent_y, second_x, second_y,
-    coefficients, piece_length, corners, corner_count, px, py, tx, ty, sx, sy,
+    t, w, nodes, runs, run_count, step, count, sample_x, sample_y, tangent_x, tangent_y, second_x,
+    second_y, coefficients, piece_length, corners, corner_count, px, py, tx, ty, sx, sy,
 ):  # fmt: skip
     """p, p', p'' (px, py, tx, ty, sx, sy) at the `nodes` parameters t of a refined rule, then
     the `corner_count` corner point masses appended (their t and weight 1 in t, w).
 
-    A node on a uniform sample (step h, `count` of them) takes the sample's stored
-    values, so that the refined rule agrees with the plain one there; others are
-    evaluated on the curve.
+    The `run_count` runs of uniform samples (`_refined_nodes`) are copied from the
+    stored samples in slices.  A graded node on a sample (step h, `count` of them)
+    also takes the sample's stored values, so that the refined rule agrees with the
+    plain one there; others are evaluated on the curve.
     """
     inverse = 1.0 / step
-    for j in range(nodes):
-        # The nearest sample index, round(t / step), without a division or a library call.
-        q = t[j] * inverse
-        k = int(q + 0.5) if q >= 0.0 else -int(0.5 - q)
-        if abs(t[j] - k * step) <= 1e-12 * step:
-            # k % count without an integer division (k is at most a period out of range).
-            while k < 0:
-                k += count
-            while k >= count:
-                k -= count
-            px[j] = sample_x[k]
-            py[j] = sample_y[k]
-            tx[j] = tangent_x[k]
-            ty[j] = tangent_y[k]
-            sx[j] = second_x[k]
-            sy[j] = second_y[k]
-        else:
-            px[j], py[j], tx[j], ty[j], sx[j], sy[j] = _evaluate_curve(coefficients, piece_length, t[j])
+    j = 0
+    for r in range(run_count + 1):
+        stop = runs[r, 0] if r < run_count else nodes
+        for node in range(j, stop):
+            # The nearest sample index, round(t / step), without a division or a library call.
+            q = t[node] * inverse
+            k = int(q + 0.5) if q >= 0.0 else -int(0.5 - q)
+            if abs(t[node] - k * step) <= 1e-12 * step:
+                # k % count without an integer division (k is at most a period out of range).
+                while k < 0:
+                    k += count
+                while k >= count:
+                    k -= count
+                px[node] = sample_x[k]
+                py[node] = sample_y[k]
+                tx[node] = tangent_x[k]
+                ty[node] = tangent_y[k]
+                sx[node] = second_x[k]
+                sy[node] = second_y[k]
+            else:
+                px[node], py[node], tx[node], ty[node], sx[node], sy[node] = _evaluate_curve(
+                    coefficients, piece_length, t[node]
+                )
+        if r < run_count:
+            first, sample, length = runs[r, 0], runs[r, 1] % count, runs[r, 2]
+            while length > 0:  # at most twice: the run may wrap past sample N - 1
+                piece = min(length, count - sample)
+                px[first : first + piece] = sample_x[sample : sample + piece]
+                py[first : first + piece] = sample_y[sample : sample + piece]
+                tx[first : first + piece] = tangent_x[sample : sample + piece]
+                ty[first : first + piece] = tangent_y[sample : sample + piece]
+                sx[first : first + piece] = second_x[sample : sample + piece]
+                sy[first : first + piece] = second_y[sample : sample + piece]
+                first += piece
+                length -= piece
+                sample = 0
+            j = runs[r, 0] + runs[r, 2]
     for c in range(corner_count):
         px[nodes + c], py[nodes + c], _, _, _, _ = _evaluate_curve(coefficients, piece_length, corners[c, 0])
         t[nodes + c] = corners[c, 0]
@@ -1405,7 +1494,7 @@ def _near_stretches(sample_x, sample_y, spacing, x, y, near, nearest, windows):
     or division.  Returns (the number of stretches, the nearest sample's index, its distance;
     `nearest` unchanged when near == 0).
     """
-    window_start, window_stop, _, _ = windows
+    window_start, window_stop = windows[0], windows[1]
     count = sample_x.shape[0]
     window_count = 0
     in_run = False
@@ -1479,11 +1568,14 @@ def _refined_nodes(
     piece_length,
     t,
     w,
+    runs,
 ):
     """Quadrature nodes (t) and weights (w) of a near point; returns their number.
 
     Uniform samples outside the windows, a graded sinh rule inside each window
     around its closest parameter (peak width from the local speed and curvature).
+    Row i of `runs` (int, (MAX_WINDOWS + 1, 3)) is the run of uniform samples after
+    window i: (its first node, its first sample index, not wrapped, its length).
     """
     # Reach at least step / sinh_step on both sides of the closest point, so that the
     # sigma step of the graded rule (about h / reach) is at most sinh_step; never
@@ -1514,6 +1606,9 @@ def _refined_nodes(
         w[first] += 0.5 * step
         w[nodes - 1] += 0.5 * step
         next_start = window_start[i + 1] if i + 1 < window_count else window_start[0] + count
+        runs[i, 0] = nodes
+        runs[i, 1] = window_stop[i] + 1
+        runs[i, 2] = max(next_start - window_stop[i] - 1, 0)
         for k in range(window_stop[i] + 1, next_start):
             t[nodes] = k * step
             w[nodes] = step
@@ -1582,7 +1677,8 @@ def solve_points(points, settings, curve, geometry, out, iterations, status, res
     window_stop = np.empty(MAX_WINDOWS + 1, dtype=np.int64)
     window_t = np.empty(MAX_WINDOWS + 1)
     window_d = np.empty(MAX_WINDOWS + 1)
-    windows = (window_start, window_stop, window_t, window_d)
+    runs = np.empty((MAX_WINDOWS + 1, 3), dtype=np.int64)
+    windows = (window_start, window_stop, window_t, window_d, runs)
     largest_spacing = curve[6].max()
     count = points.shape[0]
     for block in range(first, (count + BLOCK - 1) // BLOCK, stride):
