@@ -76,6 +76,10 @@ DISTORTION_RANGE = 1.0
 #: `set_distortion_measure` codes of the shader.
 DISTORTION_MEASURES = {"area": 0, "conformal": 1}
 
+#: `WarpRenderer.may_fold` calls a triangle safely unfolded when its deformed area is more than this
+#: fraction of its undeformed one: the fold pass's float32 areas are off by ~1e-5 of that at most.
+FOLD_MARGIN = 1e-3
+
 #: Floats per overlay vertex: x, y (image pixels), r, g, b, a (straight alpha),
 #: size (line width or handle diameter, framebuffer pixels).
 OVERLAY_FLOATS = 7
@@ -372,6 +376,31 @@ class WarpRenderer:
         self.revision += 1
         self._require_preview()
         self._preview.write_ordered_positions(positions)
+
+    def may_fold(self, positions: np.ndarray) -> bool:
+        """Whether ``draw(folds=True)`` could mark a triangle at these positions; if not, it may skip
+        that pass (a geometry shader over every triangle, run on the CPU by a software rasteriser)
+        and draw the same pixels.
+
+        Parameters
+        ----------
+        positions : ndarray of shape (V, 2), float32
+            The positions last written, in `vertex_order` (`set_ordered_positions`).
+
+        Returns
+        -------
+        bool
+            False when every triangle keeps its orientation with a margin (`FOLD_MARGIN`) far
+            beyond the pass's float32 rounding, so that the pass would emit nothing.
+        """
+        self._require_mesh()
+        mesh = self._mesh
+        if mesh.undeformed_areas is None:
+            mesh.undeformed_areas = _signed_areas(mesh.vertices[mesh.order], mesh.triangle_indices)
+        deformed = _signed_areas(positions, mesh.triangle_indices)
+        # Undeformed triangles may turn either way; a fold flips the sign, a collapse nears zero.
+        source = mesh.undeformed_areas
+        return not bool(np.all(deformed * np.sign(source) > FOLD_MARGIN * np.abs(source)))
 
     def set_distortion_measure(self, measure: str) -> None:
         """How ``content="distortion"`` colours its field: ``"area"`` (log2 det J) or ``"conformal"``."""
@@ -833,6 +862,7 @@ class _MeshObjects:
 
     def __init__(self, vertices: np.ndarray, order: np.ndarray, triangle_indices: np.ndarray):
         self.vertices, self.order, self.triangle_indices = vertices, order, triangle_indices
+        self.undeformed_areas: np.ndarray | None = None  # (T,), for `WarpRenderer.may_fold`
         self.vaos: dict = {}
         self.edge_vao: moderngl.VertexArray | None = None
         self.objects: list = []
@@ -847,6 +877,13 @@ class _MeshObjects:
         for item in self.objects:
             item.release()
         self.objects = []
+
+
+def _signed_areas(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+    """Signed areas (T,) float64 of `triangles` (T, 3) over `points` (V, 2), image pixels (y down)."""
+    corners = points[triangles].astype(np.float64)  # (T, 3, 2)
+    edges = corners[:, 1:] - corners[:, :1]
+    return 0.5 * (edges[:, 0, 0] * edges[:, 1, 1] - edges[:, 1, 0] * edges[:, 0, 1])
 
 
 def _checked_mesh(vertices, triangles) -> tuple[np.ndarray, np.ndarray]:

@@ -384,3 +384,75 @@ def test_the_mesh_layer_is_drawn_again_only_when_what_it_shows_changes(renderer,
         assert len(drawn) == before + 2  # kept once, then copied
     scene.release()
     screen.release()
+
+
+def test_the_scene_skips_the_fold_pass_only_where_it_would_mark_nothing(renderer, monkeypatch):
+    """With folds shown, a frame whose triangles all keep their orientation by a margin draws no
+    fold pass; every frame's pixels are those of the same frame drawn with the pass, for random
+    smooth moves (exact product and per-drag updates) and for a fold."""
+    rng = np.random.default_rng(11)
+    vertices, triangles = grid_mesh(count=31, size=100.0)
+    mesh = core.Mesh(vertices, triangles, np.zeros(0, int), np.zeros(0))
+    cage = np.array([[0.0, 0.0], [100.0, 0.0], [100.0, 100.0], [0.0, 100.0]])
+    s, t = vertices[:, 0] / 100.0, vertices[:, 1] / 100.0
+    g = np.stack([(1 - s) * (1 - t), s * (1 - t), s * t, (1 - s) * t], axis=1)  # G @ cage = vertices
+    result = BasisResult("k", cage, mesh, g, np.asfortranarray(g, np.float32), "bilinear", 0.0)
+    snapshot = Snapshot(Path("x.png"), cage, cage)
+    image = np.zeros((100, 100, 4), np.uint8)
+    image[..., 0] = rng.integers(0, 256, (100, 100))
+    image[..., 1:] = 255
+    state = AppState(History(snapshot), snapshot, image, Path("s.json"), basis=result)
+    state.mode, state.view, state.show_folds = "deform", View(2.0, (20.0, 10.0)), True
+    scene = Scene(renderer)
+    passes = []
+    draw = renderer.draw
+    monkeypatch.setattr(renderer, "draw", lambda *a, **k: passes.append(k["folds"]) or draw(*a, **k))
+    screen = renderer.ctx.simple_framebuffer((300, 240))
+    may_fold = Scene._may_fold
+
+    def frame(forced: bool) -> tuple[list, np.ndarray]:
+        monkeypatch.setattr(Scene, "_may_fold", (lambda self: True) if forced else may_fold)
+        passes.clear()
+        screen.use()
+        scene.sync(state)
+        scene.draw(state, (300, 240))
+        return list(passes), np.frombuffer(screen.read(components=4), np.uint8).reshape(240, 300, 4)
+
+    def check(target: np.ndarray) -> bool:
+        """Show `target`; whether the fold pass was skipped (the pixels checked against the pass)."""
+        state.live = state.live.replace(target=target)
+        drawn, pixels = frame(forced=False)
+        forced, expected = frame(forced=True)
+        assert forced == [True] and np.array_equal(pixels, expected)
+        return drawn == [False]
+
+    for _ in range(4):  # the exact product: smooth moves of the corners, no fold, no pass
+        target = cage + rng.uniform(-15, 15, size=(4, 2))
+        assert not core.folded_triangles(mesh, g @ target).any()
+        assert check(target)
+    state.drag = Drag("target", 1, np.zeros(2), snapshot)  # per-drag updates of corner 1
+    target = state.live.target.copy()
+    for step in range(6):
+        target[1] += (-30.0, 4.0)  # pulled left, past corner 0 from the fourth step on
+        folded = core.folded_triangles(mesh, g @ target).any()
+        assert check(target.copy()) == (not folded) and folded == (step >= 3)
+    scene.release()
+    screen.release()
+
+
+def test_may_fold_keeps_the_pass_for_a_triangle_within_the_margin(renderer):
+    """`WarpRenderer.may_fold`: a triangle squeezed to a sliver thinner than FOLD_MARGIN of its area
+    (not folded, but within float32 reach of it) keeps the fold pass; a thicker sliver does not."""
+    from app.render import FOLD_MARGIN
+
+    vertices, triangles = grid_mesh(count=5, size=100.0)
+    renderer.set_mesh(vertices, triangles)
+    rows = vertices[renderer.vertex_order]
+    assert not renderer.may_fold(rows.astype(np.float32))
+    results = []
+    for fraction in (0.5 * FOLD_MARGIN, 2 * FOLD_MARGIN):
+        squeezed = rows.copy()
+        below = squeezed[:, 1] == 25
+        squeezed[below, 1] = 25 * fraction  # every cell of the top row of cells becomes a sliver
+        results.append(renderer.may_fold(squeezed.astype(np.float32)))
+    assert results == [True, False]

@@ -182,6 +182,9 @@ class Scene:
         self._drawn_key: tuple | None = None  # what the last frame drew
         #: CPU time of the last per-drag position update (ms), for the status line and tests.
         self.update_ms = 0.0
+        # The renderer's revision at which `_positions` were written, and the fold check made there.
+        self._positions_revision: int | None = None
+        self._fold_check: tuple[int, bool] | None = None
 
     @property
     def has_mesh(self) -> bool:
@@ -273,8 +276,20 @@ class Scene:
             self._exact = True
             self._count_folds(state, deformed)
         self.renderer.set_ordered_positions(self._positions)
+        self._positions_revision = self.renderer.revision
         self._drawn_target = np.array(target)
         self.update_ms = 1e3 * (time.perf_counter() - started)
+
+    def _may_fold(self) -> bool:
+        """Whether the fold pass could mark anything on the mesh drawn (`WarpRenderer.may_fold`);
+        True whenever the positions drawn are not the ones this scene wrote last (the preview's,
+        an export's)."""
+        revision = self.renderer.revision
+        if self.previewing or self._positions is None or self._positions_revision != revision:
+            return True
+        if self._fold_check is None or self._fold_check[0] != revision:
+            self._fold_check = (revision, self.renderer.may_fold(self._positions))
+        return self._fold_check[1]
 
     def _count_folds(self, state: AppState, deformed: np.ndarray) -> None:
         import core
@@ -349,8 +364,10 @@ class Scene:
             if opacity > 0:
                 renderer.draw_backdrop(view, size, opacity)
             if warped:
+                # Skipping a fold pass that would mark nothing draws the same pixels.
+                marked = folds and self._may_fold()
                 renderer.draw(
-                    view, size, content=content, wireframe=wireframe, folds=folds, preview=self.previewing
+                    view, size, content=content, wireframe=wireframe, folds=marked, preview=self.previewing
                 )
 
         if key == self.layer_key and self._layer is not None and self._layer.size == size:
