@@ -395,12 +395,23 @@ class WarpRenderer:
         """
         self._require_mesh()
         mesh = self._mesh
-        if mesh.undeformed_areas is None:
-            mesh.undeformed_areas = _signed_areas(mesh.vertices[mesh.order], mesh.triangle_indices)
-        deformed = _signed_areas(positions, mesh.triangle_indices)
-        # Undeformed triangles may turn either way; a fold flips the sign, a collapse nears zero.
-        source = mesh.undeformed_areas
-        return not bool(np.all(deformed * np.sign(source) > FOLD_MARGIN * np.abs(source)))
+        if mesh.fold_test is None:
+            source = _signed_areas(mesh.vertices[mesh.order], mesh.triangle_indices)
+            corners = tuple(
+                np.ascontiguousarray(mesh.triangle_indices[:, k], dtype=np.intp) for k in range(3)
+            )
+            # Undeformed triangles may turn either way: a fold flips the sign, a collapse nears zero.
+            mesh.fold_test = (
+                *corners,
+                np.sign(source).astype(np.float32),
+                (2.0 * FOLD_MARGIN * np.abs(source)).astype(np.float32),
+            )
+        a, b, c, orientation, threshold = mesh.fold_test
+        x, y = np.ascontiguousarray(np.asarray(positions, dtype=np.float32).T)
+        xa, ya = x.take(a), y.take(a)
+        # Twice the deformed signed areas in float32, like the pass: both err far below FOLD_MARGIN.
+        twice = (x.take(b) - xa) * (y.take(c) - ya) - (x.take(c) - xa) * (y.take(b) - ya)
+        return not bool(np.all(twice * orientation > threshold))
 
     def set_distortion_measure(self, measure: str) -> None:
         """How ``content="distortion"`` colours its field: ``"area"`` (log2 det J) or ``"conformal"``."""
@@ -862,7 +873,8 @@ class _MeshObjects:
 
     def __init__(self, vertices: np.ndarray, order: np.ndarray, triangle_indices: np.ndarray):
         self.vertices, self.order, self.triangle_indices = vertices, order, triangle_indices
-        self.undeformed_areas: np.ndarray | None = None  # (T,), for `WarpRenderer.may_fold`
+        # `WarpRenderer.may_fold`'s corners a, b, c (T,), orientation (T,) and threshold (T,).
+        self.fold_test: tuple | None = None
         self.vaos: dict = {}
         self.edge_vao: moderngl.VertexArray | None = None
         self.objects: list = []
