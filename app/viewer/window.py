@@ -261,9 +261,9 @@ class Viewer:
         import glfw  # before imgui_bundle, so that the standard glfw module is the one used
         import moderngl
         from imgui_bundle import imgui
-        from imgui_bundle.python_backends.glfw_backend import GlfwRenderer
 
         from app.render import WarpRenderer
+        from app.viewer.gui_renderer import GuiRenderer
         from app.viewer.scene import Scene
 
         if not glfw.init():
@@ -289,7 +289,7 @@ class Viewer:
         imgui.create_context()
         imgui.get_io().set_ini_filename("")
         self.imgui = imgui
-        self.imgui_renderer = GlfwRenderer(window)
+        self.imgui_renderer = GuiRenderer(window)
         self._chain_callbacks(glfw)
         self.precompute.wake_on_message(glfw.post_empty_event)
         self.renderer = WarpRenderer(self.ctx)
