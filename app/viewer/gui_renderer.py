@@ -64,14 +64,16 @@ def solid_runs(flat: np.ndarray, areas: np.ndarray, min_pixels: float = MIN_SOLI
     starts = np.flatnonzero(np.r_[True, flat[1:] != flat[:-1]])
     ends = np.r_[starts[1:], count]
     sums = np.add.reduceat(np.asarray(areas, dtype=np.float64), starts)
+    solid = flat[starts] & (sums >= min_pixels)
     runs: list[tuple] = []
-    for start, end, area in zip(starts.tolist(), ends.tolist(), sums.tolist(), strict=True):
-        solid = bool(flat[start]) and area >= min_pixels
-        if runs and not solid and not runs[-1][2]:
-            first, _, _ = runs[-1]
-            runs[-1] = (first, end - first, False)
-        else:
-            runs.append((start, end - start, solid))
+    done = 0
+    for start, end in zip(starts[solid].tolist(), ends[solid].tolist(), strict=True):
+        if start > done:
+            runs.append((done, start - done, False))
+        runs.append((start, end - start, True))
+        done = end
+    if done < count:
+        runs.append((done, count - done, False))
     return runs
 
 
@@ -96,11 +98,11 @@ def flat_triangles(vertices: np.ndarray, indices: np.ndarray, white: tuple[float
     records = np.frombuffer(vertices, dtype=_VERTEX_LAYOUT)
     # Both texture coordinates at once: the 8 bytes of (u, v) compared as one integer.
     on_white = records["uv"] == np.array(white, dtype="<f4").view("<u8")[0]
-    triangles = np.asarray(indices).reshape(-1, 3)
-    flat = on_white[triangles].all(axis=1)
-    corners = records["position"][triangles]  # (T, 3, 2)
-    edges = corners[:, 1:] - corners[:, :1]  # (T, 2, 2)
-    areas = 0.5 * np.abs(edges[:, 0, 0] * edges[:, 1, 1] - edges[:, 1, 0] * edges[:, 0, 1])
+    a, b, c = np.asarray(indices, dtype=np.intp).reshape(-1, 3).T
+    flat = on_white.take(a) & on_white.take(b) & on_white.take(c)
+    x, y = np.ascontiguousarray(records["position"].T)
+    xa, ya = x.take(a), y.take(a)
+    areas = 0.5 * np.abs((x.take(b) - xa) * (y.take(c) - ya) - (x.take(c) - xa) * (y.take(b) - ya))
     return flat, areas
 
 
