@@ -3,10 +3,10 @@
 imgui draws everything with one program, ``Frag_Color * texture(atlas, uv)``; a
 flat-coloured triangle (a window background, a frame, a button) has all its
 texture coordinates on the font atlas's white texel.  Under a software rasteriser
-(Mesa llvmpipe) the bilinear fetch is most of imgui's cost: the viewer's side
-panel is ~280,000 pixels of flat fill and ~20,000 of text, and drawing it took
-about as much CPU time as the warped 6,000-vertex mesh.  `GuiRenderer` draws each
-command's long runs of flat triangles with a program that skips the fetch, and
+(Mesa llvmpipe) the bilinear fetch is most of imgui's cost: the viewer's panel and
+status line are ~320,000 pixels of flat fill and ~20,000 of text, and their fragment
+shading took about as much CPU time as the warped 6,000-vertex mesh's (perf, a drag).
+`GuiRenderer` draws each command's long runs of flat triangles with a program that skips the fetch, and
 everything else with imgui's own, in imgui's order, so the pixels are the same:
 at the white texel's centre the fetch returns exactly (1, 1, 1, 1).
 """
@@ -24,7 +24,7 @@ from imgui_bundle.python_backends.opengl_base_backend import get_common_gl_state
 from app.shaders import load_shader
 
 #: A run of flat triangles gets its own draw call from this many pixels of area on: a draw call
-#: costs ~20 us of Python and GL, the fetch ~7 ns a pixel (llvmpipe, 2 cores).
+#: costs tens of microseconds of Python and GL, the fetch ~10 ns a pixel (llvmpipe, 2 busy cores).
 MIN_SOLID_PIXELS = 4096.0
 
 
