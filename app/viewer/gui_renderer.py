@@ -6,9 +6,13 @@ texture coordinates on the font atlas's white texel.  Under a software rasterise
 (Mesa llvmpipe) the bilinear fetch is most of imgui's cost: the viewer's panel and
 status line are ~320,000 pixels of flat fill and ~20,000 of text, and their fragment
 shading took about as much CPU time as the warped 6,000-vertex mesh's (perf, a drag).
-`GuiRenderer` draws each command's long runs of flat triangles with a program that skips the fetch, and
-everything else with imgui's own, in imgui's order, so the pixels are the same:
-at the white texel's centre the fetch returns exactly (1, 1, 1, 1).
+`GuiRenderer` draws each command's long runs of flat triangles with a program that
+skips the fetch, and everything else with imgui's own, in imgui's order, so the
+pixels are the same: at the white texel's centre the fetch returns exactly (1, 1, 1, 1).
+
+Its `render` repeats the GL state handling of imgui_bundle 1.93's
+``ProgrammablePipelineRenderer.render``; tests/test_viewer_gui_renderer.py compares
+the pixels with the installed renderer's.
 """
 
 from __future__ import annotations
