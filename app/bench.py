@@ -279,7 +279,7 @@ import numpy as np
 import core
 from core import examples
 curve = core.ClosedBSpline(examples.blob() * {scale})
-core.basis_functions(curve, [[500.0, 300.0]])
+core.basis_functions(curve, [[500.0, 300.0]], "harmonic-like")
 rng = np.random.default_rng(2)
 batches, found = [], 0
 while found < {count}:  # in batches, so that making the points does not set the peak
@@ -296,7 +296,7 @@ before = high_water()
 start = time.perf_counter()
 with warnings.catch_warnings():
     warnings.simplefilter("ignore")
-    G = core.basis_functions(curve, x)
+    G = core.basis_functions(curve, x, "harmonic-like")
 seconds = time.perf_counter() - start
 peak = high_water()
 print(seconds, before, peak, G.shape[0])
