@@ -1338,12 +1338,20 @@ def _node_geometry(
             first, sample, length = runs[r, 0], runs[r, 1] % count, runs[r, 2]
             while length > 0:  # at most twice: the run may wrap past sample N - 1
                 piece = min(length, count - sample)
-                px[first : first + piece] = sample_x[sample : sample + piece]
-                py[first : first + piece] = sample_y[sample : sample + piece]
-                tx[first : first + piece] = tangent_x[sample : sample + piece]
-                ty[first : first + piece] = tangent_y[sample : sample + piece]
-                sx[first : first + piece] = second_x[sample : sample + piece]
-                sy[first : first + piece] = second_y[sample : sample + piece]
+                # Views and an index from 0: no wrap-around check per element (`_fold_onto_basis`);
+                # one loop, not slice assignments, which took seconds more to compile.
+                target = (px[first:], py[first:], tx[first:], ty[first:], sx[first:], sy[first:])
+                source = (
+                    sample_x[sample:], sample_y[sample:], tangent_x[sample:], tangent_y[sample:],
+                    second_x[sample:], second_y[sample:],
+                )  # fmt: skip
+                for i in range(piece):
+                    target[0][i] = source[0][i]
+                    target[1][i] = source[1][i]
+                    target[2][i] = source[2][i]
+                    target[3][i] = source[3][i]
+                    target[4][i] = source[4][i]
+                    target[5][i] = source[5][i]
                 first += piece
                 length -= piece
                 sample = 0
