@@ -104,9 +104,9 @@ def _path_prompt(state: AppState, commands: list[tuple], size: tuple[float, floa
         imgui.set_next_item_width(-1)
         if imgui.is_window_appearing():
             imgui.set_keyboard_focus_here()
-        entered, text = imgui.input_text(
-            f"##{kind}", getattr(state, field), imgui.InputTextFlags_.enter_returns_true
-        )
+        # The proposed path starts selected, as in a file dialog: typing replaces it.
+        flags = imgui.InputTextFlags_.enter_returns_true | imgui.InputTextFlags_.auto_select_all
+        entered, text = imgui.input_text(f"##{kind}", getattr(state, field), flags)
         setattr(state, field, text)
         if (entered or imgui.button(button)) and text.strip():
             commands.append((command, text.strip()))
