@@ -77,7 +77,7 @@ glfw.make_context_current(window)
 ctx = moderngl.create_context()
 imgui.create_context()
 imgui.get_io().set_ini_filename("")
-renderer = module.GuiRenderer(window)
+renderer = module.GuiRenderer(window, ctx)
 solid = []
 runs = module.solid_runs
 module.solid_runs = lambda *a, **k: solid.append(sum(r[2] for r in runs(*a, **k))) or runs(*a, **k)

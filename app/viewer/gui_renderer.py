@@ -1,4 +1,5 @@
-"""Drawing imgui's widgets: imgui_bundle's glfw renderer, its flat-coloured fill without a texture fetch.
+"""Drawing imgui's widgets through moderngl: imgui_bundle's renderer, its flat-coloured fill
+without a texture fetch.
 
 imgui draws everything with one program, ``Frag_Color * texture(atlas, uv)``; a
 flat-coloured triangle (a window background, a frame, a button) has all its
@@ -10,20 +11,20 @@ shading took about as much CPU time as the warped 6,000-vertex mesh's (perf, a d
 skips the fetch, and everything else with imgui's own, in imgui's order, so the
 pixels are the same: at the white texel's centre the fetch returns exactly (1, 1, 1, 1).
 
-Its `render` repeats the GL state handling of imgui_bundle 1.93's
-``ProgrammablePipelineRenderer.render``; tests/test_viewer_gui_renderer.py compares
-the pixels with the installed renderer's.
+It draws through moderngl rather than imgui_bundle's PyOpenGL calls: those cost
+~3 ms of Python a frame (state queried and restored, every call checked for errors),
+a fifth of a 60 Hz frame.  tests/test_viewer_gui_renderer.py compares the pixels
+with imgui_bundle 1.93's ``ProgrammablePipelineRenderer.render``.
 """
 
 from __future__ import annotations
 
 import ctypes
 
+import moderngl
 import numpy as np
-import OpenGL.GL as gl
 from imgui_bundle import imgui
 from imgui_bundle.python_backends.glfw_backend import GlfwRenderer
-from imgui_bundle.python_backends.opengl_base_backend import get_common_gl_state, restore_common_gl_state
 
 from app.shaders import load_shader
 
@@ -134,139 +135,177 @@ def _white_texel(io) -> tuple[int, tuple[float, float]] | None:
 
 
 class GuiRenderer(GlfwRenderer):
-    """imgui_bundle's `GlfwRenderer`, drawing long runs of flat triangles without the texture fetch.
+    """imgui_bundle's `GlfwRenderer`, drawing through moderngl, long runs of flat triangles without
+    the texture fetch.
 
-    Input handling, textures and GL state are the base class's; only `render` differs.
+    Input handling and the font atlas's texture are the base class's; `render` is this class's.
+    The base class's own GL objects are kept, so that its `render` can still draw a frame for
+    comparison (tests/test_viewer_gui_renderer.py).
+
+    Parameters
+    ----------
+    window : glfw window
+        Its context is current, and `ctx` is a moderngl context on it.
+    ctx : moderngl.Context
     """
+
+    def __init__(self, window, ctx: moderngl.Context):
+        self._ctx = ctx
+        super().__init__(window)
 
     def _create_device_objects(self) -> None:
         super()._create_device_objects()
-        program = gl.glCreateProgram()
-        for kind, name in (
-            (gl.GL_VERTEX_SHADER, "gui_solid.vert.glsl"),
-            (gl.GL_FRAGMENT_SHADER, "gui_solid.frag.glsl"),
-        ):
-            shader = gl.glCreateShader(kind)
-            gl.glShaderSource(shader, load_shader(name))
-            gl.glCompileShader(shader)
-            if not gl.glGetShaderiv(shader, gl.GL_COMPILE_STATUS):
-                raise RuntimeError(f"{name}: {gl.glGetShaderInfoLog(shader).decode(errors='replace')}")
-            gl.glAttachShader(program, shader)
-            gl.glDeleteShader(shader)
-        # The base class's vertex array is read at its own program's locations.
-        gl.glBindAttribLocation(program, self._attrib_location_position, "Position")
-        gl.glBindAttribLocation(program, self._attrib_location_color, "Color")
-        gl.glLinkProgram(program)
-        if not gl.glGetProgramiv(program, gl.GL_LINK_STATUS):
-            raise RuntimeError(f"gui_solid: {gl.glGetProgramInfoLog(program).decode(errors='replace')}")
-        self._solid_handle = program
-        self._solid_proj_mtx = gl.glGetUniformLocation(program, "ProjMtx")
+        ctx = self._ctx
+        self._textured = ctx.program(
+            vertex_shader=load_shader("gui.vert.glsl"), fragment_shader=load_shader("gui.frag.glsl")
+        )
+        self._textured["Texture"].value = 0
+        self._solid = ctx.program(
+            vertex_shader=load_shader("gui_solid.vert.glsl"), fragment_shader=load_shader("gui_solid.frag.glsl")
+        )
+        self._buffers: list = []  # vertices, indices and their two vertex arrays, grown on demand
+        self._textures: dict[int, moderngl.Texture] = {}  # imgui's GL texture names, wrapped
+        self._display: tuple | None = None  # the display size ProjMtx was written for
 
     def _invalidate_device_objects(self) -> None:
-        gl.glDeleteProgram(self._solid_handle)
-        self._solid_handle = 0
+        for item in (*self._buffers, self._textured, self._solid):
+            item.release()
+        self._buffers = []
         super()._invalidate_device_objects()
 
     def render(self, draw_data: imgui.ImDrawData) -> None:
-        """Draw `draw_data` into the bound framebuffer: the base class's `render`, command by
-        command in the same order and state, flat runs (`solid_runs`) with the fetch-free program."""
+        """Draw `draw_data` into the bound framebuffer as imgui_bundle's renderer does (the same
+        programs, blending and scissors, command by command in order), flat runs (`solid_runs`)
+        with the fetch-free program; all lists' vertices are uploaded in one write.
+
+        Leaves blending on (``SRC_ALPHA, ONE_MINUS_SRC_ALPHA``), depth test and culling off, and
+        the scissor test off; whoever draws next sets the state it needs.
+        """
         io = self.io
         display_width, display_height = io.display_size
         fb_width = int(display_width * io.display_framebuffer_scale[0])
         fb_height = int(display_height * io.display_framebuffer_scale[1])
         self._update_textures()
-        if fb_width == 0 or fb_height == 0:
+        if fb_width == 0 or fb_height == 0 or draw_data.total_idx_count == 0:
             return
         draw_data.scale_clip_rects(io.display_framebuffer_scale)
+        lists = draw_data.cmd_lists
+        vertices, indices, list_starts = _concatenated(lists)
         white = _white_texel(io)
+        flat = areas = None
+        if white is not None:
+            flat, areas = flat_triangles(vertices, indices, white[1])
+        textured, solid = self._upload(vertices, indices)
+        self._set_projection(display_width, display_height)
 
-        common_state = get_common_gl_state()
-        last_program = gl.glGetIntegerv(gl.GL_CURRENT_PROGRAM)
-        last_active_texture = gl.glGetIntegerv(gl.GL_ACTIVE_TEXTURE)
-        last_array_buffer = gl.glGetIntegerv(gl.GL_ARRAY_BUFFER_BINDING)
-        last_element_array_buffer = gl.glGetIntegerv(gl.GL_ELEMENT_ARRAY_BUFFER_BINDING)
-        last_vertex_array = gl.glGetIntegerv(gl.GL_VERTEX_ARRAY_BINDING)
-
-        gl.glEnable(gl.GL_BLEND)
-        gl.glBlendEquation(gl.GL_FUNC_ADD)
-        gl.glBlendFunc(gl.GL_SRC_ALPHA, gl.GL_ONE_MINUS_SRC_ALPHA)
-        gl.glDisable(gl.GL_CULL_FACE)
-        gl.glDisable(gl.GL_DEPTH_TEST)
-        gl.glEnable(gl.GL_SCISSOR_TEST)
-        gl.glActiveTexture(gl.GL_TEXTURE0)
-        gl.glPolygonMode(gl.GL_FRONT_AND_BACK, gl.GL_FILL)
-        gl.glViewport(0, 0, int(fb_width), int(fb_height))
-        # imgui's orthographic projection, column-major.
-        projection = (ctypes.c_float * 16)(
-            2.0 / display_width, 0.0, 0.0, 0.0,
-            0.0, 2.0 / -display_height, 0.0, 0.0,
-            0.0, 0.0, -1.0, 0.0,
-            -1.0, 1.0, 0.0, 1.0,
-        )  # fmt: skip
-        gl.glUseProgram(self._solid_handle)
-        gl.glUniformMatrix4fv(self._solid_proj_mtx, 1, gl.GL_FALSE, projection)
-        gl.glUseProgram(self._shader_handle)
-        gl.glUniform1i(self._attrib_location_tex, 0)
-        gl.glUniformMatrix4fv(self._attrib_proj_mtx, 1, gl.GL_FALSE, projection)
-        gl.glBindVertexArray(self._vao_handle)
-        index_type = gl.GL_UNSIGNED_SHORT if imgui.INDEX_SIZE == 2 else gl.GL_UNSIGNED_INT
-        index_dtype = np.uint16 if imgui.INDEX_SIZE == 2 else np.uint32
-
-        for commands in draw_data.cmd_lists:
-            vertex_bytes = commands.vtx_buffer.size() * imgui.VERTEX_SIZE
-            index_count = commands.idx_buffer.size()
-            gl.glBindBuffer(gl.GL_ARRAY_BUFFER, self._vbo_handle)
-            gl.glBufferData(
-                gl.GL_ARRAY_BUFFER,
-                vertex_bytes,
-                ctypes.c_void_p(commands.vtx_buffer.data_address()),
-                gl.GL_STREAM_DRAW,
-            )
-            gl.glBindBuffer(gl.GL_ELEMENT_ARRAY_BUFFER, self._elements_handle)
-            gl.glBufferData(
-                gl.GL_ELEMENT_ARRAY_BUFFER,
-                index_count * imgui.INDEX_SIZE,
-                ctypes.c_void_p(commands.idx_buffer.data_address()),
-                gl.GL_STREAM_DRAW,
-            )
-            flat = areas = None
-            if white is not None and index_count:
-                vertices = (ctypes.c_uint8 * vertex_bytes).from_address(commands.vtx_buffer.data_address())
-                indices = np.frombuffer(
-                    (ctypes.c_uint8 * (index_count * imgui.INDEX_SIZE)).from_address(
-                        commands.idx_buffer.data_address()
-                    ),
-                    dtype=index_dtype,
-                )
-                flat, areas = flat_triangles(vertices, indices, white[1])
-            current = self._shader_handle
+        ctx = self._ctx
+        ctx.enable_only(moderngl.BLEND)
+        ctx.blend_equation = moderngl.FUNC_ADD
+        ctx.blend_func = moderngl.SRC_ALPHA, moderngl.ONE_MINUS_SRC_ALPHA
+        ctx.viewport = (0, 0, fb_width, fb_height)
+        for commands, list_start in zip(lists, list_starts, strict=True):
             for command in commands.cmd_buffer:
-                texture = command.tex_ref.get_tex_id()
-                gl.glBindTexture(gl.GL_TEXTURE_2D, texture)
                 x, y, z, w = command.clip_rect
-                gl.glScissor(int(x), int(fb_height - w), int(z - x), int(w - y))
-                first, count = command.idx_offset // 3, command.elem_count // 3
+                if z <= x or w <= y:
+                    continue
+                texture = command.tex_ref.get_tex_id()
+                self._texture(texture).use(location=0)
+                ctx.scissor = (int(x), int(fb_height - w), int(z - x), int(w - y))
+                first, count = list_start + command.idx_offset // 3, command.elem_count // 3
                 if flat is None or texture != white[0]:
                     runs = [(0, count, False)]
                 else:
                     runs = solid_runs(flat[first : first + count], areas[first : first + count])
-                for start, length, solid in runs:
-                    program = self._solid_handle if solid else self._shader_handle
-                    if program != current:
-                        gl.glUseProgram(program)
-                        current = program
-                    gl.glDrawElements(
-                        gl.GL_TRIANGLES,
-                        3 * length,
-                        index_type,
-                        ctypes.c_void_p((command.idx_offset + 3 * start) * imgui.INDEX_SIZE),
+                for start, length, fill in runs:
+                    (solid if fill else textured).render(
+                        moderngl.TRIANGLES, vertices=3 * length, first=3 * (first + start)
                     )
-            if current != self._shader_handle:
-                gl.glUseProgram(self._shader_handle)
+        ctx.scissor = None
 
-        restore_common_gl_state(common_state)
-        gl.glUseProgram(last_program)
-        gl.glActiveTexture(last_active_texture)
-        gl.glBindVertexArray(last_vertex_array)
-        gl.glBindBuffer(gl.GL_ARRAY_BUFFER, last_array_buffer)
-        gl.glBindBuffer(gl.GL_ELEMENT_ARRAY_BUFFER, last_element_array_buffer)
+    def _upload(self, vertices: np.ndarray, indices: np.ndarray) -> tuple:
+        """Write the frame's vertices and indices, growing the buffers by doubling; returns the
+        (textured, solid) vertex arrays reading them."""
+        if not self._buffers or vertices.nbytes > self._buffers[0].size or indices.nbytes > self._buffers[1].size:
+            for item in self._buffers:
+                item.release()
+            ctx = self._ctx
+            vbo = ctx.buffer(reserve=max(2 * vertices.nbytes, 1 << 16), dynamic=True)
+            ibo = ctx.buffer(reserve=max(2 * indices.nbytes, 1 << 15), dynamic=True)
+            layout = f"2f 2f 4f1 {imgui.VERTEX_SIZE - 20}x" if imgui.VERTEX_SIZE > 20 else "2f 2f 4f1"
+            textured = ctx.vertex_array(
+                self._textured, [(vbo, layout, "Position", "UV", "Color")], index_buffer=ibo, index_element_size=4
+            )
+            solid = ctx.vertex_array(
+                self._solid,
+                [(vbo, layout.replace("2f 2f", "2f 8x", 1), "Position", "Color")],
+                index_buffer=ibo,
+                index_element_size=4,
+            )
+            self._buffers = [vbo, ibo, textured, solid]
+        vbo, ibo, textured, solid = self._buffers
+        # New storage each frame: a software rasteriser may still be reading the last frame's.
+        vbo.orphan()
+        ibo.orphan()
+        vbo.write(vertices)
+        ibo.write(indices)
+        return textured, solid
+
+    def _set_projection(self, width: float, height: float) -> None:
+        """imgui's orthographic projection for a `width` x `height` display, in both programs."""
+        if self._display == (width, height):
+            return
+        projection = np.array(
+            [
+                [2.0 / width, 0.0, 0.0, 0.0],
+                [0.0, 2.0 / -height, 0.0, 0.0],
+                [0.0, 0.0, -1.0, 0.0],
+                [-1.0, 1.0, 0.0, 1.0],
+            ],
+            dtype="f4",
+        )  # column-major, as GL reads it
+        for program in (self._textured, self._solid):
+            program["ProjMtx"].write(projection.tobytes())
+        self._display = (width, height)
+
+    def _texture(self, name: int) -> moderngl.Texture:
+        """imgui's texture `name` (a GL texture the base class made) as a moderngl object."""
+        texture = self._textures.get(name)
+        if texture is None:
+            # Only bound by name: the size and format given here are not used.
+            texture = self._textures[name] = self._ctx.external_texture(name, (1, 1), 4, 0, "f1")
+        return texture
+
+
+def _concatenated(lists) -> tuple[np.ndarray, np.ndarray, list[int]]:
+    """All draw lists' vertices and indices in one pair of arrays.
+
+    Returns
+    -------
+    vertices : ndarray of shape (V * VERTEX_SIZE,), uint8
+    indices : ndarray of shape (3 T,), uint32
+        Each list's indices shifted by the vertices of the lists before it.
+    list_starts : list of int
+        The first triangle of each list in `indices`.
+    """
+    vertex_parts, index_parts, list_starts = [], [], []
+    vertex_count = triangle_count = 0
+    index_dtype = np.uint16 if imgui.INDEX_SIZE == 2 else np.uint32
+    for commands in lists:
+        count = commands.vtx_buffer.size()
+        index_count = commands.idx_buffer.size()
+        vertex_parts.append(_bytes_at(commands.vtx_buffer.data_address(), count * imgui.VERTEX_SIZE))
+        indices = np.frombuffer(
+            _bytes_at(commands.idx_buffer.data_address(), index_count * imgui.INDEX_SIZE), dtype=index_dtype
+        )
+        index_parts.append(indices.astype(np.uint32) + np.uint32(vertex_count))
+        list_starts.append(triangle_count)
+        vertex_count += count
+        triangle_count += index_count // 3
+    return np.concatenate(vertex_parts), np.concatenate(index_parts), list_starts
+
+
+def _bytes_at(address: int, size: int) -> np.ndarray:
+    """A read-only uint8 view of `size` bytes of imgui's memory at `address` (valid this frame)."""
+    if size == 0:
+        return np.zeros(0, np.uint8)
+    return np.frombuffer((ctypes.c_uint8 * size).from_address(address), dtype=np.uint8)

@@ -289,7 +289,7 @@ class Viewer:
         imgui.create_context()
         imgui.get_io().set_ini_filename("")
         self.imgui = imgui
-        self.imgui_renderer = GuiRenderer(window)
+        self.imgui_renderer = GuiRenderer(window, self.ctx)
         self._chain_callbacks(glfw)
         self.precompute.wake_on_message(glfw.post_empty_event)
         self.renderer = WarpRenderer(self.ctx)
