@@ -851,6 +851,7 @@ class Viewer:
 
     def _frame(self) -> None:
         import glfw
+        from OpenGL import GL
 
         imgui, state = self.imgui, self.state
         # Input wakes the loop at once; without input, draw only as often as something
@@ -930,6 +931,8 @@ class Viewer:
         self.ctx.viewport = (0, 0, width, height)
         if width > 0 and height > 0:
             self.scene.draw(state, (width, height), ratio)
+        # A software rasteriser starts on the canvas now, while imgui's draw data is prepared.
+        GL.glFlush()
         imgui.render()
         self.imgui_renderer.render(imgui.get_draw_data())
         self._write_frame()
