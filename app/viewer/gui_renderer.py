@@ -21,9 +21,11 @@ from __future__ import annotations
 
 import ctypes
 
+import glfw
 import moderngl
 import numpy as np
 from imgui_bundle import imgui
+from imgui_bundle.python_backends import compute_fb_scale
 from imgui_bundle.python_backends.glfw_backend import GlfwRenderer
 
 from app.shaders import load_shader
@@ -172,6 +174,18 @@ class GuiRenderer(GlfwRenderer):
             item.release()
         self._buffers = []
         super()._invalidate_device_objects()
+
+    def process_inputs(self, window_size: tuple[int, int], framebuffer_size: tuple[int, int]) -> None:
+        """The base class's `process_inputs` with the sizes given (kept by the caller's glfw size
+        callbacks) instead of asked of the window system every frame."""
+        io = self.io
+        io.display_size = imgui.ImVec2(*window_size)
+        io.display_framebuffer_scale = imgui.ImVec2(*compute_fb_scale(window_size, framebuffer_size))
+        now = glfw.get_time()
+        io.delta_time = now - self._gui_time if self._gui_time else 1.0 / 60.0
+        if io.delta_time <= 0.0:
+            io.delta_time = 1.0 / 1000.0
+        self._gui_time = now
 
     def render(self, draw_data: imgui.ImDrawData) -> None:
         """Draw `draw_data` into the bound framebuffer as imgui_bundle's renderer does (the same
