@@ -48,6 +48,10 @@ DRAG_VERTICES = (6_000, 400_000)
 DRAG_SECONDS = 4.0
 #: Seconds before each timed run of the FEM comparison (see `_alternating_medians`).
 BLAS_SETTLE = 0.3
+#: Seconds each solve of an FEM-comparison row runs for at least, in all (`_alternating_medians`).
+ROW_SECONDS = 1.5
+#: Turns `_alternating_medians` takes at most.
+MAX_REPEATS = 15
 #: Seconds a viewer child may take, its precompute included (400k vertices: minutes).
 DRAG_TIMEOUT = 900
 
@@ -151,17 +155,22 @@ def _median_time(function, repeats: int) -> tuple[float, object]:
     return statistics.median(times), result
 
 
-def _alternating_medians(functions, repeats: int) -> list[float]:
-    """The median seconds of each of `functions`, run in turn `repeats` times.
+def _alternating_medians(functions, repeats: int, least_seconds: float = 0.0) -> list[float]:
+    """The median seconds of each of `functions`, run in turn at least `repeats` times.
 
     Each run waits BLAS_SETTLE seconds first: OpenBLAS's worker threads busy-wait
     for a while after a call (the FEM solve's sparse factorisation calls BLAS), and
     on a 2-core machine whichever solve came next was timed against them (the
     transfinite solve measured 1.2-1.4x slower straight after the FEM solve).
-    Alternating spreads the machine's drifts over both.
+    Alternating spreads the machine's drifts over both.  Short runs go on until each
+    function has run for `least_seconds` in all (at most MAX_REPEATS turns): the
+    median of a tenth of a second measured three times moved by 20 % between runs of
+    the bench on a shared machine.
     """
     times = [[] for _ in functions]
-    for _ in range(repeats):
+    while len(times[0]) < repeats or (
+        min(sum(spent) for spent in times) < least_seconds and len(times[0]) < MAX_REPEATS
+    ):
         for function, spent in zip(functions, times, strict=True):
             time.sleep(BLAS_SETTLE)
             start = time.perf_counter()
@@ -263,7 +272,7 @@ def _fem_comparison(curve, vertices, repeats) -> None:
 
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            fem, ours = _alternating_medians((fem_solve, transfinite), repeats)
+            fem, ours = _alternating_medians((fem_solve, transfinite), repeats, ROW_SECONDS)
             # The same solve, untimed, for its per-vertex Newton iterations on the N samples.
             _, report = core.basis_functions(
                 curve, mesh.vertices[mesh.interior], "harmonic-like", return_report=True

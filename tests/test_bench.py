@@ -62,3 +62,23 @@ def test_the_fem_comparison_alternates_its_runs_after_a_pause(monkeypatch):
     assert events == [pause, "fem", pause, "ours"] * 3
     # Runs take 1, 5, 9, 13, 17, 21 clock units (squares of consecutive readings), in turn.
     assert (fem, ours) == (9, 13)
+
+
+def test_short_fem_rows_run_until_each_solve_has_run_long_enough(monkeypatch):
+    monkeypatch.setattr(bench.time, "sleep", lambda seconds: None)
+    readings = iter(range(1000))
+    monkeypatch.setattr(bench.time, "perf_counter", lambda: 0.125 * next(readings))  # every run 1/8 s
+    calls = {"fem": 0, "ours": 0}
+
+    def counted(name):
+        return lambda: calls.__setitem__(name, calls[name] + 1)
+
+    medians = bench._alternating_medians((counted("fem"), counted("ours")), repeats=3, least_seconds=1.0)
+    assert calls == {"fem": 8, "ours": 8}  # 8 x 1/8 s each, more than the 3 asked for
+    assert medians == [0.125, 0.125]
+    calls.update(fem=0, ours=0)
+    bench._alternating_medians((counted("fem"), counted("ours")), repeats=3, least_seconds=1e6)
+    assert calls == {"fem": bench.MAX_REPEATS, "ours": bench.MAX_REPEATS}
+    calls.update(fem=0, ours=0)
+    bench._alternating_medians((counted("fem"), counted("ours")), repeats=4, least_seconds=0.25)
+    assert calls == {"fem": 4, "ours": 4}  # long enough already: the runs asked for
