@@ -163,7 +163,8 @@ class GuiRenderer(GlfwRenderer):
         )
         self._textured["Texture"].value = 0
         self._solid = ctx.program(
-            vertex_shader=load_shader("gui_solid.vert.glsl"), fragment_shader=load_shader("gui_solid.frag.glsl")
+            vertex_shader=load_shader("gui_solid.vert.glsl"),
+            fragment_shader=load_shader("gui_solid.frag.glsl"),
         )
         self._buffers: list = []  # vertices, indices and their two vertex arrays, grown on demand
         self._textures: dict[int, moderngl.Texture] = {}  # imgui's GL texture names, wrapped
@@ -239,7 +240,11 @@ class GuiRenderer(GlfwRenderer):
     def _upload(self, vertices: np.ndarray, indices: np.ndarray) -> tuple:
         """Write the frame's vertices and indices, growing the buffers by doubling; returns the
         (textured, solid) vertex arrays reading them."""
-        if not self._buffers or vertices.nbytes > self._buffers[0].size or indices.nbytes > self._buffers[1].size:
+        if (
+            not self._buffers
+            or vertices.nbytes > self._buffers[0].size
+            or indices.nbytes > self._buffers[1].size
+        ):
             for item in self._buffers:
                 item.release()
             ctx = self._ctx
@@ -247,7 +252,10 @@ class GuiRenderer(GlfwRenderer):
             ibo = ctx.buffer(reserve=max(2 * indices.nbytes, 1 << 15), dynamic=True)
             layout = f"2f 2f 4f1 {imgui.VERTEX_SIZE - 20}x" if imgui.VERTEX_SIZE > 20 else "2f 2f 4f1"
             textured = ctx.vertex_array(
-                self._textured, [(vbo, layout, "Position", "UV", "Color")], index_buffer=ibo, index_element_size=4
+                self._textured,
+                [(vbo, layout, "Position", "UV", "Color")],
+                index_buffer=ibo,
+                index_element_size=4,
             )
             solid = ctx.vertex_array(
                 self._solid,

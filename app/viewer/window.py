@@ -419,8 +419,12 @@ class Viewer:
         chained(glfw.set_scroll_callback, scroll)
         chained(glfw.set_key_callback, key)
         chained(glfw.set_char_callback, char)
-        chained(glfw.set_window_size_callback, lambda _, width, height: self._sizes.update(window=(width, height)))
-        glfw.set_framebuffer_size_callback(window, lambda _, width, height: self._sizes.update(pixels=(width, height)))
+        chained(
+            glfw.set_window_size_callback, lambda _, width, height: self._sizes.update(window=(width, height))
+        )
+        glfw.set_framebuffer_size_callback(
+            window, lambda _, width, height: self._sizes.update(pixels=(width, height))
+        )
         glfw.set_drop_callback(window, drop)
         glfw.set_window_close_callback(window, close)
 
