@@ -581,6 +581,12 @@ def _weights(kernel, power, shift, px, py, tx, ty, sx, sy, w, x, y, count, corne
                 a[j] = q2 * q2
                 integral += w[j] * a[j]
                 length += w[j]
+        elif k == 3.0:  # inverse-cube-mean: a libm pow per node cost more than the whole Newton solve
+            for j in range(count):
+                q = r_min * inv_r[j]
+                a[j] = q * q * q
+                integral += w[j] * a[j]
+                length += w[j]
         else:
             for j in range(count):
                 a[j] = (r_min * inv_r[j]) ** k
