@@ -125,7 +125,7 @@ def _power(q, k):
     return q**k
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", fastmath={"contract", "arcp", "reassoc", "nsz"})
 def _shift(kernel, power, shift, w, inv_r, ux, uy, r_min, count, omega):
     """omega_j = q_j^k (into `omega`) and the shift of Eq. 19-20 with its gradient: (c, dc/dx, dc/dy).
 
@@ -154,7 +154,7 @@ def _shift(kernel, power, shift, w, inv_r, ux, uy, r_min, count, omega):
     return 0.0, 0.0, 0.0
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", fastmath={"contract", "arcp", "reassoc", "nsz"})
 def _differentiate(
     kernel, power, shift, px, py, tx, ty, sx, sy, w, ux, uy, inv_r, a, s, inv_s, total, nodes, corners,
     x, y, r_min, omega, grad_x, grad_y,
@@ -164,13 +164,32 @@ def _differentiate(
     On entry `a` holds lambda_j (normalised, as `solver._finish` leaves it), `s`
     and `inv_s` hold s_j = 1 + phi . u_j and 1 / s_j for the maximum-likelihood
     family; nodes >= `nodes` are corner point masses (three-point family).
-    `omega` is scratch for q_j^k of the power kernels.  See
-    `core.gradients` for the formulas.
+    `omega` is scratch: q_j^k of the power kernels, then a~_j.  See `core.gradients`
+    for the formulas.
     """
     newton = kernel <= solver.MODIFIED_MEAN_VALUE_SQUARED
     constant, shift_x, shift_y = _shift(kernel, power, shift, w, inv_r, ux, uy, r_min, nodes, omega)
-    # Pass 1: grad a~_j (kept in grad_x, grad_y), the sums of a~ and b, H, K, v, D~ and the
-    # least squares of phi from s_j - 1 = phi . u_j.
+    # Pass 1: a~_j into `omega` and grad a~_j into grad_x, grad_y; the power kernels (the common
+    # case) in a loop of their own without the kernel's branches, so that it vectorises.
+    if kernel == solver.POWER or kernel == solver.HARMONIC_LIKE:
+        k = 4.0 if kernel == solver.HARMONIC_LIKE else power
+        for j in range(nodes):
+            slope = w[j] * k * omega[j] * inv_r[j]  # |grad q^k| w: grad r = -u
+            grad_x[j] = slope * ux[j] + w[j] * shift_x
+            grad_y[j] = slope * uy[j] + w[j] * shift_y
+            omega[j] = w[j] * (omega[j] + constant)
+    else:
+        for j in range(nodes):
+            value, gx, gy = _weight_derivative(
+                kernel, power, px[j], py[j], tx[j], ty[j], sx[j], sy[j], w[j], x, y, ux[j], uy[j], inv_r[j],
+                r_min, omega[j], constant,
+            )  # fmt: skip
+            omega[j] = value
+            grad_x[j] = gx + w[j] * shift_x
+            grad_y[j] = gy + w[j] * shift_y
+    for j in range(nodes, total):
+        omega[j], grad_x[j], grad_y[j] = _corner_derivative(kernel, corners, j - nodes, px[j], py[j], x, y)
+    # Pass 2: the sums of a~ and b, H, K, v, D~ and the least squares of phi from s_j - 1 = phi . u_j.
     sum_a = 0.0
     sum_b = 0.0
     hxx = hxy = hyy = 0.0
@@ -179,44 +198,37 @@ def _differentiate(
     dxx = dxy = dyx = dyy = 0.0
     lxx = lxy = lyy = 0.0
     rx = ry = 0.0
-    for j in range(total):
-        if j < nodes:
-            value, gx, gy = _weight_derivative(
-                kernel, power, px[j], py[j], tx[j], ty[j], sx[j], sy[j], w[j], x, y, ux[j], uy[j], inv_r[j],
-                r_min, omega[j], constant,
-            )  # fmt: skip
-            gx += w[j] * shift_x
-            gy += w[j] * shift_y
-        else:
-            value, gx, gy = _corner_derivative(kernel, corners, j - nodes, px[j], py[j], x, y)
-        grad_x[j] = gx
-        grad_y[j] = gy
-        sum_a += value
-        if not newton:
-            continue
-        u0 = ux[j]
-        u1 = uy[j]
-        inv = inv_s[j]
-        lam = a[j] * inv
-        hb = lam / inv_r[j]
-        sum_b += hb * s[j] * s[j]
-        hxx += hb * u0 * u0
-        hxy += hb * u0 * u1
-        hyy += hb * u1 * u1
-        kxx += lam * u0 * u0
-        kxy += lam * u0 * u1
-        kyy += lam * u1 * u1
-        vx += lam * u0
-        vy += lam * u1
-        dxx += u0 * gx * inv
-        dxy += u0 * gy * inv
-        dyx += u1 * gx * inv
-        dyy += u1 * gy * inv
-        lxx += u0 * u0
-        lxy += u0 * u1
-        lyy += u1 * u1
-        rx += u0 * (s[j] - 1.0)
-        ry += u1 * (s[j] - 1.0)
+    if newton:
+        for j in range(total):
+            gx = grad_x[j]
+            gy = grad_y[j]
+            sum_a += omega[j]
+            u0 = ux[j]
+            u1 = uy[j]
+            inv = inv_s[j]
+            lam = a[j] * inv
+            hb = lam / inv_r[j]
+            sum_b += hb * s[j] * s[j]
+            hxx += hb * u0 * u0
+            hxy += hb * u0 * u1
+            hyy += hb * u1 * u1
+            kxx += lam * u0 * u0
+            kxy += lam * u0 * u1
+            kyy += lam * u1 * u1
+            vx += lam * u0
+            vy += lam * u1
+            dxx += u0 * gx * inv
+            dxy += u0 * gy * inv
+            dyx += u1 * gx * inv
+            dyy += u1 * gy * inv
+            lxx += u0 * u0
+            lxy += u0 * u1
+            lyy += u1 * u1
+            rx += u0 * (s[j] - 1.0)
+            ry += u1 * (s[j] - 1.0)
+    else:
+        for j in range(total):
+            sum_a += omega[j]
     if not newton:
         # lambda_j = m_j / M: grad lambda_j = grad m_j / M - lambda_j sum_k grad m_k / M.
         _normalise(grad_x, grad_y, a, total, 1.0 / sum_a)
@@ -235,7 +247,7 @@ def _differentiate(
     fxy = (hyy * mxy - hxy * myy) / determinant
     fyx = (hxx * myx - hxy * mxx) / determinant
     fyy = (hxx * myy - hxy * mxy) / determinant
-    # Pass 2: dc_j = grad b_j / (r_j s_j) + lambda_j (u_j / r_j - grad s_j / s_j).
+    # Pass 3: dc_j = grad b_j / (r_j s_j) + lambda_j (u_j / r_j - grad s_j / s_j).
     for j in range(total):
         u0 = ux[j]
         u1 = uy[j]
@@ -251,7 +263,7 @@ def _differentiate(
     _normalise(grad_x, grad_y, a, total, 1.0)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", fastmath={"contract", "arcp", "reassoc", "nsz"})
 def _normalise(grad_x, grad_y, a, total, scale):
     """grad_j <- scale grad_j - a_j sum_k scale grad_k: the derivative of dividing by the sum."""
     sum_x = 0.0
@@ -294,33 +306,55 @@ def _accumulate_nodes(
             out[after] += value * b2
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", fastmath={"contract", "arcp", "reassoc", "nsz"})
 def _accumulate_samples(a, grad_x, grad_y, count, basis0, basis1, basis2, control_count, row, row_x, row_y):
     """Fold lambda_k and grad lambda_k at the N uniform samples onto the B-spline basis, span by span."""
     per = count // control_count
     for i in range(control_count):
         before = i - 1 if i > 0 else control_count - 1
         after = i + 1 if i + 1 < control_count else 0
-        for out, values in ((row, a), (row_x, grad_x), (row_y, grad_y)):
-            s0 = 0.0
-            s1 = 0.0
-            s2 = 0.0
-            for k in range(i * per, (i + 1) * per):
-                s0 += values[k] * basis0[k]
-                s1 += values[k] * basis1[k]
-                s2 += values[k] * basis2[k]
-            out[before] += s0
-            out[i] += s1
-            out[after] += s2
+        # Views indexed from 0, as in `solver._fold_onto_basis`: a computed index i * per + k might
+        # be negative for all numba knows, and the wrap-around check stops the loop vectorising.
+        span_a = a[i * per : (i + 1) * per]
+        span_x = grad_x[i * per : (i + 1) * per]
+        span_y = grad_y[i * per : (i + 1) * per]
+        span0 = basis0[i * per : (i + 1) * per]
+        span1 = basis1[i * per : (i + 1) * per]
+        span2 = basis2[i * per : (i + 1) * per]
+        a0 = a1 = a2 = x0 = x1 = x2 = y0 = y1 = y2 = 0.0
+        for k in range(span_a.shape[0]):
+            b0 = span0[k]
+            b1 = span1[k]
+            b2 = span2[k]
+            a0 += span_a[k] * b0
+            a1 += span_a[k] * b1
+            a2 += span_a[k] * b2
+            x0 += span_x[k] * b0
+            x1 += span_x[k] * b1
+            x2 += span_x[k] * b2
+            y0 += span_y[k] * b0
+            y1 += span_y[k] * b1
+            y2 += span_y[k] * b2
+        row[before] += a0
+        row[i] += a1
+        row[after] += a2
+        row_x[before] += x0
+        row_x[i] += x1
+        row_x[after] += x2
+        row_y[before] += y0
+        row_y[i] += y1
+        row_y[after] += y2
 
 
 @njit(cache=True, error_model="numpy")
-def _gradient_point(x, y, settings, curve, geometry, row, row_x, row_y, scratch, windows):
+def _gradient_point(x, y, settings, curve, geometry, largest_spacing, row, row_x, row_y, scratch, windows):
     """Evaluate one point and its gradient; returns (iterations, status, residual).
 
     The nodes are built exactly as in `solver._solve_point` (pass 1, the windows
-    and `solver._refined_nodes`); a point on the boundary gets its Lagrange-limit
-    row and NaN gradients.
+    and `solver._refined_nodes`), and so is the Newton start of the maximum-likelihood
+    kernels (`solver._coarse_start`, the last 18 arrays of `scratch`) and, for a far
+    point, the bound that skips the peak scan; a point on the boundary gets its
+    Lagrange-limit row and NaN gradients.
     """
     kernel, power, shift, mode, orientation, diameter, control_count, tolerance = settings
     coefficients, piece_length, corners = geometry
@@ -329,7 +363,9 @@ def _gradient_point(x, y, settings, curve, geometry, row, row_x, row_y, scratch,
         sample_x, sample_y, tangent_x, tangent_y, second_x, second_y, spacing, uniform, sample_t,
         basis0, basis1, basis2, step, sinh_step, out_step, slabs,
     ) = curve  # fmt: skip
-    (px, py, tx, ty, sx, sy, w, t, ux, uy, inv_r, a, s, inv_s, trial, trial_inv, blend) = scratch
+    (px, py, tx, ty, sx, sy, w, t, ux, uy, inv_r, a, s, inv_s, trial, trial_inv, blend) = scratch[:17]
+    coarse = scratch[17:]
+    likelihood = kernel <= solver.MODIFIED_MEAN_VALUE_SQUARED
     count = sample_x.shape[0]
     out_count = int(round(count * step / out_step))
     period = count * step
@@ -353,10 +389,23 @@ def _gradient_point(x, y, settings, curve, geometry, row, row_x, row_y, scratch,
                 kernel, power, shift, sample_x, sample_y, tangent_x, tangent_y, second_x, second_y,
                 uniform, x, y, count, corners, ux, uy, inv_r, nearest, a,
             )  # fmt: skip
-            iterations, status, residual = solver._finish(
-                kernel, ux, uy, inv_r, a, s, inv_s, trial, trial_inv, blend, total,
-                sample_x, sample_y, uniform, step, x, y, tolerance * diameter, 0.0, 0.0,
-            )  # fmt: skip
+            if likelihood:
+                phix, phiy = solver._coarse_start(
+                    ux, uy, inv_r, a, count, max(nearest / largest_spacing, solver.FAR_START_SEPARATION),
+                    coarse, tolerance * diameter, 0.0, 0.0,
+                )  # fmt: skip
+                iterations, status, residual, d, _, _ = solver._maximum_likelihood(
+                    ux, uy, inv_r, a, s, inv_s, trial, trial_inv, blend, uniform, step, count,
+                    tolerance * diameter, phix, phiy, largest_spacing / nearest,
+                )  # fmt: skip
+                inverse = 1.0 / d
+                for j in range(count):
+                    a[j] = a[j] * inv_r[j] * inv_s[j] * inverse
+            else:
+                iterations, status, residual = solver._finish(
+                    kernel, ux, uy, inv_r, a, s, inv_s, trial, trial_inv, blend, total,
+                    sample_x, sample_y, uniform, step, x, y, tolerance * diameter, 0.0, 0.0,
+                )  # fmt: skip
             _differentiate(
                 kernel, power, shift, sample_x, sample_y, tangent_x, tangent_y, second_x, second_y,
                 uniform, ux, uy, inv_r, a, s, inv_s, total, count, corners, x, y, nearest, blend, trial,
@@ -416,9 +465,14 @@ def _gradient_point(x, y, settings, curve, geometry, row, row_x, row_y, scratch,
     total = solver._weights(
         kernel, power, shift, px, py, tx, ty, sx, sy, w, x, y, nodes, corners, ux, uy, inv_r, r_min, a
     )
+    phix, phiy = 0.0, 0.0
+    if likelihood:
+        phix, phiy = solver._coarse_start(
+            ux, uy, inv_r, a, total, solver.NEAR_START_SEPARATION, coarse, tolerance * diameter, 0.0, 0.0
+        )
     iterations, status, residual = solver._finish(
         kernel, ux, uy, inv_r, a, s, inv_s, trial, trial_inv, blend, total,
-        px, py, w, step, x, y, tolerance * diameter, 0.0, 0.0,
+        px, py, w, step, x, y, tolerance * diameter, phix, phiy,
     )  # fmt: skip
     _differentiate(
         kernel, power, shift, px, py, tx, ty, sx, sy, w, ux, uy, inv_r, a, s, inv_s, total, nodes, corners,
@@ -447,6 +501,9 @@ def gradient_points(
         np.empty(capacity), np.empty(capacity), np.empty(capacity), np.empty(capacity),
         np.empty(capacity), np.empty(capacity), np.empty(capacity), np.empty(capacity),
         np.empty(capacity),
+        # `solver._coarse_start`'s eight
+        np.empty(capacity), np.empty(capacity), np.empty(capacity), np.empty(capacity),
+        np.empty(capacity), np.empty(capacity), np.empty(capacity), np.empty(capacity),
     )  # fmt: skip
     windows = (
         np.empty(solver.MAX_WINDOWS + 1, dtype=np.int64),
@@ -455,8 +512,9 @@ def gradient_points(
         np.empty(solver.MAX_WINDOWS + 1),
         np.empty((solver.MAX_WINDOWS + 1, 3), dtype=np.int64),
     )
+    largest_spacing = curve[6].max()
     for m in range(first, points.shape[0], stride):
         iterations[m], status[m], residual[m] = _gradient_point(
-            points[m, 0], points[m, 1], settings, curve, geometry, out[m], gradients[m, 0], gradients[m, 1],
-            scratch, windows,
+            points[m, 0], points[m, 1], settings, curve, geometry, largest_spacing, out[m], gradients[m, 0],
+            gradients[m, 1], scratch, windows,
         )  # fmt: skip
