@@ -154,6 +154,20 @@ class GuiRenderer(GlfwRenderer):
     def __init__(self, window, ctx: moderngl.Context):
         self._ctx = ctx
         super().__init__(window)
+        self._focused = bool(glfw.get_window_attrib(window, glfw.FOCUSED))
+        glfw.set_window_focus_callback(window, self._focus_callback)
+
+    def _focus_callback(self, window, focused: int) -> None:
+        self._focused = bool(focused)
+
+    def mouse_callback(self, window, x: float, y: float) -> None:
+        """The base class's: the pointer for imgui while the window has the focus, else none; from
+        the event's own position and the focus its callback keeps (the base class asked the X
+        server for both on every pointer motion, two round trips an event)."""
+        if self._focused:
+            self.io.add_mouse_pos_event(x, y)
+        else:
+            self.io.add_mouse_pos_event(-1, -1)
 
     def _create_device_objects(self) -> None:
         super()._create_device_objects()
