@@ -189,8 +189,14 @@ def _differentiate(
             grad_y[j] = gy + w[j] * shift_y
     for j in range(nodes, total):
         omega[j], grad_x[j], grad_y[j] = _corner_derivative(kernel, corners, j - nodes, px[j], py[j], x, y)
-    # Pass 2: the sums of a~ and b, H, K, v, D~ and the least squares of phi from s_j - 1 = phi . u_j.
     sum_a = 0.0
+    if not newton:
+        # lambda_j = m_j / M: grad lambda_j = grad m_j / M - lambda_j sum_k grad m_k / M.
+        for j in range(total):
+            sum_a += omega[j]
+        _normalise(grad_x, grad_y, a, total, 1.0 / sum_a)
+        return
+    # Pass 2: the sums of a~ and b, H, K, v, D~ and the least squares of phi from s_j - 1 = phi . u_j.
     sum_b = 0.0
     hxx = hxy = hyy = 0.0
     kxx = kxy = kyy = 0.0
@@ -198,41 +204,33 @@ def _differentiate(
     dxx = dxy = dyx = dyy = 0.0
     lxx = lxy = lyy = 0.0
     rx = ry = 0.0
-    if newton:
-        for j in range(total):
-            gx = grad_x[j]
-            gy = grad_y[j]
-            sum_a += omega[j]
-            u0 = ux[j]
-            u1 = uy[j]
-            inv = inv_s[j]
-            lam = a[j] * inv
-            hb = lam / inv_r[j]
-            sum_b += hb * s[j] * s[j]
-            hxx += hb * u0 * u0
-            hxy += hb * u0 * u1
-            hyy += hb * u1 * u1
-            kxx += lam * u0 * u0
-            kxy += lam * u0 * u1
-            kyy += lam * u1 * u1
-            vx += lam * u0
-            vy += lam * u1
-            dxx += u0 * gx * inv
-            dxy += u0 * gy * inv
-            dyx += u1 * gx * inv
-            dyy += u1 * gy * inv
-            lxx += u0 * u0
-            lxy += u0 * u1
-            lyy += u1 * u1
-            rx += u0 * (s[j] - 1.0)
-            ry += u1 * (s[j] - 1.0)
-    else:
-        for j in range(total):
-            sum_a += omega[j]
-    if not newton:
-        # lambda_j = m_j / M: grad lambda_j = grad m_j / M - lambda_j sum_k grad m_k / M.
-        _normalise(grad_x, grad_y, a, total, 1.0 / sum_a)
-        return
+    for j in range(total):
+        gx = grad_x[j]
+        gy = grad_y[j]
+        sum_a += omega[j]
+        u0 = ux[j]
+        u1 = uy[j]
+        inv = inv_s[j]
+        lam = a[j] * inv
+        hb = lam / inv_r[j]
+        sum_b += hb * s[j] * s[j]
+        hxx += hb * u0 * u0
+        hxy += hb * u0 * u1
+        hyy += hb * u1 * u1
+        kxx += lam * u0 * u0
+        kxy += lam * u0 * u1
+        kyy += lam * u1 * u1
+        vx += lam * u0
+        vy += lam * u1
+        dxx += u0 * gx * inv
+        dxy += u0 * gy * inv
+        dyx += u1 * gx * inv
+        dyy += u1 * gy * inv
+        lxx += u0 * u0
+        lxy += u0 * u1
+        lyy += u1 * u1
+        rx += u0 * (s[j] - 1.0)
+        ry += u1 * (s[j] - 1.0)
     kappa = sum_b / sum_a
     normal = lxx * lyy - lxy * lxy
     phix = (lyy * rx - lxy * ry) / normal
@@ -389,23 +387,16 @@ def _gradient_point(x, y, settings, curve, geometry, largest_spacing, row, row_x
                 kernel, power, shift, sample_x, sample_y, tangent_x, tangent_y, second_x, second_y,
                 uniform, x, y, count, corners, ux, uy, inv_r, nearest, a,
             )  # fmt: skip
+            phix, phiy = 0.0, 0.0
             if likelihood:
                 phix, phiy = solver._coarse_start(
                     ux, uy, inv_r, a, count, max(nearest / largest_spacing, solver.FAR_START_SEPARATION),
                     coarse, tolerance * diameter, 0.0, 0.0,
                 )  # fmt: skip
-                iterations, status, residual, d, _, _ = solver._maximum_likelihood(
-                    ux, uy, inv_r, a, s, inv_s, trial, trial_inv, blend, uniform, step, count,
-                    tolerance * diameter, phix, phiy, largest_spacing / nearest,
-                )  # fmt: skip
-                inverse = 1.0 / d
-                for j in range(count):
-                    a[j] = a[j] * inv_r[j] * inv_s[j] * inverse
-            else:
-                iterations, status, residual = solver._finish(
-                    kernel, ux, uy, inv_r, a, s, inv_s, trial, trial_inv, blend, total,
-                    sample_x, sample_y, uniform, step, x, y, tolerance * diameter, 0.0, 0.0,
-                )  # fmt: skip
+            iterations, status, residual = solver._finish(
+                kernel, ux, uy, inv_r, a, s, inv_s, trial, trial_inv, blend, total, sample_x, sample_y,
+                uniform, step, x, y, tolerance * diameter, phix, phiy, largest_spacing / nearest,
+            )  # fmt: skip
             _differentiate(
                 kernel, power, shift, sample_x, sample_y, tangent_x, tangent_y, second_x, second_y,
                 uniform, ux, uy, inv_r, a, s, inv_s, total, count, corners, x, y, nearest, blend, trial,
@@ -472,7 +463,7 @@ def _gradient_point(x, y, settings, curve, geometry, largest_spacing, row, row_x
         )
     iterations, status, residual = solver._finish(
         kernel, ux, uy, inv_r, a, s, inv_s, trial, trial_inv, blend, total,
-        px, py, w, step, x, y, tolerance * diameter, phix, phiy,
+        px, py, w, step, x, y, tolerance * diameter, phix, phiy, math.inf,
     )  # fmt: skip
     _differentiate(
         kernel, power, shift, px, py, tx, ty, sx, sy, w, ux, uy, inv_r, a, s, inv_s, total, nodes, corners,

@@ -1048,7 +1048,7 @@ def _solve_point(x, y, settings, curve, geometry, largest_spacing, row, scratch,
             else:
                 iterations, status, residual = _finish(
                     kernel, ux, uy, inv_r, a, s, inv_s, trial, trial_inv, blend, total, sample_x, sample_y,
-                    uniform, step, x, y, tolerance * diameter, 0.0, 0.0,
+                    uniform, step, x, y, tolerance * diameter, 0.0, 0.0, math.inf,
                 )  # fmt: skip
             if mode == OUTPUT_BASIS:
                 _fold_onto_basis(
@@ -1142,6 +1142,7 @@ def _solve_point(x, y, settings, curve, geometry, largest_spacing, row, scratch,
         tolerance * diameter,
         phix,
         phiy,
+        math.inf,
     )
     _accumulate_nodes(
         row, mode, a, t, total, count * step, out_step, out_count, control_count, coefficients, runs,
@@ -1395,10 +1396,12 @@ def _finish(
     tolerance,
     phix,
     phiy,
+    spread,
 ):
     """Turn normalised weights `a` into the quadrature-weighted kernel w_j lambda_j (in `a`).
 
-    Maximum-likelihood family: `_maximum_likelihood`, then Eq. 14 and 17,
+    Maximum-likelihood family: `_maximum_likelihood` from (phix, phiy), with `spread`
+    its bound on |u_(j+1) - u_j| (math.inf if unknown), then Eq. 14 and 17,
     c_j = a_j / (r_j s_j) normalised.  Explicit kernels: `a` already is it.
     Returns (iterations, status, residual).
     """
@@ -1419,7 +1422,7 @@ def _finish(
             tolerance,
             phix,
             phiy,
-            math.inf,
+            spread,
         )
         inverse = 1.0 / d
         for j in range(total):
