@@ -1,0 +1,222 @@
+"""Gauss–Legendre panels on a closed quadratic B-spline: the boundary quadrature of `core.layer`.
+
+The curve is cut at every knot, so that each panel is one polynomial piece (the
+B-spline basis N_i is a polynomial on it too), and each span is cut further:
+
+- dyadically towards knots where the curvature jumps (``KNOT_LEVELS`` levels) and
+  towards sharp corners, where the density of a layer potential is singular
+  (``CORNER_LEVELS`` levels, the geometric grading of Helsing's and Bremer's corner
+  schemes, here as plain Nyström panels);
+- wherever a panel is long against its distance to the rest of the curve (a thin
+  arm: the density varies on the scale of the arm's width), until each panel is at
+  most `THIN_RATIO` times that distance.
+
+Each panel carries ``ORDER`` Gauss–Legendre nodes in the curve parameter t.  The
+Lagrange interpolant of a density on a panel's nodes (`interpolation_matrix`) lets
+the near-field rule of `core.layer` integrate it on sub-panels.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from core.bspline import ClosedBSpline
+
+#: Gauss–Legendre nodes per panel.
+ORDER = 16
+#: Dyadic levels of panels towards a sharp corner (a doubled control point).
+CORNER_LEVELS = 6
+#: Towards a knot where the curvature jumps by Δκ, the density behaves like s^2 log s
+#: times Δκ ℓ (ℓ the shorter adjacent span's length): each level of grading divides its
+#: error by about 8.  Levels are added until Δκ ℓ 8^-levels <= KNOT_JUMP.
+KNOT_JUMP = 5e-5
+MIN_KNOT_LEVELS = 2
+MAX_KNOT_LEVELS = 7
+#: A panel is split while its arc length exceeds this multiple of its distance to the
+#: curve beyond its neighbours.
+THIN_RATIO = 1.0
+#: At most this many rounds of splitting for thin parts.
+THIN_ROUNDS = 8
+
+_NODES, _WEIGHTS = np.polynomial.legendre.leggauss(ORDER)
+
+
+def _barycentric_weights(nodes: np.ndarray) -> np.ndarray:
+    difference = nodes[:, None] - nodes[None, :]
+    np.fill_diagonal(difference, 1.0)
+    weights = 1.0 / difference.prod(axis=1)
+    return weights / np.abs(weights).max()
+
+
+_BARYCENTRIC = _barycentric_weights(_NODES)
+
+
+def interpolation_matrix(u: np.ndarray) -> np.ndarray:
+    """Lagrange basis of the panel nodes at local parameters u in [-1, 1], shape (..., ORDER).
+
+    ``interpolation_matrix(u) @ values`` interpolates values given at the nodes
+    (the second barycentric formula; exact at the nodes).
+    """
+    u = np.asarray(u, dtype=np.float64)
+    difference = u[..., None] - _NODES
+    exact = difference == 0.0
+    difference[exact] = 1.0
+    terms = _BARYCENTRIC / difference
+    matrix = terms / terms.sum(axis=-1, keepdims=True)
+    hit = exact.any(axis=-1)
+    if hit.any():
+        matrix[hit] = exact[hit].astype(np.float64)
+    return matrix
+
+
+@dataclass(frozen=True)
+class Panels:
+    """Gauss–Legendre panels of a closed curve, nodes in panel order.
+
+    Attributes
+    ----------
+    bounds : ndarray of shape (P, 2)
+        Parameter interval [t_a, t_b] of each panel (t_b - t_a <= 1, inside one span).
+    t : ndarray of shape (P * ORDER,)
+        Node parameters.
+    z : ndarray of shape (P * ORDER,), complex
+        Node positions x + iy.
+    dz : ndarray of shape (P * ORDER,), complex
+        dz/dt at the nodes.
+    weights : ndarray of shape (P * ORDER,)
+        Gauss–Legendre weights in t.
+    centres, radii, lengths : ndarray of shape (P,)
+        A circle around each panel (complex centre) and its arc length.
+    """
+
+    bounds: np.ndarray
+    t: np.ndarray
+    z: np.ndarray
+    dz: np.ndarray
+    weights: np.ndarray
+    centres: np.ndarray
+    radii: np.ndarray
+    lengths: np.ndarray
+
+    @property
+    def count(self) -> int:
+        """P, the number of panels."""
+        return self.bounds.shape[0]
+
+    @property
+    def size(self) -> int:
+        """P * ORDER, the number of nodes."""
+        return self.t.shape[0]
+
+
+def curve_panels(curve: ClosedBSpline) -> Panels:
+    """The panels of `curve`: graded towards knots and corners, split in thin parts."""
+    levels = knot_levels(curve)
+    breaks = []
+    for span in range(curve.n):
+        left, right = levels[span], levels[(span + 1) % curve.n]
+        local = np.concatenate(
+            [[0.0, 0.5, 1.0], 0.5 ** np.arange(left, 1, -1), 1.0 - 0.5 ** np.arange(2, right + 1)]
+        )
+        local = np.unique(local)
+        breaks.append(np.stack([span + local[:-1], span + local[1:]], axis=1))
+    bounds = np.concatenate(breaks)
+    for _ in range(THIN_ROUNDS):
+        panels = _panels(curve, bounds)
+        split = _thin(panels)
+        if not split.any():
+            return panels
+        middle = bounds[split].mean(axis=1)
+        halves = np.concatenate(
+            [np.stack([bounds[split, 0], middle], 1), np.stack([middle, bounds[split, 1]], 1)]
+        )
+        bounds = np.concatenate([bounds[~split], halves])
+        bounds = bounds[np.argsort(bounds[:, 0])]
+    return _panels(curve, bounds)
+
+
+def knot_levels(curve: ClosedBSpline) -> np.ndarray:
+    """Dyadic grading levels towards each knot t = j, int ndarray of shape (n,)."""
+    points = curve.control_points
+    coefficients = curve.piecewise_polynomial().coefficients  # span j: c0 + c1 u + c2 u^2
+    before = np.roll(coefficients, 1, axis=0)
+    # Knot j is a sharp corner when paper P_j = P_{j+1}: array rows j-1, j.
+    corner = np.all(points == np.roll(points, 1, axis=0), axis=1)
+
+    def curvature(first, second):
+        cross = first[:, 0] * second[:, 1] - first[:, 1] * second[:, 0]
+        speed = np.linalg.norm(first, axis=1)
+        return np.where(speed > 0, cross, 0.0) / np.maximum(speed, 1e-100) ** 3
+
+    leaving = curvature(coefficients[:, 1], 2.0 * coefficients[:, 2])
+    arriving = curvature(before[:, 1] + 2.0 * before[:, 2], 2.0 * before[:, 2])
+    spans = np.linalg.norm(coefficients[:, 1] + coefficients[:, 2], axis=1)  # chord of each span
+    jump = np.abs(leaving - arriving) * np.minimum(spans, np.roll(spans, 1))
+    with np.errstate(divide="ignore"):
+        levels = np.ceil(np.log(jump / KNOT_JUMP) / np.log(8.0))
+    levels = np.clip(np.nan_to_num(levels, neginf=0.0), MIN_KNOT_LEVELS, MAX_KNOT_LEVELS).astype(np.int64)
+    levels[corner] = CORNER_LEVELS
+    return levels
+
+
+def _panels(curve: ClosedBSpline, bounds: np.ndarray) -> Panels:
+    half = 0.5 * (bounds[:, 1] - bounds[:, 0])
+    middle = 0.5 * (bounds[:, 1] + bounds[:, 0])
+    t = (middle[:, None] + half[:, None] * _NODES).ravel()
+    value, first, _ = _evaluate(curve, t, bounds)
+    z = value[:, 0] + 1j * value[:, 1]
+    dz = first[:, 0] + 1j * first[:, 1]
+    weights = (half[:, None] * _WEIGHTS).ravel()
+    ends, _, _ = _evaluate(curve, bounds.ravel(), np.repeat(bounds, 2, axis=0))
+    ends = (ends[:, 0] + 1j * ends[:, 1]).reshape(-1, 2)
+    z_panels = z.reshape(-1, ORDER)
+    lengths = (np.abs(dz) * weights).reshape(-1, ORDER).sum(axis=1)
+    centres = 0.5 * (ends[:, 0] + ends[:, 1])
+    radii = np.maximum(
+        np.abs(z_panels - centres[:, None]).max(axis=1), np.abs(ends - centres[:, None]).max(axis=1)
+    )
+    return Panels(bounds, t, z, dz, weights, centres, radii, lengths)
+
+
+def _evaluate(curve: ClosedBSpline, t: np.ndarray, bounds: np.ndarray):
+    """p, p', p'' at t, each piece taken from the span of its panel (no wrap-around at t = n)."""
+    pieces = curve.piecewise_polynomial().coefficients  # (n, 3, 2)
+    span = np.floor(bounds[:, 0] + 1e-12).astype(np.int64) % curve.n
+    span = np.repeat(span, t.shape[0] // bounds.shape[0]) if t.shape[0] != bounds.shape[0] else span
+    u = t - np.floor(np.repeat(bounds[:, 0], t.shape[0] // bounds.shape[0]) + 1e-12)
+    c = pieces[span]
+    u = u[:, None]
+    value = c[:, 0] + u * (c[:, 1] + u * c[:, 2])
+    first = c[:, 1] + 2.0 * u * c[:, 2]
+    second = 2.0 * c[:, 2]
+    return value, first, second
+
+
+def _thin(panels: Panels) -> np.ndarray:
+    """bool (P,): panels longer than `THIN_RATIO` times their distance to the curve beyond them.
+
+    "Beyond" means farther along the curve than twice the panel's own length, so a
+    panel is not compared with its graded neighbours but with the opposite side of
+    a thin arm.
+    """
+    count = panels.count
+    nodes = np.stack([panels.z.real, panels.z.imag], axis=1)
+    owner = np.repeat(np.arange(count), ORDER)
+    middle = np.cumsum(panels.lengths) - 0.5 * panels.lengths
+    total = panels.lengths.sum()
+    tree = cKDTree(nodes)
+    split = np.zeros(count, dtype=bool)
+    for p in range(count):
+        mine = slice(p * ORDER, (p + 1) * ORDER)
+        near = tree.query_ball_point(nodes[mine], r=panels.lengths[p] / THIN_RATIO)
+        found = np.unique(np.concatenate(near))
+        gap = np.abs(middle[owner[found]] - middle[p])
+        gap = np.minimum(gap, total - gap) - 0.5 * (panels.lengths[owner[found]] + panels.lengths[p])
+        beyond = found[gap > 2.0 * panels.lengths[p]]
+        if beyond.size:
+            distance = np.abs(panels.z[beyond][None, :] - panels.z[mine][:, None]).min()
+            split[p] = panels.lengths[p] > THIN_RATIO * distance
+    return split

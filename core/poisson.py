@@ -1,0 +1,237 @@
+"""Transfinite harmonic coordinates: the domain's Poisson kernel by a boundary integral equation.
+
+The paper's framework writes coordinates as G_i(x) = ∫ λ(x, t) N_i(t) dt (Eq. 2); the
+kernel λ whose coordinates are exactly harmonic is the Poisson kernel of the domain
+(the density of harmonic measure, Sec. 1.1 and Eq. 7 for the disk), which has no
+closed form.  Instead of λ we compute the coordinates as double-layer potentials
+
+    G_i(x) = ∫_Γ μ_i(y) K(x, y) ds_y,   K(x, y) = (y - x)·ν_y / (2π |y - x|²)
+           = Re (1 / 2πi) ∮ μ_i(τ) / (τ - z) dτ      (counter-clockwise, z = x_1 + i x_2),
+
+whose densities solve the second-kind equation (the interior limit of the layer)
+
+    μ_i(x) + ∫_Γ (μ_i(y) - μ_i(x)) K(x, y) ds_y = N_i(t(x)),   x on Γ,
+
+in the form with the density at x subtracted (Gauss's lemma ∫ K(z, y) ds_y = 1 for z
+inside), so that constants are reproduced exactly at every corner and knot.  The
+equation is discretised by Nyström on `core.panels` (graded towards knots and corners),
+near-singular node-panel pairs by the adaptive rule of `core.layer`; one LU factorisation
+per cage gives all n + 1 densities (the n basis functions and their sum).
+
+Evaluation is a row of Cauchy weights per point (`core.layer`) times the densities, in
+barycentric form:
+
+    G_i(x) = Re C[μ_i](x) / Re C[Σ_j μ_j](x),
+
+whose denominator is 1 up to the quadrature error, so that Σ_i G_i = 1 to rounding and
+Σ_i G_i P_i = x to the quadrature error (both numerator and denominator carry it).
+"""
+
+from __future__ import annotations
+
+import functools
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.linalg import lu_factor, lu_solve
+
+from core.bspline import ClosedBSpline
+from core.layer import adaptive_weights, cauchy_derivatives, cauchy_integrals, layer_factors, near_pairs
+from core.panels import ORDER, Panels, curve_panels
+
+#: Points per progress report.
+CHUNK = 8192
+#: Points this close to the curve (fraction of the diameter) get the Lagrange limit.
+ON_CURVE_DISTANCE = 1e-10
+#: A point whose layer of the constant density, Re C[1], is outside [1 - ON_CURVE, 1 + ON_CURVE]
+#: is on the curve (about 1/2 there) or outside it (0).
+ON_CURVE = 0.25
+
+
+@dataclass(frozen=True)
+class Densities:
+    """The double-layer densities of a cage's basis functions.
+
+    Attributes
+    ----------
+    curve : ClosedBSpline
+    panels : Panels
+    mu : ndarray of shape (P * ORDER, n + 1)
+        μ_1..μ_n at the nodes, then their sum (1 up to the solve's rounding).
+    """
+
+    curve: ClosedBSpline
+    panels: Panels
+    mu: np.ndarray
+
+
+def densities(curve: ClosedBSpline) -> Densities:
+    """Solve the double-layer equation for every basis function of `curve` (cached per cage)."""
+    return _densities(curve.control_points.tobytes(), curve.control_points.shape[0])
+
+
+@functools.lru_cache(maxsize=4)
+def _densities(points: bytes, count: int) -> Densities:
+    curve = ClosedBSpline(np.frombuffer(points).reshape(count, 2))
+    panels = curve_panels(curve)
+    factors = layer_factors(curve, panels)
+    size = panels.size
+    z = panels.z
+    difference = z[None, :] - z[:, None]
+    np.fill_diagonal(difference, 1.0)
+    matrix = (factors[None, :] / difference).real
+    own = np.repeat(np.arange(panels.count), ORDER)
+    target, panel = near_pairs(panels, z, curve.diameter)
+    keep = own[target] != panel
+    target, panel = target[keep], panel[keep]
+    weights, _ = adaptive_weights(curve, panels, z[target], panel)
+    orientation = 1.0 if curve.area > 0 else -1.0
+    columns = panel[:, None] * ORDER + np.arange(ORDER)
+    matrix[target[:, None], columns] = (orientation * weights / (2j * np.pi)).real
+    np.fill_diagonal(matrix, 0.0)
+    # mu_i + sum_j K_ij (mu_j - mu_i) = f_i: the density at the node subtracted.
+    matrix[np.arange(size), np.arange(size)] = 1.0 - matrix.sum(axis=1)
+    data = curve.basis_matrix(panels.t)
+    data = np.concatenate([data, data.sum(axis=1, keepdims=True)], axis=1)
+    mu = lu_solve(lu_factor(matrix, overwrite_a=True, check_finite=False), data, check_finite=False)
+    mu.setflags(write=False)
+    return Densities(curve, panels, mu)
+
+
+def poisson_basis(
+    curve: ClosedBSpline, x: np.ndarray, progress: Callable[[float], None] | None = None
+) -> np.ndarray:
+    """Transfinite harmonic coordinates G_i(x), shape (M, n), for points x (M, 2) in the closed domain.
+
+    Points within ~1e-10 of the diameter of the curve (`core.layer.ON_CURVE`) get
+    the Lagrange limit, the B-spline basis at their closest parameter.
+
+    Raises
+    ------
+    ValueError
+        Some points are outside the domain (how many, and the first).
+    """
+    solution = densities(curve)
+    out = np.empty((x.shape[0], curve.n))
+    for first in range(0, x.shape[0], CHUNK):
+        points = x[first : first + CHUNK]
+        real, _, on_curve = cauchy_integrals(curve, solution.panels, solution.mu, points, imaginary=False)
+        total = real[:, -1]
+        boundary = _classify(curve, points, total, on_curve)
+        out[first : first + CHUNK] = real[:, :-1] / total[:, None]
+        if boundary.size:
+            out[first + boundary] = curve.basis_matrix(closest_parameters(curve, points[boundary]))
+        if progress is not None:
+            progress(min(1.0, (first + CHUNK) / x.shape[0]))
+    return out
+
+
+def poisson_gradients(curve: ClosedBSpline, x: np.ndarray) -> np.ndarray:
+    """grad G_i(x), shape (M, n, 2), at interior points x (M, 2); NaN on the curve.
+
+    G_i = Re F_i / Re F_s with F = C[μ] holomorphic and F_s the layer of the
+    densities' sum, so grad Re F = (Re F', -Im F') and the quotient rule gives
+    grad G_i = (grad Re F_i - G_i grad Re F_s) / Re F_s.
+    """
+    solution = densities(curve)
+    real, _, on_curve = cauchy_integrals(curve, solution.panels, solution.mu, x, imaginary=False)
+    derivative = cauchy_derivatives(curve, solution.panels, solution.mu, x)
+    total = real[:, -1:]
+    values = real[:, :-1] / total
+    gradient = np.stack([derivative.real, -derivative.imag], axis=2)  # (M, n + 1, 2)
+    out = (gradient[:, :-1] - values[:, :, None] * gradient[:, -1:]) / total[:, :, None]
+    boundary = _classify(curve, x, real[:, -1], on_curve)
+    out[boundary] = np.nan
+    return out
+
+
+def _classify(curve: ClosedBSpline, x: np.ndarray, total: np.ndarray, on_curve: np.ndarray) -> np.ndarray:
+    """Indices of the points on the curve; raises ValueError for points outside it.
+
+    Inside, the layer of the densities' sum is 1; outside it is 0 and on the curve
+    about 1/2 (the jump of a double layer).
+    """
+    strange = on_curve | (np.abs(total - 1.0) > ON_CURVE) | ~np.isfinite(total)
+    candidates = np.flatnonzero(strange)
+    if candidates.size == 0:
+        return candidates
+    _, distance = closest_point(curve, x[candidates])
+    boundary = distance <= ON_CURVE_DISTANCE * curve.diameter
+    outside = candidates[~boundary & (total[candidates] < 0.5)]
+    if outside.size:
+        first = int(outside[0])
+        raise ValueError(
+            f"{outside.size} of {x.shape[0]} points of x are outside the domain "
+            f"(first: index {first}, {x[first].tolist()})"
+        )
+    return candidates[boundary | (total[candidates] >= 0.5)]
+
+
+def closest_parameters(curve: ClosedBSpline, x: np.ndarray) -> np.ndarray:
+    """The parameter t of the closest curve point to each of x (M, 2), shape (M,)."""
+    return closest_point(curve, x)[0]
+
+
+def closest_point(curve: ClosedBSpline, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Closest parameters and distances to the curve, two ndarrays of shape (M,).
+
+    Each span is sampled at 65 points, then the best sample is polished
+    (`_polish`; plain numpy: no compilation).
+    """
+    coefficients = curve.piecewise_polynomial().coefficients  # (n, 3, 2)
+    u = np.linspace(0.0, 1.0, 65)
+    samples = coefficients[:, None, 0] + u[None, :, None] * (
+        coefficients[:, None, 1] + u[None, :, None] * coefficients[:, None, 2]
+    )  # (n, 65, 2)
+    flat = samples.reshape(-1, 2)
+    best = np.empty(x.shape[0], dtype=np.int64)
+    for first in range(0, x.shape[0], 256):
+        block = x[first : first + 256]
+        best[first : first + 256] = ((block[:, None, :] - flat[None]) ** 2).sum(axis=2).argmin(axis=1)
+    span = best // u.size
+    # The closest point may lie on a neighbouring span (past a knot or a corner): polish
+    # each point's best sample on the best span and on both its neighbours, keep the
+    # nearest.
+    results = []
+    for shift in (0, -1, 1):
+        candidate = (span + shift) % curve.n
+        start = ((samples[candidate] - x[:, None, :]) ** 2).sum(axis=2).argmin(axis=1)
+        results.append(_polish(coefficients, x, candidate, u[start]))
+    t = np.stack([r[0] for r in results])
+    distance = np.stack([r[1] for r in results])
+    choice = distance.argmin(axis=0)
+    columns = np.arange(x.shape[0])
+    return np.mod(t[choice, columns], curve.n), distance[choice, columns]
+
+
+def _polish(coefficients: np.ndarray, x: np.ndarray, span: np.ndarray, u: np.ndarray):
+    """Minimise |p_span(u) - x|^2 near u within [0, 1] for each point; returns (span + u, distance).
+
+    Golden-section search on the bracket of one sample spacing either side, then
+    Newton steps where the second derivative is positive (at a corner p' vanishes
+    and Newton alone can stall).
+    """
+    c = coefficients[span]
+
+    def residual(t):
+        return c[:, 0] + t[:, None] * (c[:, 1] + t[:, None] * c[:, 2]) - x
+
+    low = np.clip(u - 1.0 / 64, 0.0, 1.0)
+    high = np.clip(u + 1.0 / 64, 0.0, 1.0)
+    ratio = 0.5 * (np.sqrt(5.0) - 1.0)
+    for _ in range(60):
+        a = high - ratio * (high - low)
+        b = low + ratio * (high - low)
+        left = (residual(a) ** 2).sum(axis=1) <= (residual(b) ** 2).sum(axis=1)
+        high = np.where(left, b, high)
+        low = np.where(left, low, a)
+    t = 0.5 * (low + high)
+    for _ in range(3):
+        r = residual(t)
+        first_derivative = c[:, 1] + 2.0 * t[:, None] * c[:, 2]
+        gradient = (r * first_derivative).sum(axis=1)
+        hessian = (first_derivative**2).sum(axis=1) + 2.0 * (r * c[:, 2]).sum(axis=1)
+        step = np.where(hessian > 0, gradient / np.where(hessian > 0, hessian, 1.0), 0.0)
+        t = np.clip(t - step, 0.0, 1.0)
+    return span + t, np.linalg.norm(residual(t), axis=1)
