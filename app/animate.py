@@ -40,6 +40,7 @@ from app.files import InputError, check_writable, encode_png
 from app.framing import output_frame, output_region
 from app.keyframes import Keyframe, interpolate
 from core.atomic_write import remove_stale_temporaries
+from core.deformation import deform
 
 #: Straight RGB that MP4 and GIF frames show where the warp is transparent.
 BACKGROUND = (255, 255, 255)
@@ -340,7 +341,9 @@ def run_animate(args) -> int:
             renderer.set_mesh(mesh.vertices, mesh.triangles)
             with WRITERS[kind](path, size, args.fps) as writer, ProgressBar(f"frames ({len(times)})") as bar:
                 for index, moment in enumerate(times):
-                    renderer.set_positions(basis @ interpolate(keyframes, float(moment), interpolation))
+                    renderer.set_positions(
+                        deform(basis, interpolate(keyframes, float(moment), interpolation))
+                    )
                     writer.add(renderer.render(size, view, backdrop=outside == "original"))
                     bar((index + 1) / len(times))
                 try:

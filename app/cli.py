@@ -60,8 +60,9 @@ from app.render import ContextUnavailableError
 from app.viewer.demos import SCRIPT_FORMAT
 from core.arc_length import PARAMETERIZATIONS
 from core.compilation import MESSAGE as COMPILING
+from core.deformation import deform
 
-DEFAULT_KERNEL = "harmonic"  # core.mesh_basis.DEFAULT_KERNEL, the deformation default
+DEFAULT_KERNEL = "poisson"  # core.mesh_basis.DEFAULT_KERNEL, the deformation default
 # cv2.Error.StsNoMem, without importing cv2 for the commands that never use it.
 _OPENCV_NO_MEMORY = -4
 
@@ -619,7 +620,7 @@ def _warp(args: argparse.Namespace) -> int:
             )
         if compiling.seconds is not None:
             note(f"compiled the solver in {compiling.seconds:.1f} s (first run only; numba caches it)")
-        deformed = basis @ target
+        deformed = deform(basis, target)
         if args.report:
             with reported_as_input(f"{cage_source}: kernel {kernel!r}: gradients"):
                 report = _distortion_report(curve, mesh, kernel, target, deformed, params)

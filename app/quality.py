@@ -37,6 +37,7 @@ from app.console import EXIT_OK, ProgressBar, note
 from app.files import InputError, kernel_names, reported_as_input
 from core import distortion
 from core.arc_length import checked_parameterization
+from core.deformation import deform
 from core.kernels import kernel_parameters
 
 #: The reference of the distances: the finite-element harmonic basis (Sec. 4.2).
@@ -242,7 +243,7 @@ def run_study(domains, choices: list[KernelChoice], progress=None, keep: bool = 
 
 def _measure(result, mesh, areas, weights, basis, reference, target, target_curve) -> None:
     """Append one deformation's measures to `result`."""
-    deformed = basis @ target
+    deformed = deform(basis, target)
     sigma = distortion.signed_singular_values(
         distortion.triangle_jacobians(mesh.vertices, deformed, mesh.triangles)
     )
@@ -252,7 +253,7 @@ def _measure(result, mesh, areas, weights, basis, reference, target, target_curv
     result.distortion_99.append(distortion.weighted_quantile(ratio, areas, 0.99))
     interior = mesh.interior
     result.outside.append(float(np.mean(~target_curve.contains(deformed[interior]))))
-    gap = np.linalg.norm(deformed - reference @ target, axis=1)
+    gap = np.linalg.norm(deformed - deform(reference, target), axis=1)
     result.map_rms.append(float(np.sqrt(np.sum(weights * gap**2) / np.sum(weights)) / target_curve.diameter))
 
 

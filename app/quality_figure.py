@@ -12,6 +12,8 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
+from core.deformation import deform
+
 PANEL = 260
 LABEL_HEIGHT = 40
 ROW_LABEL_WIDTH = 150
@@ -69,7 +71,7 @@ def figure(domains, study) -> np.ndarray:
         mesh = study.meshes[domain]
         target = targets[domain, label]
         outline = core.ClosedBSpline(target)(np.linspace(0.0, len(target), 64 * len(target), endpoint=False))
-        deformed = {r.choice.label: study.bases[domain, r.choice.label] @ target for r in kernels}
+        deformed = {r.choice.label: deform(study.bases[domain, r.choice.label], target) for r in kernels}
         everything = np.concatenate([outline, *deformed.values()])
         low, high = everything.min(axis=0), everything.max(axis=0)
         scale = (PANEL - 16) / max(float((high - low).max()), 1e-300)

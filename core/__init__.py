@@ -1,21 +1,23 @@
 """Transfinite barycentric coordinates on closed quadratic B-spline domains.
 
 Pure numerics (numpy, scipy, numba): never imports `app`, moderngl, glfw or imgui.
-See DESIGN.md for the data flow and the paper's equation numbers.
+See docs/architecture.md for the data flow and the paper's equation numbers.
 """
 
 from core.basis import basis_functions
 from core.boundary import Boundary
 from core.bspline import ClosedBSpline
 from core.compilation import compile_solver
+from core.deformation import deform
 from core.gradients import basis_gradients, kernel_gradients
 from core.harmonic import harmonic_basis
-from core.kernels import KERNELS, ConvergenceWarning, SolveReport, kernel
+from core.kernels import BOUNDARY_INTEGRAL_KERNELS, KERNELS, ConvergenceWarning, SolveReport, kernel
 from core.mesh import Mesh, folded_triangles, triangulate
 from core.mesh_basis import MESH_ONLY_KERNELS, CacheWarning, mesh_basis_functions
 from core.pgw import pgw_basis
 
 __all__ = [
+    "BOUNDARY_INTEGRAL_KERNELS",
     "KERNELS",
     "MESH_ONLY_KERNELS",
     "Boundary",
@@ -27,6 +29,7 @@ __all__ = [
     "basis_functions",
     "basis_gradients",
     "compile_solver",
+    "deform",
     "folded_triangles",
     "harmonic_basis",
     "kernel",

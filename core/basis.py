@@ -8,10 +8,13 @@ B-spline boundary data F(t) = sum_i F_i N_i(t).
 
 from __future__ import annotations
 
+import numpy as np
+
 from core import solver
+from core.arc_length import checked_parameterization
 from core.bspline import ClosedBSpline
-from core.kernels import DEFAULT_KERNEL, DEFAULT_TOLERANCE, Progress, evaluate
-from core.validation import positive_int
+from core.kernels import BOUNDARY_INTEGRAL_KERNELS, DEFAULT_KERNEL, DEFAULT_TOLERANCE, Progress, evaluate
+from core.validation import as_points, positive_int
 
 
 def basis_functions(
@@ -36,9 +39,14 @@ def basis_functions(
         Points in the closed domain (on the curve: the Lagrange limit, i.e. the
         B-spline basis at the closest parameter).
     kernel : str
-        One of `core.KERNELS` (see `core.kernel` for parameters).
+        One of `core.KERNELS` (see `core.kernel` for parameters).  ``"poisson"``
+        (the default) gives the exact harmonic coordinates by a boundary integral
+        equation (`core.poisson`), ``"cauchy-green"`` the complex Cauchy–Green
+        coordinates (`core.cauchy_green`); neither takes parameters, and neither
+        depends on the boundary's parameterization or on `samples_per_segment`
+        (their panels are chosen for the accuracy stated in `core.panels`).
     samples_per_segment : int
-        N / n, boundary samples per span (the paper uses 100).
+        N / n, boundary samples per span for the Newton kernels (the paper uses 100).
     progress : callable, optional
         Called with the fraction done in [0, 1].
     tolerance : float
@@ -54,13 +62,37 @@ def basis_functions(
     -------
     ndarray of shape (M, n)
         Rows sum to 1 and ``G @ curve.control_points == x`` to the tolerance.
+        Complex for ``"cauchy-green"``: then ``core.deform(G, P) == x``.
     """
     if not isinstance(curve, ClosedBSpline):
         raise ValueError(f"curve must be a core.ClosedBSpline, got {type(curve).__name__}")
     per = positive_int(samples_per_segment, "samples_per_segment", minimum=2)
+    if kernel in BOUNDARY_INTEGRAL_KERNELS:
+        return _boundary_integral_basis(curve, x, kernel, progress, return_report, parameterization, params)
     boundary = curve.sample(per, parameterization)
     values, report = evaluate(boundary, x, kernel, solver.OUTPUT_BASIS, curve.n, progress, tolerance, params)
     return (values, report) if return_report else values
+
+
+def _boundary_integral_basis(curve, x, kernel, progress, return_report, parameterization, params):
+    """`basis_functions` of the boundary-integral kernels; the report holds the linear-precision residuals."""
+    from core.cauchy_green import cauchy_green_basis
+    from core.poisson import poisson_basis
+
+    checked_parameterization(parameterization)
+    if params:
+        raise ValueError(f"kernel {kernel!r} does not take parameter(s) {', '.join(sorted(params))}")
+    points = as_points(x, "x")
+    values = (poisson_basis if kernel == "poisson" else cauchy_green_basis)(curve, points, progress)
+    if not return_report:
+        return values
+    from core.deformation import deform
+    from core.kernels import SolveReport
+
+    count = points.shape[0]
+    residual = np.linalg.norm(deform(values, curve.control_points) - points, axis=1)
+    zeros = np.zeros(count, dtype=np.int64)
+    return values, SolveReport(zeros, zeros.copy(), residual)
 
 
 __all__ = ["basis_functions"]

@@ -147,7 +147,8 @@ def vertex_jacobians(gradients, target) -> np.ndarray:
     ----------
     gradients : array_like of shape (M, n, 2)
         grad G_i at M points (`core.basis_gradients`, `core.mesh_basis_functions`
-        with gradients=True).
+        with gradients=True); complex for the Cauchy–Green coordinates, whose
+        target points act as complex numbers (`core.deform`).
     target : array_like of shape (n, 2)
         The deformed control points P'_i.
 
@@ -156,13 +157,18 @@ def vertex_jacobians(gradients, target) -> np.ndarray:
     ndarray of shape (M, 2, 2)
         ``J[m, d, e]`` = d x'_d / d x_e at point m; rows of NaN gradients give NaN.
     """
-    gradients = np.asarray(gradients, dtype=np.float64)
+    gradients = np.asarray(gradients)
+    if not np.iscomplexobj(gradients):
+        gradients = gradients.astype(np.float64, copy=False)
     target = as_points(target, "target")
     if gradients.ndim != 3 or gradients.shape[1:] != (target.shape[0], 2):
         raise ValueError(
             f"gradients must have shape (M, {target.shape[0]}, 2) for {target.shape[0]} target points, "
             f"got {gradients.shape}"
         )
+    if np.iscomplexobj(gradients):
+        columns = np.einsum("mie,i->me", gradients, target[:, 0] + 1j * target[:, 1])
+        return np.stack([columns.real, columns.imag], axis=1)
     return np.einsum("id,mie->mde", target, gradients)
 
 

@@ -110,6 +110,8 @@ def basis_gradients(
     if not isinstance(curve, ClosedBSpline):
         raise ValueError(f"curve must be a core.ClosedBSpline, got {type(curve).__name__}")
     per = positive_int(samples_per_segment, "samples_per_segment", minimum=2)
+    if kernel in kernels.BOUNDARY_INTEGRAL_KERNELS:
+        return _boundary_integral_gradients(curve, x, kernel, return_values, return_report, params)
     boundary = curve.sample(per)
     values, gradients, report = _evaluate(
         boundary, x, kernel, solver.OUTPUT_BASIS, curve.n, tolerance, params
@@ -138,6 +140,24 @@ def kernel_gradients(
     values, gradients, report = _evaluate(
         boundary, x, kernel, solver.OUTPUT_SAMPLES, boundary.count, tolerance, params
     )
+    return _returned(gradients, values, report, return_values, return_report)
+
+
+def _boundary_integral_gradients(curve, x, kernel, return_values, return_report, params):
+    """`basis_gradients` of ``"poisson"`` (real) and ``"cauchy-green"`` ((dC/dz, i dC/dz), complex)."""
+    from core.basis import basis_functions
+    from core.cauchy_green import cauchy_green_derivatives
+    from core.poisson import poisson_gradients
+
+    if params:
+        raise ValueError(f"kernel {kernel!r} does not take parameter(s) {', '.join(sorted(params))}")
+    points = as_points(x, "x")
+    if kernel == "poisson":
+        gradients = poisson_gradients(curve, points)
+    else:
+        derivative = cauchy_green_derivatives(curve, points)
+        gradients = np.stack([derivative, 1j * derivative], axis=2)
+    values, report = basis_functions(curve, points, kernel, return_report=True)
     return _returned(gradients, values, report, return_values, return_report)
 
 

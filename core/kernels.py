@@ -5,6 +5,10 @@ The table of kernels (names are a public contract, see DESIGN.md):
 =============================  ===============================================  ==============
 name                           weight omega_x or kernel                         paper
 =============================  ===============================================  ==============
+poisson (default)              the Poisson kernel: harmonic coordinates by a     Sec. 1.1, Eq. 2
+                               boundary integral equation (`core.poisson`)
+cauchy-green                   complex Cauchy-Green coordinates, conformal,      Sec. 1.1
+                               not interpolating (`core.cauchy_green`)
 mean-value                     mu = (p - x) x p' / r^3, may be negative          Eq. 5
 modified-mean-value            omega = |d theta / dt|                            Eq. 22-23
 modified-mean-value-squared    omega = |d theta / dt|^2                          Sec. 3.4
@@ -12,12 +16,15 @@ maximum-likelihood             omega = 1                                        
 pseudo-harmonic                omega = 1 / r                                     Eq. 18
 power                          omega = 1 / r^k, optional shift                   Eq. 19
 harmonic-like                  omega = 1 / r^4 + int 1 / r^4                     Eq. 20
-inverse-cube-mean (default)    omega = 1 / r^3 + mean of 1 / r^3                 Eq. 19, k = 3
+inverse-cube-mean              omega = 1 / r^3 + mean of 1 / r^3                 Eq. 19, k = 3
 wachspress, laplace            three-point family, convex domains only           Sec. 1.1
 =============================  ===============================================  ==============
 
 The weighted maximum-likelihood kernels (Eq. 17) solve a two-variable convex
-problem per point (Eq. 16); see `core.solver`.
+problem per point (Eq. 16); see `core.solver`.  The two boundary-integral kernels
+(`BOUNDARY_INTEGRAL_KERNELS`) solve one linear system per cage and need no Newton
+solver and no compilation; `core.basis_functions` evaluates them, `kernel` (the
+values lambda(x, t) at the samples) does not apply to them.
 
 ``inverse-cube-mean`` is the weight of Eq. 19 with k = 3 and the shift by the mean
 instead of the integral,
@@ -52,7 +59,10 @@ from core.boundary import Boundary
 from core.crossing_slabs import crossing_slabs
 from core.validation import as_points, positive_float
 
+#: Kernels evaluated by boundary integrals (`core.poisson`, `core.cauchy_green`), not by Newton.
+BOUNDARY_INTEGRAL_KERNELS = ("poisson", "cauchy-green")
 KERNELS = (
+    *BOUNDARY_INTEGRAL_KERNELS,
     "harmonic-like",
     "mean-value",
     "modified-mean-value",
@@ -64,9 +74,10 @@ KERNELS = (
     "wachspress",
     "laplace",
 )
-# For point evaluation, where the finite-element harmonic basis does not apply: the quality
-# study's best transfinite kernel (README, "Which kernel?").
-DEFAULT_KERNEL = "inverse-cube-mean"
+#: Exact transfinite harmonic coordinates (README, "Which kernel?").
+DEFAULT_KERNEL = "poisson"
+#: The default of `kernel`, which needs kernel values: the quality study's best Newton kernel.
+DEFAULT_VALUES_KERNEL = "inverse-cube-mean"
 
 _IDENTIFIERS = {
     "maximum-likelihood": solver.MAXIMUM_LIKELIHOOD,
@@ -131,7 +142,13 @@ class SolveReport:
 
 
 def kernel_parameters(kernel: str, params: dict) -> tuple[int, float, int]:
-    """Validate a kernel name and its parameters; return (identifier, power, shift mode)."""
+    """Validate a Newton kernel's name and its parameters; return (identifier, power, shift mode)."""
+    if kernel in BOUNDARY_INTEGRAL_KERNELS:
+        raise ValueError(
+            f"kernel {kernel!r} is a boundary-integral kernel: it has basis functions "
+            "(core.basis_functions) but no kernel values lambda(x, t) here; use a Newton kernel "
+            f"such as {DEFAULT_VALUES_KERNEL!r} for core.kernel"
+        )
     if not isinstance(kernel, str) or kernel not in _IDENTIFIERS:
         raise ValueError(f"unknown kernel {kernel!r}; choose one of: {', '.join(KERNELS)}")
     params = dict(params)
@@ -162,7 +179,7 @@ def kernel_parameters(kernel: str, params: dict) -> tuple[int, float, int]:
 def kernel(
     boundary: Boundary,
     x,
-    kernel: str = DEFAULT_KERNEL,
+    kernel: str = DEFAULT_VALUES_KERNEL,
     *,
     progress: Progress | None = None,
     tolerance: float = DEFAULT_TOLERANCE,

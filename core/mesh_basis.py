@@ -23,18 +23,21 @@ from core.arc_length import checked_parameterization
 from core.bspline import ClosedBSpline
 from core.compilation import compile_solver
 from core.harmonic import harmonic_basis
-from core.kernels import CONVEX_ONLY, DEFAULT_TOLERANCE, KERNELS
+from core.kernels import BOUNDARY_INTEGRAL_KERNELS, CONVEX_ONLY, DEFAULT_KERNEL, DEFAULT_TOLERANCE, KERNELS
 from core.mesh import Mesh, require_mesh_of
 from core.pgw import pgw_basis
 from core.validation import checked_samples_per_segment
 
-# The default for deformation: of the kernels on the quality study's suite, the finite-element
-# harmonic basis folds and spills least, and costs least at viewer sizes (README, "Which kernel?").
-DEFAULT_KERNEL = "harmonic"
 # Kernels defined through the mesh or by line intersections rather than `core.kernel`.
 MESH_ONLY_KERNELS = ("pgw", "harmonic")
 # Kernels whose linear precision holds to the Newton tolerance (the weighted maximum-likelihood family).
-NEWTON_KERNELS = tuple(name for name in KERNELS if name not in ("mean-value", *CONVEX_ONLY))
+NEWTON_KERNELS = tuple(
+    name for name in KERNELS if name not in ("mean-value", *CONVEX_ONLY, *BOUNDARY_INTEGRAL_KERNELS)
+)
+#: Kernels whose G is not kept in the disk cache: complex, and cheaper to evaluate than to check.
+UNCACHED_KERNELS = ("cauchy-green",)
+#: Kernels that use the numba-compiled solver (the first run compiles it).
+COMPILED_KERNELS = tuple(name for name in KERNELS if name not in BOUNDARY_INTEGRAL_KERNELS)
 # Rounding allowance of the invariant checks, in units of n * machine epsilon.
 ROUNDING_ULPS = 64
 
@@ -67,7 +70,8 @@ def mesh_basis_functions(
     mesh : Mesh
         A mesh of the domain made for this curve (`core.triangulate(curve)`).
     kernel : str
-        One of `core.KERNELS`, ``"pgw"`` or ``"harmonic"`` (the default).
+        One of `core.KERNELS` (``"poisson"``, the exact harmonic coordinates, is
+        the default), ``"pgw"`` or ``"harmonic"`` (the finite-element harmonic basis).
     samples_per_segment : int
         N / n boundary samples per span for the point kernels; for ``"pgw"`` it
         sets the default number of line directions (see `core.pgw_basis`);
@@ -147,8 +151,8 @@ def mesh_basis_functions(
         values = mesh_basis_functions(curve, mesh, kernel, per, progress, cache, compiling, **params)
         return values, _vertex_gradients(curve, mesh, kernel, per, cache, params)
     shape = (mesh.vertices.shape[0], curve.n)
-    if not cache:
-        if kernel not in MESH_ONLY_KERNELS:
+    if not cache or kernel in UNCACHED_KERNELS:
+        if kernel in COMPILED_KERNELS:
             compile_solver(compiling)
         return _compute(curve, mesh, kernel, per, progress, parameterization, params)
     key = _cache_key(curve, mesh, kernel, per, params, parameterization=parameterization)
@@ -160,7 +164,7 @@ def mesh_basis_functions(
             if progress is not None:
                 progress(1.0)
             return entry.values
-    if kernel not in MESH_ONLY_KERNELS:
+    if kernel in COMPILED_KERNELS:
         compile_solver(compiling)
     values = _compute(curve, mesh, kernel, per, progress, parameterization, params)
     replaced = disk_cache.store(key, values, invariant_errors(curve, mesh, values))
@@ -246,14 +250,15 @@ def _vertex_gradients(curve, mesh, kernel, samples_per_segment, cache, params) -
     """grad G (V, n, 2) at the vertices: NaN rows on the boundary; interior rows cached."""
     from core.gradients import basis_gradients
 
-    result = np.full((mesh.vertices.shape[0], curve.n, 2), np.nan)
+    complex_valued = kernel in UNCACHED_KERNELS
+    result = np.full((mesh.vertices.shape[0], curve.n, 2), np.nan, dtype=complex if complex_valued else float)
     interior = mesh.interior
     if interior.size == 0:
         return result
     shape = (interior.size, curve.n, 2)
     key = None
     problem = None
-    if cache:
+    if cache and not complex_valued:
         key = _cache_key(curve, mesh, kernel, samples_per_segment, params, quantity="basis gradients")
         entry = disk_cache.load(key, shape)
         problem = entry.problem
@@ -301,6 +306,10 @@ def _compute(curve, mesh, kernel, samples_per_segment, progress, parameterizatio
         if progress is not None:
             progress(1.0)
         return values
+    if kernel == "cauchy-green":  # no Lagrange property: its boundary rows are its own limits
+        from core.basis import basis_functions
+
+        return basis_functions(curve, mesh.vertices, kernel, progress=progress)
     values = np.zeros((mesh.vertices.shape[0], curve.n))
     values[mesh.boundary] = curve.basis_matrix(mesh.boundary_parameters)
     interior = mesh.interior

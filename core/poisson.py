@@ -77,18 +77,29 @@ def _densities(points: bytes, count: int) -> Densities:
     panels = curve_panels(curve)
     factors = layer_factors(curve, panels)
     size = panels.size
-    z = panels.z
-    difference = z[None, :] - z[:, None]
-    np.fill_diagonal(difference, 1.0)
-    matrix = (factors[None, :] / difference).real
+    # Far field by expanded products in centred, scaled coordinates (as in
+    # `core.layer.cauchy_integrals`); pairs closer than DIRECT diameters are overwritten below.
+    scale = 1.0 / curve.diameter
+    z = (panels.z - panels.z.mean()) * scale
+    e = factors * scale
+    numerator = (e * z.conj()).real[None, :] - np.outer(z.real, e.real) - np.outer(z.imag, e.imag)
+    squares = np.abs(z) ** 2
+    matrix = numerator / (squares[None, :] - 2.0 * np.outer(z, z.conj()).real + squares[:, None])
     own = np.repeat(np.arange(panels.count), ORDER)
-    target, panel = near_pairs(panels, z, curve.diameter)
+    target, panel = near_pairs(panels, panels.z, curve.diameter)
     keep = own[target] != panel
     target, panel = target[keep], panel[keep]
-    weights, _ = adaptive_weights(curve, panels, z[target], panel)
+    weights, _ = adaptive_weights(curve, panels, panels.z[target], panel)
     orientation = 1.0 if curve.area > 0 else -1.0
     columns = panel[:, None] * ORDER + np.arange(ORDER)
     matrix[target[:, None], columns] = (orientation * weights / (2j * np.pi)).real
+    # A panel's own nodes: the plain rule, computed directly (the kernel is smooth on a panel).
+    blocks = panels.z.reshape(-1, ORDER)
+    difference = blocks[:, None, :] - blocks[:, :, None]
+    difference[:, np.arange(ORDER), np.arange(ORDER)] = 1.0
+    own_block = (factors.reshape(-1, 1, ORDER) / difference).real
+    nodes = np.arange(size).reshape(-1, ORDER)
+    matrix[nodes[:, :, None], nodes[:, None, :]] = own_block
     np.fill_diagonal(matrix, 0.0)
     # mu_i + sum_j K_ij (mu_j - mu_i) = f_i: the density at the node subtracted.
     matrix[np.arange(size), np.arange(size)] = 1.0 - matrix.sum(axis=1)
@@ -118,10 +129,10 @@ def poisson_basis(
         points = x[first : first + CHUNK]
         real, _, on_curve = cauchy_integrals(curve, solution.panels, solution.mu, points, imaginary=False)
         total = real[:, -1]
-        boundary = _classify(curve, points, total, on_curve)
+        boundary, t = _classify(curve, points, total, on_curve)
         out[first : first + CHUNK] = real[:, :-1] / total[:, None]
         if boundary.size:
-            out[first + boundary] = curve.basis_matrix(closest_parameters(curve, points[boundary]))
+            out[first + boundary] = curve.basis_matrix(t)
         if progress is not None:
             progress(min(1.0, (first + CHUNK) / x.shape[0]))
     return out
@@ -141,13 +152,15 @@ def poisson_gradients(curve: ClosedBSpline, x: np.ndarray) -> np.ndarray:
     values = real[:, :-1] / total
     gradient = np.stack([derivative.real, -derivative.imag], axis=2)  # (M, n + 1, 2)
     out = (gradient[:, :-1] - values[:, :, None] * gradient[:, -1:]) / total[:, :, None]
-    boundary = _classify(curve, x, real[:, -1], on_curve)
+    boundary = _classify(curve, x, real[:, -1], on_curve)[0]
     out[boundary] = np.nan
     return out
 
 
-def _classify(curve: ClosedBSpline, x: np.ndarray, total: np.ndarray, on_curve: np.ndarray) -> np.ndarray:
-    """Indices of the points on the curve; raises ValueError for points outside it.
+def _classify(
+    curve: ClosedBSpline, x: np.ndarray, total: np.ndarray, on_curve: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Indices of the points on the curve and their parameters; ValueError for points outside.
 
     Inside, the layer of the densities' sum is 1; outside it is 0 and on the curve
     about 1/2 (the jump of a double layer).
@@ -155,22 +168,41 @@ def _classify(curve: ClosedBSpline, x: np.ndarray, total: np.ndarray, on_curve: 
     strange = on_curve | (np.abs(total - 1.0) > ON_CURVE) | ~np.isfinite(total)
     candidates = np.flatnonzero(strange)
     if candidates.size == 0:
-        return candidates
-    _, distance = closest_point(curve, x[candidates])
+        return candidates, np.zeros(0)
+    t, distance = closest_point(curve, x[candidates])
     boundary = distance <= ON_CURVE_DISTANCE * curve.diameter
-    outside = candidates[~boundary & (total[candidates] < 0.5)]
+    outside = candidates[~boundary & ~(total[candidates] >= 0.5)]
     if outside.size:
         first = int(outside[0])
         raise ValueError(
             f"{outside.size} of {x.shape[0]} points of x are outside the domain "
             f"(first: index {first}, {x[first].tolist()})"
         )
-    return candidates[boundary | (total[candidates] >= 0.5)]
+    return candidates, t
 
 
-def closest_parameters(curve: ClosedBSpline, x: np.ndarray) -> np.ndarray:
-    """The parameter t of the closest curve point to each of x (M, 2), shape (M,)."""
-    return closest_point(curve, x)[0]
+def boundary_limit_rows(
+    curve: ClosedBSpline, x: np.ndarray, total: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Points of x (M, 2) on the curve, and the points 1e-7 diameters inside from them (K, 2).
+
+    `total` (M,) is the Cauchy integral of 1 (1 inside, 0 outside, 1/2 on the curve),
+    which finds the candidates as in `poisson_basis`; a kernel without the Lagrange
+    property takes its boundary rows as the limit from inside, approximated there.
+    """
+    on_curve = np.zeros(x.shape[0], dtype=bool)
+    indices, t = _classify(curve, x, total, on_curve)
+    if indices.size == 0:
+        return indices, np.zeros((0, 2))
+    point, tangent, _ = curve.evaluate(t)
+    speed = np.linalg.norm(tangent, axis=1, keepdims=True)
+    # At a corner p' vanishes: step towards the inside along the bisector of the two sides.
+    after, _, _ = curve.evaluate(t + 1e-6)
+    before, _, _ = curve.evaluate(t - 1e-6)
+    chord = np.where(speed > 1e-9 * curve.diameter, tangent, after - before)
+    inward = np.stack([-chord[:, 1], chord[:, 0]], axis=1) * (1.0 if curve.area > 0 else -1.0)
+    inward /= np.linalg.norm(inward, axis=1, keepdims=True)
+    return indices, point + 1e-7 * curve.diameter * inward
 
 
 def closest_point(curve: ClosedBSpline, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -25,6 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from app.viewer.state import MEASURES
+from core.deformation import deform
 from core.distortion import signed_singular_values, triangle_jacobians
 
 #: The per-vertex value of a folded vertex (the shader paints values below -50 as folds).
@@ -92,7 +93,7 @@ def vertex_distortion(
         raise ValueError(f"measure must be one of {MEASURES}, got {measure!r}")
     target = np.asarray(target, dtype=np.float64)
     count = vertices.shape[0]
-    per_triangle = triangle_jacobians(vertices, basis @ target, triangles)
+    per_triangle = triangle_jacobians(vertices, deform(basis, target), triangles)
     edges = vertices[triangles[:, 1:]] - vertices[triangles[:, :1]]
     areas = 0.5 * np.abs(edges[:, 0, 0] * edges[:, 1, 1] - edges[:, 0, 1] * edges[:, 1, 0])
     corners = triangles.ravel()

@@ -30,6 +30,7 @@ from app.viewer.controller import band_corners
 from app.viewer.distortion_view import vertex_distortion
 from app.viewer.editing import curve_points, to_image
 from app.viewer.state import AppState
+from core.deformation import deform
 from core.examples import wave_heights
 
 #: Straight RGB of the overlays: the source curve green, the target blue (the paper's Fig. 11).
@@ -271,7 +272,7 @@ class Scene:
             self._positions = combined_columns(self._columns, target)
             self._exact = False
         else:
-            deformed = basis.basis @ target
+            deformed = deform(basis.basis, target)
             self._positions = deformed[self._order].astype(np.float32)
             self._exact = True
             self._count_folds(state, deformed)
@@ -333,7 +334,7 @@ class Scene:
         """G @ P' in float64 for the current target (what `warp` draws), or None without a matching mesh."""
         if not self.mesh_matches(state):
             return None
-        return self._basis.basis @ state.live.target
+        return deform(self._basis.basis, state.live.target)
 
     def draw(self, state: AppState, framebuffer_size: tuple[int, int], pixel_ratio: float = 1.0) -> None:
         """Draw the canvas into the bound framebuffer: backdrop, mesh, overlays.

@@ -74,7 +74,7 @@ class Snapshot:
     image: Path
     cage: np.ndarray
     target: np.ndarray
-    kernel: str = "harmonic"  # core.mesh_basis.DEFAULT_KERNEL
+    kernel: str = "poisson"  # core.mesh_basis.DEFAULT_KERNEL
     power: float = DEFAULT_POWER
     shift: str = DEFAULT_SHIFT
     keyframes: tuple[Keyframe, ...] = ()
@@ -122,7 +122,7 @@ class Snapshot:
     @property
     def parameterized(self) -> bool:
         """Whether the kernel depends on the boundary's parameterization (a point kernel)."""
-        return self.kernel not in ("harmonic", "pgw")  # core.MESH_ONLY_KERNELS
+        return self.kernel not in ("harmonic", "pgw", "poisson", "cauchy-green")  # not Newton kernels
 
     def basis_params(self) -> dict:
         """Keyword arguments of `core.mesh_basis_functions` besides the kernel: `kernel_params`

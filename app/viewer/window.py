@@ -32,6 +32,7 @@ from app.viewer import controller, editing
 from app.viewer.precompute import Precompute, make_request
 from app.viewer.session import Document, apply_preferences, open_document, save, start_snapshot
 from app.viewer.state import AppState, History, Snapshot
+from core.deformation import deform
 
 TEST_VARIABLE = "TRANSFINITE_VIEWER_TEST"
 WINDOW_SIZE = (1280, 1024)
@@ -644,7 +645,7 @@ class Viewer:
 
         snapshot = export.snapshot
         target = interpolate(snapshot.keyframes, float(export.times[export.written]), snapshot.interpolation)
-        self.renderer.set_positions(export.basis @ target)
+        self.renderer.set_positions(deform(export.basis, target))
         self.scene.invalidate_positions()
         try:
             export.writer.add(

@@ -1,0 +1,76 @@
+"""Cauchy–Green coordinates on a curved cage: the conformal, non-interpolating kernel.
+
+For a closed B-spline p with basis N_i, the Cauchy–Green coordinates are the Cauchy
+integrals of the basis functions (Weber, Ben-Chen and Gotsman's Cauchy–Green
+coordinates, extended to curved cages by transfinite integration),
+
+    C_i(z) = (1 / 2πi) ∮ N_i(t) p'(t) / (p(t) - z) dt,
+
+complex numbers.  The deformation f(z) = Σ_i C_i(z) P'_i (control points as complex
+numbers) is holomorphic, so it keeps angles everywhere inside (σ₁/σ₂ = 1), and
+Σ_i C_i(z) P_i = z reproduces the identity (Cauchy's formula for p).  It does not
+interpolate: the image of the curve is the boundary limit of f, not the target curve.
+
+N_i is a polynomial on every panel of `core.panels` (they are cut at the knots), so
+the panel rule and the near-field rule of `core.layer` integrate it without an
+interpolation error.  As in `core.poisson` the coordinates are taken in barycentric
+form, C_i = C[N_i] / C[1], which keeps Σ_i C_i = 1 to rounding and f holomorphic.
+"""
+
+from __future__ import annotations
+
+import functools
+
+import numpy as np
+
+from core.bspline import ClosedBSpline
+from core.layer import cauchy_derivatives, cauchy_integrals
+from core.panels import Panels, curve_panels
+from core.poisson import CHUNK, boundary_limit_rows
+
+
+@functools.lru_cache(maxsize=4)
+def _panels(points: bytes, count: int) -> tuple[ClosedBSpline, Panels, np.ndarray]:
+    curve = ClosedBSpline(np.frombuffer(points).reshape(count, 2))
+    panels = curve_panels(curve)
+    data = curve.basis_matrix(panels.t)
+    return curve, panels, np.concatenate([data, np.ones((data.shape[0], 1))], axis=1)
+
+
+def cauchy_green_basis(curve: ClosedBSpline, x: np.ndarray, progress=None) -> np.ndarray:
+    """C_i(x), complex ndarray of shape (M, n), at points x (M, 2) in the closed domain.
+
+    On the curve (within ~1e-10 of the diameter) a row is the interior limit of the
+    Cauchy integral, C_i = N_i(t) / 2 + (1 / 2πi) PV ∮ ..., computed as the limit of
+    the points 1e-7 of the diameter inside along the normal (`boundary_limit_rows`).
+    """
+    _, panels, data = _panels(curve.control_points.tobytes(), curve.n)
+    out = np.empty((x.shape[0], curve.n), dtype=np.complex128)
+    for first in range(0, x.shape[0], CHUNK):
+        points = x[first : first + CHUNK]
+        real, imag, _ = cauchy_integrals(curve, panels, data, points, imaginary=True)
+        values = real + 1j * imag
+        out[first : first + CHUNK] = values[:, :-1] / values[:, -1:]
+        boundary = boundary_limit_rows(curve, points, real[:, -1])
+        if boundary[0].size:
+            inner = boundary[1]
+            real, imag, _ = cauchy_integrals(curve, panels, data, inner, imaginary=True)
+            values = real + 1j * imag
+            out[first + boundary[0]] = values[:, :-1] / values[:, -1:]
+        if progress is not None:
+            progress(min(1.0, (first + CHUNK) / x.shape[0]))
+    return out
+
+
+def cauchy_green_derivatives(curve: ClosedBSpline, x: np.ndarray) -> np.ndarray:
+    """dC_i/dz, complex ndarray of shape (M, n), at interior points x (M, 2).
+
+    The real gradient of C_i is (dC_i/dz, i dC_i/dz): `core.basis_gradients` returns
+    that pair, shape (M, n, 2) complex.
+    """
+    _, panels, data = _panels(curve.control_points.tobytes(), curve.n)
+    real, imag, _ = cauchy_integrals(curve, panels, data, x, imaginary=True)
+    values = real + 1j * imag
+    derivative = cauchy_derivatives(curve, panels, data, x)
+    total, total_derivative = values[:, -1:], derivative[:, -1:]
+    return (derivative[:, :-1] * total - values[:, :-1] * total_derivative) / total**2
