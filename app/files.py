@@ -243,7 +243,7 @@ def kernel_names() -> tuple[str, ...]:
     """Every kernel name `core.mesh_basis_functions` takes: the point kernels and the mesh-based ones."""
     import core
 
-    return (*core.KERNELS, *core.MESH_ONLY_KERNELS)
+    return (*core.KERNELS, *core.COMPLEX_KERNELS, *core.MESH_ONLY_KERNELS)
 
 
 def viewer_kernel_names() -> tuple[str, ...]:
@@ -252,7 +252,9 @@ def viewer_kernel_names() -> tuple[str, ...]:
     The viewer's drag path adds float32 columns of a real G; `warp`, `animate` and
     `quality` take every kernel of `kernel_names`.
     """
-    return tuple(name for name in kernel_names() if name != "cauchy-green")
+    import core
+
+    return tuple(name for name in kernel_names() if name not in core.COMPLEX_KERNELS)
 
 
 def read_session(path: str | os.PathLike) -> Session:

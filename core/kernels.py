@@ -61,8 +61,11 @@ from core.validation import as_points, positive_float
 
 #: Kernels evaluated by boundary integrals (`core.poisson`, `core.cauchy_green`), not by Newton.
 BOUNDARY_INTEGRAL_KERNELS = ("poisson", "cauchy-green")
+#: Kernels whose coordinates are complex numbers (`core.deform` draws them).
+COMPLEX_KERNELS = ("cauchy-green",)
+#: The real point kernels: their coordinates G (M, n) satisfy G @ P == x.
 KERNELS = (
-    *BOUNDARY_INTEGRAL_KERNELS,
+    "poisson",
     "harmonic-like",
     "mean-value",
     "modified-mean-value",

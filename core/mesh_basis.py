@@ -23,7 +23,14 @@ from core.arc_length import checked_parameterization
 from core.bspline import ClosedBSpline
 from core.compilation import compile_solver
 from core.harmonic import harmonic_basis
-from core.kernels import BOUNDARY_INTEGRAL_KERNELS, CONVEX_ONLY, DEFAULT_KERNEL, DEFAULT_TOLERANCE, KERNELS
+from core.kernels import (
+    BOUNDARY_INTEGRAL_KERNELS,
+    COMPLEX_KERNELS,
+    CONVEX_ONLY,
+    DEFAULT_KERNEL,
+    DEFAULT_TOLERANCE,
+    KERNELS,
+)
 from core.mesh import Mesh, require_mesh_of
 from core.pgw import pgw_basis
 from core.validation import checked_samples_per_segment
@@ -35,9 +42,10 @@ NEWTON_KERNELS = tuple(
     name for name in KERNELS if name not in ("mean-value", *CONVEX_ONLY, *BOUNDARY_INTEGRAL_KERNELS)
 )
 #: Kernels whose G is not kept in the disk cache: complex, and cheaper to evaluate than to check.
-UNCACHED_KERNELS = ("cauchy-green",)
+UNCACHED_KERNELS = COMPLEX_KERNELS
 #: Kernels that use the numba-compiled solver (the first run compiles it).
 COMPILED_KERNELS = tuple(name for name in KERNELS if name not in BOUNDARY_INTEGRAL_KERNELS)
+POINT_KERNELS = KERNELS + COMPLEX_KERNELS
 # Rounding allowance of the invariant checks, in units of n * machine epsilon.
 ROUNDING_ULPS = 64
 
@@ -118,7 +126,7 @@ def mesh_basis_functions(
         arguments.
     """
     require_mesh_of(curve, mesh)
-    valid = tuple(dict.fromkeys(tuple(KERNELS) + MESH_ONLY_KERNELS))
+    valid = tuple(dict.fromkeys(POINT_KERNELS + MESH_ONLY_KERNELS))
     if not isinstance(kernel, str) or kernel not in valid:
         raise ValueError(f"unknown kernel {kernel!r}; choose one of: {', '.join(valid)}")
     per = checked_samples_per_segment(samples_per_segment, curve.n)

@@ -84,7 +84,8 @@ def _densities(points: bytes, count: int) -> Densities:
     e = factors * scale
     numerator = (e * z.conj()).real[None, :] - np.outer(z.real, e.real) - np.outer(z.imag, e.imag)
     squares = np.abs(z) ** 2
-    matrix = numerator / (squares[None, :] - 2.0 * np.outer(z, z.conj()).real + squares[:, None])
+    with np.errstate(divide="ignore", invalid="ignore"):  # the diagonal, set below
+        matrix = numerator / (squares[None, :] - 2.0 * np.outer(z, z.conj()).real + squares[:, None])
     own = np.repeat(np.arange(panels.count), ORDER)
     target, panel = near_pairs(panels, panels.z, curve.diameter)
     keep = own[target] != panel

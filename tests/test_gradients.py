@@ -21,7 +21,13 @@ import core
 from core import examples
 from core.closest_point import distance_to_curve
 
-NEWTON_KERNELS = tuple(name for name in core.KERNELS if name not in ("mean-value", "wachspress", "laplace"))
+NEWTON_KERNELS = tuple(
+    name
+    for name in core.KERNELS
+    if name not in ("mean-value", "wachspress", "laplace", *core.BOUNDARY_INTEGRAL_KERNELS)
+)
+# Kernels with kernel values lambda(x, t) (`core.kernel`): all but the boundary-integral ones.
+VALUE_KERNELS = tuple(name for name in core.KERNELS if name not in core.BOUNDARY_INTEGRAL_KERNELS)
 CONVEX_ONLY = ("wachspress", "laplace")
 L_SHAPE = np.array([[0, 0], [2, 0], [2, 1], [1, 1], [1, 2], [0, 2]], dtype=float)
 SQUARE = np.array([[0, 0], [1, 0], [1, 1], [0, 1]], dtype=float)
@@ -172,8 +178,8 @@ def test_refined_points_get_gradients_from_the_refined_quadrature(blob, monkeypa
 def test_bad_input_is_refused_with_one_clear_message(blob, ellipse):
     with pytest.raises(ValueError, match="outside the domain"):
         core.basis_gradients(blob, [[5.0, 5.0]])
-    with pytest.raises(ValueError, match="unknown kernel 'poisson'"):
-        core.basis_gradients(blob, [[0.0, 0.0]], kernel="poisson")
+    with pytest.raises(ValueError, match="unknown kernel 'gauss-seidel'"):
+        core.basis_gradients(blob, [[0.0, 0.0]], kernel="gauss-seidel")
     with pytest.raises(ValueError, match="curve must be a core.ClosedBSpline"):
         core.basis_gradients(blob.sample(10), [[0.0, 0.0]])
     with pytest.raises(ValueError, match="boundary must be a core.Boundary"):
@@ -214,7 +220,9 @@ def test_mesh_gradients_are_the_basis_gradients_at_the_interior_vertices(
     assert gradients.shape == (mesh.vertices.shape[0], curve.n, 2)
     np.testing.assert_array_equal(values, core.mesh_basis_functions(curve, mesh, kernel="inverse-cube-mean"))
     interior = mesh.interior
-    np.testing.assert_array_equal(gradients[interior], core.basis_gradients(curve, mesh.vertices[interior]))
+    np.testing.assert_array_equal(
+        gradients[interior], core.basis_gradients(curve, mesh.vertices[interior], "inverse-cube-mean")
+    )
     assert np.isnan(gradients[mesh.boundary]).all()
     assert len(list(cache_directory.glob("*.npz"))) == 2  # the values' entry and the gradients'
 
