@@ -11,10 +11,11 @@ numbers) is holomorphic, so it keeps angles everywhere inside (σ₁/σ₂ = 1),
 Σ_i C_i(z) P_i = z reproduces the identity (Cauchy's formula for p).  It does not
 interpolate: the image of the curve is the boundary limit of f, not the target curve.
 
-N_i is a polynomial on every panel of `core.panels` (they are cut at the knots), so
-the panel rule and the near-field rule of `core.layer` integrate it without an
-interpolation error.  As in `core.poisson` the coordinates are taken in barycentric
-form, C_i = C[N_i] / C[1], which keeps Σ_i C_i = 1 to rounding and f holomorphic.
+N_i is a polynomial on every panel of `core.panels.coarse_panels` (they are cut at the
+knots), so the panel rule and the near-field rule of `core.layer` integrate it without
+an interpolation error: no grading towards knots or corners is needed.
+As in `core.poisson` the coordinates are taken in barycentric form,
+C_i = C[N_i] / C[1], which keeps Σ_i C_i = 1 to rounding and f holomorphic.
 """
 
 from __future__ import annotations
@@ -24,17 +25,24 @@ import functools
 import numpy as np
 
 from core.bspline import ClosedBSpline
-from core.layer import cauchy_derivatives, cauchy_integrals
-from core.panels import Panels, curve_panels
+from core.layer import Levels, cauchy_derivatives, cauchy_integrals
+from core.panels import coarse_panels, span_panels
 from core.poisson import CHUNK, boundary_limit_rows
 
 
 @functools.lru_cache(maxsize=4)
-def _panels(points: bytes, count: int) -> tuple[ClosedBSpline, Panels, np.ndarray]:
+def _levels(points: bytes, count: int) -> Levels:
+    """Spans and coarse panels with N_1..N_n and 1 at their nodes (polynomials on each panel)."""
     curve = ClosedBSpline(np.frombuffer(points).reshape(count, 2))
-    panels = curve_panels(curve)
-    data = curve.basis_matrix(panels.t)
-    return curve, panels, np.concatenate([data, np.ones((data.shape[0], 1))], axis=1)
+    coarse = coarse_panels(curve)
+    spans = span_panels(curve)
+
+    def data(panels):
+        values = curve.basis_matrix(panels.t)
+        return np.concatenate([values, np.ones((values.shape[0], 1))], axis=1)
+
+    span_of = np.floor(coarse.bounds[:, 0] + 1e-12).astype(np.int64)
+    return Levels((spans, coarse), (span_of,), (data(spans), data(coarse)))
 
 
 def cauchy_green_basis(curve: ClosedBSpline, x: np.ndarray, progress=None) -> np.ndarray:
@@ -44,17 +52,17 @@ def cauchy_green_basis(curve: ClosedBSpline, x: np.ndarray, progress=None) -> np
     Cauchy integral, C_i = N_i(t) / 2 + (1 / 2πi) PV ∮ ..., computed as the limit of
     the points 1e-7 of the diameter inside along the normal (`boundary_limit_rows`).
     """
-    _, panels, data = _panels(curve.control_points.tobytes(), curve.n)
+    levels = _levels(curve.control_points.tobytes(), curve.n)
     out = np.empty((x.shape[0], curve.n), dtype=np.complex128)
     for first in range(0, x.shape[0], CHUNK):
         points = x[first : first + CHUNK]
-        real, imag, _ = cauchy_integrals(curve, panels, data, points, imaginary=True)
+        real, imag, _ = cauchy_integrals(curve, levels, points, imaginary=True)
         values = real + 1j * imag
         out[first : first + CHUNK] = values[:, :-1] / values[:, -1:]
         boundary = boundary_limit_rows(curve, points, real[:, -1])
         if boundary[0].size:
             inner = boundary[1]
-            real, imag, _ = cauchy_integrals(curve, panels, data, inner, imaginary=True)
+            real, imag, _ = cauchy_integrals(curve, levels, inner, imaginary=True)
             values = real + 1j * imag
             out[first + boundary[0]] = values[:, :-1] / values[:, -1:]
         if progress is not None:
@@ -68,9 +76,9 @@ def cauchy_green_derivatives(curve: ClosedBSpline, x: np.ndarray) -> np.ndarray:
     The real gradient of C_i is (dC_i/dz, i dC_i/dz): `core.basis_gradients` returns
     that pair, shape (M, n, 2) complex.
     """
-    _, panels, data = _panels(curve.control_points.tobytes(), curve.n)
-    real, imag, _ = cauchy_integrals(curve, panels, data, x, imaginary=True)
+    levels = _levels(curve.control_points.tobytes(), curve.n)
+    real, imag, _ = cauchy_integrals(curve, levels, x, imaginary=True)
     values = real + 1j * imag
-    derivative = cauchy_derivatives(curve, panels, data, x)
+    derivative = cauchy_derivatives(curve, levels, x)
     total, total_derivative = values[:, -1:], derivative[:, -1:]
     return (derivative[:, :-1] * total - values[:, :-1] * total_derivative) / total**2

@@ -22,6 +22,8 @@ from the curve are reported as on it, and left to the caller.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 from scipy.spatial import cKDTree
 
@@ -93,9 +95,16 @@ def adaptive_weights(
     """
     touch = ON_CURVE * curve.diameter
     pieces = curve.piecewise_polynomial().coefficients
+    # Depth 0, the panel's own rule on its stored nodes: most pairs end here.
+    nodes = panel[:, None] * ORDER + np.arange(ORDER)
+    tau = panels.z[nodes]
+    gap = np.abs(tau - targets[:, None]).min(axis=1)
+    far = gap >= SAFE * panels.lengths[panel]
     weights = np.zeros((targets.shape[0], ORDER), dtype=np.complex128)
+    nodes = nodes[far]
+    weights[far] = panels.weights[nodes] * panels.dz[nodes] / (tau[far] - targets[far, None]) ** power
     touching = np.zeros(targets.shape[0], dtype=bool)
-    pair = np.arange(targets.shape[0])
+    pair = np.flatnonzero(~far)
     low = np.full(pair.shape, -1.0)
     high = np.full(pair.shape, 1.0)
     bounds = panels.bounds
@@ -151,18 +160,60 @@ def layer_factors(curve: ClosedBSpline, panels: Panels) -> np.ndarray:
     return orientation * panels.weights * panels.dz / (2j * np.pi)
 
 
-def cauchy_integrals(
-    curve: ClosedBSpline, panels: Panels, density: np.ndarray, x: np.ndarray, *, imaginary: bool
-) -> tuple[np.ndarray, np.ndarray | None, np.ndarray]:
-    """C[φ](x) for the columns φ of `density` (P * ORDER, k) at points x (M, 2).
+@dataclass(frozen=True)
+class Levels:
+    """Panels of one curve at several resolutions, each with its densities.
 
-    Returns the real parts (M, k), the imaginary parts (M, k) if `imaginary` (else
-    None) and the on-curve flags (M,).  The far field is two small products per
-    block: Re(e / (τ - z)) = (Re(e conj τ) - Re(e conj z)) / |τ - z|^2, in
-    coordinates centred on the nodes and scaled by the diameter, so that its
-    cancellation costs at most ~1e-16 / (distance / diameter)^2 relative, and near
-    pairs are replaced by `adaptive_weights`.
+    Attributes
+    ----------
+    panels : tuple of Panels
+        Coarsest first; every panel of level k + 1 lies inside one panel of level k.
+    parents : tuple of int ndarray
+        parents[k] (P_{k+1},): the level-k panel of each level-(k + 1) panel.
+    densities : tuple of ndarray
+        densities[k] (P_k * ORDER, m): what the level's Gauss–Legendre rule integrates.
+        On the finest level the densities themselves; on coarser ones their weight-
+        corrected restrictions (`restriction`), which integrate what is smooth on their
+        panels as the finest rule does.
     """
+
+    panels: tuple
+    parents: tuple
+    densities: tuple
+
+
+def restriction(coarse: Panels, fine: Panels, parent: np.ndarray) -> np.ndarray:
+    """Q = W_c^-1 P^T W_f, shape (P_c * ORDER, P_f * ORDER): fine densities to weight-corrected coarse ones.
+
+    P interpolates a coarse panel's nodes at the nodes of the fine panels inside it, so
+    that Σ_c w_c f(y_c) (Q φ)_c = Σ_f w_f (P f)(y_f) φ_f for any f, exactly the fine
+    rule for f polynomial of degree < ORDER on the coarse panels.
+    """
+    parent_node = np.repeat(parent, ORDER)
+    widths = np.diff(coarse.bounds, axis=1)[:, 0]
+    local = 2.0 * (fine.t - coarse.bounds[parent_node, 0]) / widths[parent_node] - 1.0
+    interpolation = interpolation_matrix(local)  # (P_f * ORDER, ORDER)
+    out = np.zeros((coarse.size, fine.size))
+    columns = np.arange(fine.size)
+    rows = parent_node[:, None] * ORDER + np.arange(ORDER)
+    out[rows, columns[:, None]] = interpolation * fine.weights[:, None]
+    return out / coarse.weights[:, None]
+
+
+def cauchy_integrals(
+    curve: ClosedBSpline, levels: Levels, x: np.ndarray, *, imaginary: bool = False
+) -> tuple[np.ndarray, np.ndarray | None, np.ndarray]:
+    """C[φ](x) for the columns φ of the densities of `levels` at points x (M, 2).
+
+    The coarsest level is summed over every node, by two small products per block:
+    Re(e / (τ - z)) = (Re(e conj τ) - Re(e conj z)) / |τ - z|^2 in coordinates
+    centred on the nodes and scaled by the diameter (cancellation at most ~1e-16 /
+    (distance / diameter)^2, relative), then its panels near a point are replaced by
+    their children, level by level (`hierarchical_rows`), the finest level by the
+    adaptive rule.  Returns the real parts (M, m), the imaginary parts (M, m) if
+    `imaginary` (else None) and the on-curve flags (M,).
+    """
+    panels, density = levels.panels[0], levels.densities[0]
     factors = layer_factors(curve, panels)
     z = x[:, 0] + 1j * x[:, 1]
     centre = panels.z.mean()
@@ -173,11 +224,6 @@ def cauchy_integrals(
     imaginary_rows = np.stack([(e * tau.conj()).imag, -e.imag, e.real])
     denominator_rows = np.stack([np.abs(tau) ** 2, -2.0 * tau.real, -2.0 * tau.imag, np.ones(tau.size)])
     target, panel = near_pairs(panels, z, curve.diameter)
-    weights, touching = adaptive_weights(curve, panels, z[target], panel)
-    orientation = 1.0 if curve.area > 0 else -1.0
-    near = orientation * weights / (2j * np.pi)
-    on_curve = np.zeros(z.size, dtype=bool)
-    on_curve[target[touching]] = True
     real = np.empty((z.size, density.shape[1]))
     imag = np.empty_like(real) if imaginary else None
     starts = np.searchsorted(target, np.arange(0, z.size + BLOCK, BLOCK))
@@ -188,33 +234,117 @@ def cauchy_integrals(
         pairs = slice(starts[block], starts[block + 1])
         rows = target[pairs, None] - first
         columns = panel[pairs, None] * ORDER + np.arange(ORDER)
-        part = left @ real_rows
-        part /= denominator
-        part[rows, columns] = near[pairs].real
-        real[first : first + BLOCK] = part @ density
-        if imaginary:
-            part = left @ imaginary_rows
+        for rows_of, out in ((real_rows, real), (imaginary_rows, imag)):
+            if out is None:
+                continue
+            part = left @ rows_of
             part /= denominator
-            part[rows, columns] = near[pairs].imag
-            imag[first : first + BLOCK] = part @ density
+            part[rows, columns] = 0.0
+            out[first : first + BLOCK] = part @ density
+    on_curve = np.zeros(z.size, dtype=bool)
+    if imaginary:
+        extra = np.zeros(real.shape, dtype=np.complex128)
+        hierarchical_rows(curve, levels, z, target, panel, on_curve, extra)
+        real += extra.real
+        imag += extra.imag
+    else:
+        hierarchical_rows(curve, levels, z, target, panel, on_curve, real)
     return real, imag, on_curve
 
 
-def cauchy_derivatives(
-    curve: ClosedBSpline, panels: Panels, density: np.ndarray, x: np.ndarray
-) -> np.ndarray:
-    """d/dz C[φ](x), complex (M, k), for the columns φ of `density` (P * ORDER, k) at points x (M, 2)."""
+def cauchy_derivatives(curve: ClosedBSpline, levels: Levels, x: np.ndarray) -> np.ndarray:
+    """d/dz C[φ](x), complex (M, m), for the densities of `levels` at points x (M, 2)."""
+    panels, density = levels.panels[0], levels.densities[0]
     factors = layer_factors(curve, panels)
     z = x[:, 0] + 1j * x[:, 1]
     target, panel = near_pairs(panels, z, curve.diameter)
-    weights, _ = adaptive_weights(curve, panels, z[target], panel, power=2)
-    orientation = 1.0 if curve.area > 0 else -1.0
-    near = orientation * weights / (2j * np.pi)
     out = np.empty((z.size, density.shape[1]), dtype=np.complex128)
     starts = np.searchsorted(target, np.arange(0, z.size + BLOCK, BLOCK))
     for block, first in enumerate(range(0, z.size, BLOCK)):
         part = factors / (panels.z[None, :] - z[first : first + BLOCK, None]) ** 2
         pairs = slice(starts[block], starts[block + 1])
-        part[target[pairs, None] - first, panel[pairs, None] * ORDER + np.arange(ORDER)] = near[pairs]
+        part[target[pairs, None] - first, panel[pairs, None] * ORDER + np.arange(ORDER)] = 0.0
         out[first : first + BLOCK] = part @ density
+    hierarchical_rows(curve, levels, z, target, panel, np.zeros(z.size, dtype=bool), out, power=2)
     return out
+
+
+def hierarchical_rows(curve, levels: Levels, z, target, panel, on_curve, out, power: int = 1):
+    """Add to `out` what replaces (target, coarsest-level panel) pairs, level by level.
+
+    Each pair's panel is replaced by its children on the next level: children far
+    from the target (as `near_pairs` judges) take their plain Gauss–Legendre rule and
+    that level's densities, near ones go down another level; on the finest level
+    every child takes `adaptive_weights`.  `out` (M, m) is complex, or real to take
+    real parts only; sets `on_curve` for targets the adaptive rule finds on the curve.
+    """
+    finest = len(levels.panels) - 1
+    for k in range(1, finest + 1):
+        if target.size == 0:
+            return
+        children = levels.panels[k]
+        target, child = _children(levels.parents[k - 1], target, panel)
+        target, panel = _add_plain(out, curve, children, levels.densities[k], z, target, child, power)
+        if k == finest:
+            weights, touching = adaptive_weights(curve, children, z[target], panel, power)
+            on_curve[target[touching]] = True
+            _add_weights(out, curve, children, levels.densities[k], target, panel, weights)
+
+
+def _groups(panel: np.ndarray):
+    """(panel, indices) of each run of equal panels, for pairs sorted by panel."""
+    bounds = np.flatnonzero(np.diff(panel)) + 1
+    starts = np.concatenate([[0], bounds])
+    stops = np.concatenate([bounds, [panel.size]])
+    return [(int(panel[a]), slice(a, b)) for a, b in zip(starts, stops, strict=True)]
+
+
+def _add_plain(out, curve, panels, density, z, target, panel, power):
+    """out[target] += the panel's plain rule @ density, for pairs far from their panel.
+
+    Returns the pairs (target, panel) that are near (as `near_pairs` judges), untouched.
+    """
+    order = np.argsort(panel, kind="stable")
+    target, panel = target[order], panel[order]
+    factors = layer_factors(curve, panels)
+    close_range = np.maximum(SAFE * panels.lengths, DIRECT * curve.diameter) ** 2
+    near = np.zeros(target.size, dtype=bool)
+    real_only = not np.iscomplexobj(out)
+    for p, group in _groups(panel):
+        nodes = slice(p * ORDER, (p + 1) * ORDER)
+        rows = target[group]
+        dx = panels.z[nodes].real - z[rows, None].real
+        dy = panels.z[nodes].imag - z[rows, None].imag
+        square = dx * dx + dy * dy
+        close = square.min(axis=1) < close_range[p]
+        near[group] = close
+        far = ~close
+        f = factors[nodes]
+        if real_only and power == 1:
+            # Re(f / (τ - z)) in real arithmetic (numpy's complex division is several times slower).
+            rule = (f.real * dx[far] + f.imag * dy[far]) / square[far]
+        else:
+            rule = f / (dx[far] + 1j * dy[far]) ** power
+        out[rows[far]] += rule @ density[nodes]
+    return target[near], panel[near]
+
+
+def _add_weights(out, curve, panels, density, target, panel, weights) -> None:
+    """out[target] += weights (K, ORDER) of each pair @ density on its panel, one product a panel."""
+    order = np.argsort(panel, kind="stable")
+    target, panel, weights = target[order], panel[order], weights[order]
+    orientation = 1.0 if curve.area > 0 else -1.0
+    weights = weights * (orientation / (2j * np.pi))
+    if not np.iscomplexobj(out):
+        weights = weights.real
+    for p, group in _groups(panel):
+        out[target[group]] += weights[group] @ density[p * ORDER : (p + 1) * ORDER]
+
+
+def _children(parent: np.ndarray, target: np.ndarray, panel: np.ndarray):
+    """(target, child panel) for every child (`parent` (P_child,)) of each pair's panel."""
+    order = np.argsort(parent, kind="stable")
+    first = np.searchsorted(parent[order], np.arange(parent.max() + 2))
+    counts = np.diff(first)[panel]
+    offsets = np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)
+    return np.repeat(target, counts), order[np.repeat(first[panel], counts) + offsets]

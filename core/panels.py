@@ -38,8 +38,12 @@ MAX_KNOT_LEVELS = 7
 #: A panel is split while its arc length exceeds this multiple of its distance to the
 #: curve beyond its neighbours.
 THIN_RATIO = 1.0
-#: At most this many rounds of splitting for thin parts.
-THIN_ROUNDS = 8
+#: Coarse panels a span (a power of two).
+COARSE_PER_SPAN = 4
+#: The two coarse panels at a knot differ in arc length by at most this factor.
+BALANCE = 2.0
+#: At most this many rounds of splitting for thin parts and balance.
+THIN_ROUNDS = 12
 
 _NODES, _WEIGHTS = np.polynomial.legendre.leggauss(ORDER)
 
@@ -84,8 +88,8 @@ class Panels:
         Node parameters.
     z : ndarray of shape (P * ORDER,), complex
         Node positions x + iy.
-    dz : ndarray of shape (P * ORDER,), complex
-        dz/dt at the nodes.
+    dz, d2z : ndarray of shape (P * ORDER,), complex
+        dz/dt and d^2z/dt^2 at the nodes.
     weights : ndarray of shape (P * ORDER,)
         Gauss–Legendre weights in t.
     centres, radii, lengths : ndarray of shape (P,)
@@ -96,6 +100,7 @@ class Panels:
     t: np.ndarray
     z: np.ndarray
     dz: np.ndarray
+    d2z: np.ndarray
     weights: np.ndarray
     centres: np.ndarray
     radii: np.ndarray
@@ -114,19 +119,23 @@ class Panels:
 
 def curve_panels(curve: ClosedBSpline) -> Panels:
     """The panels of `curve`: graded towards knots and corners, split in thin parts."""
-    levels = knot_levels(curve)
-    breaks = []
-    for span in range(curve.n):
-        left, right = levels[span], levels[(span + 1) % curve.n]
-        local = np.concatenate(
-            [[0.0, 0.5, 1.0], 0.5 ** np.arange(left, 1, -1), 1.0 - 0.5 ** np.arange(2, right + 1)]
-        )
-        local = np.unique(local)
-        breaks.append(np.stack([span + local[:-1], span + local[1:]], axis=1))
-    bounds = np.concatenate(breaks)
+    return graded_panels(curve, coarse_panels(curve))[0]
+
+
+def span_panels(curve: ClosedBSpline) -> Panels:
+    """One panel a span: the coarsest level of `core.layer.Levels`."""
+    starts = np.arange(curve.n, dtype=np.float64)
+    return _panels(curve, np.stack([starts, starts + 1.0], axis=1))
+
+
+def coarse_panels(curve: ClosedBSpline) -> Panels:
+    """`COARSE_PER_SPAN` panels a span, split further in thin parts: the unknowns of the compressed solve."""
+    step = 1.0 / COARSE_PER_SPAN
+    starts = np.arange(curve.n * COARSE_PER_SPAN) * step
+    bounds = np.stack([starts, starts + step], axis=1)
     for _ in range(THIN_ROUNDS):
         panels = _panels(curve, bounds)
-        split = _thin(panels)
+        split = _thin(panels) | _unbalanced(panels)
         if not split.any():
             return panels
         middle = bounds[split].mean(axis=1)
@@ -136,6 +145,35 @@ def curve_panels(curve: ClosedBSpline) -> Panels:
         bounds = np.concatenate([bounds[~split], halves])
         bounds = bounds[np.argsort(bounds[:, 0])]
     return _panels(curve, bounds)
+
+
+def graded_panels(curve: ClosedBSpline, coarse: Panels) -> tuple[Panels, np.ndarray, np.ndarray]:
+    """The coarse panels bisected dyadically towards the knots they touch (`knot_levels`).
+
+    Returns the fine panels, the coarse panel of each fine panel (int (P_f,)) and
+    the knot each coarse panel touches (int (P_c,), -1 for none).  A coarse panel of
+    parameter length h at a knot with L levels becomes L panels, the smallest of
+    length h 2^(1-L) at the knot.
+    """
+    # The coarse panels at a knot already are the first COARSE_PER_SPAN / 2 - 1 levels.
+    levels = knot_levels(curve) - int(np.log2(COARSE_PER_SPAN // 2))
+    fine, parent = [], []
+    knot = np.full(coarse.count, -1, dtype=np.int64)
+    for c, (a, b) in enumerate(coarse.bounds):
+        h = b - a
+        local = [0.0, 1.0]
+        at_start = abs(a - round(a)) < 1e-12
+        at_end = abs(b - round(b)) < 1e-12
+        if at_start:
+            knot[c] = round(a) % curve.n
+            local += list(0.5 ** np.arange(1, levels[knot[c]]))
+        if at_end:
+            knot[c] = round(b) % curve.n
+            local += list(1.0 - 0.5 ** np.arange(1, levels[knot[c]]))
+        local = np.unique(local)
+        fine.append(np.stack([a + h * local[:-1], a + h * local[1:]], axis=1))
+        parent.append(np.full(local.size - 1, c))
+    return _panels(curve, np.concatenate(fine)), np.concatenate(parent), knot
 
 
 def knot_levels(curve: ClosedBSpline) -> np.ndarray:
@@ -166,9 +204,10 @@ def _panels(curve: ClosedBSpline, bounds: np.ndarray) -> Panels:
     half = 0.5 * (bounds[:, 1] - bounds[:, 0])
     middle = 0.5 * (bounds[:, 1] + bounds[:, 0])
     t = (middle[:, None] + half[:, None] * _NODES).ravel()
-    value, first, _ = _evaluate(curve, t, bounds)
+    value, first, second = _evaluate(curve, t, bounds)
     z = value[:, 0] + 1j * value[:, 1]
     dz = first[:, 0] + 1j * first[:, 1]
+    d2z = second[:, 0] + 1j * second[:, 1]
     weights = (half[:, None] * _WEIGHTS).ravel()
     ends, _, _ = _evaluate(curve, bounds.ravel(), np.repeat(bounds, 2, axis=0))
     ends = (ends[:, 0] + 1j * ends[:, 1]).reshape(-1, 2)
@@ -178,7 +217,7 @@ def _panels(curve: ClosedBSpline, bounds: np.ndarray) -> Panels:
     radii = np.maximum(
         np.abs(z_panels - centres[:, None]).max(axis=1), np.abs(ends - centres[:, None]).max(axis=1)
     )
-    return Panels(bounds, t, z, dz, weights, centres, radii, lengths)
+    return Panels(bounds, t, z, dz, d2z, weights, centres, radii, lengths)
 
 
 def _evaluate(curve: ClosedBSpline, t: np.ndarray, bounds: np.ndarray):
@@ -193,6 +232,23 @@ def _evaluate(curve: ClosedBSpline, t: np.ndarray, bounds: np.ndarray):
     first = c[:, 1] + 2.0 * u * c[:, 2]
     second = 2.0 * c[:, 2]
     return value, first, second
+
+
+def _unbalanced(panels: Panels) -> np.ndarray:
+    """bool (P,): panels ending or starting at a knot, more than `BALANCE` times as long as the other.
+
+    The compression of `core.poisson` interpolates the interactions of a knot's two
+    panels with the rest of the curve over each of them; a long panel next to a short
+    one at a knot puts the short side's neighbours too close for that.
+    """
+    lengths = panels.lengths
+    before = np.roll(lengths, 1)
+    at_knot = np.abs(panels.bounds[:, 0] - np.round(panels.bounds[:, 0])) < 1e-12
+    split = np.zeros(panels.count, dtype=bool)
+    split[at_knot] = lengths[at_knot] > BALANCE * before[at_knot]
+    previous = np.roll(at_knot, -1)  # the panel ending at that knot
+    split[previous] |= lengths[previous] > BALANCE * np.roll(lengths, -1)[previous]
+    return split
 
 
 def _thin(panels: Panels) -> np.ndarray:

@@ -37,8 +37,18 @@ import numpy as np
 from scipy.linalg import lu_factor, lu_solve
 
 from core.bspline import ClosedBSpline
-from core.layer import adaptive_weights, cauchy_derivatives, cauchy_integrals, layer_factors, near_pairs
-from core.panels import ORDER, Panels, curve_panels
+from core.layer import (
+    Levels,
+    adaptive_weights,
+    cauchy_derivatives,
+    cauchy_integrals,
+    hierarchical_rows,
+    layer_factors,
+    near_pairs,
+    restriction,
+)
+from core.panels import ORDER, Panels, coarse_panels, graded_panels, interpolation_matrix, span_panels
+from core.panels import _panels as _make_panels
 
 #: Points per progress report.
 CHUNK = 8192
@@ -51,19 +61,20 @@ ON_CURVE = 0.25
 
 @dataclass(frozen=True)
 class Densities:
-    """The double-layer densities of a cage's basis functions.
+    """The double-layer densities of a cage's basis functions, compressed.
 
     Attributes
     ----------
     curve : ClosedBSpline
-    panels : Panels
-    mu : ndarray of shape (P * ORDER, n + 1)
-        μ_1..μ_n at the nodes, then their sum (1 up to the solve's rounding).
+    levels : core.layer.Levels
+        Spans, coarse panels (`core.panels.coarse_panels`) and fine panels graded
+        towards the knots (`core.panels.graded_panels`); on the fine panels μ_1..μ_n
+        and their sum, shape (P_f * ORDER, n + 1), on the others their weight-corrected
+        restrictions (the coarse ones are R ρ̃ below).
     """
 
     curve: ClosedBSpline
-    panels: Panels
-    mu: np.ndarray
+    levels: Levels
 
 
 def densities(curve: ClosedBSpline) -> Densities:
@@ -73,42 +84,113 @@ def densities(curve: ClosedBSpline) -> Densities:
 
 @functools.lru_cache(maxsize=4)
 def _densities(points: bytes, count: int) -> Densities:
+    """The compressed Nyström solve (Helsing's RCIP, one level of compression, no recursion).
+
+    The equation (I + K) μ = 2 N (K twice the double layer) on the fine panels is split
+    into K*, the interactions within each knot's pair of coarse panels Γ*_j, and K°,
+    the rest.  K° is smooth on the coarse panels, K° ≈ P K°_c Q with P the
+    interpolation from coarse to fine nodes and Q = W_c^-1 P^T W_f, so that
+    μ = (I + K*)^-1 P ρ̃ where ρ̃ solves the coarse equation
+
+        (I + K°_c R) ρ̃ = 2 N_c,   R = Q (I + K*)^-1 P   (block diagonal, one block a knot).
+
+    Near-singular pairs of K°_c (thin parts, the nodes next to a neighbour's panel)
+    take the fine densities (I + K*)^-1 P ρ̃ with the adaptive rule, not R ρ̃.
+    """
     curve = ClosedBSpline(np.frombuffer(points).reshape(count, 2))
-    panels = curve_panels(curve)
-    factors = layer_factors(curve, panels)
-    size = panels.size
-    # Far field by expanded products in centred, scaled coordinates (as in
-    # `core.layer.cauchy_integrals`); pairs closer than DIRECT diameters are overwritten below.
-    scale = 1.0 / curve.diameter
-    z = (panels.z - panels.z.mean()) * scale
-    e = factors * scale
-    numerator = (e * z.conj()).real[None, :] - np.outer(z.real, e.real) - np.outer(z.imag, e.imag)
-    squares = np.abs(z) ** 2
-    with np.errstate(divide="ignore", invalid="ignore"):  # the diagonal, set below
-        matrix = numerator / (squares[None, :] - 2.0 * np.outer(z, z.conj()).real + squares[:, None])
-    own = np.repeat(np.arange(panels.count), ORDER)
-    target, panel = near_pairs(panels, panels.z, curve.diameter)
-    keep = own[target] != panel
+    coarse = coarse_panels(curve)
+    fine, parent, knot = graded_panels(curve, coarse)
+    parent_node = np.repeat(parent, ORDER)
+    local = (
+        2.0 * (fine.t - coarse.bounds[parent_node, 0]) / np.diff(coarse.bounds, axis=1)[parent_node, 0] - 1.0
+    )
+    interpolation = interpolation_matrix(local)  # fine node <- its coarse panel's nodes
+    coarse_nodes = np.arange(coarse.size).reshape(-1, ORDER)
+    expand = np.zeros((fine.size, coarse.size))  # the fine densities from ρ̃
+    expand[np.arange(fine.size)[:, None], coarse_nodes[parent_node]] = interpolation
+    weighted = np.eye(coarse.size)  # R, block diagonal
+    for j in np.unique(knot[knot >= 0]):
+        group = np.flatnonzero(knot == j)
+        columns = coarse_nodes[group].ravel()
+        rows = np.flatnonzero(np.isin(parent_node, group))
+        near_knot = _panels_of(curve, fine, np.flatnonzero(np.isin(parent, group)))
+        local_matrix = np.eye(rows.size) + 2.0 * layer_matrix(curve, near_knot, near_knot.z, own=True)
+        block = np.linalg.solve(local_matrix, expand[np.ix_(rows, columns)])
+        expand[np.ix_(rows, columns)] = block
+        prolongation = interpolation_rows(interpolation, rows, parent_node, group)
+        restrict = (prolongation * fine.weights[rows, None]).T / coarse.weights[columns, None]
+        weighted[np.ix_(columns, columns)] = restrict @ block
+    group_of = np.where(knot >= 0, knot, -1 - np.arange(coarse.count))  # each free panel its own
+    far = 2.0 * layer_matrix(curve, coarse, coarse.z, own=True, near=False)
+    same = group_of[np.repeat(np.arange(coarse.count), ORDER)]
+    far[(same[:, None] == same[None, :]) & (same[:, None] >= 0)] = 0.0  # K*: within a knot's pair
+    target, panel = near_pairs(coarse, coarse.z, curve.diameter)
+    keep = same[target] != group_of[panel]  # a free panel's own nodes: the plain rule, above
     target, panel = target[keep], panel[keep]
-    weights, _ = adaptive_weights(curve, panels, panels.z[target], panel)
+    far[target[:, None], coarse_nodes[panel]] = 0.0
+    system = far  # K°_c R: R is the identity but on the knots' blocks
+    for j in np.unique(knot[knot >= 0]):
+        columns = coarse_nodes[knot == j].ravel()
+        system[:, columns] = far[:, columns] @ weighted[np.ix_(columns, columns)]
+    system += np.eye(coarse.size)
+    pair = Levels((coarse, fine), (parent,), (None, expand))
+    near = np.zeros_like(system)
+    hierarchical_rows(curve, pair, coarse.z, target, panel, np.zeros(coarse.size, dtype=bool), near)
+    system += 2.0 * near
+    data = curve.basis_matrix(coarse.t)
+    data = 2.0 * np.concatenate([data, data.sum(axis=1, keepdims=True)], axis=1)
+    transformed = lu_solve(lu_factor(system, overwrite_a=True, check_finite=False), data, check_finite=False)
+    mu = expand @ transformed
+    spans = span_panels(curve)
+    span_of = np.floor(coarse.bounds[:, 0] + 1e-12).astype(np.int64)
+    span_density = restriction(spans, fine, span_of[parent]) @ mu
+    levels = Levels((spans, coarse, fine), (span_of, parent), (span_density, weighted @ transformed, mu))
+    for density in levels.densities:
+        density.setflags(write=False)
+    return Densities(curve, levels)
+
+
+def interpolation_rows(interpolation, rows, parent_node, group) -> np.ndarray:
+    """P restricted to a knot's fine nodes `rows` and its coarse panels `group`, shape (rows, 32)."""
+    out = np.zeros((rows.size, group.size * ORDER))
+    for k, c in enumerate(group):
+        mine = parent_node[rows] == c
+        out[mine, k * ORDER : (k + 1) * ORDER] = interpolation[rows[mine]]
+    return out
+
+
+def _panels_of(curve: ClosedBSpline, panels: Panels, indices: np.ndarray) -> Panels:
+    """The panels `indices` of `panels` as a Panels of their own."""
+    return _make_panels(curve, panels.bounds[indices])
+
+
+def layer_matrix(curve: ClosedBSpline, panels: Panels, z: np.ndarray, *, own: bool, near: bool = True):
+    """Re C-weights of every node of `panels` at targets z (M,), shape (M, P * ORDER).
+
+    With `own`, the targets are the panels' own nodes: a node's weight on itself is the
+    limit s Im(τ''/τ') w / 4π (the double layer's kernel at y = x, curvature over 4π).
+    With `near`, pairs near a panel (not its own) take the adaptive rule; without, the
+    caller replaces them.
+    """
+    factors = layer_factors(curve, panels)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        matrix = (factors[None, :] / (panels.z[None, :] - z[:, None])).real
+    if own:
+        orientation = 1.0 if curve.area > 0 else -1.0
+        diagonal = orientation * (panels.d2z / panels.dz).imag * panels.weights / (4.0 * np.pi)
+        np.fill_diagonal(matrix, diagonal)
+    if not near:
+        return matrix
+    target, panel = near_pairs(panels, z, curve.diameter)
+    if own:
+        keep = target // ORDER != panel
+        target, panel = target[keep], panel[keep]
+    weights, _ = adaptive_weights(curve, panels, z[target], panel)
     orientation = 1.0 if curve.area > 0 else -1.0
-    columns = panel[:, None] * ORDER + np.arange(ORDER)
-    matrix[target[:, None], columns] = (orientation * weights / (2j * np.pi)).real
-    # A panel's own nodes: the plain rule, computed directly (the kernel is smooth on a panel).
-    blocks = panels.z.reshape(-1, ORDER)
-    difference = blocks[:, None, :] - blocks[:, :, None]
-    difference[:, np.arange(ORDER), np.arange(ORDER)] = 1.0
-    own_block = (factors.reshape(-1, 1, ORDER) / difference).real
-    nodes = np.arange(size).reshape(-1, ORDER)
-    matrix[nodes[:, :, None], nodes[:, None, :]] = own_block
-    np.fill_diagonal(matrix, 0.0)
-    # mu_i + sum_j K_ij (mu_j - mu_i) = f_i: the density at the node subtracted.
-    matrix[np.arange(size), np.arange(size)] = 1.0 - matrix.sum(axis=1)
-    data = curve.basis_matrix(panels.t)
-    data = np.concatenate([data, data.sum(axis=1, keepdims=True)], axis=1)
-    mu = lu_solve(lu_factor(matrix, overwrite_a=True, check_finite=False), data, check_finite=False)
-    mu.setflags(write=False)
-    return Densities(curve, panels, mu)
+    matrix[target[:, None], panel[:, None] * ORDER + np.arange(ORDER)] = (
+        orientation * weights / (2j * np.pi)
+    ).real
+    return matrix
 
 
 def poisson_basis(
@@ -128,7 +210,7 @@ def poisson_basis(
     out = np.empty((x.shape[0], curve.n))
     for first in range(0, x.shape[0], CHUNK):
         points = x[first : first + CHUNK]
-        real, _, on_curve = cauchy_integrals(curve, solution.panels, solution.mu, points, imaginary=False)
+        real, _, on_curve = cauchy_integrals(curve, solution.levels, points)
         total = real[:, -1]
         boundary, t = _classify(curve, points, total, on_curve)
         out[first : first + CHUNK] = real[:, :-1] / total[:, None]
@@ -147,8 +229,8 @@ def poisson_gradients(curve: ClosedBSpline, x: np.ndarray) -> np.ndarray:
     grad G_i = (grad Re F_i - G_i grad Re F_s) / Re F_s.
     """
     solution = densities(curve)
-    real, _, on_curve = cauchy_integrals(curve, solution.panels, solution.mu, x, imaginary=False)
-    derivative = cauchy_derivatives(curve, solution.panels, solution.mu, x)
+    real, _, on_curve = cauchy_integrals(curve, solution.levels, x)
+    derivative = cauchy_derivatives(curve, solution.levels, x)
     total = real[:, -1:]
     values = real[:, :-1] / total
     gradient = np.stack([derivative.real, -derivative.imag], axis=2)  # (M, n + 1, 2)
