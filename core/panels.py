@@ -32,9 +32,9 @@ CORNER_LEVELS = 6
 #: Towards a knot where the curvature jumps by Δκ, the density behaves like s^2 log s
 #: times Δκ ℓ (ℓ the shorter adjacent span's length): each level of grading divides its
 #: error by about 8.  Levels are added until Δκ ℓ 8^-levels <= KNOT_JUMP.
-KNOT_JUMP = 5e-5
+KNOT_JUMP = 5e-6
 MIN_KNOT_LEVELS = 2
-MAX_KNOT_LEVELS = 7
+MAX_KNOT_LEVELS = 9
 #: A panel is split while its arc length exceeds this multiple of its distance to the
 #: curve beyond its neighbours.
 THIN_RATIO = 1.0
