@@ -1,0 +1,165 @@
+"""core.poisson and core.cauchy_green: the boundary-integral kernels, by their properties."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from conftest import interior_points
+
+import core
+from app.quality_suite import built_in_shapes
+from core.distortion import vertex_jacobians
+from core.panels import coarse_panels, graded_panels
+from core.poisson import closest_point, densities
+
+SHAPES = built_in_shapes()
+
+
+def near_boundary_points(curve: core.ClosedBSpline, count: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
+    """Points at 1e-6 .. 1e-1 diameters from the curve along the inward normal, half of them next to
+    knots (corners included), and their distances; shape (K, 2), (K,)."""
+    rng = np.random.default_rng(seed)
+    t = np.concatenate(
+        [
+            rng.uniform(0, curve.n, count),
+            np.round(rng.uniform(0, curve.n, count)) + rng.normal(0, 1e-3, count),
+        ]
+    )
+    point, tangent, _ = curve.evaluate(t)
+    speed = np.linalg.norm(tangent, axis=1)
+    keep = speed > 1e-9 * curve.diameter
+    normal = np.stack([-tangent[keep, 1], tangent[keep, 0]], axis=1) / speed[keep, None]
+    normal *= 1.0 if curve.is_counterclockwise else -1.0
+    distance = curve.diameter * 10 ** rng.uniform(-6, -1, keep.sum())
+    x = point[keep] + distance[:, None] * normal
+    inside = curve.contains(x)
+    x, distance = x[inside], distance[inside]
+    _, exact = closest_point(curve, x)
+    far_enough = exact >= 1e-6 * curve.diameter
+    return x[far_enough], exact[far_enough]
+
+
+@pytest.mark.parametrize("name", ["C-shape", "star", "hook", "F polygon"])
+def test_partition_of_unity_and_linear_precision_down_to_the_boundary(name):
+    # The issue's bounds: sum G = 1 to 1e-12, G P = x to 1e-8 of the diameter at points down to
+    # 1e-6 of the diameter from the boundary, next to sharp corners and in thin arms.
+    curve = core.ClosedBSpline(SHAPES[name])
+    x = np.vstack([interior_points(curve, 300, seed=31), near_boundary_points(curve, 300, seed=32)[0]])
+    G = core.basis_functions(curve, x)  # the default kernel
+    np.testing.assert_allclose(G.sum(axis=1), 1.0, rtol=0, atol=1e-12)
+    assert np.linalg.norm(G @ curve.control_points - x, axis=1).max() <= 1e-8 * curve.diameter
+    # Non-negative (harmonic measure) up to the discretisation error: measured >= -6e-9.
+    assert G.min() >= -2e-8
+
+
+def test_agrees_with_finite_elements_to_their_discretisation_error():
+    # The FEM harmonic basis converges to the exact one as O(h^2): its distance to poisson must
+    # fall by about 4x per halving of the mesh size (and G is the exact harmonic basis).
+    curve = core.ClosedBSpline(SHAPES["C-shape"])
+    errors = []
+    for max_edge in (0.08, 0.04, 0.02):
+        mesh = core.triangulate(curve, max_edge=max_edge)
+        fem = core.harmonic_basis(curve, mesh)
+        ours = core.mesh_basis_functions(curve, mesh, "poisson", cache=False)
+        errors.append(math.sqrt(((fem - ours) ** 2).mean()))
+    ratios = np.array(errors[:-1]) / np.array(errors[1:])
+    assert (ratios > 2.5).all(), errors
+
+
+def test_is_the_poisson_kernel_on_a_disk_like_domain():
+    # On a circle the harmonic basis is the Poisson integral of N_i; a quadratic B-spline with many
+    # control points on a circle is a circle to 1e-7, and its centre's coordinates are the mean of
+    # N_i over the boundary measured by arc length (the Poisson kernel at the centre is constant).
+    n = 48
+    angles = 2 * np.pi * np.arange(n) / n
+    curve = core.ClosedBSpline(np.stack([np.cos(angles), np.sin(angles)], axis=1))
+    t = (np.arange(20000) + 0.5) * n / 20000
+    _, tangent, _ = curve.evaluate(t)
+    speed = np.linalg.norm(tangent, axis=1)
+    expected = (curve.basis_matrix(t) * speed[:, None]).sum(axis=0) / speed.sum()
+    np.testing.assert_allclose(core.basis_functions(curve, [[0.0, 0.0]])[0], expected, atol=1e-9)
+
+
+def test_boundary_points_get_the_lagrange_limit_and_outside_points_are_refused():
+    curve = core.ClosedBSpline(SHAPES["F polygon"])
+    s = np.random.default_rng(33).uniform(0, curve.n, 40)
+    np.testing.assert_allclose(core.basis_functions(curve, curve(s)), curve.basis_matrix(s), atol=1e-12)
+    with pytest.raises(ValueError, match="1 of 1 points of x are outside the domain"):
+        core.basis_functions(curve, [[5.0, 5.0]])
+
+
+def test_gradients_are_the_derivatives_of_the_values():
+    curve = core.ClosedBSpline(SHAPES["star"])
+    x = interior_points(curve, 30, seed=34, margin=0.02)
+    gradients = core.basis_gradients(curve, x)
+    step = 1e-6 * curve.diameter
+    for axis in (0, 1):
+        shift = np.zeros(2)
+        shift[axis] = step
+        central = (core.basis_functions(curve, x + shift) - core.basis_functions(curve, x - shift)) / (
+            2 * step
+        )
+        np.testing.assert_allclose(gradients[:, :, axis], central, atol=2e-6 / curve.diameter)
+    np.testing.assert_allclose(gradients.sum(axis=1), 0.0, atol=1e-10)
+    identity = np.einsum("id,mie->mde", curve.control_points, gradients)
+    np.testing.assert_allclose(identity, np.broadcast_to(np.eye(2), identity.shape), atol=1e-7)
+
+
+def test_orientation_and_similarity_do_not_matter():
+    curve = core.ClosedBSpline(SHAPES["hook"])
+    x = interior_points(curve, 50, seed=35)
+    G = core.basis_functions(curve, x)
+    reversed_curve = core.ClosedBSpline(curve.control_points[::-1])
+    np.testing.assert_allclose(core.basis_functions(reversed_curve, x)[:, ::-1], G, atol=1e-9)
+    angle, scale, shift = 0.7, 250.0, np.array([310.0, -42.0])
+    rotation = np.array([[np.cos(angle), -np.sin(angle)], [np.sin(angle), np.cos(angle)]])
+    moved = core.ClosedBSpline(scale * curve.control_points @ rotation.T + shift)
+    np.testing.assert_allclose(core.basis_functions(moved, scale * x @ rotation.T + shift), G, atol=1e-9)
+
+
+def test_panels_are_graded_towards_knots_and_corners():
+    curve = core.ClosedBSpline(SHAPES["F polygon"])
+    coarse = coarse_panels(curve)
+    fine, parent, knot = graded_panels(curve, coarse)
+    assert np.all(np.diff(fine.bounds[:, 0]) > 0) and np.all(fine.bounds[:, 1] > fine.bounds[:, 0])
+    assert (knot >= 0).sum() == 2 * curve.n  # every knot has its two coarse panels
+    corner = np.flatnonzero(np.all(curve.control_points == np.roll(curve.control_points, 1, axis=0), axis=1))
+    smallest = np.diff(fine.bounds, axis=1)[:, 0]
+    at_corner = np.isin(np.round(fine.bounds[:, 0]), corner) & (
+        fine.bounds[:, 0] == np.round(fine.bounds[:, 0])
+    )
+    assert smallest[at_corner].max() <= smallest.max() / 16
+    solution = densities(curve)
+    assert solution.levels.densities[2].shape == (fine.size, curve.n + 1)
+
+
+def test_cauchy_green_is_conformal_and_reproduces_the_identity():
+    curve = core.ClosedBSpline(SHAPES["C-shape"])
+    x = interior_points(curve, 200, seed=36)
+    C = core.basis_functions(curve, x, "cauchy-green")
+    assert np.iscomplexobj(C) and C.shape == (200, curve.n)
+    np.testing.assert_allclose(C.sum(axis=1), 1.0, atol=1e-12)
+    np.testing.assert_allclose(core.deform(C, curve.control_points), x, atol=1e-9 * curve.diameter)
+    target = curve.control_points + np.random.default_rng(37).normal(0, 0.1, curve.control_points.shape)
+    jacobians = vertex_jacobians(core.basis_gradients(curve, x, "cauchy-green"), target)
+    sigma = np.linalg.svd(jacobians, compute_uv=False)
+    np.testing.assert_allclose(sigma[:, 0] / sigma[:, 1], 1.0, atol=1e-9)
+    # Holomorphic: the Jacobian is a rotation and scale, [[a, -b], [b, a]].
+    np.testing.assert_allclose(jacobians[:, 0, 0], jacobians[:, 1, 1], atol=1e-9)
+    np.testing.assert_allclose(jacobians[:, 0, 1], -jacobians[:, 1, 0], atol=1e-9)
+
+
+def test_cauchy_green_does_not_interpolate_the_target_curve():
+    # Its boundary is the Cauchy integral's limit, not the target B-spline: after a drag the
+    # deformed boundary leaves the target curve (quality's "boundary gap" column measures it).
+    curve = core.ClosedBSpline(SHAPES["star"])
+    mesh = core.triangulate(curve, max_edge=0.1)
+    C = core.mesh_basis_functions(curve, mesh, "cauchy-green")
+    np.testing.assert_allclose(core.deform(C, curve.control_points), mesh.vertices, atol=1e-6)
+    target = curve.control_points.copy()
+    target[0] += [0.3, 0.1]
+    moved = core.deform(C, target)[mesh.boundary]
+    expected = core.ClosedBSpline(target)(mesh.boundary_parameters)
+    assert np.linalg.norm(moved - expected, axis=1).max() > 1e-3
