@@ -17,7 +17,14 @@ counted apart):
 - map RMS: distance of the deformed vertices to the FEM harmonic deformation, in %
   of the target's diameter (area-weighted RMS over the vertices);
 - height RMS: distance of the height interpolant of `core.examples.wave_heights` to
-  the FEM harmonic one (what ``compare`` shows), averaged over the domains;
+  the FEM harmonic one (what ``compare`` shows), averaged over the domains (the real
+  part, for the complex Cauchy–Green coordinates);
+- boundary gap: the largest distance from a deformed boundary vertex to the target
+  curve at its parameter, in % of the target's diameter: 0 for every interpolating
+  kernel, the price of conformality for ``cauchy-green``;
+- vertex s1/s2: the largest sigma_1 / sigma_2 - 1 at the interior vertices from the
+  exact Jacobians J = sum_i P'_i grad G_i^T, for the boundary-integral kernels (whose
+  gradients cost little): 0 to rounding for the conformal ``cauchy-green``;
 - time: the basis functions of every domain, in this process, without the disk cache.
 
 `weight_family` is the search over the weights of Eq. 19 (``--search``).
@@ -71,6 +78,8 @@ class KernelResult:
     distortion_99: list[float] = field(default_factory=list)
     map_rms: list[float] = field(default_factory=list)
     height_rms: list[float] = field(default_factory=list)
+    boundary_gap: list[float] = field(default_factory=list)
+    vertex_distortion: list[float] = field(default_factory=list)
     seconds: float = 0.0
     unconverged_domains: list[str] = field(default_factory=list)
     skipped: str | None = None
@@ -87,6 +96,8 @@ class KernelResult:
             "distortion 99": float(np.mean(self.distortion_99)),
             "map rms": float(np.mean(self.map_rms)),
             "height rms": float(np.mean(self.height_rms)),
+            "boundary gap": float(np.mean(self.boundary_gap)),
+            "vertex distortion": float(np.max(self.vertex_distortion)) if self.vertex_distortion else None,
             "seconds": self.seconds,
         }
 
@@ -154,7 +165,13 @@ def parse_kernel(text: str) -> KernelChoice:
             params[key] = float(value)
         except ValueError:
             params[key] = value
-    if name in core.KERNELS:
+    if name in core.BOUNDARY_INTEGRAL_KERNELS:
+        unknown = sorted(set(params) - {"parameterization"})
+        if unknown:
+            raise InputError(
+                f"--kernel {text}: kernel {name!r} takes no parameters, got {', '.join(unknown)}"
+            )
+    elif name in core.KERNELS:
         with reported_as_input(f"--kernel {text}"):
             checked_parameterization(params.get("parameterization", "natural"))
             kernel_parameters(
@@ -234,10 +251,18 @@ def run_study(domains, choices: list[KernelChoice], progress=None, keep: bool = 
                 reference = basis
             if keep:
                 study.bases[domain.name, choice.label] = basis
-            height_difference = (basis - reference) @ heights
+            height_difference = ((basis - reference) @ heights).real
             result.height_rms.append(float(np.sqrt(np.sum(weights * height_difference**2) / np.sum(weights))))
+            gradients = None
+            if choice.kernel in core.BOUNDARY_INTEGRAL_KERNELS:
+                gradients = core.basis_gradients(curve, mesh.vertices[mesh.interior], choice.kernel)
             for deformation, target_curve in targets:
                 _measure(result, mesh, areas, weights, basis, reference, deformation.target, target_curve)
+                if gradients is not None:
+                    sigma = np.linalg.svd(
+                        distortion.vertex_jacobians(gradients, deformation.target), compute_uv=False
+                    )
+                    result.vertex_distortion.append(float((sigma[:, 0] / sigma[:, 1]).max() - 1.0))
     return study
 
 
@@ -255,6 +280,9 @@ def _measure(result, mesh, areas, weights, basis, reference, target, target_curv
     result.outside.append(float(np.mean(~target_curve.contains(deformed[interior]))))
     gap = np.linalg.norm(deformed - deform(reference, target), axis=1)
     result.map_rms.append(float(np.sqrt(np.sum(weights * gap**2) / np.sum(weights)) / target_curve.diameter))
+    on_target = target_curve(mesh.boundary_parameters)
+    boundary = np.linalg.norm(deformed[mesh.boundary] - on_target, axis=1).max(initial=0.0)
+    result.boundary_gap.append(float(boundary / target_curve.diameter))
 
 
 def format_table(study: StudyResult, sort: bool = False) -> str:
@@ -265,7 +293,8 @@ def format_table(study: StudyResult, sort: bool = False) -> str:
     width = max(len(r.choice.label) for r in rows)
     header = (
         f"{'kernel':<{width}}  {'folded':>7}  {'folds':>5}  {'outside':>7}  "
-        f"{'s1/s2':>5}  {'p99':>5}  {'map RMS':>7}  {'height RMS':>10}  {'time':>6}"
+        f"{'s1/s2':>5}  {'p99':>5}  {'map RMS':>7}  {'height RMS':>10}  {'bdry gap':>8}  "
+        f"{'vertex s1/s2-1':>14}  {'time':>6}"
     )
     lines = [header]
     for result in rows:
@@ -275,7 +304,9 @@ def format_table(study: StudyResult, sort: bool = False) -> str:
             f"{result.choice.label:<{width}}  {100 * s['folded']:6.2f}%  "
             f"{s['with folds']:>2}/{s['deformations']:<2}  {100 * s['outside']:6.2f}%  "
             f"{s['distortion mean']:5.2f}  {s['distortion 99']:5.2f}  {100 * s['map rms']:6.2f}%  "
-            f"{s['height rms']:10.5f}  {s['seconds']:5.1f}s{flag}"
+            f"{s['height rms']:10.5f}  {100 * s['boundary gap']:7.3f}%  "
+            f"{'n/a' if s['vertex distortion'] is None else format(s['vertex distortion'], '.1e'):>14}  "
+            f"{s['seconds']:5.1f}s{flag}"
         )
     return "\n".join(lines)
 
