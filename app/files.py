@@ -246,17 +246,6 @@ def kernel_names() -> tuple[str, ...]:
     return (*core.KERNELS, *core.COMPLEX_KERNELS, *core.MESH_ONLY_KERNELS)
 
 
-def viewer_kernel_names() -> tuple[str, ...]:
-    """The kernels the viewer offers: all but the complex Cauchy–Green coordinates.
-
-    The viewer's drag path adds float32 columns of a real G; `warp`, `animate` and
-    `quality` take every kernel of `kernel_names`.
-    """
-    import core
-
-    return tuple(name for name in kernel_names() if name not in core.COMPLEX_KERNELS)
-
-
 def read_session(path: str | os.PathLike) -> Session:
     """Read and validate a session file; `InputError` naming the file and key if it is bad."""
     path = Path(path)

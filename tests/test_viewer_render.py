@@ -236,6 +236,37 @@ def test_combined_columns_is_the_product(renderer):
     np.testing.assert_allclose(result, basis @ target, rtol=1e-5, atol=1e-3)
 
 
+def test_complex_coordinates_draw_what_core_deform_computes(renderer):
+    """Cauchy–Green coordinates are complex: the drag update, playback's float32 product and the
+    exact product all act on the target points as complex numbers (`core.deform`)."""
+    from app.viewer.scene import combined_columns
+
+    cage = core.examples.blob() * (240.0, 200.0) + (40.0, 15.0)
+    curve = core.ClosedBSpline(cage)
+    mesh = core.triangulate(curve, max_edge=12.0)
+    basis = core.mesh_basis_functions(curve, mesh, "cauchy-green")
+    assert np.iscomplexobj(basis)
+    target = cage + np.random.default_rng(8).normal(0, 6.0, cage.shape)
+    columns = np.asfortranarray(basis.real, np.float32)
+    imaginary = np.asfortranarray(basis.imag, np.float32)
+    exact = core.deform(basis, target)
+    np.testing.assert_allclose(combined_columns(columns, target, imaginary), exact, atol=2e-3)
+    result = BasisResult("k", cage, mesh, basis, columns, "cauchy-green", 1.0, imaginary_columns=imaginary)
+    snapshot = Snapshot(Path("x.png"), cage, cage)
+    state = AppState(History(snapshot), snapshot, opaque_image(), Path("s.json"), basis=result)
+    scene = Scene(renderer)
+    renderer.set_image(state.image)
+    scene.sync(state)
+    state.drag = Drag("target", 3, np.zeros(2), snapshot)
+    moved = cage.copy()
+    for _ in range(5):
+        moved[3] += (2.0, -1.0)
+        state.live = state.live.replace(target=moved.copy())
+        scene.sync(state)
+    assert not scene._exact  # the per-drag rank-one path ran
+    np.testing.assert_allclose(scene._positions, core.deform(basis, moved)[renderer.vertex_order], atol=2e-3)
+
+
 def test_the_scene_draws_the_preview_while_the_target_moves(renderer):
     """While a target point is dragged (or keyframes play) in the image view, only the preview's
     positions are written; on release the dense mesh gets the exact G @ P'.  The wireframe, the

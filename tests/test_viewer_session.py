@@ -119,7 +119,7 @@ def test_a_saved_session_reads_back_with_the_shared_reader(tmp_path):
     state = AppState(History(document.snapshot), document.snapshot, document.image, path)
     sessions.save(state, None)
     session = read_session(path)
-    assert session.image.resolve() == files.image.resolve() and session.kernel == "harmonic"
+    assert session.image.resolve() == files.image.resolve() and session.kernel == "poisson"
     assert "mesh" not in session.extra and "kernel_params" not in session.extra
 
 
@@ -166,7 +166,7 @@ def test_reopening_an_image_restores_its_state_and_undo_history():
     assert len(again.undo) == 3 and len(again.redo) == 0  # the kernel change dropped the redo step
     assert again.notices[-1].startswith("restored starfish.png from the session (3 undo steps)")
     history = opened_state(again).history
-    assert history.undo().kernel == "harmonic" and history.undo() == again.undo[1]
+    assert history.undo().kernel == "poisson" and history.undo() == again.undo[1]
     assert sessions.open_document().snapshot == state.history.current  # the bare viewer too
 
 

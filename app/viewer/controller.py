@@ -23,7 +23,7 @@ import time
 
 import numpy as np
 
-from app.files import InputError, read_image, viewer_kernel_names
+from app.files import InputError, kernel_names, read_image
 from app.framing import CANVASES, OUTSIDES
 from app.keyframes import INTERPOLATIONS, MAX_TIME, TIME_RESOLUTION, Keyframe, interpolate
 from app.render import View
@@ -410,12 +410,12 @@ def command(state: AppState, name: str, value=None) -> bool:
             state.distortion_measure = value
             state.session_dirty = True
     elif name == "kernel":
-        if value not in viewer_kernel_names():
+        if value not in kernel_names():
             state.say(f"unknown kernel {value!r}", error=True)
         else:
             commit(state, live.replace(kernel=value), f"kernel: {value}")
     elif name == "cycle_kernel":
-        names = viewer_kernel_names()
+        names = kernel_names()
         index = names.index(live.kernel) if live.kernel in names else -1
         kernel = names[(index + (-1 if value == "previous" else 1)) % len(names)]
         commit(state, live.replace(kernel=kernel), f"kernel: {kernel}")

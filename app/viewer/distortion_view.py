@@ -26,7 +26,7 @@ import numpy as np
 
 from app.viewer.state import MEASURES
 from core.deformation import deform
-from core.distortion import signed_singular_values, triangle_jacobians
+from core.distortion import signed_singular_values, triangle_jacobians, vertex_jacobians
 
 #: The per-vertex value of a folded vertex (the shader paints values below -50 as folds).
 FOLDED = -100.0
@@ -108,9 +108,7 @@ def vertex_distortion(
     exact = np.zeros(count, dtype=bool)
     if gradients is not None:
         exact = np.isfinite(gradients).all(axis=(1, 2))
-        rows = gradients[exact]
-        jacobians[exact, :, 0] = rows[:, :, 0] @ target  # column e of J: sum_i P'_i dG_i/dx_e
-        jacobians[exact, :, 1] = rows[:, :, 1] @ target
+        jacobians[exact] = vertex_jacobians(gradients[exact], target)
     determinant = jacobians[:, 0, 0] * jacobians[:, 1, 1] - jacobians[:, 0, 1] * jacobians[:, 1, 0]
     folded[exact] = determinant[exact] <= 0.0
     sigma = signed_singular_values(jacobians)

@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 from imgui_bundle import imgui
 
-from app.files import viewer_kernel_names
+from app.files import kernel_names
 from app.keyframes import MAX_TIME
 from app.render import (
     BAND_COLOURS,
@@ -158,7 +158,7 @@ def _panel(state: AppState, commands: list, extras: dict, height: float) -> None
     imgui.text_disabled(f"{live.n} control points{selection}")
 
     imgui.separator_text("Kernel")
-    names = viewer_kernel_names()
+    names = kernel_names()
     state.spots["kernel"] = tuple(imgui.get_cursor_screen_pos() + imgui.ImVec2(24, 8))
     if imgui.begin_combo("##kernel", live.kernel):
         for name in names:

@@ -79,10 +79,10 @@ class Request:
 
 def has_gradients(kernel: str, parameterization: str = "natural") -> bool:
     """Whether `kernel` has pointwise gradients (`core.mesh_basis_functions(gradients=True)`):
-    the point kernels, with the natural parameterisation."""
+    the point kernels (Cauchy–Green's complex ones included), with the natural parameterisation."""
     import core
 
-    return kernel in core.KERNELS and parameterization == "natural"
+    return kernel in (*core.KERNELS, *core.COMPLEX_KERNELS) and parameterization == "natural"
 
 
 def basis_key(snapshot: Snapshot, max_edge: float, gradients: bool = False) -> str:
@@ -115,7 +115,8 @@ def result_from_message(key: str, payload: dict) -> BasisResult:
     """Build a `BasisResult` from the worker's ``done`` payload."""
     import core
 
-    basis = np.asarray(payload["basis"], dtype=np.float64)
+    basis = np.asarray(payload["basis"])
+    basis = basis.astype(np.complex128 if np.iscomplexobj(basis) else np.float64, copy=False)
     mesh = core.Mesh(
         payload["vertices"], payload["triangles"], payload["boundary"], payload["boundary_parameters"]
     )
@@ -125,7 +126,8 @@ def result_from_message(key: str, payload: dict) -> BasisResult:
         cage=payload["cage"],
         mesh=mesh,
         basis=basis,
-        columns=np.asfortranarray(basis, dtype=np.float32),
+        columns=np.asfortranarray(basis.real, dtype=np.float32),
+        imaginary_columns=np.asfortranarray(basis.imag, dtype=np.float32) if np.iscomplexobj(basis) else None,
         kernel=payload["kernel"],
         seconds=payload["seconds"],
         gradients=payload.get("gradients"),
@@ -201,7 +203,7 @@ def compute(request: Request, progress=None) -> dict:
             raise _Superseded
         if progress is not None:
             progress(0.0, PREVIEW_PHASE)
-        preview = _preview(curve, mesh, basis, request.max_edge)
+        preview = _preview(curve, mesh, basis, request.max_edge, request.kernel)
     return {
         "cage": np.array(request.cage),
         "vertices": mesh.vertices,
@@ -216,13 +218,19 @@ def compute(request: Request, progress=None) -> dict:
     }
 
 
-def _preview(curve, mesh, basis: np.ndarray, max_edge: float) -> tuple:
+def _preview(curve, mesh, basis: np.ndarray, max_edge: float, kernel: str) -> tuple:
     """(vertices, triangles, basis) of a mesh of about `PREVIEW_VERTICES` vertices of the same curve,
-    whose rows of G draw what the dense mesh draws at its vertices (`core.mesh_transfer`)."""
+    whose rows of G draw what the dense mesh draws at its vertices (`core.mesh_transfer`).
+
+    The complex coordinates (no Lagrange property, so their boundary rows are not the
+    B-spline basis that `transfer_basis` puts there) are evaluated at the preview's vertices.
+    """
     import core
     from core.mesh_transfer import transfer_basis
 
     coarse = core.triangulate(curve, max_edge=max_edge * np.sqrt(len(mesh.vertices) / PREVIEW_VERTICES))
+    if np.iscomplexobj(basis):
+        return coarse.vertices, coarse.triangles, core.mesh_basis_functions(curve, coarse, kernel)
     return coarse.vertices, coarse.triangles, transfer_basis(curve, mesh, basis, coarse)
 
 

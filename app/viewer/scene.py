@@ -131,7 +131,9 @@ def _closed_segments(polyline: np.ndarray, colour, alpha: float, width: float) -
     return segments
 
 
-def combined_columns(columns: np.ndarray, target: np.ndarray) -> np.ndarray:
+def combined_columns(
+    columns: np.ndarray, target: np.ndarray, imaginary: np.ndarray | None = None
+) -> np.ndarray:
     """G @ P' as float32 (V, 2), one column of G at a time, without BLAS.
 
     A BLAS product leaves OpenBLAS's worker threads spinning for a while after it
@@ -143,15 +145,24 @@ def combined_columns(columns: np.ndarray, target: np.ndarray) -> np.ndarray:
     ----------
     columns : ndarray of shape (V, n), float32, column-major
     target : ndarray of shape (n, 2)
+    imaginary : ndarray of shape (V, n), float32, column-major, optional
+        The imaginary part of complex coordinates: then G = columns + i imaginary acts on
+        the target points as complex numbers (`core.deform`).
     """
     target = np.asarray(target, dtype=np.float32)
     result = np.zeros((2, columns.shape[0]), dtype=np.float32)
-    term = np.empty(columns.shape[0], dtype=np.float32)
     for i in range(columns.shape[1]):
-        for axis in (0, 1):
-            np.multiply(columns[:, i], target[i, axis], out=term)
-            result[axis] += term
+        _add_column(result, columns[:, i], None if imaginary is None else imaginary[:, i], target[i])
     return np.ascontiguousarray(result.T)
+
+
+def _add_column(positions: np.ndarray, real: np.ndarray, imaginary: np.ndarray | None, delta) -> None:
+    """positions (2, V) += column * delta (2,): (G_i) P'_i, complex G_i times P'_i = x + iy if `imaginary`."""
+    positions[0] += real * delta[0]
+    positions[1] += real * delta[1]
+    if imaginary is not None:
+        positions[0] -= imaginary * delta[1]
+        positions[1] += imaginary * delta[0]
 
 
 class Scene:
@@ -170,10 +181,12 @@ class Scene:
         self._positions: np.ndarray | None = None  # float32, in the renderer's vertex order
         self._order: np.ndarray | None = None
         self._columns: np.ndarray | None = None
+        self._imaginary: np.ndarray | None = None  # imaginary parts of complex coordinates, or None
         self._exact = False
         self._field = None
         # The preview mesh's G, float32, column-major, rows in the renderer's preview vertex order.
         self._preview_columns: np.ndarray | None = None
+        self._preview_imaginary: np.ndarray | None = None
         self._preview_target: np.ndarray | None = None  # what the preview's positions were made for
         #: Whether the frame being drawn shows the preview mesh (`sync` decides).
         self.previewing = False
@@ -209,13 +222,17 @@ class Scene:
             # The columns of G in the renderer's row order, so a drag writes without a gather.
             self._order = renderer.vertex_order
             self._columns = np.asfortranarray(basis.columns[self._order])
+            imaginary = basis.imaginary_columns
+            self._imaginary = None if imaginary is None else np.asfortranarray(imaginary[self._order])
             self._drawn_target = None
             self._field = None
-            self._preview_columns = self._preview_target = None
+            self._preview_columns = self._preview_imaginary = self._preview_target = None
             if basis.preview is not None:
                 renderer.set_preview_mesh(basis.preview.vertices, basis.preview.triangles)
                 rows = basis.preview.basis[renderer.preview_vertex_order]
-                self._preview_columns = np.asfortranarray(rows, dtype=np.float32)
+                self._preview_columns = np.asfortranarray(rows.real, dtype=np.float32)
+                if np.iscomplexobj(rows):
+                    self._preview_imaginary = np.asfortranarray(rows.imag, dtype=np.float32)
         self.previewing = False
         if not self.mesh_matches(state):
             return
@@ -244,7 +261,9 @@ class Scene:
         if self._preview_target is not None and np.array_equal(self._preview_target, target):
             return  # a pan or zoom: the positions are those of the last frame
         started = time.perf_counter()
-        self.renderer.set_preview_positions(combined_columns(self._preview_columns, target))
+        self.renderer.set_preview_positions(
+            combined_columns(self._preview_columns, target, self._preview_imaginary)
+        )
         self._preview_target = np.array(target)
         # The dense mesh is left as it was (`_drawn_target` with it): once the motion stops it gets
         # the exact positions if the target changed meanwhile.
@@ -260,16 +279,16 @@ class Scene:
         changed = None if drawn is None else np.flatnonzero(np.any(drawn != target, axis=1))
         if dragging and changed is not None and 0 < len(changed) <= 4 and self._positions is not None:
             # The per-drag path: one column of G per moved point, O(V) work for any n.
+            positions = self._positions.T  # (2, V) views of the two coordinates
             for i in changed:
                 delta = (target[i] - drawn[i]).astype(np.float32)
-                column = self._columns[:, i]
-                self._positions[:, 0] += column * delta[0]
-                self._positions[:, 1] += column * delta[1]
+                imaginary = None if self._imaginary is None else self._imaginary[:, i]
+                _add_column(positions, self._columns[:, i], imaginary, delta)
             self._exact = False
         elif state.playing:
             # Every frame of playback: float32 and no BLAS (`combined_columns`); the exact product,
             # and the count of folded triangles (which costs more than the product), when it stops.
-            self._positions = combined_columns(self._columns, target)
+            self._positions = combined_columns(self._columns, target, self._imaginary)
             self._exact = False
         else:
             deformed = deform(basis.basis, target)
@@ -303,12 +322,12 @@ class Scene:
             index = state.selected if state.selected is not None else 0
             signature = ("basis", basis.key, index)
             if signature != self._field and index < basis.basis.shape[1]:
-                self.renderer.set_field(basis.basis[:, index])
+                self.renderer.set_field(basis.basis[:, index].real)
                 self._field = signature
         elif state.content == "height":
             signature = ("height", basis.key)
             if signature != self._field:
-                self.renderer.set_field(basis.basis @ wave_heights(basis.basis.shape[1]))
+                self.renderer.set_field((basis.basis @ wave_heights(basis.basis.shape[1])).real)
                 self._field = signature
         elif state.content == "distortion":
             target = state.live.target

@@ -31,6 +31,7 @@ from app.files import (
     InputError,
     Session,
     cage_curve,
+    kernel_names,
     read_cage,
     read_image,
     read_session,
@@ -40,7 +41,6 @@ from app.files import (
     session_max_edge,
     session_output,
     session_parameterization,
-    viewer_kernel_names,
     write_session,
 )
 from app.framing import CANVASES, OUTSIDES
@@ -363,7 +363,7 @@ def history_of(value, image: Path) -> tuple[list[Snapshot], list[Snapshot]]:
         result = []
         for index, step in enumerate(steps):
             kernel = step["kernel"]
-            if kernel not in viewer_kernel_names():
+            if kernel not in kernel_names():
                 raise ValueError(f"{name}[{index}] has unknown kernel {kernel!r}")
             cage, target = np.asarray(step["cage"], float), np.asarray(step["target"], float)
             if cage.ndim != 2 or cage.shape[1:] != (2,) or len(cage) < 3:

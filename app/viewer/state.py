@@ -297,11 +297,13 @@ class BasisResult:
         The source control points it belongs to.
     mesh : core.Mesh
         The mesh of the domain: undeformed vertices (V, 2) in image pixels, triangles.
-    basis : ndarray of shape (V, n), float64
-        G; the deformed vertices are ``basis @ target``.
+    basis : ndarray of shape (V, n), float64 or complex128
+        G; the deformed vertices are ``core.deform(basis, target)``.
     columns : ndarray of shape (V, n), float32, column-major
-        G again, so that one column (one control point's influence) is contiguous
-        for the per-drag rank-one update.
+        G again (its real part), so that one column (one control point's influence)
+        is contiguous for the per-drag rank-one update.
+    imaginary_columns : ndarray of shape (V, n), float32, column-major, or None
+        The imaginary part of complex coordinates (Cauchy–Green), None for real ones.
     kernel : str
         The kernel it was computed with (shown while another one is computed).
     seconds : float
@@ -323,6 +325,7 @@ class BasisResult:
     seconds: float
     gradients: np.ndarray | None = None
     preview: PreviewMesh | None = None
+    imaginary_columns: np.ndarray | None = None
 
 
 @dataclass(frozen=True)
