@@ -385,7 +385,7 @@ def test_kill_and_relaunch_brings_back_the_work_and_its_undo(display, environmen
         viewer.wait_for("saved", 10)
         viewer.wait_for("basis ", 60)
         _, dragged, value = session_points(session)
-        assert value["kernel"] != "harmonic" and not np.array_equal(dragged, target)  # from the default
+        assert value["kernel"] != "poisson" and not np.array_equal(dragged, target)  # from the default
         park_mouse(display, window)
         before_kill = shot(display, folder, "kill-1-before")
     finally:
@@ -405,7 +405,7 @@ def test_kill_and_relaunch_brings_back_the_work_and_its_undo(display, environmen
         xdotool(display, "key", "ctrl+z")  # the drag
         again.wait_for("saved", 10)
         _, undone, undone_value = session_points(session)
-        assert np.array_equal(undone, target) and undone_value["kernel"] == "harmonic"
+        assert np.array_equal(undone, target) and undone_value["kernel"] == "poisson"
         xdotool(display, "key", "ctrl+y")  # and forward again to the killed state
         xdotool(display, "key", "ctrl+y")
         deadline = time.monotonic() + 10
