@@ -325,7 +325,7 @@ def _add_plain(out, curve, panels, density, z, target, panel, power):
             rule = (f.real * dx[far] + f.imag * dy[far]) / square[far]
         else:
             rule = f / (dx[far] + 1j * dy[far]) ** power
-        out[rows[far]] += rule @ density[nodes]
+        _add_rule(out, rows[far], p, rule, density)
     return target[near], panel[near]
 
 
@@ -338,7 +338,16 @@ def _add_weights(out, curve, panels, density, target, panel, weights) -> None:
     if not np.iscomplexobj(out):
         weights = weights.real
     for p, group in _groups(panel):
-        out[target[group]] += weights[group] @ density[p * ORDER : (p + 1) * ORDER]
+        _add_rule(out, target[group], p, weights[group], density)
+
+
+def _add_rule(out, rows, panel: int, rule, density) -> None:
+    """out[rows] += rule (K, ORDER) @ density on `panel`'s nodes; `density` is an array, or an
+    operator with an ``add`` method of that signature (`core.poisson.Expansion`)."""
+    if hasattr(density, "add"):
+        density.add(out, rows, panel, rule)
+    else:
+        out[rows] += rule @ density[panel * ORDER : (panel + 1) * ORDER]
 
 
 def _children(parent: np.ndarray, target: np.ndarray, panel: np.ndarray):

@@ -50,6 +50,8 @@ from core.layer import (
 from core.panels import ORDER, Panels, coarse_panels, graded_panels, interpolation_matrix, span_panels
 from core.panels import _panels as _make_panels
 
+#: Coarse boundary nodes at most (the dense solve's memory, 8 MAX_NODES^2 bytes, and time).
+MAX_NODES = 10_000
 #: Points per progress report.
 CHUNK = 8192
 #: Points this close to the curve (fraction of the diameter) get the Lagrange limit.
@@ -99,55 +101,96 @@ def _densities(points: bytes, count: int) -> Densities:
     """
     curve = ClosedBSpline(np.frombuffer(points).reshape(count, 2))
     coarse = coarse_panels(curve)
+    if coarse.size > MAX_NODES:
+        raise ValueError(
+            f"the cage's {curve.n} control points need {coarse.size:,} boundary nodes with kernel "
+            f"'poisson', more than its limit of {MAX_NODES:,} (a dense solve of "
+            f"{8 * coarse.size**2 / 2**30:.1f} GiB); use kernel 'harmonic' (finite elements) for such cages"
+        )
     fine, parent, knot = graded_panels(curve, coarse)
     parent_node = np.repeat(parent, ORDER)
-    local = (
-        2.0 * (fine.t - coarse.bounds[parent_node, 0]) / np.diff(coarse.bounds, axis=1)[parent_node, 0] - 1.0
-    )
+    widths = np.diff(coarse.bounds, axis=1)[:, 0]
+    local = 2.0 * (fine.t - coarse.bounds[parent_node, 0]) / widths[parent_node] - 1.0
     interpolation = interpolation_matrix(local)  # fine node <- its coarse panel's nodes
     coarse_nodes = np.arange(coarse.size).reshape(-1, ORDER)
-    expand = np.zeros((fine.size, coarse.size))  # the fine densities from ρ̃
-    expand[np.arange(fine.size)[:, None], coarse_nodes[parent_node]] = interpolation
-    weighted = np.eye(coarse.size)  # R, block diagonal
+    # The fine densities from ρ̃, row by row: at most two coarse panels' nodes a row.
+    expand = Expansion(np.zeros((fine.size, 2 * ORDER)), np.zeros((fine.count, 2 * ORDER), dtype=np.int64))
+    expand.values[:, :ORDER] = interpolation
+    expand.columns[:, :ORDER] = coarse_nodes[parent]
+    blocks = {}  # knot -> (its coarse nodes, R restricted to them)
     for j in np.unique(knot[knot >= 0]):
         group = np.flatnonzero(knot == j)
         columns = coarse_nodes[group].ravel()
+        fine_panels = np.flatnonzero(np.isin(parent, group))
         rows = np.flatnonzero(np.isin(parent_node, group))
-        near_knot = _panels_of(curve, fine, np.flatnonzero(np.isin(parent, group)))
+        near_knot = _panels_of(curve, fine, fine_panels)
         local_matrix = np.eye(rows.size) + 2.0 * layer_matrix(curve, near_knot, near_knot.z, own=True)
-        block = np.linalg.solve(local_matrix, expand[np.ix_(rows, columns)])
-        expand[np.ix_(rows, columns)] = block
         prolongation = interpolation_rows(interpolation, rows, parent_node, group)
+        block = np.linalg.solve(local_matrix, prolongation)
+        expand.values[rows, : columns.size] = block
+        expand.columns[fine_panels, : columns.size] = columns
         restrict = (prolongation * fine.weights[rows, None]).T / coarse.weights[columns, None]
-        weighted[np.ix_(columns, columns)] = restrict @ block
+        blocks[j] = (columns, restrict @ block)
     group_of = np.where(knot >= 0, knot, -1 - np.arange(coarse.count))  # each free panel its own
-    far = 2.0 * layer_matrix(curve, coarse, coarse.z, own=True, near=False)
+    system = 2.0 * layer_matrix(curve, coarse, coarse.z, own=True, near=False)
     same = group_of[np.repeat(np.arange(coarse.count), ORDER)]
-    far[(same[:, None] == same[None, :]) & (same[:, None] >= 0)] = 0.0  # K*: within a knot's pair
+    for columns, _ in blocks.values():  # K*: within a knot's pair of panels, in R
+        system[np.ix_(columns, columns)] = 0.0
     target, panel = near_pairs(coarse, coarse.z, curve.diameter)
     keep = same[target] != group_of[panel]  # a free panel's own nodes: the plain rule, above
     target, panel = target[keep], panel[keep]
-    far[target[:, None], coarse_nodes[panel]] = 0.0
-    system = far  # K°_c R: R is the identity but on the knots' blocks
-    for j in np.unique(knot[knot >= 0]):
-        columns = coarse_nodes[knot == j].ravel()
-        system[:, columns] = far[:, columns] @ weighted[np.ix_(columns, columns)]
-    system += np.eye(coarse.size)
-    pair = Levels((coarse, fine), (parent,), (None, expand))
+    system[target[:, None], coarse_nodes[panel]] = 0.0
+    for columns, block in blocks.values():  # K°_c R: R is the identity but on the knots' blocks
+        system[:, columns] = system[:, columns] @ block
     near = np.zeros_like(system)
-    hierarchical_rows(curve, pair, coarse.z, target, panel, np.zeros(coarse.size, dtype=bool), near)
+    hierarchical_rows(
+        curve, Levels((coarse, fine), (parent,), (None, expand)), coarse.z, target, panel,
+        np.zeros(coarse.size, dtype=bool), near,
+    )  # fmt: skip
     system += 2.0 * near
+    del near
+    system[np.arange(coarse.size), np.arange(coarse.size)] += 1.0
     data = curve.basis_matrix(coarse.t)
     data = 2.0 * np.concatenate([data, data.sum(axis=1, keepdims=True)], axis=1)
     transformed = lu_solve(lu_factor(system, overwrite_a=True, check_finite=False), data, check_finite=False)
-    mu = expand @ transformed
+    del system
+    mu = expand.apply(transformed)
+    weighted = transformed.copy()  # R ρ̃
+    for columns, block in blocks.values():
+        weighted[columns] = block @ transformed[columns]
     spans = span_panels(curve)
     span_of = np.floor(coarse.bounds[:, 0] + 1e-12).astype(np.int64)
     span_density = restriction(spans, fine, span_of[parent]) @ mu
-    levels = Levels((spans, coarse, fine), (span_of, parent), (span_density, weighted @ transformed, mu))
+    levels = Levels((spans, coarse, fine), (span_of, parent), (span_density, weighted, mu))
     for density in levels.densities:
         density.setflags(write=False)
     return Densities(curve, levels)
+
+
+@dataclass(frozen=True)
+class Expansion:
+    """A matrix of shape (P_f * ORDER, P_c * ORDER) with at most 2 ORDER entries a row, in the
+    same columns for every node of a fine panel: the fine densities from the coarse unknowns.
+
+    Attributes
+    ----------
+    values : ndarray of shape (P_f * ORDER, 2 ORDER)
+    columns : int ndarray of shape (P_f, 2 ORDER)
+        The coarse nodes of each fine panel's rows (padding columns hold zeros).
+    """
+
+    values: np.ndarray
+    columns: np.ndarray
+
+    def apply(self, coarse: np.ndarray) -> np.ndarray:
+        """This matrix times `coarse` (P_c * ORDER, m): shape (P_f * ORDER, m)."""
+        per_node = np.repeat(self.columns, ORDER, axis=0)
+        return np.einsum("fw,fwm->fm", self.values, coarse[per_node])
+
+    def add(self, out: np.ndarray, rows: np.ndarray, panel: int, rule: np.ndarray) -> None:
+        """out[rows] += rule (K, ORDER) @ (this matrix's rows of fine panel `panel`)."""
+        values = self.values[panel * ORDER : (panel + 1) * ORDER]
+        np.add.at(out, (rows[:, None], self.columns[panel][None, :]), rule.real @ values)
 
 
 def interpolation_rows(interpolation, rows, parent_node, group) -> np.ndarray:
@@ -173,8 +216,12 @@ def layer_matrix(curve: ClosedBSpline, panels: Panels, z: np.ndarray, *, own: bo
     caller replaces them.
     """
     factors = layer_factors(curve, panels)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        matrix = (factors[None, :] / (panels.z[None, :] - z[:, None])).real
+    matrix = np.empty((z.size, panels.size))
+    for first in range(0, z.size, 1024):  # real arithmetic, in blocks of rows: memory of one matrix
+        dx = panels.z.real[None, :] - z[first : first + 1024, None].real
+        dy = panels.z.imag[None, :] - z[first : first + 1024, None].imag
+        with np.errstate(divide="ignore", invalid="ignore"):
+            matrix[first : first + 1024] = (factors.real * dx + factors.imag * dy) / (dx * dx + dy * dy)
     if own:
         orientation = 1.0 if curve.area > 0 else -1.0
         diagonal = orientation * (panels.d2z / panels.dz).imag * panels.weights / (4.0 * np.pi)

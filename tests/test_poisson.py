@@ -163,3 +163,15 @@ def test_cauchy_green_does_not_interpolate_the_target_curve():
     moved = core.deform(C, target)[mesh.boundary]
     expected = core.ClosedBSpline(target)(mesh.boundary_parameters)
     assert np.linalg.norm(moved - expected, axis=1).max() > 1e-3
+
+
+def test_a_cage_beyond_the_dense_solve_limit_is_refused_in_one_line(monkeypatch):
+    import core.poisson
+
+    monkeypatch.setattr(core.poisson, "MAX_NODES", 500)
+    core.poisson._densities.cache_clear()  # solved under the real limit by an earlier test
+    curve = core.ClosedBSpline(SHAPES["star"])
+    with pytest.raises(
+        ValueError, match=r"need [0-9,]+ boundary nodes with kernel 'poisson'.*use kernel 'harmonic'"
+    ):
+        core.basis_functions(curve, interior_points(curve, 3, seed=38))
