@@ -11,16 +11,10 @@ from core.compilation import compile_solver
 from core.deformation import deform
 from core.gradients import basis_gradients, kernel_gradients
 from core.harmonic import harmonic_basis
-from core.kernels import (
-    BOUNDARY_INTEGRAL_KERNELS,
-    COMPLEX_KERNELS,
-    KERNELS,
-    ConvergenceWarning,
-    SolveReport,
-    kernel,
-)
+from core.kernel_table import BOUNDARY_INTEGRAL_KERNELS, COMPLEX_KERNELS, MESH_ONLY_KERNELS
+from core.kernels import KERNELS, ConvergenceWarning, SolveReport, kernel
 from core.mesh import Mesh, folded_triangles, triangulate
-from core.mesh_basis import MESH_ONLY_KERNELS, CacheWarning, mesh_basis_functions
+from core.mesh_basis import CacheWarning, mesh_basis_functions
 from core.pgw import pgw_basis
 
 __all__ = [

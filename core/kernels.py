@@ -57,26 +57,11 @@ from core import solver
 from core.arc_length import arc_length_boundary, checked_parameterization
 from core.boundary import Boundary
 from core.crossing_slabs import crossing_slabs
+from core.kernel_table import BOUNDARY_INTEGRAL_KERNELS, CONVEX_ONLY, POINT_KERNELS
 from core.validation import as_points, positive_float
 
-#: Kernels evaluated by boundary integrals (`core.poisson`, `core.cauchy_green`), not by Newton.
-BOUNDARY_INTEGRAL_KERNELS = ("poisson", "cauchy-green")
-#: Kernels whose coordinates are complex numbers (`core.deform` draws them).
-COMPLEX_KERNELS = ("cauchy-green",)
-#: The real point kernels: their coordinates G (M, n) satisfy G @ P == x.
-KERNELS = (
-    "poisson",
-    "harmonic-like",
-    "mean-value",
-    "modified-mean-value",
-    "modified-mean-value-squared",
-    "maximum-likelihood",
-    "pseudo-harmonic",
-    "power",
-    "inverse-cube-mean",
-    "wachspress",
-    "laplace",
-)
+#: The real point kernels: their coordinates G (M, n) satisfy G @ P == x (`core.kernel_table`).
+KERNELS = POINT_KERNELS
 #: Exact transfinite harmonic coordinates (README, "Which kernel?").
 DEFAULT_KERNEL = "poisson"
 #: The default of `kernel`, which needs kernel values: the quality study's best Newton kernel.
@@ -97,7 +82,6 @@ _IDENTIFIERS = {
 _SHIFTS = {"none": solver.SHIFT_NONE, "integral": solver.SHIFT_INTEGRAL, "mean": solver.SHIFT_MEAN}
 # Named members of the power family: (k, shift) of omega = 1 / r^k (Eq. 19).
 _FIXED_POWERS = {"inverse-cube-mean": (3.0, solver.SHIFT_MEAN)}
-CONVEX_ONLY = ("wachspress", "laplace")
 # Newton stops when the linear-precision residual is below this fraction of the diameter.
 DEFAULT_TOLERANCE = 1e-11
 # Quadrature refinements tried, in turn, for points whose kernel the samples do not resolve.

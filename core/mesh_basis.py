@@ -23,38 +23,27 @@ from core.arc_length import checked_parameterization
 from core.bspline import ClosedBSpline
 from core.compilation import compile_solver
 from core.harmonic import harmonic_basis
-from core.kernels import (
-    BOUNDARY_INTEGRAL_KERNELS,
+from core.kernel_table import (
+    BY_NAME,
+    COMPILED_KERNELS,
     COMPLEX_KERNELS,
-    CONVEX_ONLY,
-    DEFAULT_KERNEL,
-    DEFAULT_TOLERANCE,
-    KERNELS,
+    MESH_ONLY_KERNELS,
+    NEWTON_KERNELS,
+    POINT_KERNELS,
 )
+from core.kernels import DEFAULT_KERNEL, DEFAULT_TOLERANCE
 from core.mesh import Mesh, require_mesh_of
 from core.pgw import pgw_basis
 from core.validation import checked_samples_per_segment
 
-# Kernels defined through the mesh or by line intersections rather than `core.kernel`.
-MESH_ONLY_KERNELS = ("pgw", "harmonic")
-# Kernels whose linear precision holds to the Newton tolerance (the weighted maximum-likelihood family).
-NEWTON_KERNELS = tuple(
-    name for name in KERNELS if name not in ("mean-value", *CONVEX_ONLY, *BOUNDARY_INTEGRAL_KERNELS)
-)
 #: Kernels whose G is not kept in the disk cache: complex, and cheaper to evaluate than to check.
 UNCACHED_KERNELS = COMPLEX_KERNELS
-#: Kernels that use the numba-compiled solver (the first run compiles it).
-COMPILED_KERNELS = tuple(name for name in KERNELS if name not in BOUNDARY_INTEGRAL_KERNELS)
-POINT_KERNELS = KERNELS + COMPLEX_KERNELS
 # Rounding allowance of the invariant checks, in units of n * machine epsilon.
 ROUNDING_ULPS = 64
 
 
 class CacheWarning(RuntimeWarning):
     """A damaged cache entry was found, recomputed and replaced."""
-
-
-_MESH_ONLY_PARAMETERS = {"pgw": ("angles",), "harmonic": ()}
 
 
 def mesh_basis_functions(
@@ -126,21 +115,21 @@ def mesh_basis_functions(
         arguments.
     """
     require_mesh_of(curve, mesh)
-    valid = tuple(dict.fromkeys(POINT_KERNELS + MESH_ONLY_KERNELS))
+    valid = POINT_KERNELS + COMPLEX_KERNELS + MESH_ONLY_KERNELS
     if not isinstance(kernel, str) or kernel not in valid:
         raise ValueError(f"unknown kernel {kernel!r}; choose one of: {', '.join(valid)}")
     per = checked_samples_per_segment(samples_per_segment, curve.n)
     if kernel in MESH_ONLY_KERNELS:
-        unknown = sorted(set(params) - set(_MESH_ONLY_PARAMETERS[kernel]))
+        unknown = sorted(set(params) - set(BY_NAME[kernel].parameters))
         if unknown:
-            allowed = ", ".join(_MESH_ONLY_PARAMETERS[kernel]) or "none"
+            allowed = ", ".join(BY_NAME[kernel].parameters) or "none"
             raise ValueError(
                 f"kernel {kernel!r} does not take parameter(s) {', '.join(unknown)} (it takes: {allowed})"
             )
     if checked_parameterization(parameterization) != "natural" and kernel in MESH_ONLY_KERNELS:
         raise ValueError(
             f"kernel {kernel!r} does not depend on the boundary's parameterization; "
-            f"parameterization={parameterization!r} applies to the point kernels ({', '.join(KERNELS)})"
+            f"parameterization={parameterization!r} applies to the point kernels ({', '.join(POINT_KERNELS)})"
         )
     for name, callback in (("progress", progress), ("compiling", compiling)):
         if callback is not None and not callable(callback):
