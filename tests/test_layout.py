@@ -53,7 +53,7 @@ def test_bench_runs(tmp_path):
         cwd=ROOT,
         check=True,
     )
-    assert "harmonic-like" in result.stdout and "FEM / transfinite" in result.stdout
+    assert "harmonic-like" in result.stdout and "FEM / poisson" in result.stdout
     # The viewer's drag frame at ~6k vertices under Xvfb (or the line saying it was skipped).
     assert "viewer drag frame" in result.stdout
 
