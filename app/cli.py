@@ -536,7 +536,7 @@ def _examples(*examples: tuple[str, str | None]) -> str:
 def _warp(args: argparse.Namespace) -> int:
     import core
     from app.render import WarpRenderer, create_headless_context
-    from core.mesh_basis import MESH_ONLY_KERNELS
+    from core.kernel_table import PARAMETERIZED_KERNELS
     from core.validation import checked_samples_per_segment
 
     check_writable(args.output, suffix=".png")
@@ -595,12 +595,12 @@ def _warp(args: argparse.Namespace) -> int:
         params["samples_per_segment"] = args.samples_per_segment
     if args.parameterization is not None:
         parameterization = args.parameterization
-        if kernel in MESH_ONLY_KERNELS and parameterization != "natural":
+        if kernel not in PARAMETERIZED_KERNELS and parameterization != "natural":
             raise InputError(
                 f"--parameterization {parameterization}: kernel {kernel!r} does not depend on the boundary's "
                 "parameterization; choose a point kernel (--kernel) or leave it out"
             )
-    if kernel not in MESH_ONLY_KERNELS:  # a session's choice does not bind the mesh-based kernels
+    if kernel in PARAMETERIZED_KERNELS:  # a session's choice does not bind the geometric kernels
         params["parameterization"] = parameterization
 
     # The GL context comes first: without one there is no point in the long precompute.

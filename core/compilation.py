@@ -66,7 +66,9 @@ def compile_solver(progress: Callable[[float], None] | None = None) -> bool:
     listener = _Progress(progress)
     with event.install_listener("numba:compile", listener):
         square = ClosedBSpline(np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]))
-        basis_functions(square, np.array([[0.5, 0.5]]), samples_per_segment=4, parameterization="arc-length")
+        basis_functions(
+            square, [[0.5, 0.5]], "harmonic-like", samples_per_segment=4, parameterization="arc-length"
+        )
     if listener.compiled and progress is not None:
         progress(1.0)
     _loaded.set()

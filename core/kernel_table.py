@@ -39,6 +39,10 @@ class Kernel:
         Keyword parameters it takes.
     compiled : bool
         Needs the numba-compiled solver (its first use compiles it).
+    parameterized : bool
+        Depends on the boundary's parameterization (natural or arc length): the kernels
+        integrated against dt.  Harmonic (FEM or Poisson) and Cauchy-Green coordinates
+        are geometric and do not.
     """
 
     name: str
@@ -51,6 +55,10 @@ class Kernel:
 
     @property
     def compiled(self) -> bool:
+        return self.family in (NEWTON, EXPLICIT)
+
+    @property
+    def parameterized(self) -> bool:
         return self.family in (NEWTON, EXPLICIT)
 
 
@@ -85,3 +93,5 @@ BOUNDARY_INTEGRAL_KERNELS = tuple(k.name for k in TABLE if k.family == BOUNDARY_
 NEWTON_KERNELS = tuple(k.name for k in TABLE if k.family == NEWTON)
 COMPILED_KERNELS = tuple(k.name for k in TABLE if k.compiled)
 CONVEX_ONLY = tuple(k.name for k in TABLE if k.convex_only)
+#: Kernels whose coordinates change with the boundary's parameterization.
+PARAMETERIZED_KERNELS = tuple(k.name for k in TABLE if k.parameterized)

@@ -29,6 +29,7 @@ from core.kernel_table import (
     COMPLEX_KERNELS,
     MESH_ONLY_KERNELS,
     NEWTON_KERNELS,
+    PARAMETERIZED_KERNELS,
     POINT_KERNELS,
 )
 from core.kernels import DEFAULT_KERNEL, DEFAULT_TOLERANCE
@@ -126,10 +127,10 @@ def mesh_basis_functions(
             raise ValueError(
                 f"kernel {kernel!r} does not take parameter(s) {', '.join(unknown)} (it takes: {allowed})"
             )
-    if checked_parameterization(parameterization) != "natural" and kernel in MESH_ONLY_KERNELS:
+    if checked_parameterization(parameterization) != "natural" and kernel not in PARAMETERIZED_KERNELS:
         raise ValueError(
             f"kernel {kernel!r} does not depend on the boundary's parameterization; "
-            f"parameterization={parameterization!r} applies to the point kernels ({', '.join(POINT_KERNELS)})"
+            f"parameterization={parameterization!r} applies to {', '.join(PARAMETERIZED_KERNELS)}"
         )
     for name, callback in (("progress", progress), ("compiling", compiling)):
         if callback is not None and not callable(callback):

@@ -56,10 +56,12 @@ def test_warp_in_arc_length_differs_and_a_session_carries_it(files, capfd):  # n
     assert np.array_equal(warp(files, capfd, "a.png", "warp", "--session", files / "arc.json"), arc)
 
 
-def test_warp_refuses_arc_length_for_the_mesh_kernels_in_one_line(files, capfd):  # noqa: F811
-    code, _, err = run_main([*warp_argv(files), "--parameterization", "arc-length"], capfd)
+@pytest.mark.parametrize("kernel", ["poisson", "harmonic", "cauchy-green"])
+def test_warp_refuses_arc_length_for_the_geometric_kernels_in_one_line(files, capfd, kernel):  # noqa: F811
+    argv = [*warp_argv(files), "--kernel", kernel, "--parameterization", "arc-length"]
+    code, _, err = run_main(argv, capfd)
     assert code == 2 and err.count("\n") == 1
-    assert err.startswith("error: --parameterization arc-length: kernel 'harmonic' does not depend")
+    assert err.startswith(f"error: --parameterization arc-length: kernel {kernel!r} does not depend")
     assert not (files / "out.png").exists()
     # A session's arc length does not bind a mesh kernel chosen on the command line.
     session = json.loads((files / "session.json").read_text()) | {"parameterization": "arc-length"}
