@@ -40,7 +40,6 @@ from app.files import InputError, check_writable, encode_png
 from app.framing import output_frame, output_region
 from app.keyframes import Keyframe, interpolate
 from core.atomic_write import remove_stale_temporaries
-from core.deformation import deform
 
 #: Straight RGB that MP4 and GIF frames show where the warp is transparent.
 BACKGROUND = (255, 255, 255)
@@ -295,6 +294,8 @@ def run_animate(args) -> int:
     )
     from app.keyframes import frame_times
     from app.render import WarpRenderer, create_headless_context
+    from app.warping import WarpSettings, prepare, render
+    from core.compilation import MESSAGE as COMPILING
 
     path = Path(args.output).expanduser()
     kind = output_kind(path, args.output)
@@ -331,20 +332,20 @@ def run_animate(args) -> int:
         with reported_as_input(f"{args.session}: meshing"):
             mesh = core.triangulate(curve, max_edge=max_edge)
         with (
+            ProgressBar(COMPILING) as compiling,
             ProgressBar(f"basis functions ({session.kernel})") as bar,
             reported_as_input(f"{args.session}: kernel {session.kernel!r}"),
         ):
-            basis = core.mesh_basis_functions(curve, mesh, kernel=session.kernel, progress=bar, **params)
+            settings = WarpSettings(session.kernel, params, max_edge)
+            deformation = prepare(curve, settings, mesh, progress=bar, compiling=compiling)
         with WarpRenderer(ctx) as renderer, interrupted_by_sigterm():
             with reported_as_input(str(session.image)):
                 renderer.set_image(image)
             renderer.set_mesh(mesh.vertices, mesh.triangles)
             with WRITERS[kind](path, size, args.fps) as writer, ProgressBar(f"frames ({len(times)})") as bar:
                 for index, moment in enumerate(times):
-                    renderer.set_positions(
-                        deform(basis, interpolate(keyframes, float(moment), interpolation))
-                    )
-                    writer.add(renderer.render(size, view, backdrop=outside == "original"))
+                    target = interpolate(keyframes, float(moment), interpolation)
+                    writer.add(render(renderer, deformation, target, size, view, outside))
                     bar((index + 1) / len(times))
                 try:
                     writer.finish()

@@ -1,5 +1,5 @@
-"""The command line: ``python -m app COMMAND`` or ``transfinite-warp COMMAND`` (DESIGN.md,
-"Command line and files").
+"""The command line: ``python -m app COMMAND`` or ``transfinite-warp COMMAND`` (.docs/architecture.md,
+"Files and conventions").
 
 Commands: ``warp`` (deform an image with a source and a target cage and write a
 PNG), ``animate`` (a session's keyframes as MP4, GIF or PNG frames,
@@ -60,7 +60,6 @@ from app.render import ContextUnavailableError
 from app.viewer.demos import SCRIPT_FORMAT
 from core.arc_length import PARAMETERIZATIONS
 from core.compilation import MESSAGE as COMPILING
-from core.deformation import deform
 
 DEFAULT_KERNEL = "poisson"  # core.mesh_basis.DEFAULT_KERNEL, the deformation default
 # cv2.Error.StsNoMem, without importing cv2 for the commands that never use it.
@@ -536,6 +535,7 @@ def _examples(*examples: tuple[str, str | None]) -> str:
 def _warp(args: argparse.Namespace) -> int:
     import core
     from app.render import WarpRenderer, create_headless_context
+    from app.warping import WarpSettings, prepare, render
     from core.kernel_table import PARAMETERIZED_KERNELS
     from core.validation import checked_samples_per_segment
 
@@ -607,6 +607,7 @@ def _warp(args: argparse.Namespace) -> int:
     ctx = create_headless_context()
     try:
         started = time.perf_counter()
+        settings = WarpSettings(kernel, params, args.max_edge)
         with reported_as_input(f"{cage_source}: meshing"):
             mesh = core.triangulate(curve, max_edge=args.max_edge)
         note(f"mesh: {len(mesh.vertices)} vertices, {len(mesh.triangles)} triangles")
@@ -615,12 +616,10 @@ def _warp(args: argparse.Namespace) -> int:
             ProgressBar(f"basis functions ({kernel})") as bar,
             reported_as_input(f"{cage_source}: kernel {kernel!r}"),
         ):
-            basis = core.mesh_basis_functions(
-                curve, mesh, kernel=kernel, progress=bar, compiling=compiling, **params
-            )
+            deformation = prepare(curve, settings, mesh, progress=bar, compiling=compiling)
         if compiling.seconds is not None:
             note(f"compiled the solver in {compiling.seconds:.1f} s (first run only; numba caches it)")
-        deformed = deform(basis, target)
+        deformed = deformation.positions(target)
         if args.report:
             with reported_as_input(f"{cage_source}: kernel {kernel!r}: gradients"):
                 report = _distortion_report(curve, mesh, kernel, target, deformed, params)
@@ -634,9 +633,8 @@ def _warp(args: argparse.Namespace) -> int:
             with reported_as_input(str(image_path)):
                 renderer.set_image(image)
             renderer.set_mesh(mesh.vertices, mesh.triangles)
-            renderer.set_positions(deformed)
             with reported_as_input("rendering"):
-                pixels = renderer.render(size, view, backdrop=outside == "original")
+                pixels = render(renderer, deformation, target, size, view, outside)
         write_png(args.output, pixels)
         note(f"wrote {args.output} ({size[0]}x{size[1]}) in {time.perf_counter() - started:.1f} s")
     finally:

@@ -60,7 +60,7 @@ def kernel_variants(
 ) -> list[tuple[str, str, dict]]:
     """(label, kernel, params) of every interpolant to compare, the reference first.
 
-    ``power`` appears with each shift of Eq. 19 (DESIGN.md, numerical notes) so the
+    ``power`` appears with each shift of Eq. 19 (.docs/architecture.md, "Numerical rules") so the
     figure shows how much the shift changes the interpolant.  The point kernels
     appear in the `parameterization` (``"natural"``, ``"arc-length"``, or
     ``"both"``: the natural one, then the arc-length one); ``harmonic`` and
@@ -202,7 +202,8 @@ def figure(ctx, mesh, interpolants: list[Interpolant]) -> np.ndarray:
     ndarray of shape (H, W, 4), uint8
         Opaque RGBA on white.
     """
-    from app.render import View, WarpRenderer
+    from app.render import WarpRenderer
+    from app.view import View
 
     columns = min(COLUMNS, len(interpolants))
     rows = -(-len(interpolants) // columns)

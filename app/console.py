@@ -1,6 +1,6 @@
 """What the commands say on the console: exit codes, one-line notes and errors, a progress bar.
 
-The command line's conventions (DESIGN.md, "Command line and files"): exit code 0
+The command line's conventions (.docs/architecture.md, "Files and conventions"): exit code 0
 on success, 1 when the environment cannot run the command (no OpenGL), 2 for bad
 input.  A failing command prints exactly one line on stderr, its error; the notes
 and warnings of a command are held back with `note` and printed by `print_notes`

@@ -2,7 +2,7 @@
 
 Cage files are JSON ``{"control_points": [[x, y], ...]}`` in image pixels (x to
 the right, y down, origin at the image's top-left corner); session files hold
-``image``, ``cage``, ``target``, ``kernel`` and ``view`` (see DESIGN.md), and
+``image``, ``cage``, ``target``, ``kernel`` and ``view`` (see .docs/architecture.md), and
 optionally ``kernel_params``, ``parameterization`` and ``mesh`` (what the viewer
 computed with).  Every
 reader validates its input and raises `InputError` with one line naming the file

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from app.render import View
+from app.view import View
 from core.bspline import basis_weights
 
 CANVASES = ("source", "grow")

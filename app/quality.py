@@ -200,6 +200,7 @@ def run_study(domains, choices: list[KernelChoice], progress=None, keep: bool = 
         A kernel that rejects a domain (ValueError) is marked `skipped` with the reason.
     """
     from app.compare import vertex_areas
+    from app.warping import WarpSettings, prepare
     from core.examples import wave_heights
 
     if not choices or choices[0].kernel != REFERENCE:
@@ -238,13 +239,13 @@ def run_study(domains, choices: list[KernelChoice], progress=None, keep: bool = 
             try:
                 with warnings.catch_warnings(record=True) as caught:
                     warnings.simplefilter("always", core.ConvergenceWarning)
-                    basis = core.mesh_basis_functions(
-                        curve, mesh, choice.kernel, progress=report, cache=False, **choice.params
-                    )
+                    settings = WarpSettings(choice.kernel, choice.params, cache=False)
+                    warped = prepare(curve, settings, mesh, progress=report)
             except ValueError as error:
                 result.skipped = f"{domain.name}: {error}"
                 continue
             result.seconds += time.perf_counter() - started
+            basis = warped.basis
             if any(issubclass(w.category, core.ConvergenceWarning) for w in caught):
                 result.unconverged_domains.append(domain.name)
             if reference is None:
@@ -257,7 +258,7 @@ def run_study(domains, choices: list[KernelChoice], progress=None, keep: bool = 
             if choice.kernel in core.BOUNDARY_INTEGRAL_KERNELS:
                 gradients = core.basis_gradients(curve, mesh.vertices[mesh.interior], choice.kernel)
             for deformation, target_curve in targets:
-                _measure(result, mesh, areas, weights, basis, reference, deformation.target, target_curve)
+                _measure(result, mesh, areas, weights, warped, reference, deformation.target, target_curve)
                 if gradients is not None:
                     sigma = np.linalg.svd(
                         distortion.vertex_jacobians(gradients, deformation.target), compute_uv=False
@@ -266,9 +267,9 @@ def run_study(domains, choices: list[KernelChoice], progress=None, keep: bool = 
     return study
 
 
-def _measure(result, mesh, areas, weights, basis, reference, target, target_curve) -> None:
-    """Append one deformation's measures to `result`."""
-    deformed = deform(basis, target)
+def _measure(result, mesh, areas, weights, warped, reference, target, target_curve) -> None:
+    """Append one deformation's measures to `result` (`warped`: an `app.warping.Deformation`)."""
+    deformed = warped.positions(target)
     sigma = distortion.signed_singular_values(
         distortion.triangle_jacobians(mesh.vertices, deformed, mesh.triangles)
     )

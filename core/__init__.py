@@ -1,7 +1,7 @@
 """Transfinite barycentric coordinates on closed quadratic B-spline domains.
 
 Pure numerics (numpy, scipy, numba): never imports `app`, moderngl, glfw or imgui.
-See docs/architecture.md for the data flow and the paper's equation numbers.
+See .docs/architecture.md in the repository for the data flow and the paper's equation numbers.
 """
 
 from core.basis import basis_functions
@@ -11,7 +11,7 @@ from core.compilation import compile_solver
 from core.deformation import deform
 from core.gradients import basis_gradients, kernel_gradients
 from core.harmonic import harmonic_basis
-from core.kernel_table import BOUNDARY_INTEGRAL_KERNELS, COMPLEX_KERNELS, MESH_ONLY_KERNELS
+from core.kernel_table import BOUNDARY_INTEGRAL_KERNELS, COMPLEX_KERNELS, DEFAULT_KERNEL, MESH_ONLY_KERNELS
 from core.kernels import KERNELS, ConvergenceWarning, SolveReport, kernel
 from core.mesh import Mesh, folded_triangles, triangulate
 from core.mesh_basis import CacheWarning, mesh_basis_functions
@@ -20,6 +20,7 @@ from core.pgw import pgw_basis
 __all__ = [
     "BOUNDARY_INTEGRAL_KERNELS",
     "COMPLEX_KERNELS",
+    "DEFAULT_KERNEL",
     "KERNELS",
     "MESH_ONLY_KERNELS",
     "Boundary",

@@ -13,7 +13,8 @@ import numpy as np
 from core import solver
 from core.arc_length import checked_parameterization
 from core.bspline import ClosedBSpline
-from core.kernels import BOUNDARY_INTEGRAL_KERNELS, DEFAULT_KERNEL, DEFAULT_TOLERANCE, Progress, evaluate
+from core.kernel_table import DEFAULT_KERNEL
+from core.kernels import BOUNDARY_INTEGRAL_KERNELS, DEFAULT_TOLERANCE, Progress, evaluate
 from core.validation import as_points, positive_int
 
 

@@ -65,7 +65,8 @@ import numpy as np
 from core import gradient_solver, kernels, solver
 from core.boundary import Boundary
 from core.bspline import ClosedBSpline
-from core.kernels import DEFAULT_KERNEL, DEFAULT_TOLERANCE, REFINEMENTS, checked_report
+from core.kernel_table import DEFAULT_KERNEL
+from core.kernels import DEFAULT_TOLERANCE, REFINEMENTS, checked_report
 from core.validation import as_points, positive_float, positive_int
 
 

@@ -62,6 +62,9 @@ class Kernel:
         return self.family in (NEWTON, EXPLICIT)
 
 
+#: The kernel of `core.basis_functions`, `core.mesh_basis_functions`, `warp` and the viewer.
+DEFAULT_KERNEL = "poisson"
+
 TABLE = (
     Kernel("poisson", BOUNDARY_INTEGRAL, "Poisson kernel, Eq. 2 and 7; double layer (core.poisson)"),
     Kernel("harmonic-like", NEWTON, "Eq. 20"),

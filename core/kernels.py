@@ -1,6 +1,6 @@
 """Barycentric kernels lambda(x, t) of a sampled closed curve (`core.kernel`).
 
-The table of kernels (names are a public contract, see DESIGN.md):
+The table of kernels (names are a public contract; the list is `core.kernel_table`):
 
 =============================  ===============================================  ==============
 name                           weight omega_x or kernel                         paper
@@ -62,8 +62,6 @@ from core.validation import as_points, positive_float
 
 #: The real point kernels: their coordinates G (M, n) satisfy G @ P == x (`core.kernel_table`).
 KERNELS = POINT_KERNELS
-#: Exact transfinite harmonic coordinates (README, "Which kernel?").
-DEFAULT_KERNEL = "poisson"
 #: The default of `kernel`, which needs kernel values: the quality study's best Newton kernel.
 DEFAULT_VALUES_KERNEL = "inverse-cube-mean"
 

@@ -27,12 +27,13 @@ from core.kernel_table import (
     BY_NAME,
     COMPILED_KERNELS,
     COMPLEX_KERNELS,
+    DEFAULT_KERNEL,
     MESH_ONLY_KERNELS,
     NEWTON_KERNELS,
     PARAMETERIZED_KERNELS,
     POINT_KERNELS,
 )
-from core.kernels import DEFAULT_KERNEL, DEFAULT_TOLERANCE
+from core.kernels import DEFAULT_TOLERANCE
 from core.mesh import Mesh, require_mesh_of
 from core.pgw import pgw_basis
 from core.validation import checked_samples_per_segment

@@ -5,7 +5,7 @@ import pytest
 from test_render import ellipse_mesh, polygon_mask, smooth_image
 
 from app.framing import output_frame, output_region
-from app.render import View
+from app.view import View
 from app.viewer.editing import curve_points
 
 SQUARE = np.array([[0.0, 0.0], [100.0, 0.0], [100.0, 100.0], [0.0, 100.0]])

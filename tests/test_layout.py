@@ -4,6 +4,7 @@ within app/ run one way, and the wheel ships every package and the bundled folde
 from __future__ import annotations
 
 import ast
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -30,6 +31,17 @@ def test_core_imports_no_gui_or_gl_module():
 
 def test_importing_core_loads_no_gui_or_gl_module():
     code = f"import sys, core; print(sorted(m for m in sys.modules if m.split('.')[0] in {FORBIDDEN!r}))"
+    result = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, check=True
+    )
+    assert result.stdout.strip() == "[]"
+
+
+def test_the_geometry_of_framing_and_editing_loads_no_gl_module():
+    # The viewer's document, editing and framing are plain geometry (app.view): testable without GL.
+    modules = "app.framing, app.viewer.state, app.viewer.editing, app.viewer.controller, app.viewer.session"
+    loaded = f"sorted(m for m in sys.modules if m.split('.')[0] in {FORBIDDEN[1:]!r})"
+    code = f"import sys, {modules}; print({loaded})"
     result = subprocess.run(
         [sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, check=True
     )
@@ -146,3 +158,17 @@ def test_the_wheel_lists_every_package_and_the_bundled_folders():
             ["git", "ls-files", folder], capture_output=True, text=True, cwd=ROOT, check=True
         ).stdout.split()
         assert shipped == {Path(name).name for name in tracked}, f"every file of {folder}/ is shipped"
+
+
+def test_documents_cited_in_the_project_are_in_the_repository():
+    tracked = subprocess.run(["git", "ls-files"], capture_output=True, text=True, cwd=ROOT, check=True)
+    cited, outside = set(), []
+    for name in tracked.stdout.splitlines():
+        path = ROOT / name
+        if path.suffix not in (".py", ".md", ".toml", ".glsl") or path == Path(__file__).resolve():
+            continue
+        text = path.read_text()
+        outside += [name for marker in ("DESIGN.md", "../shared") if marker in text]
+        cited |= set(re.findall(r"\.docs/[\w./-]+\.md", text))
+    assert outside == []
+    assert cited and all((ROOT / document).is_file() for document in cited), cited

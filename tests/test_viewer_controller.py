@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from app.files import kernel_names
-from app.render import View
+from app.view import View
 from app.viewer import controller, editing
 from app.viewer.controller import LEFT, MIDDLE, RIGHT
 from app.viewer.state import AppState, History, Snapshot

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 import core
-from app.render import View
+from app.view import View
 from app.viewer import editing
 from core import examples
 

@@ -16,8 +16,8 @@ from app.render import (
     HEAT_NEGATIVE,
     HEAT_STOPS,
     HIGHLIGHT_COLOUR,
-    View,
 )
+from app.view import View
 from app.viewer.scene import Scene
 from app.viewer.state import AppState, BasisResult, Drag, History, Snapshot
 

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from app.files import InputError, Session, read_session, session_kernel_params, session_max_edge
-from app.render import View
+from app.view import View
 from app.viewer import session as sessions
 from app.viewer.demos import demo_files
 from app.viewer.session_files import BACKUPS, backup_path, backups, session_path_for

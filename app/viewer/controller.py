@@ -26,7 +26,7 @@ import numpy as np
 from app.files import InputError, kernel_names, read_image
 from app.framing import CANVASES, OUTSIDES
 from app.keyframes import INTERPOLATIONS, MAX_TIME, TIME_RESOLUTION, Keyframe, interpolate
-from app.render import View
+from app.view import View
 from app.viewer import drawing, editing
 from app.viewer.state import CONTENTS, MEASURES, MODES, PARAMETERIZATIONS, SHIFTS, AppState, Drag, Snapshot
 

@@ -153,6 +153,7 @@ def compute(request: Request, progress=None) -> dict:
         The cage, kernel or parameters are invalid (message for the status line).
     """
     import core
+    from app.warping import WarpSettings, prepare
     from core.compilation import MESSAGE as COMPILING
 
     started = time.perf_counter()
@@ -163,8 +164,6 @@ def compute(request: Request, progress=None) -> dict:
             progress(fraction, "meshing")
 
     meshing(0.0)
-    mesh = core.triangulate(curve, max_edge=request.max_edge, progress=meshing)
-
     superseded = []
 
     def compiling(fraction: float) -> None:
@@ -182,10 +181,9 @@ def compute(request: Request, progress=None) -> dict:
         if progress is not None:
             progress(fraction, "basis functions")
 
-    report(0.0)
-    basis = core.mesh_basis_functions(
-        curve, mesh, kernel=request.kernel, progress=report, compiling=compiling, **request.params
-    )
+    settings = WarpSettings(request.kernel, request.params, request.max_edge)
+    warped = prepare(curve, settings, progress=report, compiling=compiling, meshing=meshing)
+    mesh, basis = warped.mesh, warped.basis
     gradients = None
     if request.gradients:
         # G is in the disk cache now; grad G has no progress of its own, and its first use

@@ -25,7 +25,8 @@ import time
 import numpy as np
 
 from app.framing import output_region
-from app.render import View, WarpRenderer
+from app.render import WarpRenderer
+from app.view import View
 from app.viewer.controller import band_corners
 from app.viewer.distortion_view import vertex_distortion
 from app.viewer.editing import curve_points, to_image
@@ -349,11 +350,12 @@ class Scene:
         """Someone else wrote the position buffer: recompute it at the next `sync`."""
         self._drawn_target = None
 
-    def exact_positions(self, state: AppState) -> np.ndarray | None:
-        """G @ P' in float64 for the current target (what `warp` draws), or None without a matching mesh."""
+    def deformation(self, state: AppState):
+        """The `app.warping.Deformation` of the mesh drawn (what `warp` renders), or None without a
+        matching mesh."""
         if not self.mesh_matches(state):
             return None
-        return deform(self._basis.basis, state.live.target)
+        return self._basis.deformation()
 
     def draw(self, state: AppState, framebuffer_size: tuple[int, int], pixel_ratio: float = 1.0) -> None:
         """Draw the canvas into the bound framebuffer: backdrop, mesh, overlays.

@@ -1,6 +1,6 @@
 """Opening a viewer document (demo, image, cage, session file) and saving it as a session.
 
-The session file is the one of DESIGN.md (``image``, ``cage``, ``target``,
+The session file is the one of .docs/architecture.md (``image``, ``cage``, ``target``,
 ``kernel``, ``view``) plus keys of its own that `python -m app warp --session`
 also reads, so that it exports exactly what the viewer showed: ``kernel_params``
 (the ``power`` kernel's ``power`` and ``shift``), ``parameterization`` (``"natural"``,
@@ -45,7 +45,7 @@ from app.files import (
 )
 from app.framing import CANVASES, OUTSIDES
 from app.keyframes import DEFAULT_INTERPOLATION, MAX_TIME, Keyframe, keyframes_json
-from app.render import View
+from app.view import View
 from app.viewer.session_files import backups, keep_aside, rotate_backups, session_path_for
 from app.viewer.session_lock import SessionLock, lock_session
 from app.viewer.state import (

@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from app.keyframes import DEFAULT_INTERPOLATION, INTERPOLATIONS, Keyframe, sorted_keyframes
-from app.render import View
+from app.view import View
 
 #: Parameters of the ``power`` kernel family (Eq. 19) when a session does not say.
 DEFAULT_POWER = 4.0
@@ -326,6 +326,12 @@ class BasisResult:
     gradients: np.ndarray | None = None
     preview: PreviewMesh | None = None
     imaginary_columns: np.ndarray | None = None
+
+    def deformation(self):
+        """This basis as an `app.warping.Deformation`: what `warp` and the export render."""
+        from app.warping import Deformation
+
+        return Deformation(self.mesh, self.basis, self.kernel)
 
 
 @dataclass(frozen=True)

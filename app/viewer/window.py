@@ -32,7 +32,6 @@ from app.viewer import controller, editing
 from app.viewer.precompute import Precompute, make_request
 from app.viewer.session import Document, apply_preferences, open_document, save, start_snapshot
 from app.viewer.state import AppState, History, Snapshot
-from core.deformation import deform
 
 TEST_VARIABLE = "TRANSFINITE_VIEWER_TEST"
 WINDOW_SIZE = (1280, 1024)
@@ -632,7 +631,9 @@ class Viewer:
             state.say(str(error), error=True)
             return
         state.playing = False
-        self._export = AnimationExport(writer, times, size, view, live, state.basis.basis, state.outside)
+        self._export = AnimationExport(
+            writer, times, size, view, live, state.basis.deformation(), state.outside
+        )
         self._last_export = str(path) + os.sep if kind == "png" else str(path)
         state.say(f"exporting {len(times)} frames to {path} (Esc stops)")
 
@@ -642,14 +643,14 @@ class Viewer:
         if export is None:
             return
         from app.keyframes import interpolate
+        from app.warping import render
 
         snapshot = export.snapshot
         target = interpolate(snapshot.keyframes, float(export.times[export.written]), snapshot.interpolation)
-        self.renderer.set_positions(deform(export.basis, target))
         self.scene.invalidate_positions()
         try:
             export.writer.add(
-                self.renderer.render(export.size, export.view, backdrop=export.outside == "original")
+                render(self.renderer, export.deformation, target, export.size, export.view, export.outside)
             )
             export.written += 1
             if export.written == len(export.times):
@@ -701,15 +702,16 @@ class Viewer:
         state = self.state
         if state.basis is None or state.basis.key != self._wanted:
             return None
-        positions = self.scene.exact_positions(state)
-        if positions is None:
+        from app.warping import render
+
+        deformation = self.scene.deformation(state)
+        if deformation is None:
             return None
-        self.renderer.set_positions(positions)
         self.scene.invalidate_positions()
         height, width = state.image.shape[:2]
         region = output_region((width, height), state.live.target, state.canvas)
         size, view = output_frame(region)
-        return self.renderer.render(size, view, backdrop=state.outside == "original")
+        return render(self.renderer, deformation, state.live.target, size, view, state.outside)
 
     def _save_if_needed(self, force: bool = False, announce: bool = False, due: bool = False) -> None:
         """Autosave after an edit, after a zoom or pan settles, or when asked.
@@ -981,8 +983,8 @@ class AnimationExport:
         Output size (width, height) and image-to-output `View` (`app.framing`).
     snapshot : Snapshot
         The document when the export started (its keyframes and interpolation).
-    basis : ndarray of shape (V, n)
-        G of the mesh drawn.
+    deformation : app.warping.Deformation
+        The mesh drawn and its G.
     outside : str
     written : int
         Frames written so far.
@@ -993,7 +995,7 @@ class AnimationExport:
     size: tuple[int, int]
     view: object
     snapshot: Snapshot
-    basis: np.ndarray
+    deformation: object  # app.warping.Deformation
     outside: str
     written: int = 0
 

@@ -1,0 +1,151 @@
+"""The warp of an image by a cage: the one pipeline of `warp`, `animate`, the viewer's export and `quality`.
+
+A warp is two steps, as in the paper's Sec. 4.3:
+
+1. `prepare`: mesh the cage's interior and compute the basis functions G (V, n) at
+   the mesh vertices, once per cage and kernel (the slow part, cached on disk by
+   `core.mesh_basis_functions`);
+2. `Deformation.positions` and `render`: the deformed vertices f(v) = sum_i G_i(v) P_i
+   for a target (V, n) @ (n, 2), then the source image drawn on the deformed mesh.
+
+Every command that writes warped pixels goes through `render`, so `warp`, each frame
+of `animate` and the viewer's export of the same target are the same pixels; `quality`
+measures `Deformation.positions` of the same `prepare`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+import core
+from app.view import View
+from core.deformation import deform
+
+
+@dataclass(frozen=True)
+class WarpSettings:
+    """How to deform: everything `prepare` needs besides the cage.
+
+    Attributes
+    ----------
+    kernel : str
+        A kernel of `core.mesh_basis_functions` (default: the package default, ``"poisson"``).
+    params : dict
+        Its keyword parameters (``power``, ``parameterization``, ``samples_per_segment``...).
+    max_edge : float, optional
+        Longest mesh edge in image pixels; None for the automatic size.
+    cache : bool
+        Read and write the on-disk basis cache.
+    """
+
+    kernel: str = core.DEFAULT_KERNEL
+    params: dict = field(default_factory=dict)
+    max_edge: float | None = None
+    cache: bool = True
+
+
+@dataclass(frozen=True)
+class Deformation:
+    """A cage's precomputed deformation.
+
+    Attributes
+    ----------
+    mesh : core.Mesh
+        The triangulated interior, V vertices in image pixels.
+    basis : ndarray of shape (V, n)
+        G at the mesh vertices; complex for the Cauchy-Green kernel.
+    kernel : str
+        The kernel that computed `basis`.
+    """
+
+    mesh: core.Mesh
+    basis: np.ndarray
+    kernel: str
+
+    def positions(self, target: np.ndarray) -> np.ndarray:
+        """Deformed vertices (V, 2) for the target control points (n, 2) (`core.deform`)."""
+        return deform(self.basis, target)
+
+
+def prepare(
+    curve: core.ClosedBSpline,
+    settings: WarpSettings,
+    mesh: core.Mesh | None = None,
+    progress: Callable[[float], None] | None = None,
+    compiling: Callable[[float], None] | None = None,
+    meshing: Callable[[float], None] | None = None,
+) -> Deformation:
+    """Mesh the cage (unless `mesh` is given) and compute its basis functions.
+
+    Parameters
+    ----------
+    curve : core.ClosedBSpline
+        The cage, n control points.
+    settings : WarpSettings
+        Kernel, parameters, mesh size and caching.
+    mesh : core.Mesh, optional
+        A mesh of `curve` to use instead of ``core.triangulate(curve, settings.max_edge)``.
+    progress, compiling : callable, optional
+        Fractions of the basis computation and of a first-run compilation
+        (`core.mesh_basis_functions`).
+    meshing : callable, optional
+        Fractions of the meshing (`core.triangulate`).
+
+    Raises
+    ------
+    ValueError
+        From `core.triangulate` and `core.mesh_basis_functions`, for a cage or settings they refuse.
+    """
+    if mesh is None:
+        mesh = core.triangulate(curve, max_edge=settings.max_edge, progress=meshing)
+    if progress is not None:
+        progress(0.0)  # the basis phase begins (a superseded viewer request stops here)
+    basis = core.mesh_basis_functions(
+        curve,
+        mesh,
+        kernel=settings.kernel,
+        progress=progress,
+        compiling=compiling,
+        cache=settings.cache,
+        **settings.params,
+    )
+    return Deformation(mesh, basis, settings.kernel)
+
+
+def render(
+    renderer,
+    deformation: Deformation,
+    target: np.ndarray,
+    size: tuple[int, int],
+    view: View,
+    outside: str,
+) -> np.ndarray:
+    """The image on `renderer` drawn on the mesh deformed to `target`.
+
+    Parameters
+    ----------
+    renderer : app.render.WarpRenderer
+        Holds the source image and `deformation.mesh` (`set_image`, `set_mesh`).
+    deformation : Deformation
+    target : ndarray of shape (n, 2)
+        Target control points, image pixels.
+    size : tuple of int
+        (width, height) of the output.
+    view : View
+        Image pixels to output pixels.
+    outside : str
+        ``"original"`` draws the source image behind the warp, ``"transparent"`` leaves it clear.
+
+    Returns
+    -------
+    ndarray of shape (height, width, 4), uint8
+        Premultiplied RGBA.
+    """
+    renderer.set_positions(deformation.positions(target))
+    return renderer.render(size, view, backdrop=outside == "original")
+
+
+__all__ = ["Deformation", "WarpSettings", "prepare", "render"]

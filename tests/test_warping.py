@@ -1,0 +1,105 @@
+"""One warp pipeline (app.warping): `warp`, `animate`, the viewer's export and `quality` draw or
+measure the same deformation of the same mesh."""
+
+import json
+
+import numpy as np
+import pytest
+from test_cli import CAGE, picture, run_main, transformed
+
+import app.warping
+import core
+from app.files import read_image, write_png
+from app.viewer.precompute import compute, make_request, result_from_message
+from app.viewer.scene import Scene
+from app.viewer.state import AppState, History, Snapshot
+from app.viewer.window import Viewer
+
+MAX_EDGE = 9.0
+
+
+@pytest.fixture(autouse=True)
+def private_cache(tmp_path_factory, monkeypatch):
+    monkeypatch.setenv("TRANSFINITE_CACHE_DIR", str(tmp_path_factory.mktemp("cache")))
+
+
+@pytest.fixture
+def spied(monkeypatch):
+    """The names of the commands that called `app.warping.prepare` and `render`, in order."""
+    calls = []
+    for name in ("prepare", "render"):
+        original = getattr(app.warping, name)
+
+        def spy(*arguments, original=original, name=name, **keywords):
+            calls.append(name)
+            return original(*arguments, **keywords)
+
+        monkeypatch.setattr(app.warping, name, spy)
+    return calls
+
+
+def test_warp_animate_the_viewer_export_and_quality_share_one_pipeline(tmp_path, capfd, renderer, spied):
+    write_png(tmp_path / "picture.png", picture())
+    cage, moved = np.array(CAGE, dtype=float), transformed(CAGE)
+    session = {
+        "image": "picture.png",
+        "cage": {"control_points": cage.tolist()},
+        "target": {"control_points": moved.tolist()},
+        "kernel": "poisson",
+        "view": {"scale": 1.0, "offset": [0, 0]},
+        "keyframes": [{"time": t, "target": {"control_points": moved.tolist()}} for t in (0.0, 1.0)],
+    }
+    (tmp_path / "session.json").write_text(json.dumps(session))
+    limit = ["--max-edge", str(MAX_EDGE)]
+
+    warp_argv = ["warp", "--session", tmp_path / "session.json", "--output", tmp_path / "warp.png", *limit]
+    code, _, err = run_main(warp_argv, capfd)
+    assert code == 0, err
+    assert spied == ["prepare", "render"]
+    warped = read_image(tmp_path / "warp.png")
+
+    frames = tmp_path / "frames"
+    animate_argv = ["animate", tmp_path / "session.json", "--output", f"{frames}/", "--fps", "2", *limit]
+    assert run_main(animate_argv, capfd)[0] == 0
+    assert spied[2:] == ["prepare", "render", "render", "render"]
+    for frame in sorted(frames.iterdir()):
+        np.testing.assert_array_equal(read_image(frame), warped)
+
+    # The viewer: its worker's precompute, its scene, and the export of the current target.
+    snapshot = Snapshot(tmp_path / "picture.png", cage, moved)
+    request = make_request(snapshot, MAX_EDGE)
+    state = AppState(History(snapshot), snapshot, picture(), tmp_path / "s.json")
+    state.basis = result_from_message(request.key, compute(request))
+    state.mode = "deform"
+    viewer = Viewer.__new__(Viewer)
+    viewer.state, viewer.renderer, viewer.scene, viewer._wanted = (
+        state,
+        renderer,
+        Scene(renderer),
+        request.key,
+    )
+    viewer.scene.sync(state)
+    np.testing.assert_array_equal(viewer._render_export(), warped)
+    assert spied[6:] == ["prepare", "render"]
+
+    # quality measures the positions of the same preparation.
+    from app.quality import KernelChoice, run_study
+    from app.quality_suite import Deformation, Domain
+
+    domain = Domain("picture", cage, [Deformation("moved", moved)])
+    study = run_study([domain], [KernelChoice("poisson", "poisson")], keep=True)
+    assert spied[8:] == ["prepare", "prepare"]  # the FEM reference, then poisson
+    expected = app.warping.prepare(
+        core.ClosedBSpline(cage), app.warping.WarpSettings(cache=False), study.meshes["picture"]
+    )
+    np.testing.assert_array_equal(study.bases["picture", "poisson"], expected.basis)
+
+
+def test_prepare_uses_the_given_mesh_and_the_default_kernel():
+    curve = core.ClosedBSpline(np.array(CAGE, dtype=float))
+    mesh = core.triangulate(curve, max_edge=12.0)
+    fractions = []
+    deformation = app.warping.prepare(curve, app.warping.WarpSettings(cache=False), mesh, fractions.append)
+    assert deformation.mesh is mesh and deformation.kernel == core.DEFAULT_KERNEL == "poisson"
+    assert fractions[0] == 0.0 and fractions[-1] == 1.0
+    np.testing.assert_allclose(deformation.positions(curve.control_points), mesh.vertices, atol=1e-7)
