@@ -24,6 +24,7 @@ import functools
 
 import numpy as np
 
+from core.blas_threads import one_blas_thread
 from core.bspline import ClosedBSpline
 from core.layer import Levels, cauchy_derivatives, cauchy_integrals
 from core.panels import coarse_panels, span_panels
@@ -45,6 +46,7 @@ def _levels(points: bytes, count: int) -> Levels:
     return Levels((spans, coarse), (span_of,), (data(spans), data(coarse)))
 
 
+@one_blas_thread
 def cauchy_green_basis(curve: ClosedBSpline, x: np.ndarray, progress=None) -> np.ndarray:
     """C_i(x), complex ndarray of shape (M, n), at points x (M, 2) in the closed domain.
 
@@ -70,6 +72,7 @@ def cauchy_green_basis(curve: ClosedBSpline, x: np.ndarray, progress=None) -> np
     return out
 
 
+@one_blas_thread
 def cauchy_green_derivatives(curve: ClosedBSpline, x: np.ndarray) -> np.ndarray:
     """dC_i/dz, complex ndarray of shape (M, n), at interior points x (M, 2).
 

@@ -36,6 +36,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.linalg import lu_factor, lu_solve
 
+from core.blas_threads import one_blas_thread
 from core.bspline import ClosedBSpline
 from core.layer import (
     Levels,
@@ -79,6 +80,7 @@ class Densities:
     levels: Levels
 
 
+@one_blas_thread
 def densities(curve: ClosedBSpline) -> Densities:
     """Solve the double-layer equation for every basis function of `curve` (cached per cage)."""
     return _densities(curve.control_points.tobytes(), curve.control_points.shape[0])
@@ -240,6 +242,7 @@ def layer_matrix(curve: ClosedBSpline, panels: Panels, z: np.ndarray, *, own: bo
     return matrix
 
 
+@one_blas_thread
 def poisson_basis(
     curve: ClosedBSpline, x: np.ndarray, progress: Callable[[float], None] | None = None
 ) -> np.ndarray:
@@ -268,6 +271,7 @@ def poisson_basis(
     return out
 
 
+@one_blas_thread
 def poisson_gradients(curve: ClosedBSpline, x: np.ndarray) -> np.ndarray:
     """grad G_i(x), shape (M, n, 2), at interior points x (M, 2); NaN on the curve.
 
