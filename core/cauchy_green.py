@@ -26,14 +26,15 @@ import numpy as np
 
 from core.blas_threads import one_blas_thread
 from core.bspline import ClosedBSpline
-from core.layer import Levels, cauchy_derivatives, cauchy_integrals
+from core.layer import Levels, bisected, cauchy_derivatives, cauchy_integrals
 from core.panels import coarse_panels, span_panels
 from core.poisson import CHUNK, boundary_limit_rows
 
 
 @functools.lru_cache(maxsize=4)
 def _levels(points: bytes, count: int) -> Levels:
-    """Spans and coarse panels with N_1..N_n and 1 at their nodes (polynomials on each panel)."""
+    """Spans, coarse panels and their `bisected` halves with N_1..N_n and 1 at their nodes
+    (polynomials on each panel)."""
     curve = ClosedBSpline(np.frombuffer(points).reshape(count, 2))
     coarse = coarse_panels(curve)
     spans = span_panels(curve)
@@ -43,7 +44,7 @@ def _levels(points: bytes, count: int) -> Levels:
         return np.concatenate([values, np.ones((values.shape[0], 1))], axis=1)
 
     span_of = np.floor(coarse.bounds[:, 0] + 1e-12).astype(np.int64)
-    return Levels((spans, coarse), (span_of,), (data(spans), data(coarse)))
+    return bisected(curve, Levels((spans, coarse), (span_of,), (data(spans), data(coarse))))
 
 
 @one_blas_thread

@@ -41,6 +41,7 @@ from core.bspline import ClosedBSpline
 from core.layer import (
     Levels,
     adaptive_weights,
+    bisected,
     cauchy_derivatives,
     cauchy_integrals,
     hierarchical_rows,
@@ -71,9 +72,10 @@ class Densities:
     curve : ClosedBSpline
     levels : core.layer.Levels
         Spans, coarse panels (`core.panels.coarse_panels`) and fine panels graded
-        towards the knots (`core.panels.graded_panels`); on the fine panels μ_1..μ_n
-        and their sum, shape (P_f * ORDER, n + 1), on the others their weight-corrected
-        restrictions (the coarse ones are R ρ̃ below).
+        towards the knots (`core.panels.graded_panels`), then `core.layer.bisected`
+        halves of the fine panels; on the fine panels μ_1..μ_n and their sum, shape
+        (P_f * ORDER, n + 1), on the halves their interpolants, on the coarser ones their
+        weight-corrected restrictions (the coarse ones are R ρ̃ below).
     """
 
     curve: ClosedBSpline
@@ -164,9 +166,7 @@ def _densities(points: bytes, count: int) -> Densities:
     span_of = np.floor(coarse.bounds[:, 0] + 1e-12).astype(np.int64)
     span_density = restriction(spans, fine, span_of[parent]) @ mu
     levels = Levels((spans, coarse, fine), (span_of, parent), (span_density, weighted, mu))
-    for density in levels.densities:
-        density.setflags(write=False)
-    return Densities(curve, levels)
+    return Densities(curve, bisected(curve, levels))
 
 
 @dataclass(frozen=True)
