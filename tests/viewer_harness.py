@@ -41,7 +41,12 @@ def start_xvfb(size=(1280, 1024)) -> tuple[subprocess.Popen, str]:
             if process.poll() is not None:
                 break
             if Path(f"/tmp/.X11-unix/X{number}").exists():
-                return process, display
+                # Another test's server may have taken the number an instant before: ours then
+                # exits at once, finding the lock.
+                time.sleep(0.2)
+                if process.poll() is None:
+                    return process, display
+                break
             time.sleep(0.05)
         process.kill()
         process.wait()
