@@ -444,3 +444,32 @@ def test_cage_edits_carry_the_keyframes_along_and_a_new_cage_drops_them(state):
     assert state.live.keyframes == () and "keyframes cleared" in state.message
     controller.command(state, "undo")
     assert len(state.live.keyframes) == 2
+
+
+def test_every_command_of_the_keys_and_the_panel_is_registered():
+    import ast
+    import inspect
+
+    from app.viewer import gui, window
+
+    registered = set(controller.COMMANDS) | set(window.Viewer.WINDOW_COMMANDS)
+    keyed = {entry[2] for entry in window._key_table()}
+    panel = {
+        node.args[0].elts[0].value
+        for node in ast.walk(ast.parse(inspect.getsource(gui)))
+        if isinstance(node, ast.Call)
+        and getattr(node.func, "attr", None) == "append"
+        and getattr(node.func.value, "id", None) == "commands"
+        and isinstance(node.args[0], ast.Tuple)
+        and isinstance(node.args[0].elts[0], ast.Constant)
+    }
+    assert keyed <= registered and panel <= registered, (keyed | panel) - registered
+    assert len(panel) > 20
+    for entry in controller.COMMANDS.values():
+        assert entry.label and callable(entry.run)
+    # What refuses to run while a new cage is drawn is what edits the document or the time.
+    blocked = {name for name, entry in controller.COMMANDS.items() if not entry.while_drawing}
+    assert {"redo", "kernel", "subdivide", "add_keyframe", "seek"} <= blocked
+    assert not {"undo", "cancel", "confirm", "delete", "zoom"} & blocked
+    for name in window.Viewer.WINDOW_COMMANDS:
+        assert callable(getattr(window.Viewer, f"_command_{name}"))

@@ -20,6 +20,8 @@ Mouse (window pixels, canvas only):
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -334,21 +336,57 @@ def zoom(state: AppState, factor: float, about=None) -> None:
     state.view_fitted = False
 
 
-def command(state: AppState, name: str, value=None) -> bool:
-    """Run a named command of the panel or the keyboard; False if `name` is not one of these.
+# -- named commands ---------------------------------------------------------------------
 
-    Commands: undo, redo, cancel, new_cage, confirm (Enter), reset_target, fit, subdivide, delete,
-    mode, content, kernel, cycle_kernel (value "previous" goes back), power, shift,
-    parameterization (natural or arc-length), toggle (a bool
-    field of the state), outside, canvas (the export settings of app.framing), fit_view, zoom ("in",
-    "out" or a scale, 1.0 for 100 %), help; and the timeline's: add_keyframe (at the current time,
-    or at time `value`, from the target shown; one at the same time is replaced), delete_keyframe
-    (index, default the selected one), keyframe_time ((index, seconds)), select_keyframe (index or
-    None), seek (seconds), seek_by (seconds, forward or back), playback (play or pause),
-    interpolation (a name of app.keyframes.INTERPOLATIONS).
-    The window handles the ones that need it (open, save, export, quit).
+
+@dataclass(frozen=True)
+class Command:
+    """One named command of the keyboard, the panel or a script.
+
+    Attributes
+    ----------
+    name : str
+        What `command` is called with (the key table of `app.viewer.window` and the
+        panel's widgets name it).
+    run : callable
+        ``run(state, value)``: does it.
+    label : str
+        What it does, in a few words.
+    undoable : bool
+        It changes the document as one step of the undo history (through `commit`).
+    while_drawing : bool
+        It may run while a new cage is drawn; the others are refused then.
     """
-    live = state.live
+
+    name: str
+    run: Callable[[AppState, object], None]
+    label: str
+    undoable: bool = False
+    while_drawing: bool = True
+
+
+#: Every command of the controller, by name (`command` runs them).
+COMMANDS: dict[str, Command] = {}
+
+
+def _command(name: str, label: str, undoable: bool = False, while_drawing: bool = True):
+    """Register the decorated ``run(state, value)`` as the command `name`."""
+
+    def register(run):
+        COMMANDS[name] = Command(name, run, label, undoable, while_drawing)
+        return run
+
+    return register
+
+
+def command(state: AppState, name: str, value=None) -> bool:
+    """Run a named command of the panel or the keyboard (`COMMANDS`); False if there is none.
+
+    A new cage being drawn gives cancel, confirm, delete and undo their drawing meaning
+    and refuses the commands that edit the document; the rectangle of a fit on a photo
+    takes confirm and cancel.  The window handles the commands that need it (open, save,
+    export, quit: `app.viewer.window.Viewer.command`).
+    """
     if state.drawing is not None and _drawing_command(state, name):
         return True
     if state.fit_rect and name in ("confirm", "cancel") and state.drag is None:
@@ -358,98 +396,180 @@ def command(state: AppState, name: str, value=None) -> bool:
             state.fit_rect = False
             state.say("fit cancelled")
         return True
-    if name == "undo":
-        if state.drag is not None:
-            cancel_drag(state)
-        snapshot = state.history.undo()
-        show(state, snapshot) if snapshot is not None else state.say("nothing to undo")
-    elif name == "redo":
-        if state.drag is not None:
-            cancel_drag(state)
-        snapshot = state.history.redo()
-        show(state, snapshot) if snapshot is not None else state.say("nothing to redo")
-    elif name == "cancel":
-        if not cancel_drag(state):
-            state.show_help = False
-            state.open_prompt = state.export_prompt = None
-    elif name == "new_cage":
-        drawing.start(state)
-    elif name == "confirm":
-        pass  # Enter means something only while a new cage is drawn
-    elif name == "reset_target":
-        commit(state, live.replace(target=live.cage), "target reset to the source cage")
-    elif name == "fit":
-        if value is None and (state.image[..., 3] == 255).all():
-            # A photograph: the user shows where the subject is first.
-            state.fit_rect = True
-            state.say("drag a rectangle around the subject (Enter: the whole picture, Esc: cancel)")
-        else:  # an image with a silhouette (alpha), or a number of control points
-            fit(state, points=int(value) if value else None)
-    elif name == "subdivide":
-        if live.n < 3:
-            state.say("place at least 3 control points first", error=True)
-        else:
-            cage, target = editing.subdivide(live.cage), editing.subdivide(live.target)
-            keyframes = _map_keyframes(live, editing.subdivide)
-            message = f"subdivided: {len(cage)} control points"
-            commit(state, live.replace(cage=cage, target=target, keyframes=keyframes), message)
-            state.selected = None
-    elif name == "delete":
-        delete(state, value)
-    elif name == "mode":
-        state.mode = value if value in MODES else ("cage" if state.mode == "deform" else "deform")
-        state.hovered = None
-        state.group = frozenset()
-        state.session_dirty = True
-    elif name == "content":
-        if value in CONTENTS:
-            state.content = value
-            state.session_dirty = True
-    elif name == "distortion_measure":
-        if value in MEASURES:
-            state.distortion_measure = value
-            state.session_dirty = True
-    elif name == "kernel":
-        if value not in kernel_names():
-            state.say(f"unknown kernel {value!r}", error=True)
-        else:
-            commit(state, live.replace(kernel=value), f"kernel: {value}")
-    elif name == "cycle_kernel":
-        names = kernel_names()
-        index = names.index(live.kernel) if live.kernel in names else -1
-        kernel = names[(index + (-1 if value == "previous" else 1)) % len(names)]
-        commit(state, live.replace(kernel=kernel), f"kernel: {kernel}")
-    elif name == "parameterization":
-        if value not in PARAMETERIZATIONS:
-            state.say(f"unknown parameterization {value!r}", error=True)
-        else:
-            commit(state, live.replace(parameterization=value), f"parameterization: {value}")
-    elif name == "power":
-        if float(value) > 0:
-            commit(state, live.replace(power=float(value)))
-    elif name == "shift":
-        if value in SHIFTS:
-            commit(state, live.replace(shift=value))
-    elif name in ("outside", "canvas"):
-        choices = OUTSIDES if name == "outside" else CANVASES
-        if value in choices:
-            setattr(state, name, value)
-            state.session_dirty = True
-    elif name == "toggle":
-        setattr(state, value, not getattr(state, value))
-        state.session_dirty = True
-    elif name == "fit_view":
-        fit_view(state, value)
-    elif name == "zoom":
-        if value in ("in", "out"):
-            zoom(state, KEY_ZOOM_STEP if value == "in" else 1 / KEY_ZOOM_STEP)
-        else:  # a scale: 1.0 is 100 %
-            zoom(state, float(value) / state.view.scale)
-    elif name == "help":
-        state.show_help = not state.show_help
-    elif not _timeline_command(state, name, value):
+    entry = COMMANDS.get(name)
+    if entry is None:
         return False
+    entry.run(state, value)
     return True
+
+
+@_command("undo", "undo the last edit")
+def _undo(state: AppState, value) -> None:
+    if state.drag is not None:
+        cancel_drag(state)
+    snapshot = state.history.undo()
+    show(state, snapshot) if snapshot is not None else state.say("nothing to undo")
+
+
+@_command("redo", "redo the edit undone", while_drawing=False)
+def _redo(state: AppState, value) -> None:
+    if state.drag is not None:
+        cancel_drag(state)
+    snapshot = state.history.redo()
+    show(state, snapshot) if snapshot is not None else state.say("nothing to redo")
+
+
+@_command("cancel", "cancel the drag in progress, close a list or the help")
+def _cancel(state: AppState, value) -> None:
+    if not cancel_drag(state):
+        state.show_help = False
+        state.open_prompt = state.export_prompt = None
+
+
+@_command("new_cage", "draw a new cage by clicking")
+def _new_cage(state: AppState, value) -> None:
+    drawing.start(state)
+
+
+@_command("confirm", "close the new cage; use it")
+def _confirm(state: AppState, value) -> None:
+    pass  # Enter means something only while a new cage is drawn (`_drawing_command`)
+
+
+@_command("reset_target", "reset the target to the source cage", undoable=True, while_drawing=False)
+def _reset_target(state: AppState, value) -> None:
+    live = state.live
+    commit(state, live.replace(target=live.cage), "target reset to the source cage")
+
+
+@_command("fit", "fit the cage to the subject", undoable=True, while_drawing=False)
+def _fit(state: AppState, value) -> None:
+    if value is None and (state.image[..., 3] == 255).all():
+        # A photograph: the user shows where the subject is first.
+        state.fit_rect = True
+        state.say("drag a rectangle around the subject (Enter: the whole picture, Esc: cancel)")
+    else:  # an image with a silhouette (alpha), or a number of control points
+        fit(state, points=int(value) if value else None)
+
+
+@_command(
+    "subdivide", "subdivide the cage (same curve, twice the points)", undoable=True, while_drawing=False
+)
+def _subdivide(state: AppState, value) -> None:
+    live = state.live
+    if live.n < 3:
+        state.say("place at least 3 control points first", error=True)
+        return
+    cage, target = editing.subdivide(live.cage), editing.subdivide(live.target)
+    keyframes = _map_keyframes(live, editing.subdivide)
+    message = f"subdivided: {len(cage)} control points"
+    commit(state, live.replace(cage=cage, target=target, keyframes=keyframes), message)
+    state.selected = None
+
+
+@_command("delete", "delete the selected control points (cage mode)", undoable=True)
+def _delete(state: AppState, value) -> None:
+    delete(state, value)
+
+
+@_command("mode", "deform (drag the target) or cage (edit the source)", while_drawing=False)
+def _mode(state: AppState, value) -> None:
+    state.mode = value if value in MODES else ("cage" if state.mode == "deform" else "deform")
+    state.hovered = None
+    state.group = frozenset()
+    state.session_dirty = True
+
+
+@_command("content", "what the canvas shows: image, basis, height or distortion")
+def _content(state: AppState, value) -> None:
+    if value in CONTENTS:
+        state.content = value
+        state.session_dirty = True
+
+
+@_command("distortion_measure", "the distortion view's measure: area or conformal")
+def _distortion_measure(state: AppState, value) -> None:
+    if value in MEASURES:
+        state.distortion_measure = value
+        state.session_dirty = True
+
+
+@_command("kernel", "deform with this kernel", undoable=True, while_drawing=False)
+def _kernel(state: AppState, value) -> None:
+    if value not in kernel_names():
+        state.say(f"unknown kernel {value!r}", error=True)
+    else:
+        commit(state, state.live.replace(kernel=value), f"kernel: {value}")
+
+
+@_command(
+    "cycle_kernel", "the next (value 'previous': the previous) kernel", undoable=True, while_drawing=False
+)
+def _cycle_kernel(state: AppState, value) -> None:
+    names = kernel_names()
+    index = names.index(state.live.kernel) if state.live.kernel in names else -1
+    kernel = names[(index + (-1 if value == "previous" else 1)) % len(names)]
+    commit(state, state.live.replace(kernel=kernel), f"kernel: {kernel}")
+
+
+@_command(
+    "parameterization", "the boundary's parameter: natural or arc-length", undoable=True, while_drawing=False
+)
+def _parameterization(state: AppState, value) -> None:
+    if value not in PARAMETERIZATIONS:
+        state.say(f"unknown parameterization {value!r}", error=True)
+    else:
+        commit(state, state.live.replace(parameterization=value), f"parameterization: {value}")
+
+
+@_command("power", "the power kernel's exponent", undoable=True, while_drawing=False)
+def _power(state: AppState, value) -> None:
+    if float(value) > 0:
+        commit(state, state.live.replace(power=float(value)))
+
+
+@_command("shift", "the power kernel's shift", undoable=True, while_drawing=False)
+def _shift(state: AppState, value) -> None:
+    if value in SHIFTS:
+        commit(state, state.live.replace(shift=value))
+
+
+@_command("outside", "what an export shows outside the warp: transparent or original")
+def _outside(state: AppState, value) -> None:
+    if value in OUTSIDES:
+        state.outside = value
+        state.session_dirty = True
+
+
+@_command("canvas", "an export's frame: the source image, or grown to the target")
+def _canvas(state: AppState, value) -> None:
+    if value in CANVASES:
+        state.canvas = value
+        state.session_dirty = True
+
+
+@_command("toggle", "switch a setting of the view on or off (value: its name)")
+def _toggle(state: AppState, value) -> None:
+    setattr(state, value, not getattr(state, value))
+    state.session_dirty = True
+
+
+@_command("fit_view", "fit the image in the window")
+def _fit_view(state: AppState, value) -> None:
+    fit_view(state, value)
+
+
+@_command("zoom", "zoom in, out, or to a scale (1.0: 100 %)")
+def _zoom(state: AppState, value) -> None:
+    if value in ("in", "out"):
+        zoom(state, KEY_ZOOM_STEP if value == "in" else 1 / KEY_ZOOM_STEP)
+    else:
+        zoom(state, float(value) / state.view.scale)
+
+
+@_command("help", "show or hide the help")
+def _help(state: AppState, value) -> None:
+    state.show_help = not state.show_help
 
 
 # -- keyframes and the timeline ---------------------------------------------------------
@@ -496,89 +616,119 @@ def advance(state: AppState, seconds: float) -> None:
     show_time(state)
 
 
-def _timeline_command(state: AppState, name: str, value) -> bool:
-    """The timeline's commands (see `command`); False if `name` is not one of them."""
+# -- the timeline's commands ------------------------------------------------------------
+
+
+@_command(
+    "add_keyframe",
+    "a keyframe at the current time (or at time value) from the target shown",
+    undoable=True,
+    while_drawing=False,
+)
+def _add_keyframe(state: AppState, value) -> None:
     live = state.live
     keyframes = live.keyframes
-    if name == "add_keyframe":
-        time = state.time if value is None else float(value)
-        if not 0.0 <= time <= MAX_TIME:
-            state.say(f"a keyframe needs a time within 0..{MAX_TIME:g} s", error=True)
-            return True
-        kept = tuple(k for k in keyframes if abs(k.time - time) >= TIME_RESOLUTION)
-        replaced = len(kept) < len(keyframes)
-        snapshot = live.replace(keyframes=(*kept, Keyframe(time, live.target)))
-        count = len(snapshot.keyframes)
-        verb = "replaced" if replaced else "added"
-        commit(state, snapshot, f"{verb} the keyframe at {time:.2f} s ({count} keyframe{'s' * (count != 1)})")
-        state.time = time
-        state.keyframe = next(i for i, k in enumerate(snapshot.keyframes) if k.time == time)
-    elif name == "delete_keyframe":
-        index = state.keyframe if value is None else int(value)
-        if index is None or not 0 <= index < len(keyframes):
-            state.say("select a keyframe first (click it on the timeline)", error=True)
-            return True
-        time = keyframes[index].time
-        remaining = keyframes[:index] + keyframes[index + 1 :]
-        commit(state, live.replace(keyframes=remaining), f"deleted the keyframe at {time:.2f} s")
-        state.keyframe = None
-        show_time(state)
-    elif name == "keyframe_time":
-        index, time = int(value[0]), float(value[1])
-        if not 0 <= index < len(keyframes):
-            return True
-        if not 0.0 <= time <= MAX_TIME:
-            state.say(f"keyframe times lie within 0..{MAX_TIME:g} s", error=True)
-            return True
-        others = keyframes[:index] + keyframes[index + 1 :]
-        if any(abs(k.time - time) < TIME_RESOLUTION for k in others):
-            state.say(f"there is a keyframe at {time:.2f} s already", error=True)
-            return True
-        moved = Keyframe(time, keyframes[index].target)
-        snapshot = live.replace(keyframes=(*others, moved))
-        commit(state, snapshot, f"moved a keyframe from {keyframes[index].time:.2f} s to {time:.2f} s")
-        state.keyframe = snapshot.keyframes.index(moved)
-        state.time = time
-        show_time(state)
-    elif name == "select_keyframe":
-        index = None if value is None else int(value)
-        if index is not None and 0 <= index < len(keyframes):
-            state.keyframe, state.time, state.playing = index, keyframes[index].time, False
-            show_time(state)
-        else:
-            state.keyframe = None
-    elif name in ("seek", "seek_by"):
-        time = float(value) + (state.time if name == "seek_by" else 0.0)
-        state.time = min(max(time, 0.0), MAX_TIME)
-        show_time(state)
-    elif name == "playback":
-        span = live.time_span
-        if state.playing:
-            state.playing = False
-            state.say(f"paused at {state.time:.2f} s")
-        elif span is None or span[0] == span[1]:
-            state.say("add two keyframes at different times to play (the Keyframe button, or I)", error=True)
-        else:
-            if state.time >= span[1] or state.time < span[0]:
-                state.time = span[0]
-            state.playing = True
-            state.say("playing (Space pauses)")
-            show_time(state)
-    elif name == "interpolation":
-        if value in INTERPOLATIONS:
-            commit(state, live.replace(interpolation=value), f"interpolation: {value}")
-            show_time(state)
-    else:
-        return False
-    return True
+    time = state.time if value is None else float(value)
+    if not 0.0 <= time <= MAX_TIME:
+        state.say(f"a keyframe needs a time within 0..{MAX_TIME:g} s", error=True)
+        return
+    kept = tuple(k for k in keyframes if abs(k.time - time) >= TIME_RESOLUTION)
+    replaced = len(kept) < len(keyframes)
+    snapshot = live.replace(keyframes=(*kept, Keyframe(time, live.target)))
+    count = len(snapshot.keyframes)
+    verb = "replaced" if replaced else "added"
+    commit(state, snapshot, f"{verb} the keyframe at {time:.2f} s ({count} keyframe{'s' * (count != 1)})")
+    state.time = time
+    state.keyframe = next(i for i, k in enumerate(snapshot.keyframes) if k.time == time)
 
 
-#: Commands that change the document: refused while a new cage is drawn.
-_EDITS = (
-    *("redo", "reset_target", "fit", "subdivide", "mode", "kernel", "cycle_kernel", "power", "shift"),
-    "parameterization",
-    *("add_keyframe", "delete_keyframe", "keyframe_time", "interpolation", "playback", "seek", "seek_by"),
+@_command(
+    "delete_keyframe",
+    "delete a keyframe (value: its index; the selected one)",
+    undoable=True,
+    while_drawing=False,
 )
+def _delete_keyframe(state: AppState, value) -> None:
+    live = state.live
+    keyframes = live.keyframes
+    index = state.keyframe if value is None else int(value)
+    if index is None or not 0 <= index < len(keyframes):
+        state.say("select a keyframe first (click it on the timeline)", error=True)
+        return
+    time = keyframes[index].time
+    remaining = keyframes[:index] + keyframes[index + 1 :]
+    commit(state, live.replace(keyframes=remaining), f"deleted the keyframe at {time:.2f} s")
+    state.keyframe = None
+    show_time(state)
+
+
+@_command(
+    "keyframe_time", "move a keyframe in time (value: index, seconds)", undoable=True, while_drawing=False
+)
+def _keyframe_time(state: AppState, value) -> None:
+    live = state.live
+    keyframes = live.keyframes
+    index, time = int(value[0]), float(value[1])
+    if not 0 <= index < len(keyframes):
+        return
+    if not 0.0 <= time <= MAX_TIME:
+        state.say(f"keyframe times lie within 0..{MAX_TIME:g} s", error=True)
+        return
+    others = keyframes[:index] + keyframes[index + 1 :]
+    if any(abs(k.time - time) < TIME_RESOLUTION for k in others):
+        state.say(f"there is a keyframe at {time:.2f} s already", error=True)
+        return
+    moved = Keyframe(time, keyframes[index].target)
+    snapshot = live.replace(keyframes=(*others, moved))
+    commit(state, snapshot, f"moved a keyframe from {keyframes[index].time:.2f} s to {time:.2f} s")
+    state.keyframe = snapshot.keyframes.index(moved)
+    state.time = time
+    show_time(state)
+
+
+@_command("select_keyframe", "select a keyframe (value: its index, or None)")
+def _select_keyframe(state: AppState, value) -> None:
+    keyframes = state.live.keyframes
+    index = None if value is None else int(value)
+    if index is not None and 0 <= index < len(keyframes):
+        state.keyframe, state.time, state.playing = index, keyframes[index].time, False
+        show_time(state)
+    else:
+        state.keyframe = None
+
+
+@_command("seek", "go to a time (value: seconds)", while_drawing=False)
+def _seek(state: AppState, value) -> None:
+    state.time = min(max(float(value), 0.0), MAX_TIME)
+    show_time(state)
+
+
+@_command("seek_by", "move the time on or back (value: seconds)", while_drawing=False)
+def _seek_by(state: AppState, value) -> None:
+    _seek(state, state.time + float(value))
+
+
+@_command("playback", "play or pause the keyframes", while_drawing=False)
+def _playback(state: AppState, value) -> None:
+    span = state.live.time_span
+    if state.playing:
+        state.playing = False
+        state.say(f"paused at {state.time:.2f} s")
+    elif span is None or span[0] == span[1]:
+        state.say("add two keyframes at different times to play (the Keyframe button, or I)", error=True)
+    else:
+        if state.time >= span[1] or state.time < span[0]:
+            state.time = span[0]
+        state.playing = True
+        state.say("playing (Space pauses)")
+        show_time(state)
+
+
+@_command("interpolation", "how the target moves between keyframes", undoable=True, while_drawing=False)
+def _interpolation(state: AppState, value) -> None:
+    if value in INTERPOLATIONS:
+        commit(state, state.live.replace(interpolation=value), f"interpolation: {value}")
+        show_time(state)
 
 
 def _drawing_command(state: AppState, name: str) -> bool:
@@ -592,7 +742,7 @@ def _drawing_command(state: AppState, name: str) -> bool:
         if snapshot is not None:
             commit(state, snapshot, f"new cage, {snapshot.n} points: drag to deform")
             state.mode = "deform"
-    elif name in _EDITS:
+    elif name in COMMANDS and not COMMANDS[name].while_drawing:
         state.say("finish the new cage first (Enter) or abandon it (Esc)", error=True)
     else:
         return False

@@ -441,39 +441,65 @@ class Viewer:
             else:
                 self.command(event[1], event[2])
 
+    #: The commands the window runs itself (they need files, dialogs or the loop), with what
+    #: they do; the rest are the controller's (`app.viewer.controller.COMMANDS`).
+    WINDOW_COMMANDS = {
+        "quit": "quit",
+        "save": "save the session now",
+        "export": "export the warped image or the animation (value 'again': to the last file)",
+        "export_path": "export to the path given",
+        "open": "open an image",
+        "open_path": "open the image at the path given",
+        "play": "play or stop the demo script",
+        "start_over": "start over: the image without a cage",
+        "fit_view": "fit the image in the window",
+    }
+
     def command(self, name: str, value=None) -> None:
-        """Run a command of the keyboard, the panel or a drop."""
+        """Run a command of the keyboard, the panel or a drop: the window's own
+        (`WINDOW_COMMANDS`), else the controller's."""
         state = self.state
-        if name == "quit":
-            state.quit = True
-        elif name == "save":
-            self._save_if_needed(force=True, announce=True)
-        elif name == "export":
-            if value == "again" and self._last_export is not None:
-                self.export(Path(self._last_export).expanduser(), self._last_export)
-            else:
-                self._ask_export_path()
-        elif name == "export_path":
-            self.export(Path(value).expanduser(), value)
-        elif name == "cancel" and self._export is not None:
+        if name == "cancel" and self._export is not None:
             self._export.writer.abort()
             self._export = None
             state.say("animation export stopped; nothing was written")
         elif name == "cancel" and self._popup_is_open:
             self._close_popups = True
-        elif name == "open":
-            self._open_dialog()
-        elif name == "open_path":
-            self.open_path(Path(value))
-        elif name == "play":
-            self._toggle_script()
-        elif name == "start_over":
-            self.start_over()
-        elif name == "fit_view":
-            controller.fit_view(state, None)
-            self._view_changed_at = time.perf_counter()
+        elif name in self.WINDOW_COMMANDS:
+            getattr(self, f"_command_{name}")(value)
         elif not controller.command(state, name, value):
             state.say(f"unknown command {name!r}", error=True)
+
+    def _command_quit(self, value) -> None:
+        self.state.quit = True
+
+    def _command_save(self, value) -> None:
+        self._save_if_needed(force=True, announce=True)
+
+    def _command_export(self, value) -> None:
+        if value == "again" and self._last_export is not None:
+            self.export(Path(self._last_export).expanduser(), self._last_export)
+        else:
+            self._ask_export_path()
+
+    def _command_export_path(self, value) -> None:
+        self.export(Path(value).expanduser(), value)
+
+    def _command_open(self, value) -> None:
+        self._open_dialog()
+
+    def _command_open_path(self, value) -> None:
+        self.open_path(Path(value))
+
+    def _command_play(self, value) -> None:
+        self._toggle_script()
+
+    def _command_start_over(self, value) -> None:
+        self.start_over()
+
+    def _command_fit_view(self, value) -> None:
+        controller.fit_view(self.state, None)
+        self._view_changed_at = time.perf_counter()
 
     def _follow_window_size(self, size: tuple[int, int]) -> None:
         """A resized window: fit the image again if it was fitted, else keep the canvas centre still."""
