@@ -507,6 +507,12 @@ def _add_viewer_options(parser: argparse.ArgumentParser) -> None:
         help="start with this boundary parameter of the point kernels: natural or arc-length (default: "
         "the session's, else natural; the panel switches it)",
     )
+    parser.add_argument(
+        "--kernel",
+        metavar="NAME",
+        help=f"start with this kernel (default: the session's, else {DEFAULT_KERNEL}; K and the panel "
+        "switch it); harmonic and pgw compute a mesh first",
+    )
 
 
 def _command(commands, name: str, summary: str, description: str, *examples) -> argparse.ArgumentParser:
@@ -745,7 +751,7 @@ def _view(args: argparse.Namespace) -> int:
     if args.cage is not None and args.image is None:
         raise InputError("--cage needs an IMAGE")
     document = open_document(args.image, args.cage, args.session, args.max_edge, fresh=args.fresh)
-    _choose_parameterization(document, args.parameterization)
+    _choose_start(document, args.kernel, args.parameterization)
     _tell(document.notices)
     script = None
     if args.image is None and (args.session is None or not args.session.exists()):
@@ -776,7 +782,7 @@ def _demo(args: argparse.Namespace) -> int:
             start = start.replace(keyframes=demo_keyframes(files))
         what = "play its animation" if playback else "replay its script"
         begin_with(document, start, f"back to the demo's start to {what} (Ctrl+Z: your last state)")
-    _choose_parameterization(document, args.parameterization)
+    _choose_start(document, args.kernel, args.parameterization)
     _tell(document.notices)
     script = args.script or files.script
     read_script(script, document.snapshot.n)  # bad scripts fail here, before the window opens
@@ -796,10 +802,15 @@ def _demo(args: argparse.Namespace) -> int:
     return run(document, options)
 
 
-def _choose_parameterization(document, parameterization: str | None) -> None:
-    """Start the viewer with the boundary parameterization of the command line, one undoable step."""
+def _choose_start(document, kernel: str | None, parameterization: str | None) -> None:
+    """Start the viewer with the kernel and boundary parameterization of the command line, each one
+    undoable step."""
     from app.viewer.session import begin_with
 
+    if kernel is not None:
+        begin_with(
+            document, document.snapshot.replace(kernel=kernel), f"kernel: {kernel} (Ctrl+Z: the session's)"
+        )
     if parameterization is not None:
         changed = document.snapshot.replace(parameterization=parameterization)
         begin_with(document, changed, f"parameterization: {parameterization} (Ctrl+Z: the session's)")
@@ -814,6 +825,8 @@ def _tell(notices: list[str]) -> None:
 def _check_viewer_outputs(args: argparse.Namespace) -> None:
     if args.max_edge is not None and args.vertices is not None:
         raise InputError("--max-edge and --vertices both set the mesh size: give one")
+    if args.kernel is not None and args.kernel not in kernel_names():
+        raise InputError(f"unknown kernel {args.kernel!r}; choose one of {', '.join(kernel_names())}")
     if args.session is not None:
         check_writable(args.session, suffix=".json")
     if args.export is not None:
