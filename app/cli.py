@@ -146,7 +146,8 @@ def build_parser(prog: str = "python -m app") -> argparse.ArgumentParser:
         "an RGBA PNG, transparent outside the deformed cage (or, with --outside original,\n"
         "over the untouched picture).  Cage files are JSON\n"
         '{"control_points": [[x, y], ...]} in image pixels, x right, y down, origin at the\n'
-        "image's top-left corner.",
+        "image's top-left corner.  Images and cages to try it on come with the program:\n"
+        "python -m app demo --list prints where they are.",
         ("%(prog)s photo.png --cage cage.json --target target.json --output out.png", None),
         ("%(prog)s photo.png --cage c.json --target t.json --output out.png --kernel mean-value", None),
         ("%(prog)s --session photo.json --output out.png", "what the viewer showed, saved in photo.json"),
@@ -164,7 +165,7 @@ def build_parser(prog: str = "python -m app") -> argparse.ArgumentParser:
         help="session JSON of the viewer: image, cage, target and kernel (the output is framed like the "
         "image, not like the viewer's window)",
     )
-    warp.add_argument("--output", type=Path, required=True, help="output PNG (RGBA)")
+    warp.add_argument("--output", type=Path, help="output PNG (RGBA); required")
     warp.add_argument(
         "--kernel",
         metavar="NAME",
@@ -384,8 +385,15 @@ def build_parser(prog: str = "python -m app") -> argparse.ArgumentParser:
         ("%(prog)s pattern --play", "play the demo's keyframed animation, looping"),
         ("%(prog)s starfish --frames frames/", "write every replayed frame as a PNG, then quit"),
         ("%(prog)s character --script my-moves.json", None),
+        ("%(prog)s --list", "where the demos' images and cages are, to try warp or fit on"),
     )
     demo.add_argument("name", nargs="?", metavar="NAME", help="starfish (default), character or pattern")
+    demo.add_argument(
+        "--list",
+        action="store_true",
+        help="print where each demo's image, cage, script and session are (to use with warp, fit, animate "
+        "or view), and quit",
+    )
     demo.add_argument(
         "--play",
         action="store_true",
@@ -545,6 +553,7 @@ def _warp(args: argparse.Namespace) -> int:
     from core.mesh_basis import MESH_ONLY_KERNELS
     from core.validation import checked_samples_per_segment
 
+    _require_warp_arguments(args)
     check_writable(args.output, suffix=".png")
     if args.session is not None:
         given = [f"--{name}" for name in ("cage", "target") if getattr(args, name) is not None]
@@ -564,13 +573,6 @@ def _warp(args: argparse.Namespace) -> int:
         outside, canvas = session_output(session, args.session)
         cage_source, target_source = f"{args.session}: cage", f"{args.session}: target"
     else:
-        missing = [
-            name
-            for name, value in (("IMAGE", args.image), ("--cage", args.cage), ("--target", args.target))
-            if value is None
-        ]
-        if missing:
-            raise InputError(f"warp needs {', '.join(missing)} (or --session)")
         image_path = args.image
         cage, target = read_cage(args.cage), read_cage(args.target)
         kernel = DEFAULT_KERNEL if args.kernel is None else args.kernel
@@ -767,6 +769,9 @@ def _demo(args: argparse.Namespace) -> int:
     from app.viewer.session import begin_with, open_document, start_snapshot
     from app.viewer.window import Options, run
 
+    if args.list:
+        _list_demos()
+        return EXIT_OK
     _check_viewer_outputs(args)
     files = demo_files(args.name or DEFAULT_DEMO)
     document = open_document(
@@ -802,6 +807,17 @@ def _demo(args: argparse.Namespace) -> int:
     return run(document, options)
 
 
+def _list_demos() -> None:
+    """Print each bundled demo and the paths of its files (drawn into the cache if not shipped)."""
+    from app.viewer.demos import DEMOS, demo_files
+
+    for demo in DEMOS.values():
+        files = demo_files(demo.name)
+        print(f"{demo.name}: {demo.title}, {demo.description}")
+        for what in ("image", "cage", "script", "session"):
+            print(f"  {what:8} {getattr(files, what)}")
+
+
 def _choose_start(document, kernel: str | None, parameterization: str | None) -> None:
     """Start the viewer with the kernel and boundary parameterization of the command line, each one
     undoable step."""
@@ -820,6 +836,26 @@ def _tell(notices: list[str]) -> None:
     """What opening a document did (restored, kept aside, ...): one line each on stderr."""
     for notice in notices:
         print(f"note: {notice}", file=sys.stderr)
+
+
+def _require_warp_arguments(args: argparse.Namespace) -> None:
+    """`InputError` naming everything `warp` lacks, with an example command line."""
+    missing = []
+    if args.session is None:
+        inputs = [
+            name
+            for name, value in (("IMAGE", args.image), ("--cage", args.cage), ("--target", args.target))
+            if value is None
+        ]
+        if inputs:
+            missing.append(f"{', '.join(inputs)} (or --session)")
+    if args.output is None:
+        missing.append("--output")
+    if missing:
+        raise InputError(
+            f"warp needs {' and '.join(missing)}, e.g. warp photo.png --cage cage.json --target target.json "
+            "--output out.png (images and cages to try: python -m app demo --list)"
+        )
 
 
 def _check_viewer_outputs(args: argparse.Namespace) -> None:
