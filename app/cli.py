@@ -342,9 +342,14 @@ def build_parser(prog: str = "python -m app") -> argparse.ArgumentParser:
         "in one process (medians of repeated runs), then a 1,000,000-point solve and a 4K\n"
         "warp, each in a child process of its own.",
         ("%(prog)s", "the full table (a few minutes)"),
-        ("%(prog)s --quick", "tiny sizes: a smoke test of seconds"),
+        ("%(prog)s --quick", "every row once at tiny sizes: a smoke test of about 20 s"),
     )
-    bench.add_argument("--quick", action="store_true", help="tiny sizes (a smoke test, seconds)")
+    bench.add_argument(
+        "--quick",
+        action="store_true",
+        help="every row once at tiny sizes: a smoke test of about 20 s (on 2 busy cores; most of it starts "
+        "child processes, solves poisson's densities and drags in a viewer under Xvfb)",
+    )
     bench.add_argument(
         "--repeats", type=_positive(int), default=3, metavar="N", help="runs per row; the median is shown"
     )
