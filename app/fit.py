@@ -21,6 +21,11 @@ The subject (`subject_mask`) is, in this order of trust:
   into the subject tears it when deformed, while a thin band of background inside
   the cage just moves along.
 
+A photograph's subject is uncertain when it is tiny or when colour hardly tells it
+from the background around it (`colour_separation`): `fit_cage` then warns.  With a
+rectangle from the user there is always a cage, inside it: the rectangle itself
+when nothing stands out there.
+
 Alpha channels and plain silhouettes are exact to the pixel and get no margin.  The
 outer contour of the subject is parameterised by arc length and the n control
 points solve the linear least squares problem ``B(t) P = contour`` with the folded
@@ -173,12 +178,23 @@ def fit_cage(
         than a pixel (of the fitted copy) are merged into sharp corners
         (`snap_corners`).  The curve follows the outline of `subject_mask`, grown
         by `SUBJECT_MARGIN` when the subject was segmented from a photograph.
+        With `rect` the curve always lies inside it: its control points are held
+        there, and when nothing stands out in it (a texture), or what does has
+        too short an outline, the cage is the rectangle (`rectangle_cage`).
+
+    Warns
+    -----
+    SubjectUncertainWarning
+        When the subject of a photograph is uncertain (`_warn_if_uncertain`), or
+        the cage is the rectangle because nothing stood out in it.
+    CageFitWarning
+        When the request was changed to keep the curve simple.
 
     Raises
     ------
     ValueError
-        If the image or the rectangle is invalid, the image holds no object, or
-        the object is too small for `points`.
+        If the image or the rectangle is invalid, or, without `rect`, the image
+        holds no object or the object is too small for `points`.
     """
     points = positive_int(points, "points", minimum=3)
     image = _checked_image(image)
