@@ -234,8 +234,7 @@ class GifWriter(FrameWriter):
         sample = Image.fromarray(np.concatenate([self.frames[i] for i in sorted(set(picks))], axis=0))
         palette = sample.quantize(256, method=Image.Quantize.MEDIANCUT)
         images = [Image.fromarray(f).quantize(palette=palette, dither=Image.Dither.NONE) for f in self.frames]
-        # GIF delays are whole hundredths of a second.
-        delay = max(2, round(100 / self.fps)) * 10
+        delay = gif_delays(len(images), self.fps)
         temporary = _temporary(self.path)
         try:
             with open(temporary, "wb") as stream:
@@ -252,6 +251,15 @@ class GifWriter(FrameWriter):
 
     def abort(self) -> None:
         self.frames.clear()
+
+
+def gif_delays(count: int, fps: float) -> list[int]:
+    """Milliseconds each of `count` GIF frames is shown at `fps`: whole hundredths of a second
+    (all GIF can hold) whose running sum is frame k's true time k / fps rounded, so that the
+    rounding does not add up (30 fps: 30, 30, 40, 30, 30, 40 ms, ...; 220 frames last 7.33 s,
+    not 220 x 30 ms = 6.6 s).  At least 20 ms each, as browsers show shorter delays as 100 ms."""
+    ends = np.round(100 * np.arange(count + 1) / fps).astype(int)
+    return [10 * max(2, int(step)) for step in np.diff(ends)]
 
 
 WRITERS = {"mp4": Mp4Writer, "gif": GifWriter, "png": PngFrames}

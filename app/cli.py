@@ -145,7 +145,8 @@ def build_parser(prog: str = "python -m app") -> argparse.ArgumentParser:
         "an RGBA PNG, transparent outside the deformed cage (or, with --outside original,\n"
         "over the untouched picture).  Cage files are JSON\n"
         '{"control_points": [[x, y], ...]} in image pixels, x right, y down, origin at the\n'
-        "image's top-left corner.",
+        "image's top-left corner.  Images and cages to try it on come with the program:\n"
+        "python -m app demo --list prints where they are.",
         ("%(prog)s photo.png --cage cage.json --target target.json --output out.png", None),
         ("%(prog)s photo.png --cage c.json --target t.json --output out.png --kernel mean-value", None),
         ("%(prog)s --session photo.json --output out.png", "what the viewer showed, saved in photo.json"),
@@ -163,7 +164,7 @@ def build_parser(prog: str = "python -m app") -> argparse.ArgumentParser:
         help="session JSON of the viewer: image, cage, target and kernel (the output is framed like the "
         "image, not like the viewer's window)",
     )
-    warp.add_argument("--output", type=Path, required=True, help="output PNG (RGBA)")
+    warp.add_argument("--output", type=Path, help="output PNG (RGBA); required")
     warp.add_argument(
         "--kernel",
         metavar="NAME",
@@ -228,7 +229,10 @@ def build_parser(prog: str = "python -m app") -> argparse.ArgumentParser:
         "alpha channel when it has one, a silhouette on a plain background, else the\n"
         "subject of the photograph (GrabCut, seeded by saliency, its outline then refined\n"
         "from the colours on either side; --rect says where it is).\n"
-        "Around a photograph's subject the cage keeps a margin of 1.5% of its size.",
+        "Around a photograph's subject the cage keeps a margin of 1.5% of its size.  When\n"
+        "the subject is uncertain (tiny, or hardly told from the background by colour)\n"
+        "a warning says so.  With --rect the cage always lies inside the rectangle: it\n"
+        "is the rectangle itself when nothing stands out in it.",
         ("%(prog)s photo.jpg --output cage.json", None),
         ("%(prog)s photo.jpg --output cage.json --rect 120,40,300,420", "only what is inside the rectangle"),
         ("%(prog)s logo.png --output cage.json --points 24", None),
@@ -340,9 +344,14 @@ def build_parser(prog: str = "python -m app") -> argparse.ArgumentParser:
         "in one process (medians of repeated runs), then a 1,000,000-point solve and a 4K\n"
         "warp, each in a child process of its own.",
         ("%(prog)s", "the full table (a few minutes)"),
-        ("%(prog)s --quick", "tiny sizes: a smoke test of seconds"),
+        ("%(prog)s --quick", "every row once at tiny sizes: a smoke test of about 20 s"),
     )
-    bench.add_argument("--quick", action="store_true", help="tiny sizes (a smoke test, seconds)")
+    bench.add_argument(
+        "--quick",
+        action="store_true",
+        help="every row once at tiny sizes: a smoke test of about 20 s (on 2 busy cores; most of it starts "
+        "child processes, solves poisson's densities and drags in a viewer under Xvfb)",
+    )
     bench.add_argument(
         "--repeats", type=_positive(int), default=3, metavar="N", help="runs per row; the median is shown"
     )
@@ -383,8 +392,15 @@ def build_parser(prog: str = "python -m app") -> argparse.ArgumentParser:
         ("%(prog)s pattern --play", "play the demo's keyframed animation, looping"),
         ("%(prog)s starfish --frames frames/", "write every replayed frame as a PNG, then quit"),
         ("%(prog)s character --script my-moves.json", None),
+        ("%(prog)s --list", "where the demos' images and cages are, to try warp or fit on"),
     )
     demo.add_argument("name", nargs="?", metavar="NAME", help="starfish (default), character or pattern")
+    demo.add_argument(
+        "--list",
+        action="store_true",
+        help="print where each demo's image, cage, script and session are (to use with warp, fit, animate "
+        "or view), and quit",
+    )
     demo.add_argument(
         "--play",
         action="store_true",
@@ -506,6 +522,12 @@ def _add_viewer_options(parser: argparse.ArgumentParser) -> None:
         help="start with this boundary parameter of the point kernels: natural or arc-length (default: "
         "the session's, else natural; the panel switches it)",
     )
+    parser.add_argument(
+        "--kernel",
+        metavar="NAME",
+        help=f"start with this kernel (default: the session's, else {DEFAULT_KERNEL}; K and the panel "
+        "switch it); harmonic and pgw compute a mesh first",
+    )
 
 
 def _command(commands, name: str, summary: str, description: str, *examples) -> argparse.ArgumentParser:
@@ -539,6 +561,7 @@ def _warp(args: argparse.Namespace) -> int:
     from core.kernel_table import PARAMETERIZED_KERNELS
     from core.validation import checked_samples_per_segment
 
+    _require_warp_arguments(args)
     check_writable(args.output, suffix=".png")
     if args.session is not None:
         given = [f"--{name}" for name in ("cage", "target") if getattr(args, name) is not None]
@@ -558,13 +581,6 @@ def _warp(args: argparse.Namespace) -> int:
         outside, canvas = session_output(session, args.session)
         cage_source, target_source = f"{args.session}: cage", f"{args.session}: target"
     else:
-        missing = [
-            name
-            for name, value in (("IMAGE", args.image), ("--cage", args.cage), ("--target", args.target))
-            if value is None
-        ]
-        if missing:
-            raise InputError(f"warp needs {', '.join(missing)} (or --session)")
         image_path = args.image
         cage, target = read_cage(args.cage), read_cage(args.target)
         kernel = DEFAULT_KERNEL if args.kernel is None else args.kernel
@@ -743,7 +759,7 @@ def _view(args: argparse.Namespace) -> int:
     if args.cage is not None and args.image is None:
         raise InputError("--cage needs an IMAGE")
     document = open_document(args.image, args.cage, args.session, args.max_edge, fresh=args.fresh)
-    _choose_parameterization(document, args.parameterization)
+    _choose_start(document, args.kernel, args.parameterization)
     _tell(document.notices)
     script = None
     if args.image is None and (args.session is None or not args.session.exists()):
@@ -759,6 +775,9 @@ def _demo(args: argparse.Namespace) -> int:
     from app.viewer.session import begin_with, open_document, start_snapshot
     from app.viewer.window import Options, run
 
+    if args.list:
+        _list_demos()
+        return EXIT_OK
     _check_viewer_outputs(args)
     files = demo_files(args.name or DEFAULT_DEMO)
     document = open_document(
@@ -774,7 +793,7 @@ def _demo(args: argparse.Namespace) -> int:
             start = start.replace(keyframes=demo_keyframes(files))
         what = "play its animation" if playback else "replay its script"
         begin_with(document, start, f"back to the demo's start to {what} (Ctrl+Z: your last state)")
-    _choose_parameterization(document, args.parameterization)
+    _choose_start(document, args.kernel, args.parameterization)
     _tell(document.notices)
     script = args.script or files.script
     read_script(script, document.snapshot.n)  # bad scripts fail here, before the window opens
@@ -794,10 +813,26 @@ def _demo(args: argparse.Namespace) -> int:
     return run(document, options)
 
 
-def _choose_parameterization(document, parameterization: str | None) -> None:
-    """Start the viewer with the boundary parameterization of the command line, one undoable step."""
+def _list_demos() -> None:
+    """Print each bundled demo and the paths of its files (drawn into the cache if not shipped)."""
+    from app.viewer.demos import DEMOS, demo_files
+
+    for demo in DEMOS.values():
+        files = demo_files(demo.name)
+        print(f"{demo.name}: {demo.title}, {demo.description}")
+        for what in ("image", "cage", "script", "session"):
+            print(f"  {what:8} {getattr(files, what)}")
+
+
+def _choose_start(document, kernel: str | None, parameterization: str | None) -> None:
+    """Start the viewer with the kernel and boundary parameterization of the command line, each one
+    undoable step."""
     from app.viewer.session import begin_with
 
+    if kernel is not None:
+        begin_with(
+            document, document.snapshot.replace(kernel=kernel), f"kernel: {kernel} (Ctrl+Z: the session's)"
+        )
     if parameterization is not None:
         changed = document.snapshot.replace(parameterization=parameterization)
         begin_with(document, changed, f"parameterization: {parameterization} (Ctrl+Z: the session's)")
@@ -809,9 +844,31 @@ def _tell(notices: list[str]) -> None:
         print(f"note: {notice}", file=sys.stderr)
 
 
+def _require_warp_arguments(args: argparse.Namespace) -> None:
+    """`InputError` naming everything `warp` lacks, with an example command line."""
+    missing = []
+    if args.session is None:
+        inputs = [
+            name
+            for name, value in (("IMAGE", args.image), ("--cage", args.cage), ("--target", args.target))
+            if value is None
+        ]
+        if inputs:
+            missing.append(f"{', '.join(inputs)} (or --session)")
+    if args.output is None:
+        missing.append("--output")
+    if missing:
+        raise InputError(
+            f"warp needs {' and '.join(missing)}, e.g. warp photo.png --cage cage.json --target target.json "
+            "--output out.png (images and cages to try: python -m app demo --list)"
+        )
+
+
 def _check_viewer_outputs(args: argparse.Namespace) -> None:
     if args.max_edge is not None and args.vertices is not None:
         raise InputError("--max-edge and --vertices both set the mesh size: give one")
+    if args.kernel is not None and args.kernel not in kernel_names():
+        raise InputError(f"unknown kernel {args.kernel!r}; choose one of {', '.join(kernel_names())}")
     if args.session is not None:
         check_writable(args.session, suffix=".json")
     if args.export is not None:

@@ -21,6 +21,11 @@ The subject (`subject_mask`) is, in this order of trust:
   into the subject tears it when deformed, while a thin band of background inside
   the cage just moves along.
 
+A photograph's subject is uncertain when it is tiny or when colour hardly tells it
+from the background around it (`colour_separation`): `fit_cage` then warns.  With a
+rectangle from the user there is always a cage, inside it: the rectangle itself
+when nothing stands out there.
+
 Alpha channels and plain silhouettes are exact to the pixel and get no margin.  The
 outer contour of the subject is parameterised by arc length and the n control
 points solve the linear least squares problem ``B(t) P = contour`` with the folded
@@ -80,6 +85,18 @@ SEED_LEVEL = 0.25
 #: A subject of less than this share of the rectangle is a detail (an eye of a close-up
 #: face): GrabCut starts again from the rectangle alone, and the larger result is kept.
 MIN_SUBJECT = 0.05
+#: The larger result of that second run is kept only if it stands out from the background
+#: next to it (`_stands_out`): on scikit-image's rocket the first run keeps the rocket (2 %),
+#: the second the sky beside it, no more salient than the sky around that.
+#: A subject of less than `SMALL_SUBJECT` of the picture (or rectangle), or whose colours
+#: and those of the background around it tell them apart for less than `SEPARATION` of
+#: their pixels (`colour_separation`), is uncertain: `fit_cage` warns
+#: (`SubjectUncertainWarning`).  Measured on scikit-image's photographs: 0.82 to 0.99
+#: where the cage holds the subject (chelsea 0.82, astronaut 0.88), 0.71 to 0.74 on the
+#: cameraman, the motorcycle and the coins, whose cages miss much of them, 0.64 and 0.50
+#: on the Hubble deep field and the moon, which have no single subject.
+SMALL_SUBJECT = 0.01
+SEPARATION = 0.78
 #: Other parts of GrabCut's result join the main one when at least this share of its
 #: area and closer than `MERGE_GAP` of the rectangle's diagonal (`_central_component`).
 MERGE_AREA = 0.1
@@ -126,6 +143,10 @@ class CageFitWarning(UserWarning):
     """The fit had to change the request (fewer points or smoothing) to stay simple."""
 
 
+class SubjectUncertainWarning(UserWarning):
+    """The subject of a photograph is uncertain: the cage may hold the wrong thing."""
+
+
 def fit_cage(
     image: np.ndarray,
     points: int = 16,
@@ -157,24 +178,50 @@ def fit_cage(
         than a pixel (of the fitted copy) are merged into sharp corners
         (`snap_corners`).  The curve follows the outline of `subject_mask`, grown
         by `SUBJECT_MARGIN` when the subject was segmented from a photograph.
+        With `rect` the curve always lies inside it: its control points are held
+        there, and when nothing stands out in it (a texture), or what does has
+        too short an outline, the cage is the rectangle (`rectangle_cage`).
+
+    Warns
+    -----
+    SubjectUncertainWarning
+        When the subject of a photograph is uncertain (`_warn_if_uncertain`), or
+        the cage is the rectangle because nothing stood out in it.
+    CageFitWarning
+        When the request was changed to keep the curve simple.
 
     Raises
     ------
     ValueError
-        If the image or the rectangle is invalid, the image holds no object, or
-        the object is too small for `points`.
+        If the image or the rectangle is invalid, or, without `rect`, the image
+        holds no object or the object is too small for `points`.
     """
     points = positive_int(points, "points", minimum=3)
     image = _checked_image(image)
-    region = checked_rect(rect, image.shape[1], image.shape[0])
+    rect = checked_rect(rect, image.shape[1], image.shape[0])
     image, scale = downscaled(image, positive_int(max_pixels, "max_pixels"))
-    if region is not None:
-        region = region / np.tile(scale, 2)
+    region = None if rect is None else rect / np.tile(scale, 2)
     mask, exact = _subject(image, region)
+    if mask is None:
+        warnings.warn(
+            "the subject is uncertain: nothing stands out inside the rectangle, so the cage is the rectangle",
+            SubjectUncertainWarning,
+            stacklevel=2,
+        )
+        return rectangle_cage(rect, points)
     if not exact:
+        _warn_if_uncertain(image, mask, region)
         mask = _grown(mask, SUBJECT_MARGIN)
     contour = mask_outline(mask)
     if len(contour) < 3 * points:
+        if region is not None:
+            warnings.warn(
+                f"the subject's outline in the rectangle has only {len(contour)} pixels, too few for "
+                f"{points} control points: the cage is the rectangle",
+                CageFitWarning,
+                stacklevel=2,
+            )
+            return rectangle_cage(rect, points)
         raise ValueError(
             f"the subject's outline has only {len(contour)} pixels, too few for {points} control "
             "points; use fewer points or a larger image"
@@ -187,6 +234,10 @@ def fit_cage(
             sigma = smoothing * len(contour) / count
             data = gaussian_filter1d(contour, sigma, axis=0, mode="wrap") if sigma else contour
             control_points = snap_corners(fit_closed_bspline(data, count))
+            if region is not None:
+                # Each span lies in the convex hull of its three control points: with them
+                # in the rectangle, so is the whole curve.
+                control_points = np.clip(control_points, region[:2], region[:2] + region[2:])
             try:
                 ClosedBSpline(control_points)
             except ValueError:
@@ -201,7 +252,14 @@ def fit_cage(
                     CageFitWarning,
                     stacklevel=2,
                 )
-            return control_points * scale
+            if rect is None:
+                return control_points * scale
+            return np.clip(control_points * scale, rect[:2], rect[:2] + rect[2:])
+    if region is not None:
+        warnings.warn(
+            "no simple curve fits the subject: the cage is the rectangle", CageFitWarning, stacklevel=2
+        )
+        return rectangle_cage(rect, points)
     raise ValueError("could not fit a simple closed curve to the subject")
 
 
@@ -223,7 +281,10 @@ def subject_mask(image: np.ndarray, rect=None) -> np.ndarray:
         If the image or the rectangle is invalid, or no subject is found.
     """
     image = _checked_image(image)
-    return _subject(image, checked_rect(rect, image.shape[1], image.shape[0]))[0]
+    mask = _subject(image, checked_rect(rect, image.shape[1], image.shape[0]))[0]
+    if mask is None:
+        raise ValueError("found no subject inside the rectangle")
+    return mask
 
 
 def checked_rect(rect, width: int, height: int) -> np.ndarray | None:
@@ -409,7 +470,9 @@ def photo_subject(image: np.ndarray, rect=None) -> np.ndarray:
     subject = _grabcut_region(bgr, seeds, bounds)
     if subject.sum() < MIN_SUBJECT * (right - left) * (bottom - top):
         seeds = np.where(seeds == cv2.GC_BGD, seeds, cv2.GC_PR_FGD).astype(np.uint8)
-        subject = max(subject, _grabcut_region(bgr, seeds, bounds), key=np.sum)
+        larger = _grabcut_region(bgr, seeds, bounds)
+        if larger.sum() > subject.sum() and (_stands_out(saliency, larger) or not subject.any()):
+            subject = larger
     subject = _resized(subject, fine.shape[:2])
     limits = (0, 0, fine.shape[1], fine.shape[0])
     if rect is not None:
@@ -417,6 +480,104 @@ def photo_subject(image: np.ndarray, rect=None) -> np.ndarray:
     subject = refined_subject(np.ascontiguousarray(fine[..., ::-1]), subject, limits)
     subject = _bays_filled(subject, limits)
     return _resized(subject, (height, width)) > 0
+
+
+def _stands_out(saliency: np.ndarray, subject: np.ndarray) -> bool:
+    """Whether `subject` (h, w) uint8 is more salient on average than the background around it.
+
+    The background around it is the ring from 1 to `REFINE_RING` band widths
+    (`REFINE_BAND` sqrt(area)) outside its outline; `saliency` is (h, w), uint8 or float.
+    """
+    inside, ring = subject > 0, _ring(subject)
+    return bool(ring.any() and saliency[inside].mean() > saliency[ring].mean())
+
+
+def _ring(subject: np.ndarray) -> np.ndarray:
+    """The background around `subject` (h, w) uint8: bool (h, w), out to `REFINE_RING` band widths."""
+    band = max(2.0, REFINE_BAND * np.sqrt(float(subject.sum())))
+    outside = cv2.distanceTransform((subject == 0).astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+    return (outside > 0) & (outside <= REFINE_RING * band)
+
+
+def colour_separation(image: np.ndarray, subject: np.ndarray) -> float:
+    """How well colour tells the subject from the background around it, in [0, 1] (0.5: not at all).
+
+    GrabCut's Gaussian mixtures (`_colour_model`) are learned from the subject's
+    pixels and from the ring of background around it (`_ring`); the result is the
+    mean of the share of subject pixels more likely under the subject's model and
+    the share of ring pixels more likely under the background's.  Computed on a
+    copy of about `SEGMENT_PIXELS` pixels.
+
+    Parameters
+    ----------
+    image : ndarray of shape (H, W, C), uint8, C >= 3
+        RGB(A), row 0 at the top.
+    subject : ndarray of shape (H, W), bool
+    """
+    small, _ = downscaled(np.ascontiguousarray(image[..., :3]), SEGMENT_PIXELS)
+    inside = _resized(subject, small.shape[:2])
+    ring = _ring(inside)
+    inside = inside > 0
+    if inside.sum() < MIN_SAMPLES or ring.sum() < MIN_SAMPLES:
+        return 0.5
+    bgr = np.ascontiguousarray(small[..., ::-1])
+    subject_model, background_model = (
+        _colour_model(bgr[inside], bgr[ring]),
+        _colour_model(bgr[ring], bgr[inside]),
+    )
+    closer = _log_likelihood(subject_model, bgr) > _log_likelihood(background_model, bgr)
+    return float(0.5 * (closer[inside].mean() + (~closer[ring]).mean()))
+
+
+def _warn_if_uncertain(image: np.ndarray, subject: np.ndarray, rect: np.ndarray | None) -> None:
+    """`SubjectUncertainWarning` when the photograph's `subject` (H, W) bool is small (`SMALL_SUBJECT`)
+    or hardly told apart from the background by colour (`SEPARATION`)."""
+    height, width = image.shape[:2]
+    where = "the picture" if rect is None else "the rectangle"
+    share = subject.sum() / (height * width if rect is None else rect[2] * rect[3])
+    reasons = []
+    if share < SMALL_SUBJECT:
+        reasons.append(f"what was found covers only {100 * share:.1f} % of {where}")
+    separation = colour_separation(image, subject)
+    if separation < SEPARATION:
+        reasons.append(
+            f"colour tells it from the background around it for only {100 * separation:.0f} % of pixels"
+        )
+    if reasons:
+        advice = "a tighter rectangle" if rect is not None else "a rectangle around the subject (fit --rect)"
+        warnings.warn(
+            f"the subject is uncertain: {' and '.join(reasons)}; check the cage, or give {advice}",
+            SubjectUncertainWarning,
+            stacklevel=3,
+        )
+
+
+def rectangle_cage(rect, points: int = 16) -> np.ndarray:
+    """The rectangle (x, y, width, height), image pixels, as a cage of `points` control points.
+
+    With `points` >= 8 the curve is the rectangle itself: its corners doubled (sharp)
+    and the other points on its sides, spread in proportion to their lengths.  With
+    fewer, the four corners once each: a rounded rectangle inside it, through the
+    sides' midpoints.
+
+    Returns
+    -------
+    ndarray of shape (max(points, 8), 2) or (4, 2), float64
+    """
+    x, y, width, height = (float(v) for v in rect)
+    corners = np.array([[x, y], [x + width, y], [x + width, y + height], [x, y + height]])
+    if points < 8:
+        return corners
+    lengths = np.array([width, height, width, height])
+    extra = points - 8
+    shares = extra * lengths / lengths.sum()
+    counts = np.floor(shares).astype(int)
+    counts[np.argsort(counts - shares)[: extra - counts.sum()]] += 1  # largest remainders
+    result = []
+    for corner, following, count in zip(corners, np.roll(corners, -1, axis=0), counts, strict=True):
+        result += [corner, corner]
+        result += [corner + (following - corner) * k / (count + 1) for k in range(1, count + 1)]
+    return np.array(result)
 
 
 def border_contrast(bgr: np.ndarray) -> np.ndarray:
@@ -653,24 +814,31 @@ def mask_outline(mask: np.ndarray) -> np.ndarray:
     return contour + 0.5 * outward
 
 
-def _subject(image: np.ndarray, rect: np.ndarray | None) -> tuple[np.ndarray, bool]:
-    """(mask (H, W) bool, whether it is exact): the subject of a checked image inside `rect`."""
+def _subject(image: np.ndarray, rect: np.ndarray | None) -> tuple[np.ndarray | None, bool]:
+    """(mask (H, W) bool, whether it is exact): the subject of a checked image inside `rect`.
+
+    With a rectangle in which nothing is found (a texture, an empty patch) the mask is
+    None; without one, that raises `ValueError`.
+    """
     height, width = image.shape[:2]
     left, top, right, bottom = (0, 0, width, height) if rect is None else _pixel_bounds(rect, (height, width))
     crop = image[top:bottom, left:right]
     if (crop.shape[2] == 4 and crop[..., 3].min() < 255) or two_toned(crop):
-        exact = True
-        found = silhouette_mask(crop)
+        try:
+            found = silhouette_mask(crop)
+        except ValueError:
+            if rect is None:
+                raise
+            return None, True
         mask = np.zeros((height, width), dtype=bool)
         mask[top:bottom, left:right] = found
-    else:
-        exact = False
-        mask = photo_subject(image, rect)
-        if mask.sum() < 16:
-            raise ValueError(
-                "found no subject in the image (GrabCut kept nothing); give a rectangle around it"
-            )
-    return mask, exact
+        return mask, True
+    mask = photo_subject(image, rect)
+    if mask.sum() >= 16:
+        return mask, False
+    if rect is None:
+        raise ValueError("found no subject in the image (GrabCut kept nothing); give a rectangle around it")
+    return None, False
 
 
 def _checked_image(image: np.ndarray) -> np.ndarray:
@@ -727,7 +895,14 @@ def _salient_bounds(salient: np.ndarray) -> tuple[int, int, int, int]:
 
 
 def _grabcut_region(bgr: np.ndarray, seeds: np.ndarray, bounds: tuple[int, int, int, int]) -> np.ndarray:
-    """GrabCut of `bgr` (h, w, 3) from `seeds` (h, w), cleaned up: uint8 (h, w), 1 on the subject."""
+    """GrabCut of `bgr` (h, w, 3) from `seeds` (h, w), cleaned up: uint8 (h, w), 1 on the subject.
+
+    Nothing (all 0) when the seeds lack either side, from which GrabCut learns its colours
+    (a rectangle of a pixel or two on GrabCut's copy).
+    """
+    subject = (seeds == cv2.GC_FGD) | (seeds == cv2.GC_PR_FGD)
+    if subject.all() or not subject.any():
+        return np.zeros(seeds.shape, np.uint8)
     labels = seeds.copy()
     cv2.setRNGSeed(0)  # GrabCut's k-means starts from OpenCV's global random generator
     models = np.zeros((1, 65)), np.zeros((1, 65))

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 from test_cli import CAGE, picture, run_main, transformed
 
-from app.animate import flatten
+from app.animate import GifWriter, flatten, gif_delays
 from app.files import read_image, write_png
 from app.framing import output_region
 
@@ -214,3 +214,24 @@ def test_ctrl_c_leaves_no_output_and_no_temporary(tmp_path, output, stop, capfd)
         "picture.png",
         "s.json",
     ]
+
+
+def test_gif_delays_carry_the_rounding_so_the_animation_lasts_its_true_time():
+    delays = gif_delays(220, 30)
+    assert sum(delays) == 7330 and set(delays) == {30, 40}  # 220 frames at 30 fps: 7.33 s, not 6.6 s
+    assert all(abs(sum(delays[:k]) - 1000 * k / 30) <= 5 for k in range(221))  # never off by half a step
+    assert gif_delays(11, 10) == [100] * 11
+    assert gif_delays(5, 100) == [20] * 5  # GIF viewers show shorter delays as 100 ms
+
+
+def test_a_gif_at_30_fps_lasts_as_long_as_its_frames(tmp_path):
+    from PIL import Image, ImageSequence
+
+    writer = GifWriter(tmp_path / "out.gif", (8, 6), 30.0)
+    rng = np.random.default_rng(3)
+    for _ in range(22):
+        writer.add(np.dstack([rng.integers(0, 256, (6, 8, 3)), np.full((6, 8), 255)]).astype(np.uint8))
+    writer.finish()
+    with Image.open(tmp_path / "out.gif") as gif:
+        durations = [frame.info["duration"] for frame in ImageSequence.Iterator(gif)]
+    assert len(durations) == 22 and sum(durations) == 730

@@ -82,3 +82,31 @@ def test_short_fem_rows_run_until_each_solve_has_run_long_enough(monkeypatch):
     calls.update(fem=0, ours=0)
     bench._alternating_medians((counted("fem"), counted("ours")), repeats=4, least_seconds=0.25)
     assert calls == {"fem": 4, "ours": 4}  # long enough already: the runs asked for
+
+
+def test_quick_runs_every_row_once_at_tiny_sizes(monkeypatch):
+    # --quick used to time the FEM rows again and again for ROW_SECONDS and drag for 4 s: 30 s or more.
+    calls = {}
+    monkeypatch.setattr(bench, "_warm_up", lambda curve: None)
+    monkeypatch.setattr(bench, "_point_kernels", lambda curve, sizes, *rest: calls.update(points=sizes))
+    monkeypatch.setattr(bench, "_fem_comparison", lambda curve, *rest: calls.update(fem=rest), raising=True)
+    monkeypatch.setattr(bench, "_memory", lambda curve, count: calls.update(memory=count))
+    monkeypatch.setattr(bench, "_warp_4k", lambda size: calls.update(warp=size))
+    monkeypatch.setattr(bench, "_drag_frames", lambda *rest: calls.update(drag=rest))
+    args = argparse.Namespace(
+        quick=True,
+        repeats=3,
+        large=False,
+        skip_fem=False,
+        skip_memory=False,
+        skip_warp=False,
+        skip_drag=False,
+    )
+    assert bench.run_bench(args) == 0
+    assert calls == {
+        "points": (500,),
+        "fem": ((2_000,), 1, 0.0),
+        "memory": 20_000,
+        "warp": (640, 360),
+        "drag": ((6_000,), 1.0),
+    }

@@ -174,6 +174,11 @@ BAD_WARP_INPUTS = {
     ),
     "output not PNG": (lambda d: warp_argv(d, **{"--output": d / "out.jpg"}), r"out.jpg: .*must end in .png"),
     "missing --cage": (lambda d: warp_argv(d, **{"--cage": None}), r"warp needs --cage \(or --session\)"),
+    "nothing": (
+        lambda d: ["warp"],
+        r"warp needs IMAGE, --cage, --target \(or --session\) and --output, e\.g\. warp photo\.png .*"
+        r"python -m app demo --list",
+    ),
     "session and image": (
         lambda d: warp_argv(d, **{"--session": d / "session.json", "--cage": None, "--target": None}),
         r"give either --session or IMAGE .*not both",
@@ -244,7 +249,7 @@ BAD_WARP_INPUTS = {
     ),
     "bad --size": (lambda d: [*warp_argv(d), "--size", "12by4"], r"--size: expected WIDTHxHEIGHT"),
     "negative --scale": (lambda d: [*warp_argv(d), "--scale", "-2"], r"--scale: must be a finite number > 0"),
-    "missing --output": (lambda d: warp_argv(d, **{"--output": None}), r"required: --output"),
+    "missing --output": (lambda d: warp_argv(d, **{"--output": None}), r"warp needs --output, e\.g\. "),
 }
 
 
@@ -841,3 +846,17 @@ def test_a_session_carries_outside_and_canvas_to_warp(files, capfd):
         f"error: {files / 'bad.json'}: \"outside\" must be one of transparent, original, got 'blurred'"
     )
     assert not (files / "b.png").exists()
+
+
+def test_demo_list_prints_where_the_bundled_files_are(capfd):
+    code, out, _ = run_main(["demo", "--list"], capfd)
+    assert code == 0
+    paths = [Path(line.split(maxsplit=1)[1]) for line in out.splitlines() if line.startswith("  ")]
+    assert len(paths) == 12 and all(path.is_file() for path in paths)
+    assert {path.name for path in paths} >= {"starfish.png", "starfish.cage.json", "pattern.png"}
+
+
+def test_view_refuses_an_unknown_kernel_before_opening_anything(tmp_path, capfd):
+    code, _, err = run_main(["view", "--kernel", "bogus", "--session", tmp_path / "s.json"], capfd)
+    assert code == 2 and re.match(r"error: unknown kernel 'bogus'; choose one of .*harmonic", err)
+    assert not (tmp_path / "s.json").exists()

@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from app.files import InputError, Session, read_session, session_kernel_params, session_max_edge
+from app.files import InputError, Session, kernel_names, read_session, session_kernel_params, session_max_edge
 from app.view import View
 from app.viewer import session as sessions
 from app.viewer.demos import demo_files
@@ -133,6 +133,22 @@ def test_a_session_keeps_the_kernel_it_names_whatever_the_default(tmp_path):
     sessions.save(AppState(History(snapshot), snapshot, document.image, path), None)
     reopened = sessions.open_document(session=path)
     assert reopened.snapshot.kernel == "harmonic-like"
+
+
+@pytest.mark.parametrize("kernel", kernel_names())
+def test_an_edit_is_saved_and_restored_with_every_kernel(tmp_path, kernel):
+    files = demo_files("character")
+    path = tmp_path / "c.json"
+    document = sessions.open_document(files.image, files.cage, path)
+    snapshot = dataclasses.replace(document.snapshot, kernel=kernel)
+    state = AppState(History(snapshot), snapshot, document.image, path)
+    edited(state, 7)
+    sessions.save(state, None)
+    document.lock.release()
+    reopened = sessions.open_document(session=path)
+    assert reopened.snapshot.kernel == kernel
+    np.testing.assert_array_equal(reopened.snapshot.target, state.live.target)
+    assert not np.array_equal(reopened.snapshot.target, reopened.snapshot.cage)
 
 
 def edited(state: AppState, step: int) -> None:

@@ -435,6 +435,43 @@ def test_kill_and_relaunch_brings_back_the_work_and_its_undo(display, environmen
         again.kill()
 
 
+@pytest.mark.parametrize("kernel", ["poisson", "pgw"])
+def test_a_drag_during_the_first_computation_survives_kill_9(display, environment, kernel):
+    """Launch, drag at once while the first mesh and basis are still being computed (nothing drawn
+    but the cage), kill -9: the identical command brings the drag back."""
+    env, folder = environment
+    state, cache = folder / f"state-early-{kernel}", folder / f"cache-early-{kernel}"  # G not cached
+    env = {**env, "TRANSFINITE_STATE_DIR": str(state), "TRANSFINITE_CACHE_DIR": str(cache)}
+    command = ["view", str(ASSETS / "starfish.png"), "--cage", str(ASSETS / "starfish.cage.json")]
+    command += ["--kernel", kernel]
+    viewer = ViewerProcess(command, env, ROOT)
+    try:
+        window = viewer.wait_for("ready window=", 30).split("=")[1]
+        session = main_session(state, "starfish")
+        _, target, value = session_points(session)
+        drag_point(display, window, window_pixel(value["view"], target[0]), np.array([80.0, 30.0]))
+        viewer.wait_for("saved", 10)
+        assert not any(line.startswith("basis ") for line in viewer.lines)  # still computing
+        _, dragged, value = session_points(session)
+        assert np.flatnonzero(np.any(dragged != target, axis=1)).tolist() == [0]
+        assert value["kernel"] == kernel
+    finally:
+        viewer.kill()
+
+    again = ViewerProcess(command, env, ROOT)
+    try:
+        again.wait_for("ready window=", 30)
+        assert main_session(state, "starfish") == session
+        _, restored, value = session_points(session)
+        assert np.array_equal(restored, dragged) and value["kernel"] == kernel
+        xdotool(display, "key", "ctrl+q")
+        code, stderr = again.finish()
+        assert code == 0, stderr
+        assert "note: restored starfish.png from the session" in stderr
+    finally:
+        again.kill()
+
+
 def starfish_viewer(environment, state_name: str) -> tuple[ViewerProcess, Path]:
     """``view`` on the starfish image and cage with a state directory of its own (folder/state_name)."""
     env, folder = environment

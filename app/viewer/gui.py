@@ -28,6 +28,8 @@ from app.render import (
     HEAT_STOPS,
 )
 from app.viewer.controller import STATUS_HEIGHT
+from app.viewer.editing import to_window
+from app.viewer.scene import export_frame
 from app.viewer.state import PARAMETERIZATIONS, SHIFTS, AppState
 
 PANEL_WIDTH = 300.0
@@ -67,6 +69,7 @@ def gui(state: AppState, shortcuts: list[tuple[str, str]], extras: dict | None =
     width, height = state.window_size
     _panel(state, commands, extras, height)
     _status(state, width, height)
+    _canvas_label(state)
     if state.content != "image" and state.basis is not None:
         _colour_bar(state, width, height)
     if state.show_help:
@@ -181,7 +184,11 @@ def _panel(state: AppState, commands: list, extras: dict, height: float) -> None
             imgui.end_combo()
     _parameterization_choice(state, live, commands)
     if state.progress is not None:
-        imgui.progress_bar(state.progress, (-1, 0), f"{state.progress_label} {100 * state.progress:.0f}%")
+        # The phase on its own wrapped line: centred in the bar, a long one lost its first letters.
+        imgui.push_text_wrap_pos(PANEL_WIDTH - 12)
+        imgui.text(state.progress_label)
+        imgui.pop_text_wrap_pos()
+        imgui.progress_bar(state.progress, (-1, 0), f"{100 * state.progress:.0f}%")
     elif state.basis_error:
         imgui.push_text_wrap_pos(PANEL_WIDTH - 12)
         imgui.text_colored((1.0, 0.45, 0.4, 1.0), state.basis_error)
@@ -232,8 +239,9 @@ def _panel(state: AppState, commands: list, extras: dict, height: float) -> None
         "Canvas: ",
         "canvas",
         state.canvas,
-        (("source", "image size"), ("grow", "grow to target")),
-        "what exports frame: the image, or (grow) the image and the whole target curve",
+        (("source", "source"), ("grow", "grow")),
+        "what exports frame: source, the image (a target leaving it is cut off), or grow, the image and "
+        "the whole target curve; warp --canvas and animate --canvas do the same",
     )
     if imgui.button("Fit view"):
         commands.append(("fit_view", None))
@@ -373,14 +381,32 @@ def _choice_row(commands: list, title: str, command: str, current: str, choices:
         imgui.set_tooltip(tooltip)
 
 
+def status_kernel(state: AppState) -> str:
+    """The status line's kernel: the one drawn, and the one being computed while they differ."""
+    live = state.live
+    wanted = live.kernel + (f" (k={live.power:g}, shift {live.shift})" if live.kernel == "power" else "")
+    if state.basis is None or state.basis.kernel == live.kernel:
+        return wanted
+    return f"{state.basis.kernel}, switching to {wanted}..."
+
+
+def _canvas_label(state: AppState) -> None:
+    """Name the grey frame of what an export holds (`scene.export_frame`) at its top-left corner."""
+    frame = export_frame(state) if state.show_overlay else None
+    if frame is None:
+        return
+    x, y = to_window(state.view, frame[:1])[0]
+    colour = imgui.get_color_u32((0.85, 0.85, 0.85, 0.9))
+    imgui.get_background_draw_list().add_text((float(x) + 4, float(y) + 2), colour, f"canvas: {state.canvas}")
+
+
 def _status(state: AppState, width: float, height: float) -> None:
     """The status line: kernel, mesh, zoom, timings and the last message.
 
     A message too long for the line goes on lines of its own above it, wrapped,
     instead of being cut at the window's edge.
     """
-    live = state.live
-    kernel = live.kernel + (f" (k={live.power:g}, shift {live.shift})" if live.kernel == "power" else "")
+    kernel = status_kernel(state)
     vertices = f"{len(state.basis.mesh.vertices):,} vertices" if state.basis is not None else "no mesh yet"
     if state.basis is not None and state.basis.preview is not None:
         vertices += f" ({len(state.basis.preview.vertices):,} while moving)"
