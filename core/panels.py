@@ -36,8 +36,9 @@ KNOT_JUMP = 5e-6
 MIN_KNOT_LEVELS = 2
 MAX_KNOT_LEVELS = 9
 #: A panel is split while its arc length exceeds this multiple of its distance to the
-#: curve beyond its neighbours.
-THIN_RATIO = 1.0
+#: curve beyond its neighbours (1 split more and measured worse next to sharp corners:
+#: panels shorter than their neighbours there).
+THIN_RATIO = 2.0
 #: Coarse panels a span (a power of two).
 COARSE_PER_SPAN = 4
 #: The two coarse panels at a knot differ in arc length by at most this factor.
