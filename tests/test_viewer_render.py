@@ -297,7 +297,7 @@ def test_the_scene_draws_the_preview_while_the_target_moves(renderer):
     assert scene.previewing
     np.testing.assert_array_equal(dense_positions(), before)  # the dense mesh is left alone
     np.testing.assert_allclose(preview_positions(), result.preview.basis @ target, atol=1e-3)
-    for setting, value in (("show_wireframe", True), ("content", "heat"), ("mode", "cage")):
+    for setting, value in (("show_wireframe", True), ("content", "basis"), ("mode", "cage")):
         original = getattr(state, setting)
         setattr(state, setting, value)
         scene.sync(state)

@@ -30,7 +30,8 @@ from app.framing import CANVASES, OUTSIDES
 from app.keyframes import INTERPOLATIONS, MAX_TIME, TIME_RESOLUTION, Keyframe, interpolate
 from app.view import View
 from app.viewer import drawing, editing
-from app.viewer.state import CONTENTS, MEASURES, MODES, PARAMETERIZATIONS, SHIFTS, AppState, Drag, Snapshot
+from app.viewer.state import MEASURES, MODES, PARAMETERIZATIONS, SHIFTS, AppState, Drag, Snapshot
+from app.viewer.view_modes import CONTENTS
 
 LEFT, RIGHT, MIDDLE = 0, 1, 2
 #: Window pixels of the status line at the bottom (kept in step with app.viewer.gui).

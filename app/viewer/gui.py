@@ -15,22 +15,12 @@ from imgui_bundle import imgui
 
 from app.files import kernel_names
 from app.keyframes import MAX_TIME
-from app.render import (
-    BAND_COLOURS,
-    BAND_START,
-    BAND_WIDTH,
-    DISTORTION_FOLDED,
-    DISTORTION_GROWN,
-    DISTORTION_RANGE,
-    DISTORTION_SHEARED,
-    DISTORTION_SHRUNK,
-    HEAT_NEGATIVE,
-    HEAT_STOPS,
-)
 from app.viewer.controller import STATUS_HEIGHT
 from app.viewer.editing import to_window
 from app.viewer.scene import export_frame
 from app.viewer.state import PARAMETERIZATIONS, SHIFTS, AppState
+from app.viewer.view_modes import BY_NAME as VIEW_MODE
+from app.viewer.view_modes import MODES as VIEW_MODES
 
 PANEL_WIDTH = 300.0
 
@@ -40,12 +30,6 @@ _FIXED = (
     | imgui.WindowFlags_.no_collapse
     | imgui.WindowFlags_.no_saved_settings
 )
-_CONTENT_LABELS = {
-    "image": "Warped image",
-    "basis": "Basis function G_i (Fig. 8)",
-    "height": "Height interpolant (Fig. 1)",
-    "distortion": "Distortion (Jacobian)",
-}
 
 
 def _colour(rgb, alpha: float = 1.0) -> int:
@@ -199,9 +183,9 @@ def _panel(state: AppState, commands: list, extras: dict, height: float) -> None
         imgui.pop_text_wrap_pos()
 
     imgui.separator_text("Show")
-    for content, label in _CONTENT_LABELS.items():
-        if imgui.radio_button(label, state.content == content):
-            commands.append(("content", content))
+    for mode in VIEW_MODES:
+        if imgui.radio_button(mode.label, state.content == mode.name):
+            commands.append(("content", mode.name))
     if state.content == "distortion":
         _choice_row(
             commands,
@@ -439,78 +423,17 @@ def _status(state: AppState, width: float, height: float) -> None:
 
 
 def _colour_bar(state: AppState, width: float, height: float) -> None:
-    bar_width, bar_height = 240.0, (116.0 if state.content == "distortion" else 96.0)
+    """The legend of the view shown (`app.viewer.view_modes`), at the canvas's bottom right."""
+    mode = VIEW_MODE[state.content]
+    if mode.legend is None:
+        return
+    bar_width, bar_height = 240.0, mode.legend_height
     imgui.set_next_window_pos((width - bar_width - 10, height - STATUS_HEIGHT - bar_height - 10))
     imgui.set_next_window_size((bar_width, bar_height))
     imgui.begin("##colour bar", None, _FIXED | imgui.WindowFlags_.no_title_bar | imgui.WindowFlags_.no_inputs)
-    draw = imgui.get_window_draw_list()
     left, top = imgui.get_cursor_screen_pos()
-    span = bar_width - 24
-    if state.content == "distortion":
-        _distortion_bar(state, draw, left, top, span)
-    elif state.content == "height":
-        imgui.text("height, bands [k, k+1]/10 (Fig. 1)")
-        top += 20
-        count = len(BAND_COLOURS)
-        for k, rgb in enumerate(BAND_COLOURS):
-            x0 = left + span * k / count
-            draw.add_rect_filled((x0, top), (left + span * (k + 1) / count, top + 22), _colour(rgb))
-        for k in (1, 6, 11):
-            value = BAND_START + k * BAND_WIDTH
-            draw.add_text((left + span * k / count - 6, top + 26), _colour((1, 1, 1)), f"{value:.1f}")
-        imgui.dummy((span, 48))
-        imgui.text_disabled("red < 0, green > 1")
-    else:
-        index = state.selected if state.selected is not None else 0
-        imgui.text(f"basis function G_{index} (Fig. 8)")
-        top += 20
-        negative = 0.12 * span
-        draw.add_rect_filled((left, top), (left + negative, top + 22), _colour(HEAT_NEGATIVE))
-        stops = len(HEAT_STOPS) - 1
-        for k in range(stops):
-            x0 = left + negative + (span - negative) * k / stops
-            x1 = left + negative + (span - negative) * (k + 1) / stops
-            a, b = _colour(HEAT_STOPS[k]), _colour(HEAT_STOPS[k + 1])
-            draw.add_rect_filled_multi_color((x0, top), (x1, top + 22), a, b, b, a)
-        for value, x in (("<0", left), ("0", left + negative), ("1", left + span - 6)):
-            draw.add_text((x, top + 26), _colour((1, 1, 1)), value)
-        imgui.dummy((span, 48))
-        imgui.text_disabled("isolines every 0.1, white at 0")
+    mode.legend(state, imgui.get_window_draw_list(), left, top, bar_width - 24)
     imgui.end()
-
-
-def _distortion_bar(state: AppState, draw, left: float, top: float, span: float) -> None:
-    """The distortion view's colour bar and its worst values (`app.viewer.distortion_view`)."""
-    white = (1.0, 1.0, 1.0)
-    area = state.distortion_measure == "area"
-    imgui.text("area change det J" if area else "anisotropy sigma1/sigma2")
-    top += 20
-    folded = 0.16 * span
-    draw.add_rect_filled((left, top), (left + folded, top + 22), _colour(DISTORTION_FOLDED))
-    draw.add_rect((left, top), (left + folded, top + 22), _colour(white))
-    stops = (DISTORTION_SHRUNK, white, DISTORTION_GROWN) if area else (white, DISTORTION_SHEARED)
-    width = (span - folded) / (len(stops) - 1)
-    for k in range(len(stops) - 1):
-        a, b = _colour(stops[k]), _colour(stops[k + 1])
-        x0 = left + folded + width * k
-        draw.add_rect_filled_multi_color((x0, top), (x0 + width, top + 22), a, b, b, a)
-    full = 2.0**DISTORTION_RANGE
-    labels = (("fold", 0.0), (f"1/{full:g}", folded + 4), ("1", folded + width - 3), (f"{full:g}", span - 8))
-    if not area:
-        labels = (("fold", 0.0), ("1", folded + 4), (f"{full:g}", span - 8))
-    for text, x in labels:
-        draw.add_text((left + x, top + 26), _colour(white), text)
-    imgui.dummy((span, 48))
-    summary = state.distortion
-    if summary is not None:
-        worst = f"min det {summary.min_det:.3g}" if area else f"max {summary.max_ratio:.3g}"
-        imgui.text_disabled(f"{worst}, {summary.folded} folded")
-        if imgui.is_item_hovered():
-            imgui.set_tooltip(
-                f"{summary.exact:,} of {summary.vertices:,} vertices exact (from the gradients of the "
-                "basis functions); the others from their triangles (FEM harmonic, boundary, or "
-                "gradients still being computed)"
-            )
 
 
 def _help(state: AppState, shortcuts: list[tuple[str, str]], width: float, height: float) -> None:

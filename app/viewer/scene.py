@@ -28,11 +28,10 @@ from app.framing import output_region
 from app.render import WarpRenderer
 from app.view import View
 from app.viewer.controller import band_corners
-from app.viewer.distortion_view import vertex_distortion
 from app.viewer.editing import curve_points, to_image
 from app.viewer.state import AppState
+from app.viewer.view_modes import BY_NAME as VIEW_MODES
 from core.deformation import deform
-from core.examples import wave_heights
 
 #: Straight RGB of the overlays: the source curve green, the target blue (the paper's Fig. 11).
 SOURCE_COLOUR = (0.16, 0.80, 0.28)
@@ -42,8 +41,6 @@ HOVER_COLOUR = (1.00, 1.00, 1.00)
 #: The frame of what an export holds, when the target leaves the image (`export_frame`).
 EXPORT_FRAME_COLOUR = (0.85, 0.85, 0.85)
 BACKGROUND = (0.13, 0.13, 0.14)
-#: The renderer's content for each of the viewer's views.
-_DRAWN = {"image": "image", "basis": "heat", "height": "field", "distortion": "distortion"}
 
 
 def overlay_arrays(state: AppState) -> tuple[np.ndarray, np.ndarray]:
@@ -318,33 +315,9 @@ class Scene:
         state.folded_count = int(np.count_nonzero(core.folded_triangles(self._basis.mesh, deformed)))
 
     def _update_field(self, state: AppState) -> None:
-        basis = self._basis
-        if state.content == "basis":
-            index = state.selected if state.selected is not None else 0
-            signature = ("basis", basis.key, index)
-            if signature != self._field and index < basis.basis.shape[1]:
-                self.renderer.set_field(basis.basis[:, index].real)
-                self._field = signature
-        elif state.content == "height":
-            signature = ("height", basis.key)
-            if signature != self._field:
-                self.renderer.set_field((basis.basis @ wave_heights(basis.basis.shape[1])).real)
-                self._field = signature
-        elif state.content == "distortion":
-            target = state.live.target
-            signature = ("distortion", basis.key, state.distortion_measure, target.tobytes())
-            if signature != self._field:
-                values, state.distortion = vertex_distortion(
-                    basis.mesh.vertices,
-                    basis.mesh.triangles,
-                    basis.basis,
-                    basis.gradients,
-                    target,
-                    state.distortion_measure,
-                )
-                self.renderer.set_field(values)
-                self._field = signature
-            self.renderer.set_distortion_measure(state.distortion_measure)
+        mode = VIEW_MODES[state.content]
+        if mode.field is not None:
+            self._field = mode.field(state, self._basis, self.renderer, self._field)
 
     def invalidate_positions(self) -> None:
         """Someone else wrote the position buffer: recompute it at the next `sync`."""
@@ -372,7 +345,7 @@ class Scene:
         ctx = renderer.ctx
         view = View(state.view.scale * pixel_ratio, tuple(v * pixel_ratio for v in state.view.offset))
         meshed = self.mesh_matches(state)
-        content = _DRAWN[state.content]
+        content = VIEW_MODES[state.content].drawn
         warped = meshed and (state.mode == "deform" or content != "image")
         # The faded source image costs a full textured pass of a software rasteriser: only on request.
         opacity = (1.0 if state.outside == "original" else state.backdrop_opacity) if warped else 1.0

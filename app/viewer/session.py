@@ -49,7 +49,6 @@ from app.view import View
 from app.viewer.session_files import backups, keep_aside, rotate_backups, session_path_for
 from app.viewer.session_lock import SessionLock, lock_session
 from app.viewer.state import (
-    CONTENTS,
     DEFAULT_POWER,
     DEFAULT_SHIFT,
     MEASURES,
@@ -58,6 +57,7 @@ from app.viewer.state import (
     AppState,
     Snapshot,
 )
+from app.viewer.view_modes import CONTENTS
 from core.atomic_write import abandoned_temporaries
 
 #: Undo steps (and redo steps) written into the session file.

@@ -30,7 +30,6 @@ SHIFTS = ("none", "integral", "mean")
 PARAMETERIZATIONS = ("natural", "arc-length")
 
 #: What the canvas shows.
-CONTENTS = ("image", "basis", "height", "distortion")
 #: What the distortion view shows: log2 det J, or log2 sigma_1 / sigma_2 (app.viewer.distortion_view).
 MEASURES = ("area", "conformal")
 #: What a left click edits: the target (deform) or the source cage.

@@ -32,6 +32,8 @@ from app.viewer import controller, editing
 from app.viewer.precompute import Precompute, make_request
 from app.viewer.session import Document, apply_preferences, open_document, save, start_snapshot
 from app.viewer.state import AppState, History, Snapshot
+from app.viewer.view_modes import BY_NAME as VIEW_MODE
+from app.viewer.view_modes import MODES as VIEW_MODES
 
 TEST_VARIABLE = "TRANSFINITE_VIEWER_TEST"
 WINDOW_SIZE = (1280, 1024)
@@ -118,16 +120,10 @@ def _key_table():
         (glfw.KEY_BACKSPACE, 0, "delete", None, None, None),
         (glfw.KEY_K, 0, "cycle_kernel", "next", "K, Shift+K", "next (previous) kernel"),
         (glfw.KEY_K, shift, "cycle_kernel", "previous", None, None),
-        (glfw.KEY_1, shift, "content", "image", "Shift+1", "show the warped image"),
-        (glfw.KEY_2, shift, "content", "basis", "Shift+2", "show the selected point's basis function"),
-        (glfw.KEY_3, shift, "content", "height", "Shift+3", "show a height interpolant in bands (Fig. 1)"),
-        (
-            glfw.KEY_4,
-            shift,
-            "content",
-            "distortion",
-            "Shift+4",
-            "show the distortion: area change or anisotropy of the Jacobian, folded vertices black",
+        # The views, Shift+1, Shift+2, ... in the panel's order.
+        *(
+            (glfw.KEY_1 + k, shift, "content", mode.name, f"Shift+{k + 1}", mode.help)
+            for k, mode in enumerate(VIEW_MODES)
         ),
         (glfw.KEY_EQUAL, 0, "zoom", "in", "+, -", "zoom in, out (about the canvas centre)"),
         (glfw.KEY_EQUAL, shift, "zoom", "in", None, None),
@@ -795,7 +791,7 @@ class Viewer:
         if state.drag is not None or state.drawing is not None or state.live.n < 3:
             return
         live = state.live
-        wanted = make_request(live, self._max_edge(live.cage), gradients=state.content == "distortion")
+        wanted = make_request(live, self._max_edge(live.cage), gradients=VIEW_MODE[state.content].gradients)
         self._wanted = wanted.key
         if state.basis is not None and state.basis.key == wanted.key:
             return

@@ -1,0 +1,82 @@
+"""How much the deformation stretches, shears or folds, per vertex (`app.viewer.distortion_view`)."""
+
+from __future__ import annotations
+
+from app.viewer.view_modes.mode import ViewMode
+
+
+def field(state, basis, renderer, current):
+    """Upload log2 det J or log2 sigma1/sigma2 (V,) for the target shown; sets ``state.distortion``."""
+    from app.viewer.distortion_view import vertex_distortion
+
+    target = state.live.target
+    signature = ("distortion", basis.key, state.distortion_measure, target.tobytes())
+    if signature != current:
+        values, state.distortion = vertex_distortion(
+            basis.mesh.vertices,
+            basis.mesh.triangles,
+            basis.basis,
+            basis.gradients,
+            target,
+            state.distortion_measure,
+        )
+        renderer.set_field(values)
+    renderer.set_distortion_measure(state.distortion_measure)
+    return signature
+
+
+def legend(state, draw, left: float, top: float, span: float) -> None:
+    """The colour bar of the measure and the worst values of the deformation shown."""
+    from imgui_bundle import imgui
+
+    from app.render import (
+        DISTORTION_FOLDED,
+        DISTORTION_GROWN,
+        DISTORTION_RANGE,
+        DISTORTION_SHEARED,
+        DISTORTION_SHRUNK,
+    )
+    from app.viewer.view_modes.colours import packed
+
+    white = (1.0, 1.0, 1.0)
+    area = state.distortion_measure == "area"
+    imgui.text("area change det J" if area else "anisotropy sigma1/sigma2")
+    top += 20
+    folded = 0.16 * span
+    draw.add_rect_filled((left, top), (left + folded, top + 22), packed(DISTORTION_FOLDED))
+    draw.add_rect((left, top), (left + folded, top + 22), packed(white))
+    stops = (DISTORTION_SHRUNK, white, DISTORTION_GROWN) if area else (white, DISTORTION_SHEARED)
+    width = (span - folded) / (len(stops) - 1)
+    for k in range(len(stops) - 1):
+        a, b = packed(stops[k]), packed(stops[k + 1])
+        x0 = left + folded + width * k
+        draw.add_rect_filled_multi_color((x0, top), (x0 + width, top + 22), a, b, b, a)
+    full = 2.0**DISTORTION_RANGE
+    labels = (("fold", 0.0), (f"1/{full:g}", folded + 4), ("1", folded + width - 3), (f"{full:g}", span - 8))
+    if not area:
+        labels = (("fold", 0.0), ("1", folded + 4), (f"{full:g}", span - 8))
+    for text, x in labels:
+        draw.add_text((left + x, top + 26), packed(white), text)
+    imgui.dummy((span, 48))
+    summary = state.distortion
+    if summary is not None:
+        worst = f"min det {summary.min_det:.3g}" if area else f"max {summary.max_ratio:.3g}"
+        imgui.text_disabled(f"{worst}, {summary.folded} folded")
+        if imgui.is_item_hovered():
+            imgui.set_tooltip(
+                f"{summary.exact:,} of {summary.vertices:,} vertices exact (from the gradients of the "
+                "basis functions); the others from their triangles (FEM harmonic, boundary, or "
+                "gradients still being computed)"
+            )
+
+
+MODE = ViewMode(
+    "distortion",
+    "Distortion (Jacobian)",
+    "show the distortion: area change or anisotropy of the Jacobian, folded vertices black",
+    "distortion",
+    gradients=True,
+    field=field,
+    legend=legend,
+    legend_height=116.0,
+)

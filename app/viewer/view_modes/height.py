@@ -1,0 +1,45 @@
+"""A height interpolant in bands (the paper's Fig. 1): G @ heights of a wave around the cage."""
+
+from __future__ import annotations
+
+from app.viewer.view_modes.mode import ViewMode
+
+
+def field(state, basis, renderer, current):
+    """Upload G @ h (V,) for the wave heights h of `core.examples.wave_heights`."""
+    from core.examples import wave_heights
+
+    signature = ("height", basis.key)
+    if signature != current:
+        renderer.set_field((basis.basis @ wave_heights(basis.basis.shape[1])).real)
+    return signature
+
+
+def legend(state, draw, left: float, top: float, span: float) -> None:
+    """The bands' colours, [k, k+1]/10."""
+    from imgui_bundle import imgui
+
+    from app.render import BAND_COLOURS, BAND_START, BAND_WIDTH
+    from app.viewer.view_modes.colours import packed
+
+    imgui.text("height, bands [k, k+1]/10 (Fig. 1)")
+    top += 20
+    count = len(BAND_COLOURS)
+    for k, rgb in enumerate(BAND_COLOURS):
+        x0 = left + span * k / count
+        draw.add_rect_filled((x0, top), (left + span * (k + 1) / count, top + 22), packed(rgb))
+    for k in (1, 6, 11):
+        value = BAND_START + k * BAND_WIDTH
+        draw.add_text((left + span * k / count - 6, top + 26), packed((1, 1, 1)), f"{value:.1f}")
+    imgui.dummy((span, 48))
+    imgui.text_disabled("red < 0, green > 1")
+
+
+MODE = ViewMode(
+    "height",
+    "Height interpolant (Fig. 1)",
+    "show a height interpolant in bands (Fig. 1)",
+    "field",
+    field=field,
+    legend=legend,
+)
