@@ -75,7 +75,12 @@ def near_pairs(panels: Panels, targets: np.ndarray, diameter: float) -> tuple[np
 
 
 def adaptive_weights(
-    curve: ClosedBSpline, panels: Panels, targets: np.ndarray, panel: np.ndarray, power: int = 1
+    curve: ClosedBSpline,
+    panels: Panels,
+    targets: np.ndarray,
+    panel: np.ndarray,
+    power: int = 1,
+    on_curve: float = ON_CURVE,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Weights of ∫_panel φ(τ) / (τ - z)^power dτ on the panel's nodes, for target/panel pairs.
 
@@ -87,6 +92,11 @@ def adaptive_weights(
         The panel of each pair.
     power : int
         1 for the Cauchy integral, 2 for its z-derivative.
+    on_curve : float
+        Targets this close to the curve (a fraction of its diameter) are taken to be on
+        it.  The solve's targets are nodes, on the curve by construction, and pass 0:
+        next to a sharp corner the nodes of the two sides come within 1e-10 of the
+        diameter of each other, and their interaction must be integrated, not dropped.
 
     Returns
     -------
@@ -96,7 +106,7 @@ def adaptive_weights(
         The target is on the curve: it needs pieces shorter than `ON_CURVE`
         diameters, comes that close to a node, or needs `MAX_DEPTH` bisections.
     """
-    touch = ON_CURVE * curve.diameter
+    touch = on_curve * curve.diameter
     pieces = curve.piecewise_polynomial().coefficients
     # Depth 0, the panel's own rule on its stored nodes: most pairs end here.
     nodes = panel[:, None] * ORDER + np.arange(ORDER)
@@ -299,7 +309,7 @@ def cauchy_derivatives(curve: ClosedBSpline, levels: Levels, x: np.ndarray) -> n
     return out
 
 
-def hierarchical_rows(curve, levels: Levels, z, target, panel, on_curve, out, power: int = 1):
+def hierarchical_rows(curve, levels: Levels, z, target, panel, on_curve, out, power: int = 1, touch=ON_CURVE):
     """Add to `out` what replaces (target, coarsest-level panel) pairs, level by level.
 
     Each pair's panel is replaced by its children on the next level: children far
@@ -316,7 +326,7 @@ def hierarchical_rows(curve, levels: Levels, z, target, panel, on_curve, out, po
         target, child = _children(levels.parents[k - 1], target, panel)
         target, panel = _add_plain(out, curve, children, levels.densities[k], z, target, child, power)
         if k == finest:
-            weights, touching = adaptive_weights(curve, children, z[target], panel, power)
+            weights, touching = adaptive_weights(curve, children, z[target], panel, power, touch)
             on_curve[target[touching]] = True
             _add_weights(out, curve, children, levels.densities[k], target, panel, weights)
 

@@ -151,7 +151,7 @@ def _densities(points: bytes, count: int) -> Densities:
     near = np.zeros_like(system)
     hierarchical_rows(
         curve, Levels((coarse, fine), (parent,), (None, expand)), coarse.z, target, panel,
-        np.zeros(coarse.size, dtype=bool), near,
+        np.zeros(coarse.size, dtype=bool), near, touch=0.0,
     )  # fmt: skip
     system += 2.0 * near
     del near
@@ -258,7 +258,7 @@ def layer_matrix(curve: ClosedBSpline, panels: Panels, z: np.ndarray, *, own: bo
     if own:
         keep = target // ORDER != panel
         target, panel = target[keep], panel[keep]
-    weights, _ = adaptive_weights(curve, panels, z[target], panel)
+    weights, _ = adaptive_weights(curve, panels, z[target], panel, on_curve=0.0)
     orientation = 1.0 if curve.area > 0 else -1.0
     matrix[target[:, None], panel[:, None] * ORDER + np.arange(ORDER)] = (
         orientation * weights / (2j * np.pi)

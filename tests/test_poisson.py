@@ -78,6 +78,39 @@ def test_random_polygons_with_sharp_corners(seed):
     assert G.min() >= -1e-10  # measured >= -6.2e-12
 
 
+#: Sharp corners and a hairpin turn of three control points (6-8), radius of curvature 0.7 px.
+HAIRPIN = [
+    [168.7, 145.6], [168.7, 145.6], [26.5, 74.3], [26.5, 74.3], [-197.5, -20.8], [-197.5, -20.8],
+    [-112.8, -49.1], [-125.1, -54.7], [-72.4, -44.2], [2.6, -47.1], [214.1, -152.2], [214.1, -152.2],
+    [225.6, -32.2], [235.0, -29.5], [235.0, -29.5],
+]  # fmt: skip
+
+
+def test_a_hairpin_turn_is_resolved():
+    # Panels along which the curve turns more than a radian are split (panels.CURVED): with one
+    # coarse panel over the hairpin, points next to it were off by 5.3e-7 of the diameter.
+    curve = core.ClosedBSpline(np.array(HAIRPIN))
+    x = np.vstack([interior_points(curve, 150, seed=28), near_boundary_points(curve, 150, seed=28)[0]])
+    G = core.basis_functions(curve, x)
+    assert np.linalg.norm(G @ curve.control_points - x, axis=1).max() <= 1e-8 * curve.diameter
+    assert G.min() >= -1e-10  # measured -7.3e-11
+
+
+def test_the_solve_integrates_between_the_sides_of_a_deeply_graded_corner(monkeypatch):
+    # With 8 levels toward a corner, the nodes on its two sides come within 1e-10 of the diameter
+    # of each other; the solve integrates their interaction (it took them for points on the curve
+    # and dropped it: linear precision 1.2e-4 of the diameter).
+    from core import panels, poisson
+
+    monkeypatch.setattr(panels, "CORNER_LEVELS", 8)
+    poisson._densities.cache_clear()
+    curve = core.ClosedBSpline(SHAPES["F polygon"])
+    x = np.vstack([interior_points(curve, 200, seed=3), near_boundary_points(curve, 200, seed=3)[0]])
+    G = core.basis_functions(curve, x)
+    poisson._densities.cache_clear()
+    assert np.linalg.norm(G @ curve.control_points - x, axis=1).max() <= 1e-8 * curve.diameter
+
+
 def test_agrees_with_finite_elements_to_their_discretisation_error():
     # The FEM harmonic basis converges to the exact one as O(h^2): its distance to poisson must
     # fall by about 4x per halving of the mesh size (and G is the exact harmonic basis).
