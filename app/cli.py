@@ -56,6 +56,7 @@ from app.files import (
     write_png,
 )
 from app.framing import CANVASES, OUTSIDES, output_frame, output_region
+from app.keyframes import MAX_FPS, MIN_FPS
 from app.render import ContextUnavailableError
 from app.viewer.demos import SCRIPT_FORMAT
 from core.arc_length import PARAMETERIZATIONS
@@ -330,7 +331,9 @@ def build_parser(prog: str = "python -m app") -> argparse.ArgumentParser:
         metavar="NAME",
         help="only this domain of the suite, repeatable (the names are in the table's first line)",
     )
-    quality.add_argument("--seed", type=int, default=14, help="seed of the deformations (default 14)")
+    quality.add_argument(
+        "--seed", type=_natural, default=14, help="seed of the deformations, an integer >= 0 (default 14)"
+    )
     quality.set_defaults(run=_quality)
 
     bench = _command(
@@ -399,7 +402,10 @@ def build_parser(prog: str = "python -m app") -> argparse.ArgumentParser:
         help="write every replayed frame as DIR/frame_NNNNN.png, then quit",
     )
     demo.add_argument(
-        "--fps", type=_positive(float), default=30.0, help="frames per second of --frames (default 30)"
+        "--fps",
+        type=_frame_rate,
+        default=30.0,
+        help=f"frames per second of --frames, {MIN_FPS:g} to {MAX_FPS:g} (default 30)",
     )
     demo.add_argument(
         "--session",
@@ -429,7 +435,11 @@ def build_parser(prog: str = "python -m app") -> argparse.ArgumentParser:
         "--output", required=True, metavar="OUT", help="OUT.mp4, OUT.gif, or OUT_DIR/ for PNG frames"
     )
     animate.add_argument(
-        "--fps", type=_positive(float), default=30.0, metavar="N", help="frames per second (default 30)"
+        "--fps",
+        type=_frame_rate,
+        default=30.0,
+        metavar="N",
+        help=f"frames per second, {MIN_FPS:g} to {MAX_FPS:g} (default 30)",
     )
     animate.add_argument(
         "--size", type=_size, metavar="WxH", help="output size; the frame is fitted and centred"
@@ -916,6 +926,27 @@ def _positive(kind):
         return value
 
     return parse
+
+
+def _natural(text: str) -> int:
+    """argparse type: an integer >= 0."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected an integer >= 0, got {text!r}") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"must be an integer >= 0, got {text!r}")
+    return value
+
+
+def _frame_rate(text: str) -> float:
+    """argparse type: frames per second within `app.keyframes.MIN_FPS` .. `MAX_FPS`."""
+    value = _positive(float)(text)
+    if not MIN_FPS <= value <= MAX_FPS:
+        raise argparse.ArgumentTypeError(
+            f"must be within {MIN_FPS:g}..{MAX_FPS:g} frames per second, got {text!r}"
+        )
+    return value
 
 
 def _size(text: str) -> tuple[int, int]:

@@ -25,6 +25,7 @@ from app.files import (
     InputError,
     cage_curve,
     check_writable,
+    finite_number,
     kernel_names,
     read_cage,
     read_json,
@@ -256,13 +257,12 @@ def _read_values(path, count: int) -> np.ndarray:
     """Boundary values ``{"values": [F_1, ..., F_n]}`` from a JSON file, shape (n,)."""
     value = read_json(path)
     values = value.get("values") if isinstance(value, dict) else None
-    if not isinstance(values, list) or not all(
-        isinstance(v, (int, float)) and not isinstance(v, bool) for v in values
-    ):
+    if not isinstance(values, list):
         raise InputError(f'{path}: expected {{"values": [F_1, ..., F_n]}} with n numbers')
     if len(values) != count:
         raise InputError(f"{path}: has {len(values)} values but the cage has {count} control points")
-    array = np.array(values, dtype=np.float64)
-    if not np.isfinite(array).all():
-        raise InputError(f"{path}: values must be finite numbers")
-    return array
+    numbers = [finite_number(v) for v in values]
+    if None in numbers:
+        index = numbers.index(None)
+        raise InputError(f"{path}: values[{index}] must be a finite number, got {values[index]!r:.60}")
+    return np.array(numbers, dtype=np.float64)

@@ -313,10 +313,12 @@ def session_kernel_params(session: Session, path: str | os.PathLike = "session")
         )
     params = {}
     if "power" in value:
-        power = value["power"]
-        if not _is_number(power) or not math.isfinite(power) or power <= 0:
-            raise InputError(f"{path}: kernel_params power must be a number > 0, got {power!r}")
-        params["power"] = float(power)
+        power = finite_number(value["power"])
+        if power is None or power <= 0:
+            raise InputError(
+                f"{path}: kernel_params power must be a finite number > 0, got {_shown(value['power'])}"
+            )
+        params["power"] = power
     if "shift" in value:
         if value["shift"] not in ("none", "integral", "mean"):
             raise InputError(
@@ -333,10 +335,12 @@ def session_max_edge(session: Session, path: str | os.PathLike = "session") -> f
         return None
     if not isinstance(value, dict) or "max_edge" not in value:
         raise InputError(f'{path}: "mesh" must be an object {{"max_edge": h}}')
-    edge = value["max_edge"]
-    if not _is_number(edge) or not math.isfinite(edge) or edge <= 0:
-        raise InputError(f"{path}: mesh max_edge must be a number > 0, got {edge!r}")
-    return float(edge)
+    edge = finite_number(value["max_edge"])
+    if edge is None or edge <= 0:
+        raise InputError(
+            f"{path}: mesh max_edge must be a finite number > 0, got {_shown(value['max_edge'])}"
+        )
+    return edge
 
 
 def session_output(session: Session, path: str | os.PathLike = "session") -> tuple[str, str]:
@@ -386,9 +390,9 @@ def session_keyframes(
         where = f"{path}: keyframes[{index}]"
         if not isinstance(item, dict) or "time" not in item or "target" not in item:
             raise InputError(f'{where}: expected an object with "time" and "target", got {_shown(item)}')
-        time = item["time"]
-        if not _is_number(time) or not math.isfinite(time):
-            raise InputError(f"{where}: time must be a number of seconds, got {_shown(time)}")
+        time = finite_number(item["time"])
+        if time is None:
+            raise InputError(f"{where}: time must be a number of seconds, got {_shown(item['time'])}")
         target = cage_points(item["target"], f"{where}: target")
         if target.shape != session.cage.shape:
             raise InputError(
@@ -413,16 +417,14 @@ def session_keyframes(
 def _view(value, path: Path) -> tuple[float, tuple[float, float]]:
     if not isinstance(value, dict) or "scale" not in value or "offset" not in value:
         raise InputError(f'{path}: "view" must be an object {{"scale": s, "offset": [ox, oy]}}')
-    scale, offset = value["scale"], value["offset"]
-    if not _is_number(scale) or not math.isfinite(scale) or scale <= 0:
-        raise InputError(f"{path}: view scale must be a finite number > 0, got {scale!r}")
+    scale, offset = finite_number(value["scale"]), value["offset"]
+    if scale is None or scale <= 0:
+        raise InputError(f"{path}: view scale must be a finite number > 0, got {_shown(value['scale'])}")
     if not (
-        isinstance(offset, list)
-        and len(offset) == 2
-        and all(_is_number(v) and math.isfinite(v) for v in offset)
+        isinstance(offset, list) and len(offset) == 2 and all(finite_number(v) is not None for v in offset)
     ):
-        raise InputError(f"{path}: view offset must be two finite numbers [ox, oy], got {offset!r}")
-    return float(scale), (float(offset[0]), float(offset[1]))
+        raise InputError(f"{path}: view offset must be two finite numbers [ox, oy], got {_shown(offset)}")
+    return scale, (float(offset[0]), float(offset[1]))
 
 
 # -- images -------------------------------------------------------------------
@@ -564,6 +566,21 @@ def _decoder_reason(messages: list[str]) -> str:
 
 def _is_number(value) -> bool:
     return isinstance(value, Real) and not isinstance(value, bool)
+
+
+def finite_number(value) -> float | None:
+    """`value` as a float if it is a JSON number (not a boolean) that is finite as a float, else None.
+
+    JSON integers have any number of digits: one beyond float's range (a 401-digit
+    integer) is not finite, like 1e999, instead of an `OverflowError`.
+    """
+    if not _is_number(value):
+        return None
+    try:
+        number = float(value)
+    except OverflowError:
+        return None
+    return number if math.isfinite(number) else None
 
 
 def _out_of_range(value: Real) -> bool:

@@ -144,9 +144,9 @@ def weight_family() -> list[KernelChoice]:
 
 
 def parse_kernel(text: str) -> KernelChoice:
-    """``NAME[:param=value,...]`` as a KernelChoice; numbers become floats.  The parameters of
-    the point kernels, and their ``parameterization`` (natural or arc-length), are checked
-    here (`InputError`), those of ``pgw`` when it runs.
+    """``NAME[:param=value,...]`` as a KernelChoice; integers stay integers, other numbers become
+    floats.  The parameters of the point kernels, and their ``parameterization`` (natural or
+    arc-length), are checked here (`InputError`), those of ``pgw`` when it runs.
 
     >>> parse_kernel("power:power=2.5,shift=mean").params
     {'power': 2.5, 'shift': 'mean'}
@@ -161,10 +161,7 @@ def parse_kernel(text: str) -> KernelChoice:
         key, equals, value = item.partition("=")
         if not equals or not key:
             raise InputError(f"--kernel {text}: expected NAME:param=value,... but got {item!r}")
-        try:
-            params[key] = float(value)
-        except ValueError:
-            params[key] = value
+        params[key] = _parameter_value(value)
     if name in core.BOUNDARY_INTEGRAL_KERNELS:
         unknown = sorted(set(params) - {"parameterization"})
         if unknown:
@@ -178,6 +175,16 @@ def parse_kernel(text: str) -> KernelChoice:
                 name, {key: value for key, value in params.items() if key != "parameterization"}
             )
     return KernelChoice(text if params else name, name, params)
+
+
+def _parameter_value(text: str):
+    """A ``--kernel`` parameter: an int (``angles=8``), else a float (``power=2.5``), else the text."""
+    for kind in (int, float):
+        try:
+            return kind(text)
+        except ValueError:
+            pass
+    return text
 
 
 def run_study(domains, choices: list[KernelChoice], progress=None, keep: bool = False) -> StudyResult:
