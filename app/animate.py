@@ -28,7 +28,6 @@ from __future__ import annotations
 import contextlib
 import os
 import re
-import secrets
 import shutil
 import signal
 import time
@@ -36,10 +35,10 @@ from pathlib import Path
 
 import numpy as np
 
-from app.files import InputError, check_writable, encode_png
+from app.files import InputError, check_name_length, check_writable, encode_png
 from app.framing import output_frame, output_region
 from app.keyframes import Keyframe, interpolate
-from core.atomic_write import remove_stale_temporaries
+from core.atomic_write import temporary_path
 from core.deformation import deform
 
 #: Straight RGB that MP4 and GIF frames show where the warp is transparent.
@@ -59,7 +58,8 @@ def output_kind(path: Path, text: str | None = None) -> str:
     """
     text = str(path) if text is None else text
     suffix = path.suffix.lower()
-    if text.endswith(("/", os.sep)) or path.is_dir() or suffix == "":
+    check_name_length(path)
+    if text.endswith(("/", os.sep)) or os.path.isdir(path) or suffix == "":
         return "png"
     if suffix in (".mp4", ".gif"):
         return suffix[1:]
@@ -73,6 +73,14 @@ def check_output(path: Path, kind: str) -> None:
     if kind != "png":
         check_writable(path)
         return
+    try:
+        _check_folder(path)
+    except OSError as error:  # a path too long, a loop of symbolic links, ...
+        raise InputError(f"{path}: cannot write ({error.strerror or error})") from None
+
+
+def _check_folder(path: Path) -> None:
+    """`check_output` of a folder of PNG frames: new, or holding only frames, in a writable folder."""
     if path.exists() and not path.is_dir():
         raise InputError(f"{path}: exists and is not a folder")
     if path.is_dir():
@@ -113,12 +121,6 @@ def flatten(rgba: np.ndarray) -> np.ndarray:
     return np.round(colour * alpha + np.asarray(BACKGROUND, np.float32) * (1.0 - alpha)).astype(np.uint8)
 
 
-def _temporary(path: Path, suffix: str = "") -> Path:
-    """A new temporary name beside `path` (those of a killed earlier run are removed first)."""
-    remove_stale_temporaries(path)
-    return path.parent / f".{path.name}.{os.getpid()}.{secrets.token_hex(4)}.tmp{suffix}"
-
-
 class FrameWriter:
     """Writes frames (RGBA uint8, (H, W, 4), straight alpha) to a temporary place; `finish` renames it.
 
@@ -155,7 +157,7 @@ class PngFrames(FrameWriter):
 
     def __init__(self, path: Path, size: tuple[int, int], fps: float):
         super().__init__(path, size, fps)
-        self.temporary = _temporary(self.path)
+        self.temporary = temporary_path(self.path)
         self.temporary.mkdir()
 
     def add(self, rgba: np.ndarray) -> None:
@@ -165,7 +167,7 @@ class PngFrames(FrameWriter):
     def finish(self) -> None:
         old = None
         if self.path.exists():
-            old = _temporary(self.path, ".old")
+            old = temporary_path(self.path, ".old")
             os.replace(self.path, old)
         os.replace(self.temporary, self.path)
         if old is not None:
@@ -184,7 +186,7 @@ class Mp4Writer(FrameWriter):
         super().__init__(path, size, fps)
         self.padded = (size[0] + size[0] % 2, size[1] + size[1] % 2)
         # The container comes from the name's extension, so the temporary ends in .mp4 too.
-        self.temporary = _temporary(self.path, ".mp4")
+        self.temporary = temporary_path(self.path, ".mp4")
         self.video = cv2.VideoWriter(
             str(self.temporary), cv2.VideoWriter_fourcc(*"mp4v"), self.fps, self.padded
         )
@@ -237,7 +239,7 @@ class GifWriter(FrameWriter):
         images = [Image.fromarray(f).quantize(palette=palette, dither=Image.Dither.NONE) for f in self.frames]
         # GIF delays are whole hundredths of a second.
         delay = max(2, round(100 / self.fps)) * 10
-        temporary = _temporary(self.path)
+        temporary = temporary_path(self.path)
         try:
             with open(temporary, "wb") as stream:
                 images[0].save(

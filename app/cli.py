@@ -19,6 +19,7 @@ what is wrong, without a traceback, and no output file is written or changed.
 from __future__ import annotations
 
 import argparse
+import errno
 import sys
 import textwrap
 import time
@@ -97,6 +98,14 @@ def main(argv: list[str] | None = None) -> int:
             return fail(f"error: {error}", EXIT_ENVIRONMENT)
         except KeyboardInterrupt:
             return fail("interrupted", EXIT_INTERRUPTED)
+        except OSError as error:
+            # A path that the system refuses (too long, a loop of links, ...) where no check
+            # caught it first: the input's fault, named with the file.
+            if error.errno == errno.ENOMEM:
+                return fail(f"error: out of memory: {error.strerror}", EXIT_ENVIRONMENT)
+            if error.filename is None:
+                raise
+            return fail(f"error: {error.filename}: {error.strerror or error}", EXIT_BAD_INPUT)
         except Exception as error:
             # The machine, not the input: an allocation failed (numpy, OpenCV or our own decoding).
             if not _out_of_memory(error):

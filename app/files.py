@@ -18,6 +18,7 @@ import json
 import math
 import os
 import re
+import stat
 import sys
 import tempfile
 from collections.abc import Iterator
@@ -30,11 +31,13 @@ import numpy as np
 
 from app.image_header import MAX_IMAGE_PIXELS, ImageHeader, image_header
 from app.keyframes import DEFAULT_INTERPOLATION, INTERPOLATIONS, Keyframe, sorted_keyframes
-from core.atomic_write import write_atomically
+from core.atomic_write import NAME_MAX, write_atomically
 from core.validation import as_points
 
 #: Largest image file read into memory.
 MAX_IMAGE_FILE_BYTES = 1 << 30
+#: Largest JSON file (cage, session, script, data) read: parsed, it takes about 10 times that.
+MAX_JSON_FILE_BYTES = 1 << 27
 #: Largest cage coordinate, in pixels: beyond it float64 has no sub-pixel precision left.
 MAX_COORDINATE = 1e15
 
@@ -101,20 +104,31 @@ def check_writable(path: str | os.PathLike, *, suffix: str | None = None) -> Non
     path = Path(path)
     if suffix is not None and path.suffix.lower() != suffix:
         raise InputError(f"{path}: the output file name must end in {suffix}")
-    if path.is_dir():
-        raise InputError(f"{path}: cannot write, it is a directory")
-    parent = path.parent
-    if not parent.is_dir():
-        raise InputError(f"{path}: cannot write, directory {parent} does not exist")
-    if not os.access(parent, os.W_OK | os.X_OK) or (path.exists() and not os.access(path, os.W_OK)):
-        raise InputError(f"{path}: cannot write, permission denied")
+    check_name_length(path)
+    try:
+        if path.is_dir():
+            raise InputError(f"{path}: cannot write, it is a directory")
+        parent = path.parent
+        if not parent.is_dir():
+            raise InputError(f"{path}: cannot write, directory {parent} does not exist")
+        if not os.access(parent, os.W_OK | os.X_OK) or (path.exists() and not os.access(path, os.W_OK)):
+            raise InputError(f"{path}: cannot write, permission denied")
+    except OSError as error:  # a path too long, a loop of symbolic links, ...
+        raise InputError(f"{path}: cannot write ({error.strerror or error})") from None
+
+
+def check_name_length(path: str | os.PathLike) -> None:
+    """`InputError` if the last part of `path` is longer than a file name may be (`NAME_MAX` bytes)."""
+    length = len(os.fsencode(Path(path).name))
+    if length > NAME_MAX:
+        raise InputError(f"{path}: the file name is {length} bytes long; at most {NAME_MAX} are allowed")
 
 
 def read_json(path: str | os.PathLike):
     """Parse a JSON file; `InputError` with the file name (and line) if that fails."""
     path = Path(path)
     # utf-8-sig: a byte order mark, which some editors write, is not part of the JSON text.
-    text = _read_bytes(path).decode("utf-8-sig", errors="replace")
+    text = _read_bytes(path, MAX_JSON_FILE_BYTES).decode("utf-8-sig", errors="replace")
     try:
         return json.loads(text)
     except json.JSONDecodeError as error:
@@ -509,23 +523,54 @@ def write_png(path: str | os.PathLike, image: np.ndarray) -> None:
     write_atomic(path, encode_png(image))
 
 
-def _read_bytes(path: Path, limit: int | None = None) -> bytes:
+def _read_bytes(path: Path, limit: int) -> bytes:
+    """The bytes of the regular file at `path`, at most `limit` of them, or `InputError`.
+
+    The file is opened without blocking and refused unless it is a regular file (a
+    FIFO would block forever, ``/dev/zero`` never ends), and its size is checked
+    while reading, so a file that grows meanwhile cannot exhaust memory either.
+    """
     try:
-        if limit is not None and path.stat().st_size > limit:
-            raise InputError(
-                f"{path}: the file is {path.stat().st_size / 2**20:.0f} MiB; at most {limit / 2**20:.0f} MiB "
-                "can be read"
-            )
-        data = path.read_bytes()
+        descriptor = os.open(path, os.O_RDONLY | os.O_NONBLOCK)
     except FileNotFoundError:
         raise InputError(f"{path}: no such file") from None
-    except IsADirectoryError:
-        raise InputError(f"{path}: is a directory, not a file") from None
     except OSError as error:
         raise InputError(f"{path}: cannot read ({error.strerror or error})") from None
+    mode = os.fstat(descriptor).st_mode
+    if not stat.S_ISREG(mode):
+        os.close(descriptor)
+        if stat.S_ISDIR(mode):
+            raise InputError(f"{path}: is a directory, not a file")
+        raise InputError(f"{path}: is {_file_kind(mode)}, not a regular file")
+    with os.fdopen(descriptor, "rb") as stream:
+        size = os.fstat(descriptor).st_size
+        if size <= limit:
+            try:
+                data = stream.read(limit + 1)
+            except OSError as error:
+                raise InputError(f"{path}: cannot read ({error.strerror or error})") from None
+            size = max(size, len(data))
+    if size > limit:
+        raise InputError(
+            f"{path}: the file is {size / 2**20:.0f} MiB{' or more' * (size == limit + 1)}; "
+            f"at most {limit / 2**20:.0f} MiB can be read"
+        )
     if not data:
         raise InputError(f"{path}: the file is empty")
     return data
+
+
+def _file_kind(mode: int) -> str:
+    """What a file that is not regular is, for messages: "a FIFO", "a character device", ..."""
+    for test, kind in (
+        (stat.S_ISFIFO, "a FIFO (named pipe)"),
+        (stat.S_ISCHR, "a character device"),
+        (stat.S_ISBLK, "a block device"),
+        (stat.S_ISSOCK, "a socket"),
+    ):
+        if test(mode):
+            return kind
+    return "a special file"
 
 
 @contextlib.contextmanager
