@@ -289,6 +289,7 @@ def run_animate(args) -> int:
         cage_curve,
         read_image,
         read_session,
+        refuse_overwriting_inputs,
         reported_as_input,
         session_kernel_params,
         session_keyframes,
@@ -301,7 +302,9 @@ def run_animate(args) -> int:
     path = Path(args.output).expanduser()
     kind = output_kind(path, args.output)
     check_output(path, kind)
+    refuse_overwriting_inputs(path, {"session file": args.session})
     session = read_session(args.session)
+    refuse_overwriting_inputs(path, {"session's image": session.image})
     keyframes, interpolation = session_keyframes(session, args.session)
     if not keyframes:
         raise InputError(

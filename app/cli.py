@@ -48,7 +48,9 @@ from app.files import (
     read_cage,
     read_image,
     read_session,
+    refuse_overwriting_inputs,
     reported_as_input,
+    same_file,
     session_kernel_params,
     session_max_edge,
     session_output,
@@ -598,13 +600,16 @@ def _warp(args: argparse.Namespace) -> int:
     if kernel not in kernel_names():
         raise InputError(f"unknown kernel {kernel!r}; choose one of {', '.join(kernel_names())}")
     _refuse_overwriting_input(args.output, image_path, args.overwrite_input)
+    refuse_overwriting_inputs(
+        args.output, {"source cage": args.cage, "target cage": args.target, "session file": args.session}
+    )
     image = read_image(image_path)
     height, width = image.shape[:2]
-    curve = cage_curve(cage, cage_source)
-    _require_overlap(curve, (width, height), cage_source)
     if args.samples_per_segment is not None:
         with reported_as_input("--samples-per-segment"):
-            checked_samples_per_segment(args.samples_per_segment, curve.n)
+            checked_samples_per_segment(args.samples_per_segment, len(cage))
+    curve = cage_curve(cage, cage_source, args.samples_per_segment)
+    _require_overlap(curve, (width, height), cage_source)
     outside, canvas = args.outside or outside, args.canvas or canvas
     region = output_region((width, height), target, canvas)
     size, view = output_frame(region, args.scale, args.size)
@@ -707,7 +712,7 @@ def _distortion_report(curve, mesh, kernel, target, deformed, params) -> list[st
 
 
 def _fit(args: argparse.Namespace) -> int:
-    from app.fit import FIT_PIXELS, checked_rect, fit_cage
+    from app.fit import FIT_PIXELS, MAX_POINTS, checked_rect, fit_cage
 
     rect = None
     if args.rect is not None:
@@ -718,6 +723,9 @@ def _fit(args: argparse.Namespace) -> int:
         if len(rect) != 4:
             raise InputError(f"--rect: expected X,Y,W,H such as 40,30,200,150, got {args.rect!r}")
     check_writable(args.output, suffix=".json")
+    refuse_overwriting_inputs(args.output, {"input image": args.image})
+    if args.points > MAX_POINTS:
+        raise InputError(f"--points {args.points}: at most {MAX_POINTS:,} control points can be fitted")
     image = read_image(args.image)
     with reported_as_input(f"--rect {args.rect}"):
         rect = checked_rect(rect, image.shape[1], image.shape[0])
@@ -833,10 +841,13 @@ def _tell(notices: list[str]) -> None:
 def _check_viewer_outputs(args: argparse.Namespace) -> None:
     if args.max_edge is not None and args.vertices is not None:
         raise InputError("--max-edge and --vertices both set the mesh size: give one")
+    inputs = {"input image": getattr(args, "image", None), "source cage": getattr(args, "cage", None)}
     if args.session is not None:
         check_writable(args.session, suffix=".json")
+        refuse_overwriting_inputs(args.session, inputs)
     if args.export is not None:
         check_writable(args.export, suffix=".png")
+        refuse_overwriting_inputs(args.export, {**inputs, "session file": args.session})
 
 
 # -- helpers ----------------------------------------------------------------------
@@ -867,11 +878,7 @@ def _require_overlap(curve, image_size: tuple[int, int], source: str) -> None:
 
 def _refuse_overwriting_input(output: Path, image: Path, allowed: bool) -> None:
     """`InputError` if `output` is the input `image` (the same file), unless `allowed`."""
-    try:
-        same = output.samefile(image)
-    except OSError:  # one of them does not exist: a missing image is reported when it is read
-        same = False
-    if same and not allowed:
+    if same_file(output, image) and not allowed:
         raise InputError(
             f"{output}: is the input image; give another --output, or --overwrite-input to replace it"
         )

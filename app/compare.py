@@ -29,6 +29,7 @@ from app.files import (
     kernel_names,
     read_cage,
     read_json,
+    refuse_overwriting_inputs,
     reported_as_input,
     write_png,
 )
@@ -100,6 +101,7 @@ def run_compare(args: argparse.Namespace) -> int:
     from core.examples import wave_heights
 
     check_writable(args.output, suffix=".png")
+    refuse_overwriting_inputs(args.output, {"domain cage": args.cage, "data file": args.data})
     curve = cage_curve(read_cage(args.cage), str(args.cage))
     values = _read_values(args.data, curve.n) if args.data else wave_heights(curve.n)
     unknown = [name for name in args.kernel or [] if name not in kernel_names()]

@@ -32,7 +32,7 @@ import numpy as np
 from app.image_header import MAX_IMAGE_PIXELS, ImageHeader, image_header
 from app.keyframes import DEFAULT_INTERPOLATION, INTERPOLATIONS, Keyframe, sorted_keyframes
 from core.atomic_write import NAME_MAX, write_atomically
-from core.validation import as_points
+from core.validation import MAX_CONTROL_POINTS, as_points, too_many_control_points
 
 #: Largest image file read into memory.
 MAX_IMAGE_FILE_BYTES = 1 << 30
@@ -61,11 +61,20 @@ def reported_as_input(where: str) -> Iterator[None]:
         raise InputError(f"{where}: {error}") from None
 
 
-def cage_curve(control_points: np.ndarray, where: str):
-    """`core.ClosedBSpline` of a cage, or `InputError` naming `where` (self-intersection, ...)."""
-    import core
+def cage_curve(control_points: np.ndarray, where: str, samples_per_segment: int | None = None):
+    """`core.ClosedBSpline` of a cage, or `InputError` naming `where` (self-intersection, ...).
 
+    First, before the curve's own checks (which take time in the number of control
+    points), the cage's boundary samples at `samples_per_segment` per span (the
+    kernels' default if None) must be within `core.validation.MAX_BOUNDARY_SAMPLES`.
+    """
+    import core
+    from core.mesh_basis import DEFAULT_SAMPLES_PER_SEGMENT
+    from core.validation import checked_samples_per_segment
+
+    per = DEFAULT_SAMPLES_PER_SEGMENT if samples_per_segment is None else samples_per_segment
     with reported_as_input(where):
+        checked_samples_per_segment(per, len(control_points))
         return core.ClosedBSpline(control_points)
 
 
@@ -122,6 +131,22 @@ def check_name_length(path: str | os.PathLike) -> None:
     length = len(os.fsencode(Path(path).name))
     if length > NAME_MAX:
         raise InputError(f"{path}: the file name is {length} bytes long; at most {NAME_MAX} are allowed")
+
+
+def refuse_overwriting_inputs(output: str | os.PathLike, inputs: dict[str, str | os.PathLike | None]) -> None:
+    """`InputError` if `output` is one of the `inputs` (what it is -> its path, None if not given):
+    the same file, also through another name or a link.  An output that does not exist yet is none."""
+    for what, path in inputs.items():
+        if path is not None and same_file(output, path):
+            raise InputError(f"{output}: is the {what}; give another output, inputs are never overwritten")
+
+
+def same_file(first: str | os.PathLike, second: str | os.PathLike) -> bool:
+    """Whether both paths name one existing file."""
+    try:
+        return os.path.samefile(first, second)
+    except (OSError, ValueError):  # one of them does not exist (or cannot be a path)
+        return False
 
 
 def read_json(path: str | os.PathLike):
@@ -193,6 +218,8 @@ def cage_points(value, where: str) -> np.ndarray:
         raise InputError(
             f'{where}: "control_points" must be a list of [x, y] pairs, got {_json_type(points)}'
         )
+    if len(points) > MAX_CONTROL_POINTS:  # before the checks of each point, which take time
+        raise InputError(f"{where}: {too_many_control_points(len(points))}")
     for index, point in enumerate(points):
         # bool is an int in Python, but `true` is never a coordinate.
         if not (isinstance(point, list) and len(point) == 2 and all(_is_number(c) for c in point)):

@@ -38,6 +38,8 @@ from core.validation import checked_samples_per_segment
 
 #: Kernels whose G is not kept in the disk cache: complex, and cheaper to evaluate than to check.
 UNCACHED_KERNELS = COMPLEX_KERNELS
+#: Boundary samples per B-spline span of the point kernels unless told otherwise.
+DEFAULT_SAMPLES_PER_SEGMENT = 100
 # Rounding allowance of the invariant checks, in units of n * machine epsilon.
 ROUNDING_ULPS = 64
 
@@ -50,7 +52,7 @@ def mesh_basis_functions(
     curve: ClosedBSpline,
     mesh: Mesh,
     kernel: str = DEFAULT_KERNEL,
-    samples_per_segment: int = 100,
+    samples_per_segment: int = DEFAULT_SAMPLES_PER_SEGMENT,
     progress: Callable[[float], None] | None = None,
     cache: bool = True,
     compiling: Callable[[float], None] | None = None,

@@ -13,6 +13,8 @@ import numpy as np
 #: the solver's quadrature, and N operations per point.  A 10,000-point cage at the
 #: default 100 per span fits.
 MAX_BOUNDARY_SAMPLES = 1 << 20
+#: Most control points of a curve: 2 boundary samples per span, the fewest, fill `MAX_BOUNDARY_SAMPLES`.
+MAX_CONTROL_POINTS = MAX_BOUNDARY_SAMPLES // 2
 
 
 def as_points(value, name: str, *, min_count: int = 0) -> np.ndarray:
@@ -66,6 +68,8 @@ def checked_samples_per_segment(value, control_points: int) -> int:
     """Return `value` as an int in [2, MAX_BOUNDARY_SAMPLES // control_points], or raise `ValueError`."""
     per = positive_int(value, "samples_per_segment", minimum=2)
     most = MAX_BOUNDARY_SAMPLES // control_points
+    if control_points > MAX_CONTROL_POINTS:
+        raise ValueError(too_many_control_points(control_points))
     if per > most:
         raise ValueError(
             f"samples_per_segment={per} gives {per * control_points:,} boundary samples for "
@@ -73,6 +77,14 @@ def checked_samples_per_segment(value, control_points: int) -> int:
             f"use 2 <= samples_per_segment <= {most}"
         )
     return per
+
+
+def too_many_control_points(count: int) -> str:
+    """The message for a curve of `count` > `MAX_CONTROL_POINTS` control points."""
+    return (
+        f"{count:,} control points need at least {2 * count:,} boundary samples, more than the "
+        f"{MAX_BOUNDARY_SAMPLES:,} allowed; use at most {MAX_CONTROL_POINTS:,} control points"
+    )
 
 
 def positive_float(value, name: str) -> float:
