@@ -320,9 +320,10 @@ def run_animate(args) -> int:
     image = read_image(session.image)
     height, width = image.shape[:2]
     curve = cage_curve(session.cage, f"{args.session}: cage")
-    size, view = output_frame(
-        frame_region((width, height), keyframes, interpolation, times, canvas), size=args.size
-    )
+    with reported_as_input("output size"):
+        size, view = output_frame(
+            frame_region((width, height), keyframes, interpolation, times, canvas), size=args.size
+        )
     if kind == "gif" and len(times) * size[0] * size[1] * 3 > MAX_GIF_BYTES:
         raise InputError(
             f"{path}: {len(times)} frames of {size[0]}x{size[1]} are too many for a GIF; write an MP4 or PNG "

@@ -612,7 +612,8 @@ def _warp(args: argparse.Namespace) -> int:
     _require_overlap(curve, (width, height), cage_source)
     outside, canvas = args.outside or outside, args.canvas or canvas
     region = output_region((width, height), target, canvas)
-    size, view = output_frame(region, args.scale, args.size)
+    with reported_as_input("output size"):
+        size, view = output_frame(region, args.scale, args.size)
     _warn_if_target_is_absurd(target, size, target_source)
     params = dict(session_params)
     if args.samples_per_segment is not None:

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from app.render import View
+from app.render import MAX_OUTPUT_PIXELS, View
 from core.bspline import basis_weights
 
 CANVASES = ("source", "grow")
@@ -55,10 +55,23 @@ def output_frame(
 
     At most one of `scale` (output pixels per image pixel) and `size` (fit the
     region into it); with neither, one output pixel per image pixel.
+
+    Raises
+    ------
+    ValueError
+        An output of more than `app.render.MAX_OUTPUT_PIXELS` pixels.
     """
     x0, y0, x1, y1 = region
     if size is not None:
-        return (int(size[0]), int(size[1])), View.fit(region, size)
-    scale = 1.0 if scale is None else float(scale)
-    width, height = max(1, round((x1 - x0) * scale)), max(1, round((y1 - y0) * scale))
+        width, height = int(size[0]), int(size[1])
+    else:
+        scale = 1.0 if scale is None else float(scale)
+        width, height = max(1, round((x1 - x0) * scale)), max(1, round((y1 - y0) * scale))
+    if width * height > MAX_OUTPUT_PIXELS:
+        raise ValueError(
+            f"the output would be {width}x{height} pixels ({width * height / 1e6:.0f} megapixels); at most "
+            f"{MAX_OUTPUT_PIXELS / 1e6:.0f} megapixels can be written: give a smaller --size or --scale"
+        )
+    if size is not None:
+        return (width, height), View.fit(region, size)
     return (width, height), View(scale, (-scale * x0, -scale * y0))

@@ -27,6 +27,7 @@ from dataclasses import dataclass
 import moderngl
 import numpy as np
 
+from app.image_header import MAX_IMAGE_PIXELS
 from app.shaders import load_shader
 from core.mesh import unique_edges
 
@@ -79,6 +80,11 @@ DISTORTION_MEASURES = {"area": 0, "conformal": 1}
 #: `WarpRenderer.may_fold` calls a triangle safely unfolded when its deformed area is more than this
 #: fraction of its undeformed one: the fold pass's float32 areas are off by ~1e-5 of that at most.
 FOLD_MARGIN = 1e-3
+
+#: Largest side of one offscreen drawing of `WarpRenderer.render`; larger outputs are drawn in tiles.
+TILE = 4096
+#: Most pixels of an output of `WarpRenderer.render`, as of an input image (`app.image_header`).
+MAX_OUTPUT_PIXELS = MAX_IMAGE_PIXELS
 
 #: Floats per overlay vertex: x, y (image pixels), r, g, b, a (straight alpha),
 #: size (line width or handle diameter, framebuffer pixels).
@@ -655,6 +661,11 @@ class WarpRenderer:
     ) -> np.ndarray:
         """Draw offscreen with multisampling and read the result back.
 
+        An output larger than `TILE` pixels on a side is drawn in tiles of at most
+        `TILE` x `TILE`, each through the view shifted by the tile's corner: GL
+        drivers cap a framebuffer's size (llvmpipe: 2 GiB of multisampled pixels,
+        about 11,585 x 11,585 at 4 samples) below their maximum renderbuffer side.
+
         Parameters
         ----------
         size : tuple of int
@@ -677,28 +688,36 @@ class WarpRenderer:
             RGBA with straight alpha, row 0 at the top.
         """
         width, height = int(size[0]), int(size[1])
-        limit = min(self.ctx.info["GL_MAX_RENDERBUFFER_SIZE"], *self.ctx.info["GL_MAX_VIEWPORT_DIMS"])
-        if not (1 <= width <= limit and 1 <= height <= limit):
-            raise ValueError(f"output size {width}x{height} is outside 1..{limit} pixels per side")
+        if not (1 <= width and 1 <= height and width * height <= MAX_OUTPUT_PIXELS):
+            raise ValueError(
+                f"output size {width}x{height} is not 1 to {MAX_OUTPUT_PIXELS / 1e6:.0f} megapixels"
+            )
+        view = view or View()
+        limit = min(TILE, self.ctx.info["GL_MAX_RENDERBUFFER_SIZE"], *self.ctx.info["GL_MAX_VIEWPORT_DIMS"])
+        tile = (min(width, limit), min(height, limit))
         # Leave the caller's framebuffer bound afterwards (a viewer exporting mid-frame).
         previous = self.ctx.fbo
         if self._target is not None and previous in self._target[2]:
             previous = None  # ours, perhaps about to be replaced
-        multisample, resolved = self._framebuffers(
-            (width, height), max(0, min(int(samples), self.ctx.max_samples))
-        )
-        multisample.use()
+        multisample, resolved = self._framebuffers(tile, max(0, min(int(samples), self.ctx.max_samples)))
+        pixels = np.empty((height, width, 4), np.uint8)
         red, green, blue, alpha = background
-        multisample.clear(red * alpha, green * alpha, blue * alpha, alpha)
-        if backdrop:
-            self.draw_backdrop(view or View(), (width, height))
-        self._draw(view or View(), (width, height), "caller", content, wireframe, highlight, folds)
-        self.ctx.copy_framebuffer(resolved, multisample)
+        for top in range(0, height, tile[1]):
+            for left in range(0, width, tile[0]):
+                multisample.use()
+                multisample.clear(red * alpha, green * alpha, blue * alpha, alpha)
+                shifted = View(view.scale, (view.offset[0] - left, view.offset[1] - top))
+                if backdrop:
+                    self.draw_backdrop(shifted, tile)
+                self._draw(shifted, tile, "caller", content, wireframe, highlight, folds)
+                self.ctx.copy_framebuffer(resolved, multisample)
+                data = resolved.read(components=4, alignment=1)
+                # GL rows run bottom-up.
+                drawn = np.frombuffer(data, dtype=np.uint8).reshape(tile[1], tile[0], 4)[::-1]
+                part = pixels[top : top + tile[1], left : left + tile[0]]
+                part[...] = drawn[: part.shape[0], : part.shape[1]]
         if previous is not None:
             previous.use()
-        data = resolved.read(components=4, alignment=1)
-        # GL rows run bottom-up.
-        pixels = np.frombuffer(data, dtype=np.uint8).reshape(height, width, 4)[::-1]
         return _unpremultiply(pixels)
 
     # -- lifetime -----------------------------------------------------------
@@ -940,8 +959,8 @@ def _premultiply(image: np.ndarray) -> np.ndarray:
 
 
 def _unpremultiply(pixels: np.ndarray) -> np.ndarray:
-    """RGBA uint8 (H, W, 4), premultiplied -> straight alpha; only partly covered pixels change."""
-    result = np.array(pixels)
+    """RGBA uint8 (H, W, 4), premultiplied -> straight alpha, in place; only partly covered pixels change."""
+    result = pixels
     alpha = result[..., 3]
     partial = (alpha > 0) & (alpha < 255)
     if partial.any():
