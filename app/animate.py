@@ -297,7 +297,7 @@ def run_animate(args) -> int:
         session_output,
     )
     from app.keyframes import frame_times
-    from app.render import WarpRenderer, create_headless_context
+    from app.render import WarpRenderer, create_headless_context, require_render_memory
 
     path = Path(args.output).expanduser()
     kind = output_kind(path, args.output)
@@ -331,6 +331,7 @@ def run_animate(args) -> int:
         )
 
     # The GL context comes first: without one there is no point in the long precompute.
+    require_render_memory((width, height), size, context=True)
     ctx = create_headless_context()
     try:
         started = time.perf_counter()
@@ -341,6 +342,7 @@ def run_animate(args) -> int:
             reported_as_input(f"{args.session}: kernel {session.kernel!r}"),
         ):
             basis = core.mesh_basis_functions(curve, mesh, kernel=session.kernel, progress=bar, **params)
+        require_render_memory((width, height), size, context=False)
         with WarpRenderer(ctx) as renderer, interrupted_by_sigterm():
             with reported_as_input(str(session.image)):
                 renderer.set_image(image)

@@ -556,7 +556,7 @@ def _examples(*examples: tuple[str, str | None]) -> str:
 
 def _warp(args: argparse.Namespace) -> int:
     import core
-    from app.render import WarpRenderer, create_headless_context
+    from app.render import WarpRenderer, create_headless_context, require_render_memory
     from core.mesh_basis import MESH_ONLY_KERNELS
     from core.validation import checked_samples_per_segment
 
@@ -629,6 +629,7 @@ def _warp(args: argparse.Namespace) -> int:
         params["parameterization"] = parameterization
 
     # The GL context comes first: without one there is no point in the long precompute.
+    require_render_memory((width, height), size, context=True)
     ctx = create_headless_context()
     try:
         started = time.perf_counter()
@@ -655,6 +656,7 @@ def _warp(args: argparse.Namespace) -> int:
                 f"warning: the deformation folds over in {folded} of {len(mesh.triangles)} triangles "
                 f"({_why_folded(target, target_source)})"
             )
+        require_render_memory((width, height), size, context=False)
         with WarpRenderer(ctx) as renderer:
             with reported_as_input(str(image_path)):
                 renderer.set_image(image)

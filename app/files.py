@@ -19,8 +19,6 @@ import math
 import os
 import re
 import stat
-import sys
-import tempfile
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from numbers import Real
@@ -29,6 +27,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from app.console import captured_c_stderr
 from app.image_header import MAX_IMAGE_PIXELS, ImageHeader, image_header
 from app.keyframes import DEFAULT_INTERPOLATION, INTERPOLATIONS, Keyframe, sorted_keyframes
 from core.atomic_write import NAME_MAX, write_atomically
@@ -519,7 +518,7 @@ def check_image_size(header: ImageHeader, path: str | os.PathLike) -> None:
 
 def _decode(data: bytes, path: Path) -> np.ndarray:
     """OpenCV's decoding of `data`, with its complaints as one `InputError` line."""
-    with _captured_c_stderr() as messages:
+    with captured_c_stderr() as messages:
         try:
             image = cv2.imdecode(np.frombuffer(data, dtype=np.uint8), cv2.IMREAD_UNCHANGED)
         except cv2.error as error:
@@ -573,7 +572,7 @@ def _read_bytes(path: Path, limit: int) -> bytes:
         size = os.fstat(descriptor).st_size
         if size <= limit:
             try:
-                data = stream.read(limit + 1)
+                data = _read_at_most(stream, limit + 1, size)
             except OSError as error:
                 raise InputError(f"{path}: cannot read ({error.strerror or error})") from None
             size = max(size, len(data))
@@ -587,6 +586,20 @@ def _read_bytes(path: Path, limit: int) -> bytes:
     return data
 
 
+def _read_at_most(stream, most: int, expected: int) -> bytes:
+    """Up to `most` bytes of `stream`: first the `expected` size and one more (one allocation for
+    a file that does not change), then in chunks, so memory follows what is really there."""
+    parts, total, want = [], 0, expected + 1
+    while total < most:
+        part = stream.read(min(want, most - total))
+        if not part:
+            break
+        parts.append(part)
+        total += len(part)
+        want = 1 << 20
+    return b"".join(parts)
+
+
 def _file_kind(mode: int) -> str:
     """What a file that is not regular is, for messages: "a FIFO", "a character device", ..."""
     for test, kind in (
@@ -598,28 +611,6 @@ def _file_kind(mode: int) -> str:
         if test(mode):
             return kind
     return "a special file"
-
-
-@contextlib.contextmanager
-def _captured_c_stderr() -> Iterator[list[str]]:
-    """Collect what C libraries print on file descriptor 2 meanwhile.
-
-    libpng and libjpeg report decoding errors by printing them, outside Python's
-    reach; capturing them keeps the command line's error to one line and lets it
-    quote the decoder's reason.
-    """
-    messages: list[str] = []
-    sys.stderr.flush()
-    saved = os.dup(2)
-    with tempfile.TemporaryFile() as sink:
-        os.dup2(sink.fileno(), 2)
-        try:
-            yield messages
-        finally:
-            os.dup2(saved, 2)
-            os.close(saved)
-            sink.seek(0)
-            messages.extend(sink.read().decode("utf-8", errors="replace").splitlines())
 
 
 def _decoder_reason(messages: list[str]) -> str:

@@ -27,6 +27,8 @@ from dataclasses import dataclass
 import moderngl
 import numpy as np
 
+from app.address_space import GL_CONTEXT_BYTES, PROGRAM_BYTES, render_bytes, require_address_space
+from app.console import captured_c_stderr
 from app.image_header import MAX_IMAGE_PIXELS
 from app.shaders import load_shader
 from core.mesh import unique_edges
@@ -140,14 +142,30 @@ def create_headless_context() -> moderngl.Context:
     ------
     ContextUnavailableError
         If EGL or a GL 3.3 driver is unavailable; the message says what to install.
+    MemoryError
+        If an address-space limit leaves less than `app.address_space.GL_CONTEXT_BYTES`.
     """
-    try:
-        return moderngl.create_context(standalone=True, backend="egl", require=330)
-    except Exception as error:  # moderngl/glcontext raise plain Exception subclasses
-        raise ContextUnavailableError(
-            f"cannot create a headless OpenGL 3.3 context through EGL ({error}); on Debian/Ubuntu "
-            "install libegl1, libegl-mesa0 and libgl1-mesa-dri"
-        ) from None
+    require_address_space(GL_CONTEXT_BYTES, "an OpenGL context")
+    # EGL and Mesa print their warnings (a driver they did not find, ...) on stderr themselves.
+    with captured_c_stderr():
+        try:
+            return moderngl.create_context(standalone=True, backend="egl", require=330)
+        except Exception as error:  # moderngl/glcontext raise plain Exception subclasses
+            raise ContextUnavailableError(
+                f"cannot create a headless OpenGL 3.3 context through EGL ({error}); on Debian/Ubuntu "
+                "install libegl1, libegl-mesa0 and libgl1-mesa-dri"
+            ) from None
+
+
+def require_render_memory(image_size: tuple[int, int], output_size: tuple[int, int], context: bool) -> None:
+    """`MemoryError` in one line if an address-space limit leaves too little to draw an image
+    (width, height) into an output (width, height), and to create the GL context first
+    (`context`) or else the renderer's programs (`app.address_space`): llvmpipe crashes where
+    numpy would report the lack of memory."""
+    needed = render_bytes(image_size, output_size, TILE) + (GL_CONTEXT_BYTES if context else PROGRAM_BYTES)
+    what = "an OpenGL context and " if context else "OpenGL "
+    what += f"drawing the {image_size[0]}x{image_size[1]} image into {output_size[0]}x{output_size[1]} pixels"
+    require_address_space(needed, what)
 
 
 class WarpRenderer:
