@@ -356,7 +356,7 @@ def session_kernel_params(session: Session, path: str | os.PathLike = "session")
         power = finite_number(value["power"])
         if power is None or power <= 0:
             raise InputError(
-                f"{path}: kernel_params power must be a finite number > 0, got {_shown(value['power'])}"
+                f"{path}: kernel_params power must be a number > 0, got {_shown(value['power'])}"
             )
         params["power"] = power
     if "shift" in value:
@@ -377,9 +377,7 @@ def session_max_edge(session: Session, path: str | os.PathLike = "session") -> f
         raise InputError(f'{path}: "mesh" must be an object {{"max_edge": h}}')
     edge = finite_number(value["max_edge"])
     if edge is None or edge <= 0:
-        raise InputError(
-            f"{path}: mesh max_edge must be a finite number > 0, got {_shown(value['max_edge'])}"
-        )
+        raise InputError(f"{path}: mesh max_edge must be a number > 0, got {_shown(value['max_edge'])}")
     return edge
 
 
