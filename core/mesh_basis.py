@@ -166,6 +166,8 @@ def mesh_basis_functions(
     if entry.values is not None:
         problem = invariant_problem(curve, mesh, kernel, params, entry.values, entry.errors)
         if problem is None and kernel != "harmonic":  # the finite-element basis has no pointwise values
+            if kernel in COMPILED_KERNELS:
+                compile_solver(compiling)  # shown as such (the first run only), not as reading the cache
             problem = recomputed_rows_problem(
                 entry.values[mesh.interior],
                 mesh.vertices[mesh.interior],
