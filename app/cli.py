@@ -811,7 +811,7 @@ def _demo(args: argparse.Namespace) -> int:
     script = args.script or files.script
     read_script(script, document.snapshot.n)  # bad scripts fail here, before the window opens
     if args.frames is not None and args.frames.exists() and not args.frames.is_dir():
-        raise InputError(f"{args.frames}: not a directory")
+        raise InputError(f"--frames {args.frames}: exists and is not a directory")
     options = Options(
         stats=args.stats,
         max_edge=args.max_edge,

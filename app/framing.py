@@ -68,9 +68,14 @@ def output_frame(
         scale = 1.0 if scale is None else float(scale)
         width, height = max(1, round((x1 - x0) * scale)), max(1, round((y1 - y0) * scale))
     if width * height > MAX_OUTPUT_PIXELS:
+        shown = (
+            f"{width}x{height} pixels ({width * height / 1e6:.0f} megapixels)"
+            if max(width, height) <= MAX_OUTPUT_PIXELS
+            else f"over {MAX_OUTPUT_PIXELS:,} pixels a side"
+        )
         raise ValueError(
-            f"the output would be {width}x{height} pixels ({width * height / 1e6:.0f} megapixels); at most "
-            f"{MAX_OUTPUT_PIXELS / 1e6:.0f} megapixels can be written: give a smaller --size or --scale"
+            f"the output would be {shown}; at most {MAX_OUTPUT_PIXELS / 1e6:.0f} megapixels can be written: "
+            "give a smaller --size or --scale"
         )
     if size is not None:
         return (width, height), View.fit(region, size)

@@ -186,7 +186,7 @@ def open_document(
         if (pixels[..., 3] == 255).all():
             # A photograph: its subject is cut out of a picture the user wants to keep whole.
             preferences["outside"] = "original"
-    snapshot = Snapshot(Path(image).resolve(), control_points, control_points)
+    snapshot = Snapshot(Path(os.path.realpath(image)), control_points, control_points)
     return Document(
         snapshot,
         pixels,
@@ -241,7 +241,7 @@ def recover(path: Path, image: Path, max_edge: float | None, notices: list[str])
     for candidate in [path, *backups(path)] if path.exists() else backups(path):
         try:
             document = restore(candidate, max_edge)
-            if document.snapshot.image != image.resolve():
+            if document.snapshot.image != Path(os.path.realpath(image)):
                 raise InputError(f"{candidate}: is the session of {document.snapshot.image}, not of {image}")
         except InputError as error:
             if candidate == path:
@@ -276,7 +276,7 @@ def restore(path: Path, max_edge: float | None = None) -> Document:
         power = DEFAULT_POWER
     if shift not in SHIFTS:
         shift = DEFAULT_SHIFT
-    image = Path(session.image).resolve()
+    image = Path(os.path.realpath(session.image))
     keyframes, interpolation = session_keyframes(session, path)
     snapshot = Snapshot(
         image,

@@ -35,7 +35,7 @@ def session_path_for(image: str | os.PathLike) -> Path:
     digits of the SHA-256 of its absolute path, so that two images of the same
     name in different folders get different sessions.
     """
-    resolved = Path(image).resolve()
+    resolved = Path(os.path.realpath(image))  # a loop of links is reported when read
     digest = hashlib.sha256(str(resolved).encode("utf-8", "surrogateescape")).hexdigest()[:10]
     stem = "".join(c if c.isalnum() or c in "-_." else "_" for c in resolved.stem) or "image"
     return state_directory() / "sessions" / f"{stem}-{digest}.json"
