@@ -23,9 +23,9 @@ import resource
 #: numba, moderngl) take about 0.85 GiB, and OpenBLAS spins as it loads when it cannot map its
 #: buffers (0.75 GiB).
 MIN_ADDRESS_SPACE = 1 << 30
-#: Address space an OpenGL context and the renderer's compiled programs take: llvmpipe, with a
-#: thread per CPU, took 0.37 to 0.43 GiB on 2 CPUs, and crashed (SIGSEGV) when it did not find it.
-GL_CONTEXT_BYTES = (448 + 32 * (os.cpu_count() or 1)) << 20
+#: Address space an OpenGL context takes: llvmpipe, with a thread per CPU, took 0.37 to 0.55 GiB
+#: on 2 CPUs, and crashed (SIGSEGV) compiling shaders when it did not find enough.
+GL_CONTEXT_BYTES = (512 + 64 * (os.cpu_count() or 1)) << 20
 #: Address space the renderer's programs take when llvmpipe compiles them (measured: 13 to 79 MiB).
 PROGRAM_BYTES = 96 << 20
 #: Address space per byte of an RGBA image given to the renderer (the texture, its mipmaps and a

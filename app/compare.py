@@ -259,7 +259,9 @@ def _read_values(path, count: int) -> np.ndarray:
     """Boundary values ``{"values": [F_1, ..., F_n]}`` from a JSON file, shape (n,)."""
     value = read_json(path)
     values = value.get("values") if isinstance(value, dict) else None
-    if not isinstance(values, list):
+    if not isinstance(values, list) or not all(
+        isinstance(v, (int, float)) and not isinstance(v, bool) for v in values
+    ):
         raise InputError(f'{path}: expected {{"values": [F_1, ..., F_n]}} with n numbers')
     if len(values) != count:
         raise InputError(f"{path}: has {len(values)} values but the cage has {count} control points")
