@@ -429,7 +429,7 @@ def read_script(path: str | Path, control_points: int | None = None) -> list[Mov
         to = tuple(finite_number(v) for v in item["to"]) if isinstance(item["to"], list) else ()
         point = item["point"]
         if len(to) != 2 or None in (at, duration, *to):
-            raise InputError(f"{where}: at and duration must be finite numbers, and to a pair [x, y] of them")
+            raise InputError(f"{where}: at, duration and to must be numbers (finite; to a pair [x, y])")
         if (
             not isinstance(point, int)
             or point < 0
