@@ -28,7 +28,6 @@ from __future__ import annotations
 import contextlib
 import os
 import re
-import secrets
 import shutil
 import signal
 import time
@@ -36,10 +35,10 @@ from pathlib import Path
 
 import numpy as np
 
-from app.files import InputError, check_writable, encode_png
+from app.files import InputError, check_name_length, check_writable, encode_png
 from app.framing import output_frame, output_region
 from app.keyframes import Keyframe, interpolate
-from core.atomic_write import remove_stale_temporaries
+from core.atomic_write import temporary_path
 
 #: Straight RGB that MP4 and GIF frames show where the warp is transparent.
 BACKGROUND = (255, 255, 255)
@@ -58,7 +57,8 @@ def output_kind(path: Path, text: str | None = None) -> str:
     """
     text = str(path) if text is None else text
     suffix = path.suffix.lower()
-    if text.endswith(("/", os.sep)) or path.is_dir() or suffix == "":
+    check_name_length(path)
+    if text.endswith(("/", os.sep)) or os.path.isdir(path) or suffix == "":
         return "png"
     if suffix in (".mp4", ".gif"):
         return suffix[1:]
@@ -72,6 +72,14 @@ def check_output(path: Path, kind: str) -> None:
     if kind != "png":
         check_writable(path)
         return
+    try:
+        _check_folder(path)
+    except OSError as error:  # a path too long, a loop of symbolic links, ...
+        raise InputError(f"{path}: cannot write ({error.strerror or error})") from None
+
+
+def _check_folder(path: Path) -> None:
+    """`check_output` of a folder of PNG frames: new, or holding only frames, in a writable folder."""
     if path.exists() and not path.is_dir():
         raise InputError(f"{path}: exists and is not a folder")
     if path.is_dir():
@@ -112,12 +120,6 @@ def flatten(rgba: np.ndarray) -> np.ndarray:
     return np.round(colour * alpha + np.asarray(BACKGROUND, np.float32) * (1.0 - alpha)).astype(np.uint8)
 
 
-def _temporary(path: Path, suffix: str = "") -> Path:
-    """A new temporary name beside `path` (those of a killed earlier run are removed first)."""
-    remove_stale_temporaries(path)
-    return path.parent / f".{path.name}.{os.getpid()}.{secrets.token_hex(4)}.tmp{suffix}"
-
-
 class FrameWriter:
     """Writes frames (RGBA uint8, (H, W, 4), straight alpha) to a temporary place; `finish` renames it.
 
@@ -154,7 +156,7 @@ class PngFrames(FrameWriter):
 
     def __init__(self, path: Path, size: tuple[int, int], fps: float):
         super().__init__(path, size, fps)
-        self.temporary = _temporary(self.path)
+        self.temporary = temporary_path(self.path)
         self.temporary.mkdir()
 
     def add(self, rgba: np.ndarray) -> None:
@@ -164,7 +166,7 @@ class PngFrames(FrameWriter):
     def finish(self) -> None:
         old = None
         if self.path.exists():
-            old = _temporary(self.path, ".old")
+            old = temporary_path(self.path, ".old")
             os.replace(self.path, old)
         os.replace(self.temporary, self.path)
         if old is not None:
@@ -183,7 +185,7 @@ class Mp4Writer(FrameWriter):
         super().__init__(path, size, fps)
         self.padded = (size[0] + size[0] % 2, size[1] + size[1] % 2)
         # The container comes from the name's extension, so the temporary ends in .mp4 too.
-        self.temporary = _temporary(self.path, ".mp4")
+        self.temporary = temporary_path(self.path, ".mp4")
         self.video = cv2.VideoWriter(
             str(self.temporary), cv2.VideoWriter_fourcc(*"mp4v"), self.fps, self.padded
         )
@@ -235,7 +237,7 @@ class GifWriter(FrameWriter):
         palette = sample.quantize(256, method=Image.Quantize.MEDIANCUT)
         images = [Image.fromarray(f).quantize(palette=palette, dither=Image.Dither.NONE) for f in self.frames]
         delay = gif_delays(len(images), self.fps)
-        temporary = _temporary(self.path)
+        temporary = temporary_path(self.path)
         try:
             with open(temporary, "wb") as stream:
                 images[0].save(
@@ -294,6 +296,7 @@ def run_animate(args) -> int:
         cage_curve,
         read_image,
         read_session,
+        refuse_overwriting_inputs,
         reported_as_input,
         session_kernel_params,
         session_keyframes,
@@ -301,14 +304,16 @@ def run_animate(args) -> int:
         session_output,
     )
     from app.keyframes import frame_times
-    from app.render import WarpRenderer, create_headless_context
+    from app.render import WarpRenderer, create_headless_context, require_render_memory
     from app.warping import WarpSettings, prepare, render
     from core.compilation import MESSAGE as COMPILING
 
     path = Path(args.output).expanduser()
     kind = output_kind(path, args.output)
     check_output(path, kind)
+    refuse_overwriting_inputs(path, {"session file": args.session})
     session = read_session(args.session)
+    refuse_overwriting_inputs(path, {"session's image": session.image})
     keyframes, interpolation = session_keyframes(session, args.session)
     if not keyframes:
         raise InputError(
@@ -324,9 +329,10 @@ def run_animate(args) -> int:
     image = read_image(session.image)
     height, width = image.shape[:2]
     curve = cage_curve(session.cage, f"{args.session}: cage")
-    size, view = output_frame(
-        frame_region((width, height), keyframes, interpolation, times, canvas), size=args.size
-    )
+    with reported_as_input("output size"):
+        size, view = output_frame(
+            frame_region((width, height), keyframes, interpolation, times, canvas), size=args.size
+        )
     if kind == "gif" and len(times) * size[0] * size[1] * 3 > MAX_GIF_BYTES:
         raise InputError(
             f"{path}: {len(times)} frames of {size[0]}x{size[1]} are too many for a GIF; write an MP4 or PNG "
@@ -334,6 +340,7 @@ def run_animate(args) -> int:
         )
 
     # The GL context comes first: without one there is no point in the long precompute.
+    require_render_memory((width, height), size, context=True)
     ctx = create_headless_context()
     try:
         started = time.perf_counter()
@@ -346,6 +353,7 @@ def run_animate(args) -> int:
         ):
             settings = WarpSettings(session.kernel, params, max_edge)
             deformation = prepare(curve, settings, mesh, progress=bar, compiling=compiling)
+        require_render_memory((width, height), size, context=False)
         with WarpRenderer(ctx) as renderer, interrupted_by_sigterm():
             with reported_as_input(str(session.image)):
                 renderer.set_image(image)

@@ -19,6 +19,7 @@ what is wrong, without a traceback, and no output file is written or changed.
 from __future__ import annotations
 
 import argparse
+import errno
 import sys
 import textwrap
 import time
@@ -47,7 +48,9 @@ from app.files import (
     read_cage,
     read_image,
     read_session,
+    refuse_overwriting_inputs,
     reported_as_input,
+    same_file,
     session_kernel_params,
     session_max_edge,
     session_output,
@@ -56,6 +59,7 @@ from app.files import (
     write_png,
 )
 from app.framing import CANVASES, OUTSIDES, output_frame, output_region
+from app.keyframes import MAX_FPS, MIN_FPS
 from app.render import ContextUnavailableError
 from app.viewer.demos import SCRIPT_FORMAT
 from core.arc_length import PARAMETERIZATIONS
@@ -95,6 +99,14 @@ def main(argv: list[str] | None = None) -> int:
             return fail(f"error: {error}", EXIT_ENVIRONMENT)
         except KeyboardInterrupt:
             return fail("interrupted", EXIT_INTERRUPTED)
+        except OSError as error:
+            # A path that the system refuses (too long, a loop of links, ...) where no check
+            # caught it first: the input's fault, named with the file.
+            if error.errno == errno.ENOMEM:
+                return fail(f"error: out of memory: {error.strerror}", EXIT_ENVIRONMENT)
+            if error.filename is None:
+                raise
+            return fail(f"error: {error.filename}: {error.strerror or error}", EXIT_BAD_INPUT)
         except Exception as error:
             # The machine, not the input: an allocation failed (numpy, OpenCV or our own decoding).
             if not _out_of_memory(error):
@@ -333,7 +345,9 @@ def build_parser(prog: str = "python -m app") -> argparse.ArgumentParser:
         metavar="NAME",
         help="only this domain of the suite, repeatable (the names are in the table's first line)",
     )
-    quality.add_argument("--seed", type=int, default=14, help="seed of the deformations (default 14)")
+    quality.add_argument(
+        "--seed", type=_natural, default=14, help="seed of the deformations, an integer >= 0 (default 14)"
+    )
     quality.set_defaults(run=_quality)
 
     bench = _command(
@@ -414,7 +428,10 @@ def build_parser(prog: str = "python -m app") -> argparse.ArgumentParser:
         help="write every replayed frame as DIR/frame_NNNNN.png, then quit",
     )
     demo.add_argument(
-        "--fps", type=_positive(float), default=30.0, help="frames per second of --frames (default 30)"
+        "--fps",
+        type=_frame_rate,
+        default=30.0,
+        help=f"frames per second of --frames, {MIN_FPS:g} to {MAX_FPS:g} (default 30)",
     )
     demo.add_argument(
         "--session",
@@ -444,7 +461,11 @@ def build_parser(prog: str = "python -m app") -> argparse.ArgumentParser:
         "--output", required=True, metavar="OUT", help="OUT.mp4, OUT.gif, or OUT_DIR/ for PNG frames"
     )
     animate.add_argument(
-        "--fps", type=_positive(float), default=30.0, metavar="N", help="frames per second (default 30)"
+        "--fps",
+        type=_frame_rate,
+        default=30.0,
+        metavar="N",
+        help=f"frames per second, {MIN_FPS:g} to {MAX_FPS:g} (default 30)",
     )
     animate.add_argument(
         "--size", type=_size, metavar="WxH", help="output size; the frame is fitted and centred"
@@ -556,7 +577,7 @@ def _examples(*examples: tuple[str, str | None]) -> str:
 
 def _warp(args: argparse.Namespace) -> int:
     import core
-    from app.render import WarpRenderer, create_headless_context
+    from app.render import WarpRenderer, create_headless_context, require_render_memory
     from app.warping import WarpSettings, prepare, render
     from core.kernel_table import PARAMETERIZED_KERNELS
     from core.validation import checked_samples_per_segment
@@ -595,16 +616,20 @@ def _warp(args: argparse.Namespace) -> int:
     if kernel not in kernel_names():
         raise InputError(f"unknown kernel {kernel!r}; choose one of {', '.join(kernel_names())}")
     _refuse_overwriting_input(args.output, image_path, args.overwrite_input)
+    refuse_overwriting_inputs(
+        args.output, {"source cage": args.cage, "target cage": args.target, "session file": args.session}
+    )
     image = read_image(image_path)
     height, width = image.shape[:2]
-    curve = cage_curve(cage, cage_source)
-    _require_overlap(curve, (width, height), cage_source)
     if args.samples_per_segment is not None:
         with reported_as_input("--samples-per-segment"):
-            checked_samples_per_segment(args.samples_per_segment, curve.n)
+            checked_samples_per_segment(args.samples_per_segment, len(cage))
+    curve = cage_curve(cage, cage_source, args.samples_per_segment)
+    _require_overlap(curve, (width, height), cage_source)
     outside, canvas = args.outside or outside, args.canvas or canvas
     region = output_region((width, height), target, canvas)
-    size, view = output_frame(region, args.scale, args.size)
+    with reported_as_input("output size"):
+        size, view = output_frame(region, args.scale, args.size)
     _warn_if_target_is_absurd(target, size, target_source)
     params = dict(session_params)
     if args.samples_per_segment is not None:
@@ -620,6 +645,7 @@ def _warp(args: argparse.Namespace) -> int:
         params["parameterization"] = parameterization
 
     # The GL context comes first: without one there is no point in the long precompute.
+    require_render_memory((width, height), size, context=True)
     ctx = create_headless_context()
     try:
         started = time.perf_counter()
@@ -645,6 +671,7 @@ def _warp(args: argparse.Namespace) -> int:
                 f"warning: the deformation folds over in {folded} of {len(mesh.triangles)} triangles "
                 f"({_why_folded(target, target_source)})"
             )
+        require_render_memory((width, height), size, context=False)
         with WarpRenderer(ctx) as renderer:
             with reported_as_input(str(image_path)):
                 renderer.set_image(image)
@@ -702,7 +729,7 @@ def _distortion_report(curve, mesh, kernel, target, deformed, params) -> list[st
 
 
 def _fit(args: argparse.Namespace) -> int:
-    from app.fit import FIT_PIXELS, checked_rect, fit_cage
+    from app.fit import FIT_PIXELS, MAX_POINTS, checked_rect, fit_cage
 
     rect = None
     if args.rect is not None:
@@ -713,6 +740,9 @@ def _fit(args: argparse.Namespace) -> int:
         if len(rect) != 4:
             raise InputError(f"--rect: expected X,Y,W,H such as 40,30,200,150, got {args.rect!r}")
     check_writable(args.output, suffix=".json")
+    refuse_overwriting_inputs(args.output, {"input image": args.image})
+    if args.points > MAX_POINTS:
+        raise InputError(f"--points {args.points}: at most {MAX_POINTS:,} control points can be fitted")
     image = read_image(args.image)
     with reported_as_input(f"--rect {args.rect}"):
         rect = checked_rect(rect, image.shape[1], image.shape[0])
@@ -798,7 +828,7 @@ def _demo(args: argparse.Namespace) -> int:
     script = args.script or files.script
     read_script(script, document.snapshot.n)  # bad scripts fail here, before the window opens
     if args.frames is not None and args.frames.exists() and not args.frames.is_dir():
-        raise InputError(f"{args.frames}: not a directory")
+        raise InputError(f"--frames {args.frames}: exists and is not a directory")
     options = Options(
         stats=args.stats,
         max_edge=args.max_edge,
@@ -869,10 +899,13 @@ def _check_viewer_outputs(args: argparse.Namespace) -> None:
         raise InputError("--max-edge and --vertices both set the mesh size: give one")
     if args.kernel is not None and args.kernel not in kernel_names():
         raise InputError(f"unknown kernel {args.kernel!r}; choose one of {', '.join(kernel_names())}")
+    inputs = {"input image": getattr(args, "image", None), "source cage": getattr(args, "cage", None)}
     if args.session is not None:
         check_writable(args.session, suffix=".json")
+        refuse_overwriting_inputs(args.session, inputs)
     if args.export is not None:
         check_writable(args.export, suffix=".png")
+        refuse_overwriting_inputs(args.export, {**inputs, "session file": args.session})
 
 
 # -- helpers ----------------------------------------------------------------------
@@ -903,11 +936,7 @@ def _require_overlap(curve, image_size: tuple[int, int], source: str) -> None:
 
 def _refuse_overwriting_input(output: Path, image: Path, allowed: bool) -> None:
     """`InputError` if `output` is the input `image` (the same file), unless `allowed`."""
-    try:
-        same = output.samefile(image)
-    except OSError:  # one of them does not exist: a missing image is reported when it is read
-        same = False
-    if same and not allowed:
+    if same_file(output, image) and not allowed:
         raise InputError(
             f"{output}: is the input image; give another --output, or --overwrite-input to replace it"
         )
@@ -971,6 +1000,27 @@ def _positive(kind):
         return value
 
     return parse
+
+
+def _natural(text: str) -> int:
+    """argparse type: an integer >= 0."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected an integer >= 0, got {text!r}") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"must be an integer >= 0, got {text!r}")
+    return value
+
+
+def _frame_rate(text: str) -> float:
+    """argparse type: frames per second within `app.keyframes.MIN_FPS` .. `MAX_FPS`."""
+    value = _positive(float)(text)
+    if not MIN_FPS <= value <= MAX_FPS:
+        raise argparse.ArgumentTypeError(
+            f"must be within {MIN_FPS:g}..{MAX_FPS:g} frames per second, got {text!r}"
+        )
+    return value
 
 
 def _size(text: str) -> tuple[int, int]:

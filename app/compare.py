@@ -25,9 +25,11 @@ from app.files import (
     InputError,
     cage_curve,
     check_writable,
+    finite_number,
     kernel_names,
     read_cage,
     read_json,
+    refuse_overwriting_inputs,
     reported_as_input,
     write_png,
 )
@@ -99,6 +101,7 @@ def run_compare(args: argparse.Namespace) -> int:
     from core.examples import wave_heights
 
     check_writable(args.output, suffix=".png")
+    refuse_overwriting_inputs(args.output, {"domain cage": args.cage, "data file": args.data})
     curve = cage_curve(read_cage(args.cage), str(args.cage))
     values = _read_values(args.data, curve.n) if args.data else wave_heights(curve.n)
     unknown = [name for name in args.kernel or [] if name not in kernel_names()]
@@ -263,7 +266,8 @@ def _read_values(path, count: int) -> np.ndarray:
         raise InputError(f'{path}: expected {{"values": [F_1, ..., F_n]}} with n numbers')
     if len(values) != count:
         raise InputError(f"{path}: has {len(values)} values but the cage has {count} control points")
-    array = np.array(values, dtype=np.float64)
-    if not np.isfinite(array).all():
-        raise InputError(f"{path}: values must be finite numbers")
-    return array
+    numbers = [finite_number(v) for v in values]
+    if None in numbers:
+        index = numbers.index(None)
+        raise InputError(f"{path}: values[{index}] must be a finite number, got {values[index]!r:.60}")
+    return np.array(numbers, dtype=np.float64)

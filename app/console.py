@@ -9,8 +9,12 @@ once it has succeeded.
 
 from __future__ import annotations
 
+import contextlib
+import os
 import sys
+import tempfile
 import time
+from collections.abc import Iterator
 
 EXIT_OK = 0
 EXIT_ENVIRONMENT = 1
@@ -104,3 +108,25 @@ class ProgressBar:
             # On failure the bar is wiped, so that the error is the only line left.
             self.stream.write("\n" if exc_type is None else f"\r{' ' * len(self._line)}\r")
             self.stream.flush()
+
+
+@contextlib.contextmanager
+def captured_c_stderr() -> Iterator[list[str]]:
+    """Collect what C libraries print on file descriptor 2 meanwhile.
+
+    libpng and libjpeg report decoding errors by printing them, outside Python's
+    reach, and EGL and Mesa their warnings; capturing them keeps the command line's
+    error to one line and lets it quote the library's reason.
+    """
+    messages: list[str] = []
+    sys.stderr.flush()
+    saved = os.dup(2)
+    with tempfile.TemporaryFile() as sink:
+        os.dup2(sink.fileno(), 2)
+        try:
+            yield messages
+        finally:
+            os.dup2(saved, 2)
+            os.close(saved)
+            sink.seek(0)
+            messages.extend(sink.read().decode("utf-8", errors="replace").splitlines())

@@ -18,8 +18,7 @@ import json
 import math
 import os
 import re
-import sys
-import tempfile
+import stat
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from numbers import Real
@@ -28,13 +27,16 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from app.console import captured_c_stderr
 from app.image_header import MAX_IMAGE_PIXELS, ImageHeader, image_header
 from app.keyframes import DEFAULT_INTERPOLATION, INTERPOLATIONS, Keyframe, sorted_keyframes
-from core.atomic_write import write_atomically
-from core.validation import as_points
+from core.atomic_write import NAME_MAX, write_atomically
+from core.validation import MAX_CONTROL_POINTS, as_points, too_many_control_points
 
 #: Largest image file read into memory.
 MAX_IMAGE_FILE_BYTES = 1 << 30
+#: Largest JSON file (cage, session, script, data) read: parsed, it takes about 10 times that.
+MAX_JSON_FILE_BYTES = 1 << 27
 #: Largest cage coordinate, in pixels: beyond it float64 has no sub-pixel precision left.
 MAX_COORDINATE = 1e15
 
@@ -58,11 +60,20 @@ def reported_as_input(where: str) -> Iterator[None]:
         raise InputError(f"{where}: {error}") from None
 
 
-def cage_curve(control_points: np.ndarray, where: str):
-    """`core.ClosedBSpline` of a cage, or `InputError` naming `where` (self-intersection, ...)."""
-    import core
+def cage_curve(control_points: np.ndarray, where: str, samples_per_segment: int | None = None):
+    """`core.ClosedBSpline` of a cage, or `InputError` naming `where` (self-intersection, ...).
 
+    First, before the curve's own checks (which take time in the number of control
+    points), the cage's boundary samples at `samples_per_segment` per span (the
+    kernels' default if None) must be within `core.validation.MAX_BOUNDARY_SAMPLES`.
+    """
+    import core
+    from core.mesh_basis import DEFAULT_SAMPLES_PER_SEGMENT
+    from core.validation import checked_samples_per_segment
+
+    per = DEFAULT_SAMPLES_PER_SEGMENT if samples_per_segment is None else samples_per_segment
     with reported_as_input(where):
+        checked_samples_per_segment(per, len(control_points))
         return core.ClosedBSpline(control_points)
 
 
@@ -101,20 +112,47 @@ def check_writable(path: str | os.PathLike, *, suffix: str | None = None) -> Non
     path = Path(path)
     if suffix is not None and path.suffix.lower() != suffix:
         raise InputError(f"{path}: the output file name must end in {suffix}")
-    if path.is_dir():
-        raise InputError(f"{path}: cannot write, it is a directory")
-    parent = path.parent
-    if not parent.is_dir():
-        raise InputError(f"{path}: cannot write, directory {parent} does not exist")
-    if not os.access(parent, os.W_OK | os.X_OK) or (path.exists() and not os.access(path, os.W_OK)):
-        raise InputError(f"{path}: cannot write, permission denied")
+    check_name_length(path)
+    try:
+        if path.is_dir():
+            raise InputError(f"{path}: cannot write, it is a directory")
+        parent = path.parent
+        if not parent.is_dir():
+            raise InputError(f"{path}: cannot write, directory {parent} does not exist")
+        if not os.access(parent, os.W_OK | os.X_OK) or (path.exists() and not os.access(path, os.W_OK)):
+            raise InputError(f"{path}: cannot write, permission denied")
+    except OSError as error:  # a path too long, a loop of symbolic links, ...
+        raise InputError(f"{path}: cannot write ({error.strerror or error})") from None
+
+
+def check_name_length(path: str | os.PathLike) -> None:
+    """`InputError` if the last part of `path` is longer than a file name may be (`NAME_MAX` bytes)."""
+    length = len(os.fsencode(Path(path).name))
+    if length > NAME_MAX:
+        raise InputError(f"{path}: the file name is {length} bytes long; at most {NAME_MAX} are allowed")
+
+
+def refuse_overwriting_inputs(output: str | os.PathLike, inputs: dict[str, str | os.PathLike | None]) -> None:
+    """`InputError` if `output` is one of the `inputs` (what it is -> its path, None if not given):
+    the same file, also through another name or a link.  An output that does not exist yet is none."""
+    for what, path in inputs.items():
+        if path is not None and same_file(output, path):
+            raise InputError(f"{output}: is the {what}; give another output, inputs are never overwritten")
+
+
+def same_file(first: str | os.PathLike, second: str | os.PathLike) -> bool:
+    """Whether both paths name one existing file."""
+    try:
+        return os.path.samefile(first, second)
+    except (OSError, ValueError):  # one of them does not exist (or cannot be a path)
+        return False
 
 
 def read_json(path: str | os.PathLike):
     """Parse a JSON file; `InputError` with the file name (and line) if that fails."""
     path = Path(path)
     # utf-8-sig: a byte order mark, which some editors write, is not part of the JSON text.
-    text = _read_bytes(path).decode("utf-8-sig", errors="replace")
+    text = _read_bytes(path, MAX_JSON_FILE_BYTES).decode("utf-8-sig", errors="replace")
     try:
         return json.loads(text)
     except json.JSONDecodeError as error:
@@ -179,6 +217,8 @@ def cage_points(value, where: str) -> np.ndarray:
         raise InputError(
             f'{where}: "control_points" must be a list of [x, y] pairs, got {_json_type(points)}'
         )
+    if len(points) > MAX_CONTROL_POINTS:  # before the checks of each point, which take time
+        raise InputError(f"{where}: {too_many_control_points(len(points))}")
     for index, point in enumerate(points):
         # bool is an int in Python, but `true` is never a coordinate.
         if not (isinstance(point, list) and len(point) == 2 and all(_is_number(c) for c in point)):
@@ -313,10 +353,12 @@ def session_kernel_params(session: Session, path: str | os.PathLike = "session")
         )
     params = {}
     if "power" in value:
-        power = value["power"]
-        if not _is_number(power) or not math.isfinite(power) or power <= 0:
-            raise InputError(f"{path}: kernel_params power must be a number > 0, got {power!r}")
-        params["power"] = float(power)
+        power = finite_number(value["power"])
+        if power is None or power <= 0:
+            raise InputError(
+                f"{path}: kernel_params power must be a number > 0, got {_shown(value['power'])}"
+            )
+        params["power"] = power
     if "shift" in value:
         if value["shift"] not in ("none", "integral", "mean"):
             raise InputError(
@@ -333,10 +375,10 @@ def session_max_edge(session: Session, path: str | os.PathLike = "session") -> f
         return None
     if not isinstance(value, dict) or "max_edge" not in value:
         raise InputError(f'{path}: "mesh" must be an object {{"max_edge": h}}')
-    edge = value["max_edge"]
-    if not _is_number(edge) or not math.isfinite(edge) or edge <= 0:
-        raise InputError(f"{path}: mesh max_edge must be a number > 0, got {edge!r}")
-    return float(edge)
+    edge = finite_number(value["max_edge"])
+    if edge is None or edge <= 0:
+        raise InputError(f"{path}: mesh max_edge must be a number > 0, got {_shown(value['max_edge'])}")
+    return edge
 
 
 def session_output(session: Session, path: str | os.PathLike = "session") -> tuple[str, str]:
@@ -386,9 +428,9 @@ def session_keyframes(
         where = f"{path}: keyframes[{index}]"
         if not isinstance(item, dict) or "time" not in item or "target" not in item:
             raise InputError(f'{where}: expected an object with "time" and "target", got {_shown(item)}')
-        time = item["time"]
-        if not _is_number(time) or not math.isfinite(time):
-            raise InputError(f"{where}: time must be a number of seconds, got {_shown(time)}")
+        time = finite_number(item["time"])
+        if time is None:
+            raise InputError(f"{where}: time must be a number of seconds, got {_shown(item['time'])}")
         target = cage_points(item["target"], f"{where}: target")
         if target.shape != session.cage.shape:
             raise InputError(
@@ -413,16 +455,14 @@ def session_keyframes(
 def _view(value, path: Path) -> tuple[float, tuple[float, float]]:
     if not isinstance(value, dict) or "scale" not in value or "offset" not in value:
         raise InputError(f'{path}: "view" must be an object {{"scale": s, "offset": [ox, oy]}}')
-    scale, offset = value["scale"], value["offset"]
-    if not _is_number(scale) or not math.isfinite(scale) or scale <= 0:
-        raise InputError(f"{path}: view scale must be a finite number > 0, got {scale!r}")
+    scale, offset = finite_number(value["scale"]), value["offset"]
+    if scale is None or scale <= 0:
+        raise InputError(f"{path}: view scale must be a finite number > 0, got {_shown(value['scale'])}")
     if not (
-        isinstance(offset, list)
-        and len(offset) == 2
-        and all(_is_number(v) and math.isfinite(v) for v in offset)
+        isinstance(offset, list) and len(offset) == 2 and all(finite_number(v) is not None for v in offset)
     ):
-        raise InputError(f"{path}: view offset must be two finite numbers [ox, oy], got {offset!r}")
-    return float(scale), (float(offset[0]), float(offset[1]))
+        raise InputError(f"{path}: view offset must be two finite numbers [ox, oy], got {_shown(offset)}")
+    return scale, (float(offset[0]), float(offset[1]))
 
 
 # -- images -------------------------------------------------------------------
@@ -476,7 +516,7 @@ def check_image_size(header: ImageHeader, path: str | os.PathLike) -> None:
 
 def _decode(data: bytes, path: Path) -> np.ndarray:
     """OpenCV's decoding of `data`, with its complaints as one `InputError` line."""
-    with _captured_c_stderr() as messages:
+    with captured_c_stderr() as messages:
         try:
             image = cv2.imdecode(np.frombuffer(data, dtype=np.uint8), cv2.IMREAD_UNCHANGED)
         except cv2.error as error:
@@ -507,45 +547,68 @@ def write_png(path: str | os.PathLike, image: np.ndarray) -> None:
     write_atomic(path, encode_png(image))
 
 
-def _read_bytes(path: Path, limit: int | None = None) -> bytes:
+def _read_bytes(path: Path, limit: int) -> bytes:
+    """The bytes of the regular file at `path`, at most `limit` of them, or `InputError`.
+
+    The file is opened without blocking and refused unless it is a regular file (a
+    FIFO would block forever, ``/dev/zero`` never ends), and its size is checked
+    while reading, so a file that grows meanwhile cannot exhaust memory either.
+    """
     try:
-        if limit is not None and path.stat().st_size > limit:
-            raise InputError(
-                f"{path}: the file is {path.stat().st_size / 2**20:.0f} MiB; at most {limit / 2**20:.0f} MiB "
-                "can be read"
-            )
-        data = path.read_bytes()
+        descriptor = os.open(path, os.O_RDONLY | os.O_NONBLOCK)
     except FileNotFoundError:
         raise InputError(f"{path}: no such file") from None
-    except IsADirectoryError:
-        raise InputError(f"{path}: is a directory, not a file") from None
     except OSError as error:
         raise InputError(f"{path}: cannot read ({error.strerror or error})") from None
+    mode = os.fstat(descriptor).st_mode
+    if not stat.S_ISREG(mode):
+        os.close(descriptor)
+        if stat.S_ISDIR(mode):
+            raise InputError(f"{path}: is a directory, not a file")
+        raise InputError(f"{path}: is {_file_kind(mode)}, not a regular file")
+    with os.fdopen(descriptor, "rb") as stream:
+        size = os.fstat(descriptor).st_size
+        if size <= limit:
+            try:
+                data = _read_at_most(stream, limit + 1, size)
+            except OSError as error:
+                raise InputError(f"{path}: cannot read ({error.strerror or error})") from None
+            size = max(size, len(data))
+    if size > limit:
+        raise InputError(
+            f"{path}: the file is {size / 2**20:.0f} MiB{' or more' * (size == limit + 1)}; "
+            f"at most {limit / 2**20:.0f} MiB can be read"
+        )
     if not data:
         raise InputError(f"{path}: the file is empty")
     return data
 
 
-@contextlib.contextmanager
-def _captured_c_stderr() -> Iterator[list[str]]:
-    """Collect what C libraries print on file descriptor 2 meanwhile.
+def _read_at_most(stream, most: int, expected: int) -> bytes:
+    """Up to `most` bytes of `stream`: first the `expected` size and one more (one allocation for
+    a file that does not change), then in chunks, so memory follows what is really there."""
+    parts, total, want = [], 0, expected + 1
+    while total < most:
+        part = stream.read(min(want, most - total))
+        if not part:
+            break
+        parts.append(part)
+        total += len(part)
+        want = 1 << 20
+    return b"".join(parts)
 
-    libpng and libjpeg report decoding errors by printing them, outside Python's
-    reach; capturing them keeps the command line's error to one line and lets it
-    quote the decoder's reason.
-    """
-    messages: list[str] = []
-    sys.stderr.flush()
-    saved = os.dup(2)
-    with tempfile.TemporaryFile() as sink:
-        os.dup2(sink.fileno(), 2)
-        try:
-            yield messages
-        finally:
-            os.dup2(saved, 2)
-            os.close(saved)
-            sink.seek(0)
-            messages.extend(sink.read().decode("utf-8", errors="replace").splitlines())
+
+def _file_kind(mode: int) -> str:
+    """What a file that is not regular is, for messages: "a FIFO", "a character device", ..."""
+    for test, kind in (
+        (stat.S_ISFIFO, "a FIFO (named pipe)"),
+        (stat.S_ISCHR, "a character device"),
+        (stat.S_ISBLK, "a block device"),
+        (stat.S_ISSOCK, "a socket"),
+    ):
+        if test(mode):
+            return kind
+    return "a special file"
 
 
 def _decoder_reason(messages: list[str]) -> str:
@@ -564,6 +627,21 @@ def _decoder_reason(messages: list[str]) -> str:
 
 def _is_number(value) -> bool:
     return isinstance(value, Real) and not isinstance(value, bool)
+
+
+def finite_number(value) -> float | None:
+    """`value` as a float if it is a JSON number (not a boolean) that is finite as a float, else None.
+
+    JSON integers have any number of digits: one beyond float's range (a 401-digit
+    integer) is not finite, like 1e999, instead of an `OverflowError`.
+    """
+    if not _is_number(value):
+        return None
+    try:
+        number = float(value)
+    except OverflowError:
+        return None
+    return number if math.isfinite(number) else None
 
 
 def _out_of_range(value: Real) -> bool:

@@ -49,10 +49,13 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import dijkstra
 
 from core.bspline import ClosedBSpline, basis_weights
-from core.validation import positive_int
+from core.mesh_basis import DEFAULT_SAMPLES_PER_SEGMENT
+from core.validation import MAX_BOUNDARY_SAMPLES, positive_int
 
 #: Most rounds of the tangent-distance fit after the arc-length fit.
 FIT_ROUNDS = 12
+#: Most control points of a fitted cage: what the kernels sample at their default density.
+MAX_POINTS = MAX_BOUNDARY_SAMPLES // DEFAULT_SAMPLES_PER_SEGMENT
 #: Newton steps of the foot-point parameters per round.
 FOOT_POINT_STEPS = 3
 #: Weight of the tangential distance relative to the normal one.
@@ -197,6 +200,11 @@ def fit_cage(
         holds no object or the object is too small for `points`.
     """
     points = positive_int(points, "points", minimum=3)
+    if points > MAX_POINTS:
+        raise ValueError(
+            f"points={points:,} is more than the {MAX_POINTS:,} control points the kernels sample at "
+            f"{DEFAULT_SAMPLES_PER_SEGMENT} per span; use 3 <= points <= {MAX_POINTS:,}"
+        )
     image = _checked_image(image)
     rect = checked_rect(rect, image.shape[1], image.shape[0])
     image, scale = downscaled(image, positive_int(max_pixels, "max_pixels"))

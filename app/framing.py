@@ -10,8 +10,12 @@ from __future__ import annotations
 
 import numpy as np
 
+from app.image_header import MAX_IMAGE_PIXELS
 from app.view import View
 from core.bspline import basis_weights
+
+#: Most pixels of an output (`output_frame`, `app.render.WarpRenderer.render`), as of an input image.
+MAX_OUTPUT_PIXELS = MAX_IMAGE_PIXELS
 
 CANVASES = ("source", "grow")
 OUTSIDES = ("transparent", "original")
@@ -55,10 +59,28 @@ def output_frame(
 
     At most one of `scale` (output pixels per image pixel) and `size` (fit the
     region into it); with neither, one output pixel per image pixel.
+
+    Raises
+    ------
+    ValueError
+        An output of more than `MAX_OUTPUT_PIXELS` pixels.
     """
     x0, y0, x1, y1 = region
     if size is not None:
-        return (int(size[0]), int(size[1])), View.fit(region, size)
-    scale = 1.0 if scale is None else float(scale)
-    width, height = max(1, round((x1 - x0) * scale)), max(1, round((y1 - y0) * scale))
+        width, height = int(size[0]), int(size[1])
+    else:
+        scale = 1.0 if scale is None else float(scale)
+        width, height = max(1, round((x1 - x0) * scale)), max(1, round((y1 - y0) * scale))
+    if width * height > MAX_OUTPUT_PIXELS:
+        shown = (
+            f"{width}x{height} pixels ({width * height / 1e6:.0f} megapixels)"
+            if max(width, height) <= MAX_OUTPUT_PIXELS
+            else f"over {MAX_OUTPUT_PIXELS:,} pixels a side"
+        )
+        raise ValueError(
+            f"the output would be {shown}; at most {MAX_OUTPUT_PIXELS / 1e6:.0f} megapixels can be written: "
+            "give a smaller --size or --scale"
+        )
+    if size is not None:
+        return (width, height), View.fit(region, size)
     return (width, height), View(scale, (-scale * x0, -scale * y0))

@@ -29,6 +29,9 @@ TIME_RESOLUTION = 1e-6
 #: Longest animation (seconds), and most frames an export writes.
 MAX_TIME = 24 * 3600.0
 MAX_FRAMES = 100_000
+#: Frame rates of an export: a GIF frame lasts at most 655.35 s (a 16-bit count of 1/100 s).
+MIN_FPS = 0.01
+MAX_FPS = 1000.0
 
 
 @dataclass(frozen=True, eq=False)

@@ -45,7 +45,9 @@ from app.files import InputError, kernel_names, reported_as_input
 from core import distortion
 from core.arc_length import checked_parameterization
 from core.deformation import deform
+from core.kernel_table import BY_NAME
 from core.kernels import kernel_parameters
+from core.validation import positive_int
 
 #: The reference of the distances: the finite-element harmonic basis (Sec. 4.2).
 REFERENCE = "harmonic"
@@ -144,9 +146,9 @@ def weight_family() -> list[KernelChoice]:
 
 
 def parse_kernel(text: str) -> KernelChoice:
-    """``NAME[:param=value,...]`` as a KernelChoice; numbers become floats.  The parameters of
-    the point kernels, and their ``parameterization`` (natural or arc-length), are checked
-    here (`InputError`), those of ``pgw`` when it runs.
+    """``NAME[:param=value,...]`` as a KernelChoice; integers stay integers, other numbers become
+    floats.  The parameters are checked here (`InputError`): those of the point kernels and their
+    ``parameterization`` (natural or arc-length), and ``pgw``'s ``angles``.
 
     >>> parse_kernel("power:power=2.5,shift=mean").params
     {'power': 2.5, 'shift': 'mean'}
@@ -161,10 +163,7 @@ def parse_kernel(text: str) -> KernelChoice:
         key, equals, value = item.partition("=")
         if not equals or not key:
             raise InputError(f"--kernel {text}: expected NAME:param=value,... but got {item!r}")
-        try:
-            params[key] = float(value)
-        except ValueError:
-            params[key] = value
+        params[key] = _parameter_value(value)
     if name in core.BOUNDARY_INTEGRAL_KERNELS:
         unknown = sorted(set(params) - {"parameterization"})
         if unknown:
@@ -177,7 +176,28 @@ def parse_kernel(text: str) -> KernelChoice:
             kernel_parameters(
                 name, {key: value for key, value in params.items() if key != "parameterization"}
             )
+    elif name in core.MESH_ONLY_KERNELS:
+        takes = BY_NAME[name].parameters
+        unknown = sorted(set(params) - set(takes))
+        if unknown:
+            raise InputError(
+                f"--kernel {text}: kernel {name!r} does not take {', '.join(unknown)} "
+                f"(it takes: {', '.join(takes) or 'nothing'})"
+            )
+        if "angles" in params:
+            with reported_as_input(f"--kernel {text}"):
+                positive_int(params["angles"], "angles")
     return KernelChoice(text if params else name, name, params)
+
+
+def _parameter_value(text: str):
+    """A ``--kernel`` parameter: an int (``angles=8``), else a float (``power=2.5``), else the text."""
+    for kind in (int, float):
+        try:
+            return kind(text)
+        except ValueError:
+            pass
+    return text
 
 
 def run_study(domains, choices: list[KernelChoice], progress=None, keep: bool = False) -> StudyResult:

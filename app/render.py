@@ -25,6 +25,9 @@ from __future__ import annotations
 import moderngl
 import numpy as np
 
+from app.address_space import GL_CONTEXT_BYTES, PROGRAM_BYTES, render_bytes, require_address_space
+from app.console import captured_c_stderr
+from app.framing import MAX_OUTPUT_PIXELS
 from app.shaders import load_shader
 from app.view import View
 from core.mesh import unique_edges
@@ -79,6 +82,9 @@ DISTORTION_MEASURES = {"area": 0, "conformal": 1}
 #: fraction of its undeformed one: the fold pass's float32 areas are off by ~1e-5 of that at most.
 FOLD_MARGIN = 1e-3
 
+#: Largest side of one offscreen drawing of `WarpRenderer.render`; larger outputs are drawn in tiles.
+TILE = 4096
+
 #: Floats per overlay vertex: x, y (image pixels), r, g, b, a (straight alpha),
 #: size (line width or handle diameter, framebuffer pixels).
 OVERLAY_FLOATS = 7
@@ -95,14 +101,30 @@ def create_headless_context() -> moderngl.Context:
     ------
     ContextUnavailableError
         If EGL or a GL 3.3 driver is unavailable; the message says what to install.
+    MemoryError
+        If an address-space limit leaves less than `app.address_space.GL_CONTEXT_BYTES`.
     """
-    try:
-        return moderngl.create_context(standalone=True, backend="egl", require=330)
-    except Exception as error:  # moderngl/glcontext raise plain Exception subclasses
-        raise ContextUnavailableError(
-            f"cannot create a headless OpenGL 3.3 context through EGL ({error}); on Debian/Ubuntu "
-            "install libegl1, libegl-mesa0 and libgl1-mesa-dri"
-        ) from None
+    require_address_space(GL_CONTEXT_BYTES, "an OpenGL context")
+    # EGL and Mesa print their warnings (a driver they did not find, ...) on stderr themselves.
+    with captured_c_stderr():
+        try:
+            return moderngl.create_context(standalone=True, backend="egl", require=330)
+        except Exception as error:  # moderngl/glcontext raise plain Exception subclasses
+            raise ContextUnavailableError(
+                f"cannot create a headless OpenGL 3.3 context through EGL ({error}); on Debian/Ubuntu "
+                "install libegl1, libegl-mesa0 and libgl1-mesa-dri"
+            ) from None
+
+
+def require_render_memory(image_size: tuple[int, int], output_size: tuple[int, int], context: bool) -> None:
+    """`MemoryError` in one line if an address-space limit leaves too little to draw an image
+    (width, height) into an output (width, height), and to create the GL context first
+    (`context`) or else the renderer's programs (`app.address_space`): llvmpipe crashes where
+    numpy would report the lack of memory."""
+    needed = render_bytes(image_size, output_size, TILE) + (GL_CONTEXT_BYTES if context else PROGRAM_BYTES)
+    what = "an OpenGL context and " if context else "OpenGL "
+    what += f"drawing the {image_size[0]}x{image_size[1]} image into {output_size[0]}x{output_size[1]} pixels"
+    require_address_space(needed, what)
 
 
 class WarpRenderer:
@@ -616,6 +638,11 @@ class WarpRenderer:
     ) -> np.ndarray:
         """Draw offscreen with multisampling and read the result back.
 
+        An output larger than `TILE` pixels on a side is drawn in tiles of at most
+        `TILE` x `TILE`, each through the view shifted by the tile's corner: GL
+        drivers cap a framebuffer's size (llvmpipe: 2 GiB of multisampled pixels,
+        about 11,585 x 11,585 at 4 samples) below their maximum renderbuffer side.
+
         Parameters
         ----------
         size : tuple of int
@@ -638,28 +665,36 @@ class WarpRenderer:
             RGBA with straight alpha, row 0 at the top.
         """
         width, height = int(size[0]), int(size[1])
-        limit = min(self.ctx.info["GL_MAX_RENDERBUFFER_SIZE"], *self.ctx.info["GL_MAX_VIEWPORT_DIMS"])
-        if not (1 <= width <= limit and 1 <= height <= limit):
-            raise ValueError(f"output size {width}x{height} is outside 1..{limit} pixels per side")
+        if not (1 <= width and 1 <= height and width * height <= MAX_OUTPUT_PIXELS):
+            raise ValueError(
+                f"output size {width}x{height} is not 1 to {MAX_OUTPUT_PIXELS / 1e6:.0f} megapixels"
+            )
+        view = view or View()
+        limit = min(TILE, self.ctx.info["GL_MAX_RENDERBUFFER_SIZE"], *self.ctx.info["GL_MAX_VIEWPORT_DIMS"])
+        tile = (min(width, limit), min(height, limit))
         # Leave the caller's framebuffer bound afterwards (a viewer exporting mid-frame).
         previous = self.ctx.fbo
         if self._target is not None and previous in self._target[2]:
             previous = None  # ours, perhaps about to be replaced
-        multisample, resolved = self._framebuffers(
-            (width, height), max(0, min(int(samples), self.ctx.max_samples))
-        )
-        multisample.use()
+        multisample, resolved = self._framebuffers(tile, max(0, min(int(samples), self.ctx.max_samples)))
+        pixels = np.empty((height, width, 4), np.uint8)
         red, green, blue, alpha = background
-        multisample.clear(red * alpha, green * alpha, blue * alpha, alpha)
-        if backdrop:
-            self.draw_backdrop(view or View(), (width, height))
-        self._draw(view or View(), (width, height), "caller", content, wireframe, highlight, folds)
-        self.ctx.copy_framebuffer(resolved, multisample)
+        for top in range(0, height, tile[1]):
+            for left in range(0, width, tile[0]):
+                multisample.use()
+                multisample.clear(red * alpha, green * alpha, blue * alpha, alpha)
+                shifted = View(view.scale, (view.offset[0] - left, view.offset[1] - top))
+                if backdrop:
+                    self.draw_backdrop(shifted, tile)
+                self._draw(shifted, tile, "caller", content, wireframe, highlight, folds)
+                self.ctx.copy_framebuffer(resolved, multisample)
+                data = resolved.read(components=4, alignment=1)
+                # GL rows run bottom-up.
+                drawn = np.frombuffer(data, dtype=np.uint8).reshape(tile[1], tile[0], 4)[::-1]
+                part = pixels[top : top + tile[1], left : left + tile[0]]
+                part[...] = drawn[: part.shape[0], : part.shape[1]]
         if previous is not None:
             previous.use()
-        data = resolved.read(components=4, alignment=1)
-        # GL rows run bottom-up.
-        pixels = np.frombuffer(data, dtype=np.uint8).reshape(height, width, 4)[::-1]
         return _unpremultiply(pixels)
 
     # -- lifetime -----------------------------------------------------------
@@ -901,8 +936,8 @@ def _premultiply(image: np.ndarray) -> np.ndarray:
 
 
 def _unpremultiply(pixels: np.ndarray) -> np.ndarray:
-    """RGBA uint8 (H, W, 4), premultiplied -> straight alpha; only partly covered pixels change."""
-    result = np.array(pixels)
+    """RGBA uint8 (H, W, 4), premultiplied -> straight alpha, in place; only partly covered pixels change."""
+    result = pixels
     alpha = result[..., 3]
     partial = (alpha > 0) & (alpha < 255)
     if partial.any():

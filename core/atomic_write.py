@@ -1,15 +1,17 @@
 """Atomic file writes: a temporary file in the same directory, then `os.replace`.
 
 A reader sees either the old file or the new one, never a part.  Temporaries are
-named ``.NAME.PID.RANDOM.tmp``; a process killed between creating one and the
-rename leaves it behind, so every write first removes those of a process that no
-longer runs.  New files get the mode the umask gives (as ``open`` would), a
-replaced file keeps its mode.
+named ``.NAME.PID.RANDOM.tmp`` (`temporary_path`; a NAME too long for that, near the
+255 bytes a file name may have, is shortened to its start and a digest of it); a
+process killed between creating one and the rename leaves it behind, so every
+write first removes those of a process that no longer runs.  New files get the
+mode the umask gives (as ``open`` would), a replaced file keeps its mode.
 """
 
 from __future__ import annotations
 
 import contextlib
+import hashlib
 import os
 import re
 import secrets
@@ -28,8 +30,7 @@ def write_atomically(path: str | os.PathLike, write: Callable[[BinaryIO], None])
         If any step fails; `path` is then unchanged and the temporary file removed.
     """
     path = Path(path)
-    remove_stale_temporaries(path)
-    temporary = path.parent / f".{path.name}.{os.getpid()}.{secrets.token_hex(4)}.tmp"
+    temporary = temporary_path(path)
     mode = path.stat().st_mode & 0o7777 if path.exists() else None
     # 0o666 through os.open: the umask decides the mode of a new file.
     handle = os.open(temporary, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
@@ -45,6 +46,36 @@ def write_atomically(path: str | os.PathLike, write: Callable[[BinaryIO], None])
         with contextlib.suppress(OSError):
             os.remove(temporary)
         raise
+
+
+#: Longest file name in bytes (NAME_MAX of Linux, macOS and Windows' filesystems).
+NAME_MAX = 255
+#: Bytes a temporary name adds to NAME: ``.`` and ``.PID.RANDOM.tmp`` with a 10-digit process id
+#: and a suffix of up to 8 bytes.
+_TEMPORARY_OVERHEAD = 1 + 1 + 10 + 1 + 8 + 4 + 8
+_DIGEST_LENGTH = 8
+
+
+def temporary_path(path: str | os.PathLike, suffix: str = "") -> Path:
+    """A new temporary name beside `path`, ``.NAME.PID.RANDOM.tmp`` + `suffix` (at most 8 bytes).
+
+    Temporaries of a killed earlier process are removed first (`remove_stale_temporaries`).
+    """
+    path = Path(path)
+    remove_stale_temporaries(path)
+    return path.parent / f".{_stem(path.name)}.{os.getpid()}.{secrets.token_hex(4)}.tmp{suffix}"
+
+
+def _stem(name: str) -> str:
+    """NAME as temporary names hold it: itself, or if the temporary would exceed `NAME_MAX`
+    bytes, its longest start that fits (whole characters) and ``~`` and a digest of all of it."""
+    encoded = os.fsencode(name)
+    room = NAME_MAX - _TEMPORARY_OVERHEAD
+    if len(encoded) <= room:
+        return name
+    digest = hashlib.sha256(encoded).hexdigest()[:_DIGEST_LENGTH]
+    start = encoded[: room - 1 - _DIGEST_LENGTH].decode("utf-8", errors="ignore")
+    return f"{start}~{digest}"
 
 
 def remove_stale_temporaries(path: str | os.PathLike) -> list[Path]:
@@ -69,7 +100,7 @@ def abandoned_temporaries(path: str | os.PathLike) -> list[Path]:
     the most recently modified first.  A process killed after writing one whole but before the
     rename leaves the newest version of `path` there."""
     path = Path(path)
-    pattern = re.compile(rf"\.{re.escape(path.name)}\.(\d+)\.[0-9a-f]{{8}}\.tmp(\.\w+)?")
+    pattern = re.compile(rf"\.{re.escape(_stem(path.name))}\.(\d+)\.[0-9a-f]{{8}}\.tmp(\.\w+)?")
     try:
         names = os.listdir(path.parent)
     except OSError:

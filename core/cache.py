@@ -8,17 +8,21 @@ when ``XDG_CACHE_HOME`` is unset, following the XDG base directory specification
 
 A cache must never change a result.  Each file holds the array, the errors of
 its invariants measured when it was computed (`core.mesh_basis` checks them on
-every read) and a SHA-256 checksum of the key, the shape, the errors and the
-array's bytes.  `load` reports a file that cannot be read, does not hold what
-was stored under its key, or fails the checksum as a problem (the caller
-recomputes and `store` replaces it); files are written atomically
-(`core.atomic_write`) with the mode the umask gives.
+every read, and recomputes a few rows at random to compare) and a checksum of
+the key, the shape, the errors and the array's bytes: an HMAC-SHA-256 keyed
+with a per-user secret kept outside the cache (`core.cache_secret`), so that
+whoever can write the cache but not read the secret cannot forge an entry.
+`load` reports a file that cannot be read, does not hold what was stored under
+its key, or fails the checksum as a problem (the caller recomputes and `store`
+replaces it); files are written atomically (`core.atomic_write`) with the mode
+the umask gives.  Without a usable secret the cache is off, with one warning.
 """
 
 from __future__ import annotations
 
 import functools
 import hashlib
+import hmac
 import json
 import os
 import warnings
@@ -28,9 +32,10 @@ from pathlib import Path
 import numpy as np
 
 from core.atomic_write import write_atomically
+from core.cache_secret import secret
 
-# Bump when the meaning or layout of a cached array changes.
-FORMAT_VERSION = 2
+# Bump when the meaning or layout of a cached array changes (3: keyed checksums).
+FORMAT_VERSION = 3
 ENVIRONMENT_VARIABLE = "TRANSFINITE_CACHE_DIR"
 # The modules whose code decides the cached values (hashed into every key).
 NUMERICAL_MODULES = (
@@ -128,7 +133,12 @@ def entry_path(key: str) -> Path:
 
 
 def load(key: str, shape: tuple[int, ...]) -> Entry:
-    """The intact float64 array of `shape` stored for `key`, or why there is none."""
+    """The intact float64 array of `shape` stored for `key`, or why there is none.
+
+    Without a usable secret (`core.cache_secret`) nothing is read: an `Entry` without values.
+    """
+    if _usable_secret() is None:
+        return Entry()
     path = entry_path(key)
     try:
         # Our own stream: np.load leaves the file open when the zip is broken.
@@ -152,8 +162,11 @@ def load(key: str, shape: tuple[int, ...]) -> Entry:
 def store(key: str, values: np.ndarray, errors: np.ndarray) -> bool:
     """Write `values` (V, n), or gradients (V, n, 2), and their invariant `errors` (2,) for `key` atomically.
 
-    Returns whether it was written; warns (never raises) if the directory is not writable.
+    Returns whether it was written; warns (never raises) if the directory is not writable, and
+    writes nothing without a usable secret (`core.cache_secret`).
     """
+    if _usable_secret() is None:
+        return False
     values = np.ascontiguousarray(values, dtype=np.float64)
     errors = np.ascontiguousarray(errors, dtype=np.float64)
     checksum = np.array(_checksum(key, values, errors))
@@ -175,13 +188,30 @@ def store(key: str, values: np.ndarray, errors: np.ndarray) -> bool:
 
 
 def _checksum(key: str, values: np.ndarray, errors: np.ndarray) -> str:
-    """Hex SHA-256 of the key, the array's dtype, shape and bytes, and the errors."""
-    digest = hashlib.sha256(key.encode())
+    """Hex HMAC-SHA-256, keyed with the user's secret, of the key, the array's dtype, shape and
+    bytes, and the errors."""
+    digest = hmac.new(_usable_secret(), key.encode(), hashlib.sha256)
     for array in (values, errors):
         array = np.ascontiguousarray(array)
         digest.update(f"{array.dtype.str}{array.shape}\n".encode())
         digest.update(array.tobytes())
     return digest.hexdigest()
+
+
+def _usable_secret() -> bytes | None:
+    """The secret of the checksums, or None (with a warning, once per reason) if there is none."""
+    key, problem = secret()
+    if key is None:
+        _warn_once(
+            f"the basis-function cache is off: its key cannot be used ({problem}); remove the file, "
+            "or set TRANSFINITE_STATE_DIR to a private writable directory"
+        )
+    return key
+
+
+@functools.cache
+def _warn_once(message: str) -> None:
+    warnings.warn(message, RuntimeWarning, stacklevel=4)
 
 
 @functools.cache

@@ -332,7 +332,7 @@ def hierarchical_rows(curve, levels: Levels, z, target, panel, on_curve, out, po
 
 
 def _groups(panel: np.ndarray):
-    """(panel, indices) of each run of equal panels, for pairs sorted by panel."""
+    """(panel, indices) of each run of equal panels, for pairs sorted by panel (none for no pairs)."""
     if panel.size == 0:
         return []
     bounds = np.flatnonzero(np.diff(panel)) + 1

@@ -13,6 +13,7 @@ property), interior rows come from
 
 from __future__ import annotations
 
+import secrets
 import warnings
 from collections.abc import Callable
 
@@ -40,6 +41,13 @@ from core.validation import checked_samples_per_segment
 
 #: Kernels whose G is not kept in the disk cache: complex, and cheaper to evaluate than to check.
 UNCACHED_KERNELS = COMPLEX_KERNELS
+#: Boundary samples per B-spline span of the point kernels unless told otherwise.
+DEFAULT_SAMPLES_PER_SEGMENT = 100
+#: Rows of a cached entry computed again on every read (`recomputed_rows_problem`), and how far
+#: they may differ: Newton's iterations stop per point, so a row depends on its point only, up
+#: to rounding (measured: 5e-12 for the Newton kernels, 1e-15 for poisson).
+SPOT_CHECKS = 8
+SPOT_CHECK_TOLERANCE = 1e-9
 # Rounding allowance of the invariant checks, in units of n * machine epsilon.
 ROUNDING_ULPS = 64
 
@@ -52,7 +60,7 @@ def mesh_basis_functions(
     curve: ClosedBSpline,
     mesh: Mesh,
     kernel: str = DEFAULT_KERNEL,
-    samples_per_segment: int = 100,
+    samples_per_segment: int = DEFAULT_SAMPLES_PER_SEGMENT,
     progress: Callable[[float], None] | None = None,
     cache: bool = True,
     compiling: Callable[[float], None] | None = None,
@@ -159,6 +167,14 @@ def mesh_basis_functions(
     problem = entry.problem
     if entry.values is not None:
         problem = invariant_problem(curve, mesh, kernel, params, entry.values, entry.errors)
+        if problem is None and kernel != "harmonic":  # the finite-element basis has no pointwise values
+            if kernel in COMPILED_KERNELS:
+                compile_solver(compiling)  # shown as such (the first run only), not as reading the cache
+            problem = recomputed_rows_problem(
+                entry.values[mesh.interior],
+                mesh.vertices[mesh.interior],
+                lambda points: _point_values(curve, points, kernel, per, parameterization, params),
+            )
         if problem is None:
             if progress is not None:
                 progress(1.0)
@@ -217,6 +233,28 @@ def invariant_problem(
     return None
 
 
+def recomputed_rows_problem(stored: np.ndarray, points: np.ndarray, compute) -> str | None:
+    """What is wrong with stored rows (M, n) or (M, n, 2) at `points` (M, 2), or None: `SPOT_CHECKS`
+    rows chosen at random (unpredictably, so that no forged row can count on being skipped) are
+    computed again by ``compute(points)`` and must agree to `SPOT_CHECK_TOLERANCE`.
+
+    The invariants prove that rows sum to 1 and reproduce the vertices; rows of
+    another kernel, or of this one moved within those constraints, hold them too.
+    """
+    if len(points) == 0:
+        return None
+    rows = np.random.default_rng(secrets.randbits(64)).choice(
+        len(points), min(SPOT_CHECKS, len(points)), replace=False
+    )
+    rows.sort()
+    expected = compute(points[rows])
+    scale = max(1.0, float(np.abs(expected).max(initial=0.0)))
+    difference = float(np.abs(stored[rows] - expected).max(initial=0.0))
+    if not difference <= SPOT_CHECK_TOLERANCE * scale:
+        return f"{len(rows)} rows computed again differ from it by up to {difference:.3g}"
+    return None
+
+
 def gradient_invariant_errors(curve: ClosedBSpline, gradients: np.ndarray) -> np.ndarray:
     """Errors of the differentiated invariants of grad G (M, n, 2), ndarray of shape (2,).
 
@@ -263,6 +301,13 @@ def _vertex_gradients(curve, mesh, kernel, samples_per_segment, cache, params) -
         problem = entry.problem
         if entry.values is not None:
             problem = gradient_invariant_problem(curve, entry.values, entry.errors)
+            problem = problem or recomputed_rows_problem(
+                entry.values,
+                mesh.vertices[interior],
+                lambda points: basis_gradients(
+                    curve, points, kernel=kernel, samples_per_segment=samples_per_segment, **params
+                ),
+            )
             if problem is None:
                 result[interior] = entry.values
                 return result
@@ -316,25 +361,30 @@ def _compute(curve, mesh, kernel, samples_per_segment, progress, parameterizatio
         if progress is not None:
             progress(1.0)
         return values
-    points = mesh.vertices[interior]
+    values[interior] = _point_values(
+        curve, mesh.vertices[interior], kernel, samples_per_segment, parameterization, params, progress
+    )
+    return values
+
+
+def _point_values(curve, points, kernel, samples_per_segment, parameterization, params, progress=None):
+    """G (M, n) at interior `points` (M, 2) for a kernel with pointwise values (not ``"harmonic"``)."""
     if kernel == "pgw":
-        values[interior] = pgw_basis(
+        return pgw_basis(
             curve,
             points,
             samples_per_segment=samples_per_segment,
             angles=params.get("angles"),
             progress=progress,
         )
-    else:
-        from core.basis import basis_functions
+    from core.basis import basis_functions
 
-        values[interior] = basis_functions(
-            curve,
-            points,
-            kernel=kernel,
-            samples_per_segment=samples_per_segment,
-            progress=progress,
-            parameterization=parameterization,
-            **params,
-        )
-    return values
+    return basis_functions(
+        curve,
+        points,
+        kernel=kernel,
+        samples_per_segment=samples_per_segment,
+        progress=progress,
+        parameterization=parameterization,
+        **params,
+    )

@@ -13,6 +13,8 @@ import numpy as np
 #: the solver's quadrature, and N operations per point.  A 10,000-point cage at the
 #: default 100 per span fits.
 MAX_BOUNDARY_SAMPLES = 1 << 20
+#: Most control points of a curve: 2 boundary samples per span, the fewest, fill `MAX_BOUNDARY_SAMPLES`.
+MAX_CONTROL_POINTS = MAX_BOUNDARY_SAMPLES // 2
 
 
 def as_points(value, name: str, *, min_count: int = 0) -> np.ndarray:
@@ -66,6 +68,8 @@ def checked_samples_per_segment(value, control_points: int) -> int:
     """Return `value` as an int in [2, MAX_BOUNDARY_SAMPLES // control_points], or raise `ValueError`."""
     per = positive_int(value, "samples_per_segment", minimum=2)
     most = MAX_BOUNDARY_SAMPLES // control_points
+    if control_points > MAX_CONTROL_POINTS:
+        raise ValueError(too_many_control_points(control_points))
     if per > most:
         raise ValueError(
             f"samples_per_segment={per} gives {per * control_points:,} boundary samples for "
@@ -75,12 +79,28 @@ def checked_samples_per_segment(value, control_points: int) -> int:
     return per
 
 
+def too_many_control_points(count: int) -> str:
+    """The message for a curve of `count` > `MAX_CONTROL_POINTS` control points."""
+    return (
+        f"{count:,} control points need at least {2 * count:,} boundary samples, more than the "
+        f"{MAX_BOUNDARY_SAMPLES:,} allowed; use at most {MAX_CONTROL_POINTS:,} control points"
+    )
+
+
 def positive_float(value, name: str) -> float:
     """Return `value` as a finite float > 0, or raise `ValueError` naming `name`."""
     try:
         number = float(value)
     except (TypeError, ValueError):
         raise ValueError(f"{name} must be a number, got {value!r}") from None
+    except OverflowError:  # an integer beyond float's range
+        number = float("inf")
     if not np.isfinite(number) or number <= 0:
-        raise ValueError(f"{name} must be a finite number > 0, got {value!r}")
+        raise ValueError(f"{name} must be a finite number > 0, got {_shown(value)}")
     return number
+
+
+def _shown(value, limit: int = 60) -> str:
+    """`repr` of `value`, shortened to a readable piece of a line."""
+    text = repr(value)
+    return text if len(text) <= limit else f"{text[: limit - 3]}..."

@@ -6,7 +6,7 @@ import sys
 
 import pytest
 
-from core.atomic_write import remove_stale_temporaries, write_atomically
+from core.atomic_write import remove_stale_temporaries, temporary_path, write_atomically
 
 
 @pytest.fixture(scope="module")
@@ -54,3 +54,20 @@ def test_a_failed_write_leaves_the_old_file_and_no_temporary(tmp_path):
         write_atomically(target, fail)
     assert target.read_bytes() == b"old"
     assert [p.name for p in tmp_path.iterdir()] == ["data.bin"]
+
+
+@pytest.mark.parametrize("length", [245, 251, 255])
+def test_names_up_to_255_bytes_are_written_through_a_shortened_temporary(tmp_path, dead_pid, length):
+    target = tmp_path / ("é" * 2 + "n" * (length - 8) + ".png")  # two 2-byte characters
+    assert len(os.fsencode(target.name)) == length
+    temporary = temporary_path(target, ".mp4")
+    assert len(os.fsencode(temporary.name)) <= 255
+    # A stale temporary of the shortened name is found and removed, another name's is not.
+    stale = temporary.with_name(temporary.name.replace(f".{os.getpid()}.", f".{dead_pid}."))
+    other = temporary_path(tmp_path / ("n" * (length - 4) + ".png"))
+    stale.write_bytes(b"partial")
+    other.with_name(other.name.replace(f".{os.getpid()}.", f".{dead_pid}.")).write_bytes(b"partial")
+    write_atomically(target, lambda stream: stream.write(b"new"))
+    assert target.read_bytes() == b"new"
+    assert not stale.exists()
+    assert len(list(tmp_path.iterdir())) == 2

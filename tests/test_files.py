@@ -244,3 +244,46 @@ def test_image_files_too_large_to_read_are_refused(tmp_path, monkeypatch):
     (tmp_path / "big.bmp").write_bytes(bytes(2 * 2**20))
     with pytest.raises(InputError, match=r"big.bmp: the file is 2 MiB; at most 1 MiB can be read"):
         read_image(tmp_path / "big.bmp")
+
+
+# -- file kinds, sizes, names, numbers (issue 23) -------------------------------------------
+
+
+@pytest.mark.parametrize("reader", [read_cage, read_image, read_json], ids=["cage", "image", "json"])
+def test_files_that_are_not_regular_are_refused_without_reading(tmp_path, reader):
+    fifo = tmp_path / "pipe"
+    os.mkfifo(fifo)  # reading it would block forever: nobody writes
+    with pytest.raises(InputError, match=r"pipe: is a FIFO \(named pipe\), not a regular file$"):
+        reader(fifo)
+    with pytest.raises(InputError, match=r"^/dev/zero: is a character device, not a regular file$"):
+        reader("/dev/zero")  # endless
+    with pytest.raises(InputError, match=r"is a directory, not a file$"):
+        reader(tmp_path)
+
+
+def test_json_files_are_limited_while_reading(tmp_path, monkeypatch):
+    monkeypatch.setattr(files, "MAX_JSON_FILE_BYTES", 2**20)
+    big = write(tmp_path / "big.json", json.dumps({"control_points": SQUARE * 40_000}))
+    with pytest.raises(InputError, match=r"big.json: the file is 2 MiB; at most 1 MiB can be read"):
+        read_cage(big)
+    # A file whose size the system does not know (0 in /proc) is cut off after the limit.
+    monkeypatch.setattr(files, "MAX_JSON_FILE_BYTES", 64)
+    with pytest.raises(InputError, match=r"status: the file is 0 MiB or more; at most 0 MiB"):
+        read_json("/proc/self/status")
+
+
+@pytest.mark.parametrize(
+    "value, expected",
+    [(3, 3.0), (-2.5, -2.5), (10**400, None), (-(10**400), None), (float("nan"), None), (True, None)],
+)
+def test_finite_number_takes_json_numbers_that_floats_hold(value, expected):
+    assert files.finite_number(value) == expected
+
+
+def test_output_names_longer_than_255_bytes_are_refused_before_any_work(tmp_path):
+    with pytest.raises(InputError, match=r"the file name is 304 bytes long; at most 255 are allowed$"):
+        check_writable(tmp_path / ("a" * 300 + ".png"), suffix=".png")
+    with pytest.raises(InputError, match=r": cannot write \(File name too long\)$"):
+        check_writable(tmp_path / ("a" * 300) / "x.png", suffix=".png")
+    check_writable(tmp_path / ("a" * 251 + ".png"), suffix=".png")  # 255 bytes: allowed
+    write_png(tmp_path / ("a" * 251 + ".png"), np.zeros((2, 2, 4), np.uint8))

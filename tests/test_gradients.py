@@ -226,10 +226,15 @@ def test_mesh_gradients_are_the_basis_gradients_at_the_interior_vertices(
     assert np.isnan(gradients[mesh.boundary]).all()
     assert len(list(cache_directory.glob("*.npz"))) == 2  # the values' entry and the gradients'
 
-    def fail(*args, **kwargs):
-        raise AssertionError("recomputed instead of reading the cache")
+    compute = core.gradients.basis_gradients
 
-    monkeypatch.setattr(core.gradients, "basis_gradients", fail)
+    def spot_checks_only(curve, points, *args, **kwargs):
+        # A read computes a few rows again (core.mesh_basis.recomputed_rows_problem), not all.
+        if len(points) > core.mesh_basis.SPOT_CHECKS:
+            raise AssertionError("recomputed instead of reading the cache")
+        return compute(curve, points, *args, **kwargs)
+
+    monkeypatch.setattr(core.gradients, "basis_gradients", spot_checks_only)
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         _, again = core.mesh_basis_functions(curve, mesh, kernel="inverse-cube-mean", gradients=True)

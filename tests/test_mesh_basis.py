@@ -1,5 +1,6 @@
 """Tests of core.mesh_basis and core.cache: basis functions at mesh vertices, cached on disk."""
 
+import hashlib
 import os
 import re
 import warnings
@@ -317,6 +318,11 @@ def test_unconverged_points_do_not_make_an_entry_look_damaged(setup, cache_direc
     unconverged[mesh.interior, 0] += 1e-7
     unconverged[mesh.interior, 1] -= 1e-7
     monkeypatch.setattr(mesh_basis, "_compute", lambda *arguments: unconverged.copy())
+    # The rows that a read computes again come from the same solver, point by point.
+    rows = {tuple(vertex): row for vertex, row in zip(mesh.vertices, unconverged, strict=True)}
+    monkeypatch.setattr(
+        mesh_basis, "_point_values", lambda curve, points, *rest: np.array([rows[tuple(p)] for p in points])
+    )
     mesh_basis_functions(curve, mesh, kernel="harmonic-like")
     (path,) = cache_directory.glob("*.npz")
     assert stored(path)[1][1] > 1e3 * 1e-11 * curve.diameter
@@ -437,3 +443,81 @@ def test_cache_keys_change_with_the_numerical_code(monkeypatch):
     before = cache.cache_key(*arguments)
     monkeypatch.setattr(cache, "_code_digest", lambda: "another solver")
     assert cache.cache_key(*arguments) != before
+
+
+# ---------------------------------------------------------------- forged entries (issue 23)
+
+
+@pytest.fixture
+def state_directory(tmp_path, monkeypatch):
+    """A private state directory, where the cache's key is made."""
+    directory = tmp_path / "state"
+    monkeypatch.setenv("TRANSFINITE_STATE_DIR", str(directory))
+    return directory
+
+
+def test_the_checksum_is_keyed_with_a_private_secret_outside_the_cache(
+    setup, cache_directory, state_directory
+):
+    curve, mesh = setup
+    expected = mesh_basis_functions(curve, mesh, kernel="harmonic-like")
+    key_file = state_directory / "cache.key"
+    assert key_file.stat().st_mode & 0o777 == 0o600
+    assert not list(cache_directory.glob("*.key")) and len(key_file.read_text().strip()) == 64
+    # Whoever can write the cache but not read the key cannot make a checksum that holds:
+    # here one that the unkeyed SHA-256 of the previous format would have accepted.
+    (path,) = cache_directory.glob("*.npz")
+    basis, errors, _ = stored(path)
+    wrong = swap_columns(basis)
+    digest = hashlib.sha256(path.stem.encode())
+    for array in (wrong, errors):
+        digest.update(f"{array.dtype.str}{array.shape}\n".encode())
+        digest.update(np.ascontiguousarray(array).tobytes())
+    rewrite(path, wrong, errors, digest.hexdigest())
+    expect_recomputed(curve, mesh, "harmonic-like", path, expected, "checksum mismatch")
+
+
+@pytest.mark.parametrize("gradients", [False, True], ids=["values", "gradients"])
+def test_an_entry_forged_with_the_key_that_holds_the_invariants_is_caught(
+    setup, cache_directory, state_directory, gradients
+):
+    # Another kernel's rows sum to 1, reproduce the vertices (to the errors the forger records)
+    # and have the B-spline basis on the boundary (their gradients sum to 0 and to the identity
+    # against P): only computing rows again tells them apart (for the gradients, the report's
+    # det J turned from 0.886 to -49.1).
+    curve, mesh = setup
+    result = mesh_basis_functions(curve, mesh, kernel="harmonic-like", gradients=gradients)
+    forged = mesh_basis_functions(curve, mesh, kernel="mean-value", gradients=gradients, cache=False)
+    if gradients:
+        result, forged = result[1][mesh.interior], forged[1][mesh.interior]
+    (path,) = [p for p in cache_directory.glob("*.npz") if stored(p)[0].ndim == (3 if gradients else 2)]
+    errors = np.array([1e-6, 1e-3])
+    rewrite(path, forged, errors, disk_cache._checksum(path.stem, forged, errors))
+    with pytest.warns(core.CacheWarning, match=r"rows computed again differ from it by up to"):
+        again = mesh_basis_functions(curve, mesh, kernel="harmonic-like", gradients=gradients)
+    np.testing.assert_array_equal(again[1][mesh.interior] if gradients else again, result)
+
+
+def test_a_key_that_others_may_read_turns_the_cache_off(setup, cache_directory, state_directory):
+    curve, mesh = setup
+    state_directory.mkdir()
+    (state_directory / "cache.key").write_text("ab" * 32)
+    os.chmod(state_directory / "cache.key", 0o644)
+    with pytest.warns(
+        RuntimeWarning,
+        match=r"the basis-function cache is off: its key cannot be used \(.*"
+        r"cache.key: others may read or write the cache key \(mode 644\); chmod 600 it\)",
+    ):
+        mesh_basis_functions(curve, mesh, kernel="harmonic")
+    assert not list(cache_directory.glob("*.npz"))
+
+
+def test_processes_making_the_key_at_once_agree_on_one(tmp_path):
+    from core import cache_secret
+
+    path = tmp_path / "state" / "cache.key"
+    cache_secret._create(path)
+    first = path.read_text()
+    cache_secret._create(path)  # a second process, which lost the race: the first key stays
+    assert path.read_text() == first
+    assert sorted(p.name for p in path.parent.iterdir()) == ["cache.key"]

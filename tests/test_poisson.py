@@ -232,3 +232,16 @@ def test_a_cage_beyond_the_dense_solve_limit_is_refused_in_one_line(monkeypatch)
         ValueError, match=r"need [0-9,]+ boundary nodes with kernel 'poisson'.*use kernel 'harmonic'"
     ):
         core.basis_functions(curve, interior_points(curve, 3, seed=38))
+
+
+def test_a_point_near_no_finest_panel_is_evaluated_alone():
+    # Near a coarse panel but far from every finest one: its last level had no pairs left,
+    # which failed (IndexError) when such a point was evaluated on its own, as the cache's
+    # spot checks do.
+    cage = [[30, 20], [80, 30], [130, 18], [140, 60], [128, 100], [80, 92], [28, 102], [20, 60]]
+    curve = core.ClosedBSpline(np.array(cage, dtype=float))
+    point = np.array([[51.271270612182995, 26.243710400296493]])
+    alone = core.basis_functions(curve, point, kernel="poisson")
+    together = core.basis_functions(curve, np.vstack([point, [[80.0, 60.0], [31.0, 58.0]]]), kernel="poisson")
+    np.testing.assert_allclose(alone, together[:1], rtol=0, atol=1e-14)
+    np.testing.assert_allclose(alone.sum(), 1.0, atol=1e-12)

@@ -359,3 +359,27 @@ def test_errors_say_what_is_wrong(renderer):
     renderer.set_highlighted([])
     with pytest.raises(ValueError, match="output size"):
         renderer.render((0, 10), content="none")
+
+
+@pytest.mark.parametrize("backdrop", [False, True])
+def test_outputs_larger_than_a_tile_are_drawn_in_tiles_like_one_drawing(renderer, monkeypatch, backdrop):
+    image = smooth_image()
+    vertices, triangles, boundary = ellipse_mesh((160, 120), (120, 85), 6, seed=3)
+    renderer.set_image(image)
+    renderer.set_mesh(vertices, triangles)
+    renderer.set_positions(affine(rotation(0.3) * 1.1, (-20, 15), vertices))
+    view = View(1.3, (7.0, -4.0))
+    whole = renderer.render((331, 247), view, backdrop=backdrop)
+    monkeypatch.setattr("app.render.TILE", 64)  # 6 x 4 tiles, the last ones partly outside
+    tiled = renderer.render((331, 247), view, backdrop=backdrop)
+    difference = np.abs(tiled.astype(int) - whole).max(axis=2)
+    # Only float32 rounding of the shifted view: a few texture samples, by one level.
+    assert np.mean(difference == 0) > 0.95
+    assert difference.max() <= 1
+
+
+def test_outputs_over_the_pixel_limit_are_refused(renderer, monkeypatch):
+    renderer.set_image(smooth_image(8, 8))
+    renderer.set_mesh(np.array([[0.0, 0.0], [8.0, 0.0], [0.0, 8.0]]), np.array([[0, 1, 2]]))
+    with pytest.raises(ValueError, match=r"output size 16384x16384 is not 1 to 134 megapixels"):
+        renderer.render((16384, 16384))

@@ -36,6 +36,7 @@ from app.bundled import bundled_directory
 from app.files import (
     InputError,
     Session,
+    finite_number,
     read_cage,
     read_json,
     read_session,
@@ -424,14 +425,11 @@ def read_script(path: str | Path, control_points: int | None = None) -> list[Mov
         where = f"{path}: moves[{number}]"
         if not isinstance(item, dict) or not {"at", "point", "to"} <= set(item):
             raise InputError(f'{where}: expected an object with "at", "point", "to" (and "duration")')
-        try:
-            at, duration = float(item["at"]), float(item.get("duration", 1.0))
-            to = tuple(float(v) for v in item["to"])
-        except (TypeError, ValueError):
-            raise InputError(f"{where}: at, duration and to must be numbers") from None
+        at, duration = finite_number(item["at"]), finite_number(item.get("duration", 1.0))
+        to = tuple(finite_number(v) for v in item["to"]) if isinstance(item["to"], list) else ()
         point = item["point"]
-        if len(to) != 2 or not all(math.isfinite(v) for v in (at, duration, *to)):
-            raise InputError(f"{where}: to must be [x, y] and all numbers finite")
+        if len(to) != 2 or None in (at, duration, *to):
+            raise InputError(f"{where}: at, duration and to must be numbers (finite; to a pair [x, y])")
         if (
             not isinstance(point, int)
             or point < 0

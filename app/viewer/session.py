@@ -31,6 +31,7 @@ from app.files import (
     InputError,
     Session,
     cage_curve,
+    finite_number,
     kernel_names,
     read_cage,
     read_image,
@@ -185,7 +186,7 @@ def open_document(
         if (pixels[..., 3] == 255).all():
             # A photograph: its subject is cut out of a picture the user wants to keep whole.
             preferences["outside"] = "original"
-    snapshot = Snapshot(Path(image).resolve(), control_points, control_points)
+    snapshot = Snapshot(Path(os.path.realpath(image)), control_points, control_points)
     return Document(
         snapshot,
         pixels,
@@ -240,7 +241,7 @@ def recover(path: Path, image: Path, max_edge: float | None, notices: list[str])
     for candidate in [path, *backups(path)] if path.exists() else backups(path):
         try:
             document = restore(candidate, max_edge)
-            if document.snapshot.image != image.resolve():
+            if document.snapshot.image != Path(os.path.realpath(image)):
                 raise InputError(f"{candidate}: is the session of {document.snapshot.image}, not of {image}")
         except InputError as error:
             if candidate == path:
@@ -270,11 +271,12 @@ def restore(path: Path, max_edge: float | None = None) -> Document:
     preferences = {**preferences, "outside": outside, "canvas": canvas}
     power = params.get("power", preferences.get("power", DEFAULT_POWER))
     shift = params.get("shift", preferences.get("shift", DEFAULT_SHIFT))
-    if not isinstance(power, (int, float)) or not power > 0:
+    power = finite_number(power)
+    if power is None or not power > 0:
         power = DEFAULT_POWER
     if shift not in SHIFTS:
         shift = DEFAULT_SHIFT
-    image = Path(session.image).resolve()
+    image = Path(os.path.realpath(session.image))
     keyframes, interpolation = session_keyframes(session, path)
     snapshot = Snapshot(
         image,
@@ -290,7 +292,7 @@ def restore(path: Path, max_edge: float | None = None) -> Document:
     notices: list[str] = []
     try:
         undo, redo = history_of(session.extra.get("history"), image)
-    except (TypeError, ValueError, KeyError) as error:
+    except (TypeError, ValueError, KeyError, OverflowError) as error:
         undo, redo = [], []
         notices.append(f"{path}: the undo history cannot be read ({error}); starting without it")
     return Document(
@@ -447,9 +449,9 @@ def apply_preferences(state: AppState, preferences: dict | None) -> None:
         state.canvas = preferences["canvas"]
     if isinstance(preferences.get("loop"), bool):
         state.loop = preferences["loop"]
-    time = preferences.get("time")
-    if isinstance(time, (int, float)) and not isinstance(time, bool) and 0 <= time <= MAX_TIME:
-        state.time = float(time)
+    time = finite_number(preferences.get("time"))
+    if time is not None and 0 <= time <= MAX_TIME:
+        state.time = time
     selected = preferences.get("selected")
     if isinstance(selected, int) and 0 <= selected < state.live.n:
         state.selected = selected

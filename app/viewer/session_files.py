@@ -22,20 +22,10 @@ import shutil
 import time
 from pathlib import Path
 
-STATE_VARIABLE = "TRANSFINITE_STATE_DIR"
+from core.state_directory import state_directory
+
 #: Previous versions kept beside each session file.
 BACKUPS = 5
-
-
-def state_directory() -> Path:
-    """The application's state directory (sessions live in its ``sessions`` folder)."""
-    configured = os.environ.get(STATE_VARIABLE)
-    if configured:
-        return Path(configured).expanduser()
-    base = Path(os.environ.get("XDG_STATE_HOME", ""))
-    if not base.is_absolute():  # unset, or relative: ignored, as the XDG specification says
-        base = Path.home() / ".local" / "state"
-    return base / "transfinite-warp"
 
 
 def session_path_for(image: str | os.PathLike) -> Path:
@@ -45,7 +35,7 @@ def session_path_for(image: str | os.PathLike) -> Path:
     digits of the SHA-256 of its absolute path, so that two images of the same
     name in different folders get different sessions.
     """
-    resolved = Path(image).resolve()
+    resolved = Path(os.path.realpath(image))  # a loop of links is reported when read
     digest = hashlib.sha256(str(resolved).encode("utf-8", "surrogateescape")).hexdigest()[:10]
     stem = "".join(c if c.isalnum() or c in "-_." else "_" for c in resolved.stem) or "image"
     return state_directory() / "sessions" / f"{stem}-{digest}.json"

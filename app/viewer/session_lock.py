@@ -58,7 +58,7 @@ _held: weakref.WeakValueDictionary[str, SessionLock] = weakref.WeakValueDictiona
 
 def lock_file_for(session: Path) -> Path:
     """Where the lock of session file `session` lives."""
-    digest = hashlib.sha256(str(Path(session).resolve()).encode("utf-8", "surrogateescape")).hexdigest()[:16]
+    digest = hashlib.sha256(os.path.realpath(session).encode("utf-8", "surrogateescape")).hexdigest()[:16]
     return state_directory() / "locks" / f"{digest}.lock"
 
 
@@ -72,7 +72,7 @@ def lock_session(session: Path) -> SessionLock | None:
     """
     if fcntl is None:
         return None
-    key = str(Path(session).resolve())
+    key = os.path.realpath(session)
     held = _held.get(key)
     if held is not None:
         return held

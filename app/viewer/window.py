@@ -615,7 +615,11 @@ class Viewer:
             return None
         if path.suffix.lower() != ".png":
             path = path.with_name(path.name + ".png")
-        pixels = self._render_export()
+        try:
+            pixels = self._render_export()
+        except ValueError as error:  # an output over app.framing.MAX_OUTPUT_PIXELS
+            state.say(str(error), error=True)
+            return None
         if pixels is None:
             state.say("nothing to export yet: the basis functions are still being computed", error=True)
             return None
