@@ -32,7 +32,7 @@ CORNER_LEVELS = 6
 #: Towards a knot where the curvature jumps by Δκ, the density behaves like s^2 log s
 #: times Δκ ℓ (ℓ the shorter adjacent span's length): each level of grading divides its
 #: error by about 8.  Levels are added until Δκ ℓ 8^-levels <= KNOT_JUMP.
-KNOT_JUMP = 5e-6
+KNOT_JUMP = 5e-7
 #: At least this many levels at every knot: with 2, the hook's G reached -1.5e-9 at points
 #: 1e-6 of the diameter from a knot, with 3 -1.4e-10, at no measurable cost.
 MIN_KNOT_LEVELS = 3
