@@ -38,11 +38,12 @@ BLOCK = 512
 #: away from it (error below ~1e-13 of the piece's contribution for the values, 1e-11 for
 #: the derivative).
 SAFE = 0.5
-#: `SAFE` of the coarsest level's far field.  Its densities are weight-corrected restrictions
-#: (`restriction`), so its rule integrates the kernel's degree-15 interpolant on the panel,
-#: whose error falls as ρ^-16 rather than the plain rule's ρ^-32: at half a span a sharp
-#: corner's density left G at -2e-9 (F polygon), at 0.75 spans -4e-11, for 16 % more time.
-TOP_SAFE = 0.75
+#: `SAFE` of the coarsest level's far field on the spans next to a sharp corner (`span_safety`).
+#: Its densities are weight-corrected restrictions (`restriction`), so its rule integrates the
+#: kernel's degree-15 interpolant on the span, whose error falls as ρ^-16 rather than the plain
+#: rule's ρ^-32, times the density's roughness: at half a span a corner's singular density left
+#: G at -2e-9 (F polygon), at 0.75 spans -4e-11.  Smooth knots need no more than `SAFE`.
+CORNER_SAFE = 0.75
 #: Pairs closer than this fraction of the diameter get their weights directly: the far
 #: field's expanded products lose ~1e-16 / distance^2 (relative, distance in diameters).
 DIRECT = 1e-3
@@ -54,8 +55,20 @@ ON_CURVE = 1e-10
 BISECTIONS = 2
 
 
+def span_safety(curve: ClosedBSpline, panels: Panels) -> np.ndarray | float:
+    """`SAFE` for each panel of the coarsest level, (P,): `CORNER_SAFE` on the spans at a sharp
+    corner (a doubled control point, at knot j: spans j - 1 and j) when the level is the spans."""
+    if panels.count != curve.n:
+        return SAFE
+    points = curve.control_points
+    corner = np.flatnonzero(np.all(points == np.roll(points, 1, axis=0), axis=1))
+    safety = np.full(curve.n, SAFE)
+    safety[corner] = safety[(corner - 1) % curve.n] = CORNER_SAFE
+    return safety
+
+
 def near_pairs(
-    panels: Panels, targets: np.ndarray, diameter: float, safe: float = SAFE
+    panels: Panels, targets: np.ndarray, diameter: float, safe: float | np.ndarray = SAFE
 ) -> tuple[np.ndarray, np.ndarray]:
     """(target index, panel index) pairs computed one by one, two int64 arrays sorted by target.
 
@@ -270,7 +283,7 @@ def cauchy_integrals(
     real_rows = np.stack([(e * tau.conj()).real, -e.real, -e.imag])
     imaginary_rows = np.stack([(e * tau.conj()).imag, -e.imag, e.real])
     denominator_rows = np.stack([np.abs(tau) ** 2, -2.0 * tau.real, -2.0 * tau.imag, np.ones(tau.size)])
-    target, panel = near_pairs(panels, z, curve.diameter, TOP_SAFE)
+    target, panel = near_pairs(panels, z, curve.diameter, span_safety(curve, panels))
     real = np.empty((z.size, density.shape[1]))
     imag = np.empty_like(real) if imaginary else None
     starts = np.searchsorted(target, np.arange(0, z.size + BLOCK, BLOCK))
@@ -304,7 +317,7 @@ def cauchy_derivatives(curve: ClosedBSpline, levels: Levels, x: np.ndarray) -> n
     panels, density = levels.panels[0], levels.densities[0]
     factors = layer_factors(curve, panels)
     z = x[:, 0] + 1j * x[:, 1]
-    target, panel = near_pairs(panels, z, curve.diameter, TOP_SAFE)
+    target, panel = near_pairs(panels, z, curve.diameter, span_safety(curve, panels))
     out = np.empty((z.size, density.shape[1]), dtype=np.complex128)
     starts = np.searchsorted(target, np.arange(0, z.size + BLOCK, BLOCK))
     for block, first in enumerate(range(0, z.size, BLOCK)):
