@@ -39,8 +39,9 @@ _loaded = threading.Event()
 def compile_solver(progress: Callable[[float], None] | None = None) -> bool:
     """Compile the solver, or load it from numba's cache, before the first solve.
 
-    One small basis-function evaluation in the arc-length parameterisation types
-    every function of `core.solver`: the kernel, the output mode and the
+    One small basis-function evaluation of a Newton kernel in the arc-length
+    parameterisation types every function of `core.solver` (the default kernel,
+    ``poisson``, is not compiled, so it names one): the kernel, the output mode and the
     parameterisation are run-time values, so every kernel of `core.KERNELS`,
     `core.kernel` and `core.basis_functions` share the one specialisation it
     compiles.
@@ -66,7 +67,13 @@ def compile_solver(progress: Callable[[float], None] | None = None) -> bool:
     listener = _Progress(progress)
     with event.install_listener("numba:compile", listener):
         square = ClosedBSpline(np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]))
-        basis_functions(square, np.array([[0.5, 0.5]]), samples_per_segment=4, parameterization="arc-length")
+        basis_functions(
+            square,
+            np.array([[0.5, 0.5]]),
+            "maximum-likelihood",
+            samples_per_segment=4,
+            parameterization="arc-length",
+        )
     if listener.compiled and progress is not None:
         progress(1.0)
     _loaded.set()
