@@ -81,13 +81,26 @@ def compile_solver(progress: Callable[[float], None] | None = None) -> bool:
 
 
 def solver_weights() -> dict[str, int]:
-    """Source lines of every compiled function of `SOLVER_MODULES`, by name."""
-    return {
-        name: len(inspect.getsourcelines(function.py_func)[0])
+    """Source lines of every separately compiled function of `SOLVER_MODULES`, by name.
+
+    A function that numba inlines (``inline="always"``) is compiled as part of its
+    callers and reports no compilation of its own: its lines count for the functions
+    that call it.
+    """
+    functions = {
+        name: function
         for module in SOLVER_MODULES
         for name, function in vars(module).items()
         if isinstance(function, CPUDispatcher) and function.py_func.__module__ == module.__name__
     }
+    sources = {name: inspect.getsource(function.py_func) for name, function in functions.items()}
+    inlined = {name for name, f in functions.items() if f.targetoptions.get("inline") == "always"}
+    weights = {name: source.count("\n") for name, source in sources.items() if name not in inlined}
+    for name in inlined:
+        callers = [caller for caller in weights if f"{name}(" in sources[caller]]
+        for caller in callers:
+            weights[caller] += sources[name].count("\n") // len(callers)
+    return weights
 
 
 class _Progress(event.Listener):

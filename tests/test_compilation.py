@@ -37,6 +37,7 @@ signatures = {
     for module in (solver, crossing_slabs)
     for n, f in vars(module).items()
     if isinstance(f, CPUDispatcher) and f.py_func.__module__ == module.__name__
+    and f.targetoptions.get("inline") != "always"  # compiled inside its callers
 }
 print(json.dumps({"compiled": compiled, "fractions": fractions, "signatures": signatures}))
 """
