@@ -295,6 +295,7 @@ def run_animate(args) -> int:
     )
     from app.keyframes import frame_times
     from app.render import WarpRenderer, create_headless_context
+    from core.compilation import MESSAGE as COMPILING
 
     path = Path(args.output).expanduser()
     kind = output_kind(path, args.output)
@@ -331,10 +332,15 @@ def run_animate(args) -> int:
         with reported_as_input(f"{args.session}: meshing"):
             mesh = core.triangulate(curve, max_edge=max_edge)
         with (
+            ProgressBar(COMPILING, announce=True) as compiling,
             ProgressBar(f"basis functions ({session.kernel})") as bar,
             reported_as_input(f"{args.session}: kernel {session.kernel!r}"),
         ):
-            basis = core.mesh_basis_functions(curve, mesh, kernel=session.kernel, progress=bar, **params)
+            basis = core.mesh_basis_functions(
+                curve, mesh, kernel=session.kernel, progress=bar, compiling=compiling, **params
+            )
+        if compiling.seconds is not None:
+            note(f"compiled the solver in {compiling.seconds:.1f} s (first run only; numba caches it)")
         with WarpRenderer(ctx) as renderer, interrupted_by_sigterm():
             with reported_as_input(str(session.image)):
                 renderer.set_image(image)

@@ -611,7 +611,7 @@ def _warp(args: argparse.Namespace) -> int:
             mesh = core.triangulate(curve, max_edge=args.max_edge)
         note(f"mesh: {len(mesh.vertices)} vertices, {len(mesh.triangles)} triangles")
         with (
-            ProgressBar(COMPILING) as compiling,
+            ProgressBar(COMPILING, announce=True) as compiling,
             ProgressBar(f"basis functions ({kernel})") as bar,
             reported_as_input(f"{cage_source}: kernel {kernel!r}"),
         ):
