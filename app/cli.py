@@ -59,8 +59,10 @@ from app.framing import CANVASES, OUTSIDES, output_frame, output_region
 from app.render import ContextUnavailableError
 from app.viewer.demos import SCRIPT_FORMAT
 from core.arc_length import PARAMETERIZATIONS
+from core.compilation import GRADIENT_MESSAGE as GRADIENT_COMPILING
 from core.compilation import MESSAGE as COMPILING
 from core.deformation import deform
+from core.kernel_table import COMPILED_KERNELS
 
 DEFAULT_KERNEL = "poisson"  # core.mesh_basis.DEFAULT_KERNEL, the deformation default
 # cv2.Error.StsNoMem, without importing cv2 for the commands that never use it.
@@ -669,6 +671,9 @@ def _distortion_report(curve, mesh, kernel, target, deformed, params) -> list[st
         where = mesh.vertices[mesh.triangles].mean(axis=1)
         points = "triangles (per-triangle Jacobian, at centroids)"
     else:
+        if kernel in COMPILED_KERNELS:
+            with ProgressBar(GRADIENT_COMPILING, announce=True) as compiling:
+                core.compile_solver(compiling, gradients=True)
         _, gradients = core.mesh_basis_functions(curve, mesh, kernel=kernel, gradients=True, **params)
         jacobians = vertex_jacobians(gradients[mesh.interior], target)
         where = mesh.vertices[mesh.interior]

@@ -36,6 +36,7 @@ SOLVER_SECONDS = 15
 GRADIENT_SECONDS = 8
 #: What waiting callers show.
 MESSAGE = f"compiling the solver (first use, ~{SOLVER_SECONDS} s)"
+GRADIENT_MESSAGE = f"compiling the gradient solver (first use, ~{GRADIENT_SECONDS} s)"
 GRADIENTS_MESSAGE = (
     f"compiling the solver and its gradients (first use, ~{SOLVER_SECONDS + GRADIENT_SECONDS} s)"
 )
