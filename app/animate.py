@@ -347,13 +347,15 @@ def run_animate(args) -> int:
         with reported_as_input(f"{args.session}: meshing"):
             mesh = core.triangulate(curve, max_edge=max_edge)
         with (
-            ProgressBar(COMPILING) as compiling,
+            ProgressBar(COMPILING, announce=True) as compiling,
             ProgressBar(f"basis functions ({session.kernel})") as bar,
             reported_as_input(f"{args.session}: kernel {session.kernel!r}"),
         ):
             settings = WarpSettings(session.kernel, params, max_edge)
             deformation = prepare(curve, settings, mesh, progress=bar, compiling=compiling)
         require_render_memory((width, height), size, context=False)
+        if compiling.seconds is not None:
+            note(f"compiled the solver in {compiling.seconds:.1f} s (first run only; numba caches it)")
         with WarpRenderer(ctx) as renderer, interrupted_by_sigterm():
             with reported_as_input(str(session.image)):
                 renderer.set_image(image)

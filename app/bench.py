@@ -32,8 +32,9 @@ from pathlib import Path
 import numpy as np
 
 import core
-from app.console import EXIT_ENVIRONMENT, EXIT_OK
+from app.console import EXIT_ENVIRONMENT, EXIT_OK, ProgressBar
 from core import examples
+from core.compilation import GRADIENTS_MESSAGE as GRADIENTS_COMPILING
 
 # The paper's Fig. 7 setting: a 12-point domain, N = 100 n samples, 26,000 points.
 SAMPLES_PER_SEGMENT = 100
@@ -128,6 +129,8 @@ def _threads() -> int:
 
 def _warm_up(curve: core.ClosedBSpline) -> None:
     """Compile (or load from numba's cache) every kernel before timing."""
+    with ProgressBar(GRADIENTS_COMPILING, announce=True) as compiling:
+        core.compile_solver(compiling, gradients=True)
     x = _points(curve, 50, seed=0)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")

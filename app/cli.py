@@ -63,7 +63,9 @@ from app.keyframes import MAX_FPS, MIN_FPS
 from app.render import ContextUnavailableError
 from app.viewer.demos import SCRIPT_FORMAT
 from core.arc_length import PARAMETERIZATIONS
+from core.compilation import GRADIENT_MESSAGE as GRADIENT_COMPILING
 from core.compilation import MESSAGE as COMPILING
+from core.kernel_table import COMPILED_KERNELS
 
 DEFAULT_KERNEL = "poisson"  # core.mesh_basis.DEFAULT_KERNEL, the deformation default
 # cv2.Error.StsNoMem, without importing cv2 for the commands that never use it.
@@ -654,7 +656,7 @@ def _warp(args: argparse.Namespace) -> int:
             mesh = core.triangulate(curve, max_edge=args.max_edge)
         note(f"mesh: {len(mesh.vertices)} vertices, {len(mesh.triangles)} triangles")
         with (
-            ProgressBar(COMPILING) as compiling,
+            ProgressBar(COMPILING, announce=True) as compiling,
             ProgressBar(f"basis functions ({kernel})") as bar,
             reported_as_input(f"{cage_source}: kernel {kernel!r}"),
         ):
@@ -710,6 +712,9 @@ def _distortion_report(curve, mesh, kernel, target, deformed, params) -> list[st
         where = mesh.vertices[mesh.triangles].mean(axis=1)
         points = "triangles (per-triangle Jacobian, at centroids)"
     else:
+        if kernel in COMPILED_KERNELS:
+            with ProgressBar(GRADIENT_COMPILING, announce=True) as compiling:
+                core.compile_solver(compiling, gradients=True)
         _, gradients = core.mesh_basis_functions(curve, mesh, kernel=kernel, gradients=True, **params)
         jacobians = vertex_jacobians(gradients[mesh.interior], target)
         where = mesh.vertices[mesh.interior]

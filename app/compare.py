@@ -156,7 +156,7 @@ def compare_kernels(
     for label, kernel, params in kernel_variants(kernels, parameterization):
         started = time.perf_counter()
         try:
-            with ProgressBar(COMPILING) as compiling, ProgressBar(label) as bar:
+            with ProgressBar(COMPILING, announce=True) as compiling, ProgressBar(label) as bar:
                 basis = core.mesh_basis_functions(
                     curve, mesh, kernel=kernel, progress=bar, compiling=compiling, **params
                 )

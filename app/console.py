@@ -63,17 +63,21 @@ class ProgressBar:
     """A text progress bar on stderr, fed with the fraction done in [0, 1].
 
     It redraws in place on a terminal and stays silent otherwise (logs and pipes
-    get the one-line summary of the command instead of carriage returns).  At
+    get the one-line summary of the command instead of carriage returns), but for
+    its label, printed once at the first call, with ``announce=True``.  At
     100 % it ends its line, so that the next bar starts on a fresh one.  Time
     counts from its first call; `seconds` is the time from there to 100 %.
     """
 
     WIDTH = 30
 
-    def __init__(self, label: str, stream=None):
+    def __init__(self, label: str, stream=None, announce: bool = False):
         self.label = label
         self.stream = stream or sys.stderr
         self.enabled = self.stream.isatty()
+        # Off a terminal, `announce` prints the label once, as a line, at the first call:
+        # for a wait that must say what it is (compiling) even in a log.
+        self.announce = announce
         self._shown = -1
         self._line = ""
         self._first_call: float | None = None
@@ -83,6 +87,9 @@ class ProgressBar:
         now = time.perf_counter()
         if self._first_call is None:
             self._first_call = now
+            if self.announce and not self.enabled:
+                self.stream.write(f"{self.label}...\n")
+                self.stream.flush()
         percent = int(100 * min(max(fraction, 0.0), 1.0))
         if percent == 100:
             self.seconds = now - self._first_call

@@ -4,6 +4,8 @@ Pure numerics (numpy, scipy, numba): never imports `app`, moderngl, glfw or imgu
 See .docs/architecture.md in the repository for the data flow and the paper's equation numbers.
 """
 
+# First: the compiled functions of the package compile uncached where numba cannot cache.
+import core.jit_cache  # noqa: F401, I001
 from core.basis import basis_functions
 from core.boundary import Boundary
 from core.bspline import ClosedBSpline

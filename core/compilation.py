@@ -24,23 +24,35 @@ import numpy as np
 from numba.core import event
 from numba.core.registry import CPUDispatcher
 
-from core import crossing_slabs, solver
+from core import crossing_slabs, gradient_solver, solver
 
 #: The modules compiled on first use, with progress: the solver and its inside test.
 SOLVER_MODULES = (solver, crossing_slabs)
+#: Compiled on the first use of gradients (`core.basis_gradients`), after the solver.
+GRADIENT_MODULES = (gradient_solver,)
 
+#: Seconds of a cold compilation on a 2-core machine (README, "First run"): what callers announce.
+SOLVER_SECONDS = 15
+GRADIENT_SECONDS = 8
 #: What waiting callers show.
-MESSAGE = "compiling the solver (first run only)"
-# Set once the solver is compiled or loaded in this process: later calls cost nothing
-# (reading the solver's source for the progress weights took tens of milliseconds a call).
+MESSAGE = f"compiling the solver (first use, ~{SOLVER_SECONDS} s)"
+GRADIENT_MESSAGE = f"compiling the gradient solver (first use, ~{GRADIENT_SECONDS} s)"
+GRADIENTS_MESSAGE = (
+    f"compiling the solver and its gradients (first use, ~{SOLVER_SECONDS + GRADIENT_SECONDS} s)"
+)
+# Set once the solver (the gradient solver) is compiled or loaded in this process: later
+# calls cost nothing (reading the solver's source for the progress weights took tens of
+# milliseconds a call).
 _loaded = threading.Event()
+_gradients_loaded = threading.Event()
 
 
-def compile_solver(progress: Callable[[float], None] | None = None) -> bool:
+def compile_solver(progress: Callable[[float], None] | None = None, gradients: bool = False) -> bool:
     """Compile the solver, or load it from numba's cache, before the first solve.
 
-    One small basis-function evaluation in the arc-length parameterisation types
-    every function of `core.solver`: the kernel, the output mode and the
+    One small basis-function evaluation of a Newton kernel in the arc-length
+    parameterisation types every function of `core.solver` (the default kernel,
+    ``poisson``, is not compiled, so it names one): the kernel, the output mode and the
     parameterisation are run-time values, so every kernel of `core.KERNELS`,
     `core.kernel` and `core.basis_functions` share the one specialisation it
     compiles.
@@ -51,46 +63,74 @@ def compile_solver(progress: Callable[[float], None] | None = None) -> bool:
         Called with the fraction compiled in [0, 1], first with 0 when a real
         compilation starts, last with 1; never called when every function comes
         from the cache.
+    gradients : bool
+        Also the gradient solver (`core.gradient_solver`, the first use of
+        `core.basis_gradients`), in the same progress.
 
     Returns
     -------
     bool
         True if anything was compiled (a first run), False if all came from the
-        cache, or at once if the solver is already loaded in this process.
+        cache, or at once if it is already loaded in this process.
     """
-    if _loaded.is_set():
+    gradients = gradients and not _gradients_loaded.is_set()
+    if _loaded.is_set() and not gradients:
         return False
     from core.basis import basis_functions
     from core.bspline import ClosedBSpline
+    from core.gradients import basis_gradients
 
-    listener = _Progress(progress)
+    modules = (() if _loaded.is_set() else SOLVER_MODULES) + (GRADIENT_MODULES if gradients else ())
+    listener = _Progress(progress, modules)
+    square = ClosedBSpline(np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]))
+    x = np.array([[0.5, 0.5]])
     with event.install_listener("numba:compile", listener):
-        square = ClosedBSpline(np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]))
-        basis_functions(
-            square, [[0.5, 0.5]], "harmonic-like", samples_per_segment=4, parameterization="arc-length"
-        )
+        if not _loaded.is_set():
+            basis_functions(
+                square, x, "maximum-likelihood", samples_per_segment=4, parameterization="arc-length"
+            )
+            _loaded.set()
+        if gradients:
+            # 8 samples per span: with 4 the gradient solver indexes out of bounds (a known bug).
+            basis_gradients(square, x, "maximum-likelihood", samples_per_segment=8)
+            _gradients_loaded.set()
     if listener.compiled and progress is not None:
         progress(1.0)
-    _loaded.set()
     return listener.compiled
 
 
-def solver_weights() -> dict[str, int]:
-    """Source lines of every compiled function of `SOLVER_MODULES`, by name."""
-    return {
-        name: len(inspect.getsourcelines(function.py_func)[0])
-        for module in SOLVER_MODULES
+def solver_weights(modules: tuple = SOLVER_MODULES, qualified: bool = False) -> dict[str, int]:
+    """Source lines of every separately compiled function of `modules`, by name
+    (``module.name`` if `qualified`: the gradient solver reuses some of the solver's names).
+
+    A function that numba inlines (``inline="always"``) is compiled as part of its
+    callers and reports no compilation of its own: its lines count for the functions
+    that call it.
+    """
+    functions = {
+        f"{module.__name__}.{name}" if qualified else name: function
+        for module in modules
         for name, function in vars(module).items()
         if isinstance(function, CPUDispatcher) and function.py_func.__module__ == module.__name__
     }
+    sources = {name: inspect.getsource(function.py_func) for name, function in functions.items()}
+    inlined = {name for name, f in functions.items() if f.targetoptions.get("inline") == "always"}
+    weights = {name: source.count("\n") for name, source in sources.items() if name not in inlined}
+    for name in inlined:
+        call = f"{functions[name].py_func.__name__}("
+        callers = [caller for caller in weights if call in sources[caller]]
+        for caller in callers:
+            weights[caller] += sources[name].count("\n") // len(callers)
+    return weights
 
 
 class _Progress(event.Listener):
-    """Turns numba's compile events for `SOLVER_MODULES` into a compiled fraction."""
+    """Turns numba's compile events for `modules` into a compiled fraction."""
 
-    def __init__(self, progress: Callable[[float], None] | None):
+    def __init__(self, progress: Callable[[float], None] | None, modules: tuple):
         self.progress = progress
-        self.weights = solver_weights()
+        self.modules = {module.__name__ for module in modules}
+        self.weights = solver_weights(modules, qualified=True) if modules else {}
         self.total = sum(self.weights.values())
         self.done = 0
         self.compiled = False
@@ -98,10 +138,9 @@ class _Progress(event.Listener):
 
     def _name(self, data) -> str | None:
         function = data["dispatcher"].py_func
-        modules = {module.__name__ for module in SOLVER_MODULES}
-        if function.__module__ not in modules or threading.get_ident() != self.thread:
+        if function.__module__ not in self.modules or threading.get_ident() != self.thread:
             return None  # another module's function, or another thread's compilation
-        return function.__name__
+        return f"{function.__module__}.{function.__name__}"
 
     def on_start(self, ev: event.Event) -> None:
         if self._name(ev.data) is not None and not self.compiled:

@@ -344,7 +344,8 @@ def _accumulate_samples(a, grad_x, grad_y, count, basis0, basis1, basis2, contro
         row_y[after] += y2
 
 
-@njit(cache=True, error_model="numpy")
+# Inlined into gradient_points, as solver._solve_point is into solve_points.
+@njit(cache=True, error_model="numpy", inline="always")
 def _gradient_point(x, y, settings, curve, geometry, largest_spacing, row, row_x, row_y, scratch, windows):
     """Evaluate one point and its gradient; returns (iterations, status, residual).
 
@@ -503,7 +504,7 @@ def gradient_points(
         np.empty(solver.MAX_WINDOWS + 1),
         np.empty((solver.MAX_WINDOWS + 1, 3), dtype=np.int64),
     )
-    largest_spacing = curve[6].max()
+    largest_spacing = solver._largest(curve[6], count)
     for m in range(first, points.shape[0], stride):
         iterations[m], status[m], residual[m] = _gradient_point(
             points[m, 0], points[m, 1], settings, curve, geometry, largest_spacing, out[m], gradients[m, 0],

@@ -938,7 +938,10 @@ def _change_bound(a, ux, uy, inv_s, deltax, deltay, alpha, count):
     return change
 
 
-@njit(cache=True, error_model="numpy")
+# Inlined into solve_points by numba: otherwise LLVM optimises and compiles the whole solver
+# twice (once as this function, once linked into solve_points), and every point's call
+# copies the scratch and curve tuples (tens of arrays, reference counts included).
+@njit(cache=True, error_model="numpy", inline="always")
 def _solve_point(x, y, settings, curve, geometry, largest_spacing, row, scratch, windows, start):
     """Evaluate one point; writes its output row and returns (iterations, status, residual, phix, phiy).
 
@@ -1696,7 +1699,7 @@ def solve_points(points, settings, curve, geometry, out, iterations, status, res
     window_d = np.empty(MAX_WINDOWS + 1)
     runs = np.empty((MAX_WINDOWS + 1, 3), dtype=np.int64)
     windows = (window_start, window_stop, window_t, window_d, runs)
-    largest_spacing = curve[6].max()
+    largest_spacing = _largest(curve[6], count)  # not .max(): numpy's compiles three more functions
     count = points.shape[0]
     for block in range(first, (count + BLOCK - 1) // BLOCK, stride):
         nan = math.nan

@@ -2,6 +2,7 @@
 
 import json
 import os
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -37,6 +38,7 @@ signatures = {
     for module in (solver, crossing_slabs)
     for n, f in vars(module).items()
     if isinstance(f, CPUDispatcher) and f.py_func.__module__ == module.__name__
+    and f.targetoptions.get("inline") != "always"  # compiled inside its callers
 }
 print(json.dumps({"compiled": compiled, "fractions": fractions, "signatures": signatures}))
 """
@@ -77,3 +79,27 @@ def test_once_loaded_in_a_process_compile_solver_returns_at_once(monkeypatch):
     fractions = []
     assert compilation.compile_solver(fractions.append) is False
     assert fractions == []
+
+
+def test_without_a_writable_cache_folder_the_solver_compiles_uncached_with_one_note(tmp_path):
+    # A copy of the package whose __pycache__ cannot be made (a file is in the way), with
+    # NUMBA_CACHE_DIR and the home folder where no folder can be created either: numba has no
+    # cache locator for it (`cannot cache function '_slab': no locator available`).
+    shutil.copytree(ROOT / "core", tmp_path / "core", ignore=shutil.ignore_patterns("__pycache__"))
+    (tmp_path / "core" / "__pycache__").write_text("")
+    blocked = str(tmp_path / "core" / "__pycache__" / "numba")  # under a file: never creatable
+    environment = dict(
+        os.environ, PYTHONPATH=str(tmp_path), NUMBA_CACHE_DIR=blocked, XDG_CACHE_HOME=blocked, HOME=blocked
+    )
+    child = (
+        "import numpy as np, core\n"
+        "from core.crossing_slabs import crossing_slabs\n"
+        "print(crossing_slabs(np.array([0.0, 1.0, 1.0, 0.0]))[0].tolist())\n"
+    )
+    result = subprocess.run(
+        [sys.executable, "-c", child], capture_output=True, text=True, env=environment, cwd=tmp_path
+    )
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.split() == ["[0,", "4]"]  # compiled and ran, uncached
+    lines = result.stderr.splitlines()
+    assert len(lines) == 1 and lines[0].startswith("note: numba cannot write its cache"), result.stderr

@@ -33,6 +33,24 @@ def test_progress_bar_draws_on_a_terminal_only():
     assert pipe.getvalue() == ""
 
 
+def test_an_announcing_bar_says_what_waits_in_one_line_off_a_terminal():
+    # animate, quality, bench and warp announce the solver's compilation even in a log.
+    pipe = io.StringIO()
+    with ProgressBar("compiling the solver (first use, ~15 s)", pipe, announce=True) as bar:
+        for fraction in (0.0, 0.4, 1.0):
+            bar(fraction)
+    assert pipe.getvalue() == "compiling the solver (first use, ~15 s)...\n"
+    assert bar.seconds is not None
+    terminal = Terminal()
+    with ProgressBar("compiling", terminal, announce=True) as bar:
+        bar(0.0)
+    assert terminal.getvalue().startswith("\rcompiling ["), "on a terminal the bar itself says it"
+    quiet = io.StringIO()
+    with ProgressBar("compiling", quiet, announce=True):
+        pass  # never called: nothing compiled, nothing said
+    assert quiet.getvalue() == ""
+
+
 def test_notes_wait_for_success_and_a_failure_is_the_only_line(capsys):
     console.discard_notes()
     console.note("mesh: 12 vertices,\n 10 triangles")

@@ -48,6 +48,8 @@ PREVIEW_VERTICES = 20_000
 PREVIEW_FROM_VERTICES = 50_000
 #: The phase shown while the preview mesh is made.
 PREVIEW_PHASE = "a lighter mesh for dragging"
+#: Priority decrease of the background compilation (`Precompute` with warm_up): below the worker's.
+WARM_UP_NICE = 15
 
 
 @dataclass(frozen=True)
@@ -239,10 +241,22 @@ class Precompute:
     ----------
     nice : int
         Priority decrease of the worker (Unix), so that the UI wins the CPU.
+    warm_up : bool
+        Also compile the Newton solver and its gradients in a third process at
+        `WARM_UP_NICE` (`core.compile_solver`, into numba's disk cache), while the
+        default kernel (poisson, not compiled) is on screen: the first switch to a
+        Newton kernel then loads it instead of compiling for ~15 s.  Once cached,
+        it only loads and ends.
     """
 
-    def __init__(self, nice: int = 10):
+    def __init__(self, nice: int = 10, warm_up: bool = False):
         context = multiprocessing.get_context("spawn")
+        self._warm_up = None
+        if warm_up:
+            self._warm_up = context.Process(
+                target=_compile_in_background, args=(WARM_UP_NICE,), name="transfinite-compile", daemon=True
+            )
+            self._warm_up.start()
         # Pipe(duplex=False) returns (receiving end, sending end).
         request_reader, self._requests = context.Pipe(duplex=False)
         self._results, result_writer = context.Pipe(duplex=False)
@@ -334,12 +348,30 @@ class Precompute:
         if self._process.is_alive():
             self._process.terminate()
             self._process.join(timeout=2.0)
+        if self._warm_up is not None and self._warm_up.is_alive():
+            self._warm_up.terminate()  # numba writes each cache file whole (a rename): none is left half
+            self._warm_up.join(timeout=2.0)
         self._requests.close()
         self._results.close()
 
 
 class _Superseded(Exception):
     """A newer request arrived while one was running."""
+
+
+def _compile_in_background(nice: int) -> None:
+    """The warm-up process: compile (or load) the solver and its gradients, then end."""
+    if nice and hasattr(os, "nice"):
+        try:
+            os.nice(nice)
+        except OSError:
+            pass
+    try:
+        import core
+
+        core.compile_solver(gradients=True)
+    except Exception:  # noqa: BLE001 - only a head start: the worker compiles what it needs itself
+        pass
 
 
 def _serve(requests, results, nice: int) -> None:

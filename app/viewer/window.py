@@ -183,8 +183,9 @@ class Viewer:
     def __init__(self, document: Document, options: Options):
         self.options = options
         self.test_mode = os.environ.get(TEST_VARIABLE) == "1"
-        # The worker starts first: its imports overlap with the window's creation.
-        self.precompute = Precompute()
+        # The worker starts first: its imports overlap with the window's creation.  The Newton
+        # solver compiles in the background meanwhile (the default kernel needs none).
+        self.precompute = Precompute(warm_up=not self.test_mode)
         self.state = AppState(
             history=History(document.snapshot),
             live=document.snapshot,
