@@ -479,9 +479,12 @@ def _graded_nodes(center, scale, start, stop, step, times, weights, offset):
     right = stop - center
     left_intervals, left_scale, left_step = 0, scale, 0.0
     right_intervals, right_scale, right_step = 0, scale, 0.0
-    if left > 0.0:
+    # A side shorter than rounding of the window's ends is none: a closest point found at
+    # a window's end (the centre of a square, one window round the whole curve) left 2e-15
+    # there, whose graded rule divided by zero and wrote NaN times.
+    if left > 1e-9 * step:
         left_intervals, left_scale, left_step = _graded_side(left, scale, step)
-    if right > 0.0:
+    if right > 1e-9 * step:
         right_intervals, right_scale, right_step = _graded_side(right, scale, step)
     for i in range(left_intervals, 0, -1):
         sigma = i * left_step

@@ -278,3 +278,18 @@ def test_mesh_only_kernels_have_no_pointwise_gradients(mesh_setup, kernel):
         ValueError, match=f"kernel '{kernel}' has no pointwise gradients; use the per-triangle"
     ):
         core.mesh_basis_functions(curve, mesh, kernel=kernel, gradients=True, cache=False)
+
+
+@pytest.mark.parametrize("samples_per_segment", [2, 4])
+def test_the_centre_of_a_coarsely_sampled_square(samples_per_segment):
+    # One near window round the whole curve whose closest point is its end: the graded rule had a
+    # side 2e-15 long and wrote NaN nodes (out-of-bounds writes in the compiled solver).
+    square = core.ClosedBSpline(np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]))
+    gradients, G = core.basis_gradients(
+        square, [[0.5, 0.5]], "maximum-likelihood", samples_per_segment, return_values=True
+    )
+    assert np.isfinite(G).all() and np.isfinite(gradients).all()
+    np.testing.assert_allclose(G @ square.control_points, [[0.5, 0.5]], atol=1e-12)
+    np.testing.assert_allclose(gradients.sum(axis=1), 0.0, atol=1e-10)
+    values = core.basis_functions(square, [[0.5, 0.5]], "maximum-likelihood", samples_per_segment)
+    np.testing.assert_allclose(G, values, atol=1e-12)
