@@ -87,8 +87,9 @@ def near_pairs(
     target = np.concatenate([np.asarray(f, dtype=np.int64) for f in found if len(f)])
     panel = np.repeat(np.arange(panels.count), sizes)
     nodes = panels.z.reshape(-1, ORDER)
-    gap = np.abs(nodes[panel] - targets[target, None]).min(axis=1)
-    close = gap < close_range[panel]
+    dx = nodes.real[panel] - targets.real[target, None]
+    dy = nodes.imag[panel] - targets.imag[target, None]
+    close = (dx * dx + dy * dy).min(axis=1) < close_range[panel] ** 2
     target, panel = target[close], panel[close]
     order = np.lexsort((panel, target))
     return target[order], panel[order]
@@ -370,6 +371,10 @@ def _add_plain(out, curve, panels, density, z, target, panel, power):
     target, panel = target[order], panel[order]
     factors = layer_factors(curve, panels)
     close_range = np.maximum(SAFE * panels.lengths, DIRECT * curve.diameter) ** 2
+    # Pairs farther from the panel's centre than its radius plus the close range are far for
+    # sure: only the others need their distance to the nearest node.
+    reach = panels.radii + np.sqrt(close_range)
+    sure = np.abs(z[target] - panels.centres[panel]) >= reach[panel]
     near = np.zeros(target.size, dtype=bool)
     real_only = not np.iscomplexobj(out)
     for p, group in _groups(panel):
@@ -378,16 +383,19 @@ def _add_plain(out, curve, panels, density, z, target, panel, power):
         dx = panels.z[nodes].real - z[rows, None].real
         dy = panels.z[nodes].imag - z[rows, None].imag
         square = dx * dx + dy * dy
-        close = square.min(axis=1) < close_range[p]
-        near[group] = close
-        far = ~close
+        if not sure[group].all():
+            close = ~sure[group]
+            close[close] = square[close].min(axis=1) < close_range[p]
+            near[group] = close
+            far = ~close
+            rows, dx, dy, square = rows[far], dx[far], dy[far], square[far]
         f = factors[nodes]
         if real_only and power == 1:
             # Re(f / (τ - z)) in real arithmetic (numpy's complex division is several times slower).
-            rule = (f.real * dx[far] + f.imag * dy[far]) / square[far]
+            rule = (f.real * dx + f.imag * dy) / square
         else:
-            rule = f / (dx[far] + 1j * dy[far]) ** power
-        _add_rule(out, rows[far], p, rule, density)
+            rule = f / (dx + 1j * dy) ** power
+        _add_rule(out, rows, p, rule, density)
     return target[near], panel[near]
 
 
