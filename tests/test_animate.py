@@ -164,6 +164,13 @@ def test_bad_input_is_one_line_and_writes_nothing(tmp_path, capfd, case):
     assert sorted(p.name for p in tmp_path.rglob("*")) == before
 
 
+def _interruptible() -> None:
+    """In the child: Ctrl+C as a terminal delivers it.  A job started in the background by a
+    non-interactive shell (CI scripts, nohup) ignores SIGINT, children inherit that, and Python
+    then never raises KeyboardInterrupt: the test waited 60 s for an exit that could not come."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 @pytest.mark.parametrize(
     ("output", "stop"),
     [
@@ -192,6 +199,7 @@ def test_ctrl_c_leaves_no_output_and_no_temporary(tmp_path, output, stop, capfd)
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
+        preexec_fn=_interruptible,
     )
     deadline = time.monotonic() + 120
     while not any(p.name.startswith(".long") for p in tmp_path.iterdir()):  # frames are being written
