@@ -21,6 +21,7 @@ from app.viewer.scene import export_frame
 from app.viewer.state import PARAMETERIZATIONS, SHIFTS, AppState
 from app.viewer.view_modes import BY_NAME as VIEW_MODE
 from app.viewer.view_modes import MODES as VIEW_MODES
+from app.viewer.view_modes.colours import packed
 
 PANEL_WIDTH = 300.0
 
@@ -30,10 +31,6 @@ _FIXED = (
     | imgui.WindowFlags_.no_collapse
     | imgui.WindowFlags_.no_saved_settings
 )
-
-
-def _colour(rgb, alpha: float = 1.0) -> int:
-    return imgui.get_color_u32(imgui.ImVec4(float(rgb[0]), float(rgb[1]), float(rgb[2]), alpha))
 
 
 def gui(state: AppState, shortcuts: list[tuple[str, str]], extras: dict | None = None) -> list[tuple]:
@@ -311,17 +308,17 @@ def _timeline(state: AppState, commands: list, extras: dict) -> None:
         commands.append(("seek", end * (x - left) / width))
     draw = imgui.get_window_draw_list()
     middle = top + TIMELINE_HEIGHT / 2
-    draw.add_rect_filled((left, top), (left + width, top + TIMELINE_HEIGHT), _colour((0.2, 0.2, 0.23)))
+    draw.add_rect_filled((left, top), (left + width, top + TIMELINE_HEIGHT), packed((0.2, 0.2, 0.23)))
     for second in range(int(end) + 1):
         x = left + width * second / end
-        draw.add_line((x, top + TIMELINE_HEIGHT - 6), (x, top + TIMELINE_HEIGHT), _colour((0.6, 0.6, 0.6)))
+        draw.add_line((x, top + TIMELINE_HEIGHT - 6), (x, top + TIMELINE_HEIGHT), packed((0.6, 0.6, 0.6)))
     for index, x in enumerate(marks):
         colour = (1.0, 0.86, 0.2) if index == state.keyframe else (0.22, 0.48, 1.0)
         size = 7.0 if index == state.keyframe else 5.5
         corners = [(x, middle - size), (x + size, middle), (x, middle + size), (x - size, middle)]
-        draw.add_quad_filled(*corners, _colour(colour))
+        draw.add_quad_filled(*corners, packed(colour))
     now = left + width * state.time / end
-    draw.add_line((now, top), (now, top + TIMELINE_HEIGHT), _colour((1.0, 1.0, 1.0)), 2.0)
+    draw.add_line((now, top), (now, top + TIMELINE_HEIGHT), packed((1.0, 1.0, 1.0)), 2.0)
 
     span = live.time_span
     total = f" of {span[0]:.2f}..{span[1]:.2f} s" if span else ", no keyframes"

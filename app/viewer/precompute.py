@@ -359,13 +359,18 @@ class _Superseded(Exception):
     """A newer request arrived while one was running."""
 
 
-def _compile_in_background(nice: int) -> None:
-    """The warm-up process: compile (or load) the solver and its gradients, then end."""
+def _lower_priority(nice: int) -> None:
+    """Add `nice` to this process's niceness where the system allows it."""
     if nice and hasattr(os, "nice"):
         try:
             os.nice(nice)
         except OSError:
             pass
+
+
+def _compile_in_background(nice: int) -> None:
+    """The warm-up process: compile (or load) the solver and its gradients, then end."""
+    _lower_priority(nice)
     try:
         import core
 
@@ -377,11 +382,7 @@ def _compile_in_background(nice: int) -> None:
 def _serve(requests, results, nice: int) -> None:
     """The worker process: compute requests one at a time, newest first, until told to stop or
     until the viewer is gone (closed, or killed: its ends of the pipes are closed)."""
-    if nice and hasattr(os, "nice"):
-        try:
-            os.nice(nice)
-        except OSError:
-            pass
+    _lower_priority(nice)
     try:
         _serve_requests(requests, results)
     except (EOFError, BrokenPipeError, ConnectionResetError):
