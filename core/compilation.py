@@ -99,6 +99,26 @@ def compile_solver(progress: Callable[[float], None] | None = None, gradients: b
     return listener.compiled
 
 
+def compile_all() -> None:
+    """Compile every compiled function of `core` into numba's disk cache: the solver and
+    its gradients (`compile_solver`), the positive Gordon-Wixom rows (`core.pgw`) and the
+    closest-point and winding-number tests (`core.closest_point`).
+
+    The package's build runs it (``.packaging/backend.py``), so that an installed
+    package starts every kernel from the cache.
+    """
+    from core.bspline import ClosedBSpline
+    from core.closest_point import distance_to_curve
+    from core.pgw import pgw_basis
+
+    square = ClosedBSpline(np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]))
+    x = np.array([[0.5, 0.5]])
+    square.contains(x)
+    distance_to_curve(square.piecewise_polynomial(), x)
+    pgw_basis(square, x)
+    compile_solver(gradients=True)
+
+
 def solver_weights(modules: tuple = SOLVER_MODULES, qualified: bool = False) -> dict[str, int]:
     """Source lines of every separately compiled function of `modules`, by name
     (``module.name`` if `qualified`: the gradient solver reuses some of the solver's names).
