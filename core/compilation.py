@@ -91,8 +91,7 @@ def compile_solver(progress: Callable[[float], None] | None = None, gradients: b
             )
             _loaded.set()
         if gradients:
-            # 8 samples per span: with 4 the gradient solver indexes out of bounds (a known bug).
-            basis_gradients(square, x, "maximum-likelihood", samples_per_segment=8)
+            basis_gradients(square, x, "maximum-likelihood", samples_per_segment=4)
             _gradients_loaded.set()
     if listener.compiled and progress is not None:
         progress(1.0)
