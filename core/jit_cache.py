@@ -8,13 +8,23 @@ none can be written (a read-only install with an unwritable home) numba raises
 not import.  Imported first by `core`, this module makes such functions of the
 package compile without the cache instead, and says so in one line on stderr:
 everything works, only each run compiles again.
+
+numba also checks a cached function against its own source file only, while a compiled
+function carries the machine code of the functions it calls, from other modules too
+(`core.gradient_solver` and `core.closest_point` call `core.solver`): after an edit of
+the callee alone the caller's cache would still run the old code.  Here every compiled
+function of the package is stamped with the content of all of the package's modules that
+hold compiled functions (`_PackageLocator`), so any edit of one recompiles them all.
 """
 
 from __future__ import annotations
 
+import functools
+import hashlib
 import sys
+from pathlib import Path
 
-from numba.core.caching import NullCache
+from numba.core.caching import CacheImpl, NullCache, _CacheLocator
 from numba.core.dispatcher import Dispatcher
 
 #: Why the package's compiled functions are not cached (the first function's error), or None.
@@ -45,9 +55,57 @@ def _enable_caching(dispatcher: Dispatcher) -> None:
             )
 
 
+#: The folder of `core`, whose modules hold the package's compiled functions.
+_FOLDER = Path(__file__).resolve().parent
+
+
+@functools.cache
+def package_stamp() -> str:
+    """SHA-256 of the package's modules that hold compiled functions (``njit`` in their text)."""
+    digest = hashlib.sha256()
+    for path in sorted(_FOLDER.glob("*.py")):
+        text = path.read_bytes()
+        if b"njit" in text and path.name != "jit_cache.py":
+            digest.update(path.name.encode() + b"\0" + text + b"\0")
+    return digest.hexdigest()
+
+
+class _PackageLocator(_CacheLocator):
+    """numba's own cache locator for a function of `core`, stamped with `package_stamp`."""
+
+    def __init__(self, inner: _CacheLocator):
+        self._inner = inner
+
+    def ensure_cache_path(self):
+        self._inner.ensure_cache_path()
+
+    def get_cache_path(self):
+        return self._inner.get_cache_path()
+
+    def get_source_stamp(self):
+        return package_stamp()
+
+    def get_disambiguator(self):
+        return self._inner.get_disambiguator()
+
+    @classmethod
+    def from_function(cls, py_func, py_file):
+        if not (getattr(py_func, "__module__", "") or "").startswith("core."):
+            return None
+        for other in CacheImpl._locator_classes:
+            if other is not cls:
+                inner = other.from_function(py_func, py_file)
+                if inner is not None:
+                    return cls(inner)
+        return None
+
+
 def install() -> None:
-    """Route `Dispatcher.enable_caching` through the fallback (idempotent)."""
+    """Route `Dispatcher.enable_caching` through the fallback and put `_PackageLocator` first
+    among numba's cache locators (idempotent)."""
     Dispatcher.enable_caching = _enable_caching
+    if _PackageLocator not in CacheImpl._locator_classes:
+        CacheImpl._locator_classes.insert(0, _PackageLocator)
 
 
 install()

@@ -103,3 +103,31 @@ def test_without_a_writable_cache_folder_the_solver_compiles_uncached_with_one_n
     assert result.stdout.split() == ["[0,", "4]"]  # compiled and ran, uncached
     lines = result.stderr.splitlines()
     assert len(lines) == 1 and lines[0].startswith("note: numba cannot write its cache"), result.stderr
+
+
+def test_an_edit_of_a_callee_module_recompiles_its_callers_in_other_modules(tmp_path):
+    # closest_point._distances calls solver._closest_parameter and carries its machine code:
+    # numba alone would check only closest_point.py and keep running the old callee.
+    shutil.copytree(ROOT / "core", tmp_path / "core", ignore=shutil.ignore_patterns("__pycache__"))
+    environment = dict(os.environ, PYTHONPATH=str(tmp_path), NUMBA_CACHE_DIR=str(tmp_path / "cache"))
+    child = (
+        "import numpy as np, core\n"
+        "from core import closest_point\n"
+        "curve = core.ClosedBSpline([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])\n"
+        "closest_point.distance_to_curve(curve.piecewise_polynomial(), np.array([[0.5, 0.5]]))\n"
+        "print(closest_point._distances.stats.cache_hits.total(), "
+        "closest_point._distances.stats.cache_misses.total())\n"
+    )
+
+    def hits_and_misses() -> list[int]:
+        result = subprocess.run(
+            [sys.executable, "-c", child], capture_output=True, text=True, env=environment, cwd=tmp_path
+        )
+        assert result.returncode == 0, result.stderr
+        return [int(word) for word in result.stdout.split()]
+
+    assert hits_and_misses() == [0, 1]  # compiled
+    assert hits_and_misses() == [1, 0]  # loaded
+    with open(tmp_path / "core" / "solver.py", "a") as solver_source:
+        solver_source.write("\n# an edit of the callee's module\n")
+    assert hits_and_misses() == [0, 1]  # compiled again, although closest_point.py is unchanged
