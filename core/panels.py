@@ -41,6 +41,9 @@ MAX_KNOT_LEVELS = 9
 #: curve beyond its neighbours (1 split more and measured worse next to sharp corners:
 #: panels shorter than their neighbours there).
 THIN_RATIO = 2.0
+#: A node is beyond a panel (`_thin`) where the curve between them is this many times longer than
+#: the straight distance.
+TURN = 3.0
 #: A panel is split while the curve turns more than this many radians along it.
 CURVED = 1.0
 #: Coarse panels a span (a power of two).
@@ -138,9 +141,11 @@ def coarse_panels(curve: ClosedBSpline) -> Panels:
     step = 1.0 / COARSE_PER_SPAN
     starts = np.arange(curve.n * COARSE_PER_SPAN) * step
     bounds = np.stack([starts, starts + step], axis=1)
+    points = curve.control_points
+    corners = np.flatnonzero(np.all(points == np.roll(points, 1, axis=0), axis=1)).astype(float)
     for _ in range(THIN_ROUNDS):
         panels = _panels(curve, bounds)
-        split = _thin(panels) | _unbalanced(panels) | _curved(panels)
+        split = _thin(panels, corners) | _unbalanced(panels) | _curved(panels)
         if not split.any():
             return panels
         middle = bounds[split].mean(axis=1)
@@ -267,28 +272,41 @@ def _unbalanced(panels: Panels) -> np.ndarray:
     return split
 
 
-def _thin(panels: Panels) -> np.ndarray:
+def _thin(panels: Panels, corners: np.ndarray) -> np.ndarray:
     """bool (P,): panels longer than `THIN_RATIO` times their distance to the curve beyond them.
 
-    "Beyond" means farther along the curve than twice the panel's own length, so a
-    panel is not compared with its graded neighbours but with the opposite side of
-    a thin arm.
+    "Beyond" means farther along the curve than twice the panel's own length, or than
+    `TURN` times the straight distance with no sharp corner (`corners`, their
+    parameters) in between: the curve turned back, as beside a short spike, whose far
+    side and corner the long panel sees at that distance.  So a panel is not compared
+    with its graded neighbours, nor with the other side of a corner's wedge (that is
+    the corner's compressed block), but with the opposite side of a thin arm.
     """
     count = panels.count
     nodes = np.stack([panels.z.real, panels.z.imag], axis=1)
     owner = np.repeat(np.arange(count), ORDER)
     middle = np.cumsum(panels.lengths) - 0.5 * panels.lengths
     total = panels.lengths.sum()
+    # Arc positions of the corners: each starts a panel.
+    corner_at = (
+        middle[np.isin(panels.bounds[:, 0], corners)]
+        - 0.5 * panels.lengths[np.isin(panels.bounds[:, 0], corners)]
+    )
     tree = cKDTree(nodes)
     split = np.zeros(count, dtype=bool)
     for p in range(count):
         mine = slice(p * ORDER, (p + 1) * ORDER)
         near = tree.query_ball_point(nodes[mine], r=panels.lengths[p] / THIN_RATIO)
-        found = np.unique(np.concatenate(near))
-        gap = np.abs(middle[owner[found]] - middle[p])
-        gap = np.minimum(gap, total - gap) - 0.5 * (panels.lengths[owner[found]] + panels.lengths[p])
-        beyond = found[gap > 2.0 * panels.lengths[p]]
-        if beyond.size:
-            distance = np.abs(panels.z[beyond][None, :] - panels.z[mine][:, None]).min()
-            split[p] = panels.lengths[p] > THIN_RATIO * distance
+        found = np.unique(np.concatenate(near)).astype(np.int64)
+        low = np.minimum(middle[owner[found]], middle[p])
+        high = np.maximum(middle[owner[found]], middle[p])
+        wraps = high - low > 0.5 * total  # the shorter arc runs through position 0
+        gap = np.where(wraps, total - (high - low), high - low)
+        gap -= 0.5 * (panels.lengths[owner[found]] + panels.lengths[p])
+        distance = np.abs(panels.z[found][None, :] - panels.z[mine][:, None]).min(axis=0, initial=np.inf)
+        inside = (corner_at[None, :] > low[:, None]) & (corner_at[None, :] < high[:, None])
+        through_corner = np.where(wraps, ~inside.all(axis=1), inside.any(axis=1)) & (corner_at.size > 0)
+        beyond = (gap > 2.0 * panels.lengths[p]) | ((gap > TURN * distance) & ~through_corner)
+        if beyond.any():
+            split[p] = panels.lengths[p] > THIN_RATIO * distance[beyond].min()
     return split
