@@ -28,6 +28,8 @@ import numpy as np
 from app.address_space import GL_CONTEXT_BYTES, PROGRAM_BYTES, render_bytes, require_address_space
 from app.console import captured_c_stderr
 from app.framing import MAX_OUTPUT_PIXELS
+from app.render_passes.gl_state import premultiplied_blending, set_view
+from app.render_passes.overlay import OverlayPass
 from app.shaders import load_shader
 from app.view import View
 from core.mesh import unique_edges
@@ -84,10 +86,6 @@ FOLD_MARGIN = 1e-3
 
 #: Largest side of one offscreen drawing of `WarpRenderer.render`; larger outputs are drawn in tiles.
 TILE = 4096
-
-#: Floats per overlay vertex: x, y (image pixels), r, g, b, a (straight alpha),
-#: size (line width or handle diameter, framebuffer pixels).
-OVERLAY_FLOATS = 7
 
 
 class ContextUnavailableError(RuntimeError):
@@ -167,15 +165,6 @@ class WarpRenderer:
             geometry_shader=load_shader("folds.geom.glsl"),
             fragment_shader=load_shader("solid.frag.glsl"),
         )
-        self._line_program = ctx.program(
-            vertex_shader=load_shader("overlay_line.vert.glsl"),
-            geometry_shader=load_shader("overlay_line.geom.glsl"),
-            fragment_shader=load_shader("overlay_line.frag.glsl"),
-        )
-        self._point_program = ctx.program(
-            vertex_shader=load_shader("overlay_point.vert.glsl"),
-            fragment_shader=load_shader("overlay_point.frag.glsl"),
-        )
         self._programs = [
             self._image_program,
             self._field_program,
@@ -183,8 +172,6 @@ class WarpRenderer:
             self._heat_program,
             self._distortion_program,
             self._folds_program,
-            self._line_program,
-            self._point_program,
         ]
         self._field_program["u_bands"].write(BAND_COLOURS.astype("f4").tobytes())
         self._field_program["u_band_start"].value = BAND_START
@@ -202,12 +189,10 @@ class WarpRenderer:
         self._distortion_program["u_measure"].value = 0
         self._distortion_program["u_folds_only"].value = False
         self._image_program["u_opacity"].value = 1.0
+        self._overlay = OverlayPass(ctx)
         self._texture: moderngl.Texture | None = None
         self._sampler: moderngl.Sampler | None = None
         self._backdrop_objects: list = []
-        self._overlay_objects: list = []
-        self._overlay_capacity = 0
-        self._overlay_counts = (0, 0)
         self._image_size: tuple[int, int] | None = None
         self._mesh: _MeshObjects | None = None
         self._preview: _MeshObjects | None = None
@@ -500,7 +485,7 @@ class WarpRenderer:
             raise RuntimeError("draw(content='image') needs set_image first")
         if content in ("field", "heat", "distortion") and not self._field_ready:
             raise RuntimeError(f"draw(content={content!r}) needs set_field first")
-        self._set_view(
+        set_view(
             (
                 self._image_program,
                 self._field_program,
@@ -512,7 +497,7 @@ class WarpRenderer:
             view,
             viewport_size,
         )
-        self._blending()
+        premultiplied_blending(self.ctx)
         mesh = self._preview if preview else self._mesh
         vaos = mesh.vaos[order]
         if content == "image":
@@ -557,8 +542,8 @@ class WarpRenderer:
         """
         if self._texture is None:
             raise RuntimeError("draw_backdrop needs set_image first")
-        self._set_view((self._image_program,), view, viewport_size)
-        self._blending()
+        set_view((self._image_program,), view, viewport_size)
+        premultiplied_blending(self.ctx)
         self._sampler.use(location=0)
         self._image_program["u_image"].value = 0
         self._image_program["u_opacity"].value = float(min(max(opacity, 0.0), 1.0))
@@ -578,28 +563,7 @@ class WarpRenderer:
             Round handles ``[x, y, r, g, b, a, diameter]``, drawn after (over) the lines
             in order, the last on top.
         """
-        segments = np.asarray(segments, dtype="f4").reshape(-1, OVERLAY_FLOATS)
-        points = np.asarray(points, dtype="f4").reshape(-1, OVERLAY_FLOATS)
-        if len(segments) % 2:
-            raise ValueError("segments must have shape (S, 2, 7)")
-        data = np.concatenate([segments, points])
-        if not np.isfinite(data).all():
-            raise ValueError("overlay data contain NaN or infinite values")
-        if len(data) > self._overlay_capacity:
-            # Grows by doubling, so that vertex arrays are rebuilt only a few times
-            # in a session (when the control points multiply), never per drag.
-            self._release_overlay()
-            capacity = max(1024, 2 * len(data))
-            buffer = self.ctx.buffer(reserve=capacity * OVERLAY_FLOATS * 4, dynamic=True)
-            layout = (buffer, "2f 4f 1f", "in_position", "in_colour", "in_size")
-            self._line_vao = self.ctx.vertex_array(self._line_program, [layout], mode=moderngl.LINES)
-            self._point_vao = self.ctx.vertex_array(self._point_program, [layout], mode=moderngl.POINTS)
-            self._overlay_buffer = buffer
-            self._overlay_objects = [self._line_vao, self._point_vao, buffer]
-            self._overlay_capacity = capacity
-        if len(data):
-            self._overlay_buffer.write(np.ascontiguousarray(data))
-        self._overlay_counts = (len(segments), len(points))
+        self._overlay.set(segments, points)
 
     def draw_overlay(self, view: View, viewport_size: tuple[int, int]) -> None:
         """Draw the lines and handles of `set_overlay` into the bound framebuffer.
@@ -611,17 +575,7 @@ class WarpRenderer:
         viewport_size : tuple of int
             (width, height) of the viewport in framebuffer pixels.
         """
-        line_vertices, point_count = self._overlay_counts
-        if not (line_vertices or point_count):
-            return
-        self._set_view((self._line_program, self._point_program), view, viewport_size)
-        self._blending()
-        if line_vertices:
-            self._line_vao.render(vertices=line_vertices)
-        if point_count:
-            self.ctx.enable(moderngl.PROGRAM_POINT_SIZE)
-            self._point_vao.render(vertices=point_count, first=line_vertices)
-            self.ctx.disable(moderngl.PROGRAM_POINT_SIZE)
+        self._overlay.draw(view, viewport_size)
 
     def render(
         self,
@@ -704,7 +658,7 @@ class WarpRenderer:
         self._release_mesh()
         self._release_image()
         self._release_target()
-        self._release_overlay()
+        self._overlay.release()
         for program in self._programs:
             program.release()
         self._programs = []
@@ -729,24 +683,6 @@ class WarpRenderer:
             self._target = (size, samples, [multisample, resolved, colour, resolved_colour])
         objects = self._target[2]
         return objects[0], objects[1]
-
-    def _set_view(self, programs, view: View, viewport_size: tuple[int, int]) -> None:
-        values = {
-            "u_scale": float(view.scale),
-            "u_offset": (float(view.offset[0]), float(view.offset[1])),
-            "u_viewport": (float(viewport_size[0]), float(viewport_size[1])),
-        }
-        for program in programs:
-            for name, value in values.items():
-                member = program.get(name, None)
-                if member is not None:
-                    member.value = value
-
-    def _blending(self) -> None:
-        ctx = self.ctx
-        ctx.disable(moderngl.DEPTH_TEST | moderngl.CULL_FACE)
-        ctx.enable(moderngl.BLEND)
-        ctx.blend_func = moderngl.ONE, moderngl.ONE_MINUS_SRC_ALPHA
 
     def _build_mesh(self, vertices: np.ndarray, triangles: np.ndarray) -> _MeshObjects:
         """Buffers and vertex arrays of one mesh, positions undeformed."""
@@ -833,13 +769,6 @@ class WarpRenderer:
                 item.release()
         self._backdrop_objects = []
         self._sampler = self._texture = None
-
-    def _release_overlay(self) -> None:
-        for item in self._overlay_objects:
-            item.release()
-        self._overlay_objects = []
-        self._overlay_capacity = 0
-        self._overlay_counts = (0, 0)
 
     def _release_target(self) -> None:
         if self._target is not None:
