@@ -28,8 +28,10 @@ import numpy as np
 from app.address_space import GL_CONTEXT_BYTES, PROGRAM_BYTES, render_bytes, require_address_space
 from app.console import captured_c_stderr
 from app.framing import MAX_OUTPUT_PIXELS
+from app.render_passes.backdrop import BackdropPass
 from app.render_passes.gl_state import premultiplied_blending, set_view
 from app.render_passes.overlay import OverlayPass
+from app.render_passes.source_image import SourceImage, checked_image
 from app.shaders import load_shader
 from app.view import View
 from core.mesh import unique_edges
@@ -189,10 +191,9 @@ class WarpRenderer:
         self._distortion_program["u_measure"].value = 0
         self._distortion_program["u_folds_only"].value = False
         self._image_program["u_opacity"].value = 1.0
+        self._backdrop = BackdropPass(ctx, self._image_program)
         self._overlay = OverlayPass(ctx)
-        self._texture: moderngl.Texture | None = None
-        self._sampler: moderngl.Sampler | None = None
-        self._backdrop_objects: list = []
+        self._source: SourceImage | None = None
         self._image_size: tuple[int, int] | None = None
         self._mesh: _MeshObjects | None = None
         self._preview: _MeshObjects | None = None
@@ -214,45 +215,16 @@ class WarpRenderer:
             RGBA with straight (non-premultiplied) alpha, row 0 at the top.
         """
         self.revision += 1
-        image = np.asarray(image)
-        if image.dtype != np.uint8 or image.ndim != 3 or image.shape[2] != 4:
-            raise ValueError(
-                f"image must be an (H, W, 4) uint8 array, got {image.dtype} of shape {image.shape}"
-            )
-        height, width = image.shape[:2]
-        limit = self.ctx.info["GL_MAX_TEXTURE_SIZE"]
-        if max(width, height) > limit:
-            raise ValueError(
-                f"image is {width}x{height} pixels; this GL driver takes at most {limit} per side"
-            )
+        image = checked_image(self.ctx, image)
         self._release_image()
-        # Row 0 of the data is texture row v = 0, so v = y / H needs no flip.
-        self._texture = self.ctx.texture((width, height), 4, _premultiply(image).tobytes())
-        self._texture.build_mipmaps()
-        # Clamp to a transparent border: parts of the domain beyond the image
-        # stay empty instead of smearing the edge pixels, and fade smoothly.
-        self._sampler = self.ctx.sampler(
-            repeat_x=False,
-            repeat_y=False,
-            filter=(moderngl.LINEAR_MIPMAP_LINEAR, moderngl.LINEAR),
-            anisotropy=_anisotropy(self.ctx),
-            border_color=(0.0, 0.0, 0.0, 0.0),
-            texture=self._texture,
-        )
-        changed = self._image_size != (width, height)
-        self._image_size = (width, height)
+        self._source = SourceImage(self.ctx, image)
+        changed = self._image_size != self._source.size
+        self._image_size = self._source.size
         if changed:
             for mesh in (self._mesh, self._preview):
                 if mesh is not None:
                     mesh.uv.write(self._source_uv(mesh).tobytes())
-        # The whole image as two triangles, for the viewer's backdrop.
-        corners = np.array([[0, 0], [width, 0], [0, height], [width, height]], dtype="f4")
-        uv = np.array([[0, 0], [1, 0], [0, 1], [1, 1]], dtype="f4")
-        quad = self.ctx.buffer(np.hstack([corners, uv]).tobytes())
-        self._backdrop_vao = self.ctx.vertex_array(
-            self._image_program, [(quad, "2f 2f", "in_position", "in_uv")], mode=moderngl.TRIANGLE_STRIP
-        )
-        self._backdrop_objects = [self._backdrop_vao, quad]
+        self._backdrop.set_image_size(self._image_size)
 
     def set_mesh(self, vertices: np.ndarray, triangles: np.ndarray) -> None:
         """Set the undeformed mesh; positions start undeformed, the field at 0.
@@ -481,7 +453,7 @@ class WarpRenderer:
             raise ValueError(
                 f"content must be 'image', 'field', 'heat', 'distortion' or 'none', got {content!r}"
             )
-        if content == "image" and self._texture is None:
+        if content == "image" and self._source is None:
             raise RuntimeError("draw(content='image') needs set_image first")
         if content in ("field", "heat", "distortion") and not self._field_ready:
             raise RuntimeError(f"draw(content={content!r}) needs set_field first")
@@ -501,13 +473,10 @@ class WarpRenderer:
         mesh = self._preview if preview else self._mesh
         vaos = mesh.vaos[order]
         if content == "image":
-            self._sampler.use(location=0)
-            self._image_program["u_image"].value = 0
+            self._source.bind(self._image_program)
             self._image_program["u_opacity"].value = 1.0
             vaos["image"].render()
-            # A bound sampler object overrides any texture's own filtering on that unit:
-            # unbind it so that other code drawing into the same context (imgui) is unaffected.
-            self._sampler.clear(location=0)
+            self._source.unbind()
         elif content == "field":
             vaos["field"].render()
         elif content == "heat":
@@ -540,16 +509,9 @@ class WarpRenderer:
         opacity : float
             In [0, 1]; the image is blended over what is drawn already.
         """
-        if self._texture is None:
+        if self._source is None:
             raise RuntimeError("draw_backdrop needs set_image first")
-        set_view((self._image_program,), view, viewport_size)
-        premultiplied_blending(self.ctx)
-        self._sampler.use(location=0)
-        self._image_program["u_image"].value = 0
-        self._image_program["u_opacity"].value = float(min(max(opacity, 0.0), 1.0))
-        self._backdrop_vao.render()
-        self._sampler.clear(location=0)
-        self._image_program["u_opacity"].value = 1.0
+        self._backdrop.draw(self._source, view, viewport_size, opacity)
 
     def set_overlay(self, segments: np.ndarray, points: np.ndarray) -> None:
         """Set the overlay lines and handles drawn by `draw_overlay` (rewritten in place).
@@ -764,11 +726,10 @@ class WarpRenderer:
         self._preview = None
 
     def _release_image(self) -> None:
-        for item in (*self._backdrop_objects, self._sampler, self._texture):
-            if item is not None:
-                item.release()
-        self._backdrop_objects = []
-        self._sampler = self._texture = None
+        self._backdrop.release()
+        if self._source is not None:
+            self._source.release()
+        self._source = None
 
     def _release_target(self) -> None:
         if self._target is not None:
@@ -840,28 +801,6 @@ def _checked_mesh(vertices, triangles) -> tuple[np.ndarray, np.ndarray]:
     ):
         raise ValueError(f"triangles must be integer indices into the {len(vertices)} vertices")
     return vertices, triangles
-
-
-def _anisotropy(ctx: moderngl.Context) -> float:
-    """Anisotropic filtering level: 16 where the driver does it right, else 1.
-
-    Mesa's llvmpipe (measured on 22.3) blurs even unscaled texture lookups once
-    anisotropy exceeds 1 (a one-pixel checkerboard drawn 1:1 is off by up to 201
-    of 255), so there plain trilinear filtering is the better result.
-    """
-    if "llvmpipe" in ctx.info["GL_RENDERER"]:
-        return 1.0
-    return min(16.0, ctx.max_anisotropy)
-
-
-def _premultiply(image: np.ndarray) -> np.ndarray:
-    """RGBA uint8 (H, W, 4), straight alpha -> premultiplied, rounded."""
-    alpha = image[..., 3]
-    if alpha.min() == 255:
-        return image
-    result = image.copy()
-    result[..., :3] = ((image[..., :3].astype(np.uint16) * alpha[..., None] + 127) // 255).astype(np.uint8)
-    return result
 
 
 def _unpremultiply(pixels: np.ndarray) -> np.ndarray:
