@@ -235,7 +235,7 @@ def figure(ctx, mesh, interpolants: list[Interpolant]) -> np.ndarray:
 
 def _colour_bar(canvas: np.ndarray, left: int, top: int, height: int) -> None:
     """Bands from BAND_START (bottom) upwards, labelled at their edges, drawn into `canvas`."""
-    from app.render import BAND_COLOURS, BAND_START, BAND_WIDTH
+    from app.render_passes.fields import BAND_COLOURS, BAND_START, BAND_WIDTH
 
     count = len(BAND_COLOURS)
     edges = np.round(np.linspace(top + height, top, count + 1)).astype(int)

@@ -1,18 +1,16 @@
 """GPU drawing of a deformed, textured triangle mesh (Sec. 4.3) with moderngl.
 
-The renderer owns every GL object of a mesh drawing: the programs built from
-``shaders/*.glsl``, the source image texture, the vertex and index buffers and the
-offscreen framebuffers.  The per-drag update is `WarpRenderer.set_positions`,
-which writes the deformed vertices into a buffer in place; programs and vertex
-arrays are built only when the mesh itself changes.
-
-For the viewer it also draws what goes on top of and under the mesh: the source
-image as a faded backdrop (`draw_backdrop`), one basis function G_i as a heat map
-(``content="heat"``, the paper's Fig. 8), the folded-over triangles found on the
-GPU (``folds=True``), a lighter preview mesh of the same domain for dense meshes
-while a handle moves (`set_preview_mesh`), and overlays of antialiased lines and round handles
-(`set_overlay`, `draw_overlay`) for the curves, control polygons and control
-points of the paper's Fig. 11.
+`WarpRenderer` composes the passes of `app.render_passes`, each owning its programs:
+the image pass (the source image warped onto the mesh, the folded and highlighted
+triangles, the wireframe, the preview mesh), the field passes (the mesh coloured by a
+scalar field: height bands, one basis function G_i as a heat map as in the paper's
+Fig. 8, the distortion view), the backdrop pass (the source image faded under the warp)
+and the overlay pass (antialiased lines and round handles for the curves, control
+polygons and control points of the paper's Fig. 11).  The renderer itself holds the
+source image texture, the mesh and preview mesh buffers (`MeshBuffers`) that the image
+and field passes draw, and the offscreen framebuffers of `render`.  The per-drag update
+is `WarpRenderer.set_positions`, which writes the deformed vertices into a buffer in
+place; vertex arrays are built only when the mesh itself changes.
 
 Coordinates are image pixels, x to the right, y down, origin at the top-left
 corner of the image: pixel (column i, row j) covers [i, i+1] x [j, j+1].  A
@@ -28,66 +26,16 @@ import numpy as np
 from app.address_space import GL_CONTEXT_BYTES, PROGRAM_BYTES, render_bytes, require_address_space
 from app.console import captured_c_stderr
 from app.framing import MAX_OUTPUT_PIXELS
-from app.shaders import load_shader
+from app.render_passes.backdrop import BackdropPass
+from app.render_passes.fields import DistortionPass, FieldPass, heat_map_pass, height_bands_pass
+from app.render_passes.image import ImagePass
+from app.render_passes.mesh_buffers import MeshBuffers, checked_mesh
+from app.render_passes.overlay import OverlayPass
+from app.render_passes.source_image import SourceImage, checked_image
 from app.view import View
-from core.mesh import unique_edges
-
-#: Height bands of the paper's Fig. 1: [k, k + 1] / 10 for k = -1..10.
-BAND_START = -0.1
-BAND_WIDTH = 0.1
-
-
-def _band_colours() -> np.ndarray:
-    """RGB in [0, 1], shape (12, 3): red below 0, blue to yellow in [0, 1], green above 1."""
-    blue = np.array([0.13, 0.29, 0.80])
-    yellow = np.array([0.99, 0.87, 0.18])
-    ramp = blue + np.linspace(0.0, 1.0, 10)[:, None] * (yellow - blue)
-    return np.vstack([[0.85, 0.12, 0.10], ramp, [0.18, 0.68, 0.22]])
-
-
-#: Colours of the height bands, shape (12, 3); band k covers
-#: [BAND_START + k BAND_WIDTH, BAND_START + (k + 1) BAND_WIDTH), the first and
-#: last also everything below and above.
-BAND_COLOURS = _band_colours()
-
-#: Premultiplied RGBA of the overlays.
-WIREFRAME_COLOUR = (0.0, 0.0, 0.0, 0.35)
-HIGHLIGHT_COLOUR = (0.9 * 0.6, 0.0, 0.6 * 0.6, 0.6)
-
-#: Heat map of one basis function (``content="heat"``): RGB in [0, 1] at the values
-#: 0, 1/4, 1/2, 3/4 and 1 (linear in between), and the colour of negative values.
-HEAT_STOPS = np.array(
-    [
-        [0.05, 0.03, 0.25],
-        [0.36, 0.09, 0.55],
-        [0.80, 0.23, 0.36],
-        [0.98, 0.58, 0.16],
-        [1.00, 0.97, 0.62],
-    ]
-)
-HEAT_NEGATIVE = np.array([0.10, 0.75, 0.80])
-
-#: The distortion view (``content="distortion"``, `app.viewer.distortion_view`): RGB
-#: of a shrunk and a grown area, of the strongest anisotropy and of folded vertices,
-#: full colour at |log2| = DISTORTION_RANGE (twice or half the area).
-DISTORTION_SHRUNK = np.array([0.16, 0.36, 0.85])
-DISTORTION_GROWN = np.array([0.85, 0.18, 0.12])
-DISTORTION_SHEARED = np.array([0.45, 0.12, 0.62])
-DISTORTION_FOLDED = np.array([0.0, 0.0, 0.0])
-DISTORTION_RANGE = 1.0
-#: `set_distortion_measure` codes of the shader.
-DISTORTION_MEASURES = {"area": 0, "conformal": 1}
-
-#: `WarpRenderer.may_fold` calls a triangle safely unfolded when its deformed area is more than this
-#: fraction of its undeformed one: the fold pass's float32 areas are off by ~1e-5 of that at most.
-FOLD_MARGIN = 1e-3
 
 #: Largest side of one offscreen drawing of `WarpRenderer.render`; larger outputs are drawn in tiles.
 TILE = 4096
-
-#: Floats per overlay vertex: x, y (image pixels), r, g, b, a (straight alpha),
-#: size (line width or handle diameter, framebuffer pixels).
-OVERLAY_FLOATS = 7
 
 
 class ContextUnavailableError(RuntimeError):
@@ -148,71 +96,20 @@ class WarpRenderer:
 
     def __init__(self, ctx: moderngl.Context):
         self.ctx = ctx
-        vertex = load_shader("mesh.vert.glsl")
-        self._image_program = ctx.program(
-            vertex_shader=vertex, fragment_shader=load_shader("image.frag.glsl")
-        )
-        self._field_program = ctx.program(
-            vertex_shader=vertex, fragment_shader=load_shader("field.frag.glsl")
-        )
-        self._solid_program = ctx.program(
-            vertex_shader=vertex, fragment_shader=load_shader("solid.frag.glsl")
-        )
-        self._heat_program = ctx.program(vertex_shader=vertex, fragment_shader=load_shader("heat.frag.glsl"))
-        self._distortion_program = ctx.program(
-            vertex_shader=vertex, fragment_shader=load_shader("distortion.frag.glsl")
-        )
-        self._folds_program = ctx.program(
-            vertex_shader=vertex,
-            geometry_shader=load_shader("folds.geom.glsl"),
-            fragment_shader=load_shader("solid.frag.glsl"),
-        )
-        self._line_program = ctx.program(
-            vertex_shader=load_shader("overlay_line.vert.glsl"),
-            geometry_shader=load_shader("overlay_line.geom.glsl"),
-            fragment_shader=load_shader("overlay_line.frag.glsl"),
-        )
-        self._point_program = ctx.program(
-            vertex_shader=load_shader("overlay_point.vert.glsl"),
-            fragment_shader=load_shader("overlay_point.frag.glsl"),
-        )
-        self._programs = [
-            self._image_program,
-            self._field_program,
-            self._solid_program,
-            self._heat_program,
-            self._distortion_program,
-            self._folds_program,
-            self._line_program,
-            self._point_program,
-        ]
-        self._field_program["u_bands"].write(BAND_COLOURS.astype("f4").tobytes())
-        self._field_program["u_band_start"].value = BAND_START
-        self._field_program["u_band_width"].value = BAND_WIDTH
-        self._heat_program["u_stops"].write(HEAT_STOPS.astype("f4").tobytes())
-        self._heat_program["u_negative"].value = tuple(HEAT_NEGATIVE)
-        for name, colour in (
-            ("u_shrunk", DISTORTION_SHRUNK),
-            ("u_grown", DISTORTION_GROWN),
-            ("u_sheared", DISTORTION_SHEARED),
-            ("u_folded", DISTORTION_FOLDED),
-        ):
-            self._distortion_program[name].value = tuple(colour)
-        self._distortion_program["u_range"].value = DISTORTION_RANGE
-        self._distortion_program["u_measure"].value = 0
-        self._distortion_program["u_folds_only"].value = False
-        self._image_program["u_opacity"].value = 1.0
-        self._texture: moderngl.Texture | None = None
-        self._sampler: moderngl.Sampler | None = None
-        self._backdrop_objects: list = []
-        self._overlay_objects: list = []
-        self._overlay_capacity = 0
-        self._overlay_counts = (0, 0)
+        self._image = ImagePass(ctx)
+        self._distortion = DistortionPass(ctx)
+        self._fields: dict[str, FieldPass] = {
+            field.kind: field for field in (height_bands_pass(ctx), heat_map_pass(ctx), self._distortion)
+        }
+        self._backdrop = BackdropPass(ctx, self._image.textured_program)
+        self._overlay = OverlayPass(ctx)
+        self._mesh_programs = dict(self._image.mesh_programs)
+        for field in self._fields.values():
+            self._mesh_programs.update(field.mesh_programs)
+        self._source: SourceImage | None = None
         self._image_size: tuple[int, int] | None = None
-        self._mesh: _MeshObjects | None = None
-        self._preview: _MeshObjects | None = None
-        self._highlight_count = 0
-        self._field_ready = False
+        self._mesh: MeshBuffers | None = None
+        self._preview: MeshBuffers | None = None
         self._target: tuple[tuple[int, int], int, list] | None = None
         #: Counts the changes of what `draw` and `draw_backdrop` would draw (image, meshes,
         #: positions, fields): a picture drawn at one revision can be reused until the next.
@@ -229,45 +126,16 @@ class WarpRenderer:
             RGBA with straight (non-premultiplied) alpha, row 0 at the top.
         """
         self.revision += 1
-        image = np.asarray(image)
-        if image.dtype != np.uint8 or image.ndim != 3 or image.shape[2] != 4:
-            raise ValueError(
-                f"image must be an (H, W, 4) uint8 array, got {image.dtype} of shape {image.shape}"
-            )
-        height, width = image.shape[:2]
-        limit = self.ctx.info["GL_MAX_TEXTURE_SIZE"]
-        if max(width, height) > limit:
-            raise ValueError(
-                f"image is {width}x{height} pixels; this GL driver takes at most {limit} per side"
-            )
+        image = checked_image(self.ctx, image)
         self._release_image()
-        # Row 0 of the data is texture row v = 0, so v = y / H needs no flip.
-        self._texture = self.ctx.texture((width, height), 4, _premultiply(image).tobytes())
-        self._texture.build_mipmaps()
-        # Clamp to a transparent border: parts of the domain beyond the image
-        # stay empty instead of smearing the edge pixels, and fade smoothly.
-        self._sampler = self.ctx.sampler(
-            repeat_x=False,
-            repeat_y=False,
-            filter=(moderngl.LINEAR_MIPMAP_LINEAR, moderngl.LINEAR),
-            anisotropy=_anisotropy(self.ctx),
-            border_color=(0.0, 0.0, 0.0, 0.0),
-            texture=self._texture,
-        )
-        changed = self._image_size != (width, height)
-        self._image_size = (width, height)
+        self._source = SourceImage(self.ctx, image)
+        changed = self._image_size != self._source.size
+        self._image_size = self._source.size
         if changed:
             for mesh in (self._mesh, self._preview):
                 if mesh is not None:
-                    mesh.uv.write(self._source_uv(mesh).tobytes())
-        # The whole image as two triangles, for the viewer's backdrop.
-        corners = np.array([[0, 0], [width, 0], [0, height], [width, height]], dtype="f4")
-        uv = np.array([[0, 0], [1, 0], [0, 1], [1, 1]], dtype="f4")
-        quad = self.ctx.buffer(np.hstack([corners, uv]).tobytes())
-        self._backdrop_vao = self.ctx.vertex_array(
-            self._image_program, [(quad, "2f 2f", "in_position", "in_uv")], mode=moderngl.TRIANGLE_STRIP
-        )
-        self._backdrop_objects = [self._backdrop_vao, quad]
+                    mesh.write_uv(self._image_size)
+        self._backdrop.set_image_size(self._image_size)
 
     def set_mesh(self, vertices: np.ndarray, triangles: np.ndarray) -> None:
         """Set the undeformed mesh; positions start undeformed, the field at 0.
@@ -284,11 +152,9 @@ class WarpRenderer:
             is what keeps the rendering free of cracks.
         """
         self.revision += 1
-        vertices, triangles = _checked_mesh(vertices, triangles)
+        vertices, triangles = checked_mesh(vertices, triangles)
         self._release_mesh()
         self._mesh = self._build_mesh(vertices, triangles)
-        self._highlight_count = 0
-        self._field_ready = False
 
     def set_preview_mesh(self, vertices: np.ndarray, triangles: np.ndarray) -> None:
         """Set a lighter mesh of the same domain, drawn instead of the mesh by ``draw(preview=True)``.
@@ -305,7 +171,7 @@ class WarpRenderer:
         """
         self.revision += 1
         self._require_mesh()
-        vertices, triangles = _checked_mesh(vertices, triangles)
+        vertices, triangles = checked_mesh(vertices, triangles)
         self._release_preview()
         self._preview = self._build_mesh(vertices, triangles)
 
@@ -324,11 +190,7 @@ class WarpRenderer:
         """
         self.revision += 1
         self._require_mesh()
-        mesh = self._mesh
-        positions = np.asarray(positions)
-        if positions.shape != mesh.vertices.shape:
-            raise ValueError(f"positions must have shape {mesh.vertices.shape}, got {positions.shape}")
-        mesh.positions.write(np.asarray(positions, dtype="f4")[mesh.order].tobytes())
+        self._mesh.write_positions(positions)
 
     @property
     def vertex_order(self) -> np.ndarray:
@@ -373,35 +235,17 @@ class WarpRenderer:
         Returns
         -------
         bool
-            False when every triangle keeps its orientation with a margin (`FOLD_MARGIN`) far
-            beyond the pass's float32 rounding, so that the pass would emit nothing.
+            False when every triangle keeps its orientation with a margin
+            (`app.render_passes.fold_test.FOLD_MARGIN`) far beyond the pass's float32
+            rounding, so that the pass would emit nothing.
         """
         self._require_mesh()
-        mesh = self._mesh
-        if mesh.fold_test is None:
-            source = _signed_areas(mesh.vertices[mesh.order], mesh.triangle_indices)
-            corners = tuple(
-                np.ascontiguousarray(mesh.triangle_indices[:, k], dtype=np.intp) for k in range(3)
-            )
-            # Undeformed triangles may turn either way: a fold flips the sign, a collapse nears zero.
-            mesh.fold_test = (
-                *corners,
-                np.sign(source).astype(np.float32),
-                (2.0 * FOLD_MARGIN * np.abs(source)).astype(np.float32),
-            )
-        a, b, c, orientation, threshold = mesh.fold_test
-        x, y = np.ascontiguousarray(np.asarray(positions, dtype=np.float32).T)
-        xa, ya = x.take(a), y.take(a)
-        # Twice the deformed signed areas in float32, like the pass: both err far below FOLD_MARGIN.
-        twice = (x.take(b) - xa) * (y.take(c) - ya) - (x.take(c) - xa) * (y.take(b) - ya)
-        return not bool(np.all(twice * orientation > threshold))
+        return self._mesh.may_fold(positions)
 
     def set_distortion_measure(self, measure: str) -> None:
         """How ``content="distortion"`` colours its field: ``"area"`` (log2 det J) or ``"conformal"``."""
-        code = DISTORTION_MEASURES[measure]
-        if self._distortion_program["u_measure"].value != code:
+        if self._distortion.set_measure(measure):
             self.revision += 1
-            self._distortion_program["u_measure"].value = code
 
     def set_field(self, values: np.ndarray) -> None:
         """Write the per-vertex scalar field drawn by ``content="field"``, ``"heat"`` or ``"distortion"``.
@@ -412,12 +256,7 @@ class WarpRenderer:
         """
         self.revision += 1
         self._require_mesh()
-        mesh = self._mesh
-        values = np.asarray(values)
-        if values.shape != (mesh.vertices.shape[0],):
-            raise ValueError(f"values must have shape ({mesh.vertices.shape[0]},), got {values.shape}")
-        mesh.values.write(np.asarray(values, dtype="f4")[mesh.order].tobytes())
-        self._field_ready = True
+        self._mesh.write_values(values)
 
     def set_highlighted(self, triangles: np.ndarray) -> None:
         """Choose the triangles drawn by ``highlight=True`` (e.g. folded ones).
@@ -429,23 +268,7 @@ class WarpRenderer:
         """
         self.revision += 1
         self._require_mesh()
-        triangles = np.asarray(triangles)
-        indices = self._mesh.triangle_indices
-        count = len(indices)
-        if triangles.dtype == bool:
-            if triangles.shape != (count,):
-                raise ValueError(f"a triangle mask must have shape ({count},), got {triangles.shape}")
-            triangles = np.flatnonzero(triangles)
-        elif triangles.size == 0:
-            triangles = np.zeros(0, dtype=np.int64)
-        elif (
-            not np.issubdtype(triangles.dtype, np.integer) or triangles.min() < 0 or triangles.max() >= count
-        ):
-            raise ValueError(f"triangles must be a mask or indices in 0..{count - 1}")
-        selected = indices[triangles].reshape(-1, 3)
-        if len(selected):
-            self._mesh.highlighted.write(selected.tobytes())
-        self._highlight_count = len(selected)
+        self._mesh.write_highlighted(triangles)
 
     # -- drawing ------------------------------------------------------------
 
@@ -492,56 +315,22 @@ class WarpRenderer:
             self._require_preview()
             if content not in ("image", "none") or wireframe or highlight:
                 raise ValueError("the preview mesh draws the image and its folds only")
-        if content not in ("image", "field", "heat", "distortion", "none"):
+        if content not in ("image", *self._fields, "none"):
             raise ValueError(
                 f"content must be 'image', 'field', 'heat', 'distortion' or 'none', got {content!r}"
             )
-        if content == "image" and self._texture is None:
+        if content == "image" and self._source is None:
             raise RuntimeError("draw(content='image') needs set_image first")
-        if content in ("field", "heat", "distortion") and not self._field_ready:
+        if content in self._fields and not self._mesh.has_field:
             raise RuntimeError(f"draw(content={content!r}) needs set_field first")
-        self._set_view(
-            (
-                self._image_program,
-                self._field_program,
-                self._solid_program,
-                self._heat_program,
-                self._distortion_program,
-                self._folds_program,
-            ),
-            view,
-            viewport_size,
-        )
-        self._blending()
         mesh = self._preview if preview else self._mesh
-        vaos = mesh.vaos[order]
         if content == "image":
-            self._sampler.use(location=0)
-            self._image_program["u_image"].value = 0
-            self._image_program["u_opacity"].value = 1.0
-            vaos["image"].render()
-            # A bound sampler object overrides any texture's own filtering on that unit:
-            # unbind it so that other code drawing into the same context (imgui) is unaffected.
-            self._sampler.clear(location=0)
-        elif content == "field":
-            vaos["field"].render()
-        elif content == "heat":
-            vaos["heat"].render()
-        elif content == "distortion":
-            vaos["distortion"].render()
-            # Folded vertices again on top: where the mesh overlaps itself they would be hidden.
-            self._distortion_program["u_folds_only"].value = True
-            vaos["distortion"].render()
-            self._distortion_program["u_folds_only"].value = False
-        if folds:
-            self._folds_program["u_colour"].value = HIGHLIGHT_COLOUR
-            vaos["folds"].render()
-        if highlight and self._highlight_count:
-            self._solid_program["u_colour"].value = HIGHLIGHT_COLOUR
-            mesh.highlight_vao.render(vertices=3 * self._highlight_count)
-        if wireframe:
-            self._solid_program["u_colour"].value = WIREFRAME_COLOUR
-            self._edge_vao(mesh).render()
+            self._image.draw_image(self._source, mesh, order, view, viewport_size)
+        elif content in self._fields:
+            self._fields[content].draw(mesh, order, view, viewport_size)
+        self._image.draw_marks(
+            mesh, order, view, viewport_size, folds=folds, highlight=highlight, wireframe=wireframe
+        )
 
     def draw_backdrop(self, view: View, viewport_size: tuple[int, int], opacity: float = 1.0) -> None:
         """Draw the whole undeformed source image, faded by `opacity`, into the bound framebuffer.
@@ -555,16 +344,9 @@ class WarpRenderer:
         opacity : float
             In [0, 1]; the image is blended over what is drawn already.
         """
-        if self._texture is None:
+        if self._source is None:
             raise RuntimeError("draw_backdrop needs set_image first")
-        self._set_view((self._image_program,), view, viewport_size)
-        self._blending()
-        self._sampler.use(location=0)
-        self._image_program["u_image"].value = 0
-        self._image_program["u_opacity"].value = float(min(max(opacity, 0.0), 1.0))
-        self._backdrop_vao.render()
-        self._sampler.clear(location=0)
-        self._image_program["u_opacity"].value = 1.0
+        self._backdrop.draw(self._source, view, viewport_size, opacity)
 
     def set_overlay(self, segments: np.ndarray, points: np.ndarray) -> None:
         """Set the overlay lines and handles drawn by `draw_overlay` (rewritten in place).
@@ -578,28 +360,7 @@ class WarpRenderer:
             Round handles ``[x, y, r, g, b, a, diameter]``, drawn after (over) the lines
             in order, the last on top.
         """
-        segments = np.asarray(segments, dtype="f4").reshape(-1, OVERLAY_FLOATS)
-        points = np.asarray(points, dtype="f4").reshape(-1, OVERLAY_FLOATS)
-        if len(segments) % 2:
-            raise ValueError("segments must have shape (S, 2, 7)")
-        data = np.concatenate([segments, points])
-        if not np.isfinite(data).all():
-            raise ValueError("overlay data contain NaN or infinite values")
-        if len(data) > self._overlay_capacity:
-            # Grows by doubling, so that vertex arrays are rebuilt only a few times
-            # in a session (when the control points multiply), never per drag.
-            self._release_overlay()
-            capacity = max(1024, 2 * len(data))
-            buffer = self.ctx.buffer(reserve=capacity * OVERLAY_FLOATS * 4, dynamic=True)
-            layout = (buffer, "2f 4f 1f", "in_position", "in_colour", "in_size")
-            self._line_vao = self.ctx.vertex_array(self._line_program, [layout], mode=moderngl.LINES)
-            self._point_vao = self.ctx.vertex_array(self._point_program, [layout], mode=moderngl.POINTS)
-            self._overlay_buffer = buffer
-            self._overlay_objects = [self._line_vao, self._point_vao, buffer]
-            self._overlay_capacity = capacity
-        if len(data):
-            self._overlay_buffer.write(np.ascontiguousarray(data))
-        self._overlay_counts = (len(segments), len(points))
+        self._overlay.set(segments, points)
 
     def draw_overlay(self, view: View, viewport_size: tuple[int, int]) -> None:
         """Draw the lines and handles of `set_overlay` into the bound framebuffer.
@@ -611,17 +372,7 @@ class WarpRenderer:
         viewport_size : tuple of int
             (width, height) of the viewport in framebuffer pixels.
         """
-        line_vertices, point_count = self._overlay_counts
-        if not (line_vertices or point_count):
-            return
-        self._set_view((self._line_program, self._point_program), view, viewport_size)
-        self._blending()
-        if line_vertices:
-            self._line_vao.render(vertices=line_vertices)
-        if point_count:
-            self.ctx.enable(moderngl.PROGRAM_POINT_SIZE)
-            self._point_vao.render(vertices=point_count, first=line_vertices)
-            self.ctx.disable(moderngl.PROGRAM_POINT_SIZE)
+        self._overlay.draw(view, viewport_size)
 
     def render(
         self,
@@ -704,10 +455,10 @@ class WarpRenderer:
         self._release_mesh()
         self._release_image()
         self._release_target()
-        self._release_overlay()
-        for program in self._programs:
-            program.release()
-        self._programs = []
+        self._overlay.release()
+        self._image.release()
+        for field in self._fields.values():
+            field.release()
 
     def __enter__(self) -> WarpRenderer:
         return self
@@ -730,83 +481,16 @@ class WarpRenderer:
         objects = self._target[2]
         return objects[0], objects[1]
 
-    def _set_view(self, programs, view: View, viewport_size: tuple[int, int]) -> None:
-        values = {
-            "u_scale": float(view.scale),
-            "u_offset": (float(view.offset[0]), float(view.offset[1])),
-            "u_viewport": (float(viewport_size[0]), float(viewport_size[1])),
-        }
-        for program in programs:
-            for name, value in values.items():
-                member = program.get(name, None)
-                if member is not None:
-                    member.value = value
-
-    def _blending(self) -> None:
-        ctx = self.ctx
-        ctx.disable(moderngl.DEPTH_TEST | moderngl.CULL_FACE)
-        ctx.enable(moderngl.BLEND)
-        ctx.blend_func = moderngl.ONE, moderngl.ONE_MINUS_SRC_ALPHA
-
-    def _build_mesh(self, vertices: np.ndarray, triangles: np.ndarray) -> _MeshObjects:
-        """Buffers and vertex arrays of one mesh, positions undeformed."""
-        ctx = self.ctx
-        count = vertices.shape[0]
-        # Vertices renumbered, and triangles drawn on screen, in the order of a space-filling
-        # curve: a software rasteriser shades vertices in chunks of the index buffer, and on a
-        # dense mesh in the mesher's order it re-shades most of them (llvmpipe, 800k triangles:
-        # the textured pass 1.4-2.6x and the fold pass 1.8-3.9x slower, depending on the load).
-        # `render` keeps the caller's triangle order, so that where folded triangles overlap
-        # the exported picture does not depend on the renderer.
-        order = np.argsort(_morton_codes(vertices), kind="stable")
-        renumber = np.empty(count, dtype=np.int64)
-        renumber[order] = np.arange(count)
-        indices = renumber[triangles].astype("u4")
-        screen = np.argsort(_morton_codes(vertices[triangles].mean(axis=1)), kind="stable")
-        mesh = _MeshObjects(vertices, order, indices)
-        mesh.positions = ctx.buffer(vertices[order].astype("f4").tobytes(), dynamic=True)
-        mesh.uv = ctx.buffer(self._source_uv(mesh).tobytes())
-        mesh.values = ctx.buffer(reserve=4 * count, dynamic=True)
-        mesh.highlighted = ctx.buffer(reserve=indices.nbytes, dynamic=True)
-        mesh.objects = [mesh.positions, mesh.uv, mesh.values, mesh.highlighted]
-        programs = {
-            "image": (self._image_program, "in_uv"),
-            "field": (self._field_program, "in_value"),
-            "heat": (self._heat_program, "in_value"),
-            "distortion": (self._distortion_program, "in_value"),
-            "folds": (self._folds_program, "in_uv"),
-        }
-        for name, triangle_order in (("screen", screen), ("caller", None)):
-            ordered = indices if triangle_order is None else indices[triangle_order]
-            index_buffer = ctx.buffer(np.ascontiguousarray(ordered).tobytes())
-            mesh.vaos[name] = vaos = {}
-            for kind, (program, attribute) in programs.items():
-                second = (mesh.uv, "2f", "in_uv") if attribute == "in_uv" else (mesh.values, "1f", "in_value")
-                vaos[kind] = ctx.vertex_array(
-                    program, [(mesh.positions, "2f", "in_position"), second], index_buffer=index_buffer
-                )
-            mesh.objects += [*vaos.values(), index_buffer]
-        position = [(mesh.positions, "2f", "in_position")]
-        mesh.highlight_vao = ctx.vertex_array(self._solid_program, position, index_buffer=mesh.highlighted)
-        mesh.objects.append(mesh.highlight_vao)
-        return mesh
-
-    def _edge_vao(self, mesh: _MeshObjects) -> moderngl.VertexArray:
-        """The wireframe's vertex array, built on first use (0.5 s for a 400k-vertex mesh)."""
-        if mesh.edge_vao is None:
-            edges = self.ctx.buffer(unique_edges(mesh.triangle_indices).astype("u4").tobytes())
-            mesh.edge_vao = self.ctx.vertex_array(
-                self._solid_program,
-                [(mesh.positions, "2f", "in_position")],
-                index_buffer=edges,
-                mode=moderngl.LINES,
-            )
-            mesh.objects += [mesh.edge_vao, edges]
-        return mesh.edge_vao
-
-    def _source_uv(self, mesh: _MeshObjects) -> np.ndarray:
-        size = self._image_size or (1, 1)
-        return (mesh.vertices[mesh.order] / np.array(size, dtype=np.float64)).astype("f4")
+    def _build_mesh(self, vertices: np.ndarray, triangles: np.ndarray) -> MeshBuffers:
+        """Buffers and vertex arrays of one mesh for the image and field passes, positions undeformed."""
+        return MeshBuffers(
+            self.ctx,
+            vertices,
+            triangles,
+            self._image_size or (1, 1),
+            self._mesh_programs,
+            self._image.solid_program,
+        )
 
     def _require_mesh(self) -> None:
         if self._mesh is None:
@@ -828,18 +512,10 @@ class WarpRenderer:
         self._preview = None
 
     def _release_image(self) -> None:
-        for item in (*self._backdrop_objects, self._sampler, self._texture):
-            if item is not None:
-                item.release()
-        self._backdrop_objects = []
-        self._sampler = self._texture = None
-
-    def _release_overlay(self) -> None:
-        for item in self._overlay_objects:
-            item.release()
-        self._overlay_objects = []
-        self._overlay_capacity = 0
-        self._overlay_counts = (0, 0)
+        self._backdrop.release()
+        if self._source is not None:
+            self._source.release()
+        self._source = None
 
     def _release_target(self) -> None:
         if self._target is not None:
@@ -851,90 +527,6 @@ class WarpRenderer:
         self._target = None
 
 
-class _MeshObjects:
-    """The GL objects of one mesh: buffers in `order` (a Z-order of the vertices) and vertex arrays.
-
-    Attributes
-    ----------
-    vertices : ndarray of shape (V, 2)
-        Undeformed, in the caller's order.
-    order : ndarray of shape (V,)
-        The caller's vertex held by each buffer row.
-    triangle_indices : ndarray of shape (T, 3), uint32
-        The caller's triangles, in buffer rows.
-    vaos : dict
-        ``vaos[order][kind]``: order "screen" (Z-ordered triangles) or "caller", kind
-        "image", "field", "heat", "distortion" or "folds".
-    """
-
-    def __init__(self, vertices: np.ndarray, order: np.ndarray, triangle_indices: np.ndarray):
-        self.vertices, self.order, self.triangle_indices = vertices, order, triangle_indices
-        # `WarpRenderer.may_fold`'s corners a, b, c (T,), orientation (T,) and threshold (T,).
-        self.fold_test: tuple | None = None
-        self.vaos: dict = {}
-        self.edge_vao: moderngl.VertexArray | None = None
-        self.objects: list = []
-
-    def write_ordered_positions(self, positions: np.ndarray) -> None:
-        """Write float32 positions (V, 2), already in `order`, into the position buffer."""
-        if positions.shape != self.vertices.shape or positions.dtype != np.float32:
-            raise ValueError(f"positions must be float32 of shape {self.vertices.shape}")
-        self.positions.write(np.ascontiguousarray(positions))
-
-    def release(self) -> None:
-        for item in self.objects:
-            item.release()
-        self.objects = []
-
-
-def _signed_areas(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
-    """Signed areas (T,) float64 of `triangles` (T, 3) over `points` (V, 2), image pixels (y down)."""
-    corners = points[triangles].astype(np.float64)  # (T, 3, 2)
-    edges = corners[:, 1:] - corners[:, :1]
-    return 0.5 * (edges[:, 0, 0] * edges[:, 1, 1] - edges[:, 1, 0] * edges[:, 0, 1])
-
-
-def _checked_mesh(vertices, triangles) -> tuple[np.ndarray, np.ndarray]:
-    """(vertices (V, 2) float64, triangles (T, 3)), or ValueError saying what is wrong."""
-    vertices = np.asarray(vertices, dtype=np.float64)
-    triangles = np.asarray(triangles)
-    if vertices.ndim != 2 or vertices.shape[1] != 2 or vertices.shape[0] < 3:
-        raise ValueError(f"vertices must have shape (V, 2) with V >= 3, got {vertices.shape}")
-    if not np.isfinite(vertices).all():
-        raise ValueError("vertices contain NaN or infinite values")
-    if triangles.ndim != 2 or triangles.shape[1] != 3 or triangles.shape[0] < 1:
-        raise ValueError(f"triangles must have shape (T, 3) with T >= 1, got {triangles.shape}")
-    if (
-        not np.issubdtype(triangles.dtype, np.integer)
-        or triangles.min() < 0
-        or triangles.max() >= len(vertices)
-    ):
-        raise ValueError(f"triangles must be integer indices into the {len(vertices)} vertices")
-    return vertices, triangles
-
-
-def _anisotropy(ctx: moderngl.Context) -> float:
-    """Anisotropic filtering level: 16 where the driver does it right, else 1.
-
-    Mesa's llvmpipe (measured on 22.3) blurs even unscaled texture lookups once
-    anisotropy exceeds 1 (a one-pixel checkerboard drawn 1:1 is off by up to 201
-    of 255), so there plain trilinear filtering is the better result.
-    """
-    if "llvmpipe" in ctx.info["GL_RENDERER"]:
-        return 1.0
-    return min(16.0, ctx.max_anisotropy)
-
-
-def _premultiply(image: np.ndarray) -> np.ndarray:
-    """RGBA uint8 (H, W, 4), straight alpha -> premultiplied, rounded."""
-    alpha = image[..., 3]
-    if alpha.min() == 255:
-        return image
-    result = image.copy()
-    result[..., :3] = ((image[..., :3].astype(np.uint16) * alpha[..., None] + 127) // 255).astype(np.uint8)
-    return result
-
-
 def _unpremultiply(pixels: np.ndarray) -> np.ndarray:
     """RGBA uint8 (H, W, 4), premultiplied -> straight alpha, in place; only partly covered pixels change."""
     result = pixels
@@ -944,28 +536,3 @@ def _unpremultiply(pixels: np.ndarray) -> np.ndarray:
         a = alpha[partial].astype(np.float32)[:, None]
         result[partial, :3] = np.clip(result[partial, :3] * (255.0 / a) + 0.5, 0, 255).astype(np.uint8)
     return result
-
-
-def _morton_codes(points: np.ndarray) -> np.ndarray:
-    """Position of each point along a Z-order curve on a 1024 x 1024 grid over their bounding box.
-
-    Parameters
-    ----------
-    points : ndarray of shape (K, 2)
-
-    Returns
-    -------
-    ndarray of shape (K,), uint32
-        Interleaved bits of the cell column (even bits) and row (odd bits).
-    """
-    low = points.min(axis=0)
-    extent = np.maximum(points.max(axis=0) - low, 1e-300)
-    cells = np.minimum((points - low) / extent * 1024, 1023).astype(np.uint32)
-    spread = []
-    for bits in cells.T:  # 10 bits apart into the even positions of 20
-        bits = (bits | (bits << 8)) & 0x00FF00FF
-        bits = (bits | (bits << 4)) & 0x0F0F0F0F
-        bits = (bits | (bits << 2)) & 0x33333333
-        bits = (bits | (bits << 1)) & 0x55555555
-        spread.append(bits)
-    return spread[0] | (spread[1] << 1)

@@ -10,15 +10,9 @@ import numpy as np
 import pytest
 from scipy.spatial import Delaunay
 
-from app.render import (
-    BAND_COLOURS,
-    BAND_START,
-    BAND_WIDTH,
-    HIGHLIGHT_COLOUR,
-    View,
-    WarpRenderer,
-    create_headless_context,
-)
+from app.render import View, WarpRenderer, create_headless_context
+from app.render_passes.fields import BAND_COLOURS, BAND_START, BAND_WIDTH
+from app.render_passes.image import HIGHLIGHT_COLOUR
 from app.shaders import load_shader
 
 

@@ -19,7 +19,7 @@ def legend(state, draw, left: float, top: float, span: float) -> None:
     """The bands' colours, [k, k+1]/10."""
     from imgui_bundle import imgui
 
-    from app.render import BAND_COLOURS, BAND_START, BAND_WIDTH
+    from app.render_passes.fields import BAND_COLOURS, BAND_START, BAND_WIDTH
     from app.viewer.view_modes.colours import packed
 
     imgui.text("height, bands [k, k+1]/10 (Fig. 1)")
