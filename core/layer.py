@@ -28,7 +28,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from core.bspline import ClosedBSpline
-from core.panels import _NODES, _WEIGHTS, ORDER, Panels, interpolation_matrix
+from core.panels import _NODES, _WEIGHTS, ORDER, Panels, interpolation_matrix, sharp_corners
 from core.panels import _panels as panels_of_bounds
 
 #: Points per block of the far-field products (bounds the memory of a block's weights).
@@ -60,8 +60,7 @@ def span_safety(curve: ClosedBSpline, panels: Panels) -> np.ndarray | float:
     corner (a doubled control point, at knot j: spans j - 1 and j) when the level is the spans."""
     if panels.count != curve.n:
         return SAFE
-    points = curve.control_points
-    corner = np.flatnonzero(np.all(points == np.roll(points, 1, axis=0), axis=1))
+    corner = sharp_corners(curve)
     safety = np.full(curve.n, SAFE)
     safety[corner] = safety[(corner - 1) % curve.n] = CORNER_SAFE
     return safety

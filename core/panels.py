@@ -141,8 +141,7 @@ def coarse_panels(curve: ClosedBSpline) -> Panels:
     step = 1.0 / COARSE_PER_SPAN
     starts = np.arange(curve.n * COARSE_PER_SPAN) * step
     bounds = np.stack([starts, starts + step], axis=1)
-    points = curve.control_points
-    corners = np.flatnonzero(np.all(points == np.roll(points, 1, axis=0), axis=1)).astype(float)
+    corners = sharp_corners(curve).astype(float)
     for _ in range(THIN_ROUNDS):
         panels = _panels(curve, bounds)
         split = _thin(panels, corners) | _unbalanced(panels) | _curved(panels)
@@ -186,13 +185,16 @@ def graded_panels(curve: ClosedBSpline, coarse: Panels) -> tuple[Panels, np.ndar
     return _panels(curve, np.concatenate(fine)), np.concatenate(parent), knot
 
 
+def sharp_corners(curve: ClosedBSpline) -> np.ndarray:
+    """The knots t = j that are sharp corners, int (K,): paper P_j = P_{j+1} (array rows j-1, j)."""
+    points = curve.control_points
+    return np.flatnonzero(np.all(points == np.roll(points, 1, axis=0), axis=1))
+
+
 def knot_levels(curve: ClosedBSpline) -> np.ndarray:
     """Dyadic grading levels towards each knot t = j, int ndarray of shape (n,)."""
-    points = curve.control_points
     coefficients = curve.piecewise_polynomial().coefficients  # span j: c0 + c1 u + c2 u^2
     before = np.roll(coefficients, 1, axis=0)
-    # Knot j is a sharp corner when paper P_j = P_{j+1}: array rows j-1, j.
-    corner = np.all(points == np.roll(points, 1, axis=0), axis=1)
 
     def curvature(first, second):
         cross = first[:, 0] * second[:, 1] - first[:, 1] * second[:, 0]
@@ -206,7 +208,7 @@ def knot_levels(curve: ClosedBSpline) -> np.ndarray:
     with np.errstate(divide="ignore"):
         levels = np.ceil(np.log(jump / KNOT_JUMP) / np.log(8.0))
     levels = np.clip(np.nan_to_num(levels, neginf=0.0), MIN_KNOT_LEVELS, MAX_KNOT_LEVELS).astype(np.int64)
-    levels[corner] = CORNER_LEVELS
+    levels[sharp_corners(curve)] = CORNER_LEVELS
     return levels
 
 
@@ -287,11 +289,7 @@ def _thin(panels: Panels, corners: np.ndarray) -> np.ndarray:
     owner = np.repeat(np.arange(count), ORDER)
     middle = np.cumsum(panels.lengths) - 0.5 * panels.lengths
     total = panels.lengths.sum()
-    # Arc positions of the corners: each starts a panel.
-    corner_at = (
-        middle[np.isin(panels.bounds[:, 0], corners)]
-        - 0.5 * panels.lengths[np.isin(panels.bounds[:, 0], corners)]
-    )
+    corner_at = (middle - 0.5 * panels.lengths)[np.isin(panels.bounds[:, 0], corners)]  # each starts a panel
     tree = cKDTree(nodes)
     split = np.zeros(count, dtype=bool)
     for p in range(count):

@@ -49,7 +49,15 @@ from core.layer import (
     near_pairs,
     restriction,
 )
-from core.panels import ORDER, Panels, coarse_panels, graded_panels, interpolation_matrix, span_panels
+from core.panels import (
+    ORDER,
+    Panels,
+    coarse_panels,
+    graded_panels,
+    interpolation_matrix,
+    sharp_corners,
+    span_panels,
+)
 from core.panels import _panels as _make_panels
 
 #: Coarse boundary nodes at most (the dense solve's memory, 8 MAX_NODES^2 bytes, and time).
@@ -180,8 +188,7 @@ def widened_at_corners(curve: ClosedBSpline, knot: np.ndarray) -> np.ndarray:
     reason: taking them into K* (here, one more panel on each side) brought random polygons
     with sharp corners from 1e-8..2e-7 of the diameter in linear precision to 1e-10.
     """
-    points = curve.control_points
-    corner = np.flatnonzero(np.all(points == np.roll(points, 1, axis=0), axis=1))
+    corner = sharp_corners(curve)
     out = knot.copy()
     count = knot.size
     for j in corner:
