@@ -100,21 +100,29 @@ def compile_solver(progress: Callable[[float], None] | None = None, gradients: b
 
 def compile_all() -> None:
     """Compile every compiled function of `core` into numba's disk cache: the solver and
-    its gradients (`compile_solver`), the positive Gordon-Wixom rows (`core.pgw`) and the
-    closest-point and winding-number tests (`core.closest_point`).
+    its gradients (`compile_solver`), the positive Gordon-Wixom rows (`core.pgw`), the
+    closest-point and winding-number tests (`core.closest_point`) and the boundary
+    integrals of the default kernel (`core.layer_compiled`).
 
     The package's build runs it (``.packaging/backend.py``), so that an installed
     package starts every kernel from the cache.
     """
+    from core import layer_compiled
     from core.bspline import ClosedBSpline
     from core.closest_point import distance_to_curve
     from core.pgw import pgw_basis
+    from core.poisson import poisson_basis
 
     square = ClosedBSpline(np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]))
     x = np.array([[0.5, 0.5]])
     square.contains(x)
     distance_to_curve(square.piecewise_polynomial(), x)
     pgw_basis(square, x)
+    mode, layer_compiled.mode = layer_compiled.mode, "compiled"
+    try:
+        poisson_basis(square, x)
+    finally:
+        layer_compiled.mode = mode
     compile_solver(gradients=True)
 
 

@@ -22,11 +22,12 @@ from the curve are reported as on it, and left to the caller.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.spatial import cKDTree
 
+from core import layer_compiled
 from core.bspline import ClosedBSpline
 from core.panels import _NODES, _WEIGHTS, ORDER, Panels, interpolation_matrix, sharp_corners
 from core.panels import _panels as panels_of_bounds
@@ -128,6 +129,13 @@ def adaptive_weights(
     """
     touch = on_curve * curve.diameter
     pieces = curve.piecewise_polynomial().coefficients
+    arguments = (
+        np.ascontiguousarray(pieces, dtype=np.float64), np.ascontiguousarray(panels.bounds, dtype=np.float64),
+        np.ascontiguousarray(targets, dtype=np.complex128), np.ascontiguousarray(panel, dtype=np.int64),
+        int(power), float(touch), float(SAFE), int(MAX_DEPTH),
+    )  # fmt: skip
+    if layer_compiled.loaded(layer_compiled.adaptive_pairs, *arguments):
+        return layer_compiled.adaptive_pairs(*arguments)
     # Depth 0, the panel's own rule on its stored nodes: most pairs end here.
     nodes = panel[:, None] * ORDER + np.arange(ORDER)
     tau = panels.z[nodes]
@@ -213,6 +221,8 @@ class Levels:
     panels: tuple
     parents: tuple
     densities: tuple
+    #: What `_panel_tree` built from these levels, once (not part of their value).
+    compiled: dict = field(default_factory=dict, compare=False, repr=False)
 
 
 def bisected(curve: ClosedBSpline, levels: Levels, count: int = BISECTIONS) -> Levels:
@@ -273,9 +283,14 @@ def cauchy_integrals(
     adaptive rule.  Returns the real parts (M, m), the imaginary parts (M, m) if
     `imaginary` (else None) and the on-curve flags (M,).
     """
+    z = np.ascontiguousarray(x[:, 0] + 1j * x[:, 1])
+    if not imaginary:
+        arguments = (z, *_panel_tree(curve, levels))
+        if layer_compiled.loaded(layer_compiled.layer_rows, *arguments):
+            real, on_curve = layer_compiled.layer_rows(*arguments)
+            return real, None, on_curve
     panels, density = levels.panels[0], levels.densities[0]
     factors = layer_factors(curve, panels)
-    z = x[:, 0] + 1j * x[:, 1]
     centre = panels.z.mean()
     scale = 1.0 / curve.diameter
     tau = (panels.z - centre) * scale
@@ -310,6 +325,51 @@ def cauchy_integrals(
     else:
         hierarchical_rows(curve, levels, z, target, panel, on_curve, real)
     return real, imag, on_curve
+
+
+def _panel_tree(curve: ClosedBSpline, levels: Levels) -> tuple:
+    """The arguments of `core.layer_compiled.layer_rows` after the targets: `levels` concatenated
+    (built once per `levels`, kept in ``levels.compiled``)."""
+    tree = levels.compiled.get("tree")
+    if tree is not None:
+        return tree
+    panels = levels.panels
+    counts = np.array([p.count for p in panels])
+    panel_start = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
+    safety = [np.broadcast_to(span_safety(curve, panels[0]), (panels[0].count,))]
+    safety += [np.full(p.count, SAFE) for p in panels[1:]]
+    lengths = np.concatenate([p.lengths for p in panels])
+    close = np.maximum(np.concatenate(safety) * lengths, DIRECT * curve.diameter)
+    children, child_start = [], [0]
+    for k, parent in enumerate(levels.parents):
+        if np.any(np.diff(parent) < 0):
+            raise ValueError("a level's panels must follow their parents' order")
+        sizes = np.bincount(parent, minlength=counts[k])
+        children.append(panel_start[k + 1] + np.arange(parent.size))
+        child_start.extend((child_start[-1] + np.cumsum(sizes)).tolist())
+    child_start.extend([child_start[-1]] * (counts[-1]))  # the finest level has no children
+    most = max([1] + [int(np.bincount(parent).max()) for parent in levels.parents])
+    orientation = 1.0 if curve.area > 0 else -1.0
+    tree = (
+        np.concatenate([p.z for p in panels]),
+        np.concatenate([layer_factors(curve, p) for p in panels]),
+        np.ascontiguousarray(np.concatenate(levels.densities), dtype=np.float64),
+        np.concatenate([p.centres for p in panels]),
+        np.concatenate([p.radii for p in panels]) + close,
+        close**2,
+        panel_start,
+        np.concatenate(children).astype(np.int64) if children else np.zeros(0, dtype=np.int64),
+        np.asarray(child_start, dtype=np.int64),
+        np.ascontiguousarray(panels[-1].bounds, dtype=np.float64),
+        np.ascontiguousarray(curve.piecewise_polynomial().coefficients, dtype=np.float64),
+        orientation,
+        ON_CURVE * curve.diameter,
+        SAFE,
+        MAX_DEPTH,
+        panels[0].count + len(panels) * most,
+    )
+    levels.compiled["tree"] = tree
+    return tree
 
 
 def cauchy_derivatives(curve: ClosedBSpline, levels: Levels, x: np.ndarray) -> np.ndarray:

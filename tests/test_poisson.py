@@ -17,6 +17,18 @@ from core.poisson import closest_point, densities
 SHAPES = built_in_shapes()
 
 
+@pytest.fixture(params=["numpy", "compiled"])
+def layer_path(request, monkeypatch):
+    """Both implementations of the boundary integrals (`core.layer` and `core.layer_compiled`),
+    each with its own density solve."""
+    from core import layer_compiled, poisson
+
+    monkeypatch.setattr(layer_compiled, "mode", request.param)
+    poisson._densities.cache_clear()
+    yield request.param
+    poisson._densities.cache_clear()
+
+
 def near_boundary_points(curve: core.ClosedBSpline, count: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
     """Points at 1e-6 .. 1e-1 diameters from the curve along the inward normal, half of them next to
     knots (corners included), and their distances; shape (K, 2), (K,)."""
@@ -42,7 +54,7 @@ def near_boundary_points(curve: core.ClosedBSpline, count: int, seed: int) -> tu
 
 
 @pytest.mark.parametrize("name", ["C-shape", "star", "hook", "F polygon"])
-def test_partition_of_unity_and_linear_precision_down_to_the_boundary(name):
+def test_partition_of_unity_and_linear_precision_down_to_the_boundary(name, layer_path):
     # The issue's bounds: sum G = 1 to 1e-12, G P = x to 1e-8 of the diameter at points down to
     # 1e-6 of the diameter from the boundary, next to sharp corners and in thin arms.
     curve = core.ClosedBSpline(SHAPES[name])
@@ -65,7 +77,7 @@ def random_polygon_cage(seed: int) -> core.ClosedBSpline:
 
 
 @pytest.mark.parametrize("seed", [0, 5, 6, 8, 12, 13, 29])
-def test_random_polygons_with_sharp_corners(seed):
+def test_random_polygons_with_sharp_corners(seed, layer_path):
     # Each sharp corner's compressed block holds its two panels and one more on each side
     # (poisson.widened_at_corners), and thin parts are split at twice their distance: with the
     # two panels and splits at once the distance, these cages missed the linear precision bound
@@ -88,7 +100,7 @@ HAIRPIN = [
 ]  # fmt: skip
 
 
-def test_a_hairpin_turn_is_resolved():
+def test_a_hairpin_turn_is_resolved(layer_path):
     # Panels along which the curve turns more than a radian are split (panels.CURVED): with one
     # coarse panel over the hairpin, points next to it were off by 5.3e-7 of the diameter.
     curve = core.ClosedBSpline(np.array(HAIRPIN))
@@ -236,7 +248,7 @@ def test_a_cage_beyond_the_dense_solve_limit_is_refused_in_one_line(monkeypatch)
         core.basis_functions(curve, interior_points(curve, 3, seed=38))
 
 
-def test_a_point_near_no_finest_panel_is_evaluated_alone():
+def test_a_point_near_no_finest_panel_is_evaluated_alone(layer_path):
     # Near a coarse panel but far from every finest one: its last level had no pairs left,
     # which failed (IndexError) when such a point was evaluated on its own, as the cache's
     # spot checks do.

@@ -1,0 +1,235 @@
+"""The Cauchy integrals of `core.layer` as compiled loops: the near-field rule, and rows over a panel tree.
+
+`core.layer` evaluates C[φ](z) = (1 / 2πi) ∮ φ(τ) / (τ - z) dτ with numpy, in batches
+of (target, panel) pairs; its cost at mesh sizes is the bookkeeping of those batches
+(sorting, grouping, one small product per panel).  The same arithmetic, one target
+at a time, is a short loop: here are
+
+- `adaptive_pairs`, the adaptive near-field rule of `core.layer.adaptive_weights`
+  (bisection in t until each piece is `SAFE` of its length away, each piece's
+  Gauss–Legendre rule mapped back onto the panel's nodes), for a list of pairs;
+- `layer_rows`, Re C[φ](z) for many targets: the coarsest level's panels by their plain
+  rule, near panels replaced by their children level by level, the finest level's near
+  panels by the adaptive rule, exactly the decisions of `core.layer.cauchy_integrals`
+  (the same `near` test at every level, so the two agree to rounding).
+
+They are compiled by numba, which the package's build does at install
+(`core.compilation.compile_all`); `core.layer` calls them only where their machine code
+is in memory or in numba's cache (`loaded`), and its numpy path otherwise, so that the
+default kernel never waits for a compiler.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit, prange
+from numba.core.compiler_lock import global_compiler_lock
+
+from core.panels import _BARYCENTRIC, _NODES, _WEIGHTS, ORDER
+
+#: How `core.layer` chooses: "auto" (compiled where loaded, `loaded`), "numpy", or "compiled"
+#: (compile on first use if need be: tests and `core.compilation.compile_all`).
+mode = "auto"
+
+
+def loaded(dispatcher, *args) -> bool:
+    """Whether `dispatcher` has machine code for these arguments' types without compiling.
+
+    Its own compiled specialisations count, and numba's disk cache is tried (a hit is
+    loaded into the dispatcher, as a call would); a miss returns False and compiles
+    nothing.  With `mode` "numpy" always False, with "compiled" always True (the call
+    compiles).
+    """
+    if mode != "auto":
+        return mode == "compiled"
+    signature = tuple(dispatcher.typeof_pyval(a) for a in args)
+    if signature in dispatcher.overloads:
+        return True
+    with global_compiler_lock:
+        result = dispatcher._cache.load_overload(signature, dispatcher.targetctx)
+        if result is None:
+            return False
+        dispatcher.targetctx.insert_user_function(result.entry_point, result.fndesc, [result.library])
+        dispatcher.add_overload(result)
+    return True
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _piece_basis(low, high, out):
+    """Lagrange basis of the panel's nodes at the Gauss nodes of its piece [low, high] of [-1, 1]:
+    out (ORDER, ORDER), row q at piece node q (`core.panels.interpolation_matrix`)."""
+    half = 0.5 * (high - low)
+    middle = 0.5 * (high + low)
+    for q in range(ORDER):
+        u = middle + half * _NODES[q]
+        hit = -1
+        total = 0.0
+        for j in range(ORDER):
+            difference = u - _NODES[j]
+            if difference == 0.0:
+                hit = j
+                break
+            term = _BARYCENTRIC[j] / difference
+            out[q, j] = term
+            total += term
+        if hit >= 0:
+            for j in range(ORDER):
+                out[q, j] = 0.0
+            out[q, hit] = 1.0
+        else:
+            for j in range(ORDER):
+                out[q, j] /= total
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _near_weights(coefficients, a, b, z, power, touch, safe, max_depth, weights, scratch):
+    """Weights (ORDER,) complex of ∫ φ(τ) / (τ - z)^power dτ on the panel [a, b] of the span of
+    `coefficients` (3, 2) (p(u) = c0 + c1 u + c2 u^2, u the parameter within the span), for the
+    interpolant of φ on the panel's nodes; returns True if z is on the curve (`touch`).
+
+    `scratch` (2 (max_depth + 2) + ORDER, ORDER) holds the stack of pieces and a piece's basis.
+    """
+    for j in range(ORDER):
+        weights[j] = 0.0
+    span = math.floor(a + 1e-12)
+    panel_half = 0.5 * (b - a)
+    panel_middle = 0.5 * (a + b) - span
+    c0x, c0y = coefficients[0, 0], coefficients[0, 1]
+    c1x, c1y = coefficients[1, 0], coefficients[1, 1]
+    c2x, c2y = coefficients[2, 0], coefficients[2, 1]
+    stack = scratch[ORDER:]
+    basis = scratch[:ORDER]
+    tau = np.empty(ORDER, dtype=np.complex128)
+    dtau = np.empty(ORDER, dtype=np.complex128)
+    scale = np.empty(ORDER)
+    touching = False
+    stack[0, 0], stack[0, 1], stack[0, 2] = -1.0, 1.0, 0.0
+    top = 1
+    while top > 0:
+        top -= 1
+        low, high, depth = stack[top, 0], stack[top, 1], stack[top, 2]
+        half = 0.5 * (high - low)
+        middle = 0.5 * (high + low)
+        length = 0.0
+        gap = np.inf
+        for q in range(ORDER):
+            t = panel_middle + panel_half * (middle + half * _NODES[q])
+            x = c0x + t * (c1x + t * c2x)
+            y = c0y + t * (c1y + t * c2y)
+            dx = c1x + 2.0 * t * c2x
+            dy = c1y + 2.0 * t * c2y
+            tau[q] = complex(x, y)
+            dtau[q] = complex(dx, dy)
+            scale[q] = half * panel_half * _WEIGHTS[q]
+            length += scale[q] * math.sqrt(dx * dx + dy * dy)
+            gap = min(gap, abs(tau[q] - z))
+        if gap >= safe * length:
+            _piece_basis(low, high, basis)
+            for q in range(ORDER):
+                rule = scale[q] * dtau[q] / (tau[q] - z)
+                if power == 2:
+                    rule /= tau[q] - z
+                for j in range(ORDER):
+                    weights[j] += rule * basis[q, j]
+        elif gap < touch or length < touch or depth == max_depth:
+            touching = True
+        else:
+            stack[top, 0], stack[top, 1], stack[top, 2] = low, middle, depth + 1.0
+            stack[top + 1, 0], stack[top + 1, 1], stack[top + 1, 2] = middle, high, depth + 1.0
+            top += 2
+    return touching
+
+
+@njit(cache=True, parallel=True, error_model="numpy")
+def adaptive_pairs(coefficients, bounds, targets, panel, power, touch, safe, max_depth):
+    """`core.layer.adaptive_weights` for K pairs: weights complex (K, ORDER) and touching bool (K,).
+
+    coefficients (n, 3, 2) are the curve's spans (`ClosedBSpline.piecewise_polynomial`),
+    bounds (P, 2) the panels' parameter intervals, targets complex (K,), panel int (K,).
+    """
+    count = targets.shape[0]
+    n = coefficients.shape[0]
+    weights = np.zeros((count, ORDER), dtype=np.complex128)
+    touching = np.zeros(count, dtype=np.bool_)
+    for k in prange(count):
+        scratch = np.empty((ORDER + 2 * (max_depth + 2), ORDER))
+        p = panel[k]
+        span = int(math.floor(bounds[p, 0] + 1e-12)) % n
+        touching[k] = _near_weights(
+            coefficients[span], bounds[p, 0], bounds[p, 1], targets[k], power, touch, safe, max_depth,
+            weights[k], scratch,
+        )  # fmt: skip
+    return weights, touching
+
+
+@njit(cache=True, parallel=True, error_model="numpy")
+def layer_rows(
+    targets, node_z, factors, density, centres, reach, close_squared, panel_start,
+    children, child_start, bounds, coefficients, orientation, touch, safe, max_depth, stack_size,
+):  # fmt: skip
+    """Re C[φ](z) (M, m) and on-curve flags (M,) at targets complex (M,), over a tree of panels.
+
+    The levels' arrays are concatenated, coarsest first: node_z, factors (s w τ' / 2πi,
+    `core.layer.layer_factors`) complex (N,) and density (N, m) per node; centres complex,
+    reach (radius + close range) and close_squared (close range squared) per panel (P,).
+    Level k's panels are panel_start[k]..panel_start[k+1] - 1, panel p's nodes
+    p ORDER..(p + 1) ORDER - 1; children[child_start[p]..child_start[p+1] - 1] are panel p's children
+    (global panel indices) on the next level.  The finest level's panels have bounds (P_f, 2),
+    the curve's spans coefficients (n, 3, 2).  A panel is near a target when one of its
+    nodes is within its close range; near panels are replaced by their children, on the
+    finest level by `_near_weights` (a target it finds on the curve is flagged).
+    """
+    count = targets.shape[0]
+    columns = density.shape[1]
+    levels = panel_start.shape[0] - 1
+    finest = panel_start[levels - 1]
+    n = coefficients.shape[0]
+    out = np.zeros((count, columns))
+    on_curve = np.zeros(count, dtype=np.bool_)
+    for m in prange(count):
+        z = targets[m]
+        stack = np.empty((stack_size, 2), dtype=np.int64)  # (level, panel)
+        scratch = np.empty((ORDER + 2 * (max_depth + 2), ORDER))
+        weights = np.empty(ORDER, dtype=np.complex128)
+        row = np.zeros(columns)
+        top = 0
+        for p in range(panel_start[1] - 1, -1, -1):
+            stack[top, 0], stack[top, 1] = 0, p
+            top += 1
+        while top > 0:
+            top -= 1
+            level, p = stack[top, 0], stack[top, 1]
+            first = p * ORDER
+            near = False
+            if abs(z - centres[p]) < reach[p]:
+                for q in range(first, first + ORDER):
+                    d = node_z[q] - z
+                    if d.real * d.real + d.imag * d.imag < close_squared[p]:
+                        near = True
+                        break
+            if not near:
+                for q in range(first, first + ORDER):
+                    dx = node_z[q].real - z.real
+                    dy = node_z[q].imag - z.imag
+                    w = (factors[q].real * dx + factors[q].imag * dy) / (dx * dx + dy * dy)
+                    for c in range(columns):
+                        row[c] += w * density[q, c]
+            elif p >= finest:
+                f = p - finest
+                span = int(math.floor(bounds[f, 0] + 1e-12)) % n
+                a, b = bounds[f, 0], bounds[f, 1]
+                if _near_weights(coefficients[span], a, b, z, 1, touch, safe, max_depth, weights, scratch):
+                    on_curve[m] = True
+                for j in range(ORDER):
+                    w = (weights[j] * orientation / (2j * np.pi)).real
+                    for c in range(columns):
+                        row[c] += w * density[first + j, c]
+            else:
+                for child in range(child_start[p + 1] - 1, child_start[p] - 1, -1):
+                    stack[top, 0], stack[top, 1] = level + 1, children[child]
+                    top += 1
+        for c in range(columns):
+            out[m, c] = row[c]
+    return out, on_curve

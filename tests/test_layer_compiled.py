@@ -1,0 +1,93 @@
+"""core.layer_compiled: the compiled boundary integrals equal the numpy ones; never compiled unasked."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from conftest import interior_points
+from test_poisson import near_boundary_points
+
+import core
+from app.quality_suite import built_in_shapes
+from core import layer, layer_compiled, poisson
+from core.panels import curve_panels
+
+SHAPES = built_in_shapes()
+
+
+def both_paths(monkeypatch, function):
+    """function() under layer_compiled.mode "numpy", then "compiled", each with a fresh density solve."""
+    results = []
+    for mode in ("numpy", "compiled"):
+        monkeypatch.setattr(layer_compiled, "mode", mode)
+        poisson._densities.cache_clear()
+        results.append(function())
+    poisson._densities.cache_clear()
+    return results
+
+
+@pytest.mark.parametrize("name", ["C-shape", "hook", "F polygon"])
+def test_the_compiled_layer_equals_the_numpy_one(name, monkeypatch):
+    # Interior points, points down to 1e-6 of the diameter from the curve (next to corners too),
+    # and points on it: the same values to rounding, and the same points found on the curve.
+    curve = core.ClosedBSpline(SHAPES[name])
+    on_curve = curve.evaluate(np.linspace(0, curve.n, 37, endpoint=False) + 0.013)[0]
+    near = near_boundary_points(curve, 200, seed=5)[0]
+    x = np.vstack([interior_points(curve, 200, seed=4), near, on_curve])
+
+    def integrals():
+        solution = poisson.densities(curve)
+        return layer.cauchy_integrals(curve, solution.levels, x), core.basis_functions(curve, x)
+
+    (numpy_rows, numpy_basis), (compiled_rows, compiled_basis) = both_paths(monkeypatch, integrals)
+    # Each path solves for its own densities: their roundings differ most next to a sharp
+    # corner, where the method's own error is ~1e-10 (measured 9.7e-12, F polygon).
+    np.testing.assert_allclose(compiled_rows[0], numpy_rows[0], rtol=0, atol=5e-11)
+    np.testing.assert_array_equal(compiled_rows[2], numpy_rows[2])
+    assert numpy_rows[2][-37:].all()  # the points on the curve are found there
+    np.testing.assert_allclose(compiled_basis, numpy_basis, rtol=0, atol=5e-11)
+
+
+@pytest.mark.parametrize("power", [1, 2])
+def test_the_compiled_near_rule_equals_the_numpy_one(power, monkeypatch):
+    # Targets at 1e-9 .. 1e-1 of a panel's length from it, one exactly on a node: the adaptive
+    # rule's weights for the Cauchy integral and its derivative, and its on-curve flags.
+    curve = core.ClosedBSpline(SHAPES["F polygon"])
+    panels = curve_panels(curve)
+    rng = np.random.default_rng(7)
+    panel = rng.integers(0, panels.count, 300)
+    node = panel * 16 + rng.integers(0, 16, panel.size)
+    normal = 1j * panels.dz[node] / np.abs(panels.dz[node])
+    targets = panels.z[node] + normal * panels.lengths[panel] * 10 ** rng.uniform(-9, -1, panel.size)
+    targets[0] = panels.z[node[0]]
+
+    def weights():
+        return layer.adaptive_weights(curve, panels, targets, panel, power)
+
+    (numpy_weights, numpy_touching), (compiled_weights, compiled_touching) = both_paths(monkeypatch, weights)
+    np.testing.assert_array_equal(compiled_touching, numpy_touching)
+    assert numpy_touching[0]
+    scale = np.abs(numpy_weights[~numpy_touching]).max(axis=1, keepdims=True)
+    # The derivative's weights sum pieces' rules ~1/distance^2 apart: their order of summation
+    # (breadth-first in numpy, depth-first compiled) shows at 2e-9 of the largest weight.
+    tolerance = 1e-13 if power == 1 else 1e-8
+    compiled_weights, numpy_weights = compiled_weights[~compiled_touching], numpy_weights[~numpy_touching]
+    np.testing.assert_allclose(compiled_weights / scale, numpy_weights / scale, rtol=0, atol=tolerance)
+
+
+def test_loaded_never_compiles(monkeypatch):
+    # "auto" takes the compiled path only where machine code exists: for argument types that
+    # were never compiled it answers False and compiles nothing.
+    monkeypatch.setattr(layer_compiled, "mode", "auto")
+    dispatcher = layer_compiled.adaptive_pairs
+    before = len(dispatcher.overloads)
+    strange = (
+        np.zeros((1, 3, 2), dtype=np.float32), np.zeros((1, 2), dtype=np.float32), np.zeros(1, np.complex64),
+        np.zeros(1, dtype=np.int32), 1, 0.0, 0.5, 60,
+    )  # fmt: skip
+    assert not layer_compiled.loaded(dispatcher, *strange)
+    assert len(dispatcher.overloads) == before
+    monkeypatch.setattr(layer_compiled, "mode", "numpy")
+    assert not layer_compiled.loaded(dispatcher)
+    monkeypatch.setattr(layer_compiled, "mode", "compiled")
+    assert layer_compiled.loaded(dispatcher)
