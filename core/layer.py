@@ -286,7 +286,7 @@ def cauchy_integrals(
     z = np.ascontiguousarray(x[:, 0] + 1j * x[:, 1])
     if not imaginary:
         arguments = (z, *_panel_tree(curve, levels))
-        if layer_compiled.loaded(layer_compiled.layer_rows, *arguments):
+        if layer_compiled.loaded(layer_compiled.layer_rows, *arguments, points=z.size):
             real, on_curve = layer_compiled.layer_rows(*arguments)
             return real, None, on_curve
     panels, density = levels.panels[0], levels.densities[0]

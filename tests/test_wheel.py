@@ -104,13 +104,16 @@ def test_the_installed_wheel_runs_its_commands_from_anywhere(venv, elsewhere):
     # solver and its gradients loads them, with numba's user-wide cache empty (XDG_CACHE_HOME).
     first_use = command("python", "-c", "import core; print(core.compile_solver(gradients=True))")
     assert first_use.stdout.split() == ["False"], f"the installed wheel compiled:\n{first_use.stderr}"
-    # The default kernel takes its compiled boundary integrals only where they load without a
-    # compiler (core.layer_compiled.loaded): from the wheel they must.
+    # The default kernel reads its compiled boundary integrals from numba's cache once a process
+    # has evaluated LOAD_AFTER_POINTS points (core.layer_compiled.loaded), never compiling them:
+    # from the wheel they must be there, for the evaluation and then for the next density solve.
     compiled_layer = command(
         "python", "-c",
-        "import numpy as np, core; from core import layer_compiled as c; "
+        "import numpy as np, core; from core import layer_compiled as c, poisson; "
         "square = core.ClosedBSpline(np.array([[0.0, 0], [1, 0], [1, 1], [0, 1]])); "
-        "core.basis_functions(square, np.array([[0.5, 0.5]])); "
+        "x = np.random.default_rng(1).uniform(0.3, 0.7, (c.LOAD_AFTER_POINTS + 1, 2)); "
+        "core.basis_functions(square, x); poisson._densities.cache_clear(); "
+        "core.basis_functions(square, x[:1]); "
         "print(len(c.adaptive_pairs.overloads), len(c.layer_rows.overloads))",
     )  # fmt: skip
     assert compiled_layer.stdout.split() == ["1", "1"], f"not loaded:\n{compiled_layer.stderr}"
