@@ -76,7 +76,7 @@ def random_polygon_cage(seed: int) -> core.ClosedBSpline:
     return core.ClosedBSpline(np.repeat(corners, np.where(doubled, 2, 1), axis=0))
 
 
-@pytest.mark.parametrize("seed", [0, 5, 6, 8, 12, 13, 29])
+@pytest.mark.parametrize("seed", [0, 5, 6, 8, 12, 13, 17, 29])
 def test_random_polygons_with_sharp_corners(seed, layer_path):
     # Each sharp corner's compressed block holds its two panels and one more on each side
     # (poisson.widened_at_corners), and thin parts are split at twice their distance: with the
@@ -84,12 +84,14 @@ def test_random_polygons_with_sharp_corners(seed, layer_path):
     # (1.1e-8 to 2.0e-7 of the diameter, G down to -1.9e-7), next to their corners. Seed 29 has a
     # long panel beside a short spike (the curve turns back past a corner): before such a panel was
     # split (panels.TURN), the corner's basis function was off by up to -2.3e-6 near it.
+    # Seeds 13 and 17 have points 1e-6 of the diameter from the curve, 0.005 in t from a corner:
+    # with 6 levels of grading towards corners their G reached -1.6e-10 and -1.2e-10.
     curve = random_polygon_cage(seed)
-    x = np.vstack([interior_points(curve, 200, seed=seed), near_boundary_points(curve, 200, seed=seed)[0]])
+    x = np.vstack([interior_points(curve, 300, seed=seed), near_boundary_points(curve, 300, seed=seed)[0]])
     G = core.basis_functions(curve, x)
     np.testing.assert_allclose(G.sum(axis=1), 1.0, rtol=0, atol=1e-12)
     assert np.linalg.norm(G @ curve.control_points - x, axis=1).max() <= 1e-8 * curve.diameter
-    assert G.min() >= -1e-10  # measured >= -6.2e-12
+    assert G.min() >= -1e-10  # measured >= -6.4e-11
 
 
 #: Sharp corners and a hairpin turn of three control points (6-8), radius of curvature 0.7 px.
