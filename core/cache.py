@@ -37,21 +37,16 @@ from core.cache_secret import secret
 # Bump when the meaning or layout of a cached array changes (3: keyed checksums).
 FORMAT_VERSION = 3
 ENVIRONMENT_VARIABLE = "TRANSFINITE_CACHE_DIR"
-# The modules whose code decides the cached values (hashed into every key).
-NUMERICAL_MODULES = (
-    "arc_length.py",
-    "basis.py",
-    "boundary.py",
-    "bspline.py",
-    "diameter.py",
-    "gradient_solver.py",
-    "gradients.py",
-    "harmonic.py",
-    "kernels.py",
-    "mesh_basis.py",
-    "pgw.py",
-    "solver.py",
-)
+#: The modules of `core` whose code cannot change a cached value; every other module's code is
+#: hashed into every key (`_code_digest`), so that a new numerical module is covered unlisted.
+#: (A list of the numerical modules instead had missed the boundary-integral kernels: a
+#: corrected `poisson` still read the bases its old code had cached.)
+NON_NUMERICAL_MODULES = frozenset(
+    {
+        "__init__.py", "atomic_write.py", "blas_threads.py", "cache.py", "cache_secret.py",
+        "compilation.py", "examples.py", "jit_cache.py", "reference.py", "state_directory.py",
+    }
+)  # fmt: skip
 
 
 def cache_directory() -> Path:
@@ -153,7 +148,9 @@ def load(key: str, shape: tuple[int, ...]) -> Entry:
     if errors.dtype != np.float64 or errors.shape != (2,):
         return Entry(problem="its invariant errors are malformed")
     if checksum != _checksum(key, values, errors):
-        return Entry(problem="checksum mismatch")
+        # Changed since it was written, or written under another key (another user's cache, or a
+        # state directory made anew): either way it cannot be trusted.
+        return Entry(problem="checksum mismatch: changed since written, or written under another key")
     if not (np.isfinite(values).all() and np.isfinite(errors).all()):
         return Entry(problem="non-finite values")
     return Entry(values, errors)
@@ -216,11 +213,12 @@ def _warn_once(message: str) -> None:
 
 @functools.cache
 def _code_digest() -> str:
-    """SHA-256 of the modules that compute G: a changed solver never reads stale results."""
+    """SHA-256 of the modules of `core` that compute G (all but `NON_NUMERICAL_MODULES`): a
+    changed solver never reads stale results."""
     digest = hashlib.sha256()
-    folder = Path(__file__).resolve().parent
-    for name in NUMERICAL_MODULES:
-        digest.update((folder / name).read_bytes())
+    for path in sorted(Path(__file__).resolve().parent.glob("*.py")):
+        if path.name not in NON_NUMERICAL_MODULES:
+            digest.update(path.name.encode() + b"\0" + path.read_bytes())
     return digest.hexdigest()
 
 

@@ -53,7 +53,7 @@ ROUNDING_ULPS = 64
 
 
 class CacheWarning(RuntimeWarning):
-    """A damaged cache entry was found, recomputed and replaced."""
+    """A cache entry that could not be used (damaged, or under another key) was recomputed and replaced."""
 
 
 def mesh_basis_functions(
@@ -185,7 +185,7 @@ def mesh_basis_functions(
     replaced = disk_cache.store(key, values, invariant_errors(curve, mesh, values))
     if problem is not None:
         warnings.warn(
-            f"the cached basis functions {disk_cache.entry_path(key)} were damaged ({problem}); "
+            f"the cached basis functions {disk_cache.entry_path(key)} could not be used ({problem}); "
             f"recomputed them{' and replaced the file' if replaced else ''}",
             CacheWarning,
             stacklevel=2,
@@ -318,7 +318,7 @@ def _vertex_gradients(curve, mesh, kernel, samples_per_segment, cache, params) -
         replaced = disk_cache.store(key, computed, gradient_invariant_errors(curve, computed))
         if problem is not None:
             warnings.warn(
-                f"the cached basis gradients {disk_cache.entry_path(key)} were damaged ({problem}); "
+                f"the cached basis gradients {disk_cache.entry_path(key)} could not be used ({problem}); "
                 f"recomputed them{' and replaced the file' if replaced else ''}",
                 CacheWarning,
                 stacklevel=3,

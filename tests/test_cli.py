@@ -696,7 +696,7 @@ def test_a_damaged_cache_entry_gives_the_reference_image_is_rewritten_and_report
     assert entry.read_bytes() == intact  # rewritten: the same bytes as the first run wrote
     (line,) = [line for line in err.splitlines() if "cached basis functions" in line]
     assert re.fullmatch(
-        rf"warning: the cached basis functions {re.escape(str(entry))} were damaged \(.+\); "
+        rf"warning: the cached basis functions {re.escape(str(entry))} could not be used \(.+\); "
         r"recomputed them and replaced the file",
         line,
     )

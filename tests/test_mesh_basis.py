@@ -4,6 +4,7 @@ import hashlib
 import os
 import re
 import warnings
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -226,7 +227,7 @@ def expect_recomputed(curve, mesh, kernel, path, expected, problem):
     message = str(warning.message)
     assert "\n" not in message
     assert re.search(
-        rf"{re.escape(str(path))} were damaged \({problem}.*\); recomputed them and replaced", message
+        rf"{re.escape(str(path))} could not be used \({problem}.*\); recomputed them and replaced", message
     )
     np.testing.assert_array_equal(values, expected)
     np.testing.assert_array_equal(stored(path)[0], expected)
@@ -443,6 +444,29 @@ def test_cache_keys_change_with_the_numerical_code(monkeypatch):
     before = cache.cache_key(*arguments)
     monkeypatch.setattr(cache, "_code_digest", lambda: "another solver")
     assert cache.cache_key(*arguments) != before
+
+
+def test_the_code_of_every_kernel_is_in_the_cache_key(tmp_path, monkeypatch):
+    # An edit of any module that computes G (here the boundary-integral kernels', which a list
+    # of numerical modules had missed) changes every key; the cache's own plumbing does not.
+    from core import cache
+
+    source = Path(cache.__file__).resolve().parent
+    copy = tmp_path / "core"
+    copy.mkdir()
+    for path in source.glob("*.py"):
+        (copy / path.name).write_bytes(path.read_bytes())
+    monkeypatch.setattr(cache, "__file__", str(copy / "cache.py"))
+    digests = {}
+    for name in ("poisson.py", "layer.py", "layer_compiled.py", "panels.py", "solver.py", "atomic_write.py"):
+        cache._code_digest.cache_clear()
+        before = cache._code_digest()
+        with open(copy / name, "a") as stream:
+            stream.write("\n# edited\n")
+        cache._code_digest.cache_clear()
+        digests[name] = before != cache._code_digest()
+    cache._code_digest.cache_clear()
+    assert digests == {name: name != "atomic_write.py" for name in digests}
 
 
 # ---------------------------------------------------------------- forged entries (issue 23)
