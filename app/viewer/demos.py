@@ -48,6 +48,7 @@ from app.files import (
 )
 from app.keyframes import DEFAULT_INTERPOLATION, Keyframe, keyframes_json
 from app.viewer.editing import curve_points, default_max_edge
+from core import DEFAULT_KERNEL
 
 SIZE = (640, 480)
 DEFAULT_DEMO = "starfish"
@@ -339,7 +340,10 @@ def write_demo(name: str, directory: Path) -> DemoFiles:
         "interpolation": DEFAULT_INTERPOLATION,
         "mesh": {"max_edge": default_max_edge(cage)},  # the viewer's mesh: animate shows what it plays
     }
-    write_session(files.session, Session(files.image, cage, cage, "harmonic-like", extra=extra))
+    # The session shows the script's boldest pose, so that `warp --session` (and any kernel chosen
+    # for it) shows a deformation, with the default kernel, which nothing needs compiling for.
+    boldest = max(keyframes, key=lambda keyframe: np.abs(keyframe.target - cage).max())
+    write_session(files.session, Session(files.image, cage, boldest.target, DEFAULT_KERNEL, extra=extra))
     return files
 
 
