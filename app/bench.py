@@ -35,6 +35,7 @@ import core
 from app.console import EXIT_ENVIRONMENT, EXIT_OK, ProgressBar
 from core import examples
 from core.compilation import GRADIENTS_MESSAGE as GRADIENTS_COMPILING
+from core.poisson import load_compiled
 
 # The paper's Fig. 7 setting: a 12-point domain, N = 100 n samples, 26,000 points.
 SAMPLES_PER_SEGMENT = 100
@@ -139,6 +140,8 @@ def _warm_up(curve: core.ClosedBSpline) -> None:
                 core.basis_functions(curve, x, name)
         core.basis_gradients(curve, x, GRADIENT_KERNEL)
         core.pgw_basis(curve, x[:5])
+    if not load_compiled():
+        print("note: poisson's compiled loops are not in numba's cache here: it runs as numpy batches")
 
 
 def _points(curve: core.ClosedBSpline, count: int, seed: int) -> np.ndarray:
@@ -310,6 +313,7 @@ import sys, time, warnings
 import numpy as np
 import core
 from core import examples
+from core.poisson import load_compiled
 curve = core.ClosedBSpline(examples.blob() * {scale})
 core.basis_functions(curve, [[500.0, 300.0]], "harmonic-like")
 rng = np.random.default_rng(2)

@@ -44,6 +44,13 @@ _points = 0
 _read = False
 
 
+def allow_reading() -> None:
+    """Let `loaded` read numba's cache from now on, whatever the points so far
+    (`core.poisson.load_compiled`)."""
+    global _read
+    _read = True
+
+
 def loaded(dispatcher, *args, points: int = 0) -> bool:
     """Whether to call `dispatcher` with these arguments: it has machine code for their types
     without compiling.

@@ -302,6 +302,23 @@ def poisson_basis(
     return out
 
 
+def load_compiled() -> bool:
+    """Read the compiled boundary integrals (`core.layer_compiled`) from numba's cache now, for a
+    program about to evaluate many points (~0.2 s once; never compiles).
+
+    Returns whether both are in memory afterwards: False where numba's cache lacks them
+    (another CPU model or numba version than the install's, `TRANSFINITE_PRECOMPILE=0`),
+    and the numpy path runs instead.
+    """
+    from core import layer_compiled
+
+    layer_compiled.allow_reading()
+    square = ClosedBSpline(np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]))
+    solution = _densities.__wrapped__(square.control_points.tobytes(), square.n)  # solves, uncached
+    cauchy_integrals(square, solution.levels, np.array([[0.5, 0.5]]))
+    return bool(layer_compiled.adaptive_pairs.overloads) and bool(layer_compiled.layer_rows.overloads)
+
+
 @one_blas_thread
 def poisson_gradients(curve: ClosedBSpline, x: np.ndarray) -> np.ndarray:
     """grad G_i(x), shape (M, n, 2), at interior points x (M, 2); NaN on the curve.

@@ -2,6 +2,11 @@
 
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
+from pathlib import Path
+
 import numpy as np
 import pytest
 from conftest import interior_points
@@ -13,6 +18,7 @@ from core import layer, layer_compiled, poisson
 from core.panels import curve_panels
 
 SHAPES = built_in_shapes()
+ROOT = Path(__file__).resolve().parent.parent
 
 
 def both_paths(monkeypatch, function):
@@ -91,3 +97,26 @@ def test_loaded_never_compiles(monkeypatch):
     assert not layer_compiled.loaded(dispatcher)
     monkeypatch.setattr(layer_compiled, "mode", "compiled")
     assert layer_compiled.loaded(dispatcher)
+
+
+def test_without_numba_s_cache_the_default_kernel_runs_as_numpy_without_compiling(tmp_path):
+    # An empty numba cache (another CPU model or numba version than the install's): nothing is
+    # compiled, load_compiled says so, and the basis is still exact.
+    script = (
+        "import time, numpy as np, core; from core import layer_compiled as c, poisson\n"
+        "start = time.perf_counter(); found = poisson.load_compiled()\n"
+        "square = core.ClosedBSpline(np.array([[0.0, 0], [2, 0], [2, 1], [0, 1]]))\n"
+        "x = np.random.default_rng(2).uniform((0.7, 0.35), (1.3, 0.65), (c.LOAD_AFTER_POINTS + 10, 2))\n"
+        "G = core.basis_functions(square, x)\n"
+        "print(found, len(c.adaptive_pairs.overloads), len(c.layer_rows.overloads),"
+        " np.abs(G @ square.control_points - x).max(), time.perf_counter() - start)\n"
+    )
+    environment = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path), PYTHONPATH=str(ROOT))
+    command = [sys.executable, "-c", script]
+    result = subprocess.run(command, capture_output=True, text=True, timeout=300, env=environment, cwd=ROOT)
+    assert result.returncode == 0, result.stderr
+    found, adaptive, rows, error, seconds = result.stdout.split()
+    assert (found, adaptive, rows) == ("False", "0", "0")
+    assert float(error) < 1e-10  # the cage is 2 x 1
+    assert float(seconds) < 60  # numba compiling both would take ~7 s more; numpy alone ~2 s
+    assert not list(tmp_path.glob("**/*.nbi"))  # nothing was compiled into the cache
