@@ -284,11 +284,10 @@ def cauchy_integrals(
     `imaginary` (else None) and the on-curve flags (M,).
     """
     z = np.ascontiguousarray(x[:, 0] + 1j * x[:, 1])
-    if not imaginary:
-        arguments = (z, *_panel_tree(curve, levels))
-        if layer_compiled.loaded(layer_compiled.layer_rows, *arguments, points=z.size):
-            real, on_curve = layer_compiled.layer_rows(*arguments)
-            return real, None, on_curve
+    arguments = (z, *_panel_tree(curve, levels), 1, imaginary)
+    if layer_compiled.loaded(layer_compiled.layer_rows, *arguments, points=z.size):
+        real, imag, on_curve = layer_compiled.layer_rows(*arguments)
+        return real, (imag if imaginary else None), on_curve
     panels, density = levels.panels[0], levels.densities[0]
     factors = layer_factors(curve, panels)
     centre = panels.z.mean()
@@ -374,9 +373,13 @@ def _panel_tree(curve: ClosedBSpline, levels: Levels) -> tuple:
 
 def cauchy_derivatives(curve: ClosedBSpline, levels: Levels, x: np.ndarray) -> np.ndarray:
     """d/dz C[φ](x), complex (M, m), for the densities of `levels` at points x (M, 2)."""
+    z = np.ascontiguousarray(x[:, 0] + 1j * x[:, 1])
+    arguments = (z, *_panel_tree(curve, levels), 2, True)
+    if layer_compiled.loaded(layer_compiled.layer_rows, *arguments, points=z.size):
+        real, imag, _ = layer_compiled.layer_rows(*arguments)
+        return real + 1j * imag
     panels, density = levels.panels[0], levels.densities[0]
     factors = layer_factors(curve, panels)
-    z = x[:, 0] + 1j * x[:, 1]
     target, panel = near_pairs(panels, z, curve.diameter, span_safety(curve, panels))
     out = np.empty((z.size, density.shape[1]), dtype=np.complex128)
     starts = np.searchsorted(target, np.arange(0, z.size + BLOCK, BLOCK))

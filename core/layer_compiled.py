@@ -192,39 +192,43 @@ def adaptive_pairs(coefficients, bounds, targets, panel, power, touch, safe, max
 def layer_rows(
     targets, node_z, factors, density, centres, reach, close_squared, panel_start,
     children, child_start, bounds, coefficients, orientation, touch, safe, max_depth, stack_size,
+    power, imaginary,
 ):  # fmt: skip
-    """Re C[φ](z) (M, m) and on-curve flags (M,) at targets complex (M,), over a tree of panels.
+    """C[φ](z) (power 1), or its z-derivative (power 2), at targets complex (M,), over a tree of panels.
 
-    The levels' arrays are concatenated, coarsest first: node_z, factors (s w τ' / 2πi,
-    `core.layer.layer_factors`) complex (N,) and density (N, m) per node; centres complex,
-    reach (radius + close range) and close_squared (close range squared) per panel (P,).
-    Level k's panels are panel_start[k]..panel_start[k+1] - 1, panel p's nodes
-    p ORDER..(p + 1) ORDER - 1; children[child_start[p]..child_start[p+1] - 1] are panel p's children
-    (global panel indices) on the next level.  The finest level's panels have bounds (P_f, 2),
-    the curve's spans coefficients (n, 3, 2).  A panel is near a target when one of its
-    nodes is within its close range; near panels are replaced by their children, on the
-    finest level by `_near_weights` (a target it finds on the curve is flagged).
+    Returns the real parts (M, m), the imaginary parts (M, m) if `imaginary` (else (0, m))
+    and on-curve flags (M,).  The levels' arrays are concatenated, coarsest first: node_z,
+    factors (s w τ' / 2πi, `core.layer.layer_factors`) complex (N,) and density (N, m) per
+    node; centres complex, reach (radius + close range) and close_squared (close range
+    squared) per panel (P,).  Level k's panels are panel_start[k]..panel_start[k+1] - 1,
+    panel p's nodes p ORDER..(p + 1) ORDER - 1; children[child_start[p]..child_start[p+1] - 1]
+    are panel p's children (global panel indices) on the next level.  The finest level's
+    panels have bounds (P_f, 2), the curve's spans coefficients (n, 3, 2).  A panel is near
+    a target when one of its nodes is within its close range; near panels are replaced by
+    their children, on the finest level by `_near_weights` (a target it finds on the curve
+    is flagged).
     """
     count = targets.shape[0]
     columns = density.shape[1]
-    levels = panel_start.shape[0] - 1
-    finest = panel_start[levels - 1]
+    finest = panel_start[panel_start.shape[0] - 2]
     n = coefficients.shape[0]
     out = np.zeros((count, columns))
+    out_imaginary = np.zeros((count if imaginary else 0, columns))
     on_curve = np.zeros(count, dtype=np.bool_)
     for m in prange(count):
         z = targets[m]
-        stack = np.empty((stack_size, 2), dtype=np.int64)  # (level, panel)
+        stack = np.empty(stack_size, dtype=np.int64)
         scratch = np.empty((ORDER + 2 * (max_depth + 2), ORDER))
         weights = np.empty(ORDER, dtype=np.complex128)
         row = np.zeros(columns)
+        row_imaginary = np.zeros(columns)
         top = 0
         for p in range(panel_start[1] - 1, -1, -1):
-            stack[top, 0], stack[top, 1] = 0, p
+            stack[top] = p
             top += 1
         while top > 0:
             top -= 1
-            level, p = stack[top, 0], stack[top, 1]
+            p = stack[top]
             first = p * ORDER
             near = False
             if abs(z - centres[p]) < reach[p]:
@@ -237,23 +241,38 @@ def layer_rows(
                 for q in range(first, first + ORDER):
                     dx = node_z[q].real - z.real
                     dy = node_z[q].imag - z.imag
-                    w = (factors[q].real * dx + factors[q].imag * dy) / (dx * dx + dy * dy)
+                    square = dx * dx + dy * dy
+                    if power == 1:  # f / d = f conj(d) / |d|^2
+                        wr = (factors[q].real * dx + factors[q].imag * dy) / square
+                        wi = (factors[q].imag * dx - factors[q].real * dy) / square
+                    else:
+                        w = factors[q] / complex(dx, dy) ** 2
+                        wr, wi = w.real, w.imag
                     for c in range(columns):
-                        row[c] += w * density[q, c]
+                        row[c] += wr * density[q, c]
+                    if imaginary:
+                        for c in range(columns):
+                            row_imaginary[c] += wi * density[q, c]
             elif p >= finest:
                 f = p - finest
                 span = int(math.floor(bounds[f, 0] + 1e-12)) % n
                 a, b = bounds[f, 0], bounds[f, 1]
-                if _near_weights(coefficients[span], a, b, z, 1, touch, safe, max_depth, weights, scratch):
+                piece = coefficients[span]
+                if _near_weights(piece, a, b, z, power, touch, safe, max_depth, weights, scratch):
                     on_curve[m] = True
                 for j in range(ORDER):
-                    w = (weights[j] * orientation / (2j * np.pi)).real
+                    w = weights[j] * orientation / (2j * np.pi)
                     for c in range(columns):
-                        row[c] += w * density[first + j, c]
+                        row[c] += w.real * density[first + j, c]
+                    if imaginary:
+                        for c in range(columns):
+                            row_imaginary[c] += w.imag * density[first + j, c]
             else:
                 for child in range(child_start[p + 1] - 1, child_start[p] - 1, -1):
-                    stack[top, 0], stack[top, 1] = level + 1, children[child]
+                    stack[top] = children[child]
                     top += 1
         for c in range(columns):
             out[m, c] = row[c]
-    return out, on_curve
+            if imaginary:
+                out_imaginary[m, c] = row_imaginary[c]
+    return out, out_imaginary, on_curve

@@ -54,6 +54,43 @@ def test_the_compiled_layer_equals_the_numpy_one(name, monkeypatch):
     np.testing.assert_allclose(compiled_basis, numpy_basis, rtol=0, atol=5e-11)
 
 
+@pytest.mark.parametrize("name", ["C-shape", "F polygon"])
+def test_the_compiled_layer_s_imaginary_parts_and_derivatives_equal_the_numpy_ones(name, monkeypatch):
+    # Cauchy-Green takes the Cauchy integral's imaginary part, the gradients its z-derivative.
+    from core import cauchy_green
+
+    curve = core.ClosedBSpline(SHAPES[name])
+    x = np.vstack([interior_points(curve, 150, seed=8), near_boundary_points(curve, 150, seed=9)[0]])
+
+    def integrals():
+        cauchy_green._levels.cache_clear()
+        levels = poisson.densities(curve).levels
+        return (
+            layer.cauchy_integrals(curve, levels, x, imaginary=True),
+            layer.cauchy_derivatives(curve, levels, x),
+            core.basis_functions(curve, x, "cauchy-green"),
+            core.basis_gradients(curve, x, "poisson"),
+        )
+
+    numpy_path, compiled_path = both_paths(monkeypatch, integrals)
+    (real, imag, on_curve), derivative, green, gradients = numpy_path
+    compiled_rows, compiled_derivative, compiled_green, compiled_gradients = (
+        compiled_path
+    )  # fmt: skip
+    compiled_real, compiled_imag, compiled_on_curve = compiled_rows
+    np.testing.assert_allclose(compiled_real, real, rtol=0, atol=5e-11)
+    np.testing.assert_allclose(compiled_imag, imag, rtol=0, atol=5e-11)
+    np.testing.assert_array_equal(compiled_on_curve, on_curve)
+    np.testing.assert_allclose(compiled_green, green, rtol=0, atol=1e-12)  # no density solve
+    # Derivatives grow as 1 / distance: compared relative to each point's largest. Their near rule
+    # sums pieces' rules ~1/distance^2 apart in another order, on densities solved apart: measured
+    # 1.3e-9 next to the F polygon's corners.
+    scale = np.abs(derivative).max(axis=1, keepdims=True)
+    np.testing.assert_allclose(compiled_derivative / scale, derivative / scale, rtol=0, atol=1e-8)
+    scale = np.abs(gradients).max(axis=(1, 2), keepdims=True)
+    np.testing.assert_allclose(compiled_gradients / scale, gradients / scale, rtol=0, atol=1e-8)
+
+
 @pytest.mark.parametrize("power", [1, 2])
 def test_the_compiled_near_rule_equals_the_numpy_one(power, monkeypatch):
     # Targets at 1e-9 .. 1e-1 of a panel's length from it, one exactly on a node: the adaptive
