@@ -71,15 +71,18 @@ def test_warp_animate_the_viewer_export_and_quality_share_one_pipeline(tmp_path,
     state = AppState(History(snapshot), snapshot, picture(), tmp_path / "s.json")
     state.basis = result_from_message(request.key, compute(request))
     state.mode = "deform"
-    viewer = Viewer.__new__(Viewer)
-    viewer.state, viewer.renderer, viewer.scene, viewer._wanted = (
-        state,
-        renderer,
-        Scene(renderer),
-        request.key,
-    )
-    viewer.scene.sync(state)
-    np.testing.assert_array_equal(viewer._render_export(), warped)
+    # warp and animate made their own GL contexts current and released them: the fixture's
+    # renderer draws in its own context again, made current for the viewer's part (then restored).
+    with renderer.ctx:
+        viewer = Viewer.__new__(Viewer)
+        viewer.state, viewer.renderer, viewer.scene, viewer._wanted = (
+            state,
+            renderer,
+            Scene(renderer),
+            request.key,
+        )
+        viewer.scene.sync(state)
+        np.testing.assert_array_equal(viewer._render_export(), warped)
     assert spied[6:] == ["prepare", "render"]
 
     # quality measures the positions of the same preparation.
