@@ -292,21 +292,24 @@ def _thin(panels: Panels, corners: np.ndarray) -> np.ndarray:
     middle = np.cumsum(panels.lengths) - 0.5 * panels.lengths
     total = panels.lengths.sum()
     corner_at = (middle - 0.5 * panels.lengths)[np.isin(panels.bounds[:, 0], corners)]  # each starts a panel
-    tree = cKDTree(nodes)
-    split = np.zeros(count, dtype=bool)
-    for p in range(count):
-        mine = slice(p * ORDER, (p + 1) * ORDER)
-        near = tree.query_ball_point(nodes[mine], r=panels.lengths[p] / THIN_RATIO)
-        found = np.unique(np.concatenate(near)).astype(np.int64)
-        low = np.minimum(middle[owner[found]], middle[p])
-        high = np.maximum(middle[owner[found]], middle[p])
-        wraps = high - low > 0.5 * total  # the shorter arc runs through position 0
-        gap = np.where(wraps, total - (high - low), high - low)
-        gap -= 0.5 * (panels.lengths[owner[found]] + panels.lengths[p])
-        distance = np.abs(panels.z[found][None, :] - panels.z[mine][:, None]).min(axis=0, initial=np.inf)
+    # Every (node of a panel, node within its panel's length / THIN_RATIO) pair at once: the
+    # smallest distance among the pairs beyond is each panel's distance to the curve beyond it.
+    found = cKDTree(nodes).query_ball_point(nodes, r=np.repeat(panels.lengths / THIN_RATIO, ORDER))
+    sizes = np.fromiter(map(len, found), dtype=np.int64, count=len(found))
+    mine = np.repeat(np.arange(nodes.shape[0]), sizes)
+    other = np.concatenate([np.asarray(f, dtype=np.int64) for f in found])
+    p, o = owner[mine], owner[other]
+    low = np.minimum(middle[o], middle[p])
+    high = np.maximum(middle[o], middle[p])
+    wraps = high - low > 0.5 * total  # the shorter arc runs through position 0
+    gap = np.where(wraps, total - (high - low), high - low) - 0.5 * (panels.lengths[o] + panels.lengths[p])
+    distance = np.abs(panels.z[other] - panels.z[mine])
+    if corner_at.size:
         inside = (corner_at[None, :] > low[:, None]) & (corner_at[None, :] < high[:, None])
-        through_corner = np.where(wraps, ~inside.all(axis=1), inside.any(axis=1)) & (corner_at.size > 0)
-        beyond = (gap > 2.0 * panels.lengths[p]) | ((gap > TURN * distance) & ~through_corner)
-        if beyond.any():
-            split[p] = panels.lengths[p] > THIN_RATIO * distance[beyond].min()
-    return split
+        through_corner = np.where(wraps, ~inside.all(axis=1), inside.any(axis=1))
+    else:
+        through_corner = np.zeros(p.size, dtype=bool)
+    beyond = (gap > 2.0 * panels.lengths[p]) | ((gap > TURN * distance) & ~through_corner)
+    nearest = np.full(count, np.inf)
+    np.minimum.at(nearest, p[beyond], distance[beyond])
+    return panels.lengths > THIN_RATIO * nearest
