@@ -298,6 +298,7 @@ def run_animate(args) -> int:
         read_session,
         refuse_overwriting_inputs,
         reported_as_input,
+        session_image,
         session_kernel_params,
         session_keyframes,
         session_max_edge,
@@ -313,6 +314,7 @@ def run_animate(args) -> int:
     check_output(path, kind)
     refuse_overwriting_inputs(path, {"session file": args.session})
     session = read_session(args.session)
+    session_image(session, args.session)
     refuse_overwriting_inputs(path, {"session's image": session.image})
     keyframes, interpolation = session_keyframes(session, args.session)
     if not keyframes:

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import argparse
 import errno
+import os
 import sys
 import textwrap
 import time
@@ -30,6 +31,7 @@ import numpy as np
 
 from app.console import (
     EXIT_BAD_INPUT,
+    EXIT_BROKEN_PIPE,
     EXIT_ENVIRONMENT,
     EXIT_INTERRUPTED,
     EXIT_OK,
@@ -51,6 +53,7 @@ from app.files import (
     refuse_overwriting_inputs,
     reported_as_input,
     same_file,
+    session_image,
     session_kernel_params,
     session_max_edge,
     session_output,
@@ -101,6 +104,11 @@ def main(argv: list[str] | None = None) -> int:
             return fail(f"error: {error}", EXIT_ENVIRONMENT)
         except KeyboardInterrupt:
             return fail("interrupted", EXIT_INTERRUPTED)
+        except BrokenPipeError:
+            # `... | head` read what it wanted: stop quietly, and send what is still buffered
+            # nowhere, or Python's own flush at exit fails again.
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+            return EXIT_BROKEN_PIPE
         except OSError as error:
             # A path that the system refuses (too long, a loop of links, ...) where no check
             # caught it first: the input's fault, named with the file.
@@ -594,7 +602,7 @@ def _warp(args: argparse.Namespace) -> int:
                 f"({' and '.join(['IMAGE'] * (args.image is not None) + given)} with --session)"
             )
         session = read_session(args.session)
-        image_path, cage, target = session.image, session.cage, session.target
+        image_path, cage, target = session_image(session, args.session), session.cage, session.target
         kernel = session.kernel if args.kernel is None else args.kernel
         # The viewer's kernel parameters and mesh, so that the output is exactly what it showed.
         session_params = session_kernel_params(session, args.session) if kernel == session.kernel else {}

@@ -20,6 +20,8 @@ EXIT_OK = 0
 EXIT_ENVIRONMENT = 1
 EXIT_BAD_INPUT = 2
 EXIT_INTERRUPTED = 130
+#: The reader of standard output went away (``| head``): what a process killed by SIGPIPE reports.
+EXIT_BROKEN_PIPE = 141
 
 # Notes and warnings of the running command, printed on stderr once it succeeds:
 # when it fails, its error stays the only line.

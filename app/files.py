@@ -309,6 +309,23 @@ def read_session(path: str | os.PathLike) -> Session:
     return Session(path.parent / value["image"], cage, target, kernel, scale, offset, extra)
 
 
+def session_image(session: Session, path: str | os.PathLike) -> Path:
+    """The image of `session` (read from the session file `path`); `InputError` saying where it was
+    looked for if it is not there: a relative ``"image"`` is relative to the session file."""
+    image = Path(session.image)
+    try:
+        missing = not image.exists() and not image.is_symlink()
+    except OSError:  # a loop of links, a name too long: reading it says what is wrong
+        missing = False
+    if missing:
+        written = os.path.relpath(image, Path(path).parent)
+        raise InputError(
+            f'{path}: its "image" {written!r} is {os.path.abspath(image)}, which does not exist (a relative '
+            '"image" is relative to the session file); copy the image there or write its path in "image"'
+        )
+    return image
+
+
 def write_session(path: str | os.PathLike, session: Session) -> None:
     """Write a session file atomically; the image path is stored relative to it when possible."""
     path = Path(path)

@@ -207,7 +207,7 @@ BAD_WARP_INPUTS = {
             "--session",
             _write(d, "s.json", (d / "session.json").read_text().replace("picture.png", "gone.png")),
         ],
-        r"gone.png: no such file",
+        r"s.json: its \"image\" 'gone.png' is .*gone.png, which does not exist \(a relative \"image\"",
     ),
     # -- the fuzz run of issue 13: each of these ended in a traceback, a silent default or worse
     "image declaring 30000x30000": (
@@ -860,3 +860,28 @@ def test_view_refuses_an_unknown_kernel_before_opening_anything(tmp_path, capfd)
     code, _, err = run_main(["view", "--kernel", "bogus", "--session", tmp_path / "s.json"], capfd)
     assert code == 2 and re.match(r"error: unknown kernel 'bogus'; choose one of .*harmonic", err)
     assert not (tmp_path / "s.json").exists()
+
+
+def test_a_session_whose_image_is_not_beside_it_says_where_it_looked(tmp_path, capfd):
+    # A bundled session copied elsewhere: its relative "image" is looked for beside the copy.
+    copy = tmp_path / "copied.session.json"
+    copy.write_text((ROOT / "assets" / "starfish.session.json").read_text())
+    warp = ["warp", "--session", copy, "--output", tmp_path / "out.png"]
+    for argv in (warp, ["animate", copy, "--output", tmp_path / "o.gif"]):
+        code, _, err = run_main(argv, capfd)
+        assert code == 2, err
+        assert err.strip() == (
+            f"error: {copy}: its \"image\" 'starfish.png' is {tmp_path / 'starfish.png'}, which does not "
+            'exist (a relative "image" is relative to the session file); copy the image there or write its '
+            'path in "image"'
+        )
+
+
+def test_output_into_a_closed_pipe_ends_quietly():
+    # `... | head`: the reader goes away; no traceback, the exit status of a SIGPIPE.
+    command = [sys.executable, "-m", "app", "demo", "--list"]
+    process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, cwd=ROOT)
+    process.stdout.close()
+    _, err = process.communicate(timeout=120)
+    assert process.returncode == 141, err
+    assert err == b""

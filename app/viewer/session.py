@@ -37,6 +37,7 @@ from app.files import (
     read_image,
     read_session,
     reported_as_input,
+    session_image,
     session_kernel_params,
     session_keyframes,
     session_max_edge,
@@ -263,7 +264,7 @@ def recover(path: Path, image: Path, max_edge: float | None, notices: list[str])
 def restore(path: Path, max_edge: float | None = None) -> Document:
     """Open a session file: everything, including the view and the undo history."""
     session = read_session(path)
-    pixels = read_image(session.image)
+    pixels = read_image(session_image(session, path))
     cage_curve(session.cage, f"{path}: cage")
     params = session_kernel_params(session, path)
     preferences = session.extra.get("viewer") if isinstance(session.extra.get("viewer"), dict) else {}
