@@ -183,8 +183,8 @@ def build_parser(prog: str = "python -m app") -> argparse.ArgumentParser:
     warp.add_argument(
         "--session",
         type=Path,
-        help="session JSON of the viewer: image, cage, target and kernel (the output is framed like the "
-        "image, not like the viewer's window)",
+        help="session JSON of the viewer: image, cage, target and kernel; its target, not its keyframes "
+        "(animate plays those); the output is framed like the image, not like the viewer's window",
     )
     warp.add_argument("--output", type=Path, help="output PNG (RGBA); required")
     warp.add_argument(
@@ -756,6 +756,8 @@ def _fit(args: argparse.Namespace) -> int:
     refuse_overwriting_inputs(args.output, {"input image": args.image})
     if args.points > MAX_POINTS:
         raise InputError(f"--points {args.points}: at most {MAX_POINTS:,} control points can be fitted")
+    if args.points < 3:
+        raise InputError(f"--points {args.points}: a closed cage needs at least 3 control points")
     image = read_image(args.image)
     with reported_as_input(f"--rect {args.rect}"):
         rect = checked_rect(rect, image.shape[1], image.shape[0])

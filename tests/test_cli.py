@@ -489,7 +489,7 @@ def test_fit_writes_a_cage(tmp_path, capfd):
         ),
         (
             ["fit", "{d}/blob.png", "--output", "{d}/cage.json", "--points", "2"],
-            r"blob.png: points must be at least 3",
+            r"--points 2: a closed cage needs at least 3 control points",
         ),
         (
             ["fit", "{d}/blob.png", "--output", "{d}/cage.json", "--points", "x"],
