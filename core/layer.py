@@ -284,7 +284,7 @@ def cauchy_integrals(
     `imaginary` (else None) and the on-curve flags (M,).
     """
     z = np.ascontiguousarray(x[:, 0] + 1j * x[:, 1])
-    arguments = (z, *_panel_tree(curve, levels), 1, imaginary)
+    arguments = (z, _panel_tree(curve, levels), 1, imaginary)
     if layer_compiled.loaded(layer_compiled.layer_rows, *arguments, points=z.size):
         real, imag, on_curve = layer_compiled.layer_rows(*arguments)
         return real, (imag if imaginary else None), on_curve
@@ -326,9 +326,9 @@ def cauchy_integrals(
     return real, imag, on_curve
 
 
-def _panel_tree(curve: ClosedBSpline, levels: Levels) -> tuple:
-    """The arguments of `core.layer_compiled.layer_rows` after the targets: `levels` concatenated
-    (built once per `levels`, kept in ``levels.compiled``)."""
+def _panel_tree(curve: ClosedBSpline, levels: Levels) -> layer_compiled.PanelTree:
+    """`levels` concatenated for `core.layer_compiled.layer_rows` (built once per `levels`, kept in
+    ``levels.compiled``)."""
     tree = levels.compiled.get("tree")
     if tree is not None:
         return tree
@@ -349,23 +349,23 @@ def _panel_tree(curve: ClosedBSpline, levels: Levels) -> tuple:
     child_start.extend([child_start[-1]] * (counts[-1]))  # the finest level has no children
     most = max([1] + [int(np.bincount(parent).max()) for parent in levels.parents])
     orientation = 1.0 if curve.area > 0 else -1.0
-    tree = (
-        np.concatenate([p.z for p in panels]),
-        np.concatenate([layer_factors(curve, p) for p in panels]),
-        np.ascontiguousarray(np.concatenate(levels.densities), dtype=np.float64),
-        np.concatenate([p.centres for p in panels]),
-        np.concatenate([p.radii for p in panels]) + close,
-        close**2,
-        panel_start,
-        np.concatenate(children).astype(np.int64) if children else np.zeros(0, dtype=np.int64),
-        np.asarray(child_start, dtype=np.int64),
-        np.ascontiguousarray(panels[-1].bounds, dtype=np.float64),
-        np.ascontiguousarray(curve.piecewise_polynomial().coefficients, dtype=np.float64),
-        orientation,
-        ON_CURVE * curve.diameter,
-        SAFE,
-        MAX_DEPTH,
-        panels[0].count + len(panels) * most,
+    tree = layer_compiled.PanelTree(
+        node_z=np.concatenate([p.z for p in panels]),
+        factors=np.concatenate([layer_factors(curve, p) for p in panels]),
+        density=np.ascontiguousarray(np.concatenate(levels.densities), dtype=np.float64),
+        centres=np.concatenate([p.centres for p in panels]),
+        reach=np.concatenate([p.radii for p in panels]) + close,
+        close_squared=close**2,
+        panel_start=panel_start,
+        children=np.concatenate(children).astype(np.int64) if children else np.zeros(0, dtype=np.int64),
+        child_start=np.asarray(child_start, dtype=np.int64),
+        bounds=np.ascontiguousarray(panels[-1].bounds, dtype=np.float64),
+        coefficients=np.ascontiguousarray(curve.piecewise_polynomial().coefficients, dtype=np.float64),
+        orientation=float(orientation),
+        touch=float(ON_CURVE * curve.diameter),
+        safe=float(SAFE),
+        max_depth=int(MAX_DEPTH),
+        stack_size=int(panels[0].count + len(panels) * most),
     )
     levels.compiled["tree"] = tree
     return tree
@@ -374,7 +374,7 @@ def _panel_tree(curve: ClosedBSpline, levels: Levels) -> tuple:
 def cauchy_derivatives(curve: ClosedBSpline, levels: Levels, x: np.ndarray) -> np.ndarray:
     """d/dz C[φ](x), complex (M, m), for the densities of `levels` at points x (M, 2)."""
     z = np.ascontiguousarray(x[:, 0] + 1j * x[:, 1])
-    arguments = (z, *_panel_tree(curve, levels), 2, True)
+    arguments = (z, _panel_tree(curve, levels), 2, True)
     if layer_compiled.loaded(layer_compiled.layer_rows, *arguments, points=z.size):
         real, imag, _ = layer_compiled.layer_rows(*arguments)
         return real + 1j * imag

@@ -23,6 +23,7 @@ repays the reading.
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit, prange
@@ -188,26 +189,50 @@ def adaptive_pairs(coefficients, bounds, targets, panel, power, touch, safe, max
     return weights, touching
 
 
+class PanelTree(NamedTuple):
+    """The levels of `core.layer.Levels` concatenated, coarsest first, for `layer_rows`.
+
+    Level k's panels are panel_start[k]..panel_start[k+1] - 1 (P in all), panel p's nodes
+    p ORDER..(p + 1) ORDER - 1 (N in all); children[child_start[p]..child_start[p+1] - 1]
+    are panel p's children (panel indices) on the next level.
+    """
+
+    node_z: np.ndarray  #: complex (N,)
+    factors: np.ndarray  #: complex (N,): s w τ' / 2πi (`core.layer.layer_factors`)
+    density: np.ndarray  #: (N, m): what each level's rule integrates
+    centres: np.ndarray  #: complex (P,)
+    reach: np.ndarray  #: (P,): the panel's radius plus its close range
+    close_squared: np.ndarray  #: (P,): the close range, squared
+    panel_start: np.ndarray  #: int (levels + 1,)
+    children: np.ndarray  #: int (P - P_0,)
+    child_start: np.ndarray  #: int (P + 1,)
+    bounds: np.ndarray  #: (P_f, 2): the finest level's parameter intervals
+    coefficients: np.ndarray  #: (n, 3, 2): the curve's spans (`ClosedBSpline.piecewise_polynomial`)
+    orientation: float  #: +1 counter-clockwise, -1 clockwise
+    touch: float  #: targets this close to the curve are on it
+    safe: float  #: `core.layer.SAFE`
+    max_depth: int  #: `core.layer.MAX_DEPTH`
+    stack_size: int  #: enough for the walk of one target
+
+
 @njit(cache=True, parallel=True, error_model="numpy")
-def layer_rows(
-    targets, node_z, factors, density, centres, reach, close_squared, panel_start,
-    children, child_start, bounds, coefficients, orientation, touch, safe, max_depth, stack_size,
-    power, imaginary,
-):  # fmt: skip
-    """C[φ](z) (power 1), or its z-derivative (power 2), at targets complex (M,), over a tree of panels.
+def layer_rows(targets, tree, power, imaginary):
+    """C[φ](z) (power 1), or its z-derivative (power 2), at targets complex (M,), over the panels
+    of `tree` (a `PanelTree`).
 
     Returns the real parts (M, m), the imaginary parts (M, m) if `imaginary` (else (0, m))
-    and on-curve flags (M,).  The levels' arrays are concatenated, coarsest first: node_z,
-    factors (s w τ' / 2πi, `core.layer.layer_factors`) complex (N,) and density (N, m) per
-    node; centres complex, reach (radius + close range) and close_squared (close range
-    squared) per panel (P,).  Level k's panels are panel_start[k]..panel_start[k+1] - 1,
-    panel p's nodes p ORDER..(p + 1) ORDER - 1; children[child_start[p]..child_start[p+1] - 1]
-    are panel p's children (global panel indices) on the next level.  The finest level's
-    panels have bounds (P_f, 2), the curve's spans coefficients (n, 3, 2).  A panel is near
-    a target when one of its nodes is within its close range; near panels are replaced by
-    their children, on the finest level by `_near_weights` (a target it finds on the curve
-    is flagged).
+    and on-curve flags (M,).  Each target walks down from the coarsest level: a panel is
+    near it when one of its nodes is within the panel's close range; a far panel takes its
+    plain rule, a near one is replaced by its children, on the finest level by
+    `_near_weights` (a target it finds on the curve is flagged).
     """
+    node_z, factors, density, centres = tree.node_z, tree.factors, tree.density, tree.centres
+    reach, close_squared, panel_start = tree.reach, tree.close_squared, tree.panel_start
+    children, child_start = tree.children, tree.child_start
+    bounds, coefficients = tree.bounds, tree.coefficients
+    orientation, touch, safe, max_depth, stack_size = (
+        tree.orientation, tree.touch, tree.safe, tree.max_depth, tree.stack_size
+    )  # fmt: skip
     count = targets.shape[0]
     columns = density.shape[1]
     finest = panel_start[panel_start.shape[0] - 2]
