@@ -28,7 +28,7 @@ from core.blas_threads import one_blas_thread
 from core.bspline import ClosedBSpline
 from core.layer import Levels, bisected, cauchy_derivatives, cauchy_integrals
 from core.panels import coarse_panels, span_panels
-from core.poisson import CHUNK, boundary_limit_rows
+from core.poisson import CHUNK, boundary_limit_rows, refuse_far_outside
 
 
 @functools.lru_cache(maxsize=4)
@@ -55,6 +55,7 @@ def cauchy_green_basis(curve: ClosedBSpline, x: np.ndarray, progress=None) -> np
     Cauchy integral, C_i = N_i(t) / 2 + (1 / 2πi) PV ∮ ..., computed as the limit of
     the points 1e-7 of the diameter inside along the normal (`boundary_limit_rows`).
     """
+    refuse_far_outside(curve, x)
     levels = _levels(curve.control_points.tobytes(), curve.n)
     out = np.empty((x.shape[0], curve.n), dtype=np.complex128)
     for first in range(0, x.shape[0], CHUNK):
@@ -80,6 +81,7 @@ def cauchy_green_derivatives(curve: ClosedBSpline, x: np.ndarray) -> np.ndarray:
     The real gradient of C_i is (dC_i/dz, i dC_i/dz): `core.basis_gradients` returns
     that pair, shape (M, n, 2) complex.
     """
+    refuse_far_outside(curve, x)
     levels = _levels(curve.control_points.tobytes(), curve.n)
     real, imag, _ = cauchy_integrals(curve, levels, x, imaginary=True)
     values = real + 1j * imag

@@ -287,6 +287,7 @@ def poisson_basis(
     ValueError
         Some points are outside the domain (how many, and the first).
     """
+    refuse_far_outside(curve, x)
     solution = densities(curve)
     out = np.empty((x.shape[0], curve.n))
     for first in range(0, x.shape[0], CHUNK):
@@ -327,6 +328,7 @@ def poisson_gradients(curve: ClosedBSpline, x: np.ndarray) -> np.ndarray:
     densities' sum, so grad Re F = (Re F', -Im F') and the quotient rule gives
     grad G_i = (grad Re F_i - G_i grad Re F_s) / Re F_s.
     """
+    refuse_far_outside(curve, x)
     solution = densities(curve)
     real, _, on_curve = cauchy_integrals(curve, solution.levels, x)
     derivative = cauchy_derivatives(curve, solution.levels, x)
@@ -337,6 +339,22 @@ def poisson_gradients(curve: ClosedBSpline, x: np.ndarray) -> np.ndarray:
     boundary = _classify(curve, x, real[:, -1], on_curve)[0]
     out[boundary] = np.nan
     return out
+
+
+def refuse_far_outside(curve: ClosedBSpline, x: np.ndarray) -> None:
+    """ValueError for points of x (M, 2) outside the control points' bounding box, which holds
+    the curve (a B-spline lies in the convex hull of its control points): outside the domain,
+    said at once and in the words of `_classify`, however far they are (at 1e300 the boundary
+    sums overflow)."""
+    margin = 1e-8 * curve.diameter  # points on the curve at a corner, rounded outward
+    low, high = curve.control_points.min(axis=0) - margin, curve.control_points.max(axis=0) + margin
+    outside = np.flatnonzero(((x < low) | (x > high)).any(axis=1))
+    if outside.size:
+        first = int(outside[0])
+        raise ValueError(
+            f"{outside.size} of {x.shape[0]} points of x are outside the domain "
+            f"(first: index {first}, {x[first].tolist()})"
+        )
 
 
 def _classify(

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import warnings
 
 import numpy as np
 import pytest
@@ -161,6 +162,21 @@ def test_boundary_points_get_the_lagrange_limit_and_outside_points_are_refused()
     np.testing.assert_allclose(core.basis_functions(curve, curve(s)), curve.basis_matrix(s), atol=1e-12)
     with pytest.raises(ValueError, match="1 of 1 points of x are outside the domain"):
         core.basis_functions(curve, [[5.0, 5.0]])
+
+
+@pytest.mark.parametrize("kernel", ["poisson", "cauchy-green"])
+def test_points_far_outside_are_refused_in_the_same_words(kernel, layer_path):
+    # At 1e300 the boundary sums overflowed: numpy's neighbour search refused the "dataset", the
+    # compiled path warned of overflows. Outside the control points' box, a point is outside.
+    curve = core.ClosedBSpline(SHAPES["F polygon"])
+    inside = interior_points(curve, 3, seed=35)
+    refused = r"^1 of 4 points of x are outside the domain \(first: index 3"
+    for far in ([1e300, 1e300], [-1e300, 0.5], [0.5, 1e17]):
+        x = np.vstack([inside, [far]])
+        for function in (core.basis_functions, core.basis_gradients):
+            with warnings.catch_warnings(), pytest.raises(ValueError, match=refused):
+                warnings.simplefilter("error")
+                function(curve, x, kernel)
 
 
 def test_gradients_are_the_derivatives_of_the_values():
