@@ -313,7 +313,6 @@ import sys, time, warnings
 import numpy as np
 import core
 from core import examples
-from core.poisson import load_compiled
 curve = core.ClosedBSpline(examples.blob() * {scale})
 core.basis_functions(curve, [[500.0, 300.0]], "harmonic-like")
 rng = np.random.default_rng(2)

@@ -21,6 +21,7 @@ from __future__ import annotations
 import argparse
 import errno
 import os
+import select
 import sys
 import textwrap
 import time
@@ -75,6 +76,17 @@ DEFAULT_KERNEL = "poisson"  # core.mesh_basis.DEFAULT_KERNEL, the deformation de
 _OPENCV_NO_MEMORY = -4
 
 
+def _stdout_reader_gone() -> bool:
+    """Whether standard output is a pipe whose reader has closed it (poll reports an error on
+    it); False where that cannot be told (no poll, no file descriptor)."""
+    try:
+        poller = select.poll()
+        poller.register(sys.stdout.fileno(), select.POLLOUT)
+        return any(event & (select.POLLERR | select.POLLHUP) for _, event in poller.poll(0))
+    except (AttributeError, OSError, ValueError):
+        return False
+
+
 def main(argv: list[str] | None = None) -> int:
     """Run one command; returns the exit code.
 
@@ -106,7 +118,10 @@ def main(argv: list[str] | None = None) -> int:
             return fail("interrupted", EXIT_INTERRUPTED)
         except BrokenPipeError:
             # `... | head` read what it wanted: stop quietly, and send what is still buffered
-            # nowhere, or Python's own flush at exit fails again.
+            # nowhere, or Python's own flush at exit fails again. Any other pipe (the viewer's
+            # worker gone) is an error like any other.
+            if not _stdout_reader_gone():
+                raise
             os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
             return EXIT_BROKEN_PIPE
         except OSError as error:

@@ -318,7 +318,10 @@ def session_image(session: Session, path: str | os.PathLike) -> Path:
     except OSError:  # a loop of links, a name too long: reading it says what is wrong
         missing = False
     if missing:
-        written = os.path.relpath(image, Path(path).parent)
+        try:
+            written = os.path.relpath(image, Path(path).parent)
+        except ValueError:  # on another drive (Windows)
+            written = str(image)
         raise InputError(
             f'{path}: its "image" {written!r} is {os.path.abspath(image)}, which does not exist (a relative '
             '"image" is relative to the session file); copy the image there or write its path in "image"'

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import functools
 import hashlib
+import re
 import sys
 from pathlib import Path
 
@@ -61,13 +62,31 @@ _FOLDER = Path(__file__).resolve().parent
 
 @functools.cache
 def package_stamp() -> str:
-    """SHA-256 of the package's modules that hold compiled functions (``njit`` in their text)."""
+    """SHA-256 of the package's modules that hold compiled functions (``njit`` in their text) and
+    of the modules of the package they import, transitively: a compiled function freezes the
+    constants it reads from them (`core.layer_compiled` reads the panels' Gauss nodes)."""
+    texts = {path.name: path.read_bytes() for path in _FOLDER.glob("*.py") if path.name != "jit_cache.py"}
+    stamped = {name for name, text in texts.items() if b"njit" in text}
+    pending = sorted(stamped)
+    while pending:
+        text = texts[pending.pop()]
+        modules = _SUBMODULE.findall(text) + [
+            m.strip() for names in _NAMES.findall(text) for m in names.split(b",")
+        ]
+        for module in modules:
+            name = module.decode() + ".py"
+            if name in texts and name not in stamped:
+                stamped.add(name)
+                pending.append(name)
     digest = hashlib.sha256()
-    for path in sorted(_FOLDER.glob("*.py")):
-        text = path.read_bytes()
-        if b"njit" in text and path.name != "jit_cache.py":
-            digest.update(path.name.encode() + b"\0" + text + b"\0")
+    for name in sorted(stamped):
+        digest.update(name.encode() + b"\0" + texts[name] + b"\0")
     return digest.hexdigest()
+
+
+#: ``from core.X import ...`` and ``from core import X, Y``: the package's modules a module imports.
+_SUBMODULE = re.compile(rb"^\s*from core\.(\w+) import", re.MULTILINE)
+_NAMES = re.compile(rb"^\s*from core import ([\w, ]+)$", re.MULTILINE)
 
 
 class _PackageLocator(_CacheLocator):

@@ -134,8 +134,9 @@ def adaptive_weights(
         np.ascontiguousarray(targets, dtype=np.complex128), np.ascontiguousarray(panel, dtype=np.int64),
         int(power), float(touch), float(SAFE), int(MAX_DEPTH),
     )  # fmt: skip
-    if layer_compiled.loaded(layer_compiled.adaptive_pairs, *arguments):
-        return layer_compiled.adaptive_pairs(*arguments)
+    compiled = layer_compiled.adaptive_pairs
+    if layer_compiled.worth_trying(compiled) and layer_compiled.loaded(compiled, *arguments):
+        return compiled(*arguments)
     # Depth 0, the panel's own rule on its stored nodes: most pairs end here.
     nodes = panel[:, None] * ORDER + np.arange(ORDER)
     tau = panels.z[nodes]
@@ -284,10 +285,12 @@ def cauchy_integrals(
     `imaginary` (else None) and the on-curve flags (M,).
     """
     z = np.ascontiguousarray(x[:, 0] + 1j * x[:, 1])
-    arguments = (z, _panel_tree(curve, levels), 1, imaginary)
-    if layer_compiled.loaded(layer_compiled.layer_rows, *arguments, points=z.size):
-        real, imag, on_curve = layer_compiled.layer_rows(*arguments)
-        return real, (imag if imaginary else None), on_curve
+    compiled = layer_compiled.layer_rows
+    if layer_compiled.worth_trying(compiled, z.size):
+        arguments = (z, _panel_tree(curve, levels), 1, imaginary)
+        if layer_compiled.loaded(compiled, *arguments):
+            real, imag, on_curve = compiled(*arguments)
+            return real, (imag if imaginary else None), on_curve
     panels, density = levels.panels[0], levels.densities[0]
     factors = layer_factors(curve, panels)
     centre = panels.z.mean()
@@ -374,10 +377,12 @@ def _panel_tree(curve: ClosedBSpline, levels: Levels) -> layer_compiled.PanelTre
 def cauchy_derivatives(curve: ClosedBSpline, levels: Levels, x: np.ndarray) -> np.ndarray:
     """d/dz C[φ](x), complex (M, m), for the densities of `levels` at points x (M, 2)."""
     z = np.ascontiguousarray(x[:, 0] + 1j * x[:, 1])
-    arguments = (z, _panel_tree(curve, levels), 2, True)
-    if layer_compiled.loaded(layer_compiled.layer_rows, *arguments, points=z.size):
-        real, imag, _ = layer_compiled.layer_rows(*arguments)
-        return real + 1j * imag
+    compiled = layer_compiled.layer_rows
+    if layer_compiled.worth_trying(compiled, z.size):
+        arguments = (z, _panel_tree(curve, levels), 2, True)
+        if layer_compiled.loaded(compiled, *arguments):
+            real, imag, _ = compiled(*arguments)
+            return real + 1j * imag
     panels, density = levels.panels[0], levels.densities[0]
     factors = layer_factors(curve, panels)
     target, panel = near_pairs(panels, z, curve.diameter, span_safety(curve, panels))

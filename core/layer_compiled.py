@@ -36,47 +36,68 @@ from core.panels import _BARYCENTRIC, _NODES, _WEIGHTS, ORDER
 mode = "auto"
 
 
-#: Points evaluated in this process before `loaded` first reads machine code from numba's cache.
+#: Points evaluated in this process before numba's cache is first read (`worth_trying`).
 #: The first read costs ~0.2 s (numba and LLVM starting up; later reads ~6 ms), which the
 #: compiled evaluation repays at ~3 µs a point: a one-shot `warp` of a 4K image (a few ten
 #: thousand points) measured 1.7 s with numpy and 2.0 s reading the cache first.
 LOAD_AFTER_POINTS = 60_000
 _points = 0
 _read = False
+#: Dispatchers whose cache entry failed to load (a damaged file): not tried again.
+_unreadable = set()
 
 
 def allow_reading() -> None:
-    """Let `loaded` read numba's cache from now on, whatever the points so far
+    """Let `worth_trying` say yes from now on, whatever the points so far
     (`core.poisson.load_compiled`)."""
     global _read
     _read = True
 
 
-def loaded(dispatcher, *args, points: int = 0) -> bool:
-    """Whether to call `dispatcher` with these arguments: it has machine code for their types
-    without compiling.
+def worth_trying(dispatcher, points: int = 0) -> bool:
+    """Whether `loaded` may say yes for `dispatcher`, before its arguments are built.
 
-    Its own compiled specialisations count.  Otherwise numba's disk cache is tried (a hit is
-    loaded into the dispatcher, as a call would) once this process has read one before, or
-    has evaluated `LOAD_AFTER_POINTS` points (`points`, added up over the calls); a miss
-    returns False and compiles nothing.  With `mode` "numpy" always False, with "compiled"
-    always True (the call compiles).
+    `points` (the targets of this call) add up over the process: numba's disk cache is read
+    once this process has read one before or has evaluated `LOAD_AFTER_POINTS` points.
+    False for a dispatcher whose cache entry failed to load.  With `mode` "numpy" always
+    False, with "compiled" always True.
     """
-    global _points, _read
+    global _points
+    if mode != "auto":
+        return mode == "compiled"
+    _points += points
+    if dispatcher in _unreadable:
+        return False
+    return bool(dispatcher.overloads) or _read or _points >= LOAD_AFTER_POINTS
+
+
+def loaded(dispatcher, *args) -> bool:
+    """Whether `dispatcher` has machine code for these arguments' types without compiling (ask
+    `worth_trying` first).
+
+    Its own compiled specialisations count; otherwise numba's disk cache is tried, and a hit
+    is loaded into the dispatcher, as a call would.  A miss, or an entry that fails to load
+    (a damaged file; then never tried again), returns False and compiles nothing.  With
+    `mode` "numpy" always False, with "compiled" always True (the call compiles).
+    """
+    global _read
     if mode != "auto":
         return mode == "compiled"
     signature = tuple(dispatcher.typeof_pyval(a) for a in args)
     if signature in dispatcher.overloads:
         return True
-    _points += points
-    if not _read and _points < LOAD_AFTER_POINTS:
+    if dispatcher in _unreadable:
         return False
     with global_compiler_lock:
-        result = dispatcher._cache.load_overload(signature, dispatcher.targetctx)
-        if result is None:
+        try:
+            result = dispatcher._cache.load_overload(signature, dispatcher.targetctx)
+            if result is None:
+                return False
+            dispatcher.targetctx.insert_user_function(result.entry_point, result.fndesc, [result.library])
+            dispatcher.add_overload(result)
+        except Exception:  # noqa: BLE001 - a damaged cache file: numpy, and not again in this process
+            _unreadable.add(dispatcher)
             return False
-        dispatcher.targetctx.insert_user_function(result.entry_point, result.fndesc, [result.library])
-        dispatcher.add_overload(result)
     _read = True
     return True
 

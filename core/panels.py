@@ -304,11 +304,12 @@ def _thin(panels: Panels, corners: np.ndarray) -> np.ndarray:
     wraps = high - low > 0.5 * total  # the shorter arc runs through position 0
     gap = np.where(wraps, total - (high - low), high - low) - 0.5 * (panels.lengths[o] + panels.lengths[p])
     distance = np.abs(panels.z[other] - panels.z[mine])
-    if corner_at.size:
-        inside = (corner_at[None, :] > low[:, None]) & (corner_at[None, :] < high[:, None])
-        through_corner = np.where(wraps, ~inside.all(axis=1), inside.any(axis=1))
-    else:
-        through_corner = np.zeros(p.size, dtype=bool)
+    # Corners strictly between the pair's positions (counted by bisection: pairs x corners
+    # booleans took gigabytes for a cage of hundreds of corners); the shorter arc runs between
+    # them unless it wraps, then it passes every corner outside.
+    corner_at = np.sort(corner_at)
+    between = np.searchsorted(corner_at, high, side="left") - np.searchsorted(corner_at, low, side="right")
+    through_corner = np.where(wraps, between < corner_at.size, between > 0)
     beyond = (gap > 2.0 * panels.lengths[p]) | ((gap > TURN * distance) & ~through_corner)
     nearest = np.full(count, np.inf)
     np.minimum.at(nearest, p[beyond], distance[beyond])

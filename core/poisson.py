@@ -344,16 +344,16 @@ def poisson_gradients(curve: ClosedBSpline, x: np.ndarray) -> np.ndarray:
 def refuse_far_outside(curve: ClosedBSpline, x: np.ndarray) -> None:
     """ValueError for points of x (M, 2) outside the control points' bounding box, which holds
     the curve (a B-spline lies in the convex hull of its control points): outside the domain,
-    said at once and in the words of `_classify`, however far they are (at 1e300 the boundary
-    sums overflow)."""
+    said at once however far they are (at 1e300 the boundary sums overflow); points outside
+    the domain but inside the box are found later (`_classify`)."""
     margin = 1e-8 * curve.diameter  # points on the curve at a corner, rounded outward
     low, high = curve.control_points.min(axis=0) - margin, curve.control_points.max(axis=0) + margin
     outside = np.flatnonzero(((x < low) | (x > high)).any(axis=1))
     if outside.size:
         first = int(outside[0])
         raise ValueError(
-            f"{outside.size} of {x.shape[0]} points of x are outside the domain "
-            f"(first: index {first}, {x[first].tolist()})"
+            f"{outside.size} of {x.shape[0]} points of x are outside the domain, beyond its control "
+            f"points' bounding box (first: index {first}, {x[first].tolist()})"
         )
 
 

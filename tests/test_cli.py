@@ -885,3 +885,15 @@ def test_output_into_a_closed_pipe_ends_quietly():
     _, err = process.communicate(timeout=120)
     assert process.returncode == 141, err
     assert err == b""
+
+
+def test_a_broken_pipe_that_is_not_standard_output_is_not_silenced(monkeypatch, capfd):
+    # The viewer's worker gone: its pipe breaks, standard output is fine, and that must show.
+    import app.cli
+
+    def broken():
+        raise BrokenPipeError(32, "Broken pipe")
+
+    monkeypatch.setattr(app.cli, "_list_demos", broken)
+    with pytest.raises(BrokenPipeError):
+        app.cli.main(["demo", "--list"])

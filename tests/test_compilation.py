@@ -131,3 +131,27 @@ def test_an_edit_of_a_callee_module_recompiles_its_callers_in_other_modules(tmp_
     with open(tmp_path / "core" / "solver.py", "a") as solver_source:
         solver_source.write("\n# an edit of the callee's module\n")
     assert hits_and_misses() == [0, 1]  # compiled again, although closest_point.py is unchanged
+
+
+def test_the_cache_stamp_covers_the_modules_compiled_code_reads_constants_from(tmp_path, monkeypatch):
+    # core.layer_compiled freezes core.panels' Gauss nodes (ORDER of them) into its machine code:
+    # an edit of panels.py must change the stamp, or a warm cache runs with the old ORDER past the
+    # ends of the new arrays. A module no compiled code imports (the disk cache of G) must not.
+    from core import jit_cache
+
+    copy = tmp_path / "core"
+    copy.mkdir()
+    for path in Path(jit_cache.__file__).resolve().parent.glob("*.py"):
+        (copy / path.name).write_bytes(path.read_bytes())
+    monkeypatch.setattr(jit_cache, "_FOLDER", copy)
+    changed = {}
+    for name in ("panels.py", "layer_compiled.py", "bspline.py", "cache.py", "atomic_write.py"):
+        jit_cache.package_stamp.cache_clear()
+        before = jit_cache.package_stamp()
+        with open(copy / name, "a") as stream:
+            stream.write("\n# edited\n")
+        jit_cache.package_stamp.cache_clear()
+        changed[name] = jit_cache.package_stamp() != before
+    jit_cache.package_stamp.cache_clear()
+    stamped = {"panels.py", "layer_compiled.py", "bspline.py"}
+    assert changed == {name: name in stamped for name in changed}

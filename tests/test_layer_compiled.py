@@ -32,11 +32,13 @@ def both_paths(monkeypatch, function):
     return results
 
 
-@pytest.mark.parametrize("name", ["C-shape", "hook", "F polygon"])
+@pytest.mark.parametrize("name", ["C-shape", "hook", "F polygon", "F polygon, clockwise"])
 def test_the_compiled_layer_equals_the_numpy_one(name, monkeypatch):
     # Interior points, points down to 1e-6 of the diameter from the curve (next to corners too),
-    # and points on it: the same values to rounding, and the same points found on the curve.
-    curve = core.ClosedBSpline(SHAPES[name])
+    # and points on it: the same values to rounding, and the same points found on the curve. The
+    # clockwise cage checks the orientation's sign.
+    points = SHAPES[name.removesuffix(", clockwise")]
+    curve = core.ClosedBSpline(points[::-1] if name.endswith("clockwise") else points)
     on_curve = curve.evaluate(np.linspace(0, curve.n, 37, endpoint=False) + 0.013)[0]
     near = near_boundary_points(curve, 200, seed=5)[0]
     x = np.vstack([interior_points(curve, 200, seed=4), near, on_curve])
@@ -134,6 +136,56 @@ def test_loaded_never_compiles(monkeypatch):
     assert not layer_compiled.loaded(dispatcher)
     monkeypatch.setattr(layer_compiled, "mode", "compiled")
     assert layer_compiled.loaded(dispatcher)
+
+
+def test_the_cache_is_read_once_the_work_repays_it(monkeypatch):
+    # A process reads numba's cache (~0.2 s) only after LOAD_AFTER_POINTS points, or once it
+    # has read it before; never for a dispatcher whose entry failed to load.
+    class Fresh:
+        overloads = {}
+
+    monkeypatch.setattr(layer_compiled, "mode", "auto")
+    monkeypatch.setattr(layer_compiled, "_read", False)
+    monkeypatch.setattr(layer_compiled, "_points", 0)
+    monkeypatch.setattr(layer_compiled, "_unreadable", set())
+    fresh = Fresh()
+    assert not layer_compiled.worth_trying(fresh, layer_compiled.LOAD_AFTER_POINTS - 1)
+    assert layer_compiled.worth_trying(fresh, 1)  # the points add up
+    monkeypatch.setattr(layer_compiled, "_points", 0)
+    assert not layer_compiled.worth_trying(fresh)
+    layer_compiled.allow_reading()
+    assert layer_compiled.worth_trying(fresh)
+    layer_compiled._unreadable.add(fresh)
+    assert not layer_compiled.worth_trying(fresh)
+
+
+def test_a_damaged_cache_entry_falls_back_to_numpy_for_good(monkeypatch):
+    # A truncated .nbc file makes numba's loader raise: the default kernel still answers, with
+    # numpy, and the entry is not tried again.
+    import pickle
+
+    monkeypatch.setattr(layer_compiled, "mode", "auto")
+    monkeypatch.setattr(layer_compiled, "_unreadable", set())
+    dispatcher = layer_compiled.adaptive_pairs
+    attempts = []
+
+    def damaged(*arguments):
+        attempts.append(arguments)
+        raise pickle.UnpicklingError("pickle data was truncated")
+
+    monkeypatch.setattr(dispatcher, "overloads", {})
+    monkeypatch.setattr(dispatcher._cache, "load_overload", damaged)
+    curve = core.ClosedBSpline(SHAPES["C-shape"])
+    panels = curve_panels(curve)
+    targets, panel = panels.z[:3] + 1e-3, np.array([1, 1, 1])
+    pieces = curve.piecewise_polynomial().coefficients
+    arguments = (pieces, panels.bounds, targets, panel, 1, 0.0, layer.SAFE, layer.MAX_DEPTH)
+    assert not layer_compiled.loaded(dispatcher, *arguments)
+    assert not layer_compiled.loaded(dispatcher, *arguments)
+    assert len(attempts) == 1 and not layer_compiled.worth_trying(dispatcher)
+    monkeypatch.setattr(layer_compiled, "_read", True)
+    weights, _ = layer.adaptive_weights(curve, panels, targets, panel)  # numpy
+    assert np.isfinite(weights).all() and len(attempts) == 1
 
 
 def test_without_numba_s_cache_the_default_kernel_runs_as_numpy_without_compiling(tmp_path):
