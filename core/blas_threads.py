@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import functools
 
-from threadpoolctl import threadpool_limits
+from threadpoolctl import ThreadpoolController
 
 
 def one_blas_thread(function):
@@ -22,7 +22,15 @@ def one_blas_thread(function):
 
     @functools.wraps(function)
     def limited(*args, **kwargs):
-        with threadpool_limits(limits=1, user_api="blas"):
+        with _controller().limit(limits=1, user_api="blas"):
             return function(*args, **kwargs)
 
     return limited
+
+
+@functools.cache
+def _controller() -> ThreadpoolController:
+    """The process's thread pools, found once: finding them reads the list of loaded libraries,
+    ~1.5 ms a call (threadpoolctl's `threadpool_limits` does it at every call). Made at the
+    first call, after numpy and scipy have loaded their BLAS."""
+    return ThreadpoolController()
