@@ -189,6 +189,20 @@ def _near_weights(coefficients, a, b, z, power, touch, safe, max_depth, weights,
 
 
 @njit(cache=True, parallel=True, error_model="numpy")
+def layer_matrix_rows(targets, node_z, factors):
+    """Re(factor_k / (τ_k - z_m)), shape (M, N), for targets z complex (M,) and nodes τ complex (N,):
+    the plain rule's weights of `core.poisson.layer_matrix` (NaN where a target is a node)."""
+    out = np.empty((targets.shape[0], node_z.shape[0]))
+    for m in prange(targets.shape[0]):
+        x, y = targets[m].real, targets[m].imag
+        for k in range(node_z.shape[0]):
+            dx = node_z[k].real - x
+            dy = node_z[k].imag - y
+            out[m, k] = (factors[k].real * dx + factors[k].imag * dy) / (dx * dx + dy * dy)
+    return out
+
+
+@njit(cache=True, parallel=True, error_model="numpy")
 def adaptive_pairs(coefficients, bounds, targets, panel, power, touch, safe, max_depth):
     """`core.layer.adaptive_weights` for K pairs: weights complex (K, ORDER) and touching bool (K,).
 

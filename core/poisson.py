@@ -36,6 +36,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.linalg import lu_factor, lu_solve
 
+from core import layer_compiled
 from core.blas_threads import one_blas_thread
 from core.bspline import ClosedBSpline
 from core.layer import (
@@ -249,12 +250,17 @@ def layer_matrix(curve: ClosedBSpline, panels: Panels, z: np.ndarray, *, own: bo
     caller replaces them.
     """
     factors = layer_factors(curve, panels)
-    matrix = np.empty((z.size, panels.size))
-    for first in range(0, z.size, 1024):  # real arithmetic, in blocks of rows: memory of one matrix
-        dx = panels.z.real[None, :] - z[first : first + 1024, None].real
-        dy = panels.z.imag[None, :] - z[first : first + 1024, None].imag
-        with np.errstate(divide="ignore", invalid="ignore"):
-            matrix[first : first + 1024] = (factors.real * dx + factors.imag * dy) / (dx * dx + dy * dy)
+    arguments = (np.ascontiguousarray(z, dtype=np.complex128), panels.z, factors)
+    compiled = layer_compiled.layer_matrix_rows
+    if layer_compiled.worth_trying(compiled) and layer_compiled.loaded(compiled, *arguments):
+        matrix = compiled(*arguments)
+    else:
+        matrix = np.empty((z.size, panels.size))
+        for first in range(0, z.size, 1024):  # real arithmetic, in blocks of rows: memory of one matrix
+            dx = panels.z.real[None, :] - z[first : first + 1024, None].real
+            dy = panels.z.imag[None, :] - z[first : first + 1024, None].imag
+            with np.errstate(divide="ignore", invalid="ignore"):
+                matrix[first : first + 1024] = (factors.real * dx + factors.imag * dy) / (dx * dx + dy * dy)
     if own:
         orientation = 1.0 if curve.area > 0 else -1.0
         diagonal = orientation * (panels.d2z / panels.dz).imag * panels.weights / (4.0 * np.pi)
@@ -311,13 +317,12 @@ def load_compiled() -> bool:
     (another CPU model or numba version than the install's, `TRANSFINITE_PRECOMPILE=0`),
     and the numpy path runs instead.
     """
-    from core import layer_compiled
-
     layer_compiled.allow_reading()
     square = ClosedBSpline(np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]))
     solution = _densities.__wrapped__(square.control_points.tobytes(), square.n)  # solves, uncached
     cauchy_integrals(square, solution.levels, np.array([[0.5, 0.5]]))
-    return bool(layer_compiled.adaptive_pairs.overloads) and bool(layer_compiled.layer_rows.overloads)
+    compiled = (layer_compiled.adaptive_pairs, layer_compiled.layer_rows, layer_compiled.layer_matrix_rows)
+    return all(dispatcher.overloads for dispatcher in compiled)
 
 
 @one_blas_thread
