@@ -285,12 +285,9 @@ def cauchy_integrals(
     `imaginary` (else None) and the on-curve flags (M,).
     """
     z = np.ascontiguousarray(x[:, 0] + 1j * x[:, 1])
-    compiled = layer_compiled.layer_rows
-    if layer_compiled.worth_trying(compiled, z.size):
-        arguments = (z, _panel_tree(curve, levels), 1, imaginary)
-        if layer_compiled.loaded(compiled, *arguments):
-            real, imag, on_curve = compiled(*arguments)
-            return real, (imag if imaginary else None), on_curve
+    rows = _compiled_rows(curve, levels, z, 1, imaginary)
+    if rows is not None:
+        return rows[0], (rows[1] if imaginary else None), rows[2]
     panels, density = levels.panels[0], levels.densities[0]
     factors = layer_factors(curve, panels)
     centre = panels.z.mean()
@@ -327,6 +324,16 @@ def cauchy_integrals(
     else:
         hierarchical_rows(curve, levels, z, target, panel, on_curve, real)
     return real, imag, on_curve
+
+
+def _compiled_rows(curve: ClosedBSpline, levels: Levels, z: np.ndarray, power: int, imaginary: bool):
+    """`core.layer_compiled.layer_rows` at targets z (M,) where its machine code is at hand
+    (`core.layer_compiled.worth_trying`, `loaded`): (real, imaginary, on-curve), else None."""
+    compiled = layer_compiled.layer_rows
+    if not layer_compiled.worth_trying(compiled, z.size):
+        return None
+    arguments = (z, _panel_tree(curve, levels), power, imaginary)
+    return compiled(*arguments) if layer_compiled.loaded(compiled, *arguments) else None
 
 
 def _panel_tree(curve: ClosedBSpline, levels: Levels) -> layer_compiled.PanelTree:
@@ -377,12 +384,9 @@ def _panel_tree(curve: ClosedBSpline, levels: Levels) -> layer_compiled.PanelTre
 def cauchy_derivatives(curve: ClosedBSpline, levels: Levels, x: np.ndarray) -> np.ndarray:
     """d/dz C[φ](x), complex (M, m), for the densities of `levels` at points x (M, 2)."""
     z = np.ascontiguousarray(x[:, 0] + 1j * x[:, 1])
-    compiled = layer_compiled.layer_rows
-    if layer_compiled.worth_trying(compiled, z.size):
-        arguments = (z, _panel_tree(curve, levels), 2, True)
-        if layer_compiled.loaded(compiled, *arguments):
-            real, imag, _ = compiled(*arguments)
-            return real + 1j * imag
+    rows = _compiled_rows(curve, levels, z, 2, True)
+    if rows is not None:
+        return rows[0] + 1j * rows[1]
     panels, density = levels.panels[0], levels.densities[0]
     factors = layer_factors(curve, panels)
     target, panel = near_pairs(panels, z, curve.diameter, span_safety(curve, panels))
