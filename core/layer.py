@@ -129,14 +129,17 @@ def adaptive_weights(
     """
     touch = on_curve * curve.diameter
     pieces = curve.piecewise_polynomial().coefficients
-    arguments = (
-        np.ascontiguousarray(pieces, dtype=np.float64), np.ascontiguousarray(panels.bounds, dtype=np.float64),
-        np.ascontiguousarray(targets, dtype=np.complex128), np.ascontiguousarray(panel, dtype=np.int64),
-        int(power), float(touch), float(SAFE), int(MAX_DEPTH),
-    )  # fmt: skip
     compiled = layer_compiled.adaptive_pairs
-    if layer_compiled.worth_trying(compiled) and layer_compiled.loaded(compiled, *arguments):
-        return compiled(*arguments)
+    if layer_compiled.worth_trying(compiled):
+        arrays = (
+            np.ascontiguousarray(pieces, dtype=np.float64),
+            np.ascontiguousarray(panels.bounds, dtype=np.float64),
+            np.ascontiguousarray(targets, dtype=np.complex128),
+            np.ascontiguousarray(panel, dtype=np.int64),
+        )
+        arguments = (*arrays, int(power), float(touch), float(SAFE), int(MAX_DEPTH))
+        if layer_compiled.loaded(compiled, *arguments):
+            return compiled(*arguments)
     # Depth 0, the panel's own rule on its stored nodes: most pairs end here.
     nodes = panel[:, None] * ORDER + np.arange(ORDER)
     tau = panels.z[nodes]

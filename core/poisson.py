@@ -250,8 +250,8 @@ def layer_matrix(curve: ClosedBSpline, panels: Panels, z: np.ndarray, *, own: bo
     caller replaces them.
     """
     factors = layer_factors(curve, panels)
-    arguments = (np.ascontiguousarray(z, dtype=np.complex128), panels.z, factors)
     compiled = layer_compiled.layer_matrix_rows
+    arguments = (np.ascontiguousarray(z, dtype=np.complex128), panels.z, factors)
     if layer_compiled.worth_trying(compiled) and layer_compiled.loaded(compiled, *arguments):
         matrix = compiled(*arguments)
     else:
@@ -313,7 +313,7 @@ def load_compiled() -> bool:
     """Read the compiled boundary integrals (`core.layer_compiled`) from numba's cache now, for a
     program about to evaluate many points (~0.2 s once; never compiles).
 
-    Returns whether both are in memory afterwards: False where numba's cache lacks them
+    Returns whether all three are in memory afterwards: False where numba's cache lacks them
     (another CPU model or numba version than the install's, `TRANSFINITE_PRECOMPILE=0`),
     and the numpy path runs instead.
     """

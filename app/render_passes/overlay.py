@@ -41,17 +41,8 @@ class OverlayPass:
         self._counts = (0, 0)
 
     def set(self, segments: np.ndarray, points: np.ndarray) -> None:
-        """Set the lines and handles that `draw` draws (rewritten in place).
-
-        Parameters
-        ----------
-        segments : ndarray of shape (S, 2, 7)
-            Line segments, each endpoint ``[x, y, r, g, b, a, width]``: image pixels,
-            straight-alpha colour in [0, 1], width in framebuffer pixels.
-        points : ndarray of shape (K, 7)
-            Round handles ``[x, y, r, g, b, a, diameter]``, drawn after (over) the lines
-            in order, the last on top.
-        """
+        """Set the lines and handles that `draw` draws (rewritten in place); their layout is
+        `app.render.WarpRenderer.set_overlay`'s."""
         segments = np.asarray(segments, dtype="f4").reshape(-1, OVERLAY_FLOATS)
         points = np.asarray(points, dtype="f4").reshape(-1, OVERLAY_FLOATS)
         if len(segments) % 2:
@@ -76,15 +67,8 @@ class OverlayPass:
         self._counts = (len(segments), len(points))
 
     def draw(self, view: View, viewport_size: tuple[int, int]) -> None:
-        """Draw the lines and handles of `set` into the bound framebuffer.
-
-        Parameters
-        ----------
-        view : View
-            Image-to-framebuffer transform.
-        viewport_size : tuple of int
-            (width, height) of the viewport in framebuffer pixels.
-        """
+        """Draw the lines and handles of `set` into the bound framebuffer
+        (`app.render.WarpRenderer.draw_overlay`)."""
         line_vertices, point_count = self._counts
         if not (line_vertices or point_count):
             return
