@@ -44,6 +44,9 @@ SAFE = 0.5
 #: kernel's degree-15 interpolant on the span, whose error falls as ρ^-16 rather than the plain
 #: rule's ρ^-32, times the density's roughness: at half a span a corner's singular density left
 #: G at -2e-9 (F polygon), at 0.75 spans -4e-11.  Smooth knots need no more than `SAFE`.
+#: The same holds for `core.poisson`'s coarse panels in a corner's compressed block, whose
+#: densities are restrictions too (`Levels.safety`): with `SAFE` there, a point 2.3e-3 of the
+#: diameter from the F polygon, beside a corner, had G = -2.7e-10; with this, 3.7e-12.
 CORNER_SAFE = 0.75
 #: Pairs closer than this fraction of the diameter get their weights directly: the far
 #: field's expanded products lose ~1e-16 / distance^2 (relative, distance in diameters).
@@ -220,11 +223,19 @@ class Levels:
         On the finest level the densities themselves; on coarser ones their weight-
         corrected restrictions (`restriction`), which integrate what is smooth on their
         panels as the finest rule does.
+    safety : tuple
+        safety[k] None, or float ndarray (P_k,): how many panel lengths away a target must
+        be for the level's plain rule (`level_safety` gives the default).  A restricted
+        density's rule integrates the kernel's degree-15 interpolant, with an error that
+        falls as ρ^-16, not ρ^-32: where that density is rough (a sharp corner's), its
+        panels need `CORNER_SAFE`.
     """
 
     panels: tuple
     parents: tuple
     densities: tuple
+    #: Per level, None or each panel's `SAFE` (P_k,) for the far field (`level_safety`).
+    safety: tuple = ()
     #: What `_panel_tree` built from these levels, once (not part of their value).
     compiled: dict = field(default_factory=dict, compare=False, repr=False)
 
@@ -253,7 +264,18 @@ def bisected(curve: ClosedBSpline, levels: Levels, count: int = BISECTIONS) -> L
         densities.append(child.reshape(-1, columns))
     for density in densities:
         density.setflags(write=False)
-    return Levels(tuple(panels), tuple(parents), tuple(densities))
+    return Levels(tuple(panels), tuple(parents), tuple(densities), levels.safety)
+
+
+def level_safety(curve: ClosedBSpline, levels: Levels, k: int) -> np.ndarray:
+    """Each panel's `SAFE` on level k of `levels`, float ndarray (P_k,): ``levels.safety[k]`` where
+    given, else `span_safety` on the coarsest level and `SAFE` below it."""
+    panels = levels.panels[k]
+    given = levels.safety[k] if k < len(levels.safety) else None
+    if given is not None:
+        return np.asarray(given, dtype=np.float64)
+    default = span_safety(curve, panels) if k == 0 else SAFE
+    return np.broadcast_to(np.asarray(default, dtype=np.float64), (panels.count,))
 
 
 def restriction(coarse: Panels, fine: Panels, parent: np.ndarray) -> np.ndarray:
@@ -300,7 +322,7 @@ def cauchy_integrals(
     real_rows = np.stack([(e * tau.conj()).real, -e.real, -e.imag])
     imaginary_rows = np.stack([(e * tau.conj()).imag, -e.imag, e.real])
     denominator_rows = np.stack([np.abs(tau) ** 2, -2.0 * tau.real, -2.0 * tau.imag, np.ones(tau.size)])
-    target, panel = near_pairs(panels, z, curve.diameter, span_safety(curve, panels))
+    target, panel = near_pairs(panels, z, curve.diameter, level_safety(curve, levels, 0))
     real = np.empty((z.size, density.shape[1]))
     imag = np.empty_like(real) if imaginary else None
     starts = np.searchsorted(target, np.arange(0, z.size + BLOCK, BLOCK))
@@ -348,8 +370,7 @@ def _panel_tree(curve: ClosedBSpline, levels: Levels) -> layer_compiled.PanelTre
     panels = levels.panels
     counts = np.array([p.count for p in panels])
     panel_start = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
-    safety = [np.broadcast_to(span_safety(curve, panels[0]), (panels[0].count,))]
-    safety += [np.full(p.count, SAFE) for p in panels[1:]]
+    safety = [level_safety(curve, levels, k) for k in range(len(panels))]
     lengths = np.concatenate([p.lengths for p in panels])
     close = np.maximum(np.concatenate(safety) * lengths, DIRECT * curve.diameter)
     children, child_start = [], [0]
@@ -392,7 +413,7 @@ def cauchy_derivatives(curve: ClosedBSpline, levels: Levels, x: np.ndarray) -> n
         return rows[0] + 1j * rows[1]
     panels, density = levels.panels[0], levels.densities[0]
     factors = layer_factors(curve, panels)
-    target, panel = near_pairs(panels, z, curve.diameter, span_safety(curve, panels))
+    target, panel = near_pairs(panels, z, curve.diameter, level_safety(curve, levels, 0))
     out = np.empty((z.size, density.shape[1]), dtype=np.complex128)
     starts = np.searchsorted(target, np.arange(0, z.size + BLOCK, BLOCK))
     for block, first in enumerate(range(0, z.size, BLOCK)):
@@ -419,7 +440,8 @@ def hierarchical_rows(curve, levels: Levels, z, target, panel, on_curve, out, po
             return
         children = levels.panels[k]
         target, child = _children(levels.parents[k - 1], target, panel)
-        target, panel = _add_plain(out, curve, children, levels.densities[k], z, target, child, power)
+        safety = level_safety(curve, levels, k)
+        target, panel = _add_plain(out, curve, children, levels.densities[k], z, target, child, power, safety)
         if k == finest:
             weights, touching = adaptive_weights(curve, children, z[target], panel, power, touch)
             on_curve[target[touching]] = True
@@ -436,15 +458,16 @@ def _groups(panel: np.ndarray):
     return [(int(panel[a]), slice(a, b)) for a, b in zip(starts, stops, strict=True)]
 
 
-def _add_plain(out, curve, panels, density, z, target, panel, power):
-    """out[target] += the panel's plain rule @ density, for pairs far from their panel.
+def _add_plain(out, curve, panels, density, z, target, panel, power, safety):
+    """out[target] += the panel's plain rule @ density, for pairs far from their panel (`safety`
+    (P,) panel lengths away, or `DIRECT` diameters).
 
     Returns the pairs (target, panel) that are near (as `near_pairs` judges), untouched.
     """
     order = np.argsort(panel, kind="stable")
     target, panel = target[order], panel[order]
     factors = layer_factors(curve, panels)
-    close_range = np.maximum(SAFE * panels.lengths, DIRECT * curve.diameter) ** 2
+    close_range = np.maximum(safety * panels.lengths, DIRECT * curve.diameter) ** 2
     # Pairs farther from the panel's centre than its radius plus the close range are far for
     # sure: only the others need their distance to the nearest node.
     reach = panels.radii + np.sqrt(close_range)

@@ -36,8 +36,9 @@ CORNER_LEVELS = 7
 #: error by about 8.  Levels are added until Δκ ℓ 8^-levels <= KNOT_JUMP.
 KNOT_JUMP = 5e-7
 #: At least this many levels at every knot: with 2, the hook's G reached -1.5e-9 at points
-#: 1e-6 of the diameter from a knot, with 3 -1.4e-10, at no measurable cost.
-MIN_KNOT_LEVELS = 3
+#: 1e-6 of the diameter from a knot, with 3 -2.6e-10 (the U-shape -4.8e-10), with 4 -3.1e-11
+#: (U-shape -3.4e-11); the blob's knots take 6-8 levels by `KNOT_JUMP` anyway.
+MIN_KNOT_LEVELS = 4
 MAX_KNOT_LEVELS = 9
 #: A panel is split while its arc length exceeds this multiple of its distance to the
 #: curve beyond its neighbours (1 split more and measured worse next to sharp corners:

@@ -40,6 +40,8 @@ from core import layer_compiled
 from core.blas_threads import one_blas_thread
 from core.bspline import ClosedBSpline
 from core.layer import (
+    CORNER_SAFE,
+    SAFE,
     Levels,
     adaptive_weights,
     bisected,
@@ -176,7 +178,10 @@ def _densities(points: bytes, count: int) -> Densities:
     spans = span_panels(curve)
     span_of = np.floor(coarse.bounds[:, 0] + 1e-12).astype(np.int64)
     span_density = restriction(spans, fine, span_of[parent]) @ mu
-    levels = Levels((spans, coarse, fine), (span_of, parent), (span_density, weighted, mu))
+    # A corner's block carries restricted densities of its singular density: `CORNER_SAFE`.
+    corner_block = np.isin(knot, sharp_corners(curve))
+    safety = (None, np.where(corner_block, CORNER_SAFE, SAFE), None)
+    levels = Levels((spans, coarse, fine), (span_of, parent), (span_density, weighted, mu), safety)
     return Densities(curve, bisected(curve, levels))
 
 

@@ -67,6 +67,26 @@ def test_partition_of_unity_and_linear_precision_down_to_the_boundary(name, laye
     assert G.min() >= -1e-10
 
 
+@pytest.mark.parametrize(
+    "name, point",
+    [
+        ("U-shape", [-1.00006528, 1.19999601]),  # 1.5e-6 of the diameter from a knot
+        ("hook", [-5.71160632e-05, 2.19999474]),  # the same
+        ("F polygon", [1.99433492, 0.39401717]),  # 2.3e-3 of the diameter from the curve, by a corner
+    ],
+)
+def test_points_that_missed_the_non_negativity_bound(name, point, layer_path):
+    # Found by other seeds of the test above.  With 3 levels of grading at least at every knot
+    # (panels.MIN_KNOT_LEVELS) the first two had G = -4.8e-10 and -2.6e-10; with `SAFE` on the
+    # coarse panels of a corner's block (whose densities are restrictions, layer.CORNER_SAFE) the
+    # third had -2.7e-10.
+    curve = core.ClosedBSpline(SHAPES[name])
+    x = np.array([point])
+    G = core.basis_functions(curve, x)
+    assert G.min() >= -1e-10
+    assert np.linalg.norm(G @ curve.control_points - x) <= 1e-8 * curve.diameter
+
+
 def random_polygon_cage(seed: int) -> core.ClosedBSpline:
     """A star-shaped random polygon of 4-8 vertices, about 60 % of them sharp corners (doubled)."""
     rng = np.random.default_rng(seed)
