@@ -51,6 +51,7 @@ from core.layer import (
     layer_factors,
     near_pairs,
     restriction,
+    smooth_on_own_span,
 )
 from core.panels import (
     ORDER,
@@ -154,7 +155,8 @@ def _densities(points: bytes, count: int) -> Densities:
     for columns, _ in blocks.values():  # K*: within a knot's pair of panels, in R
         system[np.ix_(columns, columns)] = 0.0
     target, panel = near_pairs(coarse, coarse.z, curve.diameter)
-    keep = same[target] != group_of[panel]  # a free panel's own nodes: the plain rule, above
+    # A free panel's own nodes, and same-span panels where the kernel is smooth: the plain rule, above.
+    keep = (same[target] != group_of[panel]) & ~smooth_on_own_span(curve, coarse, coarse.t[target], panel)
     target, panel = target[keep], panel[keep]
     system[target[:, None], coarse_nodes[panel]] = 0.0
     for columns, block in blocks.values():  # K°_c R: R is the identity but on the knots' blocks
@@ -273,8 +275,8 @@ def layer_matrix(curve: ClosedBSpline, panels: Panels, z: np.ndarray, *, own: bo
     if not near:
         return matrix
     target, panel = near_pairs(panels, z, curve.diameter)
-    if own:
-        keep = target // ORDER != panel
+    if own:  # a node's own panel and same-span panels where the kernel is smooth keep the plain rule
+        keep = (target // ORDER != panel) & ~smooth_on_own_span(curve, panels, panels.t[target], panel)
         target, panel = target[keep], panel[keep]
     weights, _ = adaptive_weights(curve, panels, z[target], panel, on_curve=0.0)
     orientation = 1.0 if curve.area > 0 else -1.0

@@ -297,3 +297,27 @@ def test_a_point_near_no_finest_panel_is_evaluated_alone(layer_path):
     together = core.basis_functions(curve, np.vstack([point, [[80.0, 60.0], [31.0, 58.0]]]), kernel="poisson")
     np.testing.assert_allclose(alone, together[:1], rtol=0, atol=1e-14)
     np.testing.assert_allclose(alone.sum(), 1.0, atol=1e-12)
+
+
+def test_same_span_pairs_keep_the_plain_rule_without_changing_the_basis(monkeypatch):
+    # On one span the double layer's kernel has no singularity (layer.smooth_on_own_span): the
+    # solve gives those near pairs the plain rule instead of the adaptive one.  The basis must not
+    # move (measured 2.2e-12 on the hairpin, whose nodes crowd towards its corners).
+    from core import layer, poisson
+    from core.panels import ORDER, curve_panels
+
+    curve = core.ClosedBSpline(np.array(HAIRPIN))
+    panels = curve_panels(curve)
+    target, panel = layer.near_pairs(panels, panels.z, curve.diameter)
+    smooth = layer.smooth_on_own_span(curve, panels, panels.t[target], panel)
+    span_of_node = np.floor(panels.t[target] + 1e-12)
+    assert np.all(span_of_node[smooth] == np.floor(panels.bounds[panel[smooth], 0] + 1e-12))
+    assert smooth.mean() > 0.4 and not smooth[target // ORDER != panel].all()
+    x = np.vstack([interior_points(curve, 200, seed=1), near_boundary_points(curve, 200, seed=2)[0]])
+    values = []
+    for rule in (layer.smooth_on_own_span, lambda curve, panels, t, panel: np.zeros(t.shape, dtype=bool)):
+        monkeypatch.setattr(poisson, "smooth_on_own_span", rule)
+        poisson._densities.cache_clear()
+        values.append(core.basis_functions(curve, x))
+    poisson._densities.cache_clear()
+    np.testing.assert_allclose(values[0], values[1], rtol=0, atol=1e-11)
