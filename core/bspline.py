@@ -160,7 +160,15 @@ class ClosedBSpline:
         )
 
     def piecewise_polynomial(self) -> PiecewisePolynomial:
-        """The curve as n quadratic pieces in Bézier-free power form, u = t - j in [0, 1]."""
+        """The curve as n quadratic pieces in Bézier-free power form, u = t - j in [0, 1] (computed
+        once: the boundary integrals ask for it hundreds of times a solve; callers must not write
+        to it, and compiled callers need it writeable: numba types a read-only array apart)."""
+        pieces = self.__dict__.get("_pieces")
+        if pieces is None:
+            pieces = self._pieces = self._piecewise_polynomial()
+        return pieces
+
+    def _piecewise_polynomial(self) -> PiecewisePolynomial:
         previous = np.roll(self._points, 1, axis=0)  # paper P_j, j = 0..n-1
         current = self._points  # P_{j+1}
         following = np.roll(self._points, -1, axis=0)  # P_{j+2}
