@@ -62,7 +62,6 @@ from core.panels import (
     sharp_corners,
     span_panels,
 )
-from core.panels import _panels as _make_panels
 
 #: Coarse boundary nodes at most (the dense solve's memory, 8 MAX_NODES^2 bytes, and time).
 MAX_NODES = 10_000
