@@ -267,7 +267,9 @@ class Levels:
     compiled: dict = field(default_factory=dict, compare=False, repr=False)
 
 
-def bisected(curve: ClosedBSpline, levels: Levels, count: int = BISECTIONS) -> Levels:
+def bisected(
+    curve: ClosedBSpline, levels: Levels, count: int = BISECTIONS, corrected: tuple | None = None
+) -> Levels:
     """`levels` and `count` more levels below the finest, each bisecting its panels in t.
 
     A level's densities are the interpolants of the finest densities at its nodes: on
@@ -276,6 +278,10 @@ def bisected(curve: ClosedBSpline, levels: Levels, count: int = BISECTIONS) -> L
     a panel length or so from the curve in batched products; only the pairs nearer than
     half a quarter-panel still need the adaptive rule (at 100,000 mesh vertices of the
     bench's blob, 4x fewer; a third of the evaluation time was that rule).
+
+    `corrected`, (node indices (K,), values (K, m)), replaces the first new level's densities
+    at those nodes (better values than the interpolant: `core.poisson`'s Nyström
+    interpolation); the levels below it interpolate the corrected ones.
     """
     panels, parents, densities = list(levels.panels), list(levels.parents), list(levels.densities)
     halves = interpolation_matrix(np.concatenate([0.5 * _NODES - 0.5, 0.5 * _NODES + 0.5]))  # (2q, q)
@@ -285,10 +291,13 @@ def bisected(curve: ClosedBSpline, levels: Levels, count: int = BISECTIONS) -> L
         middle = 0.5 * (low + high)
         bounds = np.stack([np.stack([low, middle], axis=1), np.stack([middle, high], axis=1)], axis=1)
         columns = density.shape[1]
-        child = np.einsum("cq,pqm->pcm", halves, density.reshape(finest.count, ORDER, columns))
+        child = np.matmul(halves, density.reshape(finest.count, ORDER, columns)).reshape(-1, columns)
+        if corrected is not None:
+            child[corrected[0]] = corrected[1]
+            corrected = None
         panels.append(panels_of_bounds(curve, bounds.reshape(-1, 2)))
         parents.append(np.repeat(np.arange(finest.count), 2))
-        densities.append(child.reshape(-1, columns))
+        densities.append(child)
     for density in densities:
         density.setflags(write=False)
     return Levels(tuple(panels), tuple(parents), tuple(densities), levels.safety)

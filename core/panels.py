@@ -44,7 +44,12 @@ MAX_KNOT_LEVELS = 9
 #: curve beyond its neighbours (1 split more and measured worse next to sharp corners:
 #: panels shorter than their neighbours there).
 THIN_RATIO = 2.0
-#: A node is beyond a panel (`_thin`) where the curve between them is this many times longer than
+#: A panel longer than this many times its gap (`gaps`), though not split, has its density
+#: vary too fast for its degree-15 interpolant at points within ~1e-4 of the diameter of it:
+#: `core.poisson` gives its halves their densities by Nyström interpolation.  Gaps are
+#: measured up to this many panel lengths.
+REFINED_RATIO = 1.0
+#: A node is beyond a panel (`gaps`) where the curve between them is this many times longer than
 #: the straight distance.
 TURN = 3.0
 #: A panel is split while the curve turns more than this many radians along it.
@@ -140,23 +145,30 @@ def span_panels(curve: ClosedBSpline) -> Panels:
 
 
 def coarse_panels(curve: ClosedBSpline) -> Panels:
-    """`COARSE_PER_SPAN` panels a span, split further in thin parts: the unknowns of the compressed solve."""
+    """`COARSE_PER_SPAN` panels a span, split further in thin parts (`gaps`): the solve's unknowns."""
+    return coarse_panels_and_gaps(curve)[0]
+
+
+def coarse_panels_and_gaps(curve: ClosedBSpline) -> tuple[Panels, np.ndarray]:
+    """`coarse_panels` and each one's distance to the curve beyond it (`gaps`), float (P,)."""
     step = 1.0 / COARSE_PER_SPAN
     starts = np.arange(curve.n * COARSE_PER_SPAN) * step
     bounds = np.stack([starts, starts + step], axis=1)
     corners = sharp_corners(curve).astype(float)
     for _ in range(THIN_ROUNDS):
         panels = _panels(curve, bounds)
-        split = _thin(panels, corners) | _unbalanced(panels) | _curved(panels)
+        gap = gaps(panels, corners)
+        split = (panels.lengths > THIN_RATIO * gap) | _unbalanced(panels) | _curved(panels)
         if not split.any():
-            return panels
+            return panels, gap
         middle = bounds[split].mean(axis=1)
         halves = np.concatenate(
             [np.stack([bounds[split, 0], middle], 1), np.stack([middle, bounds[split, 1]], 1)]
         )
         bounds = np.concatenate([bounds[~split], halves])
         bounds = bounds[np.argsort(bounds[:, 0])]
-    return _panels(curve, bounds)
+    panels = _panels(curve, bounds)
+    return panels, gaps(panels, corners)
 
 
 def graded_panels(curve: ClosedBSpline, coarse: Panels) -> tuple[Panels, np.ndarray, np.ndarray]:
@@ -277,8 +289,9 @@ def _unbalanced(panels: Panels) -> np.ndarray:
     return split
 
 
-def _thin(panels: Panels, corners: np.ndarray) -> np.ndarray:
-    """bool (P,): panels longer than `THIN_RATIO` times their distance to the curve beyond them.
+def gaps(panels: Panels, corners: np.ndarray) -> np.ndarray:
+    """float (P,): each panel's distance to the curve beyond it (inf where none is near); a panel
+    longer than `THIN_RATIO` times it is thin (split by `coarse_panels`).
 
     "Beyond" means farther along the curve than twice the panel's own length, or than
     `TURN` times the straight distance with no sharp corner (`corners`, their
@@ -293,9 +306,10 @@ def _thin(panels: Panels, corners: np.ndarray) -> np.ndarray:
     middle = np.cumsum(panels.lengths) - 0.5 * panels.lengths
     total = panels.lengths.sum()
     corner_at = (middle - 0.5 * panels.lengths)[np.isin(panels.bounds[:, 0], corners)]  # each starts a panel
-    # Every (node of a panel, node within its panel's length / THIN_RATIO) pair at once: the
+    # Every (node of a panel, node within `reach` of it) pair at once: the
     # smallest distance among the pairs beyond is each panel's distance to the curve beyond it.
-    found = cKDTree(nodes).query_ball_point(nodes, r=np.repeat(panels.lengths / THIN_RATIO, ORDER))
+    reach = panels.lengths / min(THIN_RATIO, REFINED_RATIO)
+    found = cKDTree(nodes).query_ball_point(nodes, r=np.repeat(reach, ORDER))
     sizes = np.fromiter(map(len, found), dtype=np.int64, count=len(found))
     mine = np.repeat(np.arange(nodes.shape[0]), sizes)
     other = np.concatenate([np.asarray(f, dtype=np.int64) for f in found])
@@ -314,4 +328,4 @@ def _thin(panels: Panels, corners: np.ndarray) -> np.ndarray:
     beyond = (gap > 2.0 * panels.lengths[p]) | ((gap > TURN * distance) & ~through_corner)
     nearest = np.full(count, np.inf)
     np.minimum.at(nearest, p[beyond], distance[beyond])
-    return panels.lengths > THIN_RATIO * nearest
+    return nearest

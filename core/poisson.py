@@ -55,13 +55,15 @@ from core.layer import (
 )
 from core.panels import (
     ORDER,
+    REFINED_RATIO,
     Panels,
-    coarse_panels,
+    coarse_panels_and_gaps,
     graded_panels,
     interpolation_matrix,
     sharp_corners,
     span_panels,
 )
+from core.panels import _panels as _make_panels
 
 #: Coarse boundary nodes at most (the dense solve's memory, 8 MAX_NODES^2 bytes, and time).
 MAX_NODES = 10_000
@@ -115,7 +117,7 @@ def _densities(points: bytes, count: int) -> Densities:
     take the fine densities (I + K*)^-1 P ρ̃ with the adaptive rule, not R ρ̃.
     """
     curve = ClosedBSpline(np.frombuffer(points).reshape(count, 2))
-    coarse = coarse_panels(curve)
+    coarse, gap = coarse_panels_and_gaps(curve)
     if coarse.size > MAX_NODES:
         raise ValueError(
             f"the cage's {curve.n} control points need {coarse.size:,} boundary nodes with kernel "
@@ -168,8 +170,7 @@ def _densities(points: bytes, count: int) -> Densities:
     system += 2.0 * near
     del near
     system[np.arange(coarse.size), np.arange(coarse.size)] += 1.0
-    data = curve.basis_matrix(coarse.t)
-    data = 2.0 * np.concatenate([data, data.sum(axis=1, keepdims=True)], axis=1)
+    data = _data(curve, coarse.t)
     transformed = lu_solve(lu_factor(system, overwrite_a=True, check_finite=False), data, check_finite=False)
     del system
     mu = expand.apply(transformed)
@@ -183,7 +184,52 @@ def _densities(points: bytes, count: int) -> Densities:
     corner_block = np.isin(knot, sharp_corners(curve))
     safety = (None, np.where(corner_block, CORNER_SAFE, SAFE), None)
     levels = Levels((spans, coarse, fine), (span_of, parent), (span_density, weighted, mu), safety)
-    return Densities(curve, bisected(curve, levels))
+    refine = np.flatnonzero(fine.lengths > REFINED_RATIO * gap[parent])
+    corrected = nystrom_halves(curve, fine, mu, refine) if refine.size else None
+    return Densities(curve, bisected(curve, levels, corrected=corrected))
+
+
+def _data(curve: ClosedBSpline, t: np.ndarray) -> np.ndarray:
+    """The right-hand sides 2 N_i(t) and their sum, shape (K, n + 1)."""
+    basis = curve.basis_matrix(t)
+    return 2.0 * np.concatenate([basis, basis.sum(axis=1, keepdims=True)], axis=1)
+
+
+def nystrom_halves(curve: ClosedBSpline, fine: Panels, mu: np.ndarray, refine: np.ndarray):
+    """The densities at the nodes of the halves of the fine panels `refine` (K,), by Nyström
+    interpolation: (node indices of `core.layer.bisected`'s first level, values (2K ORDER, n + 1)).
+
+    The equation holds at every point x of the curve, not only at the nodes, so
+
+        μ(x) = 2 N(x) - 2 ∫_Γ μ(y) K(x, y) ds_y,
+
+    with the integral by the fine panels' rule: plain where the kernel is smooth (far, or on
+    x's own span, `smooth_on_own_span`), adaptive across knots.  Its error is the solve's,
+    ~ρ^-32, where the halves' interpolant of μ has ~ρ^-16: a panel beside a narrow gap
+    (0.19 long, 0.15 from the F polygon's middle arm) has its density's interpolant off by
+    5e-10 between nodes, which G carries to points 1e-4 of the diameter from the curve, while
+    at the nodes the solve agrees with a finer one to 4e-14.  Halves where the integral meets
+    the curve (a near-cusp span) keep the interpolant.
+    """
+    low, high = fine.bounds[refine, 0], fine.bounds[refine, 1]
+    middle = 0.5 * (low + high)
+    bounds = np.stack([np.stack([low, middle], 1), np.stack([middle, high], 1)], 1).reshape(-1, 2)
+    halves = _make_panels(curve, bounds)
+    z, t = halves.z, halves.t
+    matrix = layer_matrix(curve, fine, z, own=False, near=False)
+    target, panel = near_pairs(fine, z, curve.diameter)
+    adaptive = ~smooth_on_own_span(curve, fine, t[target], panel)
+    target, panel = target[adaptive], panel[adaptive]
+    weights, touching = adaptive_weights(curve, fine, z[target], panel, on_curve=0.0)
+    orientation = 1.0 if curve.area > 0 else -1.0
+    columns = panel[:, None] * ORDER + np.arange(ORDER)
+    matrix[target[:, None], columns] = (orientation * weights / (2j * np.pi)).real
+    values = _data(curve, t) - 2.0 * (matrix @ mu)
+    nodes = ((2 * refine[:, None] + np.arange(2)).ravel()[:, None] * ORDER + np.arange(ORDER)).ravel()
+    keep = np.ones(z.size, dtype=bool)
+    met = np.unique(target[touching] // ORDER)  # halves whose integral met the curve
+    keep[(met[:, None] * ORDER + np.arange(ORDER)).ravel()] = False
+    return nodes[keep], values[keep]
 
 
 def widened_at_corners(curve: ClosedBSpline, knot: np.ndarray) -> np.ndarray:
@@ -224,8 +270,9 @@ class Expansion:
 
     def apply(self, coarse: np.ndarray) -> np.ndarray:
         """This matrix times `coarse` (P_c * ORDER, m): shape (P_f * ORDER, m)."""
-        per_node = np.repeat(self.columns, ORDER, axis=0)
-        return np.einsum("fw,fwm->fm", self.values, coarse[per_node])
+        count, width = self.columns.shape
+        rows = self.values.reshape(count, ORDER, width)  # one (ORDER, width) block a fine panel
+        return np.matmul(rows, coarse[self.columns]).reshape(count * ORDER, coarse.shape[1])
 
     def add(self, out: np.ndarray, rows: np.ndarray, panel: int, rule: np.ndarray) -> None:
         """out[rows] += rule (K, ORDER) @ (this matrix's rows of fine panel `panel`)."""
