@@ -22,15 +22,16 @@ says why.  ``TRANSFINITE_PRECOMPILE=0`` skips it.
 
 from __future__ import annotations
 
+import io
 import os
 import subprocess
 import sys
+import tarfile
 import time
 from pathlib import Path
 
 from setuptools import build_meta as _setuptools
 from setuptools.build_meta import (  # noqa: F401  (the hooks this backend does not change)
-    build_sdist,
     get_requires_for_build_editable,
     get_requires_for_build_sdist,
     get_requires_for_build_wheel,
@@ -79,6 +80,30 @@ def _precompile(fresh: bool) -> None:
 def build_wheel(wheel_directory, config_settings=None, metadata_directory=None):
     _precompile(fresh=True)
     return _setuptools.build_wheel(wheel_directory, config_settings, metadata_directory)
+
+
+def build_sdist(sdist_directory, config_settings=None):
+    """setuptools' source distribution, with this backend added: `pyproject.toml` names it
+    (``backend-path``), so a build from the sdist needs it, and setuptools packs only the
+    packages, their data and the top-level files (a ``MANIFEST.in`` would be a new top-level
+    file).  The archive is rewritten under a temporary name, then renamed over the original."""
+    name = _setuptools.build_sdist(sdist_directory, config_settings)
+    path = Path(sdist_directory) / name
+    root = name[: -len(".tar.gz")]
+    backend = Path(__file__).resolve()
+    partial = path.with_name(path.name + ".partial")
+    with (
+        tarfile.open(path, "r:gz") as source,
+        tarfile.open(partial, "w:gz", format=tarfile.PAX_FORMAT) as target,
+    ):
+        for member in source.getmembers():
+            target.addfile(member, source.extractfile(member) if member.isfile() else None)
+        data = backend.read_bytes()
+        info = tarfile.TarInfo(f"{root}/.packaging/{backend.name}")
+        info.size, info.mtime, info.mode = len(data), int(backend.stat().st_mtime), 0o644
+        target.addfile(info, io.BytesIO(data))
+    partial.replace(path)
+    return name
 
 
 def build_editable(wheel_directory, config_settings=None, metadata_directory=None):

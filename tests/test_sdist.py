@@ -1,0 +1,47 @@
+"""The source distribution carries what a build from it needs: the build backend that
+`pyproject.toml` names (``backend-path = [".packaging"]``), the packages, the shaders and
+the demo assets.  setuptools alone left the backend out, so ``pip install`` of the sdist
+failed with "No module named 'backend'"."""
+
+from __future__ import annotations
+
+import shutil
+import subprocess
+import sys
+import tarfile
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def test_the_source_distribution_carries_the_build_backend(tmp_path):
+    source = tmp_path / "source"
+    tracked = subprocess.run(["git", "ls-files", "-z"], cwd=ROOT, capture_output=True, text=True, check=True)
+    for name in filter(None, tracked.stdout.split("\0")):
+        if (ROOT / name).is_file():
+            (source / name).parent.mkdir(parents=True, exist_ok=True)
+            shutil.copy2(ROOT / name, source / name)
+    build = (
+        "import sys; sys.path.insert(0, '.packaging'); import backend; "
+        f"print(backend.build_sdist({str(tmp_path / 'dist')!r}))"
+    )
+    result = subprocess.run(
+        [sys.executable, "-c", build], cwd=source, capture_output=True, text=True, timeout=300
+    )
+    assert result.returncode == 0, result.stderr[-3000:]
+    name = result.stdout.strip().splitlines()[-1]
+    root = name[: -len(".tar.gz")]
+    with tarfile.open(tmp_path / "dist" / name) as archive:
+        names = set(archive.getnames())
+        backend = archive.extractfile(f"{root}/.packaging/backend.py").read()
+    assert backend == (ROOT / ".packaging" / "backend.py").read_bytes()
+    needed_files = (
+        "pyproject.toml",
+        "README.md",
+        "core/poisson.py",
+        "app/__main__.py",
+        "shaders/mesh.vert.glsl",
+    )
+    for needed in needed_files:
+        assert f"{root}/{needed}" in names, needed
+    assert any(n.startswith(f"{root}/assets/") and n.endswith(".session.json") for n in names)
