@@ -248,7 +248,7 @@ class Levels:
     densities : tuple of ndarray
         densities[k] (P_k * ORDER, m): what the level's Gauss–Legendre rule integrates.
         On the finest level the densities themselves; on coarser ones their weight-
-        corrected restrictions (`restriction`), which integrate what is smooth on their
+        corrected restrictions (`restricted`), which integrate what is smooth on their
         panels as the finest rule does.
     safety : tuple
         safety[k] None, or float ndarray (P_k,): how many panel lengths away a target must
@@ -314,22 +314,24 @@ def level_safety(curve: ClosedBSpline, levels: Levels, k: int) -> np.ndarray:
     return np.broadcast_to(np.asarray(default, dtype=np.float64), (panels.count,))
 
 
-def restriction(coarse: Panels, fine: Panels, parent: np.ndarray) -> np.ndarray:
-    """Q = W_c^-1 P^T W_f, shape (P_c * ORDER, P_f * ORDER): fine densities to weight-corrected coarse ones.
+def restricted(coarse: Panels, fine: Panels, parent: np.ndarray, density: np.ndarray) -> np.ndarray:
+    """Q φ for fine densities φ (P_f * ORDER, m): the weight-corrected coarse ones, (P_c * ORDER, m).
 
-    P interpolates a coarse panel's nodes at the nodes of the fine panels inside it, so
-    that Σ_c w_c f(y_c) (Q φ)_c = Σ_f w_f (P f)(y_f) φ_f for any f, exactly the fine
-    rule for f polynomial of degree < ORDER on the coarse panels.
+    Q = W_c^-1 P^T W_f with P the interpolation of a coarse panel's nodes at the nodes of the
+    fine panels inside it (`parent` (P_f,), in order), so that
+    Σ_c w_c f(y_c) (Q φ)_c = Σ_f w_f (P f)(y_f) φ_f for any f: exactly the fine rule for f
+    polynomial of degree < ORDER on the coarse panels.  Applied panel by panel, not as a matrix.
     """
-    parent_node = np.repeat(parent, ORDER)
     widths = np.diff(coarse.bounds, axis=1)[:, 0]
+    parent_node = np.repeat(parent, ORDER)
     local = 2.0 * (fine.t - coarse.bounds[parent_node, 0]) / widths[parent_node] - 1.0
-    interpolation = interpolation_matrix(local)  # (P_f * ORDER, ORDER)
-    out = np.zeros((coarse.size, fine.size))
-    columns = np.arange(fine.size)
-    rows = parent_node[:, None] * ORDER + np.arange(ORDER)
-    out[rows, columns[:, None]] = interpolation * fine.weights[:, None]
-    return out / coarse.weights[:, None]
+    interpolation = interpolation_matrix(local).reshape(fine.count, ORDER, ORDER)  # fine node <- coarse
+    weighted = (density * fine.weights[:, None]).reshape(fine.count, ORDER, -1)
+    each = np.matmul(interpolation.transpose(0, 2, 1), weighted)  # (P_f, ORDER, m), to the parent's nodes
+    starts = np.flatnonzero(np.concatenate([[True], np.diff(parent) != 0]))
+    out = np.zeros((coarse.count, ORDER, density.shape[1]))
+    out[parent[starts]] = np.add.reduceat(each, starts, axis=0)
+    return out.reshape(coarse.size, -1) / coarse.weights[:, None]
 
 
 def cauchy_integrals(

@@ -50,7 +50,7 @@ from core.layer import (
     hierarchical_rows,
     layer_factors,
     near_pairs,
-    restriction,
+    restricted,
     smooth_on_own_span,
 )
 from core.panels import (
@@ -179,7 +179,7 @@ def _densities(points: bytes, count: int) -> Densities:
         weighted[columns] = block @ transformed[columns]
     spans = span_panels(curve)
     span_of = np.floor(coarse.bounds[:, 0] + 1e-12).astype(np.int64)
-    span_density = restriction(spans, fine, span_of[parent]) @ mu
+    span_density = restricted(spans, fine, span_of[parent], mu)
     # A corner's block carries restricted densities of its singular density: `CORNER_SAFE`.
     corner_block = np.isin(knot, sharp_corners(curve))
     safety = (None, np.where(corner_block, CORNER_SAFE, SAFE), None)
