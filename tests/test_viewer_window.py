@@ -443,7 +443,9 @@ def test_a_drag_during_the_first_computation_survives_kill_9(display, environmen
     state, cache = folder / f"state-early-{kernel}", folder / f"cache-early-{kernel}"  # G not cached
     env = {**env, "TRANSFINITE_STATE_DIR": str(state), "TRANSFINITE_CACHE_DIR": str(cache)}
     command = ["view", str(ASSETS / "starfish.png"), "--cage", str(ASSETS / "starfish.cage.json")]
-    command += ["--kernel", kernel]
+    # A mesh of 200,000 vertices keeps the first computation going for a second or more: the
+    # default kernel's basis at the usual 6,000 takes ~0.15 s, less than the drag.
+    command += ["--kernel", kernel, "--vertices", "200000"]
     viewer = ViewerProcess(command, env, ROOT)
     try:
         window = viewer.wait_for("ready window=", 30).split("=")[1]
