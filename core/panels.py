@@ -66,7 +66,7 @@ COARSE_PER_SPAN = 4
 SMOOTH_COARSE_PER_SPAN = 2
 #: The two coarse panels at a knot differ in arc length by at most this factor.
 BALANCE = 2.0
-#: At most this many rounds of splitting for thin parts and balance.
+#: At most this many rounds of splitting for thin parts (and as many for balance and turns).
 THIN_ROUNDS = 12
 
 _NODES, _WEIGHTS = np.polynomial.legendre.leggauss(ORDER)
@@ -163,12 +163,16 @@ def coarse_panels_and_gaps(curve: ClosedBSpline) -> tuple[Panels, np.ndarray]:
     starts = np.concatenate([j + np.arange(k) / k for j, k in enumerate(per_span)])
     bounds = np.stack([starts, starts + np.repeat(1.0 / per_span, per_span)], axis=1)
     corners = sharp_corners(curve).astype(float)
-    for _ in range(THIN_ROUNDS):
+    for _ in range(2 * THIN_ROUNDS):
         panels = _panels(curve, bounds)
-        gap = gaps(panels, corners)
-        split = (panels.lengths > THIN_RATIO * gap) | _unbalanced(panels) | _curved(panels)
+        # The rules that look at a panel and its neighbours first; the gaps (a search of the
+        # whole curve, most of this function's time) once those hold.
+        split = _unbalanced(panels) | _curved(panels)
         if not split.any():
-            return panels, gap
+            gap = gaps(panels, corners)
+            split = panels.lengths > THIN_RATIO * gap
+            if not split.any():
+                return panels, gap
         middle = bounds[split].mean(axis=1)
         halves = np.concatenate(
             [np.stack([bounds[split, 0], middle], 1), np.stack([middle, bounds[split, 1]], 1)]
