@@ -137,13 +137,22 @@ def _densities(points: bytes, count: int) -> Densities:
     expand.values[:, :ORDER] = interpolation
     expand.columns[:, :ORDER] = coarse_nodes[parent]
     blocks = {}  # knot -> (its coarse nodes, R restricted to them)
+    block_of = knot[parent]  # the knot block of each fine panel, -1 for none
+    corrections = _block_near_pairs(curve, fine, block_of)
+    position = np.empty(fine.size, dtype=np.int64)  # a fine node's row in its block's matrix
     for j in np.unique(knot[knot >= 0]):
         group = np.flatnonzero(knot == j)
         columns = coarse_nodes[group].ravel()
-        fine_panels = np.flatnonzero(np.isin(parent, group))
-        rows = np.flatnonzero(np.isin(parent_node, group))
+        fine_panels = np.flatnonzero(block_of == j)
+        rows = (fine_panels[:, None] * ORDER + np.arange(ORDER)).ravel()
+        position[rows] = np.arange(rows.size)
         near_knot = _panels_of(curve, fine, fine_panels)
-        local_matrix = np.eye(rows.size) + 2.0 * layer_matrix(curve, near_knot, near_knot.z, own=True)
+        local_matrix = layer_matrix(curve, near_knot, near_knot.z, own=True)
+        target, source, values = corrections.get(j, (np.zeros(0, dtype=np.int64),) * 2 + (None,))
+        if target.size:
+            local_matrix[position[target][:, None], position[source]] = values
+        local_matrix *= 2.0
+        local_matrix[np.arange(rows.size), np.arange(rows.size)] += 1.0
         prolongation = interpolation_rows(interpolation, rows, parent_node, group)
         block = np.linalg.solve(local_matrix, prolongation)
         expand.values[rows, : columns.size] = block
@@ -151,7 +160,7 @@ def _densities(points: bytes, count: int) -> Densities:
         restrict = (prolongation * fine.weights[rows, None]).T / coarse.weights[columns, None]
         blocks[j] = (columns, restrict @ block)
     group_of = np.where(knot >= 0, knot, -1 - np.arange(coarse.count))  # each free panel its own
-    system = 2.0 * layer_matrix(curve, coarse, coarse.z, own=True, near=False)
+    system = 2.0 * layer_matrix(curve, coarse, coarse.z, own=True)
     same = group_of[np.repeat(np.arange(coarse.count), ORDER)]
     for columns, _ in blocks.values():  # K*: within a knot's pair of panels, in R
         system[np.ix_(columns, columns)] = 0.0
@@ -216,7 +225,7 @@ def nystrom_halves(curve: ClosedBSpline, fine: Panels, mu: np.ndarray, refine: n
     bounds = np.stack([np.stack([low, middle], 1), np.stack([middle, high], 1)], 1).reshape(-1, 2)
     halves = _make_panels(curve, bounds)
     z, t = halves.z, halves.t
-    matrix = layer_matrix(curve, fine, z, own=False, near=False)
+    matrix = layer_matrix(curve, fine, z, own=False)
     target, panel = near_pairs(fine, z, curve.diameter)
     adaptive = ~smooth_on_own_span(curve, fine, t[target], panel)
     target, panel = target[adaptive], panel[adaptive]
@@ -289,6 +298,28 @@ def interpolation_rows(interpolation, rows, parent_node, group) -> np.ndarray:
     return out
 
 
+def _block_near_pairs(curve: ClosedBSpline, fine: Panels, block_of: np.ndarray) -> dict:
+    """The adaptive rule's entries of the knot blocks' matrices, for all blocks in one pass.
+
+    Pairs of a fine node and a fine panel of the same block (`block_of` (P_f,), -1 outside
+    any), near (`near_pairs`), not the node's own panel and not on its span where the kernel
+    is smooth (`smooth_on_own_span`): knot -> (target nodes (K,), their panels' nodes (K, ORDER),
+    the Re C-weights (K, ORDER)), node indices of `fine`.
+    """
+    target, panel = near_pairs(fine, fine.z, curve.diameter)
+    block = block_of[panel]
+    inside = (block >= 0) & (block_of[target // ORDER] == block) & (target // ORDER != panel)
+    target, panel = target[inside], panel[inside]
+    adaptive = ~smooth_on_own_span(curve, fine, fine.t[target], panel)
+    target, panel = target[adaptive], panel[adaptive]
+    weights, _ = adaptive_weights(curve, fine, fine.z[target], panel, on_curve=0.0)
+    orientation = 1.0 if curve.area > 0 else -1.0
+    values = (orientation * weights / (2j * np.pi)).real
+    sources = panel[:, None] * ORDER + np.arange(ORDER)
+    block = block_of[panel]
+    return {int(j): (target[block == j], sources[block == j], values[block == j]) for j in np.unique(block)}
+
+
 def _panels_of(curve: ClosedBSpline, panels: Panels, indices: np.ndarray) -> Panels:
     """The panels `indices` of `panels` as a Panels of their own (their arrays sliced, not recomputed)."""
     nodes = (indices[:, None] * ORDER + np.arange(ORDER)).ravel()
@@ -298,13 +329,12 @@ def _panels_of(curve: ClosedBSpline, panels: Panels, indices: np.ndarray) -> Pan
     )  # fmt: skip
 
 
-def layer_matrix(curve: ClosedBSpline, panels: Panels, z: np.ndarray, *, own: bool, near: bool = True):
-    """Re C-weights of every node of `panels` at targets z (M,), shape (M, P * ORDER).
+def layer_matrix(curve: ClosedBSpline, panels: Panels, z: np.ndarray, *, own: bool) -> np.ndarray:
+    """Re C-weights of every node of `panels` at targets z (M,) by the plain rule, shape (M, P * ORDER).
 
     With `own`, the targets are the panels' own nodes: a node's weight on itself is the
     limit s Im(τ''/τ') w / 4π (the double layer's kernel at y = x, curvature over 4π).
-    With `near`, pairs near a panel (not its own) take the adaptive rule; without, the
-    caller replaces them.
+    The caller replaces the pairs that need the adaptive rule (`_block_near_pairs`).
     """
     factors = layer_factors(curve, panels)
     compiled = layer_compiled.layer_matrix_rows
@@ -322,17 +352,6 @@ def layer_matrix(curve: ClosedBSpline, panels: Panels, z: np.ndarray, *, own: bo
         orientation = 1.0 if curve.area > 0 else -1.0
         diagonal = orientation * (panels.d2z / panels.dz).imag * panels.weights / (4.0 * np.pi)
         np.fill_diagonal(matrix, diagonal)
-    if not near:
-        return matrix
-    target, panel = near_pairs(panels, z, curve.diameter)
-    if own:  # a node's own panel and same-span panels where the kernel is smooth keep the plain rule
-        keep = (target // ORDER != panel) & ~smooth_on_own_span(curve, panels, panels.t[target], panel)
-        target, panel = target[keep], panel[keep]
-    weights, _ = adaptive_weights(curve, panels, z[target], panel, on_curve=0.0)
-    orientation = 1.0 if curve.area > 0 else -1.0
-    matrix[target[:, None], panel[:, None] * ORDER + np.arange(ORDER)] = (
-        orientation * weights / (2j * np.pi)
-    ).real
     return matrix
 
 
