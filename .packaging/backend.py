@@ -86,22 +86,29 @@ def build_sdist(sdist_directory, config_settings=None):
     """setuptools' source distribution, with this backend added: `pyproject.toml` names it
     (``backend-path``), so a build from the sdist needs it, and setuptools packs only the
     packages, their data and the top-level files (a ``MANIFEST.in`` would be a new top-level
-    file).  The archive is rewritten under a temporary name, then renamed over the original."""
+    file).  The archive is rewritten under a temporary name, then renamed over the original;
+    if setuptools already packed the backend, it is left as it is."""
     name = _setuptools.build_sdist(sdist_directory, config_settings)
     path = Path(sdist_directory) / name
-    root = name[: -len(".tar.gz")]
     backend = Path(__file__).resolve()
-    partial = path.with_name(path.name + ".partial")
-    with (
-        tarfile.open(path, "r:gz") as source,
-        tarfile.open(partial, "w:gz", format=tarfile.PAX_FORMAT) as target,
-    ):
-        for member in source.getmembers():
-            target.addfile(member, source.extractfile(member) if member.isfile() else None)
-        data = backend.read_bytes()
-        info = tarfile.TarInfo(f"{root}/.packaging/{backend.name}")
-        info.size, info.mtime, info.mode = len(data), int(backend.stat().st_mtime), 0o644
-        target.addfile(info, io.BytesIO(data))
+    with tarfile.open(path, "r:gz") as source:
+        members = source.getmembers()
+        root = members[0].name.split("/")[0]
+        inside = f"{root}/.packaging/{backend.name}"
+        if any(member.name == inside for member in members):
+            return name
+        partial = path.with_name(path.name + ".partial")
+        try:
+            with tarfile.open(partial, "w:gz", format=tarfile.PAX_FORMAT) as target:
+                for member in members:
+                    target.addfile(member, source.extractfile(member) if member.isfile() else None)
+                data = backend.read_bytes()
+                info = tarfile.TarInfo(inside)
+                info.size, info.mtime, info.mode = len(data), int(backend.stat().st_mtime), 0o644
+                target.addfile(info, io.BytesIO(data))
+        except BaseException:
+            partial.unlink(missing_ok=True)
+            raise
     partial.replace(path)
     return name
 

@@ -28,7 +28,7 @@ from core.blas_threads import one_blas_thread
 from core.bspline import ClosedBSpline
 from core.layer import Levels, bisected, cauchy_derivatives, cauchy_integrals
 from core.panels import coarse_panels, span_panels
-from core.poisson import CHUNK, boundary_limit_rows, refuse_far_outside
+from core.poisson import CHUNK, boundary_limit_rows, centred, refuse_far_outside
 
 
 @functools.lru_cache(maxsize=4)
@@ -56,6 +56,8 @@ def cauchy_green_basis(curve: ClosedBSpline, x: np.ndarray, progress=None) -> np
     the points 1e-7 of the diameter inside along the normal (`boundary_limit_rows`).
     """
     refuse_far_outside(curve, x)
+    shown = x
+    curve, x = centred(curve, x)
     levels = _levels(curve.control_points.tobytes(), curve.n)
     out = np.empty((x.shape[0], curve.n), dtype=np.complex128)
     for first in range(0, x.shape[0], CHUNK):
@@ -63,7 +65,7 @@ def cauchy_green_basis(curve: ClosedBSpline, x: np.ndarray, progress=None) -> np
         real, imag, _ = cauchy_integrals(curve, levels, points, imaginary=True)
         values = real + 1j * imag
         out[first : first + CHUNK] = values[:, :-1] / values[:, -1:]
-        boundary = boundary_limit_rows(curve, points, real[:, -1])
+        boundary = boundary_limit_rows(curve, points, real[:, -1], shown, first)
         if boundary[0].size:
             inner = boundary[1]
             real, imag, _ = cauchy_integrals(curve, levels, inner, imaginary=True)
@@ -82,6 +84,7 @@ def cauchy_green_derivatives(curve: ClosedBSpline, x: np.ndarray) -> np.ndarray:
     that pair, shape (M, n, 2) complex.
     """
     refuse_far_outside(curve, x)
+    curve, x = centred(curve, x)
     levels = _levels(curve.control_points.tobytes(), curve.n)
     real, imag, _ = cauchy_integrals(curve, levels, x, imaginary=True)
     values = real + 1j * imag

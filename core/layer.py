@@ -109,8 +109,11 @@ def smooth_on_own_span(curve: ClosedBSpline, panels: Panels, t: np.ndarray, pane
     a kernel with no singularity at u = s: its poles are at u = -c1/c2 - s and its conjugate's
     (complex; a straight span has c1 conj c2 real, the kernel 0).  The plain rule's error falls
     as ρ^-32 with ρ the Bernstein ellipse through the pole: a pole at least one panel length
-    from the panel (ρ > 4) leaves < 1e-19.  Nyström matrices of `core.poisson` skip the
-    adaptive rule for these pairs: most of the near pairs of a knot's graded panels.
+    from the panel (ρ > 4) leaves < 1e-19 for a density polynomial on the panel (a restricted
+    density, on a coarse panel of a knot's block, integrates only to ~ρ^-16 times its
+    roughness: measured, G moves by 5e-13 at most).  Nyström matrices of `core.poisson` skip
+    the adaptive rule for these pairs, most of the near pairs of a knot's graded panels, and
+    take their weights from the closed form (`fill_same_span`).
     """
     pieces = curve.piecewise_polynomial().coefficients  # span j: c0 + c1 u + c2 u^2
     span = np.floor(panels.bounds[panel, 0] + 1e-12).astype(np.int64)
@@ -123,6 +126,43 @@ def smooth_on_own_span(curve: ClosedBSpline, panels: Panels, t: np.ndarray, pane
     low, high = panels.bounds[panel, 0] - span, panels.bounds[panel, 1] - span
     distance = np.abs(pole - np.clip(pole.real, low, high))
     return same & (straight | (distance >= high - low))
+
+
+def fill_same_span(curve: ClosedBSpline, matrix: np.ndarray, t: np.ndarray, panels: Panels) -> None:
+    """Set the double layer's Re C-weights of the pairs on one span from the kernel's closed form.
+
+    `matrix` (M, P * ORDER) holds the weights of the nodes of `panels` at targets on the curve
+    at parameters t (M,).  Where a target and a node are on the same span, the weight is
+
+        s w_k (-Im(c1 conj c2)) / (2π |c1 + c2 (u_k + u)|^2)
+
+    (`smooth_on_own_span`), exact, with no subtraction: Re(f / (τ - z)) computed from the
+    positions loses ~1e-16 |τ - z|^-1 to rounding next to a node (1.8e-6 where the exact
+    weight is 0, beside a corner; 4.5e-9 on a smooth cage), and is 0/0 at the node itself,
+    where this is the curvature limit.
+    """
+    pieces = curve.piecewise_polynomial().coefficients
+    c1 = pieces[:, 1, 0] + 1j * pieces[:, 1, 1]
+    c2 = pieces[:, 2, 0] + 1j * pieces[:, 2, 1]
+    orientation = 1.0 if curve.area > 0 else -1.0
+    cross = (c1 * np.conj(c2)).imag
+    cross[np.abs(cross) <= 1e-14 * np.abs(c1) * np.abs(c2)] = 0.0  # straight: parallel to rounding
+    scale = -orientation * cross / (2.0 * np.pi)  # by span
+    target_floor = np.floor(t + 1e-12)
+    target_u = t - target_floor
+    target_span = target_floor.astype(np.int64) % curve.n
+    node_floor = np.floor(panels.t + 1e-12)
+    node_u = panels.t - node_floor
+    node_span = node_floor.astype(np.int64) % curve.n
+    by_target = np.argsort(target_span, kind="stable")
+    by_node = np.argsort(node_span, kind="stable")
+    target_starts = np.searchsorted(target_span[by_target], np.arange(curve.n + 1))
+    node_starts = np.searchsorted(node_span[by_node], np.arange(curve.n + 1))
+    for j in np.flatnonzero((np.diff(target_starts) > 0) & (np.diff(node_starts) > 0)):
+        rows = by_target[target_starts[j] : target_starts[j + 1]]
+        columns = by_node[node_starts[j] : node_starts[j + 1]]
+        u = target_u[rows, None] + node_u[columns]
+        matrix[rows[:, None], columns] = scale[j] * panels.weights[columns] / np.abs(c1[j] + c2[j] * u) ** 2
 
 
 def adaptive_weights(
@@ -322,6 +362,8 @@ def restricted(coarse: Panels, fine: Panels, parent: np.ndarray, density: np.nda
     Σ_c w_c f(y_c) (Q φ)_c = Σ_f w_f (P f)(y_f) φ_f for any f: exactly the fine rule for f
     polynomial of degree < ORDER on the coarse panels.  Applied panel by panel, not as a matrix.
     """
+    if np.any(np.diff(parent) < 0):
+        raise ValueError("the fine panels must follow their coarse panels' order")
     widths = np.diff(coarse.bounds, axis=1)[:, 0]
     parent_node = np.repeat(parent, ORDER)
     local = 2.0 * (fine.t - coarse.bounds[parent_node, 0]) / widths[parent_node] - 1.0

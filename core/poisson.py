@@ -47,6 +47,7 @@ from core.layer import (
     bisected,
     cauchy_derivatives,
     cauchy_integrals,
+    fill_same_span,
     hierarchical_rows,
     layer_factors,
     near_pairs,
@@ -54,6 +55,7 @@ from core.layer import (
     smooth_on_own_span,
 )
 from core.panels import (
+    _NODES,
     ORDER,
     REFINED_RATIO,
     Panels,
@@ -147,7 +149,7 @@ def _densities(points: bytes, count: int) -> Densities:
         rows = (fine_panels[:, None] * ORDER + np.arange(ORDER)).ravel()
         position[rows] = np.arange(rows.size)
         near_knot = _panels_of(curve, fine, fine_panels)
-        local_matrix = layer_matrix(curve, near_knot, near_knot.z, own=True)
+        local_matrix = layer_matrix(curve, near_knot, near_knot.z, near_knot.t)
         target, source, values = corrections.get(j, (np.zeros(0, dtype=np.int64),) * 2 + (None,))
         if target.size:
             local_matrix[position[target][:, None], position[source]] = values
@@ -160,7 +162,7 @@ def _densities(points: bytes, count: int) -> Densities:
         restrict = (prolongation * fine.weights[rows, None]).T / coarse.weights[columns, None]
         blocks[j] = (columns, restrict @ block)
     group_of = np.where(knot >= 0, knot, -1 - np.arange(coarse.count))  # each free panel its own
-    system = 2.0 * layer_matrix(curve, coarse, coarse.z, own=True)
+    system = 2.0 * layer_matrix(curve, coarse, coarse.z, coarse.t)
     same = group_of[np.repeat(np.arange(coarse.count), ORDER)]
     for columns, _ in blocks.values():  # K*: within a knot's pair of panels, in R
         system[np.ix_(columns, columns)] = 0.0
@@ -214,19 +216,27 @@ def nystrom_halves(curve: ClosedBSpline, fine: Panels, mu: np.ndarray, refine: n
         μ(x) = 2 N(x) - 2 ∫_Γ μ(y) K(x, y) ds_y,
 
     with the integral by the fine panels' rule: plain where the kernel is smooth (far, or on
-    x's own span, `smooth_on_own_span`), adaptive across knots.  Its error is the solve's,
-    ~ρ^-32, where the halves' interpolant of μ has ~ρ^-16: a panel beside a narrow gap
-    (0.19 long, 0.15 from the F polygon's middle arm) has its density's interpolant off by
-    5e-10 between nodes, which G carries to points 1e-4 of the diameter from the curve, while
-    at the nodes the solve agrees with a finer one to 4e-14.  Halves where the integral meets
-    the curve (a near-cusp span) keep the interpolant.
+    x's own span, `smooth_on_own_span`, by its closed form), adaptive across knots.  Its error
+    is the solve's, ~ρ^-32, where the halves' interpolant of μ has ~ρ^-16: a panel beside a
+    narrow gap (0.19 long, 0.15 from the F polygon's middle arm) has its density's interpolant
+    off by 5e-10 between nodes, which G carries to points 1e-4 of the diameter from the curve,
+    while at the nodes the solve agrees with a finer one to 4e-14.
+
+    μ solves the compressed equation, not this one: at the panel's own nodes the formula
+    differs from μ by the fine equation's residual (2.3e-13 beside gaps, up to 2.5e-8 on a
+    knot's graded panels).  That residual, interpolated, is taken off, so that the halves
+    agree with μ at its nodes and only the variation between them is the formula's.  Panels
+    where the integral meets the curve (a near-cusp span) keep the interpolant.
     """
+    count = refine.size
     low, high = fine.bounds[refine, 0], fine.bounds[refine, 1]
     middle = 0.5 * (low + high)
     bounds = np.stack([np.stack([low, middle], 1), np.stack([middle, high], 1)], 1).reshape(-1, 2)
     halves = _make_panels(curve, bounds)
-    z, t = halves.z, halves.t
-    matrix = layer_matrix(curve, fine, z, own=False)
+    own = (refine[:, None] * ORDER + np.arange(ORDER)).ravel()  # the panels' own nodes
+    z = np.concatenate([halves.z, fine.z[own]])
+    t = np.concatenate([halves.t, fine.t[own]])
+    matrix = layer_matrix(curve, fine, z, t)
     target, panel = near_pairs(fine, z, curve.diameter)
     adaptive = ~smooth_on_own_span(curve, fine, t[target], panel)
     target, panel = target[adaptive], panel[adaptive]
@@ -234,11 +244,15 @@ def nystrom_halves(curve: ClosedBSpline, fine: Panels, mu: np.ndarray, refine: n
     orientation = 1.0 if curve.area > 0 else -1.0
     columns = panel[:, None] * ORDER + np.arange(ORDER)
     matrix[target[:, None], columns] = (orientation * weights / (2j * np.pi)).real
-    values = _data(curve, t) - 2.0 * (matrix @ mu)
+    formula = _data(curve, t) - 2.0 * (matrix @ mu)
+    split = 2 * count * ORDER
+    residual = (mu[own] - formula[split:]).reshape(count, ORDER, -1)
+    to_halves = interpolation_matrix(np.concatenate([0.5 * _NODES - 0.5, 0.5 * _NODES + 0.5]))
+    values = formula[:split] + np.matmul(to_halves, residual).reshape(split, -1)
+    hit = target[touching]  # panels whose integral met the curve, by their halves or own nodes
+    met = np.unique(np.where(hit < split, hit // (2 * ORDER), (hit - split) // ORDER))
+    keep = ~np.isin(np.repeat(np.arange(count), 2 * ORDER), met)
     nodes = ((2 * refine[:, None] + np.arange(2)).ravel()[:, None] * ORDER + np.arange(ORDER)).ravel()
-    keep = np.ones(z.size, dtype=bool)
-    met = np.unique(target[touching] // ORDER)  # halves whose integral met the curve
-    keep[(met[:, None] * ORDER + np.arange(ORDER)).ravel()] = False
     return nodes[keep], values[keep]
 
 
@@ -330,12 +344,14 @@ def _panels_of(curve: ClosedBSpline, panels: Panels, indices: np.ndarray) -> Pan
     )  # fmt: skip
 
 
-def layer_matrix(curve: ClosedBSpline, panels: Panels, z: np.ndarray, *, own: bool) -> np.ndarray:
-    """Re C-weights of every node of `panels` at targets z (M,) by the plain rule, shape (M, P * ORDER).
+def layer_matrix(curve: ClosedBSpline, panels: Panels, z: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """Re C-weights of every node of `panels` by the plain rule at targets z (M,) on the curve at
+    parameters t (M,), shape (M, P * ORDER).
 
-    With `own`, the targets are the panels' own nodes: a node's weight on itself is the
-    limit s Im(τ''/τ') w / 4π (the double layer's kernel at y = x, curvature over 4π).
-    The caller replaces the pairs that need the adaptive rule (`_block_near_pairs`).
+    Pairs on one span take the kernel's closed form (`core.layer.fill_same_span`), which at a
+    node itself is the limit s Im(τ''/τ') w / 4π (the double layer's kernel at y = x, the
+    curvature over 4π).  The caller replaces the pairs that need the adaptive rule
+    (`_block_near_pairs`).
     """
     factors = layer_factors(curve, panels)
     compiled = layer_compiled.layer_matrix_rows
@@ -349,10 +365,7 @@ def layer_matrix(curve: ClosedBSpline, panels: Panels, z: np.ndarray, *, own: bo
             dy = panels.z.imag[None, :] - z[first : first + 1024, None].imag
             with np.errstate(divide="ignore", invalid="ignore"):
                 matrix[first : first + 1024] = (factors.real * dx + factors.imag * dy) / (dx * dx + dy * dy)
-    if own:
-        orientation = 1.0 if curve.area > 0 else -1.0
-        diagonal = orientation * (panels.d2z / panels.dz).imag * panels.weights / (4.0 * np.pi)
-        np.fill_diagonal(matrix, diagonal)
+    fill_same_span(curve, matrix, t, panels)
     return matrix
 
 
@@ -371,13 +384,15 @@ def poisson_basis(
         Some points are outside the domain (how many, and the first).
     """
     refuse_far_outside(curve, x)
+    shown = x
+    curve, x = centred(curve, x)
     solution = densities(curve)
     out = np.empty((x.shape[0], curve.n))
     for first in range(0, x.shape[0], CHUNK):
         points = x[first : first + CHUNK]
         real, _, on_curve = cauchy_integrals(curve, solution.levels, points)
         total = real[:, -1]
-        boundary, t = _classify(curve, points, total, on_curve)
+        boundary, t = _classify(curve, points, total, on_curve, shown, first)
         out[first : first + CHUNK] = real[:, :-1] / total[:, None]
         if boundary.size:
             out[first + boundary] = curve.basis_matrix(t)
@@ -411,6 +426,8 @@ def poisson_gradients(curve: ClosedBSpline, x: np.ndarray) -> np.ndarray:
     grad G_i = (grad Re F_i - G_i grad Re F_s) / Re F_s.
     """
     refuse_far_outside(curve, x)
+    shown = x
+    curve, x = centred(curve, x)
     solution = densities(curve)
     real, _, on_curve = cauchy_integrals(curve, solution.levels, x)
     derivative = cauchy_derivatives(curve, solution.levels, x)
@@ -418,9 +435,26 @@ def poisson_gradients(curve: ClosedBSpline, x: np.ndarray) -> np.ndarray:
     values = real[:, :-1] / total
     gradient = np.stack([derivative.real, -derivative.imag], axis=2)  # (M, n + 1, 2)
     out = (gradient[:, :-1] - values[:, :, None] * gradient[:, -1:]) / total[:, :, None]
-    boundary = _classify(curve, x, real[:, -1], on_curve)[0]
+    boundary = _classify(curve, x, real[:, -1], on_curve, shown)[0]
     out[boundary] = np.nan
     return out
+
+
+def centred(curve: ClosedBSpline, x: np.ndarray) -> tuple[ClosedBSpline, np.ndarray]:
+    """`curve` and points x (M, 2) moved by one vector, the control points' bounding box then
+    centred on the origin.
+
+    The coordinates are translation invariant (and the Cauchy–Green ones too), but their
+    sums are not: far from the origin, differences of positions lose digits (the F polygon,
+    2.5 across, moved to (5000, 5000): linear precision 9.4e-7 of the diameter and G down to
+    -2.1e-5 at points 1e-6 of it from the curve; centred, 1.2e-10 and -5.8e-11).  Cages
+    moved by the same vector share their densities (`densities` is cached by the points).
+    """
+    points = curve.control_points
+    centre = 0.5 * (points.min(axis=0) + points.max(axis=0))
+    if not centre.any():
+        return curve, x
+    return ClosedBSpline(points - centre), x - centre
 
 
 def refuse_far_outside(curve: ClosedBSpline, x: np.ndarray) -> None:
@@ -440,13 +474,20 @@ def refuse_far_outside(curve: ClosedBSpline, x: np.ndarray) -> None:
 
 
 def _classify(
-    curve: ClosedBSpline, x: np.ndarray, total: np.ndarray, on_curve: np.ndarray
+    curve: ClosedBSpline,
+    x: np.ndarray,
+    total: np.ndarray,
+    on_curve: np.ndarray,
+    shown: np.ndarray | None = None,
+    first_index: int = 0,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Indices of the points on the curve and their parameters; ValueError for points outside.
 
     Inside, the layer of the densities' sum is 1; outside it is 0 and on the curve
-    about 1/2 (the jump of a double layer).
+    about 1/2 (the jump of a double layer).  x (K, 2) are the caller's points from index
+    `first_index` of `shown` (M, 2), which the message quotes (the points before `centred`).
     """
+    shown = x if shown is None else shown
     strange = on_curve | (np.abs(total - 1.0) > ON_CURVE) | ~np.isfinite(total)
     candidates = np.flatnonzero(strange)
     if candidates.size == 0:
@@ -455,25 +496,28 @@ def _classify(
     boundary = distance <= ON_CURVE_DISTANCE * curve.diameter
     outside = candidates[~boundary & ~(total[candidates] >= 0.5)]
     if outside.size:
-        first = int(outside[0])
+        first = first_index + int(outside[0])
+        counted = (
+            f"{outside.size} of {x.shape[0]}" if x.shape[0] == shown.shape[0] else f"{outside.size} or more"
+        )
         raise ValueError(
-            f"{outside.size} of {x.shape[0]} points of x are outside the domain "
-            f"(first: index {first}, {x[first].tolist()})"
+            f"{counted} points of x are outside the domain (first: index {first}, {shown[first].tolist()})"
         )
     return candidates, t
 
 
 def boundary_limit_rows(
-    curve: ClosedBSpline, x: np.ndarray, total: np.ndarray
+    curve: ClosedBSpline, x: np.ndarray, total: np.ndarray, shown: np.ndarray, first_index: int = 0
 ) -> tuple[np.ndarray, np.ndarray]:
     """Points of x (M, 2) on the curve, and the points 1e-7 diameters inside from them (K, 2).
 
     `total` (M,) is the Cauchy integral of 1 (1 inside, 0 outside, 1/2 on the curve),
     which finds the candidates as in `poisson_basis`; a kernel without the Lagrange
     property takes its boundary rows as the limit from inside, approximated there.
+    `shown` and `first_index` as in `_classify`.
     """
     on_curve = np.zeros(x.shape[0], dtype=bool)
-    indices, t = _classify(curve, x, total, on_curve)
+    indices, t = _classify(curve, x, total, on_curve, shown, first_index)
     if indices.size == 0:
         return indices, np.zeros((0, 2))
     point, tangent, _ = curve.evaluate(t)

@@ -279,6 +279,47 @@ def test_smooth_spans_take_two_coarse_panels_and_keep_the_bounds_on_a_large_cage
     assert G.min() >= -1e-10
 
 
+def test_a_cage_far_from_the_origin_keeps_the_bounds():
+    # The F polygon (2.5 across) turned by 30 degrees and moved to (5000, 5000): differences of
+    # positions lost digits (linear precision 9.4e-7 of the diameter, G -2.1e-5) before the cage
+    # and points were centred on the origin (poisson.centred).  The same points relative to the
+    # cage give the same G; an outside point is still reported in the caller's coordinates.
+    angle = np.pi / 6
+    turn = np.array([[np.cos(angle), -np.sin(angle)], [np.sin(angle), np.cos(angle)]])
+    here = core.ClosedBSpline(SHAPES["F polygon"] @ turn.T)
+    x_here = np.vstack([interior_points(here, 300, seed=7), near_boundary_points(here, 300, seed=8)[0]])
+    far = core.ClosedBSpline(here.control_points + 5000.0)
+    x = x_here + 5000.0
+    G = core.basis_functions(far, x)
+    np.testing.assert_allclose(G.sum(axis=1), 1.0, rtol=0, atol=1e-12)
+    assert np.linalg.norm(G @ far.control_points - x, axis=1).max() <= 1e-8 * far.diameter
+    assert G.min() >= -1e-10
+    gap = np.array([[1.0, 0.47]]) @ turn.T + 5000.0  # between the F's lower arms, outside
+    with pytest.raises(ValueError, match=r"1 of 2 points of x are outside the domain \(first: index 1, \[50"):
+        core.basis_functions(far, np.vstack([x[:1], gap]))
+
+
+def test_same_span_weights_are_the_closed_form_of_the_kernel():
+    # layer.fill_same_span: on a straight span (a doubled control point's) the double layer's kernel
+    # is 0, exactly, where Re(f / (τ - z)) from the positions left up to 1.8e-6 next to a node; at a
+    # node itself the weight is the curvature limit s Im(τ''/τ') w / 4π.
+    from core import poisson
+    from core.panels import curve_panels, sharp_corners
+
+    curve = core.ClosedBSpline(np.array(HAIRPIN))
+    panels = curve_panels(curve)
+    matrix = poisson.layer_matrix(curve, panels, panels.z, panels.t)
+    span = np.floor(panels.t + 1e-12).astype(np.int64)
+    corner = sharp_corners(curve)
+    straight = np.isin(span, np.concatenate([corner, (corner - 1) % curve.n]))
+    assert straight.sum() > 0
+    same = span[:, None] == span[None, :]
+    assert np.all(matrix[np.ix_(straight, straight)][same[np.ix_(straight, straight)]] == 0.0)
+    limit = (panels.d2z / panels.dz).imag * panels.weights / (4.0 * np.pi) * (1.0 if curve.area > 0 else -1.0)
+    # (on the straight spans the curvature formula leaves rounding, up to 2e-13, next to a corner)
+    np.testing.assert_allclose(np.diag(matrix)[~straight], limit[~straight], rtol=1e-12, atol=0)
+
+
 def test_cauchy_green_is_conformal_and_reproduces_the_identity():
     curve = core.ClosedBSpline(SHAPES["C-shape"])
     x = interior_points(curve, 200, seed=36)

@@ -1,8 +1,9 @@
 """The built wheel, installed in a fresh virtual environment, works from anywhere.
 
-The repository is copied to a temporary folder, built there with ``pip wheel``, and
-the copy is deleted; the wheel goes into a new venv with its dependencies from the
-package index, and its commands run from an unrelated folder: ``fit``, ``warp``,
+The repository is copied to a temporary folder, packed there into a source distribution
+(`.packaging/backend.py`), the copy is deleted and ``pip wheel`` builds from the sdist;
+the wheel goes into a new venv with its dependencies from the package index, and its
+commands run from an unrelated folder: ``fit``, ``warp``,
 ``compare`` and, under Xvfb, ``demo --frames``.  That proves the wheel ships every
 package, the shaders and the demo assets, and that nothing reads the source tree.
 
@@ -50,8 +51,12 @@ def venv(tmp_path_factory) -> Path:
         if (ROOT / name).is_file():
             (source / name).parent.mkdir(parents=True, exist_ok=True)
             shutil.copy2(ROOT / name, source / name)
-    run([sys.executable, "-m", "pip", "wheel", "--quiet", "--no-deps", "-w", work / "dist", source], 600)
+    # Through the source distribution, as from a package index: it must carry the build backend.
+    build = "import sys; sys.path.insert(0, '.packaging'); import backend; "
+    build += f"print(backend.build_sdist({str(work)!r}))"
+    sdist = work / run([sys.executable, "-c", build], 300, cwd=source).stdout.strip().splitlines()[-1]
     shutil.rmtree(source)
+    run([sys.executable, "-m", "pip", "wheel", "--quiet", "--no-deps", "-w", work / "dist", sdist], 600)
     (wheel,) = (work / "dist").glob("transfinite_warp-*.whl")
     run([sys.executable, "-m", "venv", work / "venv"], 300)
     run([work / "venv" / "bin" / "python", "-m", "pip", "install", "--quiet", wheel], 1200)
