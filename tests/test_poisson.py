@@ -428,3 +428,13 @@ def test_nystrom_interpolation_gives_a_finer_solve_s_densities_beside_a_gap(monk
     rows = interpolation_matrix(2.0 * (t - low) / (high - low) - 1.0)
     reference = np.einsum("kq,kqm->km", rows, finer.reshape(-1, ORDER, finer.shape[1])[owner])
     np.testing.assert_allclose(corrected[beside], reference, rtol=0, atol=1e-12)
+
+
+def test_an_outside_point_beyond_the_first_chunk_is_named_by_its_own_index():
+    # poisson_basis evaluates 8,192 points at a time (poisson.CHUNK); the message named the index
+    # within the chunk (308 for 8,500).
+    curve = core.ClosedBSpline(SHAPES["F polygon"])
+    x = interior_points(curve, 9000, seed=1)
+    x[8500] = [1.0, 0.47]  # between the F's lower arms
+    with pytest.raises(ValueError, match=r"outside the domain \(first: index 8500, \[1\.0, 0\.47\]\)"):
+        core.basis_functions(curve, x)
