@@ -127,7 +127,7 @@ def _densities(points: bytes, count: int) -> Densities:
             f"{8 * coarse.size**2 / 2**30:.1f} GiB); use kernel 'harmonic' (finite elements) for such cages"
         )
     fine, parent, knot = graded_panels(curve, coarse)
-    knot = widened_at_corners(curve, knot)
+    knot = widened_at_corners(curve, knot, coarse.lengths)
     width = ORDER * max(2, np.bincount(knot[knot >= 0]).max(initial=0))
     parent_node = np.repeat(parent, ORDER)
     widths = np.diff(coarse.bounds, axis=1)[:, 0]
@@ -256,24 +256,35 @@ def nystrom_halves(curve: ClosedBSpline, fine: Panels, mu: np.ndarray, refine: n
     return nodes[keep], values[keep]
 
 
-def widened_at_corners(curve: ClosedBSpline, knot: np.ndarray) -> np.ndarray:
-    """`knot` (P_c,) with each sharp corner's pair of coarse panels widened by one panel on each side.
+def widened_at_corners(curve: ClosedBSpline, knot: np.ndarray, lengths: np.ndarray) -> np.ndarray:
+    """`knot` (P_c,) with each sharp corner's pair of coarse panels widened on each side by the
+    free panels next to it, until they are as long as the pair's panel on that side
+    (`lengths` (P_c,), arc lengths).
 
     RCIP compresses K° ≈ P K°_c Q, which needs K° smooth on the coarse panels of Γ*; at a
     sharp corner the density is singular, and the panels next to the corner's pair see it
     at distance zero.  Helsing's Γ* is two panels on each side of the corner for this
-    reason: taking them into K* (here, one more panel on each side) brought random polygons
-    with sharp corners from 1e-8..2e-7 of the diameter in linear precision to 1e-10.
+    reason: taking them into K* (one more panel on each side) brought random polygons
+    with sharp corners from 1e-8..2e-7 of the diameter in linear precision to 1e-10.  His
+    panels are of one size; here a panel split for a thin part next to the pair can be a
+    quarter of the pair's, and then the first panel beyond is within a quarter of the pair's
+    length of it, where neither side's coarse interpolation holds (random corner cage 23 with
+    `panels.THIN_RATIO` 1.5: 2.5e-6 of the diameter): so the block takes the pair's length.
     """
     corner = sharp_corners(curve)
     out = knot.copy()
     count = knot.size
     for j in corner:
-        members = np.flatnonzero(knot == j)
-        for c in members:
-            for neighbour in ((c - 1) % count, (c + 1) % count):
-                if knot[neighbour] < 0 and out[neighbour] < 0:
+        for c in np.flatnonzero(knot == j):
+            for step in (-1, 1):
+                neighbour = (c + step) % count
+                if knot[neighbour] == j:
+                    continue  # the pair's other panel
+                widened = 0.0
+                while knot[neighbour] < 0 and out[neighbour] < 0 and widened < lengths[c]:
                     out[neighbour] = j
+                    widened += lengths[neighbour]
+                    neighbour = (neighbour + step) % count
     return out
 
 

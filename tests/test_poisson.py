@@ -120,6 +120,26 @@ def test_random_polygons_with_sharp_corners(seed, layer_path):
     assert G.min() >= -1e-10  # measured >= -6.4e-11
 
 
+def test_a_corner_block_reaches_as_far_as_its_panels_are_long(monkeypatch):
+    # Random corner cage 23 with panels split at 1.5 times their gap: the panel beyond its spike's
+    # corner is split to a quarter of the corner's panel, and with a block of one panel a side the
+    # next panel sat within a quarter of the corner panel's length of it: linear precision 2.5e-6
+    # of the diameter.  The block now takes free panels until they are as long as the corner's
+    # panel (poisson.widened_at_corners): 2.2e-9.  (G still reaches -9.8e-9 there, 1e-5 of the
+    # diameter from the curve beside the spike, whose two sides come closer than the graded
+    # panels towards its corner are long: the default THIN_RATIO of 2 keeps this cage's panels
+    # long enough, and at it G >= -4.4e-12.)
+    from core import panels, poisson
+
+    monkeypatch.setattr(panels, "THIN_RATIO", 1.5)
+    poisson._densities.cache_clear()
+    curve = random_polygon_cage(23)
+    x = np.vstack([interior_points(curve, 300, seed=7), near_boundary_points(curve, 300, seed=8)[0]])
+    G = core.basis_functions(curve, x)
+    poisson._densities.cache_clear()
+    assert np.linalg.norm(G @ curve.control_points - x, axis=1).max() <= 1e-8 * curve.diameter
+
+
 #: Sharp corners and a hairpin turn of three control points (6-8), radius of curvature 0.7 px.
 HAIRPIN = [
     [168.7, 145.6], [168.7, 145.6], [26.5, 74.3], [26.5, 74.3], [-197.5, -20.8], [-197.5, -20.8],
