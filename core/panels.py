@@ -56,13 +56,13 @@ TURN = 3.0
 #: With 1.0 the bench's blob had 42 coarse panels, with 1.5 35 (its solve 42 -> 37 ms); with 2.0 a
 #: random smooth cage had G = -5.6e-10 next to a tight turn.
 CURVED = 1.5
-#: Coarse panels a span next to a sharp corner (a power of two, at least 2).
+#: Coarse panels a span on a cage with sharp corners (a power of two, at least 2).
 COARSE_PER_SPAN = 4
-#: Coarse panels a span between smooth knots.  Its density is smooth but at the knots, whose
-#: compressed blocks take it: with 2, the smooth test shapes and 33 random and example smooth
-#: cages kept G >= -2.5e-11 and linear precision 8.6e-10 of the diameter, with half the unknowns
-#: (an LU an eighth as long: 0.84 s -> 0.1 s for a cage of 60 control points).  Next to a corner,
-#: 2 left random corner cages at 1e-4 of the diameter.
+#: Coarse panels a span on a cage without sharp corners.  Its density is smooth but at the
+#: knots, whose compressed blocks take it: with 2, the smooth test shapes and 33 random and
+#: example smooth cages kept G >= -2.5e-11 and linear precision 8.6e-10 of the diameter, with
+#: half the unknowns (an LU an eighth as long: 0.84 s -> 0.1 s for a cage of 60 control points).
+#: On the spans at a corner 2 left random corner cages at 1e-4 of the diameter (`coarse_per_span`).
 SMOOTH_COARSE_PER_SPAN = 2
 #: The two coarse panels at a knot differ in arc length by at most this factor.
 BALANCE = 2.0
@@ -215,12 +215,14 @@ def graded_panels(curve: ClosedBSpline, coarse: Panels) -> tuple[Panels, np.ndar
 
 
 def coarse_per_span(curve: ClosedBSpline) -> np.ndarray:
-    """Coarse panels of each span, int (n,): `COARSE_PER_SPAN` for the spans at a sharp corner
-    (spans j - 1 and j at a corner at knot j), `SMOOTH_COARSE_PER_SPAN` for the others."""
-    count = np.full(curve.n, SMOOTH_COARSE_PER_SPAN, dtype=np.int64)
-    corner = sharp_corners(curve)
-    count[corner] = count[(corner - 1) % curve.n] = COARSE_PER_SPAN
-    return count
+    """Coarse panels of each span, int (n,): `SMOOTH_COARSE_PER_SPAN` on a cage without sharp
+    corners, `COARSE_PER_SPAN` on one with any.
+
+    (With 2 a span except at the corners' own spans, random corner cages 88 and 93 had G down
+    to -5.7e-8 at points 1.6e-6 of the diameter from a smooth knot between a corner's span and
+    a span of 2 panels; with 4 everywhere, -1.1e-13.)"""
+    per_span = COARSE_PER_SPAN if sharp_corners(curve).size else SMOOTH_COARSE_PER_SPAN
+    return np.full(curve.n, per_span, dtype=np.int64)
 
 
 def sharp_corners(curve: ClosedBSpline) -> np.ndarray:
