@@ -170,7 +170,13 @@ def fill_same_span(curve: ClosedBSpline, matrix: np.ndarray, t: np.ndarray, pane
         rows = by_target[target_starts[j] : target_starts[j + 1]]
         columns = by_node[node_starts[j] : node_starts[j + 1]]
         u = target_u[rows, None] + node_u[columns]
-        matrix[rows[:, None], columns] = scale[j] * panels.weights[columns] / np.abs(c1[j] + c2[j] * u) ** 2
+        real = c1[j].real + c2[j].real * u
+        imaginary = c1[j].imag + c2[j].imag * u
+        values = (scale[j] * panels.weights[columns]) / (real * real + imaginary * imaginary)
+        if rows[-1] - rows[0] + 1 == rows.size and columns[-1] - columns[0] + 1 == columns.size:
+            matrix[rows[0] : rows[-1] + 1, columns[0] : columns[-1] + 1] = values  # in order: a block
+        else:
+            matrix[rows[:, None], columns] = values
 
 
 def adaptive_weights(
