@@ -123,17 +123,27 @@ def smooth_on_own_span(curve: ClosedBSpline, panels: Panels, t: np.ndarray, pane
     the adaptive rule for these pairs, most of the near pairs of a knot's graded panels, and
     take their weights from the closed form (`fill_same_span`).
     """
-    pieces = curve.piecewise_polynomial().coefficients  # span j: c0 + c1 u + c2 u^2
+    c1, c2, cross = _span_coefficients(curve)
     span = np.floor(panels.bounds[panel, 0] + 1e-12).astype(np.int64)
     same = np.floor(t + 1e-12).astype(np.int64) == span
-    c1 = pieces[span % curve.n, 1] @ np.array([1.0, 1j])
-    c2 = pieces[span % curve.n, 2] @ np.array([1.0, 1j])
-    straight = np.abs((c1 * c2.conj()).imag) <= 1e-14 * np.abs(c1) * np.abs(c2)
+    straight = cross[span % curve.n] == 0.0
+    c1, c2 = c1[span % curve.n], c2[span % curve.n]
     with np.errstate(divide="ignore", invalid="ignore"):
         pole = -c1 / c2 - (t - span)
     low, high = panels.bounds[panel, 0] - span, panels.bounds[panel, 1] - span
     distance = np.abs(pole - np.clip(pole.real, low, high))
     return same & (straight | (distance >= high - low))
+
+
+def _span_coefficients(curve: ClosedBSpline) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """c1, c2 (complex (n,)) of each span p(u) = c0 + c1 u + c2 u^2, and Im(c1 conj c2) (n,), set
+    to 0 where c1 and c2 are parallel to rounding (a straight span: its kernel is 0)."""
+    pieces = curve.piecewise_polynomial().coefficients
+    c1 = pieces[:, 1, 0] + 1j * pieces[:, 1, 1]
+    c2 = pieces[:, 2, 0] + 1j * pieces[:, 2, 1]
+    cross = (c1 * np.conj(c2)).imag
+    cross[np.abs(cross) <= 1e-14 * np.abs(c1) * np.abs(c2)] = 0.0
+    return c1, c2, cross
 
 
 def fill_same_span(curve: ClosedBSpline, matrix: np.ndarray, t: np.ndarray, panels: Panels) -> None:
@@ -149,12 +159,8 @@ def fill_same_span(curve: ClosedBSpline, matrix: np.ndarray, t: np.ndarray, pane
     weight is 0, beside a corner; 4.5e-9 on a smooth cage), and is 0/0 at the node itself,
     where this is the curvature limit.
     """
-    pieces = curve.piecewise_polynomial().coefficients
-    c1 = pieces[:, 1, 0] + 1j * pieces[:, 1, 1]
-    c2 = pieces[:, 2, 0] + 1j * pieces[:, 2, 1]
+    c1, c2, cross = _span_coefficients(curve)
     orientation = 1.0 if curve.area > 0 else -1.0
-    cross = (c1 * np.conj(c2)).imag
-    cross[np.abs(cross) <= 1e-14 * np.abs(c1) * np.abs(c2)] = 0.0  # straight: parallel to rounding
     scale = -orientation * cross / (2.0 * np.pi)  # by span
     target_floor = np.floor(t + 1e-12)
     target_u = t - target_floor

@@ -160,8 +160,8 @@ def coarse_panels(curve: ClosedBSpline) -> Panels:
 def coarse_panels_and_gaps(curve: ClosedBSpline) -> tuple[Panels, np.ndarray]:
     """`coarse_panels` and each one's distance to the curve beyond it (`gaps`), float (P,)."""
     per_span = coarse_per_span(curve)
-    starts = np.concatenate([j + np.arange(k) / k for j, k in enumerate(per_span)])
-    bounds = np.stack([starts, starts + np.repeat(1.0 / per_span, per_span)], axis=1)
+    starts = np.arange(curve.n * per_span) / per_span
+    bounds = np.stack([starts, starts + 1.0 / per_span], axis=1)
     corners = sharp_corners(curve).astype(float)
     for _ in range(2 * THIN_ROUNDS):
         panels = _panels(curve, bounds)
@@ -192,8 +192,7 @@ def graded_panels(curve: ClosedBSpline, coarse: Panels) -> tuple[Panels, np.ndar
     length h 2^(1-L) at the knot.
     """
     # The coarse panels at a knot already are the first (panels a span) / 2 - 1 levels.
-    levels = knot_levels(curve)
-    offset = np.log2(coarse_per_span(curve) // 2).astype(np.int64)  # by span
+    levels = knot_levels(curve) - int(np.log2(coarse_per_span(curve) // 2))
     fine, parent = [], []
     knot = np.full(coarse.count, -1, dtype=np.int64)
     for c, (a, b) in enumerate(coarse.bounds):
@@ -201,28 +200,26 @@ def graded_panels(curve: ClosedBSpline, coarse: Panels) -> tuple[Panels, np.ndar
         local = [0.0, 1.0]
         at_start = abs(a - round(a)) < 1e-12
         at_end = abs(b - round(b)) < 1e-12
-        span = int(np.floor(a + 1e-12)) % curve.n
         if at_start:
             knot[c] = round(a) % curve.n
-            local += list(0.5 ** np.arange(1, levels[knot[c]] - offset[span]))
+            local += list(0.5 ** np.arange(1, levels[knot[c]]))
         if at_end:
             knot[c] = round(b) % curve.n
-            local += list(1.0 - 0.5 ** np.arange(1, levels[knot[c]] - offset[span]))
+            local += list(1.0 - 0.5 ** np.arange(1, levels[knot[c]]))
         local = np.unique(local)
         fine.append(np.stack([a + h * local[:-1], a + h * local[1:]], axis=1))
         parent.append(np.full(local.size - 1, c))
     return _panels(curve, np.concatenate(fine)), np.concatenate(parent), knot
 
 
-def coarse_per_span(curve: ClosedBSpline) -> np.ndarray:
-    """Coarse panels of each span, int (n,): `SMOOTH_COARSE_PER_SPAN` on a cage without sharp
-    corners, `COARSE_PER_SPAN` on one with any.
+def coarse_per_span(curve: ClosedBSpline) -> int:
+    """Coarse panels a span: `SMOOTH_COARSE_PER_SPAN` on a cage without sharp corners,
+    `COARSE_PER_SPAN` on one with any.
 
     (With 2 a span except at the corners' own spans, random corner cages 88 and 93 had G down
     to -5.7e-8 at points 1.6e-6 of the diameter from a smooth knot between a corner's span and
     a span of 2 panels; with 4 everywhere, -1.1e-13.)"""
-    per_span = COARSE_PER_SPAN if sharp_corners(curve).size else SMOOTH_COARSE_PER_SPAN
-    return np.full(curve.n, per_span, dtype=np.int64)
+    return COARSE_PER_SPAN if sharp_corners(curve).size else SMOOTH_COARSE_PER_SPAN
 
 
 def sharp_corners(curve: ClosedBSpline) -> np.ndarray:

@@ -240,10 +240,8 @@ def nystrom_halves(curve: ClosedBSpline, fine: Panels, mu: np.ndarray, refine: n
     target, panel = near_pairs(fine, z, curve.diameter)
     adaptive = ~smooth_on_own_span(curve, fine, t[target], panel)
     target, panel = target[adaptive], panel[adaptive]
-    weights, touching = adaptive_weights(curve, fine, z[target], panel, on_curve=0.0)
-    orientation = 1.0 if curve.area > 0 else -1.0
-    columns = panel[:, None] * ORDER + np.arange(ORDER)
-    matrix[target[:, None], columns] = (orientation * weights / (2j * np.pi)).real
+    values, touching = _adaptive_entries(curve, fine, z[target], panel)
+    matrix[target[:, None], panel[:, None] * ORDER + np.arange(ORDER)] = values
     formula = _data(curve, t) - 2.0 * (matrix @ mu)
     split = 2 * count * ORDER
     residual = (mu[own] - formula[split:]).reshape(count, ORDER, -1)
@@ -338,12 +336,18 @@ def _block_near_pairs(curve: ClosedBSpline, fine: Panels, block_of: np.ndarray) 
     target, panel = target[inside], panel[inside]
     adaptive = ~smooth_on_own_span(curve, fine, fine.t[target], panel)
     target, panel = target[adaptive], panel[adaptive]
-    weights, _ = adaptive_weights(curve, fine, fine.z[target], panel, on_curve=0.0)
-    orientation = 1.0 if curve.area > 0 else -1.0
-    values = (orientation * weights / (2j * np.pi)).real
+    values, _ = _adaptive_entries(curve, fine, fine.z[target], panel)
     sources = panel[:, None] * ORDER + np.arange(ORDER)
     block = block_of[panel]
     return {int(j): (target[block == j], sources[block == j], values[block == j]) for j in np.unique(block)}
+
+
+def _adaptive_entries(curve: ClosedBSpline, panels: Panels, z: np.ndarray, panel: np.ndarray):
+    """The double layer's Re C-weights (K, ORDER) of each pair's panel at targets z (K,) on the
+    curve, by the adaptive rule (`core.layer.adaptive_weights`), and its on-curve flags (K,)."""
+    weights, touching = adaptive_weights(curve, panels, z, panel, on_curve=0.0)
+    orientation = 1.0 if curve.area > 0 else -1.0
+    return (orientation * weights / (2j * np.pi)).real, touching
 
 
 def _panels_of(curve: ClosedBSpline, panels: Panels, indices: np.ndarray) -> Panels:
