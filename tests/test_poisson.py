@@ -273,6 +273,17 @@ def test_panels_are_graded_towards_knots_and_corners():
         fine.bounds[:, 0] == np.round(fine.bounds[:, 0])
     )
     assert smallest[at_corner].max() <= smallest.max() / 16
+    # Away from a corner each panel is twice as long as the one before it (the first two are
+    # equal), away from a smooth knot up to 4 times (panels.KNOT_GROWTH).
+    for c in corner:
+        beside = np.flatnonzero((fine.bounds[:, 0] >= c) & (fine.bounds[:, 1] <= c + 0.25 + 1e-12))
+        np.testing.assert_allclose(smallest[beside[2:]] / smallest[beside[1:-1]], 2.0, rtol=1e-9)
+    hook = core.ClosedBSpline(SHAPES["hook"])
+    hook_fine, hook_parent, _ = graded_panels(hook, coarse_panels(hook))
+    growth = np.diff(hook_fine.bounds, axis=1)[:, 0]
+    first = hook_parent[:-1] == hook_parent[1:]  # consecutive fine panels of one coarse panel
+    ratio = growth[1:][first] / growth[:-1][first]
+    assert np.all((ratio <= 4.0 + 1e-9) & (ratio >= 0.25 - 1e-9)) and np.isclose(ratio.max(), 4.0)
     solution = densities(curve)
     assert solution.levels.densities[2].shape == (fine.size, curve.n + 1)
 
