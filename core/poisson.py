@@ -97,10 +97,20 @@ class Densities:
     levels: Levels
 
 
+#: The curves `densities` is solving for, by their points: `_densities`, cached by the points' bytes,
+#: takes its curve from here rather than building (and checking) it again.
+_solving: dict[bytes, ClosedBSpline] = {}
+
+
 @one_blas_thread
 def densities(curve: ClosedBSpline) -> Densities:
     """Solve the double-layer equation for every basis function of `curve` (cached per cage)."""
-    return _densities(curve.control_points.tobytes(), curve.control_points.shape[0])
+    key = curve.control_points.tobytes()
+    _solving[key] = curve
+    try:
+        return _densities(key, curve.control_points.shape[0])
+    finally:
+        _solving.pop(key, None)
 
 
 @functools.lru_cache(maxsize=4)
@@ -118,7 +128,9 @@ def _densities(points: bytes, count: int) -> Densities:
     Near-singular pairs of K°_c (thin parts, the nodes next to a neighbour's panel)
     take the fine densities (I + K*)^-1 P ρ̃ with the adaptive rule, not R ρ̃.
     """
-    curve = ClosedBSpline(np.frombuffer(points).reshape(count, 2))
+    curve = _solving.get(points)
+    if curve is None:
+        curve = ClosedBSpline(np.frombuffer(points).reshape(count, 2))
     coarse, gap = coarse_panels_and_gaps(curve)
     if coarse.size > MAX_NODES:
         raise ValueError(
@@ -469,7 +481,7 @@ def centred(curve: ClosedBSpline, x: np.ndarray) -> tuple[ClosedBSpline, np.ndar
     centre = 0.5 * (points.min(axis=0) + points.max(axis=0))
     if not centre.any():
         return curve, x
-    return ClosedBSpline(points - centre), x - centre
+    return curve.translated(-centre), x - centre
 
 
 def refuse_far_outside(curve: ClosedBSpline, x: np.ndarray) -> None:

@@ -10,7 +10,7 @@ from conftest import near_cusp
 
 import core
 from core import bspline, examples
-from core.bspline import knot_loops
+from core.bspline import ClosedBSpline, knot_loops
 
 
 def test_curve_is_the_folded_basis_times_the_control_points(blob):
@@ -229,3 +229,23 @@ def all_pairs_first_crossing(points):
     pad = 1e-9 * float(np.ptp(points, axis=0).max())
     hits = np.flatnonzero(bspline._chords_meet(a, b, valid, pad))
     return (int(i[hits[0]]), int(j[hits[0]])) if hits.size else None
+
+
+def test_a_translated_curve_is_the_curve_of_the_moved_points(starfish):
+    offset = np.array([-3.25, 7.5])
+    moved = starfish.translated(offset)
+    built = ClosedBSpline(starfish.control_points + offset)
+    np.testing.assert_array_equal(moved.control_points, built.control_points)
+    assert moved.area == pytest.approx(built.area, rel=1e-12)
+    assert moved.diameter == pytest.approx(built.diameter, rel=1e-12)
+    t = np.linspace(0.0, starfish.n, 50)
+    np.testing.assert_allclose(moved(t), starfish(t) + offset, rtol=0, atol=1e-12)
+    assert not moved.control_points.flags.writeable
+
+
+def test_a_translation_that_makes_points_coincide_is_checked_again():
+    # 1e-17 apart at the origin, equal once moved by 1: a sharp corner appears, and with a third
+    # equal point the constructor's one-line error.
+    points = np.array([[0.0, 0.0], [1e-17, 0.0], [2e-17, 0.0], [1.0, 1.0], [0.0, 1.0]])
+    with pytest.raises(ValueError, match="coincide"):
+        ClosedBSpline(points).translated([1.0, 0.0])
