@@ -83,7 +83,10 @@ def loaded(dispatcher, *args) -> bool:
     global _read
     if mode != "auto":
         return mode == "compiled"
-    signature = tuple(dispatcher.typeof_pyval(a) for a in args)
+    key = (dispatcher, _argument_key(args))
+    signature = _signatures.get(key)
+    if signature is None:
+        signature = _signatures[key] = tuple(dispatcher.typeof_pyval(a) for a in args)
     if signature in dispatcher.overloads:
         return True
     if dispatcher in _unreadable:
@@ -100,6 +103,22 @@ def loaded(dispatcher, *args) -> bool:
             return False
     _read = True
     return True
+
+
+#: numba's signature of the arguments, by (dispatcher, `_argument_key`): typing them costs ~40 µs
+#: a call, and a density solve asks ~50 times.
+_signatures = {}
+
+
+def _argument_key(value):
+    """What numba's type of `value` depends on, cheaply: an array's dtype, dimensions, layout and
+    writeability, a tuple's items (named tuples with their class), a scalar's Python type."""
+    if isinstance(value, np.ndarray):
+        f = value.flags
+        return (value.dtype.str, value.ndim, f.c_contiguous, f.f_contiguous, f.writeable, f.aligned)
+    if isinstance(value, tuple):
+        return (type(value), *map(_argument_key, value))
+    return type(value)
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
