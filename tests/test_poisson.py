@@ -102,7 +102,7 @@ def random_polygon_cage(seed: int) -> core.ClosedBSpline:
     return core.ClosedBSpline(np.repeat(corners, np.where(doubled, 2, 1), axis=0))
 
 
-@pytest.mark.parametrize("seed", [0, 5, 6, 8, 12, 13, 17, 29, 45, 88, 93])
+@pytest.mark.parametrize("seed", [0, 5, 6, 8, 12, 13, 17, 29, 45, 88, 93, 147, 369, 636])
 def test_random_polygons_with_sharp_corners(seed, layer_path):
     # Each sharp corner's compressed block holds its two panels and one more on each side
     # (poisson.widened_at_corners), and thin parts are split at twice their distance: with the
@@ -114,6 +114,9 @@ def test_random_polygons_with_sharp_corners(seed, layer_path):
     # with 6 levels of grading towards corners their G reached -1.6e-10 and -1.2e-10.  Seed 45 had
     # G = -5.4e-8 half a span's length from a long span (layer.SPAN_SAFE), seeds 88 and 93 -5.7e-8
     # with 2 coarse panels on their smooth spans (panels.coarse_per_span), at the second points.
+    # Seeds 147, 369 and 636 have wedges (corners of 8°, 3.4° and 1.8°): before their coarse
+    # panels were split by the angle (panels.WEDGE_ANGLE), G reached -6.1e-10, -4.0e-8 and -8.0e-5
+    # beside them (seed 170, a 1° needle of 6,832 unknowns, passes too, in 9 s: not run here).
     curve = random_polygon_cage(seed)
     x = np.vstack(
         [
@@ -126,6 +129,23 @@ def test_random_polygons_with_sharp_corners(seed, layer_path):
     np.testing.assert_allclose(G.sum(axis=1), 1.0, rtol=0, atol=1e-12)
     assert np.linalg.norm(G @ curve.control_points - x, axis=1).max() <= 1e-8 * curve.diameter
     assert G.min() >= -1e-10  # measured >= -6.4e-11
+
+
+def test_coarse_panels_at_a_wedge_are_split_by_its_angle():
+    # Corners of 8° (seed 147) and 1.8° (seed 636): their coarse panels are at most min(1/16, half
+    # the angle) wide in t (panels.WEDGE_ANGLE); of quarter spans only those at a wedge are split.
+    from core.panels import WEDGE_WIDTH, _panels, _wedged
+
+    for seed, knot, angle in [(147, 1, 8.0), (636, 1, 1.8)]:
+        curve = random_polygon_cage(seed)
+        bounds = coarse_panels(curve).bounds
+        at_corner = np.isclose(bounds[:, 0], knot) | np.isclose(bounds[:, 1], knot)
+        widths = bounds[at_corner, 1] - bounds[at_corner, 0]
+        assert at_corner.sum() == 2 and widths.max() <= min(WEDGE_WIDTH, 0.5 * np.radians(angle))
+    curve = random_polygon_cage(636)  # corners of 1.8°, 174.9° and 65.5° at t = 1, 3 and 6
+    starts = np.arange(4 * curve.n) / 4.0
+    split = _wedged(curve, _panels(curve, np.stack([starts, starts + 0.25], axis=1)))
+    np.testing.assert_array_equal(np.flatnonzero(split), [3, 4])
 
 
 def test_a_corner_block_reaches_as_far_as_its_panels_are_long(monkeypatch):
