@@ -162,12 +162,27 @@ class ClosedBSpline:
     def translated(self, offset) -> ClosedBSpline:
         """The curve moved by `offset` (2,), its area and diameter kept, without this
         constructor's checks again (a translation keeps a simple curve simple; they take
-        ~1.5 ms, a tenth of a small cage's boundary-integral solve).  Where rounding changes
-        which control points coincide (points far apart in size), the checks run after all."""
-        points = self._points + np.asarray(offset, dtype=np.float64)
+        ~1.5 ms, a tenth of a small cage's boundary-integral solve).  The checks run after
+        all where rounding may change the curve: an offset more than 1000 times the curve's
+        extent from the origin, coordinates out of range or not finite, or control points
+        that coincide where they did not, or no longer where they did.
+
+        Raises
+        ------
+        ValueError
+            `offset` is not 2 numbers, or (from the checks) the moved curve is invalid.
+        """
+        offset = np.asarray(offset, dtype=np.float64)
+        if offset.shape != (2,):
+            raise ValueError(f"offset must be 2 numbers (dx, dy), got shape {offset.shape}")
+        points = self._points + offset
         repeated = np.all(self._points == np.roll(self._points, 1, axis=0), axis=1)
-        if not np.all(np.isfinite(points)) or np.any(
-            np.all(points == np.roll(points, 1, axis=0), axis=1) != repeated
+        extent = self.diameter + np.abs(self._points).max()
+        if (
+            not np.all(np.isfinite(points))
+            or np.abs(offset).max() > 1e3 * extent
+            or np.abs(points).max() > MAX_COORDINATE
+            or np.any(np.all(points == np.roll(points, 1, axis=0), axis=1) != repeated)
         ):
             return ClosedBSpline(points)
         moved = object.__new__(ClosedBSpline)

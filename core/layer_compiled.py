@@ -83,10 +83,12 @@ def loaded(dispatcher, *args) -> bool:
     global _read
     if mode != "auto":
         return mode == "compiled"
-    key = (dispatcher, _argument_key(args))
-    signature = _signatures.get(key)
+    key = _argument_key(args)
+    signature = _signatures.get((dispatcher, key)) if key is not None else None
     if signature is None:
-        signature = _signatures[key] = tuple(dispatcher.typeof_pyval(a) for a in args)
+        signature = tuple(dispatcher.typeof_pyval(a) for a in args)
+        if key is not None:
+            _signatures[(dispatcher, key)] = signature
     if signature in dispatcher.overloads:
         return True
     if dispatcher in _unreadable:
@@ -111,14 +113,19 @@ _signatures = {}
 
 
 def _argument_key(value):
-    """What numba's type of `value` depends on, cheaply: an array's dtype, dimensions, layout and
-    writeability, a tuple's items (named tuples with their class), a scalar's Python type."""
+    """What numba's type of `value` depends on, cheaply, for the kinds of argument core passes:
+    an array's dtype, dimensions, layout and writeability, a tuple's items (named tuples with
+    their class), a float's or bool's Python type, an int's (if it fits int64).  None for
+    anything else (numba types it then, uncached)."""
     if isinstance(value, np.ndarray):
         f = value.flags
-        return (value.dtype.str, value.ndim, f.c_contiguous, f.f_contiguous, f.writeable, f.aligned)
+        return (value.dtype, value.ndim, f.c_contiguous, f.f_contiguous, f.writeable, f.aligned)
     if isinstance(value, tuple):
-        return (type(value), *map(_argument_key, value))
-    return type(value)
+        items = tuple(map(_argument_key, value))
+        return None if None in items else (type(value), *items)
+    if isinstance(value, (bool, float)) or (isinstance(value, int) and -(2**63) <= value < 2**63):
+        return type(value)
+    return None
 
 
 @njit(cache=True, nogil=True, error_model="numpy")

@@ -3,8 +3,8 @@
 The curve is cut at every knot, so that each panel is one polynomial piece (the
 B-spline basis N_i is a polynomial on it too), and each span is cut further:
 
-- geometrically towards knots where the curvature jumps (`knot_levels`, growing by
-  `KNOT_GROWTH`) and dyadically towards sharp corners, where the density of a layer
+- geometrically towards knots where the curvature jumps (`knot_levels`, cuts at h 4^k
+  from the finest panel h, `KNOT_GROWTH`) and dyadically towards sharp corners, where the density of a layer
   potential is singular (``CORNER_LEVELS`` levels, the geometric grading of Helsing's
   and Bremer's corner schemes, here as plain Nyström panels);
 - wherever a panel is long against its distance to the rest of the curve (a thin
@@ -40,8 +40,9 @@ KNOT_JUMP = 5e-7
 #: (U-shape -3.4e-11); the blob's knots take 6-8 levels by `KNOT_JUMP` anyway.
 MIN_KNOT_LEVELS = 4
 MAX_KNOT_LEVELS = 9
-#: From the smallest panel at a knot (2^(1-levels) of its coarse panel) the fine panels grow by
-#: this factor towards the coarse panel's other end (at sharp corners by 2).  The quadrature of
+#: From the smallest panel at a knot, h = 2^(1-levels) of its coarse panel, the fine panels are
+#: cut at h KNOT_GROWTH^k towards the coarse panel's other end (lengths h, 3h, 12h, ..., the last
+#: one whatever is left; at sharp corners at h 2^k).  The quadrature of
 #: the knot's s^2 log s is exact to rounding either way (the singularity is a panel length or
 #: more away); what the factor sets is the degree-15 interpolant's error on the panel [h, 4h]:
 #: 4e-11 of the singular term's size (5e-15 on [h, 2h], 9e-9 on [h, 8h]).  Against 2, on the
@@ -201,8 +202,8 @@ def graded_panels(curve: ClosedBSpline, coarse: Panels) -> tuple[Panels, np.ndar
 
     Returns the fine panels, the coarse panel of each fine panel (int (P_f,)) and
     the knot each coarse panel touches (int (P_c,), -1 for none).  A coarse panel of
-    parameter length h at a knot with L levels becomes panels of lengths growing
-    from h 2^(1-L) at the knot by `KNOT_GROWTH` (at a sharp corner by 2: L panels).
+    parameter length h at a knot with L levels is cut at h 2^(1-L) `KNOT_GROWTH`^k from
+    the knot (at a sharp corner at h 2^(1-L) 2^k: L panels).
     """
     # The coarse panels at a knot already are the first (panels a span) / 2 - 1 levels.
     levels = knot_levels(curve) - int(np.log2(coarse_per_span(curve) // 2))
@@ -228,7 +229,8 @@ def graded_panels(curve: ClosedBSpline, coarse: Panels) -> tuple[Panels, np.ndar
 
 def _graded_cuts(levels: int, corner: bool) -> np.ndarray:
     """Cuts of a coarse panel [0, 1] graded towards 0 with `levels` levels, float (K,): the
-    smallest piece 2^(1-levels) long, then growing by 2 at a corner, by `KNOT_GROWTH` at a knot."""
+    smallest piece 2^(1-levels) long, the cuts at its length times 2^k at a corner,
+    `KNOT_GROWTH`^k at a knot."""
     smallest = 0.5 ** (levels - 1)
     growth = 2.0 if corner else KNOT_GROWTH
     pieces = int(np.ceil(np.log(1.0 / smallest) / np.log(growth) - 1e-9))
@@ -252,7 +254,8 @@ def sharp_corners(curve: ClosedBSpline) -> np.ndarray:
 
 
 def knot_levels(curve: ClosedBSpline) -> np.ndarray:
-    """Dyadic grading levels towards each knot t = j, int ndarray of shape (n,)."""
+    """Grading levels towards each knot t = j (the finest panel 2^(1-levels) of its coarse panel),
+    int ndarray of shape (n,)."""
     coefficients = curve.piecewise_polynomial().coefficients  # span j: c0 + c1 u + c2 u^2
     before = np.roll(coefficients, 1, axis=0)
 
@@ -326,7 +329,7 @@ def _wedged(curve: ClosedBSpline, panels: Panels) -> np.ndarray:
     long, and `gaps` leaves the far side of a corner's wedge to that block.  With the quarter
     spans of other corners, random corner cages had G down to -8.0e-5 (a 1.8° spike), -4.0e-8
     (3.4°), -1.4e-9 (1°) and -6.1e-10 (8°) at points ~1e-5 of the diameter from the wedge; with
-    these splits, -1.2e-11 to -1.3e-12.
+    these splits, -1.4e-11 to -1.2e-12.
     """
     rows = curve.corners()
     split = np.zeros(panels.count, dtype=bool)

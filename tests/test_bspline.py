@@ -249,3 +249,14 @@ def test_a_translation_that_makes_points_coincide_is_checked_again():
     points = np.array([[0.0, 0.0], [1e-17, 0.0], [2e-17, 0.0], [1.0, 1.0], [0.0, 1.0]])
     with pytest.raises(ValueError, match="coincide"):
         ClosedBSpline(points).translated([1.0, 0.0])
+
+
+def test_a_translation_is_checked_like_the_constructor_where_it_may_change_the_curve(starfish):
+    with pytest.raises(ValueError, match="offset must be 2 numbers"):
+        starfish.translated(np.zeros((starfish.n, 2)))
+    with pytest.raises(ValueError, match="out of range"):
+        starfish.translated([2e150, 0.0])
+    # A square moved 1e20 times its size away: the points round to a segment, which the
+    # constructor refuses.
+    with pytest.raises(ValueError):
+        ClosedBSpline([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]).translated([1e20, 1e20])

@@ -209,3 +209,18 @@ def test_without_numba_s_cache_the_default_kernel_runs_as_numpy_without_compilin
     assert float(error) < 1e-10  # the cage is 2 x 1
     assert float(seconds) < 60  # numba compiling both would take ~7 s more; numpy alone ~2 s
     assert not list(tmp_path.glob("**/*.nbi"))  # nothing was compiled into the cache
+
+
+def test_the_signature_cache_keys_arguments_as_numba_types_them():
+    # `loaded` keeps numba's signature per `_argument_key`: arguments numba types apart must
+    # have different keys, and kinds it does not know are not cached at all (None).
+    key = layer_compiled._argument_key
+    assert key(np.zeros(3)) == key(np.ones(3)) != key(np.zeros(3, dtype=np.float32))
+    assert key(np.zeros((3, 2))[:, 0]) != key(np.zeros(3))  # strided: numba's layout "A"
+    readonly = np.zeros(3)
+    readonly.setflags(write=False)
+    assert key(readonly) != key(np.zeros(3))
+    records = key(np.zeros(1, dtype=[("a", "f8"), ("b", "f8")]))
+    assert records != key(np.zeros(1, dtype=[("c", "i8"), ("d", "i8")]))
+    assert key(1) == key(2) != key(1.0) and key(True) != key(1)
+    assert key(2**63) is None and key([1.0]) is None and key((np.zeros(2), [1])) is None

@@ -142,10 +142,23 @@ def test_coarse_panels_at_a_wedge_are_split_by_its_angle():
         at_corner = np.isclose(bounds[:, 0], knot) | np.isclose(bounds[:, 1], knot)
         widths = bounds[at_corner, 1] - bounds[at_corner, 0]
         assert at_corner.sum() == 2 and widths.max() <= min(WEDGE_WIDTH, 0.5 * np.radians(angle))
-    curve = random_polygon_cage(636)  # corners of 1.8°, 174.9° and 65.5° at t = 1, 3 and 6
-    starts = np.arange(4 * curve.n) / 4.0
-    split = _wedged(curve, _panels(curve, np.stack([starts, starts + 0.25], axis=1)))
-    np.testing.assert_array_equal(np.flatnonzero(split), [3, 4])
+    # Seed 636 has corners of 1.8°, 174.9° and 65.5° at t = 1, 3 and 6: only the first is a
+    # wedge, clockwise too, and with its corner at t = 0, where its panels wrap around.
+    points = random_polygon_cage(636).control_points
+    tip = points[0]
+    for reverse in (False, True):
+        for shift in (0, 1, len(points) - 1):
+            cage = np.roll(points[::-1] if reverse else points, shift, axis=0)
+            curve = core.ClosedBSpline(cage)
+            row = np.flatnonzero(
+                np.all(cage == tip, axis=1) & np.all(np.roll(cage, -1, axis=0) == tip, axis=1)
+            )
+            knot = (int(row[0]) + 1) % curve.n
+            starts = np.arange(4 * curve.n) / 4.0
+            split = _wedged(curve, _panels(curve, np.stack([starts, starts + 0.25], axis=1)))
+            np.testing.assert_array_equal(
+                np.flatnonzero(split), np.sort([(4 * knot - 1) % (4 * curve.n), 4 * knot])
+            )
 
 
 def test_a_corner_block_reaches_as_far_as_its_panels_are_long(monkeypatch):
