@@ -22,6 +22,7 @@ from the curve are reported as on it, and left to the caller.
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -91,11 +92,10 @@ def near_pairs(
     close_range = np.maximum(safe * panels.lengths, DIRECT * diameter)
     reach = panels.radii + close_range
     tree = cKDTree(np.stack([targets.real, targets.imag], axis=1))
-    found = tree.query_ball_point(np.stack([panels.centres.real, panels.centres.imag], axis=1), reach)
-    sizes = np.fromiter((len(f) for f in found), dtype=np.int64, count=len(found))
-    if sizes.sum() == 0:
-        return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
-    target = np.concatenate([np.asarray(f, dtype=np.int64) for f in found if len(f)])
+    centres = np.stack([panels.centres.real, panels.centres.imag], axis=1)
+    found = tree.query_ball_point(centres, reach, return_sorted=False)
+    sizes = np.fromiter(map(len, found), dtype=np.int64, count=len(found))
+    target = np.fromiter(itertools.chain.from_iterable(found), dtype=np.int64, count=int(sizes.sum()))
     panel = np.repeat(np.arange(panels.count), sizes)
     nodes = panels.z.reshape(-1, ORDER)
     dx = nodes.real[panel] - targets.real[target, None]

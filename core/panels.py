@@ -18,6 +18,7 @@ the near-field rule of `core.layer` integrate it on sub-panels.
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass
 
 import numpy as np
@@ -386,10 +387,10 @@ def gaps(panels: Panels, corners: np.ndarray) -> np.ndarray:
     # Every (node of a panel, node within `reach` of it) pair at once: the
     # smallest distance among the pairs beyond is each panel's distance to the curve beyond it.
     reach = panels.lengths / min(THIN_RATIO, REFINED_RATIO)
-    found = cKDTree(nodes).query_ball_point(nodes, r=np.repeat(reach, ORDER))
+    found = cKDTree(nodes).query_ball_point(nodes, r=np.repeat(reach, ORDER), return_sorted=False)
     sizes = np.fromiter(map(len, found), dtype=np.int64, count=len(found))
     mine = np.repeat(np.arange(nodes.shape[0]), sizes)
-    other = np.concatenate([np.asarray(f, dtype=np.int64) for f in found])
+    other = np.fromiter(itertools.chain.from_iterable(found), dtype=np.int64, count=int(sizes.sum()))
     p, o = owner[mine], owner[other]
     low = np.minimum(middle[o], middle[p])
     high = np.maximum(middle[o], middle[p])
