@@ -146,6 +146,20 @@ def _span_coefficients(curve: ClosedBSpline) -> tuple[np.ndarray, np.ndarray, np
     return c1, c2, cross
 
 
+def same_span_coefficients(curve: ClosedBSpline) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """c1, c2 (complex (n,)) of each span and the scale -Im(c1 conj c2) / 2π of its double-layer
+    kernel (n,), signed by the orientation (`fill_same_span`)."""
+    c1, c2, cross = _span_coefficients(curve)
+    orientation = 1.0 if curve.area > 0 else -1.0
+    return c1, c2, -orientation * cross / (2.0 * np.pi)
+
+
+def span_parameters(curve: ClosedBSpline, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The span of each parameter t (M,), int (M,), and the parameter within it, (M,)."""
+    floor = np.floor(t + 1e-12)
+    return floor.astype(np.int64) % curve.n, t - floor
+
+
 def fill_same_span(curve: ClosedBSpline, matrix: np.ndarray, t: np.ndarray, panels: Panels) -> None:
     """Set the double layer's Re C-weights of the pairs on one span from the kernel's closed form.
 
@@ -159,15 +173,9 @@ def fill_same_span(curve: ClosedBSpline, matrix: np.ndarray, t: np.ndarray, pane
     weight is 0, beside a corner; 4.5e-9 on a smooth cage), and is 0/0 at the node itself,
     where this is the curvature limit.
     """
-    c1, c2, cross = _span_coefficients(curve)
-    orientation = 1.0 if curve.area > 0 else -1.0
-    scale = -orientation * cross / (2.0 * np.pi)  # by span
-    target_floor = np.floor(t + 1e-12)
-    target_u = t - target_floor
-    target_span = target_floor.astype(np.int64) % curve.n
-    node_floor = np.floor(panels.t + 1e-12)
-    node_u = panels.t - node_floor
-    node_span = node_floor.astype(np.int64) % curve.n
+    c1, c2, scale = same_span_coefficients(curve)
+    target_span, target_u = span_parameters(curve, t)
+    node_span, node_u = span_parameters(curve, panels.t)
     by_target = np.argsort(target_span, kind="stable")
     by_node = np.argsort(node_span, kind="stable")
     target_starts = np.searchsorted(target_span[by_target], np.arange(curve.n + 1))

@@ -215,16 +215,30 @@ def _near_weights(coefficients, a, b, z, power, touch, safe, max_depth, weights,
 
 
 @njit(cache=True, parallel=True, error_model="numpy")
-def layer_matrix_rows(targets, node_z, factors):
-    """Re(factor_k / (τ_k - z_m)), shape (M, N), for targets z complex (M,) and nodes τ complex (N,):
-    the plain rule's weights of `core.poisson.layer_matrix` (NaN where a target is a node)."""
+def layer_matrix_rows(targets, target_span, target_u, node_z, factors, node_span, node_u, weights, spans):
+    """The double layer's Re C-weights of `core.poisson.layer_matrix`, shape (M, N), for targets z
+    complex (M,) on the curve and nodes τ complex (N,) with their quadrature weights (N,).
+
+    A pair on different spans takes the plain rule, Re(factor_k / (τ_k - z_m)); a pair on one
+    span j (spans int (M,) and (N,), parameters u within it (M,) and (N,)) the kernel's closed
+    form s w_k / |c1 + c2 (u_k + u_m)|^2 of `core.layer.fill_same_span`, with `spans` (n, 5)
+    holding each span's c1 (real, imaginary), c2 (real, imaginary) and its scale s.
+    """
     out = np.empty((targets.shape[0], node_z.shape[0]))
     for m in prange(targets.shape[0]):
         x, y = targets[m].real, targets[m].imag
+        own = target_span[m]
+        c1x, c1y, c2x, c2y, scale = spans[own, 0], spans[own, 1], spans[own, 2], spans[own, 3], spans[own, 4]
         for k in range(node_z.shape[0]):
-            dx = node_z[k].real - x
-            dy = node_z[k].imag - y
-            out[m, k] = (factors[k].real * dx + factors[k].imag * dy) / (dx * dx + dy * dy)
+            if node_span[k] == own:
+                u = target_u[m] + node_u[k]
+                real = c1x + c2x * u
+                imaginary = c1y + c2y * u
+                out[m, k] = (scale * weights[k]) / (real * real + imaginary * imaginary)
+            else:
+                dx = node_z[k].real - x
+                dy = node_z[k].imag - y
+                out[m, k] = (factors[k].real * dx + factors[k].imag * dy) / (dx * dx + dy * dy)
     return out
 
 

@@ -53,7 +53,9 @@ from core.layer import (
     layer_factors,
     near_pairs,
     restricted,
+    same_span_coefficients,
     smooth_on_own_span,
+    span_parameters,
 )
 from core.panels import (
     _NODES,
@@ -409,16 +411,21 @@ def layer_matrix(curve: ClosedBSpline, panels: Panels, z: np.ndarray, t: np.ndar
     """
     factors = layer_factors(curve, panels)
     compiled = layer_compiled.layer_matrix_rows
-    arguments = (np.ascontiguousarray(z, dtype=np.complex128), panels.z, factors)
-    if layer_compiled.worth_trying(compiled) and layer_compiled.loaded(compiled, *arguments):
-        matrix = compiled(*arguments)
-    else:
-        matrix = np.empty((z.size, panels.size))
-        for first in range(0, z.size, 1024):  # real arithmetic, in blocks of rows: memory of one matrix
-            dx = panels.z.real[None, :] - z[first : first + 1024, None].real
-            dy = panels.z.imag[None, :] - z[first : first + 1024, None].imag
-            with np.errstate(divide="ignore", invalid="ignore"):
-                matrix[first : first + 1024] = (factors.real * dx + factors.imag * dy) / (dx * dx + dy * dy)
+    if layer_compiled.worth_trying(compiled):
+        c1, c2, scale = same_span_coefficients(curve)
+        spans = np.ascontiguousarray(np.stack([c1.real, c1.imag, c2.real, c2.imag, scale], axis=1))
+        arguments = (
+            np.ascontiguousarray(z, dtype=np.complex128), *span_parameters(curve, t),
+            panels.z, factors, *span_parameters(curve, panels.t), panels.weights, spans,
+        )  # fmt: skip
+        if layer_compiled.loaded(compiled, *arguments):
+            return compiled(*arguments)
+    matrix = np.empty((z.size, panels.size))
+    for first in range(0, z.size, 1024):  # real arithmetic, in blocks of rows: memory of one matrix
+        dx = panels.z.real[None, :] - z[first : first + 1024, None].real
+        dy = panels.z.imag[None, :] - z[first : first + 1024, None].imag
+        with np.errstate(divide="ignore", invalid="ignore"):
+            matrix[first : first + 1024] = (factors.real * dx + factors.imag * dy) / (dx * dx + dy * dy)
     fill_same_span(curve, matrix, t, panels)
     return matrix
 
