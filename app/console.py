@@ -13,6 +13,7 @@ import contextlib
 import os
 import sys
 import tempfile
+import threading
 import time
 from collections.abc import Iterator
 
@@ -68,22 +69,31 @@ class ProgressBar:
     get the one-line summary of the command instead of carriage returns), but for
     its label, printed once at the first call, with ``announce=True``.  At
     100 % it ends its line, so that the next bar starts on a fresh one.  Time
-    counts from its first call; `seconds` is the time from there to 100 %.
+    counts from its first call; `seconds` is the time from there to 100 %.  On a
+    terminal the elapsed time is redrawn every `tick` seconds meanwhile (None: only
+    when the percentage changes), so that a long step without fractions (one large
+    solve) still shows that it runs.
     """
 
     WIDTH = 30
+    #: Seconds between redraws of the elapsed time while the percentage stays.
+    TICK = 0.5
 
-    def __init__(self, label: str, stream=None, announce: bool = False):
+    def __init__(self, label: str, stream=None, announce: bool = False, tick: float | None = TICK):
         self.label = label
         self.stream = stream or sys.stderr
         self.enabled = self.stream.isatty()
         # Off a terminal, `announce` prints the label once, as a line, at the first call:
         # for a wait that must say what it is (compiling) even in a log.
         self.announce = announce
+        self.tick = tick
         self._shown = -1
         self._line = ""
         self._first_call: float | None = None
         self.seconds: float | None = None
+        self._lock = threading.Lock()
+        self._done = threading.Event()
+        self._ticker: threading.Thread | None = None
 
     def __call__(self, fraction: float) -> None:
         now = time.perf_counter()
@@ -92,27 +102,48 @@ class ProgressBar:
             if self.announce and not self.enabled:
                 self.stream.write(f"{self.label}...\n")
                 self.stream.flush()
+            if self.enabled and self.tick is not None:
+                self._ticker = threading.Thread(target=self._keep_time, daemon=True)
+                self._ticker.start()
         percent = int(100 * min(max(fraction, 0.0), 1.0))
         if percent == 100:
             self.seconds = now - self._first_call
         if not self.enabled or percent == self._shown:
             return
-        self._shown = percent
-        filled = self.WIDTH * percent // 100
-        elapsed = now - self._first_call
-        self._line = (
-            f"{self.label} [{'#' * filled}{'.' * (self.WIDTH - filled)}] {percent:3d}% {elapsed:5.1f} s"
-        )
-        self.stream.write(f"\r{self._line}")
+        self._draw(percent, now)
         if percent == 100:
-            self.stream.write("\n")
-            self._line = ""
-        self.stream.flush()
+            self._stop()
+
+    def _draw(self, percent: int, now: float) -> None:
+        with self._lock:
+            if self._shown == 100:
+                return
+            self._shown = percent
+            filled = self.WIDTH * percent // 100
+            elapsed = now - self._first_call
+            self._line = (
+                f"{self.label} [{'#' * filled}{'.' * (self.WIDTH - filled)}] {percent:3d}% {elapsed:5.1f} s"
+            )
+            self.stream.write(f"\r{self._line}")
+            if percent == 100:
+                self.stream.write("\n")
+                self._line = ""
+            self.stream.flush()
+
+    def _keep_time(self) -> None:
+        while not self._done.wait(self.tick):
+            self._draw(self._shown, time.perf_counter())
+
+    def _stop(self) -> None:
+        self._done.set()
+        if self._ticker is not None and self._ticker is not threading.current_thread():
+            self._ticker.join()
 
     def __enter__(self) -> ProgressBar:
         return self
 
     def __exit__(self, exc_type, *exc_info) -> None:
+        self._stop()
         if self._line:
             # On failure the bar is wiped, so that the error is the only line left.
             self.stream.write("\n" if exc_type is None else f"\r{' ' * len(self._line)}\r")

@@ -63,3 +63,26 @@ def test_notes_wait_for_success_and_a_failure_is_the_only_line(capsys):
     assert console.fail("error: out.png:\n cannot write", console.EXIT_BAD_INPUT) == 2
     console.print_notes()
     assert capsys.readouterr().err == "error: out.png: cannot write\n"
+
+
+def test_a_bar_on_a_terminal_keeps_its_time_while_its_percentage_stays():
+    # One long step (a large density solve) gives no fractions: the elapsed time is redrawn
+    # every `tick` seconds meanwhile, and not after the bar ends.
+    import time
+
+    terminal = Terminal()
+    with ProgressBar("basis functions", terminal, tick=0.02) as bar:
+        bar(0.0)
+        time.sleep(0.3)
+        bar(1.0)
+    text = terminal.getvalue()
+    assert text.count("\r") >= 5 and text.count("  0% ") >= 4, "the time is redrawn at 0 %"
+    assert text.endswith(" s\n") and float(text.rsplit("%", 1)[1].split()[0]) >= 0.3
+    time.sleep(0.1)
+    assert terminal.getvalue() == text, "nothing is drawn after the bar ends"
+    terminal = Terminal()
+    with ProgressBar("basis functions", terminal, tick=None) as bar:
+        bar(0.0)
+        time.sleep(0.1)
+        bar(1.0)
+    assert terminal.getvalue().count("\r") == 2
