@@ -280,13 +280,9 @@ def _panels(curve: ClosedBSpline, bounds: np.ndarray) -> Panels:
     half = 0.5 * (bounds[:, 1] - bounds[:, 0])
     middle = 0.5 * (bounds[:, 1] + bounds[:, 0])
     t = (middle[:, None] + half[:, None] * _NODES).ravel()
-    value, first, second = _evaluate(curve, t, bounds)
-    z = value[:, 0] + 1j * value[:, 1]
-    dz = first[:, 0] + 1j * first[:, 1]
-    d2z = second[:, 0] + 1j * second[:, 1]
+    z, dz, d2z = _evaluate(curve, t, bounds)
     weights = (half[:, None] * _WEIGHTS).ravel()
-    ends, _, _ = _evaluate(curve, bounds.ravel(), np.repeat(bounds, 2, axis=0))
-    ends = (ends[:, 0] + 1j * ends[:, 1]).reshape(-1, 2)
+    ends = _evaluate(curve, bounds.ravel(), np.repeat(bounds, 2, axis=0))[0].reshape(-1, 2)
     z_panels = z.reshape(-1, ORDER)
     lengths = (np.abs(dz) * weights).reshape(-1, ORDER).sum(axis=1)
     centres = 0.5 * (ends[:, 0] + ends[:, 1])
@@ -297,17 +293,18 @@ def _panels(curve: ClosedBSpline, bounds: np.ndarray) -> Panels:
 
 
 def _evaluate(curve: ClosedBSpline, t: np.ndarray, bounds: np.ndarray):
-    """p, p', p'' at t, each piece taken from the span of its panel (no wrap-around at t = n)."""
+    """p, p', p'' at t (K,) as complex numbers (K,), each piece taken from the span of its panel
+    (`bounds` (P, 2), K / P parameters a panel; no wrap-around at t = n)."""
     pieces = curve.piecewise_polynomial().coefficients  # (n, 3, 2)
-    span = np.floor(bounds[:, 0] + 1e-12).astype(np.int64) % curve.n
-    span = np.repeat(span, t.shape[0] // bounds.shape[0]) if t.shape[0] != bounds.shape[0] else span
-    u = t - np.floor(np.repeat(bounds[:, 0], t.shape[0] // bounds.shape[0]) + 1e-12)
-    c = pieces[span]
-    u = u[:, None]
-    value = c[:, 0] + u * (c[:, 1] + u * c[:, 2])
-    first = c[:, 1] + 2.0 * u * c[:, 2]
-    second = 2.0 * c[:, 2]
-    return value, first, second
+    c = pieces[..., 0] + 1j * pieces[..., 1]  # (n, 3)
+    start = np.floor(bounds[:, 0] + 1e-12)
+    span = start.astype(np.int64) % curve.n
+    if t.shape[0] != bounds.shape[0]:
+        span = np.repeat(span, t.shape[0] // bounds.shape[0])
+        start = np.repeat(start, t.shape[0] // bounds.shape[0])
+    u = t - start
+    c0, c1, c2 = c[span, 0], c[span, 1], c[span, 2]
+    return c0 + u * (c1 + u * c2), c1 + 2.0 * u * c2, 2.0 * c2
 
 
 def _curved(panels: Panels) -> np.ndarray:
