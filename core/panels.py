@@ -208,24 +208,25 @@ def graded_panels(curve: ClosedBSpline, coarse: Panels) -> tuple[Panels, np.ndar
     """
     # The coarse panels at a knot already are the first (panels a span) / 2 - 1 levels.
     levels = knot_levels(curve) - int(np.log2(coarse_per_span(curve) // 2))
-    fine, parent = [], []
     corners = set(sharp_corners(curve).tolist())
+    cuts = [_graded_cuts(levels[j], j in corners).tolist() for j in range(curve.n)]  # by knot
+    fine, parent = [], []
     knot = np.full(coarse.count, -1, dtype=np.int64)
-    for c, (a, b) in enumerate(coarse.bounds):
-        h = b - a
-        local = [0.0, 1.0]
-        at_start = abs(a - round(a)) < 1e-12
-        at_end = abs(b - round(b)) < 1e-12
-        if at_start:
+    for c, (a, b) in enumerate(coarse.bounds.tolist()):
+        local = {0.0, 1.0}
+        if abs(a - round(a)) < 1e-12:
             knot[c] = round(a) % curve.n
-            local += list(_graded_cuts(levels[knot[c]], knot[c] in corners))
-        if at_end:
+            local.update(cuts[knot[c]])
+        if abs(b - round(b)) < 1e-12:
             knot[c] = round(b) % curve.n
-            local += list(1.0 - _graded_cuts(levels[knot[c]], knot[c] in corners))
-        local = np.unique(local)
-        fine.append(np.stack([a + h * local[:-1], a + h * local[1:]], axis=1))
-        parent.append(np.full(local.size - 1, c))
-    return _panels(curve, np.concatenate(fine)), np.concatenate(parent), knot
+            local.update(1.0 - cut for cut in cuts[knot[c]])
+        local = sorted(local)
+        fine.extend(zip(local[:-1], local[1:], strict=True))
+        parent.extend([c] * (len(local) - 1))
+    pieces = np.array(fine)
+    start, width = coarse.bounds[np.asarray(parent), 0], np.diff(coarse.bounds, axis=1)[np.asarray(parent), 0]
+    bounds = start[:, None] + width[:, None] * pieces
+    return _panels(curve, bounds), np.asarray(parent, dtype=np.int64), knot
 
 
 def _graded_cuts(levels: int, corner: bool) -> np.ndarray:
