@@ -15,6 +15,8 @@ uses (image pixels with the origin top-left and y down in the app).
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from core.arc_length import arc_length_boundary, checked_parameterization
@@ -232,6 +234,18 @@ class ClosedBSpline:
                 [(i + 1) % self.n, *(arrive / np.linalg.norm(arrive)), *(leave / np.linalg.norm(leave))]
             )
         return np.array(rows, dtype=np.float64).reshape(-1, 5)
+
+    def corner_angles(self) -> np.ndarray:
+        """The domain's angle at each sharp corner of `corners`, in its order, radians (C,): below
+        π where the corner points out of the domain (a spike: a wedge of the domain), above where
+        it points into it."""
+        orientation = 1.0 if self.area > 0 else -1.0
+        angles = []
+        for _, *directions in self.corners():
+            arrive, leave = np.array(directions[:2]), np.array(directions[2:])
+            cross = arrive[0] * leave[1] - arrive[1] * leave[0]
+            angles.append(math.pi - orientation * math.atan2(cross, float(arrive @ leave)))
+        return np.array(angles, dtype=np.float64)
 
     def subdivide(self) -> ClosedBSpline:
         """The same curve with 2n control points (Chaikin's rule, exact for quadratics).

@@ -478,13 +478,11 @@ def _corner_wedges(curve: ClosedBSpline, t: np.ndarray) -> tuple[np.ndarray, np.
     """
     outside = np.full(t.shape[0], -1, dtype=np.int64)
     inside = outside.copy()
-    orientation = 1.0 if curve.is_counterclockwise else -1.0
-    for index, (corner, *directions) in enumerate(curve.corners()):
-        arrive, leave = np.array(directions[:2]), np.array(directions[2:])
-        turn = orientation * math.atan2(_cross(arrive, leave), float(arrive @ leave))
+    angles = curve.corner_angles()
+    for index, corner in enumerate(curve.corners()[:, 0]):
         in_wedge = np.mod(t - corner + 1.0, curve.n) < 2.0
         outside[in_wedge] = index
-        if math.pi - turn >= WIDE_CORNER:
+        if angles[index] >= WIDE_CORNER:
             inside[in_wedge] = index
     return outside, inside
 

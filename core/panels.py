@@ -4,9 +4,9 @@ The curve is cut at every knot, so that each panel is one polynomial piece (the
 B-spline basis N_i is a polynomial on it too), and each span is cut further:
 
 - geometrically towards knots where the curvature jumps (`knot_levels`, cuts at h 4^k
-  from the finest panel h, `KNOT_GROWTH`) and dyadically towards sharp corners, where the density of a layer
-  potential is singular (``CORNER_LEVELS`` levels, the geometric grading of Helsing's
-  and Bremer's corner schemes, here as plain Nyström panels);
+  from the finest panel h, `KNOT_GROWTH`) and dyadically towards sharp corners, where
+  the density of a layer potential is singular (``CORNER_LEVELS`` levels, the geometric
+  grading of Helsing's and Bremer's corner schemes, here as plain Nyström panels);
 - wherever a panel is long against its distance to the rest of the curve (a thin
   arm: the density varies on the scale of the arm's width), until each panel is at
   most `THIN_RATIO` times that distance.
@@ -178,11 +178,12 @@ def coarse_panels_and_gaps(curve: ClosedBSpline) -> tuple[Panels, np.ndarray]:
     starts = np.arange(curve.n * per_span) / per_span
     bounds = np.stack([starts, starts + 1.0 / per_span], axis=1)
     corners = sharp_corners(curve).astype(float)
+    wedge_widths = _wedge_widths(curve)
     for _ in range(2 * THIN_ROUNDS):
         panels = _panels(curve, bounds)
         # The rules that look at a panel and its neighbours first; the gaps (a search of the
         # whole curve, most of this function's time) once those hold.
-        split = _unbalanced(panels) | _curved(panels) | _wedged(curve, panels)
+        split = _unbalanced(panels) | _curved(panels) | _wedged(panels, wedge_widths)
         if not split.any():
             gap = gaps(panels, corners)
             split = panels.lengths > THIN_RATIO * gap
@@ -223,10 +224,10 @@ def graded_panels(curve: ClosedBSpline, coarse: Panels) -> tuple[Panels, np.ndar
         local = sorted(local)
         fine.extend(zip(local[:-1], local[1:], strict=True))
         parent.extend([c] * (len(local) - 1))
-    pieces = np.array(fine)
-    start, width = coarse.bounds[np.asarray(parent), 0], np.diff(coarse.bounds, axis=1)[np.asarray(parent), 0]
-    bounds = start[:, None] + width[:, None] * pieces
-    return _panels(curve, bounds), np.asarray(parent, dtype=np.int64), knot
+    parent = np.asarray(parent, dtype=np.int64)
+    start, width = coarse.bounds[parent, 0], np.diff(coarse.bounds, axis=1)[parent, 0]
+    bounds = start[:, None] + width[:, None] * np.array(fine)
+    return _panels(curve, bounds), parent, knot
 
 
 def _graded_cuts(levels: int, corner: bool) -> np.ndarray:
@@ -319,9 +320,9 @@ def _curved(panels: Panels) -> np.ndarray:
     return turning.reshape(-1, ORDER).max(axis=1) * panels.lengths > CURVED
 
 
-def _wedged(curve: ClosedBSpline, panels: Panels) -> np.ndarray:
-    """bool (P,): panels at a wedge (a sharp corner of interior angle α < `WEDGE_ANGLE`) wider in t
-    than min(`WEDGE_WIDTH`, α / 2).
+def _wedge_widths(curve: ClosedBSpline) -> np.ndarray:
+    """The widest a coarse panel at each knot may be in t, float (n,): min(`WEDGE_WIDTH`, α / 2)
+    at a wedge (a sharp corner where the domain's angle α is below `WEDGE_ANGLE`), inf elsewhere.
 
     Across a wedge the far side is α r away at r from its tip, so the corner's compressed block
     (its two coarse panels and their neighbours as long) sees the far side closer than it is
@@ -330,21 +331,22 @@ def _wedged(curve: ClosedBSpline, panels: Panels) -> np.ndarray:
     (3.4°), -1.4e-9 (1°) and -6.1e-10 (8°) at points ~1e-5 of the diameter from the wedge; with
     these splits, -1.4e-11 to -1.2e-12.
     """
-    rows = curve.corners()
-    split = np.zeros(panels.count, dtype=bool)
-    if rows.size == 0:
-        return split
-    arrive, leave = rows[:, 1:3], rows[:, 3:5]
-    turn = np.arctan2(arrive[:, 0] * leave[:, 1] - arrive[:, 1] * leave[:, 0], (arrive * leave).sum(axis=1))
-    angle = np.pi - turn * (1.0 if curve.area > 0 else -1.0)  # the domain's angle at the corner
-    limit_at = np.full(curve.n, np.inf)
-    wedge = angle < WEDGE_ANGLE
-    limit_at[rows[wedge, 0].astype(np.int64)] = np.minimum(WEDGE_WIDTH, 0.5 * angle[wedge])
+    widths = np.full(curve.n, np.inf)
+    angles = curve.corner_angles()
+    wedge = angles < WEDGE_ANGLE
+    widths[curve.corners()[wedge, 0].astype(np.int64)] = np.minimum(WEDGE_WIDTH, 0.5 * angles[wedge])
+    return widths
+
+
+def _wedged(panels: Panels, wedge_widths: np.ndarray) -> np.ndarray:
+    """bool (P,): panels with an end at a knot wider in t than that knot's `wedge_widths` (n,)."""
     limit = np.full(panels.count, np.inf)
     for end in panels.bounds.T:
         knot = np.round(end)
         at_knot = np.abs(end - knot) < 1e-12
-        limit[at_knot] = np.minimum(limit[at_knot], limit_at[knot[at_knot].astype(np.int64) % curve.n])
+        limit[at_knot] = np.minimum(
+            limit[at_knot], wedge_widths[knot[at_knot].astype(np.int64) % wedge_widths.size]
+        )
     return panels.bounds[:, 1] - panels.bounds[:, 0] > limit + 1e-12
 
 

@@ -265,9 +265,7 @@ def nystrom_halves(curve: ClosedBSpline, fine: Panels, mu: np.ndarray, refine: n
     t = np.concatenate([halves.t, fine.t[own]])
     matrix = layer_matrix(curve, fine, z, t)
     target, panel = near_pairs(fine, z, curve.diameter)
-    adaptive = ~smooth_on_own_span(curve, fine, t[target], panel)
-    target, panel = target[adaptive], panel[adaptive]
-    values, touching = _adaptive_entries(curve, fine, z[target], panel)
+    target, panel, values, touching = _adaptive_entries(curve, fine, z, t, target, panel)
     matrix[target[:, None], panel[:, None] * ORDER + np.arange(ORDER)] = values
     formula = _data(curve, t) - 2.0 * (matrix @ mu)
     split = 2 * count * ORDER
@@ -375,20 +373,23 @@ def _block_near_pairs(curve: ClosedBSpline, fine: Panels, block_of: np.ndarray) 
         targets.append(node[t])
         panels.append(members[p])
     target, panel = np.concatenate(targets), np.concatenate(panels)
-    adaptive = ~smooth_on_own_span(curve, fine, fine.t[target], panel)
-    target, panel = target[adaptive], panel[adaptive]
-    values, _ = _adaptive_entries(curve, fine, fine.z[target], panel)
+    target, panel, values, _ = _adaptive_entries(curve, fine, fine.z, fine.t, target, panel)
     sources = panel[:, None] * ORDER + np.arange(ORDER)
     block = block_of[panel]
     return {int(j): (target[block == j], sources[block == j], values[block == j]) for j in np.unique(block)}
 
 
-def _adaptive_entries(curve: ClosedBSpline, panels: Panels, z: np.ndarray, panel: np.ndarray):
-    """The double layer's Re C-weights (K, ORDER) of each pair's panel at targets z (K,) on the
-    curve, by the adaptive rule (`core.layer.adaptive_weights`), and its on-curve flags (K,)."""
-    weights, touching = adaptive_weights(curve, panels, z, panel, on_curve=0.0)
+def _adaptive_entries(curve: ClosedBSpline, panels: Panels, z, t, target, panel):
+    """The near pairs (target index into z and t (M,), a panel of `panels`) that need the
+    adaptive rule, all but those on the target's span where the kernel is smooth
+    (`smooth_on_own_span`), and their double layer's Re C-weights (K, ORDER) by that rule
+    (`core.layer.adaptive_weights`) at the targets z on the curve at parameters t, and its
+    on-curve flags (K,): (target, panel, weights, flags)."""
+    adaptive = ~smooth_on_own_span(curve, panels, t[target], panel)
+    target, panel = target[adaptive], panel[adaptive]
+    weights, touching = adaptive_weights(curve, panels, z[target], panel, on_curve=0.0)
     orientation = 1.0 if curve.area > 0 else -1.0
-    return (orientation * weights / (2j * np.pi)).real, touching
+    return target, panel, (orientation * weights / (2j * np.pi)).real, touching
 
 
 def _panels_of(curve: ClosedBSpline, panels: Panels, indices: np.ndarray) -> Panels:

@@ -260,3 +260,18 @@ def test_a_translation_is_checked_like_the_constructor_where_it_may_change_the_c
     # constructor refuses.
     with pytest.raises(ValueError):
         ClosedBSpline([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]).translated([1e20, 1e20])
+
+
+def test_corner_angles_are_the_domain_s_angles_in_either_orientation():
+    # A square with its corners doubled: four right angles; an arrow's tip (a spike) is below π,
+    # its notch (pointing into the domain) above, and reversing the curve keeps them.
+    square = ClosedBSpline(np.repeat([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]], 2, axis=0))
+    np.testing.assert_allclose(square.corner_angles(), np.full(4, np.pi / 2), rtol=1e-14)
+    arrow = np.repeat([[0.0, 0.0], [4.0, 1.0], [0.0, 2.0], [1.0, 1.0]], 2, axis=0)
+    for points in (arrow, arrow[::-1]):
+        curve = ClosedBSpline(points)
+        angles = dict(zip(curve.corners()[:, 0].tolist(), curve.corner_angles().tolist(), strict=True))
+        tip = [a for t, a in angles.items() if np.allclose(curve(np.array([t]))[0], [4.0, 1.0])]
+        notch = [a for t, a in angles.items() if np.allclose(curve(np.array([t]))[0], [1.0, 1.0])]
+        np.testing.assert_allclose(tip, [2.0 * np.arctan(0.25)], rtol=1e-12)
+        np.testing.assert_allclose(notch, [2.0 * np.pi - 2.0 * np.arctan(1.0)], rtol=1e-12)

@@ -134,7 +134,7 @@ def test_random_polygons_with_sharp_corners(seed, layer_path):
 def test_coarse_panels_at_a_wedge_are_split_by_its_angle():
     # Corners of 8° (seed 147) and 1.8° (seed 636): their coarse panels are at most min(1/16, half
     # the angle) wide in t (panels.WEDGE_ANGLE); of quarter spans only those at a wedge are split.
-    from core.panels import WEDGE_WIDTH, _panels, _wedged
+    from core.panels import WEDGE_WIDTH, _panels, _wedge_widths, _wedged
 
     for seed, knot, angle in [(147, 1, 8.0), (636, 1, 1.8)]:
         curve = random_polygon_cage(seed)
@@ -155,7 +155,7 @@ def test_coarse_panels_at_a_wedge_are_split_by_its_angle():
             )
             knot = (int(row[0]) + 1) % curve.n
             starts = np.arange(4 * curve.n) / 4.0
-            split = _wedged(curve, _panels(curve, np.stack([starts, starts + 0.25], axis=1)))
+            split = _wedged(_panels(curve, np.stack([starts, starts + 0.25], axis=1)), _wedge_widths(curve))
             np.testing.assert_array_equal(
                 np.flatnonzero(split), np.sort([(4 * knot - 1) % (4 * curve.n), 4 * knot])
             )
