@@ -4,7 +4,10 @@ Pure numerics (numpy, scipy, numba): never imports `app`, moderngl, glfw or imgu
 See .docs/architecture.md in the repository for the data flow and the paper's equation numbers.
 """
 
-# First: the compiled functions of the package compile uncached where numba cannot cache.
+# First, before numpy loads OpenBLAS: its idle threads spin briefly (`core.blas_threads`).
+import core.blas_threads  # noqa: F401, I001
+
+# Then: the compiled functions of the package compile uncached where numba cannot cache.
 import core.jit_cache  # noqa: F401, I001
 from core.basis import basis_functions
 from core.boundary import Boundary

@@ -93,6 +93,33 @@ def test_the_compiled_layer_s_imaginary_parts_and_derivatives_equal_the_numpy_on
     np.testing.assert_allclose(compiled_gradients / scale, gradients / scale, rtol=0, atol=1e-8)
 
 
+@pytest.mark.parametrize("layout", ["one point many times", "a line", "a cloud and a far cluster"])
+def test_targets_sharing_a_box_get_their_own_decisions(layout, monkeypatch):
+    # layer_rows decides for boxes of targets what it would decide for each: the same sums as
+    # each target alone (a box of one), to rounding, however the targets lie (all equal, so
+    # that no split separates them; on a line, so that boxes are flat; a cloud beside the curve
+    # with a tight cluster elsewhere, so that boxes split down to their leaves).
+    monkeypatch.setattr(layer_compiled, "mode", "compiled")
+    curve = core.ClosedBSpline(SHAPES["F polygon"])
+    solution = poisson.densities(curve)
+    rng = np.random.default_rng(11)
+    if layout == "one point many times":
+        x = np.repeat(interior_points(curve, 1, seed=3), 100, axis=0)
+    elif layout == "a line":
+        x = interior_points(curve, 300, seed=3)
+        x[:, 1] = x[0, 1]
+        x = x[curve.contains(x)]
+    else:
+        near = near_boundary_points(curve, 300, seed=6)[0]
+        x = np.vstack([near, interior_points(curve, 1, seed=8) + rng.normal(scale=1e-6, size=(200, 2))])
+    together = layer.cauchy_integrals(curve, solution.levels, x, imaginary=True)
+    alone = [layer.cauchy_integrals(curve, solution.levels, point[None], imaginary=True) for point in x]
+    for part in (0, 1):
+        each = np.concatenate([rows[part] for rows in alone])
+        np.testing.assert_allclose(together[part], each, rtol=0, atol=1e-13 * np.abs(each).max())
+    np.testing.assert_array_equal(together[2], np.concatenate([rows[2] for rows in alone]))
+
+
 @pytest.mark.parametrize("power", [1, 2])
 def test_the_compiled_near_rule_equals_the_numpy_one(power, monkeypatch):
     # Targets at 1e-9 .. 1e-1 of a panel's length from it, one exactly on a node: the adaptive
