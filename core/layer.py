@@ -235,7 +235,14 @@ def adaptive_weights(
             np.ascontiguousarray(targets, dtype=np.complex128),
             np.ascontiguousarray(panel, dtype=np.int64),
         )
-        arguments = (*arrays, int(power), float(touch), float(SAFE), int(MAX_DEPTH))
+        arguments = (
+            *arrays,
+            int(power),
+            float(touch),
+            float(SAFE),
+            int(MAX_DEPTH),
+            layer_compiled.piece_bases(),
+        )
         if layer_compiled.loaded(compiled, *arguments):
             return compiled(*arguments)
     # Depth 0, the panel's own rule on its stored nodes: most pairs end here.
@@ -508,6 +515,7 @@ def _panel_tree(curve: ClosedBSpline, levels: Levels) -> layer_compiled.PanelTre
         safe=float(SAFE),
         max_depth=int(MAX_DEPTH),
         stack_size=int(panels[0].count + len(panels) * most),
+        bases=layer_compiled.piece_bases(),
     )
     levels.compiled["tree"] = tree
     return tree

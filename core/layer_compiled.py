@@ -29,7 +29,7 @@ import numpy as np
 from numba import njit, prange
 from numba.core.compiler_lock import global_compiler_lock
 
-from core.panels import _BARYCENTRIC, _NODES, _WEIGHTS, ORDER
+from core.panels import _BARYCENTRIC, _NODES, _WEIGHTS, ORDER, interpolation_matrix
 
 #: How `core.layer` chooses: "auto" (compiled where loaded, `loaded`), "numpy", or "compiled"
 #: (compile on first use if need be: tests and `core.compilation.compile_all`).
@@ -155,14 +155,42 @@ def _piece_basis(low, high, out):
                 out[q, j] /= total
 
 
+#: Bisection depths whose pieces' Lagrange bases `piece_bases` tabulates (2^(d+1) - 1 pieces).
+TABLED_DEPTH = 7
+
+
+_piece_table = []
+
+
+def piece_bases() -> np.ndarray:
+    """`_piece_basis` of every piece of [-1, 1] that `TABLED_DEPTH` bisections or fewer make,
+    shape (2^(TABLED_DEPTH + 1) - 1, ORDER, ORDER): piece k of depth d (its low end
+    -1 + k 2^(1-d)) at row 2^d - 1 + k.  Computed once a process, with numpy
+    (`core.panels.interpolation_matrix`, the same formula: no compiling)."""
+    if not _piece_table:
+        pieces = []
+        for depth in range(TABLED_DEPTH + 1):
+            width = 2.0 ** (1 - depth)
+            for k in range(2**depth):
+                low, high = -1.0 + k * width, -1.0 + (k + 1) * width
+                pieces.append(0.5 * (high + low) + 0.5 * (high - low) * _NODES)
+        table = interpolation_matrix(np.array(pieces))
+        table.setflags(write=False)
+        _piece_table.append(table)
+    return _piece_table[0]
+
+
 @njit(cache=True, nogil=True, error_model="numpy")
-def _near_weights(coefficients, a, b, z, power, touch, safe, max_depth, weights, scratch):
+def _near_weights(coefficients, a, b, z, power, touch, safe, max_depth, weights, scratch, bases):
     """Weights (ORDER,) complex of ∫ φ(τ) / (τ - z)^power dτ on the panel [a, b] of the span of
     `coefficients` (3, 2) (p(u) = c0 + c1 u + c2 u^2, u the parameter within the span), for the
     interpolant of φ on the panel's nodes; returns True if z is on the curve (`touch`).
 
-    `scratch` (2 (max_depth + 2) + ORDER, ORDER) holds the stack of pieces and a piece's basis.
+    `scratch` (2 (max_depth + 2) + ORDER, ORDER) holds the stack of pieces and a piece's basis;
+    `bases` is `piece_bases` (its pieces' bases are looked up there rather than computed:
+    256 divisions a piece, half the time of the rule at the density solve's near pairs).
     """
+    tabled = int(round(math.log2(bases.shape[0] + 1))) - 1
     for j in range(ORDER):
         weights[j] = 0.0
     span = math.floor(a + 1e-12)
@@ -198,13 +226,18 @@ def _near_weights(coefficients, a, b, z, power, touch, safe, max_depth, weights,
             length += scale[q] * math.sqrt(dx * dx + dy * dy)
             gap = min(gap, abs(tau[q] - z))
         if gap >= safe * length:
-            _piece_basis(low, high, basis)
+            if depth <= tabled:
+                level = int(depth)
+                piece = bases[2**level - 1 + int(round((low + 1.0) * 2.0 ** (level - 1)))]
+            else:
+                _piece_basis(low, high, basis)
+                piece = basis
             for q in range(ORDER):
                 rule = scale[q] * dtau[q] / (tau[q] - z)
                 if power == 2:
                     rule /= tau[q] - z
                 for j in range(ORDER):
-                    weights[j] += rule * basis[q, j]
+                    weights[j] += rule * piece[q, j]
         elif gap < touch or length < touch or depth == max_depth:
             touching = True
         else:
@@ -243,11 +276,12 @@ def layer_matrix_rows(targets, target_span, target_u, node_z, factors, node_span
 
 
 @njit(cache=True, parallel=True, error_model="numpy")
-def adaptive_pairs(coefficients, bounds, targets, panel, power, touch, safe, max_depth):
+def adaptive_pairs(coefficients, bounds, targets, panel, power, touch, safe, max_depth, bases):
     """`core.layer.adaptive_weights` for K pairs: weights complex (K, ORDER) and touching bool (K,).
 
     coefficients (n, 3, 2) are the curve's spans (`ClosedBSpline.piecewise_polynomial`),
-    bounds (P, 2) the panels' parameter intervals, targets complex (K,), panel int (K,).
+    bounds (P, 2) the panels' parameter intervals, targets complex (K,), panel int (K,),
+    bases `piece_bases`.
     """
     count = targets.shape[0]
     n = coefficients.shape[0]
@@ -259,7 +293,7 @@ def adaptive_pairs(coefficients, bounds, targets, panel, power, touch, safe, max
         span = int(math.floor(bounds[p, 0] + 1e-12)) % n
         touching[k] = _near_weights(
             coefficients[span], bounds[p, 0], bounds[p, 1], targets[k], power, touch, safe, max_depth,
-            weights[k], scratch,
+            weights[k], scratch, bases,
         )  # fmt: skip
     return weights, touching
 
@@ -288,6 +322,7 @@ class PanelTree(NamedTuple):
     safe: float  #: `core.layer.SAFE`
     max_depth: int  #: `core.layer.MAX_DEPTH`
     stack_size: int  #: enough for the walk of one target
+    bases: np.ndarray  #: `piece_bases`
 
 
 #: Targets per box of `layer_rows` at most: a box's far panels are one matrix product.
@@ -450,7 +485,7 @@ def _walk(z, tree, start, power, imaginary, row, row_imaginary, stack, scratch, 
             span = int(math.floor(bounds[f, 0] + 1e-12)) % n
             if _near_weights(
                 coefficients[span], bounds[f, 0], bounds[f, 1], z, power, tree.touch, tree.safe,
-                tree.max_depth, weights, scratch,
+                tree.max_depth, weights, scratch, tree.bases,
             ):  # fmt: skip
                 on_curve = True
             for j in range(ORDER):

@@ -155,7 +155,7 @@ def test_loaded_never_compiles(monkeypatch):
     before = len(dispatcher.overloads)
     strange = (
         np.zeros((1, 3, 2), dtype=np.float32), np.zeros((1, 2), dtype=np.float32), np.zeros(1, np.complex64),
-        np.zeros(1, dtype=np.int32), 1, 0.0, 0.5, 60,
+        np.zeros(1, dtype=np.int32), 1, 0.0, 0.5, 60, np.zeros((1, 16, 16), dtype=np.float32),
     )  # fmt: skip
     assert not layer_compiled.loaded(dispatcher, *strange)
     assert len(dispatcher.overloads) == before
