@@ -276,6 +276,59 @@ def layer_matrix_rows(targets, target_span, target_u, node_z, factors, node_span
 
 
 @njit(cache=True, parallel=True, error_model="numpy")
+def knot_blocks(node_z, factors, node_span, node_u, weights, spans, rows, start, entries, values, entry_start,
+                prolongation, restriction):  # fmt: skip
+    """The compressed knot blocks of `core.poisson` at once, a block a thread at a time.
+
+    Block b's fine nodes are rows[start[b]:start[b + 1]] (indices of the fine nodes, whose
+    positions, `core.layer.layer_factors`, spans, parameters within them and weights are
+    node_z, factors, node_span, node_u, weights; spans (n, 5) as in `layer_matrix_rows`).
+    Its matrix I + 2 K* takes `layer_matrix_rows`'s entries, but at entries[e] = (row, column)
+    (its own positions, e in entry_start[b]..entry_start[b + 1]) the adaptive rule's values[e].
+    Returns X = (I + 2 K*)^-1 P for the rows of P (prolongation, (R, W), R = rows.size) and
+    restriction^T X, shape (B, W, W) (restriction (R, W): P W_f / w_c).
+    """
+    width = prolongation.shape[1]
+    solution = np.zeros((rows.shape[0], width))
+    reduced = np.zeros((start.shape[0] - 1, width, width))
+    for b in prange(start.shape[0] - 1):
+        first, size = start[b], start[b + 1] - start[b]
+        matrix = np.empty((size, size))
+        for i in range(size):
+            m = rows[first + i]
+            own = node_span[m]
+            c1x, c1y, c2x, c2y, scale = (
+                spans[own, 0],
+                spans[own, 1],
+                spans[own, 2],
+                spans[own, 3],
+                spans[own, 4],
+            )
+            x, y = node_z[m].real, node_z[m].imag
+            for j in range(size):
+                k = rows[first + j]
+                if node_span[k] == own:
+                    u = node_u[m] + node_u[k]
+                    real = c1x + c2x * u
+                    imaginary = c1y + c2y * u
+                    matrix[i, j] = (scale * weights[k]) / (real * real + imaginary * imaginary)
+                else:
+                    dx = node_z[k].real - x
+                    dy = node_z[k].imag - y
+                    matrix[i, j] = (factors[k].real * dx + factors[k].imag * dy) / (dx * dx + dy * dy)
+        for e in range(entry_start[b], entry_start[b + 1]):
+            matrix[entries[e, 0], entries[e, 1]] = values[e]
+        for i in range(size):
+            for j in range(size):
+                matrix[i, j] *= 2.0
+            matrix[i, i] += 1.0
+        block = np.linalg.solve(matrix, prolongation[first : first + size])
+        solution[first : first + size] = block
+        reduced[b] = np.dot(restriction[first : first + size].T.copy(), block)
+    return solution, reduced
+
+
+@njit(cache=True, parallel=True, error_model="numpy")
 def adaptive_pairs(coefficients, bounds, targets, panel, power, touch, safe, max_depth, bases):
     """`core.layer.adaptive_weights` for K pairs: weights complex (K, ORDER) and touching bool (K,).
 

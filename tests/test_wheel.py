@@ -119,9 +119,10 @@ def test_the_installed_wheel_runs_its_commands_from_anywhere(venv, elsewhere):
         "x = np.random.default_rng(1).uniform(0.3, 0.7, (c.LOAD_AFTER_POINTS + 1, 2)); "
         "core.basis_functions(square, x); poisson._densities.cache_clear(); "
         "core.basis_functions(square, x[:1]); "
-        "print(*(len(f.overloads) for f in (c.adaptive_pairs, c.layer_rows, c.layer_matrix_rows)))",
+        "print(*(len(f.overloads) for f in "
+        "(c.adaptive_pairs, c.layer_rows, c.layer_matrix_rows, c.knot_blocks)))",
     )  # fmt: skip
-    assert compiled_layer.stdout.split() == ["1", "1", "1"], f"not loaded:\n{compiled_layer.stderr}"
+    assert compiled_layer.stdout.split() == ["1", "1", "1", "1"], f"not loaded:\n{compiled_layer.stderr}"
 
     cv2.imwrite(str(folder / "blob.png"), picture())
     command("transfinite-warp", "fit", "blob.png", "--output", "cage.json", "--points", "10")
