@@ -123,7 +123,7 @@ def smooth_on_own_span(curve: ClosedBSpline, panels: Panels, t: np.ndarray, pane
     the adaptive rule for these pairs, most of the near pairs of a knot's graded panels, and
     take their weights from the closed form (`fill_same_span`).
     """
-    c1, c2, cross = _span_coefficients(curve)
+    c1, c2, cross = span_coefficients(curve)
     span = np.floor(panels.bounds[panel, 0] + 1e-12).astype(np.int64)
     same = np.floor(t + 1e-12).astype(np.int64) == span
     straight = cross[span % curve.n] == 0.0
@@ -135,7 +135,7 @@ def smooth_on_own_span(curve: ClosedBSpline, panels: Panels, t: np.ndarray, pane
     return same & (straight | (distance >= high - low))
 
 
-def _span_coefficients(curve: ClosedBSpline) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def span_coefficients(curve: ClosedBSpline) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """c1, c2 (complex (n,)) of each span p(u) = c0 + c1 u + c2 u^2, and Im(c1 conj c2) (n,), set
     to 0 where c1 and c2 are parallel to rounding (a straight span: its kernel is 0)."""
     pieces = curve.piecewise_polynomial().coefficients
@@ -149,7 +149,7 @@ def _span_coefficients(curve: ClosedBSpline) -> tuple[np.ndarray, np.ndarray, np
 def same_span_coefficients(curve: ClosedBSpline) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """c1, c2 (complex (n,)) of each span and the scale -Im(c1 conj c2) / 2π of its double-layer
     kernel (n,), signed by the orientation (`fill_same_span`)."""
-    c1, c2, cross = _span_coefficients(curve)
+    c1, c2, cross = span_coefficients(curve)
     orientation = 1.0 if curve.area > 0 else -1.0
     return c1, c2, -orientation * cross / (2.0 * np.pi)
 

@@ -275,27 +275,54 @@ def layer_matrix_rows(targets, target_span, target_u, node_z, factors, node_span
     return out
 
 
-@njit(cache=True, parallel=True, error_model="numpy")
-def knot_blocks(node_z, factors, node_span, node_u, weights, spans, rows, start, entries, values, entry_start,
-                prolongation, restriction):  # fmt: skip
-    """The compressed knot blocks of `core.poisson` at once, a block a thread at a time.
+class KnotBlocks(NamedTuple):
+    """The fine panels of `core.poisson`'s knot blocks and what `knot_blocks` needs of them."""
 
-    Block b's fine nodes are rows[start[b]:start[b + 1]] (indices of the fine nodes, whose
-    positions, `core.layer.layer_factors`, spans, parameters within them and weights are
-    node_z, factors, node_span, node_u, weights; spans (n, 5) as in `layer_matrix_rows`).
-    Its matrix I + 2 K* takes `layer_matrix_rows`'s entries, but at entries[e] = (row, column)
-    (its own positions, e in entry_start[b]..entry_start[b + 1]) the adaptive rule's values[e].
-    Returns X = (I + 2 K*)^-1 P for the rows of P (prolongation, (R, W), R = rows.size) and
-    restriction^T X, shape (B, W, W) (restriction (R, W): P W_f / w_c).
+    node_z: np.ndarray  #: complex (N_f,): the fine nodes
+    node_t: np.ndarray  #: (N_f,): their parameters
+    factors: np.ndarray  #: complex (N_f,): `core.layer.layer_factors`
+    node_span: np.ndarray  #: int (N_f,): each node's span
+    node_u: np.ndarray  #: (N_f,): its parameter within the span
+    weights: np.ndarray  #: (N_f,): quadrature weights in t
+    bounds: np.ndarray  #: (P_f, 2): the panels' parameter intervals
+    close_squared: np.ndarray  #: (P_f,): squared distance within which a node needs the adaptive rule
+    spans: np.ndarray  #: (n, 5): each span's c1, c2 (real, imaginary) and kernel scale (`layer_matrix_rows`)
+    cross: np.ndarray  #: (n,): Im(c1 conj c2), 0 for a straight span (`core.layer.smooth_on_own_span`)
+    coefficients: np.ndarray  #: (n, 3, 2): the spans (`ClosedBSpline.piecewise_polynomial`)
+    orientation: float  #: +1 counter-clockwise, -1 clockwise
+    safe: float  #: `core.layer.SAFE`
+    max_depth: int  #: `core.layer.MAX_DEPTH`
+    bases: np.ndarray  #: `piece_bases`
+
+
+@njit(cache=True, parallel=True, error_model="numpy")
+def knot_blocks(fine, panels, start, prolongation, restriction):
+    """The compressed knot blocks of `core.poisson`, a block a thread at a time.
+
+    Block b's fine panels are panels[start[b]:start[b + 1]] (of `fine`, a `KnotBlocks`), its
+    rows those panels' nodes in order (R rows in all).  Its matrix I + 2 K*_b takes
+    `layer_matrix_rows`'s entries, but where a node is within its close range of another of
+    the block's panels and the kernel is not smooth there (`_smooth_on_own_span`) the adaptive
+    rule's (`_near_weights`), as `core.poisson._block_near_pairs` finds them.  Returns
+    X = (I + 2 K*)^-1 P for the rows of P (prolongation, (R, W)) and restriction^T X, shape
+    (B, W, W) (restriction (R, W): P W_f / w_c).
     """
+    node_z, factors, node_span, node_u, weights = (
+        fine.node_z,
+        fine.factors,
+        fine.node_span,
+        fine.node_u,
+        fine.weights,
+    )
+    spans = fine.spans
     width = prolongation.shape[1]
-    solution = np.zeros((rows.shape[0], width))
+    solution = np.zeros((prolongation.shape[0], width))
     reduced = np.zeros((start.shape[0] - 1, width, width))
     for b in prange(start.shape[0] - 1):
-        first, size = start[b], start[b + 1] - start[b]
-        matrix = np.empty((size, size))
-        for i in range(size):
-            m = rows[first + i]
+        first, count = start[b] * ORDER, (start[b + 1] - start[b]) * ORDER
+        matrix = np.empty((count, count))
+        for i in range(count):
+            m = panels[start[b] + i // ORDER] * ORDER + i % ORDER
             own = node_span[m]
             c1x, c1y, c2x, c2y, scale = (
                 spans[own, 0],
@@ -305,8 +332,8 @@ def knot_blocks(node_z, factors, node_span, node_u, weights, spans, rows, start,
                 spans[own, 4],
             )
             x, y = node_z[m].real, node_z[m].imag
-            for j in range(size):
-                k = rows[first + j]
+            for j in range(count):
+                k = panels[start[b] + j // ORDER] * ORDER + j % ORDER
                 if node_span[k] == own:
                     u = node_u[m] + node_u[k]
                     real = c1x + c2x * u
@@ -316,16 +343,64 @@ def knot_blocks(node_z, factors, node_span, node_u, weights, spans, rows, start,
                     dx = node_z[k].real - x
                     dy = node_z[k].imag - y
                     matrix[i, j] = (factors[k].real * dx + factors[k].imag * dy) / (dx * dx + dy * dy)
-        for e in range(entry_start[b], entry_start[b + 1]):
-            matrix[entries[e, 0], entries[e, 1]] = values[e]
-        for i in range(size):
-            for j in range(size):
+        _adaptive_entries(fine, panels[start[b] : start[b + 1]], matrix)
+        for i in range(count):
+            for j in range(count):
                 matrix[i, j] *= 2.0
             matrix[i, i] += 1.0
-        block = np.linalg.solve(matrix, prolongation[first : first + size])
-        solution[first : first + size] = block
-        reduced[b] = np.dot(restriction[first : first + size].T.copy(), block)
+        block = np.linalg.solve(matrix, prolongation[first : first + count])
+        solution[first : first + count] = block
+        reduced[b] = np.dot(restriction[first : first + count].T.copy(), block)
     return solution, reduced
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _adaptive_entries(fine, panels, matrix):
+    """Set the entries of a knot block's matrix (its panels `panels` of `fine`) that need the
+    adaptive rule: a node within `close_squared` of another panel's node, unless the kernel is
+    smooth there (`_smooth_on_own_span`); Re of the rule's weights, oriented, over 2πi."""
+    n = fine.coefficients.shape[0]
+    scratch = np.empty((ORDER + 2 * (fine.max_depth + 2), ORDER))
+    weights = np.empty(ORDER, dtype=np.complex128)
+    for a in range(panels.shape[0]):
+        for i in range(ORDER):
+            m = panels[a] * ORDER + i
+            z = fine.node_z[m]
+            for c in range(panels.shape[0]):
+                p = panels[c]
+                if c == a:
+                    continue
+                near = False
+                for q in range(p * ORDER, (p + 1) * ORDER):
+                    d = fine.node_z[q] - z
+                    if d.real * d.real + d.imag * d.imag < fine.close_squared[p]:
+                        near = True
+                        break
+                if not near or _smooth_on_own_span(fine, fine.node_t[m], p):
+                    continue
+                span = int(math.floor(fine.bounds[p, 0] + 1e-12)) % n
+                _near_weights(
+                    fine.coefficients[span], fine.bounds[p, 0], fine.bounds[p, 1], z, 1, 0.0, fine.safe,
+                    fine.max_depth, weights, scratch, fine.bases,
+                )  # fmt: skip
+                for j in range(ORDER):
+                    matrix[a * ORDER + i, c * ORDER + j] = (weights[j] * fine.orientation / (2j * np.pi)).real
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _smooth_on_own_span(fine, t, p):
+    """`core.layer.smooth_on_own_span` for a node at parameter t and panel p of `fine`."""
+    span = math.floor(fine.bounds[p, 0] + 1e-12)
+    if math.floor(t + 1e-12) != span:
+        return False
+    s = int(span) % fine.coefficients.shape[0]
+    if fine.cross[s] == 0.0:
+        return True
+    c1 = complex(fine.coefficients[s, 1, 0], fine.coefficients[s, 1, 1])
+    c2 = complex(fine.coefficients[s, 2, 0], fine.coefficients[s, 2, 1])
+    pole = -c1 / c2 - (t - span)
+    low, high = fine.bounds[p, 0] - span, fine.bounds[p, 1] - span
+    return abs(pole - min(max(pole.real, low), high)) >= high - low
 
 
 @njit(cache=True, parallel=True, error_model="numpy")

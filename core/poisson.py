@@ -42,6 +42,7 @@ from core.bspline import ClosedBSpline
 from core.layer import (
     CORNER_SAFE,
     DIRECT,
+    MAX_DEPTH,
     SAFE,
     Levels,
     adaptive_weights,
@@ -55,6 +56,7 @@ from core.layer import (
     restricted,
     same_span_coefficients,
     smooth_on_own_span,
+    span_coefficients,
     span_parameters,
 )
 from core.panels import (
@@ -202,13 +204,13 @@ def _knot_blocks(curve, fine: Panels, coarse: Panels, knot, parent, interpolatio
     (I + K*_j)^-1 P (`_densities`); `knot` (P_c,) is each coarse panel's knot (-1 for none),
     `parent` (P_f,) each fine panel's coarse panel, `interpolation` (P_f ORDER, ORDER) each
     fine node's row of P on its coarse panel.  The blocks are solved together by the
-    compiled `core.layer_compiled.knot_blocks` where it is at hand (the bench blob's 12
-    blocks: 5.2 ms one at a time in numpy, 1.6 ms compiled on two threads).
+    compiled `core.layer_compiled.knot_blocks`, their adaptive entries too, where it is at
+    hand (the bench blob's 12 blocks: 9 ms one at a time in numpy, 2.4 ms compiled on two
+    threads), else by `_solved_blocks`.
     """
     coarse_nodes = np.arange(coarse.size).reshape(-1, ORDER)
     parent_node = np.repeat(parent, ORDER)
     block_of = knot[parent]  # the knot block of each fine panel, -1 for none
-    corrections = _block_near_pairs(curve, fine, block_of)
     knots = np.unique(knot[knot >= 0])
     width = expand.values.shape[1]
     # Each block's fine panels, in the order of their knots, and their nodes.
@@ -238,8 +240,10 @@ def _knot_blocks(curve, fine: Panels, coarse: Panels, knot, parent, interpolatio
     for b, nodes in enumerate(columns):
         column_weights[b, : nodes.size] = coarse.weights[nodes]
     restriction = prolongation * fine.weights[rows, None] / column_weights[block_of_row]
-    entries, values, entry_start = _correction_entries(corrections, knots, position)
-    solved = _solved_blocks(curve, fine, rows, start, entries, values, entry_start, prolongation, restriction)
+    solved = _compiled_blocks(curve, fine, members, start // ORDER, prolongation, restriction)
+    if solved is None:
+        entries = _correction_entries(_block_near_pairs(curve, fine, block_of), knots, position)
+        solved = _solved_blocks(curve, fine, rows, start, *entries, prolongation, restriction)
     expand.values[rows] = solved[0]
     blocks = {}
     for b, j in enumerate(knots.tolist()):
@@ -268,19 +272,33 @@ def _correction_entries(corrections: dict, knots: np.ndarray, position: np.ndarr
     )
 
 
-def _solved_blocks(curve, fine, rows, start, entries, values, entry_start, prolongation, restriction):
-    """`core.layer_compiled.knot_blocks`'s (solution (R, W), reduced (B, W, W)) for the blocks of
-    `_knot_blocks`, compiled where at hand, else block by block in numpy."""
+def _compiled_blocks(curve, fine: Panels, panels, start, prolongation, restriction):
+    """`core.layer_compiled.knot_blocks` for the blocks of `_knot_blocks` (their fine panels
+    panels[start[b]:start[b + 1]]): (solution (R, W), reduced (B, W, W)), or None where its
+    machine code is not at hand."""
     compiled = layer_compiled.knot_blocks
-    if layer_compiled.worth_trying(compiled):
-        c1, c2, scale = same_span_coefficients(curve)
-        spans = np.ascontiguousarray(np.stack([c1.real, c1.imag, c2.real, c2.imag, scale], axis=1))
-        arguments = (
-            fine.z, layer_factors(curve, fine), *span_parameters(curve, fine.t), fine.weights, spans,
-            rows, start, entries, values, entry_start, prolongation, restriction,
-        )  # fmt: skip
-        if layer_compiled.loaded(compiled, *arguments):
-            return compiled(*arguments)
+    if not layer_compiled.worth_trying(compiled):
+        return None
+    c1, c2, scale = same_span_coefficients(curve)
+    close_range = np.maximum(SAFE * fine.lengths, DIRECT * curve.diameter)
+    node_span, node_u = span_parameters(curve, fine.t)
+    blocks = layer_compiled.KnotBlocks(
+        node_z=fine.z, node_t=fine.t, factors=layer_factors(curve, fine), node_span=node_span, node_u=node_u,
+        weights=fine.weights, bounds=np.ascontiguousarray(fine.bounds), close_squared=close_range**2,
+        spans=np.ascontiguousarray(np.stack([c1.real, c1.imag, c2.real, c2.imag, scale], axis=1)),
+        cross=span_coefficients(curve)[2],
+        coefficients=np.ascontiguousarray(curve.piecewise_polynomial().coefficients, dtype=np.float64),
+        orientation=1.0 if curve.area > 0 else -1.0, safe=float(SAFE), max_depth=int(MAX_DEPTH),
+        bases=layer_compiled.piece_bases(),
+    )  # fmt: skip
+    arguments = (blocks, panels, start, prolongation, restriction)
+    return compiled(*arguments) if layer_compiled.loaded(compiled, *arguments) else None
+
+
+def _solved_blocks(curve, fine, rows, start, entries, values, entry_start, prolongation, restriction):
+    """`core.layer_compiled.knot_blocks`'s (solution (R, W), reduced (B, W, W)) in numpy, block by
+    block, from the adaptive rule's entries (row, column) (E, 2) of each block's matrix and
+    their values (E,), block b's from entry_start[b]."""
     solution = np.zeros_like(prolongation)
     reduced = np.zeros((start.size - 1, prolongation.shape[1], prolongation.shape[1]))
     for b in range(start.size - 1):
