@@ -110,6 +110,8 @@ def compile_all() -> None:
     from core import layer_compiled
     from core.bspline import ClosedBSpline
     from core.closest_point import distance_to_curve
+    from core.layer import adaptive_weights
+    from core.panels import curve_panels
     from core.pgw import pgw_basis
     from core.poisson import _densities, poisson_basis
 
@@ -120,8 +122,10 @@ def compile_all() -> None:
     pgw_basis(square, x)
     mode, layer_compiled.mode = layer_compiled.mode, "compiled"
     try:
-        _densities.cache_clear()  # the density solve runs the near-field rule: not from the cache
+        _densities.cache_clear()  # the density solve runs the knot blocks: not from the cache
         poisson_basis(square, x)
+        panels = curve_panels(square)  # the near-field rule on its own (thin parts of a solve)
+        adaptive_weights(square, panels, panels.z[:1] + 1e-3j, np.zeros(1, dtype=np.int64))
     finally:
         layer_compiled.mode = mode
     compile_solver(gradients=True)
