@@ -557,7 +557,7 @@ def load_compiled() -> bool:
     """Read the compiled boundary integrals (`core.layer_compiled`) from numba's cache now, for a
     program about to evaluate many points (~0.2 s once; never compiles).
 
-    Returns whether all three are in memory afterwards: False where numba's cache lacks them
+    Returns whether all four are in memory afterwards: False where numba's cache lacks them
     (another CPU model or numba version than the install's, `TRANSFINITE_PRECOMPILE=0`),
     and the numpy path runs instead.
     """
@@ -565,6 +565,8 @@ def load_compiled() -> bool:
     square = ClosedBSpline(np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]))
     solution = _densities.__wrapped__(square.control_points.tobytes(), square.n)  # solves, uncached
     cauchy_integrals(square, solution.levels, np.array([[0.5, 0.5]]))
+    panels = solution.levels.panels[-1]  # the near-field rule on its own (a solve's thin parts)
+    adaptive_weights(square, panels, panels.z[:1] + 1e-3j, np.zeros(1, dtype=np.int64))
     compiled = (
         layer_compiled.adaptive_pairs, layer_compiled.layer_rows, layer_compiled.layer_matrix_rows,
         layer_compiled.knot_blocks,

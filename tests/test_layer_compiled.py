@@ -147,6 +147,13 @@ def test_the_compiled_near_rule_equals_the_numpy_one(power, monkeypatch):
     np.testing.assert_allclose(compiled_weights / scale, numpy_weights / scale, rtol=0, atol=tolerance)
 
 
+def test_load_compiled_brings_in_every_compiled_boundary_integral(monkeypatch):
+    # The bench says "runs as numpy batches" when this is False: each of the four must be
+    # called by it (the solve's knot blocks do not call the near-field rule on its own).
+    monkeypatch.setattr(layer_compiled, "mode", "compiled")
+    assert poisson.load_compiled()
+
+
 def test_loaded_never_compiles(monkeypatch):
     # "auto" takes the compiled path only where machine code exists: for argument types that
     # were never compiled it answers False and compiles nothing.
