@@ -157,18 +157,12 @@ def _densities(points: bytes, count: int) -> Densities:
     expand.columns[:, :ORDER] = coarse_nodes[parent]
     blocks = _knot_blocks(curve, fine, coarse, knot, parent, interpolation, expand)
     group_of = np.where(knot >= 0, knot, -1 - np.arange(coarse.count))  # each free panel its own
-    system = layer_matrix(curve, coarse, coarse.z, coarse.t)
-    system *= 2.0  # in place: a second dense matrix is fresh memory a solve (1.9 ms at 560 unknowns)
     same = group_of[np.repeat(np.arange(coarse.count), ORDER)]
-    for columns, _ in blocks.values():  # K*: within a knot's pair of panels, in R
-        system[np.ix_(columns, columns)] = 0.0
     target, panel = near_pairs(coarse, coarse.z, curve.diameter)
-    # A free panel's own nodes, and same-span panels where the kernel is smooth: the plain rule, above.
+    # A free panel's own nodes, and same-span panels where the kernel is smooth: the plain rule.
     keep = (same[target] != group_of[panel]) & ~smooth_on_own_span(curve, coarse, coarse.t[target], panel)
     target, panel = target[keep], panel[keep]
-    system[target[:, None], coarse_nodes[panel]] = 0.0
-    for columns, block in blocks.values():  # K°_c R: R is the identity but on the knots' blocks
-        system[:, columns] = system[:, columns] @ block
+    system = _coarse_system(curve, coarse, blocks, target, panel)
     if target.size:  # the near pairs' rows only (a dense copy of the system took 118 MB at 60 spans)
         near_rows, local = np.unique(target, return_inverse=True)
         near = np.zeros((near_rows.size, coarse.size))
@@ -195,6 +189,42 @@ def _densities(points: bytes, count: int) -> Densities:
     refine = np.flatnonzero(fine.lengths > REFINED_RATIO * gap[parent])
     corrected = nystrom_halves(curve, fine, mu, refine) if refine.size else None
     return Densities(curve, bisected(curve, levels, corrected=corrected))
+
+
+def _coarse_system(curve: ClosedBSpline, coarse: Panels, blocks: dict, target, panel) -> np.ndarray:
+    """2 K°_c R (K, K) of the coarse equation (`_densities`) but for its near pairs: the plain rule
+    at the coarse nodes, 0 within each knot's block (K*, in R) and at the near pairs (target
+    nodes, panels (E,), sorted by target: the adaptive rule's, added by the caller), each
+    block's columns times its R (`_knot_blocks`).  Compiled where at hand
+    (`core.layer_compiled.coarse_system`), else numpy.
+    """
+    compiled = layer_compiled.coarse_system
+    if layer_compiled.worth_trying(compiled) and blocks:
+        width = max(columns.size for columns, _ in blocks.values())
+        block_columns = np.full((len(blocks), width), -1, dtype=np.int64)
+        block_reduced = np.zeros((len(blocks), width, width))
+        node_block = np.full(coarse.size, -1, dtype=np.int64)
+        for b, (columns, reduced) in enumerate(blocks.values()):
+            block_columns[b, : columns.size] = columns
+            block_reduced[b, : columns.size, : columns.size] = reduced
+            node_block[columns] = b
+        c1, c2, scale = same_span_coefficients(curve)
+        arguments = (
+            coarse.z, layer_factors(curve, coarse), *span_parameters(curve, coarse.t), coarse.weights,
+            np.ascontiguousarray(np.stack([c1.real, c1.imag, c2.real, c2.imag, scale], axis=1)),
+            node_block, block_columns, block_reduced,
+            np.searchsorted(target, np.arange(coarse.size + 1)).astype(np.int64), np.ascontiguousarray(panel),
+        )  # fmt: skip
+        if layer_compiled.loaded(compiled, *arguments):
+            return compiled(*arguments)
+    system = layer_matrix(curve, coarse, coarse.z, coarse.t)
+    system *= 2.0  # in place: a second dense matrix is fresh memory a solve (1.9 ms at 560 unknowns)
+    for columns, _ in blocks.values():  # K*: within a knot's pair of panels, in R
+        system[np.ix_(columns, columns)] = 0.0
+    system[target[:, None], panel[:, None] * ORDER + np.arange(ORDER)] = 0.0
+    for columns, block in blocks.values():  # K°_c R: R is the identity but on the knots' blocks
+        system[:, columns] = system[:, columns] @ block
+    return system
 
 
 def _knot_blocks(curve, fine: Panels, coarse: Panels, knot, parent, interpolation, expand) -> dict:
@@ -557,7 +587,7 @@ def load_compiled() -> bool:
     """Read the compiled boundary integrals (`core.layer_compiled`) from numba's cache now, for a
     program about to evaluate many points (~0.2 s once; never compiles).
 
-    Returns whether all four are in memory afterwards: False where numba's cache lacks them
+    Returns whether all five are in memory afterwards: False where numba's cache lacks them
     (another CPU model or numba version than the install's, `TRANSFINITE_PRECOMPILE=0`),
     and the numpy path runs instead.
     """
@@ -569,7 +599,7 @@ def load_compiled() -> bool:
     adaptive_weights(square, panels, panels.z[:1] + 1e-3j, np.zeros(1, dtype=np.int64))
     compiled = (
         layer_compiled.adaptive_pairs, layer_compiled.layer_rows, layer_compiled.layer_matrix_rows,
-        layer_compiled.knot_blocks,
+        layer_compiled.knot_blocks, layer_compiled.coarse_system,
     )  # fmt: skip
     return all(dispatcher.overloads for dispatcher in compiled)
 

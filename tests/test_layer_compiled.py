@@ -148,7 +148,7 @@ def test_the_compiled_near_rule_equals_the_numpy_one(power, monkeypatch):
 
 
 def test_load_compiled_brings_in_every_compiled_boundary_integral(monkeypatch):
-    # The bench says "runs as numpy batches" when this is False: each of the four must be
+    # The bench says "runs as numpy batches" when this is False: each of the five must be
     # called by it (the solve's knot blocks do not call the near-field rule on its own).
     monkeypatch.setattr(layer_compiled, "mode", "compiled")
     assert poisson.load_compiled()

@@ -124,9 +124,9 @@ def test_the_installed_wheel_runs_its_commands_from_anywhere(venv, elsewhere):
         "p = curve_panels(square); "
         "adaptive_weights(square, p, p.z[:1] + 1e-3j, np.zeros(1, dtype=np.int64)); "
         "print(*(len(f.overloads) for f in "
-        "(c.adaptive_pairs, c.layer_rows, c.layer_matrix_rows, c.knot_blocks)))",
+        "(c.adaptive_pairs, c.layer_rows, c.layer_matrix_rows, c.knot_blocks, c.coarse_system)))",
     )  # fmt: skip
-    assert compiled_layer.stdout.split() == ["1", "1", "1", "1"], f"not loaded:\n{compiled_layer.stderr}"
+    assert compiled_layer.stdout.split() == ["1"] * 5, f"not loaded:\n{compiled_layer.stderr}"
 
     cv2.imwrite(str(folder / "blob.png"), picture())
     command("transfinite-warp", "fit", "blob.png", "--output", "cage.json", "--points", "10")
