@@ -75,7 +75,7 @@ from core.panels import _panels as _make_panels
 #: Coarse boundary nodes at most (the dense solve's memory, 8 MAX_NODES^2 bytes, and time).
 MAX_NODES = 10_000
 #: Points per progress report.
-CHUNK = 8192
+CHUNK = 16_384
 #: Points this close to the curve (fraction of the diameter) get the Lagrange limit.
 ON_CURVE_DISTANCE = 1e-10
 #: A point whose layer of the constant density, Re C[1], is outside [1 - ON_CURVE, 1 + ON_CURVE]
