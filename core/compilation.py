@@ -110,10 +110,9 @@ def compile_all() -> None:
     from core import layer_compiled
     from core.bspline import ClosedBSpline
     from core.closest_point import distance_to_curve
-    from core.layer import adaptive_weights
     from core.panels import curve_panels
     from core.pgw import pgw_basis
-    from core.poisson import _densities, poisson_basis
+    from core.poisson import _densities, exercise_near_field, poisson_basis
 
     square = ClosedBSpline(np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]))
     x = np.array([[0.5, 0.5]])
@@ -124,8 +123,7 @@ def compile_all() -> None:
     try:
         _densities.cache_clear()  # the density solve runs the knot blocks: not from the cache
         poisson_basis(square, x)
-        panels = curve_panels(square)  # the near-field rule on its own (thin parts of a solve)
-        adaptive_weights(square, panels, panels.z[:1] + 1e-3j, np.zeros(1, dtype=np.int64))
+        exercise_near_field(square, curve_panels(square))
     finally:
         layer_compiled.mode = mode
     compile_solver(gradients=True)

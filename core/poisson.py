@@ -583,6 +583,14 @@ def poisson_basis(
     return out
 
 
+def exercise_near_field(curve: ClosedBSpline, panels: Panels) -> None:
+    """Run the near-field rule and the Nyström matrix rows once, for one node of `panels`: what a
+    solve calls only beside thin parts (`nystrom_halves`, the coarse equation's near pairs), so
+    that `load_compiled` and `core.compilation.compile_all` bring them in too."""
+    adaptive_weights(curve, panels, panels.z[:1] + 1e-3j, np.zeros(1, dtype=np.int64))
+    layer_matrix(curve, panels, panels.z[:1], panels.t[:1])
+
+
 def load_compiled() -> bool:
     """Read the compiled boundary integrals (`core.layer_compiled`) from numba's cache now, for a
     program about to evaluate many points (~0.2 s once; never compiles).
@@ -595,8 +603,7 @@ def load_compiled() -> bool:
     square = ClosedBSpline(np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]))
     solution = _densities.__wrapped__(square.control_points.tobytes(), square.n)  # solves, uncached
     cauchy_integrals(square, solution.levels, np.array([[0.5, 0.5]]))
-    panels = solution.levels.panels[-1]  # the near-field rule on its own (a solve's thin parts)
-    adaptive_weights(square, panels, panels.z[:1] + 1e-3j, np.zeros(1, dtype=np.int64))
+    exercise_near_field(square, solution.levels.panels[-1])
     compiled = (
         layer_compiled.adaptive_pairs, layer_compiled.layer_rows, layer_compiled.layer_matrix_rows,
         layer_compiled.knot_blocks, layer_compiled.coarse_system,

@@ -111,8 +111,8 @@ def test_the_installed_wheel_runs_its_commands_from_anywhere(venv, elsewhere):
     assert first_use.stdout.split() == ["False"], f"the installed wheel compiled:\n{first_use.stderr}"
     # The default kernel reads its compiled boundary integrals from numba's cache once a process
     # has evaluated LOAD_AFTER_POINTS points (core.layer_compiled.loaded), never compiling them:
-    # from the wheel they must be there, for the evaluation, the next density solve and the
-    # near-field rule on its own (the solve's thin parts).
+    # from the wheel they must be there, for the evaluation, the next density solve and what a
+    # solve calls only beside thin parts (poisson.exercise_near_field).
     compiled_layer = command(
         "python", "-c",
         "import numpy as np, core; from core import layer_compiled as c, poisson; "
@@ -120,9 +120,7 @@ def test_the_installed_wheel_runs_its_commands_from_anywhere(venv, elsewhere):
         "x = np.random.default_rng(1).uniform(0.3, 0.7, (c.LOAD_AFTER_POINTS + 1, 2)); "
         "core.basis_functions(square, x); poisson._densities.cache_clear(); "
         "core.basis_functions(square, x[:1]); "
-        "from core.layer import adaptive_weights; from core.panels import curve_panels; "
-        "p = curve_panels(square); "
-        "adaptive_weights(square, p, p.z[:1] + 1e-3j, np.zeros(1, dtype=np.int64)); "
+        "from core.panels import curve_panels; poisson.exercise_near_field(square, curve_panels(square)); "
         "print(*(len(f.overloads) for f in "
         "(c.adaptive_pairs, c.layer_rows, c.layer_matrix_rows, c.knot_blocks, c.coarse_system)))",
     )  # fmt: skip
