@@ -191,8 +191,6 @@ def _near_weights(coefficients, a, b, z, power, touch, safe, max_depth, weights,
     256 divisions a piece, half the time of the rule at the density solve's near pairs).
     """
     tabled = int(round(math.log2(bases.shape[0] + 1))) - 1
-    for j in range(ORDER):
-        weights[j] = 0.0
     span = math.floor(a + 1e-12)
     panel_half = 0.5 * (b - a)
     panel_middle = 0.5 * (a + b) - span
@@ -201,9 +199,12 @@ def _near_weights(coefficients, a, b, z, power, touch, safe, max_depth, weights,
     c2x, c2y = coefficients[2, 0], coefficients[2, 1]
     stack = scratch[ORDER:]
     basis = scratch[:ORDER]
-    tau = np.empty(ORDER, dtype=np.complex128)
-    dtau = np.empty(ORDER, dtype=np.complex128)
+    tau_x, tau_y = np.empty(ORDER), np.empty(ORDER)
+    dtau_x, dtau_y = np.empty(ORDER), np.empty(ORDER)
     scale = np.empty(ORDER)
+    rule_x, rule_y = np.empty(ORDER), np.empty(ORDER)
+    sum_x, sum_y = np.zeros(ORDER), np.zeros(ORDER)
+    zx, zy = z.real, z.imag
     touching = False
     stack[0, 0], stack[0, 1], stack[0, 2] = -1.0, 1.0, 0.0
     top = 1
@@ -213,18 +214,19 @@ def _near_weights(coefficients, a, b, z, power, touch, safe, max_depth, weights,
         half = 0.5 * (high - low)
         middle = 0.5 * (high + low)
         length = 0.0
-        gap = np.inf
+        gap = np.inf  # squared, until the square root below
         for q in range(ORDER):
             t = panel_middle + panel_half * (middle + half * _NODES[q])
             x = c0x + t * (c1x + t * c2x)
             y = c0y + t * (c1y + t * c2y)
             dx = c1x + 2.0 * t * c2x
             dy = c1y + 2.0 * t * c2y
-            tau[q] = complex(x, y)
-            dtau[q] = complex(dx, dy)
+            tau_x[q], tau_y[q] = x, y
+            dtau_x[q], dtau_y[q] = dx, dy
             scale[q] = half * panel_half * _WEIGHTS[q]
             length += scale[q] * math.sqrt(dx * dx + dy * dy)
-            gap = min(gap, abs(tau[q] - z))
+            gap = min(gap, (x - zx) * (x - zx) + (y - zy) * (y - zy))
+        gap = math.sqrt(gap)
         if gap >= safe * length:
             if depth <= tabled:
                 level = int(depth)
@@ -232,18 +234,26 @@ def _near_weights(coefficients, a, b, z, power, touch, safe, max_depth, weights,
             else:
                 _piece_basis(low, high, basis)
                 piece = basis
-            for q in range(ORDER):
-                rule = scale[q] * dtau[q] / (tau[q] - z)
+            for q in range(ORDER):  # s τ' / (τ - z)^power = s τ' conj(τ - z)^power / |τ - z|^(2 power)
+                ex, ey = tau_x[q] - zx, tau_y[q] - zy
+                inverse = 1.0 / (ex * ex + ey * ey)
+                rx = scale[q] * (dtau_x[q] * ex + dtau_y[q] * ey) * inverse
+                ry = scale[q] * (dtau_y[q] * ex - dtau_x[q] * ey) * inverse
                 if power == 2:
-                    rule /= tau[q] - z
+                    rx, ry = (rx * ex + ry * ey) * inverse, (ry * ex - rx * ey) * inverse
+                rule_x[q], rule_y[q] = rx, ry
+            for q in range(ORDER):
                 for j in range(ORDER):
-                    weights[j] += rule * piece[q, j]
+                    sum_x[j] += rule_x[q] * piece[q, j]
+                    sum_y[j] += rule_y[q] * piece[q, j]
         elif gap < touch or length < touch or depth == max_depth:
             touching = True
         else:
             stack[top, 0], stack[top, 1], stack[top, 2] = low, middle, depth + 1.0
             stack[top + 1, 0], stack[top + 1, 1], stack[top + 1, 2] = middle, high, depth + 1.0
             top += 2
+    for j in range(ORDER):
+        weights[j] = complex(sum_x[j], sum_y[j])
     return touching
 
 
