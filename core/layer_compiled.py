@@ -610,13 +610,17 @@ def _box_side(p, centre, radius, node_z, centres, reach, close_squared):
     if distance - margin >= reach[p]:
         return FAR
     close = math.sqrt(close_squared[p])
+    far_squared = (close + margin) ** 2  # a node this far is far from every target
+    near_squared = (close - margin) ** 2 if close > margin else -1.0  # this near, near every one
     every_far, one_near = True, False
     for q in range(p * ORDER, (p + 1) * ORDER):
-        d = abs(node_z[q] - centre)
-        if d - margin < close:
+        d = node_z[q] - centre
+        square = d.real * d.real + d.imag * d.imag
+        if square < far_squared:
             every_far = False
-        if d + margin < close:
-            one_near = True
+            if square < near_squared:
+                one_near = True
+                break
     if every_far:
         return FAR
     if one_near and distance + margin < reach[p]:
