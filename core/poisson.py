@@ -575,7 +575,7 @@ def poisson_basis(
         real, _, on_curve = cauchy_integrals(curve, solution.levels, points)
         total = real[:, -1]
         boundary, t = _classify(curve, points, total, on_curve, shown, first)
-        out[first : first + CHUNK] = real[:, :-1] / total[:, None]
+        np.divide(real[:, :-1], total[:, None], out=out[first : first + CHUNK])  # no temporary: fresh pages cost
         if boundary.size:
             out[first + boundary] = curve.basis_matrix(t)
         if progress is not None:
