@@ -306,16 +306,17 @@ class KnotBlocks(NamedTuple):
 
 
 @njit(cache=True, parallel=True, error_model="numpy")
-def knot_blocks(fine, panels, start, prolongation, restriction):
+def knot_blocks(fine, panels, start, interpolation, offsets, row_weights, column_weights):
     """The compressed knot blocks of `core.poisson`, a block a thread at a time.
 
     Block b's fine panels are panels[start[b]:start[b + 1]] (of `fine`, a `KnotBlocks`), its
     rows those panels' nodes in order (R rows in all).  Its matrix I + 2 K*_b takes
     `layer_matrix_rows`'s entries, but where a node is within its close range of another of
     the block's panels and the kernel is not smooth there (`_smooth_on_own_span`) the adaptive
-    rule's (`_near_weights`), as `core.poisson._block_near_pairs` finds them.  Returns
-    X = (I + 2 K*)^-1 P for the rows of P (prolongation, (R, W)) and restriction^T X, shape
-    (B, W, W) (restriction (R, W): P W_f / w_c).
+    rule's (`_near_weights`), as `core.poisson._block_near_pairs` finds them.  P, (R, W), has
+    in row r the interpolation row (R, ORDER) at columns offsets[r]..offsets[r] + ORDER.
+    Returns X = (I + 2 K*)^-1 P (R, W) and Q X, shape (B, W, W), with Q = W_c^-1 P^T W_f
+    (row_weights (R,), column_weights (B, W)).
     """
     node_z, factors, node_span, node_u, weights = (
         fine.node_z,
@@ -325,11 +326,15 @@ def knot_blocks(fine, panels, start, prolongation, restriction):
         fine.weights,
     )
     spans = fine.spans
-    width = prolongation.shape[1]
-    solution = np.zeros((prolongation.shape[0], width))
+    width = column_weights.shape[1]
+    solution = np.zeros((interpolation.shape[0], width))
     reduced = np.zeros((start.shape[0] - 1, width, width))
     for b in prange(start.shape[0] - 1):
         first, count = start[b] * ORDER, (start[b + 1] - start[b]) * ORDER
+        prolongation = np.zeros((count, width))
+        for i in range(count):
+            for j in range(ORDER):
+                prolongation[i, offsets[first + i] + j] = interpolation[first + i, j]
         matrix = np.empty((count, count))
         for i in range(count):
             m = panels[start[b] + i // ORDER] * ORDER + i % ORDER
@@ -358,9 +363,12 @@ def knot_blocks(fine, panels, start, prolongation, restriction):
             for j in range(count):
                 matrix[i, j] *= 2.0
             matrix[i, i] += 1.0
-        block = np.linalg.solve(matrix, prolongation[first : first + count])
+        block = np.linalg.solve(matrix, prolongation)
         solution[first : first + count] = block
-        reduced[b] = np.dot(restriction[first : first + count].T.copy(), block)
+        for i in range(count):
+            for c in range(width):
+                prolongation[i, c] *= row_weights[first + i] / column_weights[b, c]
+        reduced[b] = np.dot(prolongation.T.copy(), block)
     return solution, reduced
 
 

@@ -262,16 +262,17 @@ def _knot_blocks(curve, fine: Panels, coarse: Panels, knot, parent, interpolatio
     columns = [
         coarse_nodes[grouped[a:b]].ravel() for a, b in zip(group_start[:-1], group_start[1:], strict=True)
     ]
-    prolongation = np.zeros((rows.size, width))
-    prolongation[
-        np.arange(rows.size)[:, None], rank[parent_node[rows]][:, None] * ORDER + np.arange(ORDER)
-    ] = interpolation[rows]
+    # P's rows: each fine node's interpolation row, at its coarse panel's place in the group.
+    interpolation_rows, offsets = interpolation[rows], rank[parent_node[rows]] * ORDER
     column_weights = np.ones((knots.size, width))
     for b, nodes in enumerate(columns):
         column_weights[b, : nodes.size] = coarse.weights[nodes]
-    restriction = prolongation * fine.weights[rows, None] / column_weights[block_of_row]
-    solved = _compiled_blocks(curve, fine, members, start // ORDER, prolongation, restriction)
+    weighing = (interpolation_rows, offsets, fine.weights[rows], column_weights)
+    solved = _compiled_blocks(curve, fine, members, start // ORDER, *weighing)
     if solved is None:
+        prolongation = np.zeros((rows.size, width))
+        prolongation[np.arange(rows.size)[:, None], offsets[:, None] + np.arange(ORDER)] = interpolation_rows
+        restriction = prolongation * fine.weights[rows, None] / column_weights[block_of_row]
         entries = _correction_entries(_block_near_pairs(curve, fine, block_of), knots, position)
         solved = _solved_blocks(curve, fine, rows, start, *entries, prolongation, restriction)
     expand.values[rows] = solved[0]
@@ -302,10 +303,11 @@ def _correction_entries(corrections: dict, knots: np.ndarray, position: np.ndarr
     )
 
 
-def _compiled_blocks(curve, fine: Panels, panels, start, prolongation, restriction):
+def _compiled_blocks(curve, fine: Panels, panels, start, interpolation, offsets, weights, column_weights):
     """`core.layer_compiled.knot_blocks` for the blocks of `_knot_blocks` (their fine panels
-    panels[start[b]:start[b + 1]]): (solution (R, W), reduced (B, W, W)), or None where its
-    machine code is not at hand."""
+    panels[start[b]:start[b + 1]], P's rows given as interpolation (R, ORDER) at column offsets
+    (R,), the rows' weights (R,) and each block's coarse weights (B, W)): (solution (R, W),
+    reduced (B, W, W)), or None where its machine code is not at hand."""
     compiled = layer_compiled.knot_blocks
     if not layer_compiled.worth_trying(compiled):
         return None
@@ -321,7 +323,7 @@ def _compiled_blocks(curve, fine: Panels, panels, start, prolongation, restricti
         orientation=1.0 if curve.area > 0 else -1.0, safe=float(SAFE), max_depth=int(MAX_DEPTH),
         bases=layer_compiled.piece_bases(),
     )  # fmt: skip
-    arguments = (blocks, panels, start, prolongation, restriction)
+    arguments = (blocks, panels, start, interpolation, offsets, weights, column_weights)
     return compiled(*arguments) if layer_compiled.loaded(compiled, *arguments) else None
 
 
@@ -575,7 +577,9 @@ def poisson_basis(
         real, _, on_curve = cauchy_integrals(curve, solution.levels, points)
         total = real[:, -1]
         boundary, t = _classify(curve, points, total, on_curve, shown, first)
-        np.divide(real[:, :-1], total[:, None], out=out[first : first + CHUNK])  # no temporary: fresh pages cost
+        np.divide(
+            real[:, :-1], total[:, None], out=out[first : first + CHUNK]
+        )  # no temporary: fresh pages cost
         if boundary.size:
             out[first + boundary] = curve.basis_matrix(t)
         if progress is not None:
