@@ -338,7 +338,9 @@ class Levels:
     densities: tuple
     #: Per level, None or each panel's `SAFE` (P_k,) for the far field (`level_safety`).
     safety: tuple = ()
-    #: What `_panel_tree` built from these levels, once (not part of their value).
+    #: What `_panel_tree` built from these levels, once, and (key "density") the one array
+    #: whose views are the densities, if `bisected` made them: the tree takes it as it is.
+    #: It stays writeable for numba, and writing to it changes the (read-only) densities.
     compiled: dict = field(default_factory=dict, compare=False, repr=False)
 
 

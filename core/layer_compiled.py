@@ -1,9 +1,9 @@
 """The Cauchy integrals of `core.layer` as compiled loops: the near-field rule, and rows over a panel tree.
 
 `core.layer` evaluates C[φ](z) = (1 / 2πi) ∮ φ(τ) / (τ - z) dτ with numpy, in batches
-of (target, panel) pairs; its cost at mesh sizes is the bookkeeping of those batches
-(sorting, grouping, one small product per panel).  The same arithmetic, one target
-at a time, is a short loop: here are
+of (target, panel) pairs, and `core.poisson` assembles its density solve with numpy; their
+cost is the bookkeeping of those batches (sorting, grouping, one small product per panel).
+The same arithmetic as loops: here are
 
 - `adaptive_pairs`, the adaptive near-field rule of `core.layer.adaptive_weights`
   (bisection in t until each piece is `SAFE` of its length away, each piece's
@@ -11,7 +11,12 @@ at a time, is a short loop: here are
 - `layer_rows`, Re C[φ](z) for many targets: the coarsest level's panels by their plain
   rule, near panels replaced by their children level by level, the finest level's near
   panels by the adaptive rule, exactly the decisions of `core.layer.cauchy_integrals`
-  (the same `near` test at every level, so the two agree to rounding).
+  (the same `near` test at every level, so the two agree to rounding), the walk shared
+  by boxes of nearby targets and their far panels' rules one BLAS product a box;
+- `layer_matrix_rows`, the Nyström matrix rows of `core.poisson.layer_matrix`;
+- `knot_blocks`, the density solve's compressed knot blocks (their matrices, their
+  adaptive entries as `core.poisson._block_near_pairs` finds them, their LUs), and
+  `coarse_system`, its coarse matrix.
 
 They are compiled by numba, which the package's build does at install
 (`core.compilation.compile_all`); `core.layer` calls them only where their machine code
@@ -534,13 +539,17 @@ FAR, NEAR, MIXED = 0, 1, 2
 @njit(cache=True, nogil=True, error_model="numpy")
 def _boxes(targets, size):
     """Targets grouped by a grid of cells holding ~`size` each: (order int (M,), start int (B + 1,)),
-    box b holding targets order[start[b]:start[b + 1]] (at most `size`, all in one cell)."""
+    box b holding targets order[start[b]:start[b + 1]] (at most `size`, all in one cell).
+    Non-finite targets (the callers refuse them; here they would index outside the grid) go
+    to the first cell."""
     count = targets.shape[0]
     low_x, high_x, low_y, high_y = np.inf, -np.inf, np.inf, -np.inf
     for m in range(count):
         low_x, high_x = min(low_x, targets[m].real), max(high_x, targets[m].real)
         low_y, high_y = min(low_y, targets[m].imag), max(high_y, targets[m].imag)
     width, height = high_x - low_x, high_y - low_y
+    if not (math.isfinite(width) and math.isfinite(height)):  # no targets, or none finite
+        width = height = low_x = low_y = 0.0
     side = max(math.sqrt(width * height * size / max(count, 1)), max(width, height) * size / max(count, 1))
     if not side > 0.0:
         side = 1.0
@@ -549,8 +558,9 @@ def _boxes(targets, size):
     cell = np.empty(count, dtype=np.int64)
     filled = np.zeros(columns * rows + 1, dtype=np.int64)
     for m in range(count):
-        column = min(int((targets[m].real - low_x) / side), columns - 1)
-        row = min(int((targets[m].imag - low_y) / side), rows - 1)
+        u, v = (targets[m].real - low_x) / side, (targets[m].imag - low_y) / side
+        column = min(int(u), columns - 1) if u >= 0.0 else 0  # False for NaN
+        row = min(int(v), rows - 1) if v >= 0.0 else 0
         cell[m] = row * columns + column
         filled[cell[m] + 1] += 1
     boxes = 0

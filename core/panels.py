@@ -378,7 +378,8 @@ def gaps(panels: Panels, corners: np.ndarray) -> np.ndarray:
     with its graded neighbours, nor with the other side of a corner's wedge (that is
     the corner's compressed block), but with the opposite side of a thin arm.
 
-    Every pair of nodes within `reach` of the first one's panel counts: the pairs of panels
+    Every pair of nodes at most `reach` (the first one's panel's length over
+    min(`THIN_RATIO`, `REFINED_RATIO`)) apart counts: the pairs of panels
     whose circles are that close, then their nodes' distances, in blocks of `GAP_PAIRS` (a
     search tree over the nodes took 1.7 ms of the bench blob's 21 ms density solve, mostly
     building Python lists; this 0.3 ms).

@@ -470,7 +470,9 @@ class Expansion:
 
 
 def _block_near_pairs(curve: ClosedBSpline, fine: Panels, block_of: np.ndarray) -> dict:
-    """The adaptive rule's entries of the knot blocks' matrices, for all blocks in one pass.
+    """The adaptive rule's entries of the knot blocks' matrices, for all blocks in one pass, on the
+    numpy path (`_solved_blocks`; the compiled `core.layer_compiled.knot_blocks` finds the same
+    pairs itself, `_adaptive_entries` there: a change here belongs there too).
 
     Pairs of a fine node and a fine panel of the same block (`block_of` (P_f,), -1 outside
     any), near (as `near_pairs` judges: a panel node within `SAFE` of the panel's length, or
@@ -656,12 +658,16 @@ def centred(curve: ClosedBSpline, x: np.ndarray) -> tuple[ClosedBSpline, np.ndar
 
 
 def refuse_far_outside(curve: ClosedBSpline, x: np.ndarray) -> None:
-    """ValueError for points of x (M, 2) outside the control points' bounding box, which holds
+    """ValueError for points of x (M, 2) that are not finite (the compiled evaluation would index
+    with them), or outside the control points' bounding box, which holds
     the curve (a B-spline lies in the convex hull of its control points): outside the domain,
     said at once however far they are (at 1e300 the boundary sums overflow); points outside
     the domain but inside the box are found later (`_classify`)."""
     margin = 1e-8 * curve.diameter  # points on the curve at a corner, rounded outward
     low, high = curve.control_points.min(axis=0) - margin, curve.control_points.max(axis=0) + margin
+    if not np.isfinite(x).all():
+        first = int(np.flatnonzero(~np.isfinite(x).all(axis=1))[0])
+        raise ValueError(f"x has non-finite coordinates (first: index {first}, {x[first].tolist()})")
     beyond = (x < low) | (x > high)
     if not beyond.any():  # one pass over the flat array (by rows took 0.23 ms at 10,000 points)
         return

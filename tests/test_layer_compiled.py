@@ -120,6 +120,50 @@ def test_targets_sharing_a_box_get_their_own_decisions(layout, monkeypatch):
     np.testing.assert_array_equal(together[2], np.concatenate([rows[2] for rows in alone]))
 
 
+def test_a_box_s_decision_is_every_target_s_own():
+    # _box_side answers FAR only if no target within `radius` of the centre is near the panel
+    # (by layer_rows's per-target test), NEAR only if every one is: boxes of 1-50 targets at the
+    # panels' reach and close-range boundaries, spreads from 1e-16 to 1e-1 of the diameter.
+    curve = core.ClosedBSpline(SHAPES["F polygon"])
+    tree = layer._panel_tree(curve, poisson.densities(curve).levels)
+    rng = np.random.default_rng(12)
+    close = np.sqrt(tree.close_squared)
+    checked = {layer_compiled.FAR: 0, layer_compiled.NEAR: 0}
+    for _ in range(3000):
+        p = int(rng.integers(tree.centres.size))
+        node = tree.node_z[p * 16 + int(rng.integers(16))]
+        angle = np.exp(2j * np.pi * rng.random())
+        edge = [tree.centres[p] + tree.reach[p] * angle, node + close[p] * angle][int(rng.integers(2))]
+        spread = curve.diameter * 10.0 ** rng.uniform(-16, -1)
+        z = edge + spread * (rng.normal(size=int(rng.integers(1, 51))) + 1j * rng.normal(size=1))
+        centre = complex(0.5 * (z.real.min() + z.real.max()), 0.5 * (z.imag.min() + z.imag.max()))
+        radius = np.abs(z - centre).max()
+        side = layer_compiled._box_side(
+            p, centre, radius, tree.node_z, tree.centres, tree.reach, tree.close_squared
+        )
+        nodes = tree.node_z[p * 16 : (p + 1) * 16]
+        square = np.abs(nodes[None, :] - z[:, None]) ** 2
+        near = (np.abs(z - tree.centres[p]) < tree.reach[p]) & (square.min(axis=1) < tree.close_squared[p])
+        if side == layer_compiled.FAR:
+            assert not near.any()
+        elif side == layer_compiled.NEAR:
+            assert near.all()
+        checked[side] = checked.get(side, 0) + 1
+    assert checked[layer_compiled.FAR] > 100 and checked[layer_compiled.NEAR] > 100
+
+
+def test_boxes_take_any_targets():
+    # No targets, one, all equal, and non-finite ones (which the callers refuse first): every
+    # target in exactly one box, none outside the grid.
+    for targets in (
+        np.zeros(0, dtype=complex), np.array([0.5 + 0.5j]), np.full(100, 1.0 + 2.0j),
+        np.array([0.5 + 0.5j, np.nan + 0.3j, 0.4 + np.inf * 1j, 0.7 + 0.1j]),
+    ):  # fmt: skip
+        order, start = layer_compiled._boxes(targets, layer_compiled.BOX)
+        assert np.array_equal(np.sort(order), np.arange(targets.size))
+        assert start[0] == 0 and start[-1] == targets.size and np.all(np.diff(start) >= 0)
+
+
 @pytest.mark.parametrize("power", [1, 2])
 def test_the_compiled_near_rule_equals_the_numpy_one(power, monkeypatch):
     # Targets at 1e-9 .. 1e-1 of a panel's length from it, one exactly on a node: the adaptive
@@ -219,7 +263,17 @@ def test_a_damaged_cache_entry_falls_back_to_numpy_for_good(monkeypatch):
     panels = curve_panels(curve)
     targets, panel = panels.z[:3] + 1e-3, np.array([1, 1, 1])
     pieces = curve.piecewise_polynomial().coefficients
-    arguments = (pieces, panels.bounds, targets, panel, 1, 0.0, layer.SAFE, layer.MAX_DEPTH)
+    arguments = (
+        pieces,
+        panels.bounds,
+        targets,
+        panel,
+        1,
+        0.0,
+        layer.SAFE,
+        layer.MAX_DEPTH,
+        layer_compiled.piece_bases(),
+    )
     assert not layer_compiled.loaded(dispatcher, *arguments)
     assert not layer_compiled.loaded(dispatcher, *arguments)
     assert len(attempts) == 1 and not layer_compiled.worth_trying(dispatcher)
