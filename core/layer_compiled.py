@@ -537,6 +537,17 @@ FAR, NEAR, MIXED = 0, 1, 2
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
+def _grid_index(position, count):
+    """int(position) clamped to 0..count - 1, compared before converted (int() of NaN or inf is
+    undefined in machine code); NaN gives 0."""
+    if not position >= 0.0:
+        return 0
+    if position >= count - 1:
+        return count - 1
+    return int(position)
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
 def _boxes(targets, size):
     """Targets grouped by a grid of cells holding ~`size` each: (order int (M,), start int (B + 1,)),
     box b holding targets order[start[b]:start[b + 1]] (at most `size`, all in one cell).
@@ -558,9 +569,8 @@ def _boxes(targets, size):
     cell = np.empty(count, dtype=np.int64)
     filled = np.zeros(columns * rows + 1, dtype=np.int64)
     for m in range(count):
-        u, v = (targets[m].real - low_x) / side, (targets[m].imag - low_y) / side
-        column = min(int(u), columns - 1) if u >= 0.0 else 0  # False for NaN
-        row = min(int(v), rows - 1) if v >= 0.0 else 0
+        column = _grid_index((targets[m].real - low_x) / side, columns)
+        row = _grid_index((targets[m].imag - low_y) / side, rows)
         cell[m] = row * columns + column
         filled[cell[m] + 1] += 1
     boxes = 0

@@ -157,7 +157,8 @@ def test_boxes_take_any_targets():
     # target in exactly one box, none outside the grid.
     for targets in (
         np.zeros(0, dtype=complex), np.array([0.5 + 0.5j]), np.full(100, 1.0 + 2.0j),
-        np.array([0.5 + 0.5j, np.nan + 0.3j, 0.4 + np.inf * 1j, 0.7 + 0.1j]),
+        np.array([0.5 + 0.5j, np.nan + 0.3j, complex(0.4, np.inf), complex(-np.inf, 0.2), 0.7 + 0.1j]),
+        np.array([complex(np.nan, np.nan), complex(np.inf, -np.inf)]),
     ):  # fmt: skip
         order, start = layer_compiled._boxes(targets, layer_compiled.BOX)
         assert np.array_equal(np.sort(order), np.arange(targets.size))
