@@ -262,6 +262,20 @@ def _near_weights(coefficients, a, b, z, power, touch, safe, max_depth, weights,
     return touching
 
 
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _layer_entry(x, y, own, u, k, node_z, factors, node_span, node_u, weights, spans):
+    """The Re C-weight of node k at a target (x, y) on the curve, on span `own` at parameter u
+    within it: the same-span closed form, else the plain rule (`layer_matrix_rows`)."""
+    if node_span[k] == own:
+        s = u + node_u[k]
+        real = spans[own, 0] + spans[own, 2] * s
+        imaginary = spans[own, 1] + spans[own, 3] * s
+        return (spans[own, 4] * weights[k]) / (real * real + imaginary * imaginary)
+    dx = node_z[k].real - x
+    dy = node_z[k].imag - y
+    return (factors[k].real * dx + factors[k].imag * dy) / (dx * dx + dy * dy)
+
+
 @njit(cache=True, parallel=True, error_model="numpy")
 def layer_matrix_rows(targets, target_span, target_u, node_z, factors, node_span, node_u, weights, spans):
     """The double layer's Re C-weights of `core.poisson.layer_matrix`, shape (M, N), for targets z
@@ -274,19 +288,9 @@ def layer_matrix_rows(targets, target_span, target_u, node_z, factors, node_span
     """
     out = np.empty((targets.shape[0], node_z.shape[0]))
     for m in prange(targets.shape[0]):
-        x, y = targets[m].real, targets[m].imag
-        own = target_span[m]
-        c1x, c1y, c2x, c2y, scale = spans[own, 0], spans[own, 1], spans[own, 2], spans[own, 3], spans[own, 4]
+        x, y, own, u = targets[m].real, targets[m].imag, target_span[m], target_u[m]
         for k in range(node_z.shape[0]):
-            if node_span[k] == own:
-                u = target_u[m] + node_u[k]
-                real = c1x + c2x * u
-                imaginary = c1y + c2y * u
-                out[m, k] = (scale * weights[k]) / (real * real + imaginary * imaginary)
-            else:
-                dx = node_z[k].real - x
-                dy = node_z[k].imag - y
-                out[m, k] = (factors[k].real * dx + factors[k].imag * dy) / (dx * dx + dy * dy)
+            out[m, k] = _layer_entry(x, y, own, u, k, node_z, factors, node_span, node_u, weights, spans)
     return out
 
 
@@ -343,26 +347,12 @@ def knot_blocks(fine, panels, start, interpolation, offsets, row_weights, column
         matrix = np.empty((count, count))
         for i in range(count):
             m = panels[start[b] + i // ORDER] * ORDER + i % ORDER
-            own = node_span[m]
-            c1x, c1y, c2x, c2y, scale = (
-                spans[own, 0],
-                spans[own, 1],
-                spans[own, 2],
-                spans[own, 3],
-                spans[own, 4],
-            )
-            x, y = node_z[m].real, node_z[m].imag
+            x, y, own, u = node_z[m].real, node_z[m].imag, node_span[m], node_u[m]
             for j in range(count):
                 k = panels[start[b] + j // ORDER] * ORDER + j % ORDER
-                if node_span[k] == own:
-                    u = node_u[m] + node_u[k]
-                    real = c1x + c2x * u
-                    imaginary = c1y + c2y * u
-                    matrix[i, j] = (scale * weights[k]) / (real * real + imaginary * imaginary)
-                else:
-                    dx = node_z[k].real - x
-                    dy = node_z[k].imag - y
-                    matrix[i, j] = (factors[k].real * dx + factors[k].imag * dy) / (dx * dx + dy * dy)
+                matrix[i, j] = _layer_entry(
+                    x, y, own, u, k, node_z, factors, node_span, node_u, weights, spans
+                )
         _adaptive_entries(fine, panels[start[b] : start[b + 1]], matrix)
         for i in range(count):
             for j in range(count):
@@ -440,19 +430,9 @@ def coarse_system(node_z, factors, node_span, node_u, weights, spans, node_block
     out = np.empty((count, count))
     for m in prange(count):
         row = out[m]
-        x, y = node_z[m].real, node_z[m].imag
-        own = node_span[m]
-        c1x, c1y, c2x, c2y, scale = spans[own, 0], spans[own, 1], spans[own, 2], spans[own, 3], spans[own, 4]
+        x, y, own, u = node_z[m].real, node_z[m].imag, node_span[m], node_u[m]
         for k in range(count):
-            if node_span[k] == own:
-                u = node_u[m] + node_u[k]
-                real = c1x + c2x * u
-                imaginary = c1y + c2y * u
-                row[k] = 2.0 * ((scale * weights[k]) / (real * real + imaginary * imaginary))
-            else:
-                dx = node_z[k].real - x
-                dy = node_z[k].imag - y
-                row[k] = 2.0 * ((factors[k].real * dx + factors[k].imag * dy) / (dx * dx + dy * dy))
+            row[k] = 2.0 * _layer_entry(x, y, own, u, k, node_z, factors, node_span, node_u, weights, spans)
         b = node_block[m]
         if b >= 0:
             for c in range(width):
