@@ -28,8 +28,9 @@ from core.bspline import ClosedBSpline
 ORDER = 16
 #: Dyadic levels of panels towards a sharp corner (a doubled control point).  With 6, points
 #: 1e-6 of the diameter from the curve and 0.005 in t from a corner had G down to -1.6e-10
-#: (random corner cages 13 and 17); with 7, -6.4e-11, the F polygon's solve 8 % slower.
-CORNER_LEVELS = 7
+#: (random corner cages 13 and 17); with 7, -6.4e-11 there but -1.3e-10 and -1.0e-10 at points
+#: 0.003 in t from corners of 42° and 68° (random corner cages 559 and 496); with 8, -2.5e-13.
+CORNER_LEVELS = 8
 #: Towards a knot where the curvature jumps by Δκ, the density behaves like s^2 log s
 #: times Δκ ℓ (ℓ the shorter adjacent span's length): each level of grading divides its
 #: error by about 8.  Levels are added until Δκ ℓ 8^-levels <= KNOT_JUMP.
@@ -179,13 +180,14 @@ def coarse_panels_and_gaps(curve: ClosedBSpline) -> tuple[Panels, np.ndarray]:
     bounds = np.stack([starts, starts + 1.0 / per_span], axis=1)
     corners = sharp_corners(curve).astype(float)
     wedge_widths = _wedge_widths(curve)
+    wedges = np.flatnonzero(np.isfinite(wedge_widths))
     for _ in range(2 * THIN_ROUNDS):
         panels = _panels(curve, bounds)
         # The rules that look at a panel and its neighbours first; the gaps (a search of the
         # whole curve, most of this function's time) once those hold.
         split = _unbalanced(panels) | _curved(panels) | _wedged(panels, wedge_widths)
         if not split.any():
-            gap = gaps(panels, corners)
+            gap = np.minimum(gaps(panels, corners), knots_across_wedges(curve, panels, wedges))
             split = panels.lengths > THIN_RATIO * gap
             if not split.any():
                 return panels, gap
@@ -196,7 +198,7 @@ def coarse_panels_and_gaps(curve: ClosedBSpline) -> tuple[Panels, np.ndarray]:
         bounds = np.concatenate([bounds[~split], halves])
         bounds = bounds[np.argsort(bounds[:, 0])]
     panels = _panels(curve, bounds)
-    return panels, gaps(panels, corners)
+    return panels, np.minimum(gaps(panels, corners), knots_across_wedges(curve, panels, wedges))
 
 
 def graded_panels(curve: ClosedBSpline, coarse: Panels) -> tuple[Panels, np.ndarray, np.ndarray]:
@@ -402,6 +404,39 @@ def gaps(panels: Panels, corners: np.ndarray) -> np.ndarray:
             p = p + first
             np.minimum.at(nearest, p, _nearest_beyond(panels, nodes, middle, total, corner_at, reach, p, o))
     return nearest
+
+
+def knots_across_wedges(curve: ClosedBSpline, panels: Panels, wedges: np.ndarray) -> np.ndarray:
+    """float (P,): each panel's distance to the knots across a wedge from it (inf for none), knots
+    t = k whose shorter arc to the panel passes a wedge's tip (`wedges`, its knots, int (W,)),
+    the tips themselves not counted.
+
+    `gaps` leaves the far side of a wedge to the tip's compressed block: across a wedge of angle
+    α the far side is α r away at r from the tip, and the density there is smooth in log r (the
+    panels grow with r).  A knot on the far side is not: its curvature jump and the kink of the
+    basis functions there put a bump as wide as the gap into the density across it.  A panel
+    of random corner cage 645 (a 5.7° spike) 37 long, 2.5 across from a knot, left G = -6.3e-7
+    at points 1e-5 of the diameter from the far side.
+    """
+    if wedges.size == 0:
+        return np.full(panels.count, np.inf)
+    start = np.cumsum(panels.lengths) - panels.lengths  # arc length at each panel's start
+    total = panels.lengths.sum()
+    middle = start + 0.5 * panels.lengths
+    at_knot = np.abs(panels.bounds[:, 0] - np.round(panels.bounds[:, 0])) < 1e-12
+    knot = np.round(panels.bounds[at_knot, 0]).astype(np.int64) % curve.n
+    knot_at = start[at_knot]  # (n,): every knot starts a coarse panel
+    tip_at = np.sort(knot_at[np.isin(knot, wedges)])
+    counted = ~np.isin(knot, wedges)
+    knot, knot_at = knot[counted], knot_at[counted]
+    low = np.minimum(middle[:, None], knot_at[None, :])
+    high = np.maximum(middle[:, None], knot_at[None, :])
+    wraps = high - low > 0.5 * total
+    between = np.searchsorted(tip_at, high, side="left") - np.searchsorted(tip_at, low, side="right")
+    across = np.where(wraps, between < tip_at.size, between > 0)  # (P, K)
+    point = curve.evaluate(knot.astype(np.float64))[0] @ np.array([1.0, 1j])
+    distance = np.abs(panels.z.reshape(panels.count, ORDER)[:, :, None] - point[None, None, :]).min(axis=1)
+    return np.where(across, distance, np.inf).min(axis=1, initial=np.inf)
 
 
 def _nearest_beyond(panels, nodes, middle, total, corner_at, reach, p, o) -> np.ndarray:
