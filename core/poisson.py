@@ -34,9 +34,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.linalg import lu_factor, lu_solve
-
-from core import layer_compiled
+from core import layer_compiled, two_grid
 from core.blas_threads import one_blas_thread
 from core.bspline import ClosedBSpline
 from core.layer import (
@@ -71,6 +69,7 @@ from core.panels import (
     span_panels,
 )
 from core.panels import _panels as _make_panels
+from core.two_grid import solve_in_place
 
 #: Coarse boundary nodes at most (the dense solve's memory, 8 MAX_NODES^2 bytes, and time).
 MAX_NODES = 10_000
@@ -173,7 +172,7 @@ def _densities(points: bytes, count: int) -> Densities:
         system[near_rows] += 2.0 * near
     system[np.arange(coarse.size), np.arange(coarse.size)] += 1.0
     data = _data(curve, coarse.t)
-    transformed = _solve_in_place(system, data)
+    transformed = two_grid.solve(system, data)
     del system
     mu = expand.apply(transformed)
     weighted = transformed.copy()  # R ρ̃
@@ -342,21 +341,9 @@ def _solved_blocks(curve, fine, rows, start, entries, values, entry_start, prolo
         matrix[entries[own, 0], entries[own, 1]] = values[own]
         matrix *= 2.0
         matrix[np.arange(matrix.shape[0]), np.arange(matrix.shape[0])] += 1.0
-        solution[mine] = _solve_in_place(matrix, prolongation[mine])
+        solution[mine] = solve_in_place(matrix, prolongation[mine])
         reduced[b] = restriction[mine].T @ solution[mine]
     return solution, reduced
-
-
-def _solve_in_place(matrix: np.ndarray, rhs: np.ndarray) -> np.ndarray:
-    """matrix^-1 rhs, shape (K, m), for a C-ordered matrix (K, K), which it overwrites.
-
-    LAPACK factors the matrix's transpose where it lies (Fortran order: no copy) and solves
-    with the factors transposed.  Copying a C-ordered matrix into Fortran order took as long
-    as the LU itself for the 560 unknowns of the bench's blob (6.9 -> 3.8 ms), 20 % of the
-    knot blocks' solves.
-    """
-    factors = lu_factor(matrix.T, overwrite_a=True, check_finite=False)
-    return lu_solve(factors, rhs, trans=1, check_finite=False)
 
 
 def _data(curve: ClosedBSpline, t: np.ndarray) -> np.ndarray:
