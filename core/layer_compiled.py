@@ -418,8 +418,8 @@ def _smooth_on_own_span(fine, t, p):
 
 @njit(cache=True, parallel=True, error_model="numpy")
 def coarse_system(node_z, factors, node_span, node_u, weights, spans, node_block, block_columns,
-                  block_reduced, near_start, near_panel):  # fmt: skip
-    """2 K°_c R of `core.poisson`'s coarse equation, shape (N, N), row by row: `layer_matrix_rows`'s
+                  block_reduced, near_start, near_panel, out):  # fmt: skip
+    """2 K°_c R of `core.poisson`'s coarse equation into out (N, N), row by row: `layer_matrix_rows`'s
     entries at the coarse nodes (arguments as there, targets the nodes themselves) times 2,
     with 0 in the columns of a node's own knot block (node_block (N,), -1 for none;
     block_columns (B, W), -1 padding) and in the nodes of its near panels
@@ -427,7 +427,6 @@ def coarse_system(node_z, factors, node_span, node_u, weights, spans, node_block
     (block_reduced (B, W, W)).  One pass over each row, where numpy took five over the matrix."""
     count = node_z.shape[0]
     blocks, width = block_columns.shape
-    out = np.empty((count, count))
     for m in prange(count):
         row = out[m]
         x, y, own, u = node_z[m].real, node_z[m].imag, node_span[m], node_u[m]
@@ -453,7 +452,6 @@ def coarse_system(node_z, factors, node_span, node_u, weights, spans, node_block
                     product[c] += value * block_reduced[b, i, c]
             for c in range(used):
                 row[block_columns[b, c]] = product[c]
-    return out
 
 
 @njit(cache=True, parallel=True, error_model="numpy")

@@ -70,6 +70,7 @@ from core.panels import (
 )
 from core.panels import _panels as _make_panels
 from core.two_grid import solve_in_place
+from core.workspace import scratch
 
 #: Coarse boundary nodes at most (the dense solve's memory, 8 MAX_NODES^2 bytes, and time).
 MAX_NODES = 10_000
@@ -213,9 +214,11 @@ def _coarse_system(curve: ClosedBSpline, coarse: Panels, blocks: dict, target, p
             np.ascontiguousarray(np.stack([c1.real, c1.imag, c2.real, c2.imag, scale], axis=1)),
             node_block, block_columns, block_reduced,
             np.searchsorted(target, np.arange(coarse.size + 1)).astype(np.int64), np.ascontiguousarray(panel),
+            scratch("coarse system", (coarse.size, coarse.size)),
         )  # fmt: skip
         if layer_compiled.loaded(compiled, *arguments):
-            return compiled(*arguments)
+            compiled(*arguments)
+            return arguments[-1]
     system = layer_matrix(curve, coarse, coarse.z, coarse.t)
     system *= 2.0  # in place: a second dense matrix is fresh memory a solve (1.9 ms at 560 unknowns)
     for columns, _ in blocks.values():  # K*: within a knot's pair of panels, in R
