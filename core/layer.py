@@ -427,7 +427,7 @@ def restricted(coarse: Panels, fine: Panels, parent: np.ndarray, density: np.nda
 
 
 def cauchy_integrals(
-    curve: ClosedBSpline, levels: Levels, x: np.ndarray, *, imaginary: bool = False
+    curve: ClosedBSpline, levels: Levels, x: np.ndarray, *, imaginary: bool = False, out: np.ndarray | None = None
 ) -> tuple[np.ndarray, np.ndarray | None, np.ndarray]:
     """C[φ](x) for the columns φ of the densities of `levels` at points x (M, 2).
 
@@ -436,11 +436,11 @@ def cauchy_integrals(
     centred on the nodes and scaled by the diameter (cancellation at most ~1e-16 /
     (distance / diameter)^2, relative), then its panels near a point are replaced by
     their children, level by level (`hierarchical_rows`), the finest level by the
-    adaptive rule.  Returns the real parts (M, m), the imaginary parts (M, m) if
-    `imaginary` (else None) and the on-curve flags (M,).
+    adaptive rule.  Returns the real parts (M, m) (in `out` if given), the imaginary parts
+    (M, m) if `imaginary` (else None) and the on-curve flags (M,).
     """
     z = np.ascontiguousarray(x[:, 0] + 1j * x[:, 1])
-    rows = _compiled_rows(curve, levels, z, 1, imaginary)
+    rows = _compiled_rows(curve, levels, z, 1, imaginary, out)
     if rows is not None:
         return rows[0], (rows[1] if imaginary else None), rows[2]
     panels, density = levels.panels[0], levels.densities[0]
@@ -453,7 +453,7 @@ def cauchy_integrals(
     imaginary_rows = np.stack([(e * tau.conj()).imag, -e.imag, e.real])
     denominator_rows = np.stack([np.abs(tau) ** 2, -2.0 * tau.real, -2.0 * tau.imag, np.ones(tau.size)])
     target, panel = near_pairs(panels, z, curve.diameter, level_safety(curve, levels, 0))
-    real = np.empty((z.size, density.shape[1]))
+    real = np.empty((z.size, density.shape[1])) if out is None else out
     imag = np.empty_like(real) if imaginary else None
     starts = np.searchsorted(target, np.arange(0, z.size + BLOCK, BLOCK))
     for block, first in enumerate(range(0, z.size, BLOCK)):
@@ -481,13 +481,16 @@ def cauchy_integrals(
     return real, imag, on_curve
 
 
-def _compiled_rows(curve: ClosedBSpline, levels: Levels, z: np.ndarray, power: int, imaginary: bool):
+def _compiled_rows(curve: ClosedBSpline, levels: Levels, z: np.ndarray, power: int, imaginary: bool, out=None):
     """`core.layer_compiled.layer_rows` at targets z (M,) where its machine code is at hand
-    (`core.layer_compiled.worth_trying`, `loaded`): (real, imaginary, on-curve), else None."""
+    (`core.layer_compiled.worth_trying`, `loaded`): (real (in `out` if given), imaginary,
+    on-curve), else None."""
     compiled = layer_compiled.layer_rows
     if not layer_compiled.worth_trying(compiled, z.size):
         return None
-    arguments = (z, _panel_tree(curve, levels), power, imaginary)
+    tree = _panel_tree(curve, levels)
+    out = np.empty((z.size, tree.density.shape[1])) if out is None else out
+    arguments = (z, tree, power, imaginary, out)
     return compiled(*arguments) if layer_compiled.loaded(compiled, *arguments) else None
 
 

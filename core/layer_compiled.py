@@ -745,12 +745,12 @@ def _add_far(targets, members, tree, far, power, imaginary, out, out_imaginary):
 
 
 @njit(cache=True, parallel=True, error_model="numpy")
-def layer_rows(targets, tree, power, imaginary):
+def layer_rows(targets, tree, power, imaginary, out):
     """C[φ](z) (power 1), or its z-derivative (power 2), at targets complex (M,), over the panels
     of `tree` (a `PanelTree`).
 
-    Returns the real parts (M, m), the imaginary parts (M, m) if `imaginary` (else (0, m))
-    and on-curve flags (M,).  Each target walks down from the coarsest level: a panel is
+    Returns the real parts (M, m), written into `out` (M, m), the imaginary parts (M, m) if
+    `imaginary` (else (0, m)) and on-curve flags (M,).  Each target walks down from the coarsest level: a panel is
     near it when one of its nodes is within the panel's close range; a far panel takes its
     plain rule, a near one is replaced by its children, on the finest level by
     `_near_weights` (a target it finds on the curve is flagged).
@@ -770,7 +770,7 @@ def layer_rows(targets, tree, power, imaginary):
     columns = tree.density.shape[1]
     finest = tree.panel_start[tree.panel_start.shape[0] - 2]
     total = node_z.shape[0] // ORDER
-    out = np.zeros((count, columns))
+    out[:] = 0.0
     out_imaginary = np.zeros((count if imaginary else 0, columns))
     on_curve = np.zeros(count, dtype=np.bool_)
     order, box_start = _boxes(targets, BOX)

@@ -361,6 +361,12 @@ def _compute(curve, mesh, kernel, samples_per_segment, progress, parameterizatio
         if progress is not None:
             progress(1.0)
         return values
+    if kernel == "poisson" and not params and interior[-1] - interior[0] + 1 == interior.size:  # a view
+        from core.poisson import poisson_basis
+
+        rows = slice(int(interior[0]), int(interior[-1]) + 1)
+        poisson_basis(curve, mesh.vertices[rows], progress, out=values[rows])
+        return values
     values[interior] = _point_values(
         curve, mesh.vertices[interior], kernel, samples_per_segment, parameterization, params, progress
     )

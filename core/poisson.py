@@ -547,9 +547,13 @@ def layer_matrix(curve: ClosedBSpline, panels: Panels, z: np.ndarray, t: np.ndar
 
 @one_blas_thread
 def poisson_basis(
-    curve: ClosedBSpline, x: np.ndarray, progress: Callable[[float], None] | None = None
+    curve: ClosedBSpline,
+    x: np.ndarray,
+    progress: Callable[[float], None] | None = None,
+    out: np.ndarray | None = None,
 ) -> np.ndarray:
-    """Transfinite harmonic coordinates G_i(x), shape (M, n), for points x (M, 2) in the closed domain.
+    """Transfinite harmonic coordinates G_i(x), shape (M, n), for points x (M, 2) in the closed domain
+    (written into `out` (M, n) if given: a caller's rows, no copy).
 
     Points within ~1e-10 of the diameter of the curve (`core.layer.ON_CURVE`) get
     the Lagrange limit, the B-spline basis at their closest parameter.
@@ -563,10 +567,11 @@ def poisson_basis(
     shown = x
     curve, x = centred(curve, x)
     solution = densities(curve)
-    out = np.empty((x.shape[0], curve.n))
+    out = np.empty((x.shape[0], curve.n)) if out is None else out
     for first in range(0, x.shape[0], CHUNK):
         points = x[first : first + CHUNK]
-        real, _, on_curve = cauchy_integrals(curve, solution.levels, points)
+        rows = scratch("layer rows", (points.shape[0], curve.n + 1))  # kept: fresh pages cost
+        real, _, on_curve = cauchy_integrals(curve, solution.levels, points, out=rows)
         total = real[:, -1]
         boundary, t = _classify(curve, points, total, on_curve, shown, first)
         np.divide(

@@ -94,6 +94,28 @@ def test_pgw_and_point_kernels_give_their_interior_rows(setup):
     )
 
 
+def test_the_default_kernel_writes_its_interior_rows_in_place_and_gives_the_same_values(setup):
+    # The interior vertices of a triangulation are one range of rows: poisson_basis writes them
+    # there (no copy, no fresh array); a mesh whose interior is not one range takes the copy.
+    from core.basis import basis_functions
+    from core.mesh import Mesh
+
+    curve, mesh = setup
+    inside = mesh.vertices[mesh.interior]
+    assert np.all(np.diff(mesh.interior) == 1)
+    values = mesh_basis_functions(curve, mesh, cache=False)
+    np.testing.assert_array_equal(values[mesh.interior], basis_functions(curve, inside))
+    order = np.concatenate([mesh.interior[::2], mesh.boundary, mesh.interior[1::2]])  # interleaved
+    position = np.empty_like(order)
+    position[order] = np.arange(order.size)
+    shuffled = Mesh(
+        mesh.vertices[order], position[mesh.triangles], position[mesh.boundary], mesh.boundary_parameters
+    )
+    assert not np.all(np.diff(shuffled.interior) == 1)
+    # Other points share the boxes of the evaluation, so the sums' order may differ.
+    np.testing.assert_allclose(mesh_basis_functions(curve, shuffled, cache=False), values[order], rtol=0, atol=1e-14)
+
+
 def test_mesh_only_kernels():
     assert MESH_ONLY_KERNELS == ("pgw", "harmonic")
 
