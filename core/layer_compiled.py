@@ -504,12 +504,15 @@ class PanelTree(NamedTuple):
     bases: np.ndarray  #: `piece_bases`
 
 
-#: Targets per box of `layer_rows` at most: a box's far panels are one matrix product.
-BOX = 48
+#: Targets per box of `layer_rows` at most: a box's far panels are one matrix product.  The
+#: bench's mesh of 10,000 vertices (100,000) took 6.25 ms (52.5 ms) with 48 and 4 splits, 5.9-6.0
+#: (47.4-47.9) with 128 and 5, 6.0 (46.8) with 96, 6.3 (52.0) with 256: bigger products, as long as
+#: the splits keep the boxes at the boundary small.
+BOX = 128
 #: A box of more targets than this, with panels mixed for it, is split in four (`layer_rows`).
 LEAF = 16
 #: Splits of a box at most (`layer_rows`).
-SPLITS = 4
+SPLITS = 5
 #: Box classifications of a panel (`_box_side`).
 FAR, NEAR, MIXED = 0, 1, 2
 
@@ -761,7 +764,7 @@ def layer_rows(targets, tree, power, imaginary, out):
     their densities is one BLAS call (`_add_far`); a box with panels mixed for it is split
     in four (`_quadrants`) down to `LEAF` targets, whose panels still mixed each target
     walks on its own (`_walk`).  The decisions are each target's own, so the sums are the
-    same but for their order; at the bench's 10,000 mesh vertices the rows took 6.1 ms
+    same but for their order; at the bench's 10,000 mesh vertices the rows took ~5 ms
     instead of 13.4 ms one target at a time.
     """
     node_z, centres, reach, close_squared = tree.node_z, tree.centres, tree.reach, tree.close_squared
