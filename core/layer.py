@@ -427,7 +427,12 @@ def restricted(coarse: Panels, fine: Panels, parent: np.ndarray, density: np.nda
 
 
 def cauchy_integrals(
-    curve: ClosedBSpline, levels: Levels, x: np.ndarray, *, imaginary: bool = False, out: np.ndarray | None = None
+    curve: ClosedBSpline,
+    levels: Levels,
+    x: np.ndarray,
+    *,
+    imaginary: bool = False,
+    out: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray | None, np.ndarray]:
     """C[φ](x) for the columns φ of the densities of `levels` at points x (M, 2).
 
@@ -481,7 +486,14 @@ def cauchy_integrals(
     return real, imag, on_curve
 
 
-def _compiled_rows(curve: ClosedBSpline, levels: Levels, z: np.ndarray, power: int, imaginary: bool, out=None):
+def _compiled_rows(
+    curve: ClosedBSpline,
+    levels: Levels,
+    z: np.ndarray,
+    power: int,
+    imaginary: bool,
+    out: np.ndarray | None = None,
+):
     """`core.layer_compiled.layer_rows` at targets z (M,) where its machine code is at hand
     (`core.layer_compiled.worth_trying`, `loaded`): (real (in `out` if given), imaginary,
     on-curve), else None."""

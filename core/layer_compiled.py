@@ -755,10 +755,10 @@ def layer_rows(targets, tree, power, imaginary, out):
     of `tree` (a `PanelTree`).
 
     Returns the real parts (M, m), written into `out` (M, m), the imaginary parts (M, m) if
-    `imaginary` (else (0, m)) and on-curve flags (M,).  Each target walks down from the coarsest level: a panel is
-    near it when one of its nodes is within the panel's close range; a far panel takes its
-    plain rule, a near one is replaced by its children, on the finest level by
-    `_near_weights` (a target it finds on the curve is flagged).
+    `imaginary` (else (0, m)) and on-curve flags (M,).  Each target walks down from the
+    coarsest level: a panel is near it when one of its nodes is within the panel's close
+    range; a far panel takes its plain rule, a near one is replaced by its children, on the
+    finest level by `_near_weights` (a target it finds on the curve is flagged).
 
     The walk is shared by up to `BOX` targets close together (`_boxes`): a panel far from
     all of them (`_box_side`) is far for each, one near all of them is replaced by its

@@ -34,6 +34,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
+
 from core import layer_compiled, two_grid
 from core.blas_threads import one_blas_thread
 from core.bspline import ClosedBSpline
@@ -131,7 +132,8 @@ def _densities(points: bytes, count: int) -> Densities:
         (I + K°_c R) ρ̃ = 2 N_c,   R = Q (I + K*)^-1 P   (block diagonal, one block a knot).
 
     Near-singular pairs of K°_c (thin parts, the nodes next to a neighbour's panel)
-    take the fine densities (I + K*)^-1 P ρ̃ with the adaptive rule, not R ρ̃.
+    take the fine densities (I + K*)^-1 P ρ̃ with the adaptive rule, not R ρ̃.  The dense
+    coarse equation is solved by `core.two_grid` (its LU where that does not contract).
     """
     curve = _solving.get(points)
     if curve is None:
@@ -196,7 +198,8 @@ def _coarse_system(curve: ClosedBSpline, coarse: Panels, blocks: dict, target, p
     at the coarse nodes, 0 within each knot's block (K*, in R) and at the near pairs (target
     nodes, panels (E,), sorted by target: the adaptive rule's, added by the caller), each
     block's columns times its R (`_knot_blocks`).  Compiled where at hand
-    (`core.layer_compiled.coarse_system`), else numpy.
+    (`core.layer_compiled.coarse_system`, into this thread's scratch array: `core.workspace`,
+    overwritten by its next solve), else numpy.
     """
     compiled = layer_compiled.coarse_system
     if layer_compiled.worth_trying(compiled) and blocks:
