@@ -59,6 +59,10 @@ SPAN_SAFE = 1.0
 #: Pairs closer than this fraction of the diameter get their weights directly: the far
 #: field's expanded products lose ~1e-16 / distance^2 (relative, distance in diameters).
 DIRECT = 1e-3
+#: `near_pairs` compares every target with every panel's circle up to this many pairs (the density
+#: solve's 560 coarse nodes and 35 panels: 0.05 ms, where a search tree's Python lists took 0.4 ms),
+#: else searches a tree.
+DIRECT_PAIRS = 1 << 16
 #: Bisections at most; a target that needs more, or pieces shorter than `ON_CURVE`
 #: diameters, or that comes that close to a node, is taken to be on the curve.
 MAX_DEPTH = 60
@@ -91,12 +95,16 @@ def near_pairs(
     """
     close_range = np.maximum(safe * panels.lengths, DIRECT * diameter)
     reach = panels.radii + close_range
-    tree = cKDTree(np.stack([targets.real, targets.imag], axis=1))
-    centres = np.stack([panels.centres.real, panels.centres.imag], axis=1)
-    found = tree.query_ball_point(centres, reach, return_sorted=False)
-    sizes = np.fromiter(map(len, found), dtype=np.int64, count=len(found))
-    target = np.fromiter(itertools.chain.from_iterable(found), dtype=np.int64, count=int(sizes.sum()))
-    panel = np.repeat(np.arange(panels.count), sizes)
+    if panels.count * targets.size <= DIRECT_PAIRS:  # every pair's centre distance at once
+        gap = targets[None, :] - panels.centres[:, None]
+        panel, target = np.nonzero(gap.real * gap.real + gap.imag * gap.imag <= (reach * reach)[:, None])
+    else:  # a search tree over the targets
+        tree = cKDTree(np.stack([targets.real, targets.imag], axis=1))
+        centres = np.stack([panels.centres.real, panels.centres.imag], axis=1)
+        found = tree.query_ball_point(centres, reach, return_sorted=False)
+        sizes = np.fromiter(map(len, found), dtype=np.int64, count=len(found))
+        target = np.fromiter(itertools.chain.from_iterable(found), dtype=np.int64, count=int(sizes.sum()))
+        panel = np.repeat(np.arange(panels.count), sizes)
     nodes = panels.z.reshape(-1, ORDER)
     dx = nodes.real[panel] - targets.real[target, None]
     dy = nodes.imag[panel] - targets.imag[target, None]

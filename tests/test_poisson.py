@@ -552,3 +552,20 @@ def test_the_far_field_agrees_with_a_far_more_cautious_one(monkeypatch):
     cautious = core.basis_functions(curve, x)
     poisson._densities.cache_clear()
     np.testing.assert_allclose(usual, cautious, rtol=0, atol=1e-10)  # measured 4.0e-12
+
+
+def test_near_pairs_are_the_same_by_direct_comparison_and_by_search_tree(monkeypatch):
+    from core import layer
+    from core.panels import coarse_panels
+
+    curve = random_polygon_cage(29)  # a spike beside a long panel: near pairs across the domain
+    panels = coarse_panels(curve)
+    rng = np.random.default_rng(5)
+    targets = np.concatenate([panels.z, panels.z + 0.01 * curve.diameter * rng.normal(size=panels.size)])
+    monkeypatch.setattr(layer, "DIRECT_PAIRS", targets.size * panels.count)
+    direct = layer.near_pairs(panels, targets, curve.diameter)
+    monkeypatch.setattr(layer, "DIRECT_PAIRS", 0)
+    searched = layer.near_pairs(panels, targets, curve.diameter)
+    assert direct[0].size > panels.size
+    np.testing.assert_array_equal(direct[0], searched[0])
+    np.testing.assert_array_equal(direct[1], searched[1])
