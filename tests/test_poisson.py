@@ -456,6 +456,22 @@ def test_a_cage_beyond_the_dense_solve_limit_is_refused_in_one_line(monkeypatch)
         core.basis_functions(curve, interior_points(curve, 3, seed=38))
 
 
+def test_a_cage_far_beyond_the_limit_is_refused_before_its_panels_are_searched(monkeypatch):
+    # 1,000 control points: 32,000 coarse nodes before any split.  Searching its gaps took ~40 s.
+    import core.panels
+    import core.poisson
+
+    def searched(*arguments):
+        raise AssertionError("the gaps were searched")
+
+    monkeypatch.setattr(core.panels, "gaps", searched)
+    core.poisson._densities.cache_clear()
+    angle = np.linspace(0.0, 2.0 * np.pi, 1000, endpoint=False)
+    curve = core.ClosedBSpline(100.0 * np.stack([np.cos(angle), np.sin(angle)], axis=1))
+    with pytest.raises(ValueError, match=r"need at least 32,000 boundary nodes with kernel 'poisson'"):
+        core.basis_functions(curve, [[0.0, 0.0]])
+
+
 def test_a_point_near_no_finest_panel_is_evaluated_alone(layer_path):
     # Near a coarse panel but far from every finest one: its last level had no pairs left,
     # which failed (IndexError) when such a point was evaluated on its own, as the cache's
