@@ -71,7 +71,6 @@ from core.panels import (
     span_panels,
 )
 from core.panels import _panels as _make_panels
-from core.two_grid import solve_in_place
 from core.workspace import scratch
 
 #: Coarse boundary nodes at most (the dense solve's memory, 8 MAX_NODES^2 bytes, and time).
@@ -356,7 +355,7 @@ def _solved_blocks(curve, fine, rows, start, entries, values, entry_start, prolo
         matrix[entries[own, 0], entries[own, 1]] = values[own]
         matrix *= 2.0
         matrix[np.arange(matrix.shape[0]), np.arange(matrix.shape[0])] += 1.0
-        solution[mine] = solve_in_place(matrix, prolongation[mine])
+        solution[mine] = two_grid.solve_in_place(matrix, prolongation[mine])
         reduced[b] = restriction[mine].T @ solution[mine]
     return solution, reduced
 

@@ -16,8 +16,8 @@ and x ← x + M (b - A x) from x = M b.  Each step multiplies the error by ~1e-5
 shapes (the bench's blob: 1e-5, 5e-10, 5e-15 after one, two, three steps; the F polygon, the
 hook, the starfish alike; random corner cages by 0.05-0.25 a step), so two or three steps of one
 product A x each (2 K² m flops) replace an LU (2/3 K³): for the blob's K = 560 unknowns and
-m = 13 right-hand sides 3.8 -> 2.4 ms, for the F polygon's 1,552 67 -> 34 ms, for a smooth cage
-of 120 control points 1.45 -> 0.84 s.  The LU of A_c is 1/8 of A's.
+m = 13 right-hand sides 3.8 -> 2.4 ms (two steps), for the F polygon's 1,552 67 -> 34 ms, the
+whole solve of a smooth cage of 120 control points 1.2 -> 0.55 s.  The LU of A_c is 1/8 of A's.
 
 A system that does not contract so (a cage the coarse grid does not resolve) falls back to the
 LU of A, which the iteration leaves as it was.
@@ -31,8 +31,8 @@ from scipy.linalg import lu_factor, lu_solve
 from core.panels import _NODES, _WEIGHTS, ORDER
 from core.workspace import scratch
 
-#: Gauss–Legendre nodes a panel on the coarse grid: with 6, the blob took 4 steps, with 8 three
-#: (its coarse LU a little longer, its steps fewer); 10 gained no step.
+#: Gauss–Legendre nodes a panel on the coarse grid: with 6 the blob takes a step more than with 8
+#: (its coarse LU shorter, as fast in all), with 10 none fewer.
 COARSE_ORDER = 8
 #: Rows of A a block of the coarse matrix's product takes, times K (its scratch: ROWS / 2 numbers).
 ROWS = 32_768
