@@ -10,14 +10,14 @@ the Cauchy–Green coordinates are C[N_i] (`core.cauchy_green`).  A row of *weig
 W(z) (one complex number a node) gives C[φ](z) = W(z) · φ.
 
 Far from a panel the weights are its Gauss–Legendre rule, w_k τ'_k / (2πi (τ_k - z)).
-Near it (closer than `SAFE` times its arc length), the panel is bisected in t until
-every piece is at least `SAFE` times its own length away from z; each piece's
-Gauss–Legendre rule is applied to the Lagrange interpolant of φ on the panel's nodes,
-and the result is mapped back onto the nodes (adaptive panel upsampling in the sense
-of Klöckner, Barnett, Greengard and O'Neil's QBX error analysis, here with the exact
-curve).  Its error is that of interpolating φ on the panel, not that of the rule, so
-it holds at any distance from Γ; targets that `MAX_DEPTH` bisections do not separate
-from the curve are reported as on it, and left to the caller.
+Near it (closer than `SAFE` times its arc length) they integrate the Lagrange interpolant
+of φ on the panel's nodes exactly against the exact curve (`adaptive_weights`): a span is a
+quadratic, so dτ / (τ - z) is the sum of two simple poles in the panel's parameter, and
+the interpolant's Legendre moments against them obey the Legendre recurrence (a product
+integration rule in the manner of Helsing and Ojala, 2008, with no polynomial standing in
+for the curve).  Its error is that of interpolating φ on the panel, so it holds at any
+distance from Γ; targets within `ON_CURVE` diameters of a panel are reported as on the
+curve, and left to the caller.
 """
 
 from __future__ import annotations
@@ -30,6 +30,7 @@ from scipy.spatial import cKDTree
 
 from core import layer_compiled
 from core.bspline import ClosedBSpline
+from core.layer_compiled import _LEGENDRE, FORWARD_ELLIPSE, PLAIN_ELLIPSE
 from core.panels import _NODES, _WEIGHTS, ORDER, Panels, interpolation_matrix, sharp_corners
 from core.panels import _panels as panels_of_bounds
 
@@ -63,9 +64,7 @@ DIRECT = 1e-3
 #: solve's 560 coarse nodes and 35 panels: 0.05 ms, where a search tree's Python lists took 0.4 ms),
 #: else searches a tree.
 DIRECT_PAIRS = 1 << 16
-#: Bisections at most; a target that needs more, or pieces shorter than `ON_CURVE`
-#: diameters, or that comes that close to a node, is taken to be on the curve.
-MAX_DEPTH = 60
+#: A target this close to a panel (a fraction of the curve's diameter) is on the curve.
 ON_CURVE = 1e-10
 #: Levels of bisected panels below the finest one, for evaluation (`bisected`).
 BISECTIONS = 2
@@ -230,83 +229,96 @@ def adaptive_weights(
     complex ndarray of shape (K, ORDER)
         ``weights @ φ[panel nodes]`` is the integral of φ's interpolant.
     bool ndarray of shape (K,)
-        The target is on the curve: it needs pieces shorter than `ON_CURVE`
-        diameters, comes that close to a node, or needs `MAX_DEPTH` bisections.
+        The target is on the curve: within `on_curve` diameters of its panel.
     """
     touch = on_curve * curve.diameter
-    pieces = curve.piecewise_polynomial().coefficients
+    pieces = np.ascontiguousarray(curve.piecewise_polynomial().coefficients, dtype=np.float64)
     compiled = layer_compiled.adaptive_pairs
     if layer_compiled.worth_trying(compiled):
-        arrays = (
-            np.ascontiguousarray(pieces, dtype=np.float64),
+        arguments = (
+            pieces,
             np.ascontiguousarray(panels.bounds, dtype=np.float64),
             np.ascontiguousarray(targets, dtype=np.complex128),
             np.ascontiguousarray(panel, dtype=np.int64),
-        )
-        arguments = (
-            *arrays,
             int(power),
             float(touch),
-            float(SAFE),
-            int(MAX_DEPTH),
-            layer_compiled.piece_bases(),
         )
         if layer_compiled.loaded(compiled, *arguments):
             return compiled(*arguments)
-    # Depth 0, the panel's own rule on its stored nodes: most pairs end here.
-    nodes = panel[:, None] * ORDER + np.arange(ORDER)
-    tau = panels.z[nodes]
-    gap = np.abs(tau - targets[:, None]).min(axis=1)
-    far = gap >= SAFE * panels.lengths[panel]
-    weights = np.zeros((targets.shape[0], ORDER), dtype=np.complex128)
-    nodes = nodes[far]
-    weights[far] = panels.weights[nodes] * panels.dz[nodes] / (tau[far] - targets[far, None]) ** power
-    touching = np.zeros(targets.shape[0], dtype=bool)
-    pair = np.flatnonzero(~far)
-    low = np.full(pair.shape, -1.0)
-    high = np.full(pair.shape, 1.0)
-    bounds = panels.bounds
-    span = np.floor(bounds[:, 0] + 1e-12).astype(np.int64)
-    for depth in range(MAX_DEPTH + 1):
-        if pair.size == 0:
-            break
-        p = panel[pair]
-        half = 0.5 * (high - low)
-        u = 0.5 * (high + low)[:, None] + half[:, None] * _NODES  # (K, q) in the panel's [-1, 1]
-        panel_half = 0.5 * (bounds[p, 1] - bounds[p, 0])
-        t_local = (0.5 * (bounds[p, 0] + bounds[p, 1]) - span[p])[:, None] + panel_half[:, None] * u
-        c = pieces[span[p] % curve.n]  # (K, 3, 2)
-        x = c[:, None, 0, 0] + t_local * (c[:, None, 1, 0] + t_local * c[:, None, 2, 0])
-        y = c[:, None, 0, 1] + t_local * (c[:, None, 1, 1] + t_local * c[:, None, 2, 1])
-        dx = c[:, None, 1, 0] + 2.0 * t_local * c[:, None, 2, 0]
-        dy = c[:, None, 1, 1] + 2.0 * t_local * c[:, None, 2, 1]
-        tau = x + 1j * y
-        dtau = dx + 1j * dy
-        scale = (half * panel_half)[:, None] * _WEIGHTS
-        length = (scale * np.abs(dtau)).sum(axis=1)
-        gap = np.abs(tau - targets[pair, None]).min(axis=1)
-        far = gap >= SAFE * length
-        on = ((gap < touch) | (length < touch) | (depth == MAX_DEPTH)) & ~far
-        touching[pair[on]] = True
-        if far.any():
-            rule = scale[far] * dtau[far] / (tau[far] - targets[pair[far], None]) ** power
-            basis = _pieces_interpolation(low[far], high[far])
-            np.add.at(weights, pair[far], np.einsum("kq,kqj->kj", rule, basis))
-        split = ~far & ~on
-        middle = 0.5 * (low[split] + high[split])
-        pair = np.concatenate([pair[split], pair[split]])
-        low, high = np.concatenate([low[split], middle]), np.concatenate([middle, high[split]])
+    # `core.layer_compiled._near_weights`, pair by pair there, for all pairs at once here.
+    bounds = panels.bounds[panel]
+    span = np.floor(bounds[:, 0] + 1e-12)
+    half = 0.5 * (bounds[:, 1] - bounds[:, 0])
+    middle = 0.5 * (bounds[:, 0] + bounds[:, 1]) - span
+    c = pieces[span.astype(np.int64) % curve.n]  # (K, 3, 2)
+    c0, c1, c2 = (c[:, i, 0] + 1j * c[:, i, 1] for i in range(3))
+    quadratic = c2 * half * half
+    linear = (c1 + 2.0 * middle * c2) * half
+    constant = c0 + middle * (c1 + middle * c2) - targets
+    straight = quadratic == 0.0
+    root = np.sqrt(linear * linear - 4.0 * quadratic * constant)
+    root = np.where((linear.conj() * root).real < 0.0, -root, root)
+    q = -0.5 * (linear + root)
+    with np.errstate(divide="ignore", invalid="ignore"):  # the unused branches of np.where
+        near = np.where(straight, -constant / linear, constant / q)
+        far = np.where(straight, 2.0 * PLAIN_ELLIPSE, q / np.where(straight, 1.0, quadratic))
+    s = np.stack([np.clip(near.real, -1.0, 1.0), -np.ones(near.size), np.ones(near.size)], axis=1)
+    gap = np.abs(constant[:, None] + s * (linear[:, None] + s * quadratic[:, None])).min(axis=1)
+    touching = gap < touch
+    weights = np.zeros((targets.size, ORDER), dtype=np.complex128)
+    away = np.flatnonzero(~touching)  # the touching pairs get no weights
+    near, far, straight = near[away], far[away], straight[away]
+    moments_near = _legendre_moments(near)
+    moments_far = np.where(straight[:, None], 0.0, _legendre_moments(far))
+    if power == 1:
+        totals = moments_near + moments_far
+    else:  # by parts: see `core.layer_compiled._near_weights`
+        linear, quadratic, constant = linear[away], quadratic[away], constant[away]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            factor = np.where(straight, 1.0 / linear, 1.0 / (quadratic * (near - far)))
+        totals = factor[:, None] * ((moments_near - moments_far) @ _DERIVATIVE_MOMENTS.T)
+        high, low = 1.0 / (constant + linear + quadratic), 1.0 / (constant - linear + quadratic)
+        totals -= high[:, None] - low[:, None] * (-1.0) ** np.arange(ORDER)
+    weights[away] = totals @ _LEGENDRE.T
     return weights, touching
 
 
-def _pieces_interpolation(low: np.ndarray, high: np.ndarray) -> np.ndarray:
-    """`interpolation_matrix` at the Gauss nodes of the pieces [low, high] of [-1, 1], shape (K, q, q).
+#: P_k(s_j) at the Gauss–Legendre nodes, (ORDER (j), ORDER (k)).
+_LEGENDRE_VALUES = np.polynomial.legendre.legvander(_NODES, ORDER - 1)
+#: D (ORDER, ORDER): P_k' = Σ_l D[k, l] P_l, (2l + 1) for l = k - 1, k - 3, ... (J_k = Σ_l D[k, l] I_l)
+_DERIVATIVE_MOMENTS = np.array(
+    [[(2 * l + 1.0) if l < k and (k - l) % 2 else 0.0 for l in range(ORDER)] for k in range(ORDER)]
+)
 
-    Bisection makes few distinct pieces (dyadic intervals), so each is computed once.
-    """
-    pieces, inverse = np.unique(np.stack([low, high], axis=1), axis=0, return_inverse=True)
-    u = 0.5 * (pieces[:, 1] + pieces[:, 0])[:, None] + 0.5 * (pieces[:, 1] - pieces[:, 0])[:, None] * _NODES
-    return interpolation_matrix(u)[inverse.ravel()]
+
+def _legendre_moments(r: np.ndarray) -> np.ndarray:
+    """I_k(r) = ∫_{-1}^{1} P_k(s) / (s - r) ds, shape (K, ORDER), for complex r (K,) off [-1, 1]:
+    `core.layer_compiled._legendre_moments` for many r at once."""
+    root = np.sqrt(r - 1.0) * np.sqrt(r + 1.0)
+    rho = np.maximum(np.abs(r + root), np.abs(r - root))
+    out = np.empty((r.size, ORDER), dtype=np.complex128)
+    plain = rho >= PLAIN_ELLIPSE
+    out[plain] = (_WEIGHTS / (_NODES - r[plain, None])) @ _LEGENDRE_VALUES
+    rest = ~plain
+    first = np.log((r[rest] - 1.0) / (r[rest] + 1.0))
+    forward = rho[rest] <= FORWARD_ELLIPSE
+    x, start = r[rest][forward], first[forward]
+    values = [start, x * start + 2.0]
+    for k in range(1, ORDER - 1):
+        values.append(((2 * k + 1) * x * values[k] - k * values[k - 1]) / (k + 1))
+    out[np.flatnonzero(rest)[forward]] = np.stack(values, axis=1)
+    backward = np.flatnonzero(rest)[~forward]
+    if backward.size:
+        x = r[backward]
+        top = ORDER + int(np.ceil(18.0 / (2.0 * np.log10(rho[backward].min()))))
+        after, current = np.zeros(x.size, dtype=np.complex128), np.full(x.size, 1e-100 + 0j)
+        found = np.empty((x.size, ORDER), dtype=np.complex128)
+        for k in range(top, 0, -1):
+            after, current = current, ((2 * k + 1) * x * current - (k + 1) * after) / k
+            if k - 1 < ORDER:
+                found[:, k - 1] = current
+        out[backward] = found * (first[~forward] / found[:, 0])[:, None]
+    return out
 
 
 def layer_factors(curve: ClosedBSpline, panels: Panels) -> np.ndarray:
@@ -553,10 +565,7 @@ def _panel_tree(curve: ClosedBSpline, levels: Levels) -> layer_compiled.PanelTre
         coefficients=np.ascontiguousarray(curve.piecewise_polynomial().coefficients, dtype=np.float64),
         orientation=float(orientation),
         touch=float(ON_CURVE * curve.diameter),
-        safe=float(SAFE),
-        max_depth=int(MAX_DEPTH),
         stack_size=int(panels[0].count + len(panels) * most),
-        bases=layer_compiled.piece_bases(),
     )
     levels.compiled["tree"] = tree
     return tree

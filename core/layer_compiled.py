@@ -5,12 +5,12 @@ of (target, panel) pairs, and `core.poisson` assembles its density solve with nu
 cost is the bookkeeping of those batches (sorting, grouping, one small product per panel).
 The same arithmetic as loops: here are
 
-- `adaptive_pairs`, the adaptive near-field rule of `core.layer.adaptive_weights`
-  (bisection in t until each piece is `SAFE` of its length away, each piece's
-  Gauss–Legendre rule mapped back onto the panel's nodes), for a list of pairs;
+- `adaptive_pairs`, the near-field rule of `core.layer.adaptive_weights` (`_near_weights`:
+  exact product integration of the density's interpolant over a quadratic span), for a
+  list of pairs;
 - `layer_rows`, Re C[φ](z) for many targets: the coarsest level's panels by their plain
   rule, near panels replaced by their children level by level, the finest level's near
-  panels by the adaptive rule, exactly the decisions of `core.layer.cauchy_integrals`
+  panels by the near-field rule, exactly the decisions of `core.layer.cauchy_integrals`
   (the same `near` test at every level, so the two agree to rounding), the walk shared
   by boxes of nearby targets and their far panels' rules one BLAS product a box;
 - `layer_matrix_rows`, the Nyström matrix rows of `core.poisson.layer_matrix`;
@@ -34,7 +34,7 @@ import numpy as np
 from numba import njit, prange
 from numba.core.compiler_lock import global_compiler_lock
 
-from core.panels import _BARYCENTRIC, _NODES, _WEIGHTS, ORDER, interpolation_matrix
+from core.panels import _NODES, _WEIGHTS, ORDER
 
 #: How `core.layer` chooses: "auto" (compiled where loaded, `loaded`), "numpy", or "compiled"
 #: (compile on first use if need be: tests and `core.compilation.compile_all`).
@@ -133,133 +133,137 @@ def _argument_key(value):
     return None
 
 
+def _legendre_weights() -> np.ndarray:
+    """L (ORDER, ORDER): L[j, k] = w_j (2k + 1) / 2 P_k(s_j) at the Gauss–Legendre nodes s_j and
+    weights w_j, so that Σ_j L[j, k] f(s_j) is f's k-th Legendre coefficient for f of degree
+    < ORDER, and ∫ f(s) g(s) ds = Σ_j f(s_j) Σ_k L[j, k] ∫ P_k(s) g(s) ds."""
+    legendre = np.polynomial.legendre.legvander(_NODES, ORDER - 1)
+    return _WEIGHTS[:, None] * (np.arange(ORDER) + 0.5) * legendre
+
+
+_LEGENDRE = _legendre_weights()
+#: `_legendre_moments` runs the recurrence forwards for roots whose Bernstein ellipse parameter
+#: ρ is at most this (its error grows as ρ^k from the first moment's rounding), backwards from
+#: a higher degree above it, and takes the panel's Gauss–Legendre rule from `PLAIN_ELLIPSE` on:
+#: that rule integrates the interpolant over s - r with an error ~ρ^-16 (the best degree-16
+#: approximation of 1 / (s - r)), 1e-16 at 10.
+FORWARD_ELLIPSE = 1.5
+PLAIN_ELLIPSE = 10.0
+
+
 @njit(cache=True, nogil=True, error_model="numpy")
-def _piece_basis(low, high, out):
-    """Lagrange basis of the panel's nodes at the Gauss nodes of its piece [low, high] of [-1, 1]:
-    out (ORDER, ORDER), row q at piece node q (`core.panels.interpolation_matrix`)."""
-    half = 0.5 * (high - low)
-    middle = 0.5 * (high + low)
-    for q in range(ORDER):
-        u = middle + half * _NODES[q]
-        hit = -1
-        total = 0.0
+def _legendre_moments(r, out):
+    """out[k] = ∫_{-1}^{1} P_k(s) / (s - r) ds, k < ORDER, for complex r off [-1, 1].
+
+    They obey the Legendre recurrence (k + 1) I_{k+1} = (2k + 1) r I_k - k I_{k-1} (k >= 1),
+    with I_0 = log((r - 1) / (r + 1)) (principal branch: its cut is [-1, 1]) and
+    I_1 = r I_0 + 2; I_k = -2 Q_k(r), Q_k the Legendre functions of the second kind, decay
+    as ρ^-k, ρ = |r + sqrt(r^2 - 1)| > 1, so forwards the recurrence is stable only near the
+    interval and backwards (Miller's algorithm, from a degree where ρ^-2k is below rounding,
+    scaled to I_0) elsewhere."""
+    root = np.sqrt(r - 1.0) * np.sqrt(r + 1.0)
+    rho = max(abs(r + root), abs(r - root))
+    if rho >= PLAIN_ELLIPSE:
+        for k in range(ORDER):
+            out[k] = 0.0
         for j in range(ORDER):
-            difference = u - _NODES[j]
-            if difference == 0.0:
-                hit = j
-                break
-            term = _BARYCENTRIC[j] / difference
-            out[q, j] = term
-            total += term
-        if hit >= 0:
-            for j in range(ORDER):
-                out[q, j] = 0.0
-            out[q, hit] = 1.0
-        else:
-            for j in range(ORDER):
-                out[q, j] /= total
-
-
-#: Bisection depths whose pieces' Lagrange bases `piece_bases` tabulates (2^(d+1) - 1 pieces).
-TABLED_DEPTH = 7
-
-
-_piece_table = []
-
-
-def piece_bases() -> np.ndarray:
-    """`_piece_basis` of every piece of [-1, 1] that `TABLED_DEPTH` bisections or fewer make,
-    shape (2^(TABLED_DEPTH + 1) - 1, ORDER, ORDER): piece k of depth d (its low end
-    -1 + k 2^(1-d)) at row 2^d - 1 + k.  Computed once a process, with numpy
-    (`core.panels.interpolation_matrix`, the same formula: no compiling)."""
-    if not _piece_table:
-        pieces = []
-        for depth in range(TABLED_DEPTH + 1):
-            width = 2.0 ** (1 - depth)
-            for k in range(2**depth):
-                low, high = -1.0 + k * width, -1.0 + (k + 1) * width
-                pieces.append(0.5 * (high + low) + 0.5 * (high - low) * _NODES)
-        table = interpolation_matrix(np.array(pieces))
-        table.setflags(write=False)
-        _piece_table.append(table)
-    return _piece_table[0]
+            inverse = _WEIGHTS[j] / (_NODES[j] - r)
+            previous, current = 1.0, _NODES[j]  # P_0, P_1 at the node
+            out[0] += inverse
+            out[1] += current * inverse
+            for k in range(1, ORDER - 1):
+                previous, current = current, ((2 * k + 1) * _NODES[j] * current - k * previous) / (k + 1)
+                out[k + 1] += current * inverse
+        return
+    first = np.log((r - 1.0) / (r + 1.0))
+    if rho <= FORWARD_ELLIPSE:
+        out[0] = first
+        out[1] = r * first + 2.0
+        for k in range(1, ORDER - 1):
+            out[k + 1] = ((2 * k + 1) * r * out[k] - k * out[k - 1]) / (k + 1)
+        return
+    top = ORDER + int(math.ceil(18.0 / (2.0 * math.log10(rho))))
+    after, current = 0j, 1e-100 + 0j  # I_{k+1}, I_k up to a common factor
+    for k in range(top, 0, -1):
+        before = ((2 * k + 1) * r * current - (k + 1) * after) / k
+        after, current = current, before
+        if k - 1 < ORDER:
+            out[k - 1] = current
+    scale = first / out[0]
+    for k in range(ORDER):
+        out[k] *= scale
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def _near_weights(coefficients, a, b, z, power, touch, safe, max_depth, weights, scratch, bases):
+def _near_weights(coefficients, a, b, z, power, touch, weights, moments):
     """Weights (ORDER,) complex of ∫ φ(τ) / (τ - z)^power dτ on the panel [a, b] of the span of
-    `coefficients` (3, 2) (p(u) = c0 + c1 u + c2 u^2, u the parameter within the span), for the
-    interpolant of φ on the panel's nodes; returns True if z is on the curve (`touch`).
+    `coefficients` (3, 2) (p(u) = c0 + c1 u + c2 u^2, u the parameter within the span), exact
+    for the interpolant of φ on the panel's nodes; returns True if z is within `touch` of the
+    panel.  `moments` is scratch, complex (2, ORDER).
 
-    `scratch` (2 (max_depth + 2) + ORDER, ORDER) holds the stack of pieces and a piece's basis;
-    `bases` is `piece_bases` (its pieces' bases are looked up there rather than computed:
-    256 divisions a piece, half the time of the rule at the density solve's near pairs).
+    The span is a quadratic: with u = m + h s on the panel, p - z = A (s - r1)(s - r2), so
+    p' du / (p - z) = ds / (s - r1) + ds / (s - r2) exactly, and the integral of φ's
+    interpolant Σ_k a_k P_k(s) against it is Σ_k a_k (I_k(r1) + I_k(r2)) with the moments
+    I_k of `_legendre_moments` (a product integration rule in the manner of Helsing and
+    Ojala, 2008, but exact: no polynomial stands in for the curve).  For power 2, by parts,
+    ∫ φ p' / (p - z)^2 du = -[φ / (p - z)]_{-1}^{1} + ∫ φ'(s) / (p - z) ds, with
+    1 / (p - z) = (1 / (s - r1) - 1 / (s - r2)) / (A (r1 - r2)) and P_k' = Σ (2l + 1) P_l over
+    l = k - 1, k - 3, ...  One root for a straight span (A = 0).
     """
-    tabled = int(round(math.log2(bases.shape[0] + 1))) - 1
     span = math.floor(a + 1e-12)
-    panel_half = 0.5 * (b - a)
-    panel_middle = 0.5 * (a + b) - span
-    c0x, c0y = coefficients[0, 0], coefficients[0, 1]
-    c1x, c1y = coefficients[1, 0], coefficients[1, 1]
-    c2x, c2y = coefficients[2, 0], coefficients[2, 1]
-    stack = scratch[ORDER:]
-    basis = scratch[:ORDER]
-    tau_x, tau_y = np.empty(ORDER), np.empty(ORDER)
-    dtau_x, dtau_y = np.empty(ORDER), np.empty(ORDER)
-    scale = np.empty(ORDER)
-    rule_x, rule_y = np.empty(ORDER), np.empty(ORDER)
-    sum_x, sum_y = np.zeros(ORDER), np.zeros(ORDER)
-    zx, zy = z.real, z.imag
-    touching = False
-    stack[0, 0], stack[0, 1], stack[0, 2] = -1.0, 1.0, 0.0
-    top = 1
-    while top > 0:
-        top -= 1
-        low, high, depth = stack[top, 0], stack[top, 1], stack[top, 2]
-        half = 0.5 * (high - low)
-        middle = 0.5 * (high + low)
-        length = 0.0
-        gap = np.inf  # squared, until the square root below
-        for q in range(ORDER):
-            t = panel_middle + panel_half * (middle + half * _NODES[q])
-            x = c0x + t * (c1x + t * c2x)
-            y = c0y + t * (c1y + t * c2y)
-            dx = c1x + 2.0 * t * c2x
-            dy = c1y + 2.0 * t * c2y
-            tau_x[q], tau_y[q] = x, y
-            dtau_x[q], dtau_y[q] = dx, dy
-            scale[q] = half * panel_half * _WEIGHTS[q]
-            length += scale[q] * math.sqrt(dx * dx + dy * dy)
-            gap = min(gap, (x - zx) * (x - zx) + (y - zy) * (y - zy))
-        gap = math.sqrt(gap)
-        if gap >= safe * length:
-            if depth <= tabled:
-                level = int(depth)
-                piece = bases[2**level - 1 + int(round((low + 1.0) * 2.0 ** (level - 1)))]
-            else:
-                _piece_basis(low, high, basis)
-                piece = basis
-            for q in range(ORDER):  # s τ' / (τ - z)^power = s τ' conj(τ - z)^power / |τ - z|^(2 power)
-                ex, ey = tau_x[q] - zx, tau_y[q] - zy
-                inverse = 1.0 / (ex * ex + ey * ey)
-                rx = scale[q] * (dtau_x[q] * ex + dtau_y[q] * ey) * inverse
-                ry = scale[q] * (dtau_y[q] * ex - dtau_x[q] * ey) * inverse
-                if power == 2:
-                    rx, ry = (rx * ex + ry * ey) * inverse, (ry * ex - rx * ey) * inverse
-                rule_x[q], rule_y[q] = rx, ry
-            for q in range(ORDER):
-                for j in range(ORDER):
-                    sum_x[j] += rule_x[q] * piece[q, j]
-                    sum_y[j] += rule_y[q] * piece[q, j]
-        elif gap < touch or length < touch or depth == max_depth:
-            touching = True
-        else:
-            stack[top, 0], stack[top, 1], stack[top, 2] = low, middle, depth + 1.0
-            stack[top + 1, 0], stack[top + 1, 1], stack[top + 1, 2] = middle, high, depth + 1.0
-            top += 2
+    half = 0.5 * (b - a)
+    middle = 0.5 * (a + b) - span
+    c0 = complex(coefficients[0, 0], coefficients[0, 1])
+    c1 = complex(coefficients[1, 0], coefficients[1, 1])
+    c2 = complex(coefficients[2, 0], coefficients[2, 1])
+    quadratic = c2 * half * half  # p(m + h s) - z = quadratic s^2 + linear s + constant
+    linear = (c1 + 2.0 * middle * c2) * half
+    constant = c0 + middle * (c1 + middle * c2) - z
+    if quadratic == 0.0:
+        roots = 1
+        near, far = -constant / linear, 0j
+    else:
+        root = np.sqrt(linear * linear - 4.0 * quadratic * constant)
+        if (linear.conjugate() * root).real < 0.0:
+            root = -root
+        q = -0.5 * (linear + root)  # the larger root q / quadratic, the smaller constant / q
+        roots = 2
+        near, far = constant / q, q / quadratic
+    # On the curve: the panel's point nearest the near root's real part, or an end, within touch.
+    gap = np.inf
+    for s in (min(max(near.real, -1.0), 1.0), -1.0, 1.0):
+        gap = min(gap, abs(constant + s * (linear + s * quadratic)))
+    if gap < touch:  # the caller takes the curve's own value there: no weights
+        for j in range(ORDER):
+            weights[j] = 0.0
+        return True
+    totals = moments[1]
+    for k in range(ORDER):
+        totals[k] = 0.0
+    for which in range(roots):
+        r = near if which == 0 else far
+        _legendre_moments(r, moments[0])
+        if power == 1:
+            for k in range(ORDER):
+                totals[k] += moments[0, k]
+        else:  # ∫ P_k' / (s - r) = J_k, J_{k+1} = J_{k-1} + (2k + 1) I_k, J_0 = 0, J_1 = I_0
+            factor = (
+                1.0 / linear if roots == 1 else (1.0 if which == 0 else -1.0) / (quadratic * (near - far))
+            )
+            before, current = 0j, 0j
+            for k in range(ORDER):
+                totals[k] += factor * current
+                before, current = current, before + (2 * k + 1) * moments[0, k]
+    if power == 2:
+        high, low = 1.0 / (constant + linear + quadratic), 1.0 / (constant - linear + quadratic)
+        for k in range(ORDER):
+            totals[k] -= high - (low if k % 2 == 0 else -low)
     for j in range(ORDER):
-        weights[j] = complex(sum_x[j], sum_y[j])
-    return touching
+        total = 0j
+        for k in range(ORDER):
+            total += _LEGENDRE[j, k] * totals[k]
+        weights[j] = total
+    return False
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
@@ -309,9 +313,6 @@ class KnotBlocks(NamedTuple):
     cross: np.ndarray  #: (n,): Im(c1 conj c2), 0 for a straight span (`core.layer.smooth_on_own_span`)
     coefficients: np.ndarray  #: (n, 3, 2): the spans (`ClosedBSpline.piecewise_polynomial`)
     orientation: float  #: +1 counter-clockwise, -1 clockwise
-    safe: float  #: `core.layer.SAFE`
-    max_depth: int  #: `core.layer.MAX_DEPTH`
-    bases: np.ndarray  #: `piece_bases`
 
 
 @njit(cache=True, parallel=True, error_model="numpy")
@@ -373,7 +374,7 @@ def _adaptive_entries(fine, panels, matrix):
     adaptive rule: a node within `close_squared` of another panel's node, unless the kernel is
     smooth there (`_smooth_on_own_span`); Re of the rule's weights, oriented, over 2πi."""
     n = fine.coefficients.shape[0]
-    scratch = np.empty((ORDER + 2 * (fine.max_depth + 2), ORDER))
+    moments = np.empty((2, ORDER), dtype=np.complex128)
     weights = np.empty(ORDER, dtype=np.complex128)
     for a in range(panels.shape[0]):
         for i in range(ORDER):
@@ -393,9 +394,8 @@ def _adaptive_entries(fine, panels, matrix):
                     continue
                 span = int(math.floor(fine.bounds[p, 0] + 1e-12)) % n
                 _near_weights(
-                    fine.coefficients[span], fine.bounds[p, 0], fine.bounds[p, 1], z, 1, 0.0, fine.safe,
-                    fine.max_depth, weights, scratch, fine.bases,
-                )  # fmt: skip
+                    fine.coefficients[span], fine.bounds[p, 0], fine.bounds[p, 1], z, 1, 0.0, weights, moments
+                )
                 for j in range(ORDER):
                     matrix[a * ORDER + i, c * ORDER + j] = (weights[j] * fine.orientation / (2j * np.pi)).real
 
@@ -457,25 +457,23 @@ def coarse_system(node_z, factors, node_span, node_u, weights, spans, node_block
 
 
 @njit(cache=True, parallel=True, error_model="numpy")
-def adaptive_pairs(coefficients, bounds, targets, panel, power, touch, safe, max_depth, bases):
+def adaptive_pairs(coefficients, bounds, targets, panel, power, touch):
     """`core.layer.adaptive_weights` for K pairs: weights complex (K, ORDER) and touching bool (K,).
 
     coefficients (n, 3, 2) are the curve's spans (`ClosedBSpline.piecewise_polynomial`),
-    bounds (P, 2) the panels' parameter intervals, targets complex (K,), panel int (K,),
-    bases `piece_bases`.
+    bounds (P, 2) the panels' parameter intervals, targets complex (K,), panel int (K,).
     """
     count = targets.shape[0]
     n = coefficients.shape[0]
     weights = np.zeros((count, ORDER), dtype=np.complex128)
     touching = np.zeros(count, dtype=np.bool_)
     for k in prange(count):
-        scratch = np.empty((ORDER + 2 * (max_depth + 2), ORDER))
+        moments = np.empty((2, ORDER), dtype=np.complex128)
         p = panel[k]
         span = int(math.floor(bounds[p, 0] + 1e-12)) % n
         touching[k] = _near_weights(
-            coefficients[span], bounds[p, 0], bounds[p, 1], targets[k], power, touch, safe, max_depth,
-            weights[k], scratch, bases,
-        )  # fmt: skip
+            coefficients[span], bounds[p, 0], bounds[p, 1], targets[k], power, touch, weights[k], moments
+        )
     return weights, touching
 
 
@@ -500,10 +498,7 @@ class PanelTree(NamedTuple):
     coefficients: np.ndarray  #: (n, 3, 2): the curve's spans (`ClosedBSpline.piecewise_polynomial`)
     orientation: float  #: +1 counter-clockwise, -1 clockwise
     touch: float  #: targets this close to the curve are on it
-    safe: float  #: `core.layer.SAFE`
-    max_depth: int  #: `core.layer.MAX_DEPTH`
     stack_size: int  #: enough for the walk of one target
-    bases: np.ndarray  #: `piece_bases`
 
 
 #: Targets per box of `layer_rows` at most: a box's far panels are one matrix product.  The
@@ -640,7 +635,7 @@ def _box_side(p, centre, radius, node_z, centres, reach, close_squared):
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def _walk(z, tree, start, power, imaginary, row, row_imaginary, stack, scratch, weights):
+def _walk(z, tree, start, power, imaginary, row, row_imaginary, stack, moments, weights):
     """Add C[φ](z) over the panels `start` (int (K,)) and their descendants to row (m,) (and
     row_imaginary): a panel far from z takes its plain rule, a near one its children, on the
     finest level `_near_weights`.  Returns whether z is on the curve."""
@@ -687,9 +682,8 @@ def _walk(z, tree, start, power, imaginary, row, row_imaginary, stack, scratch, 
             f = p - finest
             span = int(math.floor(bounds[f, 0] + 1e-12)) % n
             if _near_weights(
-                coefficients[span], bounds[f, 0], bounds[f, 1], z, power, tree.touch, tree.safe,
-                tree.max_depth, weights, scratch, tree.bases,
-            ):  # fmt: skip
+                coefficients[span], bounds[f, 0], bounds[f, 1], z, power, tree.touch, weights, moments
+            ):
                 on_curve = True
             for j in range(ORDER):
                 w = weights[j] * tree.orientation / (2j * np.pi)
@@ -782,7 +776,7 @@ def layer_rows(targets, tree, power, imaginary, out):
     for b in prange(box_start.shape[0] - 1):
         members = order[box_start[b] : box_start[b + 1]].copy()  # reordered as boxes split
         stack = np.empty(total + tree.stack_size, dtype=np.int64)  # a list of panels, then descents
-        scratch = np.empty((ORDER + 2 * (tree.max_depth + 2), ORDER))
+        moments = np.empty((2, ORDER), dtype=np.complex128)
         weights = np.empty(ORDER, dtype=np.complex128)
         row = np.empty(columns)
         row_imaginary = np.empty(columns)
@@ -834,7 +828,7 @@ def layer_rows(targets, tree, power, imaginary, out):
                 row[:] = 0.0
                 row_imaginary[:] = 0.0
                 walked = (targets[m], tree, start, power, imaginary, row, row_imaginary)
-                if _walk(*walked, stack, scratch, weights):
+                if _walk(*walked, stack, moments, weights):
                     on_curve[m] = True
                 for c in range(columns):
                     out[m, c] += row[c]

@@ -41,7 +41,6 @@ from core.bspline import ClosedBSpline
 from core.layer import (
     CORNER_SAFE,
     DIRECT,
-    MAX_DEPTH,
     SAFE,
     Levels,
     adaptive_weights,
@@ -333,8 +332,7 @@ def _compiled_blocks(curve, fine: Panels, panels, start, interpolation, offsets,
         spans=np.ascontiguousarray(np.stack([c1.real, c1.imag, c2.real, c2.imag, scale], axis=1)),
         cross=span_coefficients(curve)[2],
         coefficients=np.ascontiguousarray(curve.piecewise_polynomial().coefficients, dtype=np.float64),
-        orientation=1.0 if curve.area > 0 else -1.0, safe=float(SAFE), max_depth=int(MAX_DEPTH),
-        bases=layer_compiled.piece_bases(),
+        orientation=1.0 if curve.area > 0 else -1.0,
     )  # fmt: skip
     arguments = (blocks, panels, start, interpolation, offsets, weights, column_weights)
     return compiled(*arguments) if layer_compiled.loaded(compiled, *arguments) else None

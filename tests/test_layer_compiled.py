@@ -271,9 +271,6 @@ def test_a_damaged_cache_entry_falls_back_to_numpy_for_good(monkeypatch):
         panel,
         1,
         0.0,
-        layer.SAFE,
-        layer.MAX_DEPTH,
-        layer_compiled.piece_bases(),
     )
     assert not layer_compiled.loaded(dispatcher, *arguments)
     assert not layer_compiled.loaded(dispatcher, *arguments)
