@@ -30,6 +30,7 @@ from __future__ import annotations
 import math
 from typing import NamedTuple
 
+import numba
 import numpy as np
 from numba import njit, prange
 from numba.core.compiler_lock import global_compiler_lock
@@ -151,6 +152,13 @@ FORWARD_ELLIPSE = 1.5
 PLAIN_ELLIPSE = 10.0
 
 
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _ellipse(r):
+    """ρ > 1 of the Bernstein ellipse through r, |r ± sqrt(r^2 - 1)|, the larger."""
+    root = np.sqrt(r - 1.0) * np.sqrt(r + 1.0)
+    return max(abs(r + root), abs(r - root))
+
+
 @njit(cache=True, nogil=True, error_model="numpy")
 def _legendre_moments(r, out):
     """out[k] = ∫_{-1}^{1} P_k(s) / (s - r) ds, k < ORDER, for complex r off [-1, 1].
@@ -161,8 +169,7 @@ def _legendre_moments(r, out):
     as ρ^-k, ρ = |r + sqrt(r^2 - 1)| > 1, so forwards the recurrence is stable only near the
     interval and backwards (Miller's algorithm, from a degree where ρ^-2k is below rounding,
     scaled to I_0) elsewhere."""
-    root = np.sqrt(r - 1.0) * np.sqrt(r + 1.0)
-    rho = max(abs(r + root), abs(r - root))
+    rho = _ellipse(r)
     if rho >= PLAIN_ELLIPSE:
         for k in range(ORDER):
             out[k] = 0.0
@@ -240,8 +247,14 @@ def _near_weights(coefficients, a, b, z, power, touch, weights, moments):
     totals = moments[1]
     for k in range(ORDER):
         totals[k] = 0.0
+    for j in range(ORDER):
+        weights[j] = 0.0
     for which in range(roots):
         r = near if which == 0 else far
+        if power == 1 and _ellipse(r) >= PLAIN_ELLIPSE:  # Σ_k L[j, k] (the rule's I_k) = w_j / (s_j - r)
+            for j in range(ORDER):
+                weights[j] += _WEIGHTS[j] / (_NODES[j] - r)
+            continue
         _legendre_moments(r, moments[0])
         if power == 1:
             for k in range(ORDER):
@@ -262,7 +275,7 @@ def _near_weights(coefficients, a, b, z, power, touch, weights, moments):
         total = 0j
         for k in range(ORDER):
             total += _LEGENDRE[j, k] * totals[k]
-        weights[j] = total
+        weights[j] += total
     return False
 
 
@@ -316,7 +329,7 @@ class KnotBlocks(NamedTuple):
 
 
 @njit(cache=True, parallel=True, error_model="numpy")
-def knot_blocks(fine, panels, start, interpolation, offsets, row_weights, column_weights):
+def knot_blocks(fine, panels, start, interpolation, offsets, row_weights, column_weights, sequence):
     """The compressed knot blocks of `core.poisson`, a block a thread at a time.
 
     Block b's fine panels are panels[start[b]:start[b + 1]] (of `fine`, a `KnotBlocks`), its
@@ -326,7 +339,9 @@ def knot_blocks(fine, panels, start, interpolation, offsets, row_weights, column
     rule's (`_near_weights`), as `core.poisson._block_near_pairs` finds them.  P, (R, W), has
     in row r the interpolation row (R, ORDER) at columns offsets[r]..offsets[r] + ORDER.
     Returns X = (I + 2 K*)^-1 P (R, W) and Q X, shape (B, W, W), with Q = W_c^-1 P^T W_f
-    (row_weights (R,), column_weights (B, W)).
+    (row_weights (R,), column_weights (B, W)).  The blocks are taken in the order `sequence`
+    (int (B,)): numba hands each thread an equal run of it, so `balanced_sequence` puts as much
+    work in each run (the bench blob's 12 blocks: 3.2 -> 2.95 ms on two threads).
     """
     node_z, factors, node_span, node_u, weights = (
         fine.node_z,
@@ -339,7 +354,8 @@ def knot_blocks(fine, panels, start, interpolation, offsets, row_weights, column
     width = column_weights.shape[1]
     solution = np.zeros((interpolation.shape[0], width))
     reduced = np.zeros((start.shape[0] - 1, width, width))
-    for b in prange(start.shape[0] - 1):
+    for position in prange(start.shape[0] - 1):
+        b = sequence[position]
         first, count = start[b] * ORDER, (start[b + 1] - start[b]) * ORDER
         prolongation = np.zeros((count, width))
         for i in range(count):
@@ -366,6 +382,20 @@ def knot_blocks(fine, panels, start, interpolation, offsets, row_weights, column
                 prolongation[i, c] *= row_weights[first + i] / column_weights[b, c]
         reduced[b] = np.dot(prolongation.T.copy(), block)
     return solution, reduced
+
+
+def balanced_sequence(costs: np.ndarray) -> np.ndarray:
+    """An order of the items of `costs` (B,) whose equal runs, one a numba thread, cost about the
+    same, int (B,): the costliest first, each to the run with the least cost that still has room."""
+    threads = numba.get_num_threads()
+    size = -(-costs.size // max(1, threads))
+    runs, loads = [[] for _ in range(max(1, threads))], np.zeros(max(1, threads))
+    for item in np.argsort(-costs, kind="stable"):
+        open_runs = [r for r in range(len(runs)) if len(runs[r]) < size]
+        run = min(open_runs, key=lambda r: loads[r])
+        runs[run].append(item)
+        loads[run] += costs[item]
+    return np.array([item for run in runs for item in run], dtype=np.int64)
 
 
 @njit(cache=True, nogil=True, error_model="numpy")

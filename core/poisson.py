@@ -334,7 +334,9 @@ def _compiled_blocks(curve, fine: Panels, panels, start, interpolation, offsets,
         coefficients=np.ascontiguousarray(curve.piecewise_polynomial().coefficients, dtype=np.float64),
         orientation=1.0 if curve.area > 0 else -1.0,
     )  # fmt: skip
-    arguments = (blocks, panels, start, interpolation, offsets, weights, column_weights)
+    nodes = np.diff(start).astype(np.float64) * ORDER  # an LU costs nodes^3
+    sequence = layer_compiled.balanced_sequence(nodes**3)
+    arguments = (blocks, panels, start, interpolation, offsets, weights, column_weights, sequence)
     return compiled(*arguments) if layer_compiled.loaded(compiled, *arguments) else None
 
 
