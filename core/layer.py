@@ -370,11 +370,11 @@ def bisected(
     """`levels` and `count` more levels below the finest, each bisecting its panels in t.
 
     A level's densities are the interpolants of the finest densities at its nodes: on
-    each piece the same polynomial that `adaptive_weights` integrates when it bisects a
-    panel for one target.  Shared by every target, the halves' plain rule takes the pairs
-    a panel length or so from the curve in batched products; only the pairs nearer than
-    half a quarter-panel still need the adaptive rule (at 100,000 mesh vertices of the
-    bench's blob, 4x fewer; a third of the evaluation time was that rule).
+    each piece the same polynomial that `adaptive_weights` integrates.  Shared by every
+    target, the halves' plain rule takes the pairs a panel length or so from the curve in
+    batched products; only the pairs nearer than half a quarter-panel still need the
+    near-field rule (at 100,000 mesh vertices of the bench's blob, 4x fewer, when that rule
+    bisected panels and took a third of the evaluation's time).
 
     `corrected`, (node indices (K,), values (K, m)), replaces the first new level's densities
     at those nodes (better values than the interpolant: `core.poisson`'s Nyström
