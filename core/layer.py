@@ -30,7 +30,7 @@ from scipy.spatial import cKDTree
 
 from core import layer_compiled
 from core.bspline import ClosedBSpline
-from core.layer_compiled import _LEGENDRE, FORWARD_ELLIPSE, PLAIN_ELLIPSE
+from core.layer_compiled import _LEGENDRE, _LEGENDRE_VALUES, FORWARD_ELLIPSE, PLAIN_ELLIPSE
 from core.panels import _NODES, _WEIGHTS, ORDER, Panels, interpolation_matrix, sharp_corners
 from core.panels import _panels as panels_of_bounds
 
@@ -283,8 +283,6 @@ def adaptive_weights(
     return weights, touching
 
 
-#: P_k(s_j) at the Gauss–Legendre nodes, (ORDER (j), ORDER (k)).
-_LEGENDRE_VALUES = np.polynomial.legendre.legvander(_NODES, ORDER - 1)
 #: D (ORDER, ORDER): P_k' = Σ_l D[k, l] P_l, (2l + 1) for l = k - 1, k - 3, ... (J_k = Σ_l D[k, l] I_l)
 _DERIVATIVE_MOMENTS = np.array(
     [[(2 * l + 1.0) if l < k and (k - l) % 2 else 0.0 for l in range(ORDER)] for k in range(ORDER)]

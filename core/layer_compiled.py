@@ -143,6 +143,10 @@ def _legendre_weights() -> np.ndarray:
 
 
 _LEGENDRE = _legendre_weights()
+#: P_k(s_j) at the Gauss–Legendre nodes, (ORDER (j), ORDER (k)).
+_LEGENDRE_VALUES = np.polynomial.legendre.legvander(_NODES, ORDER - 1)
+#: The forward recurrence's coefficients (2k + 1) / (k + 1) and k / (k + 1), (ORDER, 2).
+_FORWARD = np.array([[(2 * k + 1) / (k + 1), k / (k + 1)] for k in range(ORDER)])
 #: `_legendre_moments` runs the recurrence forwards for roots whose Bernstein ellipse parameter
 #: ρ is at most this (its error grows as ρ^k from the first moment's rounding), backwards from
 #: a higher degree above it, and takes the panel's Gauss–Legendre rule from `PLAIN_ELLIPSE` on:
@@ -160,8 +164,8 @@ def _ellipse(r):
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def _legendre_moments(r, out):
-    """out[k] = ∫_{-1}^{1} P_k(s) / (s - r) ds, k < ORDER, for complex r off [-1, 1].
+def _legendre_moments(r, rho, out):
+    """out[k] = ∫_{-1}^{1} P_k(s) / (s - r) ds, k < ORDER, for complex r off [-1, 1] (`_ellipse`'s ρ).
 
     They obey the Legendre recurrence (k + 1) I_{k+1} = (2k + 1) r I_k - k I_{k-1} (k >= 1),
     with I_0 = log((r - 1) / (r + 1)) (principal branch: its cut is [-1, 1]) and
@@ -169,30 +173,28 @@ def _legendre_moments(r, out):
     as ρ^-k, ρ = |r + sqrt(r^2 - 1)| > 1, so forwards the recurrence is stable only near the
     interval and backwards (Miller's algorithm, from a degree where ρ^-2k is below rounding,
     scaled to I_0) elsewhere."""
-    rho = _ellipse(r)
     if rho >= PLAIN_ELLIPSE:
         for k in range(ORDER):
             out[k] = 0.0
         for j in range(ORDER):
-            inverse = _WEIGHTS[j] / (_NODES[j] - r)
-            previous, current = 1.0, _NODES[j]  # P_0, P_1 at the node
-            out[0] += inverse
-            out[1] += current * inverse
-            for k in range(1, ORDER - 1):
-                previous, current = current, ((2 * k + 1) * _NODES[j] * current - k * previous) / (k + 1)
-                out[k + 1] += current * inverse
+            d = _NODES[j] - r
+            scale = _WEIGHTS[j] / (d.real * d.real + d.imag * d.imag)
+            inverse = complex(d.real * scale, -d.imag * scale)  # w_j / (s_j - r)
+            for k in range(ORDER):
+                out[k] += _LEGENDRE_VALUES[j, k] * inverse
         return
     first = np.log((r - 1.0) / (r + 1.0))
     if rho <= FORWARD_ELLIPSE:
         out[0] = first
         out[1] = r * first + 2.0
         for k in range(1, ORDER - 1):
-            out[k + 1] = ((2 * k + 1) * r * out[k] - k * out[k - 1]) / (k + 1)
+            out[k + 1] = _FORWARD[k, 0] * (r * out[k]) - _FORWARD[k, 1] * out[k - 1]
         return
-    top = ORDER + int(math.ceil(18.0 / (2.0 * math.log10(rho))))
+    top = ORDER + int(math.ceil(9.0 / math.log10(rho)))
     after, current = 0j, 1e-100 + 0j  # I_{k+1}, I_k up to a common factor
     for k in range(top, 0, -1):
-        before = ((2 * k + 1) * r * current - (k + 1) * after) / k
+        inverse = 1.0 / k
+        before = ((2 * k + 1) * inverse) * (r * current) - ((k + 1) * inverse) * after
         after, current = current, before
         if k - 1 < ORDER:
             out[k - 1] = current
@@ -251,11 +253,14 @@ def _near_weights(coefficients, a, b, z, power, touch, weights, moments):
         weights[j] = 0.0
     for which in range(roots):
         r = near if which == 0 else far
-        if power == 1 and _ellipse(r) >= PLAIN_ELLIPSE:  # Σ_k L[j, k] (the rule's I_k) = w_j / (s_j - r)
+        rho = _ellipse(r)
+        if power == 1 and rho >= PLAIN_ELLIPSE:  # Σ_k L[j, k] (the rule's I_k) = w_j / (s_j - r)
             for j in range(ORDER):
-                weights[j] += _WEIGHTS[j] / (_NODES[j] - r)
+                d = _NODES[j] - r
+                scale = _WEIGHTS[j] / (d.real * d.real + d.imag * d.imag)
+                weights[j] += complex(d.real * scale, -d.imag * scale)
             continue
-        _legendre_moments(r, moments[0])
+        _legendre_moments(r, rho, moments[0])
         if power == 1:
             for k in range(ORDER):
                 totals[k] += moments[0, k]
@@ -272,10 +277,11 @@ def _near_weights(coefficients, a, b, z, power, touch, weights, moments):
         for k in range(ORDER):
             totals[k] -= high - (low if k % 2 == 0 else -low)
     for j in range(ORDER):
-        total = 0j
+        real, imaginary = 0.0, 0.0
         for k in range(ORDER):
-            total += _LEGENDRE[j, k] * totals[k]
-        weights[j] += total
+            real += _LEGENDRE[j, k] * totals[k].real
+            imaginary += _LEGENDRE[j, k] * totals[k].imag
+        weights[j] += complex(real, imaginary)
     return False
 
 
