@@ -14,6 +14,7 @@ The same arithmetic as loops: here are
   (the same `near` test at every level, so the two agree to rounding), the walk shared
   by boxes of nearby targets and their far panels' rules one BLAS product a box;
 - `layer_matrix_rows`, the Nyström matrix rows of `core.poisson.layer_matrix`;
+- `panel_geometry`, the nodes, weights and circles of a set of panels (`core.panels`);
 - `knot_blocks`, the density solve's compressed knot blocks (their matrices, their
   adaptive entries as `core.poisson._block_near_pairs` finds them, their LUs), and
   `coarse_system`, its coarse matrix.
@@ -283,6 +284,48 @@ def _near_weights(coefficients, a, b, z, power, touch, weights, moments):
             imaginary += _LEGENDRE[j, k] * totals[k].imag
         weights[j] += complex(real, imaginary)
     return False
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def panel_geometry(coefficients, bounds):
+    """`core.panels._panels`'s arrays for the panels `bounds` (P, 2) of the curve whose spans are
+    `coefficients` (n, 3, 2) (`ClosedBSpline.piecewise_polynomial`), each panel on the span of
+    its start: t, weights (P ORDER,), z, dz, d2z complex (P ORDER,), centres complex (P,),
+    radii and lengths (P,).  One pass, where numpy took ~20 array operations a call (a solve
+    makes seven sets of panels: 0.66 ms in numpy for the bench blob's, 0.12 ms here)."""
+    count, n = bounds.shape[0], coefficients.shape[0]
+    t, weights = np.empty(count * ORDER), np.empty(count * ORDER)
+    z = np.empty(count * ORDER, dtype=np.complex128)
+    dz, d2z = np.empty_like(z), np.empty_like(z)
+    centres = np.empty(count, dtype=np.complex128)
+    radii, lengths = np.empty(count), np.empty(count)
+    for p in range(count):
+        a, b = bounds[p, 0], bounds[p, 1]
+        half, middle = 0.5 * (b - a), 0.5 * (b + a)
+        start = math.floor(a + 1e-12)
+        span = int(start) % n
+        c0x, c0y = coefficients[span, 0, 0], coefficients[span, 0, 1]
+        c1x, c1y = coefficients[span, 1, 0], coefficients[span, 1, 1]
+        c2x, c2y = coefficients[span, 2, 0], coefficients[span, 2, 1]
+        low, high = a - start, b - start
+        low_x, low_y = c0x + low * (c1x + low * c2x), c0y + low * (c1y + low * c2y)
+        high_x, high_y = c0x + high * (c1x + high * c2x), c0y + high * (c1y + high * c2y)
+        centre_x, centre_y = 0.5 * (low_x + high_x), 0.5 * (low_y + high_y)
+        to_low = (low_x - centre_x) ** 2 + (low_y - centre_y) ** 2
+        farthest = max(to_low, (high_x - centre_x) ** 2 + (high_y - centre_y) ** 2)
+        length = 0.0
+        for j in range(ORDER):  # real arithmetic: complex abs is a hypot, ~4x a square root
+            k = p * ORDER + j
+            t[k] = middle + half * _NODES[j]
+            u = t[k] - start
+            x, y = c0x + u * (c1x + u * c2x), c0y + u * (c1y + u * c2y)
+            dx, dy = c1x + 2.0 * u * c2x, c1y + 2.0 * u * c2y
+            z[k], dz[k], d2z[k] = complex(x, y), complex(dx, dy), complex(2.0 * c2x, 2.0 * c2y)
+            weights[k] = half * _WEIGHTS[j]
+            length += math.sqrt(dx * dx + dy * dy) * weights[k]
+            farthest = max(farthest, (x - centre_x) ** 2 + (y - centre_y) ** 2)
+        centres[p], radii[p], lengths[p] = complex(centre_x, centre_y), math.sqrt(farthest), length
+    return t, weights, z, dz, d2z, centres, radii, lengths
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")

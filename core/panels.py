@@ -283,6 +283,18 @@ def knot_levels(curve: ClosedBSpline) -> np.ndarray:
 
 
 def _panels(curve: ClosedBSpline, bounds: np.ndarray) -> Panels:
+    """The panels of `curve` on the parameter intervals `bounds` (P, 2), each inside the span of
+    its start: compiled (`core.layer_compiled.panel_geometry`) where its machine code is at hand,
+    else numpy."""
+    from core import layer_compiled  # here: it imports this module
+
+    compiled = layer_compiled.panel_geometry
+    if layer_compiled.worth_trying(compiled):
+        pieces = curve.piecewise_polynomial().coefficients
+        arguments = (pieces, np.ascontiguousarray(bounds, dtype=np.float64))
+        if layer_compiled.loaded(compiled, *arguments):
+            t, weights, z, dz, d2z, centres, radii, lengths = compiled(*arguments)
+            return Panels(bounds, t, z, dz, d2z, weights, centres, radii, lengths)
     half = 0.5 * (bounds[:, 1] - bounds[:, 0])
     middle = 0.5 * (bounds[:, 1] + bounds[:, 0])
     t = (middle[:, None] + half[:, None] * _NODES).ravel()

@@ -191,7 +191,7 @@ def test_the_compiled_near_rule_equals_the_numpy_one(power, monkeypatch):
 
 
 def test_load_compiled_brings_in_every_compiled_boundary_integral():
-    # The bench says "runs as numpy batches" when this is False: each of the five must be called
+    # The bench says "runs as numpy batches" when this is False: each of the six must be called
     # by it, in a process that has called none of them before (a solve of a cage without thin
     # parts calls neither the near-field rule on its own nor the Nyström matrix rows).
     script = (
@@ -355,3 +355,22 @@ def test_balanced_sequence_gives_each_thread_an_equal_share_of_the_knot_blocks(m
     assert sorted(sequence.tolist()) == list(range(costs.size))
     assert costs[sequence[:6]].sum() == costs[sequence[6:]].sum() == costs.sum() / 2
     assert layer_compiled.balanced_sequence(np.zeros(0)).size == 0
+
+
+@pytest.mark.parametrize("name", ["C-shape", "F polygon"])
+def test_the_compiled_panel_geometry_equals_the_numpy_one(name, monkeypatch):
+    # Panels across every span, split and graded ones: the same nodes, weights and circles.
+    from core import panels as panel_module
+
+    curve = core.ClosedBSpline(SHAPES[name])
+    bounds = panel_module.curve_panels(curve).bounds
+
+    def geometry():
+        return panel_module._panels(curve, bounds)
+
+    numpy_panels, compiled_panels = both_paths(monkeypatch, geometry)
+    scale = curve.diameter
+    for field in ("t", "weights", "z", "dz", "d2z", "centres", "radii", "lengths"):
+        a, b = getattr(numpy_panels, field), getattr(compiled_panels, field)
+        size = scale if field in ("z", "centres", "radii") else np.abs(a).max()
+        np.testing.assert_allclose(b, a, rtol=0, atol=1e-15 * size, err_msg=field)
