@@ -14,7 +14,8 @@ The same arithmetic as loops: here are
   (the same `near` test at every level, so the two agree to rounding), the walk shared
   by boxes of nearby targets and their far panels' rules one BLAS product a box;
 - `layer_matrix_rows`, the Nyström matrix rows of `core.poisson.layer_matrix`;
-- `panel_geometry`, the nodes, weights and circles of a set of panels (`core.panels`);
+- `panel_geometry` and `panel_gaps`, the nodes, weights and circles of a set of panels and
+  their distances across the domain (`core.panels`);
 - `knot_blocks`, the density solve's compressed knot blocks (their matrices, their
   adaptive entries as `core.poisson._block_near_pairs` finds them, their LUs), and
   `coarse_system`, its coarse matrix.
@@ -326,6 +327,43 @@ def panel_geometry(coefficients, bounds):
             farthest = max(farthest, (x - centre_x) ** 2 + (y - centre_y) ** 2)
         centres[p], radii[p], lengths[p] = complex(centre_x, centre_y), math.sqrt(farthest), length
     return t, weights, z, dz, d2z, centres, radii, lengths
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def panel_gaps(node_z, centres, radii, lengths, middle, total, corner_at, reach, turn):
+    """`core.panels.gaps` from its arrays: for each panel p, the least distance from a node of p to
+    a node of another panel o within reach[p] and beyond p (farther along the curve than twice
+    p's length, or than `turn` times the distance with no corner (corner_at, sorted arc
+    positions) between them), float (P,), inf for none.  Panels whose circles are farther apart
+    than reach[p] are skipped, as there."""
+    count = centres.shape[0]
+    nearest = np.full(count, np.inf)
+    for p in range(count):
+        for o in range(count):
+            if abs(centres[p] - centres[o]) > radii[p] + reach[p] + radii[o]:
+                continue
+            low, high = min(middle[o], middle[p]), max(middle[o], middle[p])
+            wraps = high - low > 0.5 * total  # the shorter arc runs through position 0
+            along = (total - (high - low) if wraps else high - low) - 0.5 * (lengths[o] + lengths[p])
+            between = np.searchsorted(corner_at, high, side="left") - np.searchsorted(
+                corner_at, low, side="right"
+            )
+            through_corner = between < corner_at.shape[0] if wraps else between > 0
+            far_along = along > 2.0 * lengths[p]
+            if not far_along and (through_corner or along <= 0.0):
+                continue  # no node of o is beyond p
+            limit = reach[p] if far_along else min(reach[p], along / turn)
+            limit = (min(limit, nearest[p]) * (1.0 + 1e-12)) ** 2  # squares first, loosely
+            for i in range(p * ORDER, (p + 1) * ORDER):
+                for j in range(o * ORDER, (o + 1) * ORDER):
+                    dx, dy = node_z[i].real - node_z[j].real, node_z[i].imag - node_z[j].imag
+                    if dx * dx + dy * dy > limit:
+                        continue
+                    distance = abs(node_z[i] - node_z[j])  # the rule itself, on numpy's distance
+                    beyond = far_along or along > turn * distance
+                    if beyond and distance <= reach[p] and distance < nearest[p]:
+                        nearest[p] = distance
+    return nearest
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")

@@ -406,6 +406,23 @@ def gaps(panels: Panels, corners: np.ndarray) -> np.ndarray:
     starts_corner = np.isin(panels.bounds[:, 0], corners)  # each corner starts a panel
     corner_at = np.sort((middle - 0.5 * panels.lengths)[starts_corner])
     reach = panels.lengths / min(THIN_RATIO, REFINED_RATIO)
+    from core import layer_compiled  # here: it imports this module
+
+    compiled = layer_compiled.panel_gaps
+    if layer_compiled.worth_trying(compiled):
+        arguments = (
+            panels.z,
+            panels.centres,
+            panels.radii,
+            panels.lengths,
+            middle,
+            float(total),
+            corner_at,
+            reach,
+        )
+        arguments = (*arguments, float(TURN))
+        if layer_compiled.loaded(compiled, *arguments):
+            return compiled(*arguments)
     nodes = panels.z.reshape(count, ORDER)
     nearest = np.full(count, np.inf)
     for first in range(0, count, GAP_PAIRS // max(count, 1) + 1):

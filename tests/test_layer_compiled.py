@@ -191,7 +191,7 @@ def test_the_compiled_near_rule_equals_the_numpy_one(power, monkeypatch):
 
 
 def test_load_compiled_brings_in_every_compiled_boundary_integral():
-    # The bench says "runs as numpy batches" when this is False: each of the six must be called
+    # The bench says "runs as numpy batches" when this is False: each of the seven must be called
     # by it, in a process that has called none of them before (a solve of a cage without thin
     # parts calls neither the near-field rule on its own nor the Nyström matrix rows).
     script = (
@@ -374,3 +374,23 @@ def test_the_compiled_panel_geometry_equals_the_numpy_one(name, monkeypatch):
         a, b = getattr(numpy_panels, field), getattr(compiled_panels, field)
         size = scale if field in ("z", "centres", "radii") else np.abs(a).max()
         np.testing.assert_allclose(b, a, rtol=0, atol=1e-15 * size, err_msg=field)
+
+
+@pytest.mark.parametrize("name", ["C-shape", "hook", "F polygon"])
+def test_the_compiled_gaps_equal_the_numpy_ones(name, monkeypatch):
+    # The distances across thin parts and past corners that split the coarse panels: the same but
+    # for the last bit of a hypot (numpy's and the C library's).
+    from core import panels as panel_module
+
+    curve = core.ClosedBSpline(SHAPES[name])
+    coarse = panel_module.coarse_panels(curve)
+    corners = panel_module.sharp_corners(curve).astype(float)
+
+    def gaps():
+        return panel_module.gaps(coarse, corners)
+
+    numpy_gaps, compiled_gaps = both_paths(monkeypatch, gaps)
+    assert np.isfinite(numpy_gaps).any()
+    np.testing.assert_array_equal(np.isinf(compiled_gaps), np.isinf(numpy_gaps))
+    finite = np.isfinite(numpy_gaps)
+    np.testing.assert_allclose(compiled_gaps[finite], numpy_gaps[finite], rtol=1e-15, atol=0)
