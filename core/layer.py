@@ -94,6 +94,12 @@ def near_pairs(
     """
     close_range = np.maximum(safe * panels.lengths, DIRECT * diameter)
     reach = panels.radii + close_range
+    compiled = layer_compiled.close_pairs
+    if panels.count * targets.size <= DIRECT_PAIRS and layer_compiled.worth_trying(compiled):
+        arguments = (np.ascontiguousarray(targets, dtype=np.complex128), panels.z, panels.centres, reach)
+        arguments = (*arguments, close_range**2)
+        if layer_compiled.loaded(compiled, *arguments):
+            return compiled(*arguments)
     if panels.count * targets.size <= DIRECT_PAIRS:  # every pair's centre distance at once
         gap = targets[None, :] - panels.centres[:, None]
         panel, target = np.nonzero(gap.real * gap.real + gap.imag * gap.imag <= (reach * reach)[:, None])

@@ -15,7 +15,8 @@ The same arithmetic as loops: here are
   by boxes of nearby targets and their far panels' rules one BLAS product a box;
 - `layer_matrix_rows`, the Nyström matrix rows of `core.poisson.layer_matrix`;
 - `panel_geometry` and `panel_gaps`, the nodes, weights and circles of a set of panels and
-  their distances across the domain (`core.panels`);
+  their distances across the domain (`core.panels`), and `close_pairs`, the target-panel pairs
+  that need the near-field rule (`core.layer.near_pairs`);
 - `knot_blocks`, the density solve's compressed knot blocks (their matrices, their
   adaptive entries as `core.poisson._block_near_pairs` finds them, their LUs), and
   `coarse_system`, its coarse matrix.
@@ -364,6 +365,36 @@ def panel_gaps(node_z, centres, radii, lengths, middle, total, corner_at, reach,
                     if beyond and distance <= reach[p] and distance < nearest[p]:
                         nearest[p] = distance
     return nearest
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def close_pairs(targets, node_z, centres, reach, close_squared):
+    """`core.layer.near_pairs` by comparing every target (M,) with every panel: (target, panel)
+    int (E,) each, sorted by target then panel, for the pairs whose target is within `reach` of
+    the panel's centre and closer than its close range (close_squared (P,)) to one of its nodes."""
+    count, panels = targets.shape[0], centres.shape[0]
+    close = np.zeros((count, panels), dtype=np.bool_)
+    found = 0
+    for m in range(count):
+        z = targets[m]
+        for p in range(panels):
+            gap = z - centres[p]
+            if gap.real * gap.real + gap.imag * gap.imag > reach[p] * reach[p]:
+                continue
+            for q in range(p * ORDER, (p + 1) * ORDER):
+                d = node_z[q] - z
+                if d.real * d.real + d.imag * d.imag < close_squared[p]:
+                    close[m, p] = True
+                    found += 1
+                    break
+    target, panel = np.empty(found, dtype=np.int64), np.empty(found, dtype=np.int64)
+    e = 0
+    for m in range(count):
+        for p in range(panels):
+            if close[m, p]:
+                target[e], panel[e] = m, p
+                e += 1
+    return target, panel
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")

@@ -191,7 +191,7 @@ def test_the_compiled_near_rule_equals_the_numpy_one(power, monkeypatch):
 
 
 def test_load_compiled_brings_in_every_compiled_boundary_integral():
-    # The bench says "runs as numpy batches" when this is False: each of the seven must be called
+    # The bench says "runs as numpy batches" when this is False: each of the eight must be called
     # by it, in a process that has called none of them before (a solve of a cage without thin
     # parts calls neither the near-field rule on its own nor the Nyström matrix rows).
     script = (
@@ -394,3 +394,21 @@ def test_the_compiled_gaps_equal_the_numpy_ones(name, monkeypatch):
     np.testing.assert_array_equal(np.isinf(compiled_gaps), np.isinf(numpy_gaps))
     finite = np.isfinite(numpy_gaps)
     np.testing.assert_allclose(compiled_gaps[finite], numpy_gaps[finite], rtol=1e-15, atol=0)
+
+
+@pytest.mark.parametrize("name", ["C-shape", "F polygon"])
+def test_the_compiled_near_pairs_equal_the_numpy_ones(name, monkeypatch):
+    # The density solve's coarse nodes against its coarse panels, and points down to 1e-6 of the
+    # diameter from the curve: the same pairs in the same order.
+    from core import panels as panel_module
+
+    curve = core.ClosedBSpline(SHAPES[name])
+    coarse = panel_module.coarse_panels(curve)
+    x = near_boundary_points(curve, 300, seed=3)[0]
+    for targets in (coarse.z, x[:, 0] + 1j * x[:, 1]):
+        (numpy_target, numpy_panel), (target, panel) = both_paths(
+            monkeypatch, lambda targets=targets: layer.near_pairs(coarse, targets, curve.diameter)
+        )
+        assert numpy_target.size > coarse.count
+        np.testing.assert_array_equal(target, numpy_target)
+        np.testing.assert_array_equal(panel, numpy_panel)
