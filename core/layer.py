@@ -30,7 +30,7 @@ from scipy.spatial import cKDTree
 
 from core import layer_compiled
 from core.bspline import ClosedBSpline
-from core.layer_compiled import _LEGENDRE, _LEGENDRE_VALUES, FORWARD_ELLIPSE, PLAIN_ELLIPSE
+from core.layer_compiled import _LEGENDRE, _LEGENDRE_VALUES, BACKWARD_DIGITS, FORWARD_ELLIPSE, PLAIN_ELLIPSE
 from core.panels import _NODES, _WEIGHTS, ORDER, Panels, interpolation_matrix, sharp_corners
 from core.panels import _panels as panels_of_bounds
 
@@ -94,13 +94,13 @@ def near_pairs(
     """
     close_range = np.maximum(safe * panels.lengths, DIRECT * diameter)
     reach = panels.radii + close_range
-    compiled = layer_compiled.close_pairs
-    if panels.count * targets.size <= DIRECT_PAIRS and layer_compiled.worth_trying(compiled):
-        arguments = (np.ascontiguousarray(targets, dtype=np.complex128), panels.z, panels.centres, reach)
-        arguments = (*arguments, close_range**2)
-        if layer_compiled.loaded(compiled, *arguments):
-            return compiled(*arguments)
     if panels.count * targets.size <= DIRECT_PAIRS:  # every pair's centre distance at once
+        compiled = layer_compiled.close_pairs
+        if layer_compiled.worth_trying(compiled):
+            z = np.ascontiguousarray(targets, dtype=np.complex128)
+            arguments = (z, panels.z, panels.centres, reach, close_range**2)
+            if layer_compiled.loaded(compiled, *arguments):
+                return compiled(*arguments)
         gap = targets[None, :] - panels.centres[:, None]
         panel, target = np.nonzero(gap.real * gap.real + gap.imag * gap.imag <= (reach * reach)[:, None])
     else:  # a search tree over the targets
@@ -314,7 +314,7 @@ def _legendre_moments(r: np.ndarray) -> np.ndarray:
     backward = np.flatnonzero(rest)[~forward]
     if backward.size:
         x = r[backward]
-        top = ORDER + int(np.ceil(18.0 / (2.0 * np.log10(rho[backward].min()))))
+        top = ORDER + int(np.ceil(BACKWARD_DIGITS / (2.0 * np.log10(rho[backward].min()))))
         after, current = np.zeros(x.size, dtype=np.complex128), np.full(x.size, 1e-100 + 0j)
         found = np.empty((x.size, ORDER), dtype=np.complex128)
         for k in range(top, 0, -1):

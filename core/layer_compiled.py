@@ -157,6 +157,9 @@ _FORWARD = np.array([[(2 * k + 1) / (k + 1), k / (k + 1)] for k in range(ORDER)]
 #: approximation of 1 / (s - r)), 1e-16 at 10.
 FORWARD_ELLIPSE = 1.5
 PLAIN_ELLIPSE = 10.0
+#: Miller's backward recurrence starts this many decimal digits of decay (ρ^-2k) above the last
+#: moment wanted.
+BACKWARD_DIGITS = 18.0
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
@@ -193,7 +196,7 @@ def _legendre_moments(r, rho, out):
         for k in range(1, ORDER - 1):
             out[k + 1] = _FORWARD[k, 0] * (r * out[k]) - _FORWARD[k, 1] * out[k - 1]
         return
-    top = ORDER + int(math.ceil(9.0 / math.log10(rho)))
+    top = ORDER + int(math.ceil(BACKWARD_DIGITS / (2.0 * math.log10(rho))))
     after, current = 0j, 1e-100 + 0j  # I_{k+1}, I_k up to a common factor
     for k in range(top, 0, -1):
         inverse = 1.0 / k

@@ -410,17 +410,8 @@ def gaps(panels: Panels, corners: np.ndarray) -> np.ndarray:
 
     compiled = layer_compiled.panel_gaps
     if layer_compiled.worth_trying(compiled):
-        arguments = (
-            panels.z,
-            panels.centres,
-            panels.radii,
-            panels.lengths,
-            middle,
-            float(total),
-            corner_at,
-            reach,
-        )
-        arguments = (*arguments, float(TURN))
+        circles = (panels.z, panels.centres, panels.radii, panels.lengths)
+        arguments = (*circles, middle, float(total), corner_at, reach, float(TURN))
         if layer_compiled.loaded(compiled, *arguments):
             return compiled(*arguments)
     nodes = panels.z.reshape(count, ORDER)
