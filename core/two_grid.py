@@ -25,9 +25,11 @@ LU of A, which the iteration leaves as it was.
 
 from __future__ import annotations
 
+import numba
 import numpy as np
 from scipy.linalg import lu_factor, lu_solve
 
+from core import layer_compiled
 from core.panels import _NODES, _WEIGHTS, ORDER
 from core.workspace import scratch
 
@@ -55,7 +57,7 @@ def _grids() -> tuple[np.ndarray, np.ndarray]:
     fine = np.polynomial.legendre.legvander(_NODES, COARSE_ORDER - 1)
     prolong = np.linalg.solve(coarse.T, fine.T).T  # fine values of the coarse interpolant
     restrict = prolong.T * _WEIGHTS[None, :] / weights[:, None]
-    return prolong, restrict
+    return np.ascontiguousarray(prolong), np.ascontiguousarray(restrict)
 
 
 _PROLONG, _RESTRICT = _grids()
@@ -68,20 +70,9 @@ def solve(matrix: np.ndarray, rhs: np.ndarray) -> np.ndarray:
     size, columns = rhs.shape
     panels = size // ORDER
     coarse_size = panels * COARSE_ORDER
-    coarse = scratch("coarse matrix", (coarse_size, coarse_size))
-    # Ρ A Π, a few row panels at a time: Ρ on their rows, then Π on every panel of those (one
-    # product each, written into A_c's rows).  One product over all rows made A Π, K^2 / 2
-    # numbers of fresh memory, whose page faults took a third of the bench blob's solve.
-    rows = max(1, ROWS // size)
-    for first in range(0, panels, rows):
-        last = min(panels, first + rows)
-        restricted = np.matmul(_RESTRICT, matrix[first * ORDER : last * ORDER].reshape(-1, ORDER, size))
-        np.matmul(
-            restricted.reshape(-1, ORDER),
-            _PROLONG,
-            out=coarse[first * COARSE_ORDER : last * COARSE_ORDER].reshape(-1, COARSE_ORDER),
-        )
+    coarse = _galerkin(matrix, scratch("coarse matrix", (coarse_size, coarse_size)))
     factors = lu_factor(coarse.T, overwrite_a=True, check_finite=False)  # Fortran order: no copy
+    product = scratch("two-grid product", (size, columns))  # A x of each step
 
     def precondition(residual: np.ndarray) -> np.ndarray:
         by_panel = residual.reshape(panels, ORDER, columns)
@@ -95,7 +86,7 @@ def solve(matrix: np.ndarray, rhs: np.ndarray) -> np.ndarray:
     budget = max(2, size // (3 * columns))
     last = np.inf
     for taken in range(1, budget + 1):
-        step = precondition(rhs - matrix @ x)
+        step = precondition(rhs - _product(matrix, x, product))
         x += step
         scale, length = np.abs(x).max(), np.abs(step).max()
         if not np.isfinite(length):
@@ -114,6 +105,43 @@ def solve(matrix: np.ndarray, rhs: np.ndarray) -> np.ndarray:
             break
         last = length
     return solve_in_place(matrix, rhs)
+
+
+def _galerkin(matrix: np.ndarray, coarse: np.ndarray) -> np.ndarray:
+    """Ρ A Π (the module docstring) into `coarse` (P COARSE_ORDER, P COARSE_ORDER) for A = `matrix`
+    (P ORDER, P ORDER), C-ordered: compiled on every thread (`core.layer_compiled.galerkin_matrix`)
+    where at hand, else numpy."""
+    compiled = layer_compiled.galerkin_matrix
+    if layer_compiled.worth_trying(compiled):
+        arguments = (matrix, _RESTRICT, _PROLONG, coarse)
+        if layer_compiled.loaded(compiled, *arguments):
+            return compiled(*arguments)
+    size = matrix.shape[0]
+    panels = size // ORDER
+    # A few row panels at a time: Ρ on their rows, then Π on every panel of those (one product
+    # each, written into A_c's rows).  One product over all rows made A Π, K^2 / 2 numbers of
+    # fresh memory, whose page faults took a third of the bench blob's solve.
+    rows = max(1, ROWS // size)
+    for first in range(0, panels, rows):
+        last = min(panels, first + rows)
+        restricted = np.matmul(_RESTRICT, matrix[first * ORDER : last * ORDER].reshape(-1, ORDER, size))
+        np.matmul(
+            restricted.reshape(-1, ORDER),
+            _PROLONG,
+            out=coarse[first * COARSE_ORDER : last * COARSE_ORDER].reshape(-1, COARSE_ORDER),
+        )
+    return coarse
+
+
+def _product(matrix: np.ndarray, x: np.ndarray, out: np.ndarray) -> np.ndarray:
+    """matrix @ x into `out` (K, m): compiled on every thread (`core.layer_compiled.rows_product`)
+    where at hand, else one BLAS call."""
+    compiled = layer_compiled.rows_product
+    if layer_compiled.worth_trying(compiled):
+        arguments = (matrix, x, numba.get_num_threads(), out)
+        if layer_compiled.loaded(compiled, *arguments):
+            return compiled(*arguments)
+    return np.matmul(matrix, x, out=out)
 
 
 def _steps_left(length: float, rate: float, scale: float) -> float:

@@ -7,7 +7,7 @@ import pytest
 from test_poisson import SHAPES, random_polygon_cage
 
 import core
-from core import examples, poisson, two_grid
+from core import examples, layer_compiled, poisson, two_grid
 
 
 def coarse_system(curve: core.ClosedBSpline) -> tuple[np.ndarray, np.ndarray]:
@@ -79,3 +79,26 @@ def test_exact_on_smooth_densities_in_one_application():
     rhs = rng.normal(size=(panels * 16, 2))
     np.testing.assert_allclose(two_grid.solve(matrix, rhs), np.linalg.solve(matrix, rhs), rtol=0, atol=1e-13)
     np.testing.assert_array_equal(two_grid.solve(matrix, np.zeros_like(rhs)), 0.0)
+
+
+def test_the_compiled_products_equal_numpys(monkeypatch):
+    # The Galerkin matrix and the residual products on every numba thread, and the numpy ones
+    # (measured: the blob's solutions bit-identical).
+    matrix, rhs = coarse_system(CAGES["blob"]())
+    coarse_size = matrix.shape[0] // 16 * two_grid.COARSE_ORDER
+    results = {}
+    for mode in ("numpy", "compiled"):
+        monkeypatch.setattr(layer_compiled, "mode", mode)
+        galerkin = two_grid._galerkin(matrix, np.full((coarse_size, coarse_size), np.nan))
+        product = two_grid._product(matrix, rhs, np.full_like(rhs, np.nan))
+        results[mode] = galerkin, product, two_grid.solve(matrix, rhs)
+    for numpy_result, compiled_result in zip(results["numpy"], results["compiled"], strict=True):
+        assert np.abs(compiled_result - numpy_result).max() <= 1e-14 * np.abs(numpy_result).max()
+
+
+@pytest.mark.parametrize("runs", [1, 2, 3, 7, 10])
+def test_the_rows_product_covers_every_row_in_any_number_of_runs(runs):
+    rng = np.random.default_rng(5)
+    matrix, x = rng.normal(size=(7, 5)), rng.normal(size=(5, 3))
+    out = layer_compiled.rows_product(matrix, x, runs, np.full((7, 3), np.nan))
+    np.testing.assert_allclose(out, matrix @ x, rtol=1e-15, atol=1e-15)
