@@ -192,6 +192,7 @@ class ClosedBSpline:
         moved._points.setflags(write=False)
         moved.area = self.area
         moved.diameter = self.diameter
+        moved._doubled = _read_only(np.flatnonzero(repeated))
         return moved
 
     def piecewise_polynomial(self) -> PiecewisePolynomial:
@@ -202,6 +203,16 @@ class ClosedBSpline:
         if pieces is None:
             pieces = self._pieces = self._piecewise_polynomial()
         return pieces
+
+    def doubled_knots(self) -> np.ndarray:
+        """The knots t = j that are sharp corners, paper P_j = P_{j+1} (array rows j - 1 and j), int
+        (K,), read-only; computed once (a density solve asks eight times)."""
+        doubled = self.__dict__.get("_doubled")
+        if doubled is None:
+            points = self._points
+            previous = np.concatenate([points[-1:], points[:-1]])
+            doubled = self._doubled = _read_only(np.flatnonzero((points == previous).all(axis=1)))
+        return doubled
 
     def _piecewise_polynomial(self) -> PiecewisePolynomial:
         previous = np.roll(self._points, 1, axis=0)  # paper P_j, j = 0..n-1
@@ -273,6 +284,11 @@ class ClosedBSpline:
         on_curve = distance_to_curve(pieces, points[~inside]) <= 1e-12 * self.diameter
         inside[np.flatnonzero(~inside)[on_curve]] = True
         return inside
+
+
+def _read_only(array: np.ndarray) -> np.ndarray:
+    array.setflags(write=False)
+    return array
 
 
 def basis_weights(t: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:

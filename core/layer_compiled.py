@@ -14,6 +14,7 @@ The same arithmetic as loops: here are
   (the same `near` test at every level, so the two agree to rounding), the walk shared
   by boxes of nearby targets and their far panels' rules one BLAS product a box;
 - `layer_matrix_rows`, the Nyström matrix rows of `core.poisson.layer_matrix`;
+- `interpolation_rows`, the Lagrange basis of a panel's nodes at many parameters;
 - `panel_geometry` and `panel_gaps`, the nodes, weights and circles of a set of panels and
   their distances across the domain (`core.panels`), and `close_pairs`, the target-panel pairs
   that need the near-field rule (`core.layer.near_pairs`);
@@ -291,6 +292,30 @@ def _near_weights(coefficients, a, b, z, power, touch, weights, moments):
             imaginary += _LEGENDRE[j, k] * totals[k].imag
         weights[j] += complex(real, imaginary)
     return False
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def interpolation_rows(u, barycentric):
+    """`core.panels.interpolation_matrix` for local parameters u (M,): the Lagrange basis of the
+    panel nodes at each, (M, ORDER), by the second barycentric formula with the nodes' weights
+    `barycentric` (ORDER,); a row at a node is that node's unit row."""
+    out = np.empty((u.shape[0], ORDER))
+    for i in range(u.shape[0]):
+        node, total = -1, 0.0
+        for j in range(ORDER):
+            difference = u[i] - _NODES[j]
+            if difference == 0.0:
+                node = j
+                break
+            out[i, j] = barycentric[j] / difference
+            total += out[i, j]
+        if node >= 0:
+            out[i] = 0.0
+            out[i, node] = 1.0
+        else:
+            for j in range(ORDER):
+                out[i, j] /= total
+    return out
 
 
 @njit(cache=True, nogil=True, error_model="numpy")

@@ -84,6 +84,8 @@ SMOOTH_COARSE_PER_SPAN = 2
 BALANCE = 2.0
 #: Pairs of panels `gaps` looks at a block (their node distances: 4 KiB a pair).
 GAP_PAIRS = 4096
+#: `interpolation_matrix` takes its compiled loop from this many parameters (fewer: numpy is as quick).
+COMPILED_ROWS = 64
 #: At most this many rounds of splitting for thin parts (and as many for balance and turns).
 THIN_ROUNDS = 12
 
@@ -104,9 +106,19 @@ def interpolation_matrix(u: np.ndarray) -> np.ndarray:
     """Lagrange basis of the panel nodes at local parameters u in [-1, 1], shape (..., ORDER).
 
     ``interpolation_matrix(u) @ values`` interpolates values given at the nodes
-    (the second barycentric formula; exact at the nodes).
+    (the second barycentric formula; exact at the nodes).  Compiled for many parameters
+    (`core.layer_compiled.interpolation_rows`: the density solve's 1,840 fine nodes of the bench
+    blob, 144 -> ~20 µs) where its machine code is at hand, else numpy.
     """
     u = np.asarray(u, dtype=np.float64)
+    if u.ndim == 1 and u.size >= COMPILED_ROWS:
+        from core import layer_compiled  # here: it imports this module
+
+        compiled = layer_compiled.interpolation_rows
+        if layer_compiled.worth_trying(compiled):
+            arguments = (np.ascontiguousarray(u), _BARYCENTRIC)
+            if layer_compiled.loaded(compiled, *arguments):
+                return compiled(*arguments)
     difference = u[..., None] - _NODES
     exact = difference == 0.0
     difference[exact] = 1.0
@@ -255,9 +267,9 @@ def coarse_per_span(curve: ClosedBSpline) -> int:
 
 
 def sharp_corners(curve: ClosedBSpline) -> np.ndarray:
-    """The knots t = j that are sharp corners, int (K,): paper P_j = P_{j+1} (array rows j-1, j)."""
-    points = curve.control_points
-    return np.flatnonzero(np.all(points == np.roll(points, 1, axis=0), axis=1))
+    """The knots t = j that are sharp corners, int (K,), read-only: paper P_j = P_{j+1} (array rows
+    j-1, j); `ClosedBSpline.doubled_knots`."""
+    return curve.doubled_knots()
 
 
 def knot_levels(curve: ClosedBSpline) -> np.ndarray:

@@ -607,7 +607,7 @@ def load_compiled() -> bool:
     """Read the compiled boundary integrals (`core.layer_compiled`) from numba's cache now, for a
     program about to evaluate many points (~0.2 s once; never compiles).
 
-    Returns whether all ten are in memory afterwards: False where numba's cache lacks them
+    Returns whether all eleven are in memory afterwards: False where numba's cache lacks them
     (another CPU model or numba version than the install's, `TRANSFINITE_PRECOMPILE=0`),
     and the numpy path runs instead.
     """
@@ -620,7 +620,7 @@ def load_compiled() -> bool:
         layer_compiled.adaptive_pairs, layer_compiled.layer_rows, layer_compiled.layer_matrix_rows,
         layer_compiled.knot_blocks, layer_compiled.coarse_system, layer_compiled.panel_geometry,
         layer_compiled.panel_gaps, layer_compiled.close_pairs, layer_compiled.galerkin_matrix,
-        layer_compiled.rows_product,
+        layer_compiled.rows_product, layer_compiled.interpolation_rows,
     )  # fmt: skip
     return all(dispatcher.overloads for dispatcher in compiled)
 

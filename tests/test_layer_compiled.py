@@ -376,6 +376,26 @@ def test_the_compiled_panel_geometry_equals_the_numpy_one(name, monkeypatch):
         np.testing.assert_allclose(b, a, rtol=0, atol=1e-15 * size, err_msg=field)
 
 
+def test_the_compiled_interpolation_rows_equal_the_numpy_ones(monkeypatch):
+    # Random parameters, the nodes themselves (unit rows) and the ends of the panel.
+    from core import panels as panel_module
+
+    nodes = panel_module._NODES
+    u = np.concatenate([np.random.default_rng(6).uniform(-1.0, 1.0, 500), nodes, [-1.0, 1.0, 1e-300]])
+    assert u.size >= panel_module.COMPILED_ROWS
+
+    def rows():
+        return panel_module.interpolation_matrix(u)
+
+    numpy_rows, compiled_rows = both_paths(monkeypatch, rows)
+    np.testing.assert_allclose(compiled_rows, numpy_rows, rtol=0, atol=2e-15 * np.abs(numpy_rows).max())
+    np.testing.assert_array_equal(compiled_rows[500 : 500 + nodes.size], np.eye(nodes.size))
+    np.testing.assert_allclose(compiled_rows.sum(axis=1), 1.0, rtol=0, atol=1e-15)
+    # Values at the nodes come back: a polynomial of degree < ORDER is interpolated exactly.
+    values = nodes**15 - 3.0 * nodes**4
+    np.testing.assert_allclose(compiled_rows @ values, u**15 - 3.0 * u**4, rtol=0, atol=1e-13)
+
+
 @pytest.mark.parametrize("name", ["C-shape", "hook", "F polygon"])
 def test_the_compiled_gaps_equal_the_numpy_ones(name, monkeypatch):
     # The distances across thin parts and past corners that split the coarse panels: the same but

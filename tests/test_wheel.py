@@ -123,9 +123,10 @@ def test_the_installed_wheel_runs_its_commands_from_anywhere(venv, elsewhere):
         "from core.panels import curve_panels; poisson.exercise_near_field(square, curve_panels(square)); "
         "print(*(len(f.overloads) for f in "
         "(c.adaptive_pairs, c.layer_rows, c.layer_matrix_rows, c.knot_blocks, c.coarse_system, "
-        "c.panel_geometry, c.panel_gaps, c.close_pairs, c.galerkin_matrix, c.rows_product)))",
+        "c.panel_geometry, c.panel_gaps, c.close_pairs, c.galerkin_matrix, c.rows_product, "
+        "c.interpolation_rows)))",
     )  # fmt: skip
-    assert compiled_layer.stdout.split() == ["1"] * 10, f"not loaded:\n{compiled_layer.stderr}"
+    assert compiled_layer.stdout.split() == ["1"] * 11, f"not loaded:\n{compiled_layer.stderr}"
 
     cv2.imwrite(str(folder / "blob.png"), picture())
     command("transfinite-warp", "fit", "blob.png", "--output", "cage.json", "--points", "10")
