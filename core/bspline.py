@@ -231,8 +231,7 @@ class ClosedBSpline:
         Returns ndarray of shape (C, 5): parameter t_c and the unit directions in
         which the curve arrives (2 values) and leaves (2 values).
         """
-        following = np.roll(self._points, -1, axis=0)
-        doubled = np.flatnonzero(np.all(self._points == following, axis=1))
+        doubled = np.sort((self.doubled_knots() - 1) % self.n)  # array rows i = i + 1
         rows = []
         for i in doubled:
             before = self._points[(i - 1) % self.n]

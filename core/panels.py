@@ -276,7 +276,7 @@ def knot_levels(curve: ClosedBSpline) -> np.ndarray:
     """Grading levels towards each knot t = j (the finest panel 2^(1-levels) of its coarse panel),
     int ndarray of shape (n,)."""
     coefficients = curve.piecewise_polynomial().coefficients  # span j: c0 + c1 u + c2 u^2
-    before = np.roll(coefficients, 1, axis=0)
+    before = _previous(coefficients)
 
     def curvature(first, second):
         cross = first[:, 0] * second[:, 1] - first[:, 1] * second[:, 0]
@@ -286,7 +286,7 @@ def knot_levels(curve: ClosedBSpline) -> np.ndarray:
     leaving = curvature(coefficients[:, 1], 2.0 * coefficients[:, 2])
     arriving = curvature(before[:, 1] + 2.0 * before[:, 2], 2.0 * before[:, 2])
     spans = np.linalg.norm(coefficients[:, 1] + coefficients[:, 2], axis=1)  # chord of each span
-    jump = np.abs(leaving - arriving) * np.minimum(spans, np.roll(spans, 1))
+    jump = np.abs(leaving - arriving) * np.minimum(spans, _previous(spans))
     with np.errstate(divide="ignore"):
         levels = np.ceil(np.log(jump / KNOT_JUMP) / np.log(8.0))
     levels = np.clip(np.nan_to_num(levels, neginf=0.0), MIN_KNOT_LEVELS, MAX_KNOT_LEVELS).astype(np.int64)
@@ -386,13 +386,22 @@ def _unbalanced(panels: Panels) -> np.ndarray:
     one at a knot puts the short side's neighbours too close for that.
     """
     lengths = panels.lengths
-    before = np.roll(lengths, 1)
     at_knot = np.abs(panels.bounds[:, 0] - np.round(panels.bounds[:, 0])) < 1e-12
     split = np.zeros(panels.count, dtype=bool)
-    split[at_knot] = lengths[at_knot] > BALANCE * before[at_knot]
-    previous = np.roll(at_knot, -1)  # the panel ending at that knot
-    split[previous] |= lengths[previous] > BALANCE * np.roll(lengths, -1)[previous]
+    split[at_knot] = lengths[at_knot] > BALANCE * _previous(lengths)[at_knot]
+    previous = _following(at_knot)  # the panel ending at that knot
+    split[previous] |= lengths[previous] > BALANCE * _following(lengths)[previous]
     return split
+
+
+def _previous(values: np.ndarray) -> np.ndarray:
+    """values[i - 1] at i, cyclically (np.roll(values, 1, axis=0), at a fifth of its ~6 µs)."""
+    return np.concatenate([values[-1:], values[:-1]])
+
+
+def _following(values: np.ndarray) -> np.ndarray:
+    """values[i + 1] at i, cyclically (np.roll(values, -1, axis=0))."""
+    return np.concatenate([values[1:], values[:1]])
 
 
 def gaps(panels: Panels, corners: np.ndarray) -> np.ndarray:
