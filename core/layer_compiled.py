@@ -792,10 +792,11 @@ def _bounding_circle(targets, members):
         low_x, high_x = min(low_x, z.real), max(high_x, z.real)
         low_y, high_y = min(low_y, z.imag), max(high_y, z.imag)
     centre = complex(0.5 * (low_x + high_x), 0.5 * (low_y + high_y))
-    radius = 0.0
+    square = 0.0  # the largest squared distance: one square root, not a hypot a target
     for k in range(members.shape[0]):
-        radius = max(radius, abs(targets[members[k]] - centre))
-    return centre, radius
+        d = targets[members[k]] - centre
+        square = max(square, d.real * d.real + d.imag * d.imag)
+    return centre, math.sqrt(square)
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
