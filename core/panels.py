@@ -18,6 +18,7 @@ the near-field rule of `core.layer` integrate it on sub-panels.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -199,7 +200,9 @@ def coarse_panels_and_gaps(curve: ClosedBSpline) -> tuple[Panels, np.ndarray]:
         panels = _panels(curve, bounds)
         # The rules that look at a panel and its neighbours first; the gaps (a search of the
         # whole curve, most of this function's time) once those hold.
-        split = _unbalanced(panels) | _curved(panels) | _wedged(panels, wedge_widths)
+        split = _unbalanced(panels) | _curved(panels)
+        if wedges.size:
+            split |= _wedged(panels, wedge_widths)
         if not split.any():
             gap = np.minimum(gaps(panels, corners), knots_across_wedges(curve, panels, wedges))
             split = panels.lengths > THIN_RATIO * gap
@@ -226,7 +229,7 @@ def graded_panels(curve: ClosedBSpline, coarse: Panels) -> tuple[Panels, np.ndar
     # The coarse panels at a knot already are the first (panels a span) / 2 - 1 levels.
     levels = knot_levels(curve) - int(np.log2(coarse_per_span(curve) // 2))
     corners = set(sharp_corners(curve).tolist())
-    cuts = [_graded_cuts(levels[j], j in corners).tolist() for j in range(curve.n)]  # by knot
+    cuts = [_graded_cuts(int(levels[j]), j in corners) for j in range(curve.n)]  # by knot
     fine, parent = [], []
     knot = np.full(coarse.count, -1, dtype=np.int64)
     for c, (a, b) in enumerate(coarse.bounds.tolist()):
@@ -246,14 +249,15 @@ def graded_panels(curve: ClosedBSpline, coarse: Panels) -> tuple[Panels, np.ndar
     return _panels(curve, bounds), parent, knot
 
 
-def _graded_cuts(levels: int, corner: bool) -> np.ndarray:
-    """Cuts of a coarse panel [0, 1] graded towards 0 with `levels` levels, float (K,): the
+@functools.cache
+def _graded_cuts(levels: int, corner: bool) -> tuple[float, ...]:
+    """Cuts of a coarse panel [0, 1] graded towards 0 with `levels` levels, K floats: the
     smallest piece 2^(1-levels) long, the cuts at its length times 2^k at a corner,
-    `KNOT_GROWTH`^k at a knot."""
+    `KNOT_GROWTH`^k at a knot (kept: a solve asks for each knot's)."""
     smallest = 0.5 ** (levels - 1)
     growth = 2.0 if corner else KNOT_GROWTH
     pieces = int(np.ceil(np.log(1.0 / smallest) / np.log(growth) - 1e-9))
-    return smallest * growth ** np.arange(pieces)
+    return tuple((smallest * growth ** np.arange(pieces)).tolist())
 
 
 def coarse_per_span(curve: ClosedBSpline) -> int:
