@@ -128,8 +128,8 @@ class ClosedBSpline:
         t = np.mod(as_parameters(t), self.n)
         index, weights = basis_weights(t, self.n)
         matrix = np.zeros((t.shape[0], self.n))
-        rows = np.repeat(np.arange(t.shape[0]), 3)
-        np.add.at(matrix, (rows, index.ravel()), weights.ravel())
+        # A row's three indices differ (n >= 3): set, not np.add.at (~10x slower).
+        matrix[np.arange(t.shape[0])[:, None], index] = weights
         return matrix
 
     def sample(self, samples_per_segment: int = 100, parameterization: str = "natural") -> Boundary:
