@@ -96,7 +96,7 @@ def loaded(dispatcher, *args) -> bool:
     if mode != "auto":
         return mode == "compiled"
     key = _argument_key(args)
-    if key is not None and (dispatcher, key) in _present:
+    if key is not None and (dispatcher, key) in _present and dispatcher.overloads:
         return True
     signature = _signatures.get((dispatcher, key)) if key is not None else None
     if signature is None:
@@ -126,8 +126,9 @@ def loaded(dispatcher, *args) -> bool:
 #: numba's signature of the arguments, by (dispatcher, `_argument_key`): typing them costs ~40 µs
 #: a call, and a density solve asks ~50 times.
 _signatures = {}
-#: The (dispatcher, `_argument_key`) pairs found with machine code (a dispatcher never loses one):
-#: asking its overloads hashes numba's types, ~20 µs a call (0.3 ms of the bench blob's solve).
+#: The (dispatcher, `_argument_key`) pairs found with machine code (trusted while the dispatcher
+#: has any): asking its overloads hashes numba's types, ~20 µs a call (0.3 ms of the bench blob's
+#: solve).
 _present = set()
 
 
