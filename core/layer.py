@@ -95,12 +95,18 @@ def near_pairs(
     close_range = np.maximum(safe * panels.lengths, DIRECT * diameter)
     reach = panels.radii + close_range
     if panels.count * targets.size <= DIRECT_PAIRS:  # every pair's centre distance at once
-        compiled = layer_compiled.close_pairs
-        if layer_compiled.worth_trying(compiled):
-            z = np.ascontiguousarray(targets, dtype=np.complex128)
-            arguments = (z, panels.z, panels.centres, reach, close_range**2)
-            if layer_compiled.loaded(compiled, *arguments):
-                return compiled(*arguments)
+        found = layer_compiled.run_compiled(
+            layer_compiled.close_pairs,
+            lambda: (
+                np.ascontiguousarray(targets, dtype=np.complex128),
+                panels.z,
+                panels.centres,
+                reach,
+                close_range**2,
+            ),
+        )
+        if found is not None:
+            return found
         gap = targets[None, :] - panels.centres[:, None]
         panel, target = np.nonzero(gap.real * gap.real + gap.imag * gap.imag <= (reach * reach)[:, None])
     else:  # a search tree over the targets
@@ -239,18 +245,19 @@ def adaptive_weights(
     """
     touch = on_curve * curve.diameter
     pieces = np.ascontiguousarray(curve.piecewise_polynomial().coefficients, dtype=np.float64)
-    compiled = layer_compiled.adaptive_pairs
-    if layer_compiled.worth_trying(compiled):
-        arguments = (
+    found = layer_compiled.run_compiled(
+        layer_compiled.adaptive_pairs,
+        lambda: (
             pieces,
             np.ascontiguousarray(panels.bounds, dtype=np.float64),
             np.ascontiguousarray(targets, dtype=np.complex128),
             np.ascontiguousarray(panel, dtype=np.int64),
             int(power),
             float(touch),
-        )
-        if layer_compiled.loaded(compiled, *arguments):
-            return compiled(*arguments)
+        ),
+    )
+    if found is not None:
+        return found
     # `core.layer_compiled._near_weights`, pair by pair there, for all pairs at once here.
     bounds = panels.bounds[panel]
     span = np.floor(bounds[:, 0] + 1e-12)
@@ -519,15 +526,15 @@ def _compiled_rows(
     out: np.ndarray | None = None,
 ):
     """`core.layer_compiled.layer_rows` at targets z (M,) where its machine code is at hand
-    (`core.layer_compiled.worth_trying`, `loaded`): (real (in `out` if given), imaginary,
-    on-curve), else None."""
-    compiled = layer_compiled.layer_rows
-    if not layer_compiled.worth_trying(compiled, z.size):
-        return None
-    tree = _panel_tree(curve, levels)
-    out = np.empty((z.size, tree.density.shape[1])) if out is None else out
-    arguments = (z, tree, power, imaginary, out)
-    return compiled(*arguments) if layer_compiled.loaded(compiled, *arguments) else None
+    (`core.layer_compiled.run_compiled`): (real (in `out` if given), imaginary, on-curve), else
+    None."""
+
+    def arguments():
+        tree = _panel_tree(curve, levels)
+        rows = np.empty((z.size, tree.density.shape[1])) if out is None else out
+        return z, tree, power, imaginary, rows
+
+    return layer_compiled.run_compiled(layer_compiled.layer_rows, arguments, z.size)
 
 
 def _panel_tree(curve: ClosedBSpline, levels: Levels) -> layer_compiled.PanelTree:

@@ -109,17 +109,17 @@ def interpolation_matrix(u: np.ndarray) -> np.ndarray:
     ``interpolation_matrix(u) @ values`` interpolates values given at the nodes
     (the second barycentric formula; exact at the nodes).  Compiled for many parameters
     (`core.layer_compiled.interpolation_rows`: the density solve's 1,840 fine nodes of the bench
-    blob, 144 -> ~20 µs) where its machine code is at hand, else numpy.
+    blob, 149 -> 43 µs) where its machine code is at hand, else numpy.
     """
     u = np.asarray(u, dtype=np.float64)
     if u.ndim == 1 and u.size >= COMPILED_ROWS:
         from core import layer_compiled  # here: it imports this module
 
-        compiled = layer_compiled.interpolation_rows
-        if layer_compiled.worth_trying(compiled):
-            arguments = (np.ascontiguousarray(u), _BARYCENTRIC)
-            if layer_compiled.loaded(compiled, *arguments):
-                return compiled(*arguments)
+        rows = layer_compiled.run_compiled(
+            layer_compiled.interpolation_rows, lambda: (np.ascontiguousarray(u), _BARYCENTRIC)
+        )
+        if rows is not None:
+            return rows
     difference = u[..., None] - _NODES
     exact = difference == 0.0
     difference[exact] = 1.0
@@ -304,13 +304,13 @@ def _panels(curve: ClosedBSpline, bounds: np.ndarray) -> Panels:
     else numpy."""
     from core import layer_compiled  # here: it imports this module
 
-    compiled = layer_compiled.panel_geometry
-    if layer_compiled.worth_trying(compiled):
-        pieces = curve.piecewise_polynomial().coefficients
-        arguments = (pieces, np.ascontiguousarray(bounds, dtype=np.float64))
-        if layer_compiled.loaded(compiled, *arguments):
-            t, weights, z, dz, d2z, centres, radii, lengths = compiled(*arguments)
-            return Panels(bounds, t, z, dz, d2z, weights, centres, radii, lengths)
+    geometry = layer_compiled.run_compiled(
+        layer_compiled.panel_geometry,
+        lambda: (curve.piecewise_polynomial().coefficients, np.ascontiguousarray(bounds, dtype=np.float64)),
+    )
+    if geometry is not None:
+        t, weights, z, dz, d2z, centres, radii, lengths = geometry
+        return Panels(bounds, t, z, dz, d2z, weights, centres, radii, lengths)
     half = 0.5 * (bounds[:, 1] - bounds[:, 0])
     middle = 0.5 * (bounds[:, 1] + bounds[:, 0])
     t = (middle[:, None] + half[:, None] * _NODES).ravel()
@@ -433,12 +433,12 @@ def gaps(panels: Panels, corners: np.ndarray) -> np.ndarray:
     reach = panels.lengths / min(THIN_RATIO, REFINED_RATIO)
     from core import layer_compiled  # here: it imports this module
 
-    compiled = layer_compiled.panel_gaps
-    if layer_compiled.worth_trying(compiled):
-        circles = (panels.z, panels.centres, panels.radii, panels.lengths)
-        arguments = (*circles, middle, float(total), corner_at, reach, float(TURN))
-        if layer_compiled.loaded(compiled, *arguments):
-            return compiled(*arguments)
+    circles = (panels.z, panels.centres, panels.radii, panels.lengths)
+    found = layer_compiled.run_compiled(
+        layer_compiled.panel_gaps, lambda: (*circles, middle, float(total), corner_at, reach, float(TURN))
+    )
+    if found is not None:
+        return found
     nodes = panels.z.reshape(count, ORDER)
     nearest = np.full(count, np.inf)
     for first in range(0, count, GAP_PAIRS // max(count, 1) + 1):

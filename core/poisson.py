@@ -208,8 +208,8 @@ def _coarse_system(curve: ClosedBSpline, coarse: Panels, blocks: dict, target, p
     (`core.layer_compiled.coarse_system`, into this thread's scratch array: `core.workspace`,
     overwritten by its next solve), else numpy.
     """
-    compiled = layer_compiled.coarse_system
-    if layer_compiled.worth_trying(compiled) and blocks:
+
+    def arguments():
         width = max(columns.size for columns, _ in blocks.values())
         block_columns = np.full((len(blocks), width), -1, dtype=np.int64)
         block_reduced = np.zeros((len(blocks), width, width))
@@ -219,16 +219,17 @@ def _coarse_system(curve: ClosedBSpline, coarse: Panels, blocks: dict, target, p
             block_reduced[b, : columns.size, : columns.size] = reduced
             node_block[columns] = b
         c1, c2, scale = same_span_coefficients(curve)
-        arguments = (
+        return (
             coarse.z, layer_factors(curve, coarse), *span_parameters(curve, coarse.t), coarse.weights,
             np.ascontiguousarray(np.stack([c1.real, c1.imag, c2.real, c2.imag, scale], axis=1)),
             node_block, block_columns, block_reduced,
             np.searchsorted(target, np.arange(coarse.size + 1)).astype(np.int64), np.ascontiguousarray(panel),
             scratch("coarse system", (coarse.size, coarse.size)),
         )  # fmt: skip
-        if layer_compiled.loaded(compiled, *arguments):
-            compiled(*arguments)
-            return arguments[-1]
+
+    system = layer_compiled.run_compiled(layer_compiled.coarse_system, arguments) if blocks else None
+    if system is not None:
+        return system
     system = layer_matrix(curve, coarse, coarse.z, coarse.t)
     system *= 2.0  # in place: a second dense matrix is fresh memory a solve (1.9 ms at 560 unknowns)
     for columns, _ in blocks.values():  # K*: within a knot's pair of panels, in R
@@ -320,24 +321,25 @@ def _compiled_blocks(curve, fine: Panels, panels, start, interpolation, offsets,
     panels[start[b]:start[b + 1]], P's rows given as interpolation (R, ORDER) at column offsets
     (R,), the rows' weights (R,) and each block's coarse weights (B, W)): (solution (R, W),
     reduced (B, W, W)), or None where its machine code is not at hand."""
-    compiled = layer_compiled.knot_blocks
-    if not layer_compiled.worth_trying(compiled):
-        return None
-    c1, c2, scale = same_span_coefficients(curve)
-    close_range = np.maximum(SAFE * fine.lengths, DIRECT * curve.diameter)
-    node_span, node_u = span_parameters(curve, fine.t)
-    blocks = layer_compiled.KnotBlocks(
-        node_z=fine.z, node_t=fine.t, factors=layer_factors(curve, fine), node_span=node_span, node_u=node_u,
-        weights=fine.weights, bounds=np.ascontiguousarray(fine.bounds), close_squared=close_range**2,
-        spans=np.ascontiguousarray(np.stack([c1.real, c1.imag, c2.real, c2.imag, scale], axis=1)),
-        cross=span_coefficients(curve)[2],
-        coefficients=np.ascontiguousarray(curve.piecewise_polynomial().coefficients, dtype=np.float64),
-        orientation=1.0 if curve.area > 0 else -1.0,
-    )  # fmt: skip
-    nodes = np.diff(start).astype(np.float64) * ORDER  # an LU costs nodes^3
-    sequence = layer_compiled.balanced_sequence(nodes**3)
-    arguments = (blocks, panels, start, interpolation, offsets, weights, column_weights, sequence)
-    return compiled(*arguments) if layer_compiled.loaded(compiled, *arguments) else None
+
+    def arguments():
+        c1, c2, scale = same_span_coefficients(curve)
+        close_range = np.maximum(SAFE * fine.lengths, DIRECT * curve.diameter)
+        node_span, node_u = span_parameters(curve, fine.t)
+        blocks = layer_compiled.KnotBlocks(
+            node_z=fine.z, node_t=fine.t, factors=layer_factors(curve, fine), node_span=node_span,
+            node_u=node_u, weights=fine.weights, bounds=np.ascontiguousarray(fine.bounds),
+            close_squared=close_range**2,
+            spans=np.ascontiguousarray(np.stack([c1.real, c1.imag, c2.real, c2.imag, scale], axis=1)),
+            cross=span_coefficients(curve)[2],
+            coefficients=np.ascontiguousarray(curve.piecewise_polynomial().coefficients, dtype=np.float64),
+            orientation=1.0 if curve.area > 0 else -1.0,
+        )  # fmt: skip
+        nodes = np.diff(start).astype(np.float64) * ORDER  # an LU costs nodes^3
+        sequence = layer_compiled.balanced_sequence(nodes**3)
+        return blocks, panels, start, interpolation, offsets, weights, column_weights, sequence
+
+    return layer_compiled.run_compiled(layer_compiled.knot_blocks, arguments)
 
 
 def _solved_blocks(curve, fine, rows, start, entries, values, entry_start, prolongation, restriction):
@@ -536,16 +538,18 @@ def layer_matrix(curve: ClosedBSpline, panels: Panels, z: np.ndarray, t: np.ndar
     (`_block_near_pairs`).
     """
     factors = layer_factors(curve, panels)
-    compiled = layer_compiled.layer_matrix_rows
-    if layer_compiled.worth_trying(compiled):
+
+    def arguments():
         c1, c2, scale = same_span_coefficients(curve)
         spans = np.ascontiguousarray(np.stack([c1.real, c1.imag, c2.real, c2.imag, scale], axis=1))
-        arguments = (
+        return (
             np.ascontiguousarray(z, dtype=np.complex128), *span_parameters(curve, t),
             panels.z, factors, *span_parameters(curve, panels.t), panels.weights, spans,
         )  # fmt: skip
-        if layer_compiled.loaded(compiled, *arguments):
-            return compiled(*arguments)
+
+    found = layer_compiled.run_compiled(layer_compiled.layer_matrix_rows, arguments)
+    if found is not None:
+        return found
     matrix = np.empty((z.size, panels.size))
     for first in range(0, z.size, 1024):  # real arithmetic, in blocks of rows: memory of one matrix
         dx = panels.z.real[None, :] - z[first : first + 1024, None].real

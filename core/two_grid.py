@@ -111,11 +111,11 @@ def _galerkin(matrix: np.ndarray, coarse: np.ndarray) -> np.ndarray:
     """Ρ A Π (the module docstring) into `coarse` (P COARSE_ORDER, P COARSE_ORDER) for A = `matrix`
     (P ORDER, P ORDER), C-ordered: compiled on every thread (`core.layer_compiled.galerkin_matrix`)
     where at hand, else numpy."""
-    compiled = layer_compiled.galerkin_matrix
-    if layer_compiled.worth_trying(compiled):
-        arguments = (matrix, _RESTRICT, _PROLONG, coarse)
-        if layer_compiled.loaded(compiled, *arguments):
-            return compiled(*arguments)
+    found = layer_compiled.run_compiled(
+        layer_compiled.galerkin_matrix, lambda: (matrix, _RESTRICT, _PROLONG, coarse)
+    )
+    if found is not None:
+        return found
     size = matrix.shape[0]
     panels = size // ORDER
     # A few row panels at a time: Ρ on their rows, then Π on every panel of those (one product
@@ -136,12 +136,10 @@ def _galerkin(matrix: np.ndarray, coarse: np.ndarray) -> np.ndarray:
 def _product(matrix: np.ndarray, x: np.ndarray, out: np.ndarray) -> np.ndarray:
     """matrix @ x into `out` (K, m): compiled on every thread (`core.layer_compiled.rows_product`)
     where at hand, else one BLAS call."""
-    compiled = layer_compiled.rows_product
-    if layer_compiled.worth_trying(compiled):
-        arguments = (matrix, x, numba.get_num_threads(), out)
-        if layer_compiled.loaded(compiled, *arguments):
-            return compiled(*arguments)
-    return np.matmul(matrix, x, out=out)
+    found = layer_compiled.run_compiled(
+        layer_compiled.rows_product, lambda: (matrix, x, numba.get_num_threads(), out)
+    )
+    return np.matmul(matrix, x, out=out) if found is None else found
 
 
 def _steps_left(length: float, rate: float, scale: float) -> float:

@@ -242,6 +242,24 @@ def test_the_cache_is_read_once_the_work_repays_it(monkeypatch):
     assert not layer_compiled.worth_trying(fresh)
 
 
+def test_run_compiled_builds_its_arguments_only_where_it_calls(monkeypatch):
+    # mode "numpy": None, and the arguments are never built; "compiled": the function's own result.
+    built = []
+
+    def arguments():
+        built.append(True)
+        return np.array([[1.0, 2.0]]), np.array([[3.0], [4.0]]), 1, np.empty((1, 1))
+
+    monkeypatch.setattr(layer_compiled, "mode", "numpy")
+    assert layer_compiled.run_compiled(layer_compiled.rows_product, arguments) is None
+    assert built == []
+    monkeypatch.setattr(layer_compiled, "mode", "compiled")
+    np.testing.assert_array_equal(
+        layer_compiled.run_compiled(layer_compiled.rows_product, arguments), [[11.0]]
+    )
+    assert built == [True]
+
+
 def test_a_damaged_cache_entry_falls_back_to_numpy_for_good(monkeypatch):
     # A truncated .nbc file makes numba's loader raise: the default kernel still answers, with
     # numpy, and the entry is not tried again.
