@@ -38,7 +38,7 @@ import numpy as np
 from app.files import InputError, check_name_length, check_writable, encode_png
 from app.framing import output_frame, output_region
 from app.keyframes import Keyframe, interpolate
-from core.atomic_write import temporary_path
+from core.storage.atomic_write import temporary_path
 
 #: Straight RGB that MP4 and GIF frames show where the warp is transparent.
 BACKGROUND = (255, 255, 255)
@@ -307,7 +307,7 @@ def run_animate(args) -> int:
     from app.keyframes import frame_times
     from app.render import WarpRenderer, create_headless_context, require_render_memory
     from app.warping import WarpSettings, prepare, render
-    from core.compilation import MESSAGE as COMPILING
+    from core.newton.compilation import MESSAGE as COMPILING
 
     path = Path(args.output).expanduser()
     kind = output_kind(path, args.output)

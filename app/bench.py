@@ -1,7 +1,7 @@
 """``python -m app bench``: the performance table on this machine.
 
 Every row is the median of repeated runs in this one process, next to a baseline
-measured in the same process (the plain numpy reference of `core.reference`, and
+measured in the same process (the plain numpy reference of `core.newton.reference`, and
 the finite-element harmonic solve the paper compares against), so that ratios
 stay meaningful on a shared, noisy machine.  The 1,000,000-point memory run and
 the 4K warp run as child processes, to measure their own peak memory and their
@@ -33,9 +33,9 @@ import numpy as np
 
 import core
 from app.console import EXIT_ENVIRONMENT, EXIT_OK, ProgressBar
-from core import examples
-from core.compilation import GRADIENTS_MESSAGE as GRADIENTS_COMPILING
-from core.poisson import load_compiled
+from core.boundary_integrals.poisson import load_compiled
+from core.curves import examples
+from core.newton.compilation import GRADIENTS_MESSAGE as GRADIENTS_COMPILING
 
 # The paper's Fig. 7 setting: a 12-point domain, N = 100 n samples, 26,000 points.
 SAMPLES_PER_SEGMENT = 100
@@ -226,8 +226,8 @@ def _point_kernels(curve, sizes, repeats, quick) -> None:
     count = min(sizes[0], 200 if quick else 1_000)
     x = _points(curve, count, seed=1)
     # The baseline solves only farther than a few sample spacings from the boundary.
-    from core.closest_point import distance_to_curve
-    from core.reference import reference_kernel
+    from core.curves.closest_point import distance_to_curve
+    from core.newton.reference import reference_kernel
 
     x = x[distance_to_curve(curve.piecewise_polynomial(), x) > 0.02 * curve.diameter]
     boundary = curve.sample(SAMPLES_PER_SEGMENT)
@@ -307,8 +307,8 @@ def _fem_comparison(curve, vertices, repeats: int, least_seconds: float = ROW_SE
 
 
 def _forget_densities() -> None:
-    """Empty the in-process cache of `core.poisson`'s densities, so that a timed run solves again."""
-    from core.poisson import _densities
+    """Empty the in-process cache of `poisson`'s densities, so that a timed run solves again."""
+    from core.boundary_integrals.poisson import _densities
 
     _densities.cache_clear()
 
@@ -317,7 +317,7 @@ _MEMORY_CHILD = """
 import sys, time, warnings
 import numpy as np
 import core
-from core import examples
+from core.curves import examples
 curve = core.ClosedBSpline(examples.blob() * {scale})
 core.basis_functions(curve, [[500.0, 300.0]], "harmonic-like")
 rng = np.random.default_rng(2)

@@ -66,10 +66,10 @@ from app.framing import CANVASES, OUTSIDES, output_frame, output_region
 from app.keyframes import MAX_FPS, MIN_FPS
 from app.render import ContextUnavailableError
 from app.viewer.demos import SCRIPT_FORMAT
-from core.arc_length import PARAMETERIZATIONS
-from core.compilation import GRADIENT_MESSAGE as GRADIENT_COMPILING
-from core.compilation import MESSAGE as COMPILING
+from core.curves.arc_length import PARAMETERIZATIONS
 from core.kernel_table import COMPILED_KERNELS
+from core.newton.compilation import GRADIENT_MESSAGE as GRADIENT_COMPILING
+from core.newton.compilation import MESSAGE as COMPILING
 
 DEFAULT_KERNEL = "poisson"  # core.mesh_basis.DEFAULT_KERNEL, the deformation default
 # cv2.Error.StsNoMem, without importing cv2 for the commands that never use it.
@@ -726,7 +726,7 @@ def _why_folded(target: np.ndarray, target_source: str) -> str:
 def _distortion_report(curve, mesh, kernel, target, deformed, params) -> list[str]:
     """The lines of ``warp --report``: worst det J, worst sigma1/sigma2, folded count, with where."""
     import core
-    from core.distortion import triangle_jacobians, vertex_jacobians, worst_distortion
+    from core.meshes.distortion import triangle_jacobians, vertex_jacobians, worst_distortion
 
     if kernel in core.MESH_ONLY_KERNELS or params.get("parameterization", "natural") != "natural":
         # No pointwise gradients (FEM, PGW; the arc-length parameterisation): the Jacobians of

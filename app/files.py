@@ -30,7 +30,7 @@ import numpy as np
 from app.console import captured_c_stderr
 from app.image_header import MAX_IMAGE_PIXELS, ImageHeader, image_header
 from app.keyframes import DEFAULT_INTERPOLATION, INTERPOLATIONS, Keyframe, sorted_keyframes
-from core.atomic_write import NAME_MAX, write_atomically
+from core.storage.atomic_write import NAME_MAX, write_atomically
 from core.validation import MAX_CONTROL_POINTS, as_points, too_many_control_points
 
 #: Largest image file read into memory.
@@ -83,7 +83,7 @@ def cage_curve(control_points: np.ndarray, where: str, samples_per_segment: int 
 def write_atomic(path: str | os.PathLike, data: bytes) -> None:
     """Write `data` to `path` through a temporary file in the same directory and `os.replace`.
 
-    Temporaries left by a killed process are removed first (`core.atomic_write`);
+    Temporaries left by a killed process are removed first (`core.storage.atomic_write`);
     a new file gets the mode the umask gives, a replaced one keeps its mode.
 
     Raises
@@ -421,7 +421,7 @@ def session_output(session: Session, path: str | os.PathLike = "session") -> tup
 def session_parameterization(session: Session, path: str | os.PathLike = "session") -> str:
     """The session's ``parameterization`` of the boundary for the point kernels (Fig. 12):
     ``"natural"`` (also when absent, as in older sessions) or ``"arc-length"``."""
-    from core.arc_length import DEFAULT_PARAMETERIZATION, PARAMETERIZATIONS
+    from core.curves.arc_length import DEFAULT_PARAMETERIZATION, PARAMETERIZATIONS
 
     value = session.extra.get("parameterization", DEFAULT_PARAMETERIZATION)
     if value not in PARAMETERIZATIONS:

@@ -29,7 +29,7 @@ when nothing stands out there.
 Alpha channels and plain silhouettes are exact to the pixel and get no margin.  The
 outer contour of the subject is parameterised by arc length and the n control
 points solve the linear least squares problem ``B(t) P = contour`` with the folded
-basis of `core.bspline`; then a few rounds move every parameter to its foot point
+basis of `core.curves.bspline`; then a few rounds move every parameter to its foot point
 on the current curve and minimise the distances to the tangent lines there, so
 the result fits the distance to the curve, not to fixed parameters.
 
@@ -48,7 +48,7 @@ from scipy.ndimage import gaussian_filter1d, minimum
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import dijkstra
 
-from core.bspline import ClosedBSpline, basis_weights
+from core.curves.bspline import ClosedBSpline, basis_weights
 from core.mesh_basis import DEFAULT_SAMPLES_PER_SEGMENT
 from core.validation import MAX_BOUNDARY_SAMPLES, positive_int
 

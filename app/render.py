@@ -162,7 +162,7 @@ class WarpRenderer:
         A software rasteriser's frame grows with the triangle count (llvmpipe, 1280x1024:
         ~170 ms for 800k triangles, ~30 ms for 50k), so the viewer draws a dense
         mesh's deformation through a preview mesh of ~20k vertices while a handle moves,
-        with positions the dense mesh's P1 interpolant gives there (`core.mesh_transfer`).
+        with positions the dense mesh's P1 interpolant gives there (`core.meshes.mesh_transfer`).
 
         Parameters
         ----------

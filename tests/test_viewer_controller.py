@@ -11,7 +11,7 @@ from app.view import View
 from app.viewer import controller, editing
 from app.viewer.controller import LEFT, MIDDLE, RIGHT
 from app.viewer.state import AppState, History, Snapshot
-from core import examples
+from core.curves import examples
 
 STAR = examples.starfish(points_per_arm=2) * np.array([150.0, -150.0]) + np.array([320.0, 240.0])
 

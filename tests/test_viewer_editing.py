@@ -6,7 +6,7 @@ import pytest
 import core
 from app.view import View
 from app.viewer import editing
-from core import examples
+from core.curves import examples
 
 
 @pytest.fixture

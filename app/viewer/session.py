@@ -4,7 +4,7 @@ The session file is the one of .docs/architecture.md (``image``, ``cage``, ``tar
 ``kernel``, ``view``) plus keys of its own that `python -m app warp --session`
 also reads, so that it exports exactly what the viewer showed: ``kernel_params``
 (the ``power`` kernel's ``power`` and ``shift``), ``parameterization`` (``"natural"``,
-the default of older sessions, or ``"arc-length"``: `core.arc_length`) and ``mesh``
+the default of older sessions, or ``"arc-length"``: `core.curves.arc_length`) and ``mesh``
 (``{"max_edge": h}``, the mesh the viewer used), and the animation that ``animate`` renders:
 ``keyframes`` (``[{"time": s, "target": {cage}}, ...]``) and ``interpolation``
 (`app.keyframes`).  ``viewer`` keeps what only the viewer needs
@@ -60,7 +60,7 @@ from app.viewer.state import (
     Snapshot,
 )
 from app.viewer.view_modes import CONTENTS
-from core.atomic_write import abandoned_temporaries
+from core.storage.atomic_write import abandoned_temporaries
 
 #: Undo steps (and redo steps) written into the session file.
 SAVED_STEPS = 100
@@ -204,7 +204,7 @@ def finish_interrupted_save(path: Path) -> list[str]:
     """Complete an autosave of `path` that a killed viewer wrote whole but did not rename.
 
     An autosave writes a temporary file, flushes it and renames it over `path`
-    (`core.atomic_write`); ``kill -9`` between the write and the rename left the
+    (`core.storage.atomic_write`); ``kill -9`` between the write and the rename left the
     newest state in the temporary, which the next write would delete.  The newest
     such temporary that is a readable session and newer than `path` becomes `path`
     (the old `path` becomes backup 1); a partly written one is left to be removed.

@@ -26,7 +26,7 @@ DEFAULT_POWER = 4.0
 DEFAULT_SHIFT = "mean"
 SHIFTS = ("none", "integral", "mean")
 
-#: The boundary's parameter of the point kernels (`core.arc_length`, the paper's Fig. 12).
+#: The boundary's parameter of the point kernels (`core.curves.arc_length`, the paper's Fig. 12).
 PARAMETERIZATIONS = ("natural", "arc-length")
 
 #: What the canvas shows.
@@ -343,7 +343,7 @@ class PreviewMesh:
         Undeformed, image pixels.
     triangles : ndarray of shape (T', 3)
     basis : ndarray of shape (V', n), float64
-        ``core.mesh_transfer.transfer_basis`` of the dense mesh's G: the preview's
+        ``core.meshes.mesh_transfer.transfer_basis`` of the dense mesh's G: the preview's
         deformed vertices are ``basis @ target``.
     """
 

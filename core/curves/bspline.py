@@ -19,9 +19,9 @@ import math
 
 import numpy as np
 
-from core.arc_length import arc_length_boundary, checked_parameterization
-from core.boundary import Boundary, PiecewisePolynomial
-from core.diameter import point_set_diameter
+from core.curves.arc_length import arc_length_boundary, checked_parameterization
+from core.curves.boundary import Boundary, PiecewisePolynomial
+from core.curves.diameter import point_set_diameter
 from core.validation import as_parameters, as_points, checked_samples_per_segment
 
 
@@ -140,7 +140,7 @@ class ClosedBSpline:
         the second derivative is the mean of its one-sided values.  With
         ``parameterization="arc-length"`` the N samples are uniform in the (normalised) arc
         length s instead, s_k = k n / N, and the boundary is the curve q(s) of
-        `core.arc_length` (Fig. 12c).
+        `core.curves.arc_length` (Fig. 12c).
         """
         per = checked_samples_per_segment(samples_per_segment, self.n)
         count = per * self.n
@@ -274,7 +274,7 @@ class ClosedBSpline:
 
         Points on the curve count as inside (the domain is closed).
         """
-        from core.closest_point import distance_to_curve, winding_numbers
+        from core.curves.closest_point import distance_to_curve, winding_numbers
 
         points = as_points(x, "x")
         pieces = self.piecewise_polynomial()
@@ -359,7 +359,7 @@ def _diameter(points: np.ndarray) -> float:
     """Largest distance between two points of the curve (it lies in the control hull).
 
     Uses dense samples; exact to a relative 1e-4, which is all tolerances need.
-    O(n log n) time and O(n) memory (`core.diameter`).
+    O(n log n) time and O(n) memory (`core.curves.diameter`).
     """
     return point_set_diameter(_dense(points, 32))
 

@@ -1,4 +1,4 @@
-"""The per-user secret that keys the checksums of the disk cache (`core.cache`).
+"""The per-user secret that keys the checksums of the disk cache (`core.storage.cache`).
 
 A checksum anyone can recompute proves nothing against someone who can write the
 cache: an unkeyed SHA-256 of a forged entry is as valid as that of a real one.
@@ -23,7 +23,7 @@ import secrets
 import stat
 from pathlib import Path
 
-from core.state_directory import state_directory
+from core.storage.state_directory import state_directory
 
 KEY_FILE = "cache.key"
 #: Bytes of the key (written as hex).

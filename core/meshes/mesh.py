@@ -17,7 +17,7 @@ on `scipy.spatial.Delaunay`):
 2. Boundary vertices at equal steps of the integral of ds / h(s) along the arc,
    with every sharp corner (a doubled control point) a vertex.
 3. Interior vertices on a hexagonal lattice of spacing ``max_edge`` where h is
-   coarse, away from the curve (`core.hex_lattice`).  The lattice's own
+   coarse, away from the curve (`core.meshes.hex_lattice`).  The lattice's own
    equilateral triangles whose corners are at least `CORE_CLEARANCE` h from the
    curve are final (the core): their triangulation is known, so only the band
    between the core and the curve is triangulated, and its size grows with the
@@ -48,8 +48,8 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import Delaunay, cKDTree
 
-from core.bspline import ClosedBSpline
-from core.hex_lattice import HexLattice
+from core.curves.bspline import ClosedBSpline
+from core.meshes.hex_lattice import HexLattice
 from core.validation import as_points, positive_float
 
 # Largest angle (radians) between the curve tangents at the two ends of a boundary edge.

@@ -20,8 +20,8 @@ import numpy as np
 from scipy.sparse import csc_matrix, csr_matrix
 from scipy.sparse.linalg import splu
 
-from core.bspline import ClosedBSpline
-from core.mesh import Mesh, require_mesh_of
+from core.curves.bspline import ClosedBSpline
+from core.meshes.mesh import Mesh, require_mesh_of
 
 
 def harmonic_basis(curve: ClosedBSpline, mesh: Mesh) -> np.ndarray:

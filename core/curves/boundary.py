@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from core.diameter import point_set_diameter
+from core.curves.diameter import point_set_diameter
 from core.validation import as_parameters, as_points, positive_float
 
 

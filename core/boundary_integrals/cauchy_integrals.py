@@ -4,9 +4,9 @@ Both boundary-integral kernels are Cauchy integrals over the source curve Γ,
 
     C[φ](z) = (1 / 2πi) ∮_Γ φ(τ) / (τ - z) dτ,
 
-of a density φ given at the panel nodes of `core.panels`: the transfinite harmonic
-coordinates are G_i = Re C[μ_i] for the double-layer densities μ_i (`core.poisson`),
-the Cauchy–Green coordinates are C[N_i] (`core.cauchy_green`).  A row of *weights*
+of a density φ given at the panel nodes of `core.boundary_integrals.panels`: the transfinite harmonic
+coordinates are G_i = Re C[μ_i] for the double-layer densities μ_i (`core.boundary_integrals.poisson`),
+the Cauchy–Green coordinates are C[N_i] (`core.boundary_integrals.cauchy_green`).  A row of *weights*
 W(z) (one complex number a node) gives C[φ](z) = W(z) · φ.
 
 Far from a panel the weights are its Gauss–Legendre rule, w_k τ'_k / (2πi (τ_k - z)).
@@ -28,11 +28,24 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.spatial import cKDTree
 
-from core import layer_compiled
-from core.bspline import ClosedBSpline
-from core.layer_compiled import _LEGENDRE, _LEGENDRE_VALUES, BACKWARD_DIGITS, FORWARD_ELLIPSE, PLAIN_ELLIPSE
-from core.panels import _NODES, _WEIGHTS, ORDER, Panels, interpolation_matrix, sharp_corners
-from core.panels import _panels as panels_of_bounds
+from core.boundary_integrals import compiled_integrals
+from core.boundary_integrals.compiled_integrals import (
+    _LEGENDRE,
+    _LEGENDRE_VALUES,
+    BACKWARD_DIGITS,
+    FORWARD_ELLIPSE,
+    PLAIN_ELLIPSE,
+)
+from core.boundary_integrals.panels import (
+    _NODES,
+    _WEIGHTS,
+    ORDER,
+    Panels,
+    interpolation_matrix,
+    sharp_corners,
+)
+from core.boundary_integrals.panels import _panels as panels_of_bounds
+from core.curves.bspline import ClosedBSpline
 
 #: Points per block of the far-field products (bounds the memory of a block's weights).
 BLOCK = 512
@@ -46,7 +59,7 @@ SAFE = 0.5
 #: kernel's degree-15 interpolant on the span, whose error falls as ρ^-16 rather than the plain
 #: rule's ρ^-32, times the density's roughness: at half a span a corner's singular density left
 #: G at -2e-9 (F polygon), at 0.75 spans -4e-11.  Smooth knots need no more than `SAFE`.
-#: The same holds for `core.poisson`'s coarse panels in a corner's compressed block, whose
+#: The same holds for `core.boundary_integrals.poisson`'s coarse panels in a corner's compressed block, whose
 #: densities are restrictions too (`Levels.safety`): with `SAFE` there, a point 2.3e-3 of the
 #: diameter from the F polygon, beside a corner, had G = -2.7e-10; with this, 3.7e-12.
 CORNER_SAFE = 0.75
@@ -95,8 +108,8 @@ def near_pairs(
     close_range = np.maximum(safe * panels.lengths, DIRECT * diameter)
     reach = panels.radii + close_range
     if panels.count * targets.size <= DIRECT_PAIRS:  # every pair's centre distance at once
-        found = layer_compiled.run_compiled(
-            layer_compiled.close_pairs,
+        found = compiled_integrals.run_compiled(
+            compiled_integrals.close_pairs,
             lambda: (
                 np.ascontiguousarray(targets, dtype=np.complex128),
                 panels.z,
@@ -138,7 +151,7 @@ def smooth_on_own_span(curve: ClosedBSpline, panels: Panels, t: np.ndarray, pane
     as ρ^-32 with ρ the Bernstein ellipse through the pole: a pole at least one panel length
     from the panel (ρ > 4) leaves < 1e-19 for a density polynomial on the panel (a restricted
     density, on a coarse panel of a knot's block, integrates only to ~ρ^-16 times its
-    roughness: measured, G moves by 5e-13 at most).  Nyström matrices of `core.poisson` skip
+    roughness: measured, G moves by 5e-13 at most).  Nyström matrices of `poisson` skip
     the adaptive rule for these pairs, most of the near pairs of a knot's graded panels, and
     take their weights from the closed form (`fill_same_span`).
     """
@@ -245,8 +258,8 @@ def adaptive_weights(
     """
     touch = on_curve * curve.diameter
     pieces = np.ascontiguousarray(curve.piecewise_polynomial().coefficients, dtype=np.float64)
-    found = layer_compiled.run_compiled(
-        layer_compiled.adaptive_pairs,
+    found = compiled_integrals.run_compiled(
+        compiled_integrals.adaptive_pairs,
         lambda: (
             pieces,
             np.ascontiguousarray(panels.bounds, dtype=np.float64),
@@ -258,7 +271,7 @@ def adaptive_weights(
     )
     if found is not None:
         return found
-    # `core.layer_compiled._near_weights`, pair by pair there, for all pairs at once here.
+    # `compiled_integrals._near_weights`, pair by pair there, for all pairs at once here.
     bounds = panels.bounds[panel]
     span = np.floor(bounds[:, 0] + 1e-12)
     half = 0.5 * (bounds[:, 1] - bounds[:, 0])
@@ -285,7 +298,7 @@ def adaptive_weights(
     moments_far = np.where(straight[:, None], 0.0, _legendre_moments(far))
     if power == 1:
         totals = moments_near + moments_far
-    else:  # by parts: see `core.layer_compiled._near_weights`
+    else:  # by parts: see `core.boundary_integrals.compiled_integrals._near_weights`
         linear, quadratic, constant = linear[away], quadratic[away], constant[away]
         with np.errstate(divide="ignore", invalid="ignore"):
             factor = np.where(straight, 1.0 / linear, 1.0 / (quadratic * (near - far)))
@@ -304,7 +317,7 @@ _DERIVATIVE_MOMENTS = np.array(
 
 def _legendre_moments(r: np.ndarray) -> np.ndarray:
     """I_k(r) = ∫_{-1}^{1} P_k(s) / (s - r) ds, shape (K, ORDER), for complex r (K,) off [-1, 1]:
-    `core.layer_compiled._legendre_moments` for many r at once."""
+    `core.boundary_integrals.compiled_integrals._legendre_moments` for many r at once."""
     root = np.sqrt(r - 1.0) * np.sqrt(r + 1.0)
     rho = np.maximum(np.abs(r + root), np.abs(r - root))
     out = np.empty((r.size, ORDER), dtype=np.complex128)
@@ -388,7 +401,7 @@ def bisected(
     bisected panels and took a third of the evaluation's time).
 
     `corrected`, (node indices (K,), values (K, m)), replaces the first new level's densities
-    at those nodes (better values than the interpolant: `core.poisson`'s Nyström
+    at those nodes (better values than the interpolant: `core.boundary_integrals.poisson`'s Nyström
     interpolation); the levels below it interpolate the corrected ones.
     """
     panels, parents = list(levels.panels), list(levels.parents)
@@ -525,8 +538,8 @@ def _compiled_rows(
     imaginary: bool,
     out: np.ndarray | None = None,
 ):
-    """`core.layer_compiled.layer_rows` at targets z (M,) where its machine code is at hand
-    (`core.layer_compiled.run_compiled`): (real (in `out` if given), imaginary, on-curve), else
+    """`compiled_integrals.layer_rows` at targets z (M,) where its machine code is at hand
+    (`compiled_integrals.run_compiled`): (real (in `out` if given), imaginary, on-curve), else
     None."""
 
     def arguments():
@@ -534,11 +547,11 @@ def _compiled_rows(
         rows = np.empty((z.size, tree.density.shape[1])) if out is None else out
         return z, tree, power, imaginary, rows
 
-    return layer_compiled.run_compiled(layer_compiled.layer_rows, arguments, z.size)
+    return compiled_integrals.run_compiled(compiled_integrals.layer_rows, arguments, z.size)
 
 
-def _panel_tree(curve: ClosedBSpline, levels: Levels) -> layer_compiled.PanelTree:
-    """`levels` concatenated for `core.layer_compiled.layer_rows` (built once per `levels`, kept in
+def _panel_tree(curve: ClosedBSpline, levels: Levels) -> compiled_integrals.PanelTree:
+    """`levels` concatenated for `compiled_integrals.layer_rows` (built once per `levels`, kept in
     ``levels.compiled``)."""
     tree = levels.compiled.get("tree")
     if tree is not None:
@@ -559,7 +572,7 @@ def _panel_tree(curve: ClosedBSpline, levels: Levels) -> layer_compiled.PanelTre
     child_start.extend([child_start[-1]] * (counts[-1]))  # the finest level has no children
     most = max([1] + [int(np.bincount(parent).max()) for parent in levels.parents])
     orientation = 1.0 if curve.area > 0 else -1.0
-    tree = layer_compiled.PanelTree(
+    tree = compiled_integrals.PanelTree(
         node_z=np.concatenate([p.z for p in panels]),
         factors=np.concatenate([layer_factors(curve, p) for p in panels]),
         density=np.ascontiguousarray(
@@ -687,7 +700,7 @@ def _add_weights(out, curve, panels, density, target, panel, weights) -> None:
 
 def _add_rule(out, rows, panel: int, rule, density) -> None:
     """out[rows] += rule (K, ORDER) @ density on `panel`'s nodes; `density` is an array, or an
-    operator with an ``add`` method of that signature (`core.poisson.Expansion`)."""
+    operator with an ``add`` method of that signature (`core.boundary_integrals.poisson.Expansion`)."""
     if hasattr(density, "add"):
         density.add(out, rows, panel, rule)
     else:

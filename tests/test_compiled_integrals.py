@@ -1,4 +1,5 @@
-"""core.layer_compiled: the compiled boundary integrals equal the numpy ones; never compiled unasked."""
+"""core.boundary_integrals.compiled_integrals: the compiled boundary integrals equal the numpy ones;
+never compiled unasked."""
 
 from __future__ import annotations
 
@@ -14,18 +15,18 @@ from test_poisson import near_boundary_points
 
 import core
 from app.quality_suite import built_in_shapes
-from core import layer, layer_compiled, poisson
-from core.panels import curve_panels
+from core.boundary_integrals import cauchy_integrals, compiled_integrals, poisson
+from core.boundary_integrals.panels import curve_panels
 
 SHAPES = built_in_shapes()
 ROOT = Path(__file__).resolve().parent.parent
 
 
 def both_paths(monkeypatch, function):
-    """function() under layer_compiled.mode "numpy", then "compiled", each with a fresh density solve."""
+    """function() under compiled_integrals.mode "numpy", then "compiled", each with a fresh density solve."""
     results = []
     for mode in ("numpy", "compiled"):
-        monkeypatch.setattr(layer_compiled, "mode", mode)
+        monkeypatch.setattr(compiled_integrals, "mode", mode)
         poisson._densities.cache_clear()
         results.append(function())
     poisson._densities.cache_clear()
@@ -45,7 +46,7 @@ def test_the_compiled_layer_equals_the_numpy_one(name, monkeypatch):
 
     def integrals():
         solution = poisson.densities(curve)
-        return layer.cauchy_integrals(curve, solution.levels, x), core.basis_functions(curve, x)
+        return cauchy_integrals.cauchy_integrals(curve, solution.levels, x), core.basis_functions(curve, x)
 
     (numpy_rows, numpy_basis), (compiled_rows, compiled_basis) = both_paths(monkeypatch, integrals)
     # Each path solves for its own densities: their roundings differ most next to a sharp
@@ -59,7 +60,7 @@ def test_the_compiled_layer_equals_the_numpy_one(name, monkeypatch):
 @pytest.mark.parametrize("name", ["C-shape", "F polygon"])
 def test_the_compiled_layer_s_imaginary_parts_and_derivatives_equal_the_numpy_ones(name, monkeypatch):
     # Cauchy-Green takes the Cauchy integral's imaginary part, the gradients its z-derivative.
-    from core import cauchy_green
+    from core.boundary_integrals import cauchy_green
 
     curve = core.ClosedBSpline(SHAPES[name])
     x = np.vstack([interior_points(curve, 150, seed=8), near_boundary_points(curve, 150, seed=9)[0]])
@@ -68,8 +69,8 @@ def test_the_compiled_layer_s_imaginary_parts_and_derivatives_equal_the_numpy_on
         cauchy_green._levels.cache_clear()
         levels = poisson.densities(curve).levels
         return (
-            layer.cauchy_integrals(curve, levels, x, imaginary=True),
-            layer.cauchy_derivatives(curve, levels, x),
+            cauchy_integrals.cauchy_integrals(curve, levels, x, imaginary=True),
+            cauchy_integrals.cauchy_derivatives(curve, levels, x),
             core.basis_functions(curve, x, "cauchy-green"),
             core.basis_gradients(curve, x, "poisson"),
         )
@@ -99,7 +100,7 @@ def test_targets_sharing_a_box_get_their_own_decisions(layout, monkeypatch):
     # each target alone (a box of one), to rounding, however the targets lie (all equal, so
     # that no split separates them; on a line, so that boxes are flat; a cloud beside the curve
     # with a tight cluster elsewhere, so that boxes split down to their leaves).
-    monkeypatch.setattr(layer_compiled, "mode", "compiled")
+    monkeypatch.setattr(compiled_integrals, "mode", "compiled")
     curve = core.ClosedBSpline(SHAPES["F polygon"])
     solution = poisson.densities(curve)
     rng = np.random.default_rng(11)
@@ -112,8 +113,10 @@ def test_targets_sharing_a_box_get_their_own_decisions(layout, monkeypatch):
     else:
         near = near_boundary_points(curve, 300, seed=6)[0]
         x = np.vstack([near, interior_points(curve, 1, seed=8) + rng.normal(scale=1e-6, size=(200, 2))])
-    together = layer.cauchy_integrals(curve, solution.levels, x, imaginary=True)
-    alone = [layer.cauchy_integrals(curve, solution.levels, point[None], imaginary=True) for point in x]
+    together = cauchy_integrals.cauchy_integrals(curve, solution.levels, x, imaginary=True)
+    alone = [
+        cauchy_integrals.cauchy_integrals(curve, solution.levels, point[None], imaginary=True) for point in x
+    ]
     for part in (0, 1):
         each = np.concatenate([rows[part] for rows in alone])
         np.testing.assert_allclose(together[part], each, rtol=0, atol=1e-13 * np.abs(each).max())
@@ -125,10 +128,10 @@ def test_a_box_s_decision_is_every_target_s_own():
     # (by layer_rows's per-target test), NEAR only if every one is: boxes of 1-50 targets at the
     # panels' reach and close-range boundaries, spreads from 1e-16 to 1e-1 of the diameter.
     curve = core.ClosedBSpline(SHAPES["F polygon"])
-    tree = layer._panel_tree(curve, poisson.densities(curve).levels)
+    tree = cauchy_integrals._panel_tree(curve, poisson.densities(curve).levels)
     rng = np.random.default_rng(12)
     close = np.sqrt(tree.close_squared)
-    checked = {layer_compiled.FAR: 0, layer_compiled.NEAR: 0}
+    checked = {compiled_integrals.FAR: 0, compiled_integrals.NEAR: 0}
     for _ in range(3000):
         p = int(rng.integers(tree.centres.size))
         node = tree.node_z[p * 16 + int(rng.integers(16))]
@@ -138,18 +141,18 @@ def test_a_box_s_decision_is_every_target_s_own():
         z = edge + spread * (rng.normal(size=int(rng.integers(1, 51))) + 1j * rng.normal(size=1))
         centre = complex(0.5 * (z.real.min() + z.real.max()), 0.5 * (z.imag.min() + z.imag.max()))
         radius = np.abs(z - centre).max()
-        side = layer_compiled._box_side(
+        side = compiled_integrals._box_side(
             p, centre, radius, tree.node_z, tree.centres, tree.reach, tree.close_squared
         )
         nodes = tree.node_z[p * 16 : (p + 1) * 16]
         square = np.abs(nodes[None, :] - z[:, None]) ** 2
         near = (np.abs(z - tree.centres[p]) < tree.reach[p]) & (square.min(axis=1) < tree.close_squared[p])
-        if side == layer_compiled.FAR:
+        if side == compiled_integrals.FAR:
             assert not near.any()
-        elif side == layer_compiled.NEAR:
+        elif side == compiled_integrals.NEAR:
             assert near.all()
         checked[side] = checked.get(side, 0) + 1
-    assert checked[layer_compiled.FAR] > 100 and checked[layer_compiled.NEAR] > 100
+    assert checked[compiled_integrals.FAR] > 100 and checked[compiled_integrals.NEAR] > 100
 
 
 def test_boxes_take_any_targets():
@@ -160,7 +163,7 @@ def test_boxes_take_any_targets():
         np.array([0.5 + 0.5j, np.nan + 0.3j, complex(0.4, np.inf), complex(-np.inf, 0.2), 0.7 + 0.1j]),
         np.array([complex(np.nan, np.nan), complex(np.inf, -np.inf)]),
     ):  # fmt: skip
-        order, start = layer_compiled._boxes(targets, layer_compiled.BOX)
+        order, start = compiled_integrals._boxes(targets, compiled_integrals.BOX)
         assert np.array_equal(np.sort(order), np.arange(targets.size))
         assert start[0] == 0 and start[-1] == targets.size and np.all(np.diff(start) >= 0)
 
@@ -179,7 +182,7 @@ def test_the_compiled_near_rule_equals_the_numpy_one(power, monkeypatch):
     targets[0] = panels.z[node[0]]
 
     def weights():
-        return layer.adaptive_weights(curve, panels, targets, panel, power)
+        return cauchy_integrals.adaptive_weights(curve, panels, targets, panel, power)
 
     (numpy_weights, numpy_touching), (compiled_weights, compiled_touching) = both_paths(monkeypatch, weights)
     np.testing.assert_array_equal(compiled_touching, numpy_touching)
@@ -195,7 +198,8 @@ def test_load_compiled_brings_in_every_compiled_boundary_integral():
     # by it, in a process that has called none of them before (a solve of a cage without thin
     # parts calls neither the near-field rule on its own nor the Nyström matrix rows).
     script = (
-        "from core import layer_compiled as c, poisson; c.mode = 'compiled'; print(poisson.load_compiled())"
+        "from core.boundary_integrals import compiled_integrals as c, poisson; "
+        "c.mode = 'compiled'; print(poisson.load_compiled())"
     )
     result = subprocess.run(
         [sys.executable, "-c", script], capture_output=True, text=True, timeout=600, cwd=ROOT
@@ -206,19 +210,19 @@ def test_load_compiled_brings_in_every_compiled_boundary_integral():
 def test_loaded_never_compiles(monkeypatch):
     # "auto" takes the compiled path only where machine code exists: for argument types that
     # were never compiled it answers False and compiles nothing.
-    monkeypatch.setattr(layer_compiled, "mode", "auto")
-    dispatcher = layer_compiled.adaptive_pairs
+    monkeypatch.setattr(compiled_integrals, "mode", "auto")
+    dispatcher = compiled_integrals.adaptive_pairs
     before = len(dispatcher.overloads)
     strange = (
         np.zeros((1, 3, 2), dtype=np.float32), np.zeros((1, 2), dtype=np.float32), np.zeros(1, np.complex64),
         np.zeros(1, dtype=np.int32), 1, 0.0, 0.5, 60, np.zeros((1, 16, 16), dtype=np.float32),
     )  # fmt: skip
-    assert not layer_compiled.loaded(dispatcher, *strange)
+    assert not compiled_integrals.loaded(dispatcher, *strange)
     assert len(dispatcher.overloads) == before
-    monkeypatch.setattr(layer_compiled, "mode", "numpy")
-    assert not layer_compiled.loaded(dispatcher)
-    monkeypatch.setattr(layer_compiled, "mode", "compiled")
-    assert layer_compiled.loaded(dispatcher)
+    monkeypatch.setattr(compiled_integrals, "mode", "numpy")
+    assert not compiled_integrals.loaded(dispatcher)
+    monkeypatch.setattr(compiled_integrals, "mode", "compiled")
+    assert compiled_integrals.loaded(dispatcher)
 
 
 def test_the_cache_is_read_once_the_work_repays_it(monkeypatch):
@@ -227,19 +231,19 @@ def test_the_cache_is_read_once_the_work_repays_it(monkeypatch):
     class Fresh:
         overloads = {}
 
-    monkeypatch.setattr(layer_compiled, "mode", "auto")
-    monkeypatch.setattr(layer_compiled, "_read", False)
-    monkeypatch.setattr(layer_compiled, "_points", 0)
-    monkeypatch.setattr(layer_compiled, "_unreadable", set())
+    monkeypatch.setattr(compiled_integrals, "mode", "auto")
+    monkeypatch.setattr(compiled_integrals, "_read", False)
+    monkeypatch.setattr(compiled_integrals, "_points", 0)
+    monkeypatch.setattr(compiled_integrals, "_unreadable", set())
     fresh = Fresh()
-    assert not layer_compiled.worth_trying(fresh, layer_compiled.LOAD_AFTER_POINTS - 1)
-    assert layer_compiled.worth_trying(fresh, 1)  # the points add up
-    monkeypatch.setattr(layer_compiled, "_points", 0)
-    assert not layer_compiled.worth_trying(fresh)
-    layer_compiled.allow_reading()
-    assert layer_compiled.worth_trying(fresh)
-    layer_compiled._unreadable.add(fresh)
-    assert not layer_compiled.worth_trying(fresh)
+    assert not compiled_integrals.worth_trying(fresh, compiled_integrals.LOAD_AFTER_POINTS - 1)
+    assert compiled_integrals.worth_trying(fresh, 1)  # the points add up
+    monkeypatch.setattr(compiled_integrals, "_points", 0)
+    assert not compiled_integrals.worth_trying(fresh)
+    compiled_integrals.allow_reading()
+    assert compiled_integrals.worth_trying(fresh)
+    compiled_integrals._unreadable.add(fresh)
+    assert not compiled_integrals.worth_trying(fresh)
 
 
 def test_run_compiled_builds_its_arguments_only_where_it_calls(monkeypatch):
@@ -250,12 +254,12 @@ def test_run_compiled_builds_its_arguments_only_where_it_calls(monkeypatch):
         built.append(True)
         return np.array([[1.0, 2.0]]), np.array([[3.0], [4.0]]), 1, np.empty((1, 1))
 
-    monkeypatch.setattr(layer_compiled, "mode", "numpy")
-    assert layer_compiled.run_compiled(layer_compiled.rows_product, arguments) is None
+    monkeypatch.setattr(compiled_integrals, "mode", "numpy")
+    assert compiled_integrals.run_compiled(compiled_integrals.rows_product, arguments) is None
     assert built == []
-    monkeypatch.setattr(layer_compiled, "mode", "compiled")
+    monkeypatch.setattr(compiled_integrals, "mode", "compiled")
     np.testing.assert_array_equal(
-        layer_compiled.run_compiled(layer_compiled.rows_product, arguments), [[11.0]]
+        compiled_integrals.run_compiled(compiled_integrals.rows_product, arguments), [[11.0]]
     )
     assert built == [True]
 
@@ -265,9 +269,9 @@ def test_a_damaged_cache_entry_falls_back_to_numpy_for_good(monkeypatch):
     # numpy, and the entry is not tried again.
     import pickle
 
-    monkeypatch.setattr(layer_compiled, "mode", "auto")
-    monkeypatch.setattr(layer_compiled, "_unreadable", set())
-    dispatcher = layer_compiled.adaptive_pairs
+    monkeypatch.setattr(compiled_integrals, "mode", "auto")
+    monkeypatch.setattr(compiled_integrals, "_unreadable", set())
+    dispatcher = compiled_integrals.adaptive_pairs
     attempts = []
 
     def damaged(*arguments):
@@ -288,11 +292,11 @@ def test_a_damaged_cache_entry_falls_back_to_numpy_for_good(monkeypatch):
         1,
         0.0,
     )
-    assert not layer_compiled.loaded(dispatcher, *arguments)
-    assert not layer_compiled.loaded(dispatcher, *arguments)
-    assert len(attempts) == 1 and not layer_compiled.worth_trying(dispatcher)
-    monkeypatch.setattr(layer_compiled, "_read", True)
-    weights, _ = layer.adaptive_weights(curve, panels, targets, panel)  # numpy
+    assert not compiled_integrals.loaded(dispatcher, *arguments)
+    assert not compiled_integrals.loaded(dispatcher, *arguments)
+    assert len(attempts) == 1 and not compiled_integrals.worth_trying(dispatcher)
+    monkeypatch.setattr(compiled_integrals, "_read", True)
+    weights, _ = cauchy_integrals.adaptive_weights(curve, panels, targets, panel)  # numpy
     assert np.isfinite(weights).all() and len(attempts) == 1
 
 
@@ -300,7 +304,8 @@ def test_without_numba_s_cache_the_default_kernel_runs_as_numpy_without_compilin
     # An empty numba cache (another CPU model or numba version than the install's): nothing is
     # compiled, load_compiled says so, and the basis is still exact.
     script = (
-        "import time, numpy as np, core; from core import layer_compiled as c, poisson\n"
+        "import time, numpy as np, core\n"
+        "from core.boundary_integrals import compiled_integrals as c, poisson\n"
         "start = time.perf_counter(); found = poisson.load_compiled()\n"
         "square = core.ClosedBSpline(np.array([[0.0, 0], [2, 0], [2, 1], [0, 1]]))\n"
         "x = np.random.default_rng(2).uniform((0.7, 0.35), (1.3, 0.65), (c.LOAD_AFTER_POINTS + 10, 2))\n"
@@ -322,7 +327,7 @@ def test_without_numba_s_cache_the_default_kernel_runs_as_numpy_without_compilin
 def test_the_signature_cache_keys_arguments_as_numba_types_them():
     # `loaded` keeps numba's signature per `_argument_key`: arguments numba types apart must
     # have different keys, and kinds it does not know are not cached at all (None).
-    key = layer_compiled._argument_key
+    key = compiled_integrals._argument_key
     assert key(np.zeros(3)) == key(np.ones(3)) != key(np.zeros(3, dtype=np.float32))
     assert key(np.zeros((3, 2))[:, 0]) != key(np.zeros(3))  # strided: numba's layout "A"
     readonly = np.zeros(3)
@@ -343,8 +348,8 @@ def test_the_near_rule_integrates_a_constant_density_exactly(name, mode, monkeyp
     # at any distance, 1e-10 of a panel's length to three lengths, on either side of the curve.
     # (Not next to sharp corners: panels 1e-8 of the diameter long there have their ends and
     # nodes in coordinates good to ~1e-8 of their length, which both sides of this test inherit.)
-    monkeypatch.setattr(layer_compiled, "mode", mode)
-    from core import examples
+    monkeypatch.setattr(compiled_integrals, "mode", mode)
+    from core.curves import examples
 
     points = examples.blob() if name == "blob" else SHAPES[name]
     curve = core.ClosedBSpline(points - points.mean(axis=0))
@@ -358,7 +363,9 @@ def test_the_near_rule_integrates_a_constant_density_exactly(name, mode, monkeyp
     low, high = (curve(panels.bounds[panel, k]) @ np.array([1.0, 1j]) for k in (0, 1))
     logarithm = np.log((high - targets) / (low - targets))
     for power, exact in ((1, logarithm), (2, 1.0 / (low - targets) - 1.0 / (high - targets))):
-        weights, touching = layer.adaptive_weights(curve, panels, targets, panel, power, on_curve=0.0)
+        weights, touching = cauchy_integrals.adaptive_weights(
+            curve, panels, targets, panel, power, on_curve=0.0
+        )
         assert not touching.any()
         error = weights.sum(axis=1) - exact
         if power == 1:  # the winding: a multiple of 2πi
@@ -367,18 +374,18 @@ def test_the_near_rule_integrates_a_constant_density_exactly(name, mode, monkeyp
 
 
 def test_balanced_sequence_gives_each_thread_an_equal_share_of_the_knot_blocks(monkeypatch):
-    monkeypatch.setattr(layer_compiled.numba, "get_num_threads", lambda: 2)
+    monkeypatch.setattr(compiled_integrals.numba, "get_num_threads", lambda: 2)
     costs = np.array([8, 8, 10, 10, 8, 10, 8, 8, 8, 8, 8, 10], dtype=float) ** 3  # the bench blob's
-    sequence = layer_compiled.balanced_sequence(costs)
+    sequence = compiled_integrals.balanced_sequence(costs)
     assert sorted(sequence.tolist()) == list(range(costs.size))
     assert costs[sequence[:6]].sum() == costs[sequence[6:]].sum() == costs.sum() / 2
-    assert layer_compiled.balanced_sequence(np.zeros(0)).size == 0
+    assert compiled_integrals.balanced_sequence(np.zeros(0)).size == 0
 
 
 @pytest.mark.parametrize("name", ["C-shape", "F polygon"])
 def test_the_compiled_panel_geometry_equals_the_numpy_one(name, monkeypatch):
     # Panels across every span, split and graded ones: the same nodes, weights and circles.
-    from core import panels as panel_module
+    from core.boundary_integrals import panels as panel_module
 
     curve = core.ClosedBSpline(SHAPES[name])
     bounds = panel_module.curve_panels(curve).bounds
@@ -396,7 +403,7 @@ def test_the_compiled_panel_geometry_equals_the_numpy_one(name, monkeypatch):
 
 def test_the_compiled_interpolation_rows_equal_the_numpy_ones(monkeypatch):
     # Random parameters, the nodes themselves (unit rows) and the ends of the panel.
-    from core import panels as panel_module
+    from core.boundary_integrals import panels as panel_module
 
     nodes = panel_module._NODES
     u = np.concatenate([np.random.default_rng(6).uniform(-1.0, 1.0, 500), nodes, [-1.0, 1.0, 1e-300]])
@@ -418,7 +425,7 @@ def test_the_compiled_interpolation_rows_equal_the_numpy_ones(monkeypatch):
 def test_the_compiled_gaps_equal_the_numpy_ones(name, monkeypatch):
     # The distances across thin parts and past corners that split the coarse panels: the same but
     # for the last bit of a hypot (numpy's and the C library's).
-    from core import panels as panel_module
+    from core.boundary_integrals import panels as panel_module
 
     curve = core.ClosedBSpline(SHAPES[name])
     coarse = panel_module.coarse_panels(curve)
@@ -438,14 +445,14 @@ def test_the_compiled_gaps_equal_the_numpy_ones(name, monkeypatch):
 def test_the_compiled_near_pairs_equal_the_numpy_ones(name, monkeypatch):
     # The density solve's coarse nodes against its coarse panels, and points down to 1e-6 of the
     # diameter from the curve: the same pairs in the same order.
-    from core import panels as panel_module
+    from core.boundary_integrals import panels as panel_module
 
     curve = core.ClosedBSpline(SHAPES[name])
     coarse = panel_module.coarse_panels(curve)
     x = near_boundary_points(curve, 300, seed=3)[0]
     for targets in (coarse.z, x[:, 0] + 1j * x[:, 1]):
         (numpy_target, numpy_panel), (target, panel) = both_paths(
-            monkeypatch, lambda targets=targets: layer.near_pairs(coarse, targets, curve.diameter)
+            monkeypatch, lambda targets=targets: cauchy_integrals.near_pairs(coarse, targets, curve.diameter)
         )
         assert numpy_target.size > coarse.count
         np.testing.assert_array_equal(target, numpy_target)

@@ -10,11 +10,11 @@ A cache must never change a result.  Each file holds the array, the errors of
 its invariants measured when it was computed (`core.mesh_basis` checks them on
 every read, and recomputes a few rows at random to compare) and a checksum of
 the key, the shape, the errors and the array's bytes: an HMAC-SHA-256 keyed
-with a per-user secret kept outside the cache (`core.cache_secret`), so that
+with a per-user secret kept outside the cache (`core.storage.cache_secret`), so that
 whoever can write the cache but not read the secret cannot forge an entry.
 `load` reports a file that cannot be read, does not hold what was stored under
 its key, or fails the checksum as a problem (the caller recomputes and `store`
-replaces it); files are written atomically (`core.atomic_write`) with the mode
+replaces it); files are written atomically (`core.storage.atomic_write`) with the mode
 the umask gives.  Without a usable secret the cache is off, with one warning.
 """
 
@@ -31,20 +31,24 @@ from pathlib import Path
 
 import numpy as np
 
-from core.atomic_write import write_atomically
-from core.cache_secret import secret
+from core.storage.atomic_write import write_atomically
+from core.storage.cache_secret import secret
 
 # Bump when the meaning or layout of a cached array changes (3: keyed checksums).
 FORMAT_VERSION = 3
 ENVIRONMENT_VARIABLE = "TRANSFINITE_CACHE_DIR"
+#: The folder of `core`, whose numerical modules enter every key.
+CORE_FOLDER = Path(__file__).resolve().parent.parent
 #: The modules of `core` whose code cannot change a cached value; every other module's code is
 #: hashed into every key (`_code_digest`), so that a new numerical module is covered unlisted.
+#: Paths in `core`; the packages' ``__init__.py`` are left out too.
 #: (A list of the numerical modules instead had missed the boundary-integral kernels: a
 #: corrected `poisson` still read the bases its old code had cached.)
 NON_NUMERICAL_MODULES = frozenset(
     {
-        "__init__.py", "atomic_write.py", "blas_threads.py", "cache.py", "cache_secret.py",
-        "compilation.py", "examples.py", "jit_cache.py", "reference.py", "state_directory.py",
+        "blas_threads.py", "curves/examples.py", "jit_cache.py", "newton/compilation.py",
+        "newton/reference.py", "storage/atomic_write.py", "storage/cache.py",
+        "storage/cache_secret.py", "storage/state_directory.py",
     }
 )  # fmt: skip
 
@@ -74,7 +78,7 @@ def cache_key(
     quantity: str = "basis functions",
 ) -> str:
     """Hex SHA-256 of the format version, the numerical code, the cage, the mesh, the kernel,
-    its parameters, the boundary's parameterisation (`core.arc_length`) and what is stored
+    its parameters, the boundary's parameterisation (`core.curves.arc_length`) and what is stored
     (``"basis functions"`` or ``"basis gradients"``).
 
     Arrays enter with their dtype and shape, so that equal bytes of different
@@ -130,7 +134,7 @@ def entry_path(key: str) -> Path:
 def load(key: str, shape: tuple[int, ...]) -> Entry:
     """The intact float64 array of `shape` stored for `key`, or why there is none.
 
-    Without a usable secret (`core.cache_secret`) nothing is read: an `Entry` without values.
+    Without a usable secret (`core.storage.cache_secret`) nothing is read: an `Entry` without values.
     """
     if _usable_secret() is None:
         return Entry()
@@ -160,7 +164,7 @@ def store(key: str, values: np.ndarray, errors: np.ndarray) -> bool:
     """Write `values` (V, n), or gradients (V, n, 2), and their invariant `errors` (2,) for `key` atomically.
 
     Returns whether it was written; warns (never raises) if the directory is not writable, and
-    writes nothing without a usable secret (`core.cache_secret`).
+    writes nothing without a usable secret (`core.storage.cache_secret`).
     """
     if _usable_secret() is None:
         return False
@@ -213,12 +217,15 @@ def _warn_once(message: str) -> None:
 
 @functools.cache
 def _code_digest() -> str:
-    """SHA-256 of the modules of `core` that compute G (all but `NON_NUMERICAL_MODULES`): a
-    changed solver never reads stale results."""
+    """SHA-256 of the modules of `core` that compute G (all but `NON_NUMERICAL_MODULES` and the
+    packages' ``__init__.py``), each with its path in `core`: a changed solver never reads stale
+    results."""
     digest = hashlib.sha256()
-    for path in sorted(Path(__file__).resolve().parent.glob("*.py")):
-        if path.name not in NON_NUMERICAL_MODULES:
-            digest.update(path.name.encode() + b"\0" + path.read_bytes())
+    folder = CORE_FOLDER
+    for path in sorted(folder.rglob("*.py")):
+        name = path.relative_to(folder).as_posix()
+        if name not in NON_NUMERICAL_MODULES and path.name != "__init__.py":
+            digest.update(name.encode() + b"\0" + path.read_bytes())
     return digest.hexdigest()
 
 

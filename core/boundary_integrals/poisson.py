@@ -14,11 +14,11 @@ whose densities solve the second-kind equation (the interior limit of the layer)
 
 in the form with the density at x subtracted (Gauss's lemma ∫ K(z, y) ds_y = 1 for z
 inside), so that constants are reproduced exactly at every corner and knot.  The
-equation is discretised by Nyström on `core.panels` (graded towards knots and corners),
-near-singular node-panel pairs by the adaptive rule of `core.layer`; one LU factorisation
+equation is discretised by Nyström on `core.boundary_integrals.panels` (graded towards knots and corners),
+near-singular node-panel pairs by the adaptive rule of `cauchy_integrals`; one LU factorisation
 per cage gives all n + 1 densities (the n basis functions and their sum).
 
-Evaluation is a row of Cauchy weights per point (`core.layer`) times the densities, in
+Evaluation is a row of Cauchy weights per point (`cauchy_integrals`) times the densities, in
 barycentric form:
 
     G_i(x) = Re C[μ_i](x) / Re C[Σ_j μ_j](x),
@@ -35,10 +35,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from core import layer_compiled, two_grid
 from core.blas_threads import one_blas_thread
-from core.bspline import ClosedBSpline
-from core.layer import (
+from core.boundary_integrals import compiled_integrals, two_grid
+from core.boundary_integrals.cauchy_integrals import (
     CORNER_SAFE,
     DIRECT,
     SAFE,
@@ -57,7 +56,7 @@ from core.layer import (
     span_coefficients,
     span_parameters,
 )
-from core.panels import (
+from core.boundary_integrals.panels import (
     _NODES,
     ORDER,
     REFINED_RATIO,
@@ -69,8 +68,9 @@ from core.panels import (
     sharp_corners,
     span_panels,
 )
-from core.panels import _panels as _make_panels
-from core.workspace import scratch
+from core.boundary_integrals.panels import _panels as _make_panels
+from core.boundary_integrals.scratch_arrays import scratch
+from core.curves.bspline import ClosedBSpline
 
 #: Coarse boundary nodes at most (the dense solve's memory, 8 MAX_NODES^2 bytes, and time).
 MAX_NODES = 10_000
@@ -90,9 +90,9 @@ class Densities:
     Attributes
     ----------
     curve : ClosedBSpline
-    levels : core.layer.Levels
-        Spans, coarse panels (`core.panels.coarse_panels`) and fine panels graded
-        towards the knots (`core.panels.graded_panels`), then `core.layer.bisected`
+    levels : core.boundary_integrals.cauchy_integrals.Levels
+        Spans, coarse panels (`core.boundary_integrals.panels.coarse_panels`) and fine panels graded
+        towards the knots (`panels.graded_panels`), then `cauchy_integrals.bisected`
         halves of the fine panels; on the fine panels μ_1..μ_n and their sum, shape
         (P_f * ORDER, n + 1), on the halves their interpolants, on the coarser ones their
         weight-corrected restrictions (the coarse ones are R ρ̃ below).
@@ -132,7 +132,7 @@ def _densities(points: bytes, count: int) -> Densities:
 
     Near-singular pairs of K°_c (thin parts, the nodes next to a neighbour's panel)
     take the fine densities (I + K*)^-1 P ρ̃ with the adaptive rule, not R ρ̃.  The dense
-    coarse equation is solved by `core.two_grid` (its LU where that does not contract).
+    coarse equation is solved by `core.boundary_integrals.two_grid` (its LU where that does not contract).
     """
     curve = _solving.get(points)
     if curve is None:
@@ -205,7 +205,7 @@ def _coarse_system(curve: ClosedBSpline, coarse: Panels, blocks: dict, target, p
     at the coarse nodes, 0 within each knot's block (K*, in R) and at the near pairs (target
     nodes, panels (E,), sorted by target: the adaptive rule's, added by the caller), each
     block's columns times its R (`_knot_blocks`).  Compiled where at hand
-    (`core.layer_compiled.coarse_system`, into this thread's scratch array: `core.workspace`,
+    (`compiled_integrals.coarse_system`, into this thread's scratch array: `scratch_arrays`,
     overwritten by its next solve), else numpy.
     """
 
@@ -227,7 +227,7 @@ def _coarse_system(curve: ClosedBSpline, coarse: Panels, blocks: dict, target, p
             scratch("coarse system", (coarse.size, coarse.size)),
         )  # fmt: skip
 
-    system = layer_compiled.run_compiled(layer_compiled.coarse_system, arguments) if blocks else None
+    system = compiled_integrals.run_compiled(compiled_integrals.coarse_system, arguments) if blocks else None
     if system is not None:
         return system
     system = layer_matrix(curve, coarse, coarse.z, coarse.t)
@@ -247,7 +247,7 @@ def _knot_blocks(curve, fine: Panels, coarse: Panels, knot, parent, interpolatio
     (I + K*_j)^-1 P (`_densities`); `knot` (P_c,) is each coarse panel's knot (-1 for none),
     `parent` (P_f,) each fine panel's coarse panel, `interpolation` (P_f ORDER, ORDER) each
     fine node's row of P on its coarse panel.  The blocks are solved together by the
-    compiled `core.layer_compiled.knot_blocks`, their adaptive entries too, where it is at
+    compiled `compiled_integrals.knot_blocks`, their adaptive entries too, where it is at
     hand (the bench blob's 12 blocks: 9 ms one at a time in numpy, 2.4 ms compiled on two
     threads), else by `_solved_blocks`.
     """
@@ -317,7 +317,7 @@ def _correction_entries(corrections: dict, knots: np.ndarray, position: np.ndarr
 
 
 def _compiled_blocks(curve, fine: Panels, panels, start, interpolation, offsets, weights, column_weights):
-    """`core.layer_compiled.knot_blocks` for the blocks of `_knot_blocks` (their fine panels
+    """`compiled_integrals.knot_blocks` for the blocks of `_knot_blocks` (their fine panels
     panels[start[b]:start[b + 1]], P's rows given as interpolation (R, ORDER) at column offsets
     (R,), the rows' weights (R,) and each block's coarse weights (B, W)): (solution (R, W),
     reduced (B, W, W)), or None where its machine code is not at hand."""
@@ -326,7 +326,7 @@ def _compiled_blocks(curve, fine: Panels, panels, start, interpolation, offsets,
         c1, c2, scale = same_span_coefficients(curve)
         close_range = np.maximum(SAFE * fine.lengths, DIRECT * curve.diameter)
         node_span, node_u = span_parameters(curve, fine.t)
-        blocks = layer_compiled.KnotBlocks(
+        blocks = compiled_integrals.KnotBlocks(
             node_z=fine.z, node_t=fine.t, factors=layer_factors(curve, fine), node_span=node_span,
             node_u=node_u, weights=fine.weights, bounds=np.ascontiguousarray(fine.bounds),
             close_squared=close_range**2,
@@ -336,14 +336,14 @@ def _compiled_blocks(curve, fine: Panels, panels, start, interpolation, offsets,
             orientation=1.0 if curve.area > 0 else -1.0,
         )  # fmt: skip
         nodes = np.diff(start).astype(np.float64) * ORDER  # an LU costs nodes^3
-        sequence = layer_compiled.balanced_sequence(nodes**3)
+        sequence = compiled_integrals.balanced_sequence(nodes**3)
         return blocks, panels, start, interpolation, offsets, weights, column_weights, sequence
 
-    return layer_compiled.run_compiled(layer_compiled.knot_blocks, arguments)
+    return compiled_integrals.run_compiled(compiled_integrals.knot_blocks, arguments)
 
 
 def _solved_blocks(curve, fine, rows, start, entries, values, entry_start, prolongation, restriction):
-    """`core.layer_compiled.knot_blocks`'s (solution (R, W), reduced (B, W, W)) in numpy, block by
+    """`compiled_integrals.knot_blocks`'s (solution (R, W), reduced (B, W, W)) in numpy, block by
     block, from the adaptive rule's entries (row, column) (E, 2) of each block's matrix and
     their values (E,), block b's from entry_start[b]."""
     solution = np.zeros_like(prolongation)
@@ -370,7 +370,7 @@ def _data(curve: ClosedBSpline, t: np.ndarray) -> np.ndarray:
 
 def nystrom_halves(curve: ClosedBSpline, fine: Panels, mu: np.ndarray, refine: np.ndarray):
     """The densities at the nodes of the halves of the fine panels `refine` (K,), by Nyström
-    interpolation: (node indices of `core.layer.bisected`'s first level, values (2K ORDER, n + 1)).
+    interpolation: (node indices of `cauchy_integrals.bisected`'s first level, values (2K ORDER, n + 1)).
 
     The equation holds at every point x of the curve, not only at the nodes, so
 
@@ -474,7 +474,7 @@ class Expansion:
 
 def _block_near_pairs(curve: ClosedBSpline, fine: Panels, block_of: np.ndarray) -> dict:
     """The adaptive rule's entries of the knot blocks' matrices, for all blocks in one pass, on the
-    numpy path (`_solved_blocks`; the compiled `core.layer_compiled.knot_blocks` finds the same
+    numpy path (`_solved_blocks`; the compiled `compiled_integrals.knot_blocks` finds the same
     pairs itself, `_adaptive_entries` there: a change here belongs there too).
 
     Pairs of a fine node and a fine panel of the same block (`block_of` (P_f,), -1 outside
@@ -510,7 +510,7 @@ def _adaptive_entries(curve: ClosedBSpline, panels: Panels, z, t, target, panel)
     """The near pairs (target index into z and t (M,), a panel of `panels`) that need the
     adaptive rule, all but those on the target's span where the kernel is smooth
     (`smooth_on_own_span`), and their double layer's Re C-weights (K, ORDER) by that rule
-    (`core.layer.adaptive_weights`) at the targets z on the curve at parameters t, and its
+    (`cauchy_integrals.adaptive_weights`) at the targets z on the curve at parameters t, and its
     on-curve flags (K,): (target, panel, weights, flags)."""
     adaptive = ~smooth_on_own_span(curve, panels, t[target], panel)
     target, panel = target[adaptive], panel[adaptive]
@@ -532,7 +532,7 @@ def layer_matrix(curve: ClosedBSpline, panels: Panels, z: np.ndarray, t: np.ndar
     """Re C-weights of every node of `panels` by the plain rule at targets z (M,) on the curve at
     parameters t (M,), shape (M, P * ORDER).
 
-    Pairs on one span take the kernel's closed form (`core.layer.fill_same_span`), which at a
+    Pairs on one span take the kernel's closed form (`cauchy_integrals.fill_same_span`), which at a
     node itself is the limit s Im(τ''/τ') w / 4π (the double layer's kernel at y = x, the
     curvature over 4π).  The caller replaces the pairs that need the adaptive rule
     (`_block_near_pairs`).
@@ -547,7 +547,7 @@ def layer_matrix(curve: ClosedBSpline, panels: Panels, z: np.ndarray, t: np.ndar
             panels.z, factors, *span_parameters(curve, panels.t), panels.weights, spans,
         )  # fmt: skip
 
-    found = layer_compiled.run_compiled(layer_compiled.layer_matrix_rows, arguments)
+    found = compiled_integrals.run_compiled(compiled_integrals.layer_matrix_rows, arguments)
     if found is not None:
         return found
     matrix = np.empty((z.size, panels.size))
@@ -570,7 +570,7 @@ def poisson_basis(
     """Transfinite harmonic coordinates G_i(x), shape (M, n), for points x (M, 2) in the closed domain
     (written into `out` (M, n) if given: a caller's rows, no copy).
 
-    Points within ~1e-10 of the diameter of the curve (`core.layer.ON_CURVE`) get
+    Points within ~1e-10 of the diameter of the curve (`cauchy_integrals.ON_CURVE`) get
     the Lagrange limit, the B-spline basis at their closest parameter.
 
     Raises
@@ -602,29 +602,31 @@ def poisson_basis(
 def exercise_near_field(curve: ClosedBSpline, panels: Panels) -> None:
     """Run the near-field rule and the Nyström matrix rows once, for one node of `panels`: what a
     solve calls only beside thin parts (`nystrom_halves`, the coarse equation's near pairs), so
-    that `load_compiled` and `core.compilation.compile_all` bring them in too."""
+    that `load_compiled` and `core.newton.compilation.compile_all` bring them in too."""
     adaptive_weights(curve, panels, panels.z[:1] + 1e-3j, np.zeros(1, dtype=np.int64))
     layer_matrix(curve, panels, panels.z[:1], panels.t[:1])
 
 
 def load_compiled() -> bool:
-    """Read the compiled boundary integrals (`core.layer_compiled`) from numba's cache now, for a
+    """Read the compiled boundary integrals (`compiled_integrals`) from numba's cache now, for a
     program about to evaluate many points (~0.2 s once; never compiles).
 
     Returns whether all eleven are in memory afterwards: False where numba's cache lacks them
     (another CPU model or numba version than the install's, `TRANSFINITE_PRECOMPILE=0`),
     and the numpy path runs instead.
     """
-    layer_compiled.allow_reading()
+    compiled_integrals.allow_reading()
     square = ClosedBSpline(np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]))
     solution = _densities.__wrapped__(square.control_points.tobytes(), square.n)  # solves, uncached
     cauchy_integrals(square, solution.levels, np.array([[0.5, 0.5]]))
     exercise_near_field(square, solution.levels.panels[-1])
     compiled = (
-        layer_compiled.adaptive_pairs, layer_compiled.layer_rows, layer_compiled.layer_matrix_rows,
-        layer_compiled.knot_blocks, layer_compiled.coarse_system, layer_compiled.panel_geometry,
-        layer_compiled.panel_gaps, layer_compiled.close_pairs, layer_compiled.galerkin_matrix,
-        layer_compiled.rows_product, layer_compiled.interpolation_rows,
+        compiled_integrals.adaptive_pairs, compiled_integrals.layer_rows,
+        compiled_integrals.layer_matrix_rows, compiled_integrals.knot_blocks,
+        compiled_integrals.coarse_system, compiled_integrals.panel_geometry,
+        compiled_integrals.panel_gaps, compiled_integrals.close_pairs,
+        compiled_integrals.galerkin_matrix, compiled_integrals.rows_product,
+        compiled_integrals.interpolation_rows,
     )  # fmt: skip
     return all(dispatcher.overloads for dispatcher in compiled)
 

@@ -14,8 +14,8 @@ import numpy as np
 import scipy.sparse
 from scipy.spatial import cKDTree
 
-from core.bspline import ClosedBSpline
-from core.mesh import Mesh, require_mesh_of
+from core.curves.bspline import ClosedBSpline
+from core.meshes.mesh import Mesh, require_mesh_of
 
 #: Nearest triangles (by centroid) tried per point, in rounds, until one contains it.
 CANDIDATE_ROUNDS = (8, 64, 512)

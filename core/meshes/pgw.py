@@ -41,7 +41,7 @@ from collections.abc import Callable
 import numpy as np
 from numba import njit, prange
 
-from core.bspline import ClosedBSpline
+from core.curves.bspline import ClosedBSpline
 from core.validation import as_points, positive_int
 
 # Points per compiled call: paces the progress callback.

@@ -26,7 +26,7 @@ import math
 import numpy as np
 from numba import njit
 
-from core.crossing_slabs import inside_polygon
+from core.curves.crossing_slabs import inside_polygon
 
 # Kernel identifiers shared with core.kernels.
 MAXIMUM_LIKELIHOOD = 0
@@ -98,9 +98,9 @@ ROUNDING_SLACK = 1e-12
 
 @njit(cache=True, error_model="numpy")
 def _evaluate_curve(coefficients, piece_length, t):
-    """p(t), p'(t), p''(t) of a closed piecewise polynomial (see core.boundary).
+    """p(t), p'(t), p''(t) of a closed piecewise polynomial (see core.curves.boundary).
 
-    A third channel makes the argument the normalised arc length s (`core.arc_length`).
+    A third channel makes the argument the normalised arc length s (`core.curves.arc_length`).
     """
     if coefficients.shape[2] == 3:
         return arc_length_curve(coefficients, t)
@@ -178,7 +178,7 @@ def natural_parameter(coefficients, s):
 
     coefficients (n, 3, 3): the natural quadratic pieces (channels 0, 1) and, in
     channel 2, each span's start S_j and length l_j in the normalised arc length
-    (period n) and the scale L / n of the lengths (`core.arc_length`).
+    (period n) and the scale L / n of the lengths (`core.curves.arc_length`).
     """
     spans = coefficients.shape[0]
     s = s - math.floor(s / spans) * spans
@@ -1513,7 +1513,7 @@ def _near_stretches(sample_x, sample_y, spacing, x, y, near, nearest, windows):
     """The stretches of samples closer to (x, y) than NEAR_SPACINGS spacings, into `windows`.
 
     A sequential scan, run only when pass 1 (`_sample_directions`) counted `near`
-    > 0 such samples (`core.gradient_solver` shares it).  Squared distances: no root
+    > 0 such samples (`core.newton.gradient_solver` shares it).  Squared distances: no root
     or division.  Returns (the number of stretches, the nearest sample's index, its distance;
     `nearest` unchanged when near == 0).
     """
@@ -1660,7 +1660,7 @@ def solve_points(points, settings, curve, geometry, out, iterations, status, res
     B-spline basis values at t_k, used in OUTPUT_BASIS mode), the sample step, the
     sinh step of the near-boundary rule, the step of the output samples
     (OUTPUT_SAMPLES lumps onto that grid, which may be coarser than the samples), and
-    `core.crossing_slabs.crossing_slabs(sample_y)` for the inside test of far points.
+    `core.curves.crossing_slabs.crossing_slabs(sample_y)` for the inside test of far points.
     geometry = (piecewise-polynomial coefficients (P, D + 1, 2), piece length,
     corners (C, 5)): the exact curve between samples.
     """

@@ -1,6 +1,6 @@
-"""Per-point gradients of the barycentric kernels, compiled with numba next to `core.solver`.
+"""Per-point gradients of the barycentric kernels, compiled with numba next to `core.newton.solver`.
 
-One point x is evaluated exactly as `core.solver` evaluates it (the same nodes
+One point x is evaluated exactly as `core.newton.solver` evaluates it (the same nodes
 t_j and weights w_j: the trapezoid rule far from the boundary, the graded sinh
 rule near it; the same weights, Newton solve and normalisation, by calling the
 solver's own helpers), and then the x-derivative of every quadrature-weighted
@@ -26,8 +26,8 @@ import math
 import numpy as np
 from numba import njit
 
-from core import solver
-from core.crossing_slabs import inside_polygon
+from core.curves.crossing_slabs import inside_polygon
+from core.newton import solver
 
 
 @njit(cache=True, error_model="numpy", inline="always")

@@ -11,10 +11,10 @@ numbers) is holomorphic, so it keeps angles everywhere inside (σ₁/σ₂ = 1),
 Σ_i C_i(z) P_i = z reproduces the identity (Cauchy's formula for p).  It does not
 interpolate: the image of the curve is the boundary limit of f, not the target curve.
 
-N_i is a polynomial on every panel of `core.panels.coarse_panels` (they are cut at the
-knots), so the panel rule and the near-field rule of `core.layer` integrate it without
+N_i is a polynomial on every panel of `core.boundary_integrals.panels.coarse_panels` (they are cut at the
+knots), so the panel rule and the near-field rule of `cauchy_integrals` integrate it without
 an interpolation error: no grading towards knots or corners is needed.
-As in `core.poisson` the coordinates are taken in barycentric form,
+As in `core.boundary_integrals.poisson` the coordinates are taken in barycentric form,
 C_i = C[N_i] / C[1], which keeps Σ_i C_i = 1 to rounding and f holomorphic.
 """
 
@@ -25,10 +25,10 @@ import functools
 import numpy as np
 
 from core.blas_threads import one_blas_thread
-from core.bspline import ClosedBSpline
-from core.layer import Levels, bisected, cauchy_derivatives, cauchy_integrals
-from core.panels import coarse_panels, span_panels
-from core.poisson import CHUNK, boundary_limit_rows, centred, refuse_far_outside
+from core.boundary_integrals.cauchy_integrals import Levels, bisected, cauchy_derivatives, cauchy_integrals
+from core.boundary_integrals.panels import coarse_panels, span_panels
+from core.boundary_integrals.poisson import CHUNK, boundary_limit_rows, centred, refuse_far_outside
+from core.curves.bspline import ClosedBSpline
 
 
 @functools.lru_cache(maxsize=4)

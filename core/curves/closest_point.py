@@ -12,8 +12,8 @@ import math
 import numpy as np
 from numba import njit, prange
 
-from core.boundary import PiecewisePolynomial
-from core.solver import _closest_parameter
+from core.curves.boundary import PiecewisePolynomial
+from core.newton.solver import _closest_parameter
 
 # Direction (radians) of the rays of the crossing test, deliberately not a round angle.
 RAY_ANGLE = 0.6180339887498949

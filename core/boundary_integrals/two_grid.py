@@ -1,6 +1,6 @@
 """Two-grid solve of a second-kind Nyström system on Gauss–Legendre panels.
 
-The coarse equation of `core.poisson` is (I + K) ρ = b with K compact but near the compressed
+The coarse equation of `poisson` is (I + K) ρ = b with K compact but near the compressed
 knots: K maps every density to a smooth one.  So the error of any approximate solve that is
 exact on smooth densities is K applied to something, smooth, and one coarser grid catches it
 (Atkinson and Brakhage's two-grid iteration for second-kind equations).  The coarse grid here
@@ -29,9 +29,9 @@ import numba
 import numpy as np
 from scipy.linalg import lu_factor, lu_solve
 
-from core import layer_compiled
-from core.panels import _NODES, _WEIGHTS, ORDER
-from core.workspace import scratch
+from core.boundary_integrals import compiled_integrals
+from core.boundary_integrals.panels import _NODES, _WEIGHTS, ORDER
+from core.boundary_integrals.scratch_arrays import scratch
 
 #: Gauss–Legendre nodes a panel on the coarse grid: with 6 the blob takes a step more than with 8
 #: (its coarse LU shorter, as fast in all), with 10 none fewer.
@@ -109,10 +109,10 @@ def solve(matrix: np.ndarray, rhs: np.ndarray) -> np.ndarray:
 
 def _galerkin(matrix: np.ndarray, coarse: np.ndarray) -> np.ndarray:
     """Ρ A Π (the module docstring) into `coarse` (P COARSE_ORDER, P COARSE_ORDER) for A = `matrix`
-    (P ORDER, P ORDER), C-ordered: compiled on every thread (`core.layer_compiled.galerkin_matrix`)
+    (P ORDER, P ORDER), C-ordered: compiled on every thread (`compiled_integrals.galerkin_matrix`)
     where at hand, else numpy."""
-    found = layer_compiled.run_compiled(
-        layer_compiled.galerkin_matrix, lambda: (matrix, _RESTRICT, _PROLONG, coarse)
+    found = compiled_integrals.run_compiled(
+        compiled_integrals.galerkin_matrix, lambda: (matrix, _RESTRICT, _PROLONG, coarse)
     )
     if found is not None:
         return found
@@ -134,10 +134,10 @@ def _galerkin(matrix: np.ndarray, coarse: np.ndarray) -> np.ndarray:
 
 
 def _product(matrix: np.ndarray, x: np.ndarray, out: np.ndarray) -> np.ndarray:
-    """matrix @ x into `out` (K, m): compiled on every thread (`core.layer_compiled.rows_product`)
+    """matrix @ x into `out` (K, m): compiled on every thread (`compiled_integrals.rows_product`)
     where at hand, else one BLAS call."""
-    found = layer_compiled.run_compiled(
-        layer_compiled.rows_product, lambda: (matrix, x, numba.get_num_threads(), out)
+    found = compiled_integrals.run_compiled(
+        compiled_integrals.rows_product, lambda: (matrix, x, numba.get_num_threads(), out)
     )
     return np.matmul(matrix, x, out=out) if found is None else found
 

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from core.boundary import Boundary
+from core.curves.boundary import Boundary
 
 
 def reference_kernel(

@@ -14,8 +14,8 @@ from here on, so that a curve of uniform speed keeps its parameter and the kerne
 whose weights depend on the parameter's scale (the integral shift of Eq. 19-20)
 compare like with like.  The map is monotone on each span j (|p'| > 0 there but
 possibly at a sharp corner's knot) and computed once per cage: the span lengths in
-closed form (`core.solver.span_arc_length`), the inverse t(s) = j + u by safeguarded
-Newton (`core.solver.natural_parameter`).
+closed form (`core.newton.solver.span_arc_length`), the inverse t(s) = j + u by safeguarded
+Newton (`core.newton.solver.natural_parameter`).
 
 The curve q(s) = p(t(s)) is sampled uniformly in s, s_k = k n / N, and handed to
 the solver like any `Boundary`: the quadrature (the trapezoid rule of Sec. 4.1 and
@@ -30,8 +30,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from core import solver
-from core.boundary import Boundary, PiecewisePolynomial
+from core.curves.boundary import Boundary, PiecewisePolynomial
+from core.newton import solver
 from core.validation import as_parameters
 
 PARAMETERIZATIONS = ("natural", "arc-length")

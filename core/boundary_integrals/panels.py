@@ -1,4 +1,4 @@
-"""Gauss–Legendre panels on a closed quadratic B-spline: the boundary quadrature of `core.layer`.
+"""Gauss–Legendre panels on a closed quadratic B-spline: the boundary quadrature of `cauchy_integrals`.
 
 The curve is cut at every knot, so that each panel is one polynomial piece (the
 B-spline basis N_i is a polynomial on it too), and each span is cut further:
@@ -13,7 +13,7 @@ B-spline basis N_i is a polynomial on it too), and each span is cut further:
 
 Each panel carries ``ORDER`` Gauss–Legendre nodes in the curve parameter t.  The
 Lagrange interpolant of a density on a panel's nodes (`interpolation_matrix`) lets
-the near-field rule of `core.layer` integrate it on sub-panels.
+the near-field rule of `core.boundary_integrals.cauchy_integrals` integrate it on sub-panels.
 """
 
 from __future__ import annotations
@@ -23,7 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from core.bspline import ClosedBSpline
+from core.curves.bspline import ClosedBSpline
 
 #: Gauss–Legendre nodes per panel.
 ORDER = 16
@@ -57,7 +57,7 @@ KNOT_GROWTH = 4.0
 THIN_RATIO = 2.0
 #: A panel longer than this many times its gap (`gaps`), though not split, has its density
 #: vary too fast for its degree-15 interpolant at points within ~1e-4 of the diameter of it:
-#: `core.poisson` gives its halves their densities by Nyström interpolation.  Gaps are
+#: `core.boundary_integrals.poisson` gives its halves their densities by Nyström interpolation.  Gaps are
 #: measured up to this many panel lengths.
 REFINED_RATIO = 1.0
 #: A node is beyond a panel (`gaps`) where the curve between them is this many times longer than
@@ -108,15 +108,15 @@ def interpolation_matrix(u: np.ndarray) -> np.ndarray:
 
     ``interpolation_matrix(u) @ values`` interpolates values given at the nodes
     (the second barycentric formula; exact at the nodes).  Compiled for many parameters
-    (`core.layer_compiled.interpolation_rows`: the density solve's 1,840 fine nodes of the bench
+    (`compiled_integrals.interpolation_rows`: the density solve's 1,840 fine nodes of the bench
     blob, 149 -> 43 µs) where its machine code is at hand, else numpy.
     """
     u = np.asarray(u, dtype=np.float64)
     if u.ndim == 1 and u.size >= COMPILED_ROWS:
-        from core import layer_compiled  # here: it imports this module
+        from core.boundary_integrals import compiled_integrals  # here: it imports this module
 
-        rows = layer_compiled.run_compiled(
-            layer_compiled.interpolation_rows, lambda: (np.ascontiguousarray(u), _BARYCENTRIC)
+        rows = compiled_integrals.run_compiled(
+            compiled_integrals.interpolation_rows, lambda: (np.ascontiguousarray(u), _BARYCENTRIC)
         )
         if rows is not None:
             return rows
@@ -178,7 +178,7 @@ def curve_panels(curve: ClosedBSpline) -> Panels:
 
 
 def span_panels(curve: ClosedBSpline) -> Panels:
-    """One panel a span: the coarsest level of `core.layer.Levels`."""
+    """One panel a span: the coarsest level of `core.boundary_integrals.cauchy_integrals.Levels`."""
     starts = np.arange(curve.n, dtype=np.float64)
     return _panels(curve, np.stack([starts, starts + 1.0], axis=1))
 
@@ -300,12 +300,12 @@ def knot_levels(curve: ClosedBSpline) -> np.ndarray:
 
 def _panels(curve: ClosedBSpline, bounds: np.ndarray) -> Panels:
     """The panels of `curve` on the parameter intervals `bounds` (P, 2), each inside the span of
-    its start: compiled (`core.layer_compiled.panel_geometry`) where its machine code is at hand,
+    its start: compiled (`compiled_integrals.panel_geometry`) where its machine code is at hand,
     else numpy."""
-    from core import layer_compiled  # here: it imports this module
+    from core.boundary_integrals import compiled_integrals  # here: it imports this module
 
-    geometry = layer_compiled.run_compiled(
-        layer_compiled.panel_geometry,
+    geometry = compiled_integrals.run_compiled(
+        compiled_integrals.panel_geometry,
         lambda: (curve.piecewise_polynomial().coefficients, np.ascontiguousarray(bounds, dtype=np.float64)),
     )
     if geometry is not None:
@@ -385,7 +385,7 @@ def _wedged(panels: Panels, wedge_widths: np.ndarray) -> np.ndarray:
 def _unbalanced(panels: Panels) -> np.ndarray:
     """bool (P,): panels ending or starting at a knot, more than `BALANCE` times as long as the other.
 
-    The compression of `core.poisson` interpolates the interactions of a knot's two
+    The compression of `core.boundary_integrals.poisson` interpolates the interactions of a knot's two
     panels with the rest of the curve over each of them; a long panel next to a short
     one at a knot puts the short side's neighbours too close for that.
     """
@@ -431,11 +431,11 @@ def gaps(panels: Panels, corners: np.ndarray) -> np.ndarray:
     starts_corner = np.isin(panels.bounds[:, 0], corners)  # each corner starts a panel
     corner_at = np.sort((middle - 0.5 * panels.lengths)[starts_corner])
     reach = panels.lengths / min(THIN_RATIO, REFINED_RATIO)
-    from core import layer_compiled  # here: it imports this module
+    from core.boundary_integrals import compiled_integrals  # here: it imports this module
 
     circles = (panels.z, panels.centres, panels.radii, panels.lengths)
-    found = layer_compiled.run_compiled(
-        layer_compiled.panel_gaps, lambda: (*circles, middle, float(total), corner_at, reach, float(TURN))
+    found = compiled_integrals.run_compiled(
+        compiled_integrals.panel_gaps, lambda: (*circles, middle, float(total), corner_at, reach, float(TURN))
     )
     if found is not None:
         return found

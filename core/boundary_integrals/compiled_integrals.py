@@ -1,31 +1,31 @@
-"""The Cauchy integrals of `core.layer` as compiled loops: the near-field rule, and rows over a panel tree.
+"""The Cauchy integrals of `cauchy_integrals` as compiled loops: the near-field rule, rows over a panel tree.
 
-`core.layer` evaluates C[φ](z) = (1 / 2πi) ∮ φ(τ) / (τ - z) dτ with numpy, in batches
-of (target, panel) pairs, and `core.poisson` assembles its density solve with numpy; their
+`cauchy_integrals` evaluates C[φ](z) = (1 / 2πi) ∮ φ(τ) / (τ - z) dτ with numpy, in batches
+of (target, panel) pairs, and `core.boundary_integrals.poisson` assembles its density solve with numpy; their
 cost is the bookkeeping of those batches (sorting, grouping, one small product per panel).
 The same arithmetic as loops: here are
 
-- `adaptive_pairs`, the near-field rule of `core.layer.adaptive_weights` (`_near_weights`:
+- `adaptive_pairs`, the near-field rule of `cauchy_integrals.adaptive_weights` (`_near_weights`:
   exact product integration of the density's interpolant over a quadratic span), for a
   list of pairs;
 - `layer_rows`, Re C[φ](z) for many targets: the coarsest level's panels by their plain
   rule, near panels replaced by their children level by level, the finest level's near
-  panels by the near-field rule, exactly the decisions of `core.layer.cauchy_integrals`
+  panels by the near-field rule, exactly the decisions of `cauchy_integrals.cauchy_integrals`
   (the same `near` test at every level, so the two agree to rounding), the walk shared
   by boxes of nearby targets and their far panels' rules one BLAS product a box;
-- `layer_matrix_rows`, the Nyström matrix rows of `core.poisson.layer_matrix`;
+- `layer_matrix_rows`, the Nyström matrix rows of `core.boundary_integrals.poisson.layer_matrix`;
 - `interpolation_rows`, the Lagrange basis of a panel's nodes at many parameters;
 - `panel_geometry` and `panel_gaps`, the nodes, weights and circles of a set of panels and
-  their distances across the domain (`core.panels`), and `close_pairs`, the target-panel pairs
-  that need the near-field rule (`core.layer.near_pairs`);
+  their distances across the domain (`panels`), and `close_pairs`, the target-panel pairs
+  that need the near-field rule (`core.boundary_integrals.cauchy_integrals.near_pairs`);
 - `knot_blocks`, the density solve's compressed knot blocks (their matrices, their
-  adaptive entries as `core.poisson._block_near_pairs` finds them, their LUs), and
+  adaptive entries as `core.boundary_integrals.poisson._block_near_pairs` finds them, their LUs), and
   `coarse_system`, its coarse matrix;
 - `galerkin_matrix` and `rows_product`, the two-grid solve's coarse matrix and residual
-  products (`core.two_grid`) on every numba thread.
+  products (`core.boundary_integrals.two_grid`) on every numba thread.
 
 They are compiled by numba, which the package's build does at install
-(`core.compilation.compile_all`); their callers take them through `run_compiled`, only
+(`core.newton.compilation.compile_all`); their callers take them through `run_compiled`, only
 where their machine code is in memory or in numba's cache (`loaded`), and their numpy path
 otherwise, so that the
 default kernel never waits for a compiler; and it reads the cache only once the work
@@ -42,10 +42,10 @@ import numpy as np
 from numba import njit, prange
 from numba.core.compiler_lock import global_compiler_lock
 
-from core.panels import _NODES, _WEIGHTS, ORDER
+from core.boundary_integrals.panels import _NODES, _WEIGHTS, ORDER
 
-#: How `core.layer` chooses: "auto" (compiled where loaded, `loaded`), "numpy", or "compiled"
-#: (compile on first use if need be: tests and `core.compilation.compile_all`).
+#: How `cauchy_integrals` chooses: "auto" (compiled where loaded, `loaded`), "numpy", or "compiled"
+#: (compile on first use if need be: tests and `core.newton.compilation.compile_all`).
 mode = "auto"
 
 
@@ -62,7 +62,7 @@ _unreadable = set()
 
 def allow_reading() -> None:
     """Let `worth_trying` say yes from now on, whatever the points so far
-    (`core.poisson.load_compiled`)."""
+    (`core.boundary_integrals.poisson.load_compiled`)."""
     global _read
     _read = True
 
@@ -315,7 +315,7 @@ def _near_weights(coefficients, a, b, z, power, touch, weights, moments):
 
 @njit(cache=True, nogil=True, error_model="numpy")
 def interpolation_rows(u, barycentric):
-    """`core.panels.interpolation_matrix` for local parameters u (M,): the Lagrange basis of the
+    """`panels.interpolation_matrix` for local parameters u (M,): the Lagrange basis of the
     panel nodes at each, (M, ORDER), by the second barycentric formula with the nodes' weights
     `barycentric` (ORDER,); a row at a node is that node's unit row.  No branch out of the
     terms' loop, and one division a row (to a rounding of numpy's quotients; the bench blob's
@@ -341,7 +341,7 @@ def interpolation_rows(u, barycentric):
 
 @njit(cache=True, nogil=True, error_model="numpy")
 def panel_geometry(coefficients, bounds):
-    """`core.panels._panels`'s arrays for the panels `bounds` (P, 2) of the curve whose spans are
+    """`panels._panels`'s arrays for the panels `bounds` (P, 2) of the curve whose spans are
     `coefficients` (n, 3, 2) (`ClosedBSpline.piecewise_polynomial`), each panel on the span of
     its start: t, weights (P ORDER,), z, dz, d2z complex (P ORDER,), centres complex (P,),
     radii and lengths (P,).  One pass, where numpy took ~20 array operations a call (a solve
@@ -383,7 +383,7 @@ def panel_geometry(coefficients, bounds):
 
 @njit(cache=True, nogil=True, error_model="numpy")
 def panel_gaps(node_z, centres, radii, lengths, middle, total, corner_at, reach, turn):
-    """`core.panels.gaps` from its arrays: for each panel p, the least distance from a node of p to
+    """`panels.gaps` from its arrays: for each panel p, the least distance from a node of p to
     a node of another panel o within reach[p] and beyond p (farther along the curve than twice
     p's length, or than `turn` times the distance with no corner (corner_at, sorted arc
     positions) between them), float (P,), inf for none.  Panels whose circles are farther apart
@@ -420,7 +420,7 @@ def panel_gaps(node_z, centres, radii, lengths, middle, total, corner_at, reach,
 
 @njit(cache=True, nogil=True, error_model="numpy")
 def close_pairs(targets, node_z, centres, reach, close_squared):
-    """`core.layer.near_pairs` by comparing every target (M,) with every panel: (target, panel)
+    """`cauchy_integrals.near_pairs` by comparing every target (M,) with every panel: (target, panel)
     int (E,) each, sorted by target then panel, for the pairs whose target is within `reach` of
     the panel's centre and closer than its close range (close_squared (P,)) to one of its nodes."""
     count, panels = targets.shape[0], centres.shape[0]
@@ -464,12 +464,12 @@ def _layer_entry(x, y, own, u, k, node_z, factors, node_span, node_u, weights, s
 
 @njit(cache=True, parallel=True, error_model="numpy")
 def layer_matrix_rows(targets, target_span, target_u, node_z, factors, node_span, node_u, weights, spans):
-    """The double layer's Re C-weights of `core.poisson.layer_matrix`, shape (M, N), for targets z
+    """The double layer's Re C-weights of `poisson.layer_matrix`, shape (M, N), for targets z
     complex (M,) on the curve and nodes τ complex (N,) with their quadrature weights (N,).
 
     A pair on different spans takes the plain rule, Re(factor_k / (τ_k - z_m)); a pair on one
     span j (spans int (M,) and (N,), parameters u within it (M,) and (N,)) the kernel's closed
-    form s w_k / |c1 + c2 (u_k + u_m)|^2 of `core.layer.fill_same_span`, with `spans` (n, 5)
+    form s w_k / |c1 + c2 (u_k + u_m)|^2 of `cauchy_integrals.fill_same_span`, with `spans` (n, 5)
     holding each span's c1 (real, imaginary), c2 (real, imaginary) and its scale s.
     """
     out = np.empty((targets.shape[0], node_z.shape[0]))
@@ -481,31 +481,31 @@ def layer_matrix_rows(targets, target_span, target_u, node_z, factors, node_span
 
 
 class KnotBlocks(NamedTuple):
-    """The fine panels of `core.poisson`'s knot blocks and what `knot_blocks` needs of them."""
+    """The fine panels of `poisson`'s knot blocks and what `knot_blocks` needs of them."""
 
     node_z: np.ndarray  #: complex (N_f,): the fine nodes
     node_t: np.ndarray  #: (N_f,): their parameters
-    factors: np.ndarray  #: complex (N_f,): `core.layer.layer_factors`
+    factors: np.ndarray  #: complex (N_f,): `core.boundary_integrals.cauchy_integrals.layer_factors`
     node_span: np.ndarray  #: int (N_f,): each node's span
     node_u: np.ndarray  #: (N_f,): its parameter within the span
     weights: np.ndarray  #: (N_f,): quadrature weights in t
     bounds: np.ndarray  #: (P_f, 2): the panels' parameter intervals
     close_squared: np.ndarray  #: (P_f,): squared distance within which a node needs the adaptive rule
     spans: np.ndarray  #: (n, 5): each span's c1, c2 (real, imaginary) and kernel scale (`layer_matrix_rows`)
-    cross: np.ndarray  #: (n,): Im(c1 conj c2), 0 for a straight span (`core.layer.smooth_on_own_span`)
+    cross: np.ndarray  #: (n,): Im(c1 conj c2), 0 for a straight span (`cauchy_integrals.smooth_on_own_span`)
     coefficients: np.ndarray  #: (n, 3, 2): the spans (`ClosedBSpline.piecewise_polynomial`)
     orientation: float  #: +1 counter-clockwise, -1 clockwise
 
 
 @njit(cache=True, parallel=True, error_model="numpy")
 def knot_blocks(fine, panels, start, interpolation, offsets, row_weights, column_weights, sequence):
-    """The compressed knot blocks of `core.poisson`, a block a thread at a time.
+    """The compressed knot blocks of `core.boundary_integrals.poisson`, a block a thread at a time.
 
     Block b's fine panels are panels[start[b]:start[b + 1]] (of `fine`, a `KnotBlocks`), its
     rows those panels' nodes in order (R rows in all).  Its matrix I + 2 K*_b takes
     `layer_matrix_rows`'s entries, but where a node is within its close range of another of
     the block's panels and the kernel is not smooth there (`_smooth_on_own_span`) the adaptive
-    rule's (`_near_weights`), as `core.poisson._block_near_pairs` finds them.  P, (R, W), has
+    rule's (`_near_weights`), as `poisson._block_near_pairs` finds them.  P, (R, W), has
     in row r the interpolation row (R, ORDER) at columns offsets[r]..offsets[r] + ORDER.
     Returns X = (I + 2 K*)^-1 P (R, W) and Q X, shape (B, W, W), with Q = W_c^-1 P^T W_f
     (row_weights (R,), column_weights (B, W)).  The blocks are taken in the order `sequence`
@@ -601,7 +601,7 @@ def _adaptive_entries(fine, panels, matrix):
 
 @njit(cache=True, nogil=True, error_model="numpy")
 def _smooth_on_own_span(fine, t, p):
-    """`core.layer.smooth_on_own_span` for a node at parameter t and panel p of `fine`."""
+    """`cauchy_integrals.smooth_on_own_span` for a node at parameter t and panel p of `fine`."""
     span = math.floor(fine.bounds[p, 0] + 1e-12)
     if math.floor(t + 1e-12) != span:
         return False
@@ -618,7 +618,7 @@ def _smooth_on_own_span(fine, t, p):
 @njit(cache=True, parallel=True, error_model="numpy")
 def coarse_system(node_z, factors, node_span, node_u, weights, spans, node_block, block_columns,
                   block_reduced, near_start, near_panel, out):  # fmt: skip
-    """2 K°_c R of `core.poisson`'s coarse equation into out (N, N): `layer_matrix_rows`'s entries
+    """2 K°_c R of `poisson`'s coarse equation into out (N, N): `layer_matrix_rows`'s entries
     at the coarse nodes (arguments as there, targets the nodes themselves) times 2, with 0 in
     the columns of a node's own knot block (node_block (N,), -1 for none; block_columns (B, W),
     -1 padding) and in the nodes of its near panels (near_panel[near_start[m]:near_start[m + 1]]),
@@ -660,7 +660,7 @@ def coarse_system(node_z, factors, node_span, node_u, weights, spans, node_block
 def rows_product(matrix, x, runs, out):
     """out = matrix @ x, (K, m) for matrix (K, L) and x (L, m), C-ordered: in `runs` runs of rows
     (one a numba thread; its count an argument, as a function asking numba for it cannot be
-    cached), each a BLAS product (`core.two_grid`'s residuals: the bench blob's 560 x 560 times
+    cached), each a BLAS product (`two_grid`'s residuals: the bench blob's 560 x 560 times
     13 columns took 0.32-0.37 ms in one BLAS call, 0.18-0.20 ms in two runs)."""
     rows = matrix.shape[0]
     step = max(1, -(-rows // max(1, runs)))
@@ -672,7 +672,7 @@ def rows_product(matrix, x, runs, out):
 
 @njit(cache=True, parallel=True, error_model="numpy")
 def galerkin_matrix(matrix, restrict, prolong, out):
-    """Ρ A Π of `core.two_grid` into out (P c, P c): for A (P ORDER, P ORDER) on P panels, Ρ
+    """Ρ A Π of `two_grid` into out (P c, P c): for A (P ORDER, P ORDER) on P panels, Ρ
     (c, ORDER) on each panel's rows, then Π (ORDER, c) on each panel's columns; a row panel a
     thread at a time, two BLAS products each."""
     panels = matrix.shape[0] // ORDER
@@ -686,7 +686,7 @@ def galerkin_matrix(matrix, restrict, prolong, out):
 
 @njit(cache=True, parallel=True, error_model="numpy")
 def adaptive_pairs(coefficients, bounds, targets, panel, power, touch):
-    """`core.layer.adaptive_weights` for K pairs: weights complex (K, ORDER) and touching bool (K,).
+    """`cauchy_integrals.adaptive_weights` for K pairs: weights complex (K, ORDER) and touching bool (K,).
 
     coefficients (n, 3, 2) are the curve's spans (`ClosedBSpline.piecewise_polynomial`),
     bounds (P, 2) the panels' parameter intervals, targets complex (K,), panel int (K,).
@@ -706,7 +706,7 @@ def adaptive_pairs(coefficients, bounds, targets, panel, power, touch):
 
 
 class PanelTree(NamedTuple):
-    """The levels of `core.layer.Levels` concatenated, coarsest first, for `layer_rows`.
+    """The levels of `cauchy_integrals.Levels` concatenated, coarsest first, for `layer_rows`.
 
     Level k's panels are panel_start[k]..panel_start[k+1] - 1 (P in all), panel p's nodes
     p ORDER..(p + 1) ORDER - 1 (N in all); children[child_start[p]..child_start[p+1] - 1]
@@ -714,7 +714,9 @@ class PanelTree(NamedTuple):
     """
 
     node_z: np.ndarray  #: complex (N,)
-    factors: np.ndarray  #: complex (N,): s w τ' / 2πi (`core.layer.layer_factors`)
+    factors: (
+        np.ndarray
+    )  #: complex (N,): s w τ' / 2πi (`core.boundary_integrals.cauchy_integrals.layer_factors`)
     density: np.ndarray  #: (N, m): what each level's rule integrates
     centres: np.ndarray  #: complex (P,)
     reach: np.ndarray  #: (P,): the panel's radius plus its close range

@@ -1,4 +1,4 @@
-"""The first-run compilation of `core.solver`, with progress (`core.compile_solver`).
+"""The first-run compilation of `core.newton.solver`, with progress (`core.compile_solver`).
 
 numba compiles the solver to machine code on its first use and keeps the result
 in its on-disk cache: ``__pycache__`` beside the sources, or, where that is not
@@ -10,7 +10,7 @@ module, to say what is happening and how far it has got instead of leaving a
 progress bar at 0 %.
 
 Progress is the share of the solver's source lines whose functions numba has
-finished compiling (each function of `core.solver` is compiled once, with its
+finished compiling (each function of `core.newton.solver` is compiled once, with its
 callees first; the work per function grows with its length).
 """
 
@@ -24,9 +24,11 @@ import numpy as np
 from numba.core import event
 from numba.core.registry import CPUDispatcher
 
-from core import crossing_slabs, gradient_solver, solver
+from core.curves import crossing_slabs
 
 #: The modules compiled on first use, with progress: the solver and its inside test.
+from core.newton import gradient_solver, solver
+
 SOLVER_MODULES = (solver, crossing_slabs)
 #: Compiled on the first use of gradients (`core.basis_gradients`), after the solver.
 GRADIENT_MODULES = (gradient_solver,)
@@ -51,7 +53,7 @@ def compile_solver(progress: Callable[[float], None] | None = None, gradients: b
     """Compile the solver, or load it from numba's cache, before the first solve.
 
     One small basis-function evaluation of a Newton kernel in the arc-length
-    parameterisation types every function of `core.solver` (the default kernel,
+    parameterisation types every function of `core.newton.solver` (the default kernel,
     ``poisson``, is not compiled, so it names one): the kernel, the output mode and the
     parameterisation are run-time values, so every kernel of `core.KERNELS`,
     `core.kernel` and `core.basis_functions` share the one specialisation it
@@ -64,7 +66,7 @@ def compile_solver(progress: Callable[[float], None] | None = None, gradients: b
         compilation starts, last with 1; never called when every function comes
         from the cache.
     gradients : bool
-        Also the gradient solver (`core.gradient_solver`, the first use of
+        Also the gradient solver (`core.newton.gradient_solver`, the first use of
         `core.basis_gradients`), in the same progress.
 
     Returns
@@ -77,7 +79,7 @@ def compile_solver(progress: Callable[[float], None] | None = None, gradients: b
     if _loaded.is_set() and not gradients:
         return False
     from core.basis import basis_functions
-    from core.bspline import ClosedBSpline
+    from core.curves.bspline import ClosedBSpline
     from core.gradients import basis_gradients
 
     modules = (() if _loaded.is_set() else SOLVER_MODULES) + (GRADIENT_MODULES if gradients else ())
@@ -100,32 +102,32 @@ def compile_solver(progress: Callable[[float], None] | None = None, gradients: b
 
 def compile_all() -> None:
     """Compile every compiled function of `core` into numba's disk cache: the solver and
-    its gradients (`compile_solver`), the positive Gordon-Wixom rows (`core.pgw`), the
-    closest-point and winding-number tests (`core.closest_point`) and the boundary
-    integrals of the default kernel (`core.layer_compiled`).
+    its gradients (`compile_solver`), the positive Gordon-Wixom rows (`core.meshes.pgw`), the
+    closest-point and winding-number tests (`core.curves.closest_point`) and the boundary
+    integrals of the default kernel (`core.boundary_integrals.compiled_integrals`).
 
     The package's build runs it (``.packaging/backend.py``), so that an installed
     package starts every kernel from the cache.
     """
-    from core import layer_compiled
-    from core.bspline import ClosedBSpline
-    from core.closest_point import distance_to_curve
-    from core.panels import curve_panels
-    from core.pgw import pgw_basis
-    from core.poisson import _densities, exercise_near_field, poisson_basis
+    from core.boundary_integrals import compiled_integrals
+    from core.boundary_integrals.panels import curve_panels
+    from core.boundary_integrals.poisson import _densities, exercise_near_field, poisson_basis
+    from core.curves.bspline import ClosedBSpline
+    from core.curves.closest_point import distance_to_curve
+    from core.meshes.pgw import pgw_basis
 
     square = ClosedBSpline(np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]))
     x = np.array([[0.5, 0.5]])
     square.contains(x)
     distance_to_curve(square.piecewise_polynomial(), x)
     pgw_basis(square, x)
-    mode, layer_compiled.mode = layer_compiled.mode, "compiled"
+    mode, compiled_integrals.mode = compiled_integrals.mode, "compiled"
     try:
         _densities.cache_clear()  # the density solve runs the knot blocks: not from the cache
         poisson_basis(square, x)
         exercise_near_field(square, curve_panels(square))
     finally:
-        layer_compiled.mode = mode
+        compiled_integrals.mode = mode
     compile_solver(gradients=True)
 
 
