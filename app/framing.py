@@ -11,6 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from app.image_header import MAX_IMAGE_PIXELS
+from app.keyframes import Keyframe, interpolate
 from app.view import View
 from core.curves.bspline import basis_weights
 
@@ -84,3 +85,20 @@ def output_frame(
     if size is not None:
         return (width, height), View.fit(region, size)
     return (width, height), View(scale, (-scale * x0, -scale * y0))
+
+
+def frame_region(
+    image_size: tuple[int, int], keyframes: tuple[Keyframe, ...], interpolation: str, times, canvas: str
+) -> tuple[float, float, float, float]:
+    """(x0, y0, x1, y1), image pixels: `app.framing.output_region` of every frame's target, joined.
+
+    One frame for the whole animation: with ``canvas="grow"`` it holds the
+    target curve at every time in `times` (interpolation may overshoot keyframes).
+    """
+    regions = np.array(
+        [
+            output_region(image_size, interpolate(keyframes, float(t), interpolation), canvas)
+            for t in (times if canvas == "grow" else times[:1])
+        ]
+    )
+    return (*regions[:, :2].min(axis=0), *regions[:, 2:].max(axis=0))

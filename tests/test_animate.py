@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 from test_cli import CAGE, picture, run_main, transformed
 
-from app.animate import GifWriter, flatten, gif_delays
 from app.files import read_image, write_png
+from app.frame_writers import GifWriter, flatten, gif_delays
 from app.framing import output_region
 
 ROOT = Path(__file__).resolve().parent.parent

@@ -635,7 +635,8 @@ class Viewer:
         return path
 
     def _start_animation_export(self, path: Path, typed: str | None) -> None:
-        from app.animate import WRITERS, check_output, frame_region, output_kind
+        from app.frame_writers import WRITERS, check_output, output_kind
+        from app.framing import frame_region
         from app.keyframes import frame_times
 
         state = self.state
@@ -1003,7 +1004,7 @@ class AnimationExport:
 
     Attributes
     ----------
-    writer : app.animate.FrameWriter
+    writer : app.frame_writers.FrameWriter
     times : ndarray of shape (F,)
         Seconds of every frame (`app.keyframes.frame_times`).
     size, view
