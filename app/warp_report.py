@@ -7,8 +7,8 @@ import numpy as np
 
 from app.console import ProgressBar, note
 from app.warping import Deformation
-from core.newton.compilation import GRADIENT_MESSAGE as GRADIENT_COMPILING
 from core.kernel_table import COMPILED_KERNELS
+from core.newton.compilation import GRADIENT_MESSAGE as GRADIENT_COMPILING
 
 
 def warn_of_folds(
