@@ -44,12 +44,14 @@ from app.console import (
     print_notes,
 )
 from app.files import (
+    IMAGE_SUFFIXES,
     InputError,
     cage_curve,
     check_writable,
     kernel_names,
     read_cage,
     read_image,
+    read_photo,
     read_session,
     refuse_overwriting_inputs,
     reported_as_input,
@@ -60,9 +62,11 @@ from app.files import (
     session_output,
     session_parameterization,
     write_cage,
-    write_png,
+    write_image,
 )
 from app.framing import CANVASES, OUTSIDES, output_frame, output_region
+from app.images import DEFAULT_QUALITY, has_alpha, output_format
+from app.images.colours import parse_colour
 from app.keyframes import MAX_FPS, MIN_FPS
 from app.render import ContextUnavailableError
 from app.viewer.demos import SCRIPT_FORMAT
@@ -201,7 +205,27 @@ def build_parser(prog: str = "python -m app") -> argparse.ArgumentParser:
         help="session JSON of the viewer: image, cage, target and kernel; its target, not its keyframes "
         "(animate plays those); the output is framed like the image, not like the viewer's window",
     )
-    warp.add_argument("--output", type=Path, help="output PNG (RGBA); required")
+    warp.add_argument(
+        "--output",
+        type=Path,
+        help="output image, its format by its extension: .png (RGBA, 8 or 16 bits like the input), "
+        ".tif/.tiff (RGBA, 16 bits kept), .jpg/.jpeg (no transparency: give --outside original or "
+        "--background), .webp; the input's ICC profile and EXIF are carried over; required",
+    )
+    warp.add_argument(
+        "--quality",
+        type=_quality_value,
+        default=DEFAULT_QUALITY,
+        metavar="Q",
+        help=f"JPEG and WebP quality, 1-100 (default {DEFAULT_QUALITY})",
+    )
+    warp.add_argument(
+        "--background",
+        type=_colour,
+        metavar="COLOR",
+        help="fill what the warp leaves transparent with COLOR: a name (white, black, grey...), #rrggbb "
+        "or r,g,b (0-255); needed for a JPEG output unless --outside original covers everything",
+    )
     warp.add_argument(
         "--kernel",
         metavar="NAME",
@@ -608,7 +632,7 @@ def _warp(args: argparse.Namespace) -> int:
     from core.validation import checked_samples_per_segment
 
     _require_warp_arguments(args)
-    check_writable(args.output, suffix=".png")
+    check_writable(args.output, suffix=IMAGE_SUFFIXES)
     if args.session is not None:
         given = [f"--{name}" for name in ("cage", "target") if getattr(args, name) is not None]
         if args.image is not None or given:
@@ -644,7 +668,8 @@ def _warp(args: argparse.Namespace) -> int:
     refuse_overwriting_inputs(
         args.output, {"source cage": args.cage, "target cage": args.target, "session file": args.session}
     )
-    image = read_image(image_path)
+    photo = read_photo(image_path)
+    image = photo.pixels
     height, width = image.shape[:2]
     if args.samples_per_segment is not None:
         with reported_as_input("--samples-per-segment"):
@@ -652,6 +677,7 @@ def _warp(args: argparse.Namespace) -> int:
     curve = cage_curve(cage, cage_source, args.samples_per_segment)
     _require_overlap(curve, (width, height), cage_source)
     outside, canvas = args.outside or outside, args.canvas or canvas
+    _require_opaque_output(args.output, outside, args.background)
     region = output_region((width, height), target, canvas)
     with reported_as_input("output size"):
         size, view = output_frame(region, args.scale, args.size)
@@ -702,14 +728,24 @@ def _warp(args: argparse.Namespace) -> int:
                 renderer.set_image(image)
             renderer.set_mesh(mesh.vertices, mesh.triangles)
             with reported_as_input("rendering"):
-                pixels = render(renderer, deformation, target, size, view, outside)
-        write_png(args.output, pixels)
+                pixels = render(renderer, deformation, target, size, view, outside, args.background)
+        write_image(args.output, pixels, photo.metadata, args.quality)
         note(f"wrote {args.output} ({size[0]}x{size[1]}) in {time.perf_counter() - started:.1f} s")
     finally:
         ctx.release()
     if args.report:
         print("\n".join(report))
     return EXIT_OK
+
+
+def _require_opaque_output(output: Path, outside: str, background) -> None:
+    """`InputError` before any work if `output` is a format without alpha (JPEG) and the warp leaves
+    pixels transparent: outside the deformed region, unless --outside original or --background."""
+    if not has_alpha(output_format(output)) and outside == "transparent" and background is None:
+        raise InputError(
+            f"{output}: JPEG has no transparency and the warp is transparent outside the deformed cage; "
+            "give --outside original or --background COLOR"
+        )
 
 
 def _why_folded(target: np.ndarray, target_source: str) -> str:
@@ -1061,3 +1097,22 @@ def _size(text: str) -> tuple[int, int]:
     if width < 1 or height < 1:
         raise argparse.ArgumentTypeError(f"width and height must be positive, got {text!r}")
     return width, height
+
+
+def _quality_value(text: str) -> int:
+    """argparse type: a JPEG/WebP quality, an integer 1-100."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected an integer 1-100, got {text!r}") from None
+    if not 1 <= value <= 100:
+        raise argparse.ArgumentTypeError(f"must be an integer 1-100, got {text!r}")
+    return value
+
+
+def _colour(text: str) -> tuple[float, float, float, float]:
+    """argparse type: a colour (`app.images.colours.parse_colour`)."""
+    try:
+        return parse_colour(text)
+    except ValueError as error:
+        raise argparse.ArgumentTypeError(str(error)) from None

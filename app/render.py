@@ -31,7 +31,7 @@ from app.render_passes.fields import DistortionPass, FieldPass, heat_map_pass, h
 from app.render_passes.image import ImagePass
 from app.render_passes.mesh_buffers import MeshBuffers, checked_mesh
 from app.render_passes.overlay import OverlayPass
-from app.render_passes.source_image import SourceImage, checked_image
+from app.render_passes.source_image import SourceImage, checked_image, texture_dtype
 from app.view import View
 
 #: Largest side of one offscreen drawing of `WarpRenderer.render`; larger outputs are drawn in tiles.
@@ -110,7 +110,7 @@ class WarpRenderer:
         self._image_size: tuple[int, int] | None = None
         self._mesh: MeshBuffers | None = None
         self._preview: MeshBuffers | None = None
-        self._target: tuple[tuple[int, int], int, list] | None = None
+        self._target: tuple[tuple, list] | None = None
         #: Counts the changes of what `draw` and `draw_backdrop` would draw (image, meshes,
         #: positions, fields): a picture drawn at one revision can be reused until the next.
         self.revision = 0
@@ -122,8 +122,9 @@ class WarpRenderer:
 
         Parameters
         ----------
-        image : ndarray of shape (H, W, 4), uint8
-            RGBA with straight (non-premultiplied) alpha, row 0 at the top.
+        image : ndarray of shape (H, W, 4), uint8 or uint16
+            RGBA with straight (non-premultiplied) alpha, row 0 at the top.  A 16-bit image
+            is drawn, and `render` reads it back, at 16 bits.
         """
         self.revision += 1
         image = checked_image(self.ctx, image)
@@ -412,7 +413,7 @@ class WarpRenderer:
 
         Returns
         -------
-        ndarray of shape (height, width, 4), uint8
+        ndarray of shape (height, width, 4), uint8, or uint16 for a 16-bit source image
             RGBA with straight alpha, row 0 at the top.
         """
         width, height = int(size[0]), int(size[1])
@@ -425,10 +426,12 @@ class WarpRenderer:
         tile = (min(width, limit), min(height, limit))
         # Leave the caller's framebuffer bound afterwards (a viewer exporting mid-frame).
         previous = self.ctx.fbo
-        if self._target is not None and previous in self._target[2]:
+        if self._target is not None and previous in self._target[1]:
             previous = None  # ours, perhaps about to be replaced
-        multisample, resolved = self._framebuffers(tile, max(0, min(int(samples), self.ctx.max_samples)))
-        pixels = np.empty((height, width, 4), np.uint8)
+        dtype = np.dtype(np.uint8) if self._source is None else self._source.dtype
+        samples = max(0, min(int(samples), self.ctx.max_samples))
+        multisample, resolved = self._framebuffers(tile, samples, dtype)
+        pixels = np.empty((height, width, 4), dtype)
         red, green, blue, alpha = background
         for top in range(0, height, tile[1]):
             for left in range(0, width, tile[0]):
@@ -439,9 +442,9 @@ class WarpRenderer:
                     self.draw_backdrop(shifted, tile)
                 self._draw(shifted, tile, "caller", content, wireframe, highlight, folds)
                 self.ctx.copy_framebuffer(resolved, multisample)
-                data = resolved.read(components=4, alignment=1)
+                data = resolved.read(components=4, alignment=1, dtype=texture_dtype(dtype))
                 # GL rows run bottom-up.
-                drawn = np.frombuffer(data, dtype=np.uint8).reshape(tile[1], tile[0], 4)[::-1]
+                drawn = np.frombuffer(data, dtype=dtype).reshape(tile[1], tile[0], 4)[::-1]
                 part = pixels[top : top + tile[1], left : left + tile[0]]
                 part[...] = drawn[: part.shape[0], : part.shape[1]]
         if previous is not None:
@@ -468,17 +471,20 @@ class WarpRenderer:
 
     # -- internals ----------------------------------------------------------
 
-    def _framebuffers(self, size: tuple[int, int], samples: int):
-        """Multisampled and resolve framebuffers of `size`, kept for the next render of that size."""
-        if self._target is None or self._target[:2] != (size, samples):
+    def _framebuffers(self, size: tuple[int, int], samples: int, dtype: np.dtype):
+        """Multisampled and resolve framebuffers of `size` and samples of `dtype` (8 or 16 bits),
+        kept for the next render of that kind."""
+        kind = (size, samples, dtype)
+        if self._target is None or self._target[0] != kind:
             # Only one size is kept: a 4K 4x multisample target alone is ~130 MB.
             self._release_target()
-            colour = self.ctx.renderbuffer(size, 4, samples=samples)
-            resolved_colour = self.ctx.renderbuffer(size, 4)
+            gl_type = texture_dtype(dtype)
+            colour = self.ctx.renderbuffer(size, 4, samples=samples, dtype=gl_type)
+            resolved_colour = self.ctx.renderbuffer(size, 4, dtype=gl_type)
             multisample = self.ctx.framebuffer(color_attachments=[colour])
             resolved = self.ctx.framebuffer(color_attachments=[resolved_colour])
-            self._target = (size, samples, [multisample, resolved, colour, resolved_colour])
-        objects = self._target[2]
+            self._target = (kind, [multisample, resolved, colour, resolved_colour])
+        objects = self._target[1]
         return objects[0], objects[1]
 
     def _build_mesh(self, vertices: np.ndarray, triangles: np.ndarray) -> MeshBuffers:
@@ -519,20 +525,25 @@ class WarpRenderer:
 
     def _release_target(self) -> None:
         if self._target is not None:
-            if self.ctx.fbo in self._target[2]:
+            if self.ctx.fbo in self._target[1]:
                 # GL falls back to the default framebuffer when the bound one is deleted.
                 self.ctx.fbo = self.ctx.screen
-            for item in self._target[2]:
+            for item in self._target[1]:
                 item.release()
         self._target = None
 
 
 def _unpremultiply(pixels: np.ndarray) -> np.ndarray:
-    """RGBA uint8 (H, W, 4), premultiplied -> straight alpha, in place; only partly covered pixels change."""
+    """RGBA uint8 or uint16 (H, W, 4), premultiplied -> straight alpha, in place; only partly covered
+    pixels change (opaque ones are exactly what was drawn)."""
     result = pixels
+    maximum = np.iinfo(result.dtype).max
     alpha = result[..., 3]
-    partial = (alpha > 0) & (alpha < 255)
+    partial = (alpha > 0) & (alpha < maximum)
     if partial.any():
-        a = alpha[partial].astype(np.float32)[:, None]
-        result[partial, :3] = np.clip(result[partial, :3] * (255.0 / a) + 0.5, 0, 255).astype(np.uint8)
+        # float64 for 16 bits: float32's 24 bits would round c * 65535 / a off by a unit.
+        wide = np.float32 if maximum == 255 else np.float64
+        a = alpha[partial].astype(wide)[:, None]
+        straight = np.clip(result[partial, :3] * (wide(maximum) / a) + 0.5, 0, maximum)
+        result[partial, :3] = straight.astype(result.dtype)
     return result

@@ -122,6 +122,7 @@ def render(
     size: tuple[int, int],
     view: View,
     outside: str,
+    background: tuple[float, float, float, float] | None = None,
 ) -> np.ndarray:
     """The image on `renderer` drawn on the mesh deformed to `target`.
 
@@ -138,14 +139,17 @@ def render(
         Image pixels to output pixels.
     outside : str
         ``"original"`` draws the source image behind the warp, ``"transparent"`` leaves it clear.
+    background : tuple of float, optional
+        Straight RGBA in [0, 1] under everything (``--background``); transparent if None.
 
     Returns
     -------
-    ndarray of shape (height, width, 4), uint8
-        Premultiplied RGBA.
+    ndarray of shape (height, width, 4), uint8, or uint16 for a 16-bit source image
+        RGBA with straight alpha.
     """
     renderer.set_positions(deformation.positions(target))
-    return renderer.render(size, view, backdrop=outside == "original")
+    clear = (0.0, 0.0, 0.0, 0.0) if background is None else background
+    return renderer.render(size, view, backdrop=outside == "original", background=clear)
 
 
 __all__ = ["Deformation", "WarpSettings", "prepare", "render"]
