@@ -19,7 +19,7 @@ import math
 import os
 import re
 import stat
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field
 from numbers import Real
 from pathlib import Path
@@ -40,6 +40,7 @@ from app.images import (
     read_metadata,
     rgba_pixels,
 )
+from app.images.tiles import PngStripWriter
 from app.keyframes import DEFAULT_INTERPOLATION, INTERPOLATIONS, Keyframe, sorted_keyframes
 from core.atomic_write import NAME_MAX, write_atomically
 from core.validation import MAX_CONTROL_POINTS, as_points, too_many_control_points
@@ -612,6 +613,37 @@ def write_image(
     with reported_as_input(str(path)):
         data = encode_image(image, output_format(path), metadata, quality)
     write_atomic(path, data)
+
+
+def write_png_strips(
+    path: str | os.PathLike,
+    size: tuple[int, int],
+    dtype,
+    strips: Iterable[tuple[int, np.ndarray]],
+    metadata: ImageMetadata | None = None,
+) -> None:
+    """Write a PNG of (width, height) RGBA pixels from its horizontal strips, atomically.
+
+    Each strip (top row, ndarray of shape (r, width, 4) of `dtype`) is compressed while the
+    next one is made (`app.images.tiles.PngStripWriter`): the whole image is never in memory.
+    """
+    path = Path(path)
+    check_writable(path)
+
+    def write(stream) -> None:
+        writer = PngStripWriter(stream, size, dtype, metadata)
+        try:
+            for _, rows in strips:
+                writer.add(rows)
+            writer.finish()
+        except BaseException:
+            writer.close()
+            raise
+
+    try:
+        write_atomically(path, write)
+    except OSError as error:
+        raise InputError(f"{path}: cannot write ({error.strerror or error})") from None
 
 
 def _read_bytes(path: Path, limit: int) -> bytes:

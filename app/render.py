@@ -20,6 +20,8 @@ counted from the framebuffer's top-left corner, exactly like the session file.
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+
 import moderngl
 import numpy as np
 
@@ -36,6 +38,8 @@ from app.view import View
 
 #: Largest side of one offscreen drawing of `WarpRenderer.render`; larger outputs are drawn in tiles.
 TILE = 4096
+#: Rows of a strip of `WarpRenderer.render_strips`: a 12000-pixel-wide strip is 49 MB at 8 bits.
+STRIP_ROWS = 1024
 
 
 class ContextUnavailableError(RuntimeError):
@@ -416,40 +420,83 @@ class WarpRenderer:
         ndarray of shape (height, width, 4), uint8, or uint16 for a 16-bit source image
             RGBA with straight alpha, row 0 at the top.
         """
-        width, height = int(size[0]), int(size[1])
-        if not (1 <= width and 1 <= height and width * height <= MAX_OUTPUT_PIXELS):
-            raise ValueError(
-                f"output size {width}x{height} is not 1 to {MAX_OUTPUT_PIXELS / 1e6:.0f} megapixels"
-            )
+        width, height = _output_size(size)
+        pixels = np.empty((height, width, 4), self.pixel_type)
+        options = dict(samples=samples, background=background, backdrop=backdrop)
+        for _ in self._strips(size, view, None, (content, wireframe, highlight, folds), options, pixels):
+            pass
+        return pixels
+
+    @property
+    def pixel_type(self) -> np.dtype:
+        """The samples `render` returns: uint16 for a 16-bit source image, else uint8."""
+        return np.dtype(np.uint8) if self._source is None else self._source.dtype
+
+    def render_strips(
+        self,
+        size: tuple[int, int],
+        view: View | None = None,
+        *,
+        rows: int = STRIP_ROWS,
+        samples: int = 4,
+        background: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0),
+        backdrop: bool = False,
+    ) -> Iterator[tuple[int, np.ndarray]]:
+        """`render` of the image, a horizontal strip at a time: a large output is never held whole.
+
+        Parameters
+        ----------
+        size, view, samples, background, backdrop
+            As in `render` (``content="image"``, without marks).
+        rows : int
+            Rows of a strip (the last may have fewer).
+
+        Yields
+        ------
+        top : int
+            The strip's first row.
+        strip : ndarray of shape (r, width, 4), uint8 or uint16 (`pixel_type`)
+            RGBA with straight alpha, a new array each time; the same pixels as `render`'s rows.
+        """
+        options = dict(samples=samples, background=background, backdrop=backdrop)
+        yield from self._strips(size, view, rows, ("image", False, False, False), options, None)
+
+    def _strips(self, size, view, rows, what, options, into):
+        """The strips of `render` (into rows of `into` if given, else new arrays), `rows` high or one
+        tile; `what` is ``(content, wireframe, highlight, folds)``, `options` the drawing's."""
+        width, height = _output_size(size)
         view = view or View()
         limit = min(TILE, self.ctx.info["GL_MAX_RENDERBUFFER_SIZE"], *self.ctx.info["GL_MAX_VIEWPORT_DIMS"])
-        tile = (min(width, limit), min(height, limit))
+        tile = (min(width, limit), min(height, limit, rows or limit))
         # Leave the caller's framebuffer bound afterwards (a viewer exporting mid-frame).
         previous = self.ctx.fbo
         if self._target is not None and previous in self._target[1]:
             previous = None  # ours, perhaps about to be replaced
-        dtype = np.dtype(np.uint8) if self._source is None else self._source.dtype
-        samples = max(0, min(int(samples), self.ctx.max_samples))
+        dtype = self.pixel_type
+        samples = max(0, min(int(options["samples"]), self.ctx.max_samples))
         multisample, resolved = self._framebuffers(tile, samples, dtype)
-        pixels = np.empty((height, width, 4), dtype)
-        red, green, blue, alpha = background
-        for top in range(0, height, tile[1]):
-            for left in range(0, width, tile[0]):
-                multisample.use()
-                multisample.clear(red * alpha, green * alpha, blue * alpha, alpha)
-                shifted = View(view.scale, (view.offset[0] - left, view.offset[1] - top))
-                if backdrop:
-                    self.draw_backdrop(shifted, tile)
-                self._draw(shifted, tile, "caller", content, wireframe, highlight, folds)
-                self.ctx.copy_framebuffer(resolved, multisample)
-                data = resolved.read(components=4, alignment=1, dtype=texture_dtype(dtype))
-                # GL rows run bottom-up.
-                drawn = np.frombuffer(data, dtype=dtype).reshape(tile[1], tile[0], 4)[::-1]
-                part = pixels[top : top + tile[1], left : left + tile[0]]
-                part[...] = drawn[: part.shape[0], : part.shape[1]]
-        if previous is not None:
-            previous.use()
-        return _unpremultiply(pixels)
+        drawn = np.empty((tile[1], tile[0], 4), dtype)
+        red, green, blue, alpha = options["background"]
+        try:
+            for top in range(0, height, tile[1]):
+                count = min(tile[1], height - top)
+                strip = np.empty((count, width, 4), dtype) if into is None else into[top : top + count]
+                for left in range(0, width, tile[0]):
+                    multisample.use()
+                    multisample.clear(red * alpha, green * alpha, blue * alpha, alpha)
+                    shifted = View(view.scale, (view.offset[0] - left, view.offset[1] - top))
+                    if options["backdrop"]:
+                        self.draw_backdrop(shifted, tile)
+                    self._draw(shifted, tile, "caller", *what)
+                    self.ctx.copy_framebuffer(resolved, multisample)
+                    resolved.read_into(drawn, components=4, alignment=1, dtype=texture_dtype(dtype))
+                    part = strip[:, left : left + tile[0]]
+                    # GL rows run bottom-up.
+                    part[...] = drawn[::-1][: part.shape[0], : part.shape[1]]
+                yield top, _unpremultiply(strip)
+        finally:
+            if previous is not None:
+                previous.use()
 
     # -- lifetime -----------------------------------------------------------
 
@@ -531,6 +578,14 @@ class WarpRenderer:
             for item in self._target[1]:
                 item.release()
         self._target = None
+
+
+def _output_size(size: tuple[int, int]) -> tuple[int, int]:
+    """(width, height) as ints, or ValueError if it is not 1 to `MAX_OUTPUT_PIXELS` pixels."""
+    width, height = int(size[0]), int(size[1])
+    if not (1 <= width and 1 <= height and width * height <= MAX_OUTPUT_PIXELS):
+        raise ValueError(f"output size {width}x{height} is not 1 to {MAX_OUTPUT_PIXELS / 1e6:.0f} megapixels")
+    return width, height
 
 
 def _unpremultiply(pixels: np.ndarray) -> np.ndarray:

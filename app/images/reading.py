@@ -35,6 +35,11 @@ class Photo:
     metadata: ImageMetadata = field(default_factory=ImageMetadata)
     notes: tuple[str, ...] = ()
 
+    def metadata_only(self) -> Photo:
+        """This photograph without its pixels (an empty array of the same depth), to keep its
+        metadata while the pixels are freed."""
+        return Photo(np.empty((0, 0, 4), self.pixels.dtype), self.metadata, self.notes)
+
     @property
     def depth(self) -> int:
         """Bits per sample: 8 or 16."""
