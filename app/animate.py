@@ -82,6 +82,7 @@ def animation_job(args: argparse.Namespace) -> WarpJob:
         view=view,
         outside=args.outside or inputs.outside,
         output=path,
+        file=None,
         kind=kind,
         fps=args.fps,
     )

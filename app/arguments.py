@@ -13,6 +13,8 @@ from pathlib import Path
 from app.console import EXIT_BAD_INPUT, fail
 from app.files import kernel_names
 from app.framing import CANVASES, OUTSIDES
+from app.images import DEFAULT_QUALITY
+from app.images.colours import parse_colour
 from app.keyframes import MAX_FPS, MIN_FPS
 from app.viewer.demos import SCRIPT_FORMAT
 from app.warp_job import DEFAULT_KERNEL
@@ -85,7 +87,27 @@ def _warp_command(commands, run, kernels: tuple[str, ...]) -> None:
         help="session JSON of the viewer: image, cage, target and kernel; its target, not its keyframes "
         "(animate plays those); the output is framed like the image, not like the viewer's window",
     )
-    warp.add_argument("--output", type=Path, help="output PNG (RGBA); required")
+    warp.add_argument(
+        "--output",
+        type=Path,
+        help="output image, its format by its extension: .png (RGBA, 8 or 16 bits like the input), "
+        ".tif/.tiff (RGBA, 16 bits kept), .jpg/.jpeg (no transparency: give --outside original or "
+        "--background), .webp; the input's ICC profile and EXIF are carried over; required",
+    )
+    warp.add_argument(
+        "--quality",
+        type=_quality_value,
+        default=DEFAULT_QUALITY,
+        metavar="Q",
+        help=f"JPEG and WebP quality, 1-100 (default {DEFAULT_QUALITY})",
+    )
+    warp.add_argument(
+        "--background",
+        type=_colour,
+        metavar="COLOR",
+        help="fill what the warp leaves transparent with COLOR: a name (white, black, grey...), #rrggbb "
+        "or r,g,b (0-255); needed for a JPEG output unless --outside original covers everything",
+    )
     warp.add_argument(
         "--kernel",
         metavar="NAME",
@@ -296,6 +318,11 @@ def _bench_command(commands, run) -> None:
     bench.add_argument("--skip-fem", action="store_true", help="no finite-element comparison")
     bench.add_argument("--skip-memory", action="store_true", help="no 1,000,000-point memory run")
     bench.add_argument("--skip-warp", action="store_true", help="no end-to-end 4K warp")
+    bench.add_argument(
+        "--skip-photos",
+        action="store_true",
+        help="no 24 and 100 megapixel photograph warps against reading and writing them (about 2 minutes)",
+    )
     bench.add_argument(
         "--skip-drag", action="store_true", help="no viewer drag frame at 6k and 400k vertices (Xvfb)"
     )
@@ -563,3 +590,22 @@ def _size(text: str) -> tuple[int, int]:
     if width < 1 or height < 1:
         raise argparse.ArgumentTypeError(f"width and height must be positive, got {text!r}")
     return width, height
+
+
+def _quality_value(text: str) -> int:
+    """argparse type: a JPEG/WebP quality, an integer 1-100."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected an integer 1-100, got {text!r}") from None
+    if not 1 <= value <= 100:
+        raise argparse.ArgumentTypeError(f"must be an integer 1-100, got {text!r}")
+    return value
+
+
+def _colour(text: str) -> tuple[float, float, float, float]:
+    """argparse type: a colour (`app.images.colours.parse_colour`)."""
+    try:
+        return parse_colour(text)
+    except ValueError as error:
+        raise argparse.ArgumentTypeError(str(error)) from None

@@ -3,9 +3,10 @@
 Every row is the median of repeated runs in this one process, next to a baseline
 measured in the same process (the plain numpy reference of `core.newton.reference`, and
 the finite-element harmonic solve the paper compares against), so that ratios
-stay meaningful on a shared, noisy machine.  The 1,000,000-point memory run and
-the 4K warp run as child processes, to measure their own peak memory and their
-whole time from process start.  The drag frame is measured in the real viewer:
+stay meaningful on a shared, noisy machine.  The 1,000,000-point memory run,
+the 4K warp and the photograph rows (`app.bench_photos`) run as child processes,
+to measure their own peak memory and their whole time from process start.  The drag frame is
+measured in the real viewer:
 a child ``python -m app demo starfish`` in a window on a private Xvfb server,
 replaying a scripted drag of one control point through the mouse's input path,
 and its ``--stats`` line (``median_drag_frame_ms``) read on exit.
@@ -32,6 +33,7 @@ from pathlib import Path
 import numpy as np
 
 import core
+from app.bench_photos import PHOTO_SIZES, QUICK_SIZE, photo_rows
 from app.console import EXIT_ENVIRONMENT, EXIT_OK, ProgressBar
 from core.boundary_integrals.poisson import load_compiled
 from core.curves import examples
@@ -82,6 +84,8 @@ def run_bench(args: argparse.Namespace) -> int:
         children.append(lambda: _memory(curve, 20_000 if args.quick else 1_000_000))
     if not args.skip_warp:
         children.append(lambda: _warp_4k((640, 360) if args.quick else (3840, 2160)))
+    if not args.skip_photos:
+        children.append(lambda: photo_rows((QUICK_SIZE,) if args.quick else PHOTO_SIZES, run_child))
     if not args.skip_drag:
         children.append(
             lambda: _drag_frames(DRAG_VERTICES[:1], 1.0) if args.quick else _drag_frames(DRAG_VERTICES)

@@ -20,6 +20,8 @@ counted from the framebuffer's top-left corner, exactly like the session file.
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+
 import moderngl
 import numpy as np
 
@@ -31,11 +33,13 @@ from app.render_passes.fields import DistortionPass, FieldPass, heat_map_pass, h
 from app.render_passes.image import ImagePass
 from app.render_passes.mesh_buffers import MeshBuffers, checked_mesh
 from app.render_passes.overlay import OverlayPass
-from app.render_passes.source_image import SourceImage, checked_image
+from app.render_passes.source_image import SourceImage, checked_image, texture_dtype
 from app.view import View
 
 #: Largest side of one offscreen drawing of `WarpRenderer.render`; larger outputs are drawn in tiles.
 TILE = 4096
+#: Rows of a strip of `WarpRenderer.render_strips`: a 12000-pixel-wide strip is 49 MB at 8 bits.
+STRIP_ROWS = 1024
 
 
 class ContextUnavailableError(RuntimeError):
@@ -110,7 +114,7 @@ class WarpRenderer:
         self._image_size: tuple[int, int] | None = None
         self._mesh: MeshBuffers | None = None
         self._preview: MeshBuffers | None = None
-        self._target: tuple[tuple[int, int], int, list] | None = None
+        self._target: tuple[tuple, list] | None = None
         #: Counts the changes of what `draw` and `draw_backdrop` would draw (image, meshes,
         #: positions, fields): a picture drawn at one revision can be reused until the next.
         self.revision = 0
@@ -122,8 +126,9 @@ class WarpRenderer:
 
         Parameters
         ----------
-        image : ndarray of shape (H, W, 4), uint8
-            RGBA with straight (non-premultiplied) alpha, row 0 at the top.
+        image : ndarray of shape (H, W, 4), uint8 or uint16
+            RGBA with straight (non-premultiplied) alpha, row 0 at the top.  A 16-bit image
+            is drawn, and `render` reads it back, at 16 bits.
         """
         self.revision += 1
         image = checked_image(self.ctx, image)
@@ -412,41 +417,86 @@ class WarpRenderer:
 
         Returns
         -------
-        ndarray of shape (height, width, 4), uint8
+        ndarray of shape (height, width, 4), uint8, or uint16 for a 16-bit source image
             RGBA with straight alpha, row 0 at the top.
         """
-        width, height = int(size[0]), int(size[1])
-        if not (1 <= width and 1 <= height and width * height <= MAX_OUTPUT_PIXELS):
-            raise ValueError(
-                f"output size {width}x{height} is not 1 to {MAX_OUTPUT_PIXELS / 1e6:.0f} megapixels"
-            )
+        width, height = _output_size(size)
+        pixels = np.empty((height, width, 4), self.pixel_type)
+        options = dict(samples=samples, background=background, backdrop=backdrop)
+        for _ in self._strips(size, view, None, (content, wireframe, highlight, folds), options, pixels):
+            pass
+        return pixels
+
+    @property
+    def pixel_type(self) -> np.dtype:
+        """The samples `render` returns: uint16 for a 16-bit source image, else uint8."""
+        return np.dtype(np.uint8) if self._source is None else self._source.dtype
+
+    def render_strips(
+        self,
+        size: tuple[int, int],
+        view: View | None = None,
+        *,
+        rows: int = STRIP_ROWS,
+        samples: int = 4,
+        background: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0),
+        backdrop: bool = False,
+    ) -> Iterator[tuple[int, np.ndarray]]:
+        """`render` of the image, a horizontal strip at a time: a large output is never held whole.
+
+        Parameters
+        ----------
+        size, view, samples, background, backdrop
+            As in `render` (``content="image"``, without marks).
+        rows : int
+            Rows of a strip (the last may have fewer).
+
+        Yields
+        ------
+        top : int
+            The strip's first row.
+        strip : ndarray of shape (r, width, 4), uint8 or uint16 (`pixel_type`)
+            RGBA with straight alpha, a new array each time; the same pixels as `render`'s rows.
+        """
+        options = dict(samples=samples, background=background, backdrop=backdrop)
+        yield from self._strips(size, view, rows, ("image", False, False, False), options, None)
+
+    def _strips(self, size, view, rows, what, options, into):
+        """The strips of `render` (into rows of `into` if given, else new arrays), `rows` high or one
+        tile; `what` is ``(content, wireframe, highlight, folds)``, `options` the drawing's."""
+        width, height = _output_size(size)
         view = view or View()
         limit = min(TILE, self.ctx.info["GL_MAX_RENDERBUFFER_SIZE"], *self.ctx.info["GL_MAX_VIEWPORT_DIMS"])
-        tile = (min(width, limit), min(height, limit))
+        tile = (min(width, limit), min(height, limit, rows or limit))
         # Leave the caller's framebuffer bound afterwards (a viewer exporting mid-frame).
         previous = self.ctx.fbo
-        if self._target is not None and previous in self._target[2]:
+        if self._target is not None and previous in self._target[1]:
             previous = None  # ours, perhaps about to be replaced
-        multisample, resolved = self._framebuffers(tile, max(0, min(int(samples), self.ctx.max_samples)))
-        pixels = np.empty((height, width, 4), np.uint8)
-        red, green, blue, alpha = background
-        for top in range(0, height, tile[1]):
-            for left in range(0, width, tile[0]):
-                multisample.use()
-                multisample.clear(red * alpha, green * alpha, blue * alpha, alpha)
-                shifted = View(view.scale, (view.offset[0] - left, view.offset[1] - top))
-                if backdrop:
-                    self.draw_backdrop(shifted, tile)
-                self._draw(shifted, tile, "caller", content, wireframe, highlight, folds)
-                self.ctx.copy_framebuffer(resolved, multisample)
-                data = resolved.read(components=4, alignment=1)
-                # GL rows run bottom-up.
-                drawn = np.frombuffer(data, dtype=np.uint8).reshape(tile[1], tile[0], 4)[::-1]
-                part = pixels[top : top + tile[1], left : left + tile[0]]
-                part[...] = drawn[: part.shape[0], : part.shape[1]]
-        if previous is not None:
-            previous.use()
-        return _unpremultiply(pixels)
+        dtype = self.pixel_type
+        samples = max(0, min(int(options["samples"]), self.ctx.max_samples))
+        multisample, resolved = self._framebuffers(tile, samples, dtype)
+        drawn = np.empty((tile[1], tile[0], 4), dtype)
+        red, green, blue, alpha = options["background"]
+        try:
+            for top in range(0, height, tile[1]):
+                count = min(tile[1], height - top)
+                strip = np.empty((count, width, 4), dtype) if into is None else into[top : top + count]
+                for left in range(0, width, tile[0]):
+                    multisample.use()
+                    multisample.clear(red * alpha, green * alpha, blue * alpha, alpha)
+                    shifted = View(view.scale, (view.offset[0] - left, view.offset[1] - top))
+                    if options["backdrop"]:
+                        self.draw_backdrop(shifted, tile)
+                    self._draw(shifted, tile, "caller", *what)
+                    self.ctx.copy_framebuffer(resolved, multisample)
+                    resolved.read_into(drawn, components=4, alignment=1, dtype=texture_dtype(dtype))
+                    part = strip[:, left : left + tile[0]]
+                    # GL rows run bottom-up.
+                    part[...] = drawn[::-1][: part.shape[0], : part.shape[1]]
+                yield top, _unpremultiply(strip)
+        finally:
+            if previous is not None:
+                previous.use()
 
     # -- lifetime -----------------------------------------------------------
 
@@ -468,17 +518,20 @@ class WarpRenderer:
 
     # -- internals ----------------------------------------------------------
 
-    def _framebuffers(self, size: tuple[int, int], samples: int):
-        """Multisampled and resolve framebuffers of `size`, kept for the next render of that size."""
-        if self._target is None or self._target[:2] != (size, samples):
+    def _framebuffers(self, size: tuple[int, int], samples: int, dtype: np.dtype):
+        """Multisampled and resolve framebuffers of `size` and samples of `dtype` (8 or 16 bits),
+        kept for the next render of that kind."""
+        kind = (size, samples, dtype)
+        if self._target is None or self._target[0] != kind:
             # Only one size is kept: a 4K 4x multisample target alone is ~130 MB.
             self._release_target()
-            colour = self.ctx.renderbuffer(size, 4, samples=samples)
-            resolved_colour = self.ctx.renderbuffer(size, 4)
+            gl_type = texture_dtype(dtype)
+            colour = self.ctx.renderbuffer(size, 4, samples=samples, dtype=gl_type)
+            resolved_colour = self.ctx.renderbuffer(size, 4, dtype=gl_type)
             multisample = self.ctx.framebuffer(color_attachments=[colour])
             resolved = self.ctx.framebuffer(color_attachments=[resolved_colour])
-            self._target = (size, samples, [multisample, resolved, colour, resolved_colour])
-        objects = self._target[2]
+            self._target = (kind, [multisample, resolved, colour, resolved_colour])
+        objects = self._target[1]
         return objects[0], objects[1]
 
     def _build_mesh(self, vertices: np.ndarray, triangles: np.ndarray) -> MeshBuffers:
@@ -519,20 +572,33 @@ class WarpRenderer:
 
     def _release_target(self) -> None:
         if self._target is not None:
-            if self.ctx.fbo in self._target[2]:
+            if self.ctx.fbo in self._target[1]:
                 # GL falls back to the default framebuffer when the bound one is deleted.
                 self.ctx.fbo = self.ctx.screen
-            for item in self._target[2]:
+            for item in self._target[1]:
                 item.release()
         self._target = None
 
 
+def _output_size(size: tuple[int, int]) -> tuple[int, int]:
+    """(width, height) as ints, or ValueError if it is not 1 to `MAX_OUTPUT_PIXELS` pixels."""
+    width, height = int(size[0]), int(size[1])
+    if not (1 <= width and 1 <= height and width * height <= MAX_OUTPUT_PIXELS):
+        raise ValueError(f"output size {width}x{height} is not 1 to {MAX_OUTPUT_PIXELS / 1e6:.0f} megapixels")
+    return width, height
+
+
 def _unpremultiply(pixels: np.ndarray) -> np.ndarray:
-    """RGBA uint8 (H, W, 4), premultiplied -> straight alpha, in place; only partly covered pixels change."""
+    """RGBA uint8 or uint16 (H, W, 4), premultiplied -> straight alpha, in place; only partly covered
+    pixels change (opaque ones are exactly what was drawn)."""
     result = pixels
+    maximum = np.iinfo(result.dtype).max
     alpha = result[..., 3]
-    partial = (alpha > 0) & (alpha < 255)
+    partial = (alpha > 0) & (alpha < maximum)
     if partial.any():
-        a = alpha[partial].astype(np.float32)[:, None]
-        result[partial, :3] = np.clip(result[partial, :3] * (255.0 / a) + 0.5, 0, 255).astype(np.uint8)
+        # float64 for 16 bits: float32's 24 bits would round c * 65535 / a off by a unit.
+        wide = np.float32 if maximum == 255 else np.float64
+        a = alpha[partial].astype(wide)[:, None]
+        straight = np.clip(result[partial, :3] * (wide(maximum) / a) + 0.5, 0, maximum)
+        result[partial, :3] = straight.astype(result.dtype)
     return result

@@ -25,13 +25,14 @@ import numpy as np
 
 from app.console import ProgressBar, note
 from app.files import (
+    IMAGE_SUFFIXES,
     InputError,
     Session,
     cage_curve,
     check_writable,
     kernel_names,
     read_cage,
-    read_image,
+    read_photo,
     read_session,
     refuse_overwriting_inputs,
     reported_as_input,
@@ -44,8 +45,9 @@ from app.files import (
 )
 from app.frame_writers import WRITERS, interrupted_by_sigterm
 from app.framing import CANVASES, OUTSIDES, output_frame, output_region
+from app.images import has_alpha, output_format
 from app.view import View
-from app.warping import Deformation, WarpSettings
+from app.warping import Deformation, OutputFile, WarpSettings
 
 DEFAULT_KERNEL = "poisson"  # core.mesh_basis.DEFAULT_KERNEL, the deformation default
 #: A target larger than this many times the output's larger side is reported.
@@ -86,14 +88,15 @@ class WarpInputs:
     target_source: str
 
 
-@dataclass(frozen=True)
+@dataclass
 class WarpJob:
     """A warp to draw: image, cage, settings, frames, framing and output.
 
     Attributes
     ----------
-    image : ndarray of shape (H, W, 4), uint8
-        The source image, RGBA.
+    image : ndarray of shape (H, W, 4), uint8 or uint16, or None
+        The source image, RGBA; None once `run_job` has uploaded it (a 100-megapixel input is
+        not held twice).
     image_path : Path
     curve : core.ClosedBSpline
         The source cage.
@@ -109,6 +112,9 @@ class WarpJob:
     outside : str
         ``"original"`` or ``"transparent"``.
     output : Path
+    file : app.warping.OutputFile or None
+        How a single image is written (format options, the input's ICC profile and EXIF);
+        None for an animation.
     kind : str
         The writer: a key of `app.frame_writers.WRITERS` (``"image"`` for one file).
     fps : float
@@ -125,13 +131,15 @@ class WarpJob:
     view: View
     outside: str
     output: Path
+    file: OutputFile | None
     kind: str
     fps: float = 0.0
+    #: (width, height) of the source image, kept when the image is released.
+    image_size: tuple[int, int] = (0, 0)
 
-    @property
-    def image_size(self) -> tuple[int, int]:
-        """(width, height) of the source image."""
-        return width_height(self.image)
+    def __post_init__(self) -> None:
+        if self.image is not None:
+            self.image_size = width_height(self.image)
 
 
 def session_inputs(session: Session, path: Path, kernel: str | None = None) -> WarpInputs:
@@ -192,7 +200,7 @@ def warp_job(args: argparse.Namespace) -> tuple[WarpJob, WarpInputs]:
         Anything wrong with the arguments or the files, before any slow work.
     """
     _require_warp_arguments(args)
-    check_writable(args.output, suffix=".png")
+    check_writable(args.output, suffix=IMAGE_SUFFIXES)
     if args.session is not None:
         given = [f"--{name}" for name in ("cage", "target") if getattr(args, name) is not None]
         if args.image is not None or given:
@@ -209,9 +217,12 @@ def warp_job(args: argparse.Namespace) -> tuple[WarpJob, WarpInputs]:
     refuse_overwriting_inputs(
         args.output, {"source cage": args.cage, "target cage": args.target, "session file": args.session}
     )
-    image = read_image(inputs.image_path)
+    photo = read_photo(inputs.image_path)
+    image = photo.pixels
     curve = checked_curve(inputs, image, args.samples_per_segment)
     canvas = args.canvas or inputs.canvas
+    outside = args.outside or inputs.outside
+    _require_opaque_output(args.output, outside, args.background)
     with reported_as_input("output size"):
         size, view = output_frame(
             output_region(width_height(image), inputs.target, canvas), args.scale, args.size
@@ -228,8 +239,9 @@ def warp_job(args: argparse.Namespace) -> tuple[WarpJob, WarpInputs]:
         targets=(inputs.target,),
         size=size,
         view=view,
-        outside=args.outside or inputs.outside,
+        outside=outside,
         output=args.output,
+        file=OutputFile(args.output, photo.metadata, args.quality, args.background),
         kind="image",
     )
     return job, inputs
@@ -254,7 +266,7 @@ def run_job(job: WarpJob, inspect: Callable[[Deformation, np.ndarray], None] | N
         No OpenGL.
     """
     from app.render import WarpRenderer, create_headless_context, require_render_memory
-    from app.warping import render
+    from app.warping import render_to_file
 
     # The GL context comes first: without one there is no point in the long precompute.
     require_render_memory(job.image_size, job.size, context=True)
@@ -268,20 +280,34 @@ def run_job(job: WarpJob, inspect: Callable[[Deformation, np.ndarray], None] | N
         with WarpRenderer(ctx) as renderer, interrupted_by_sigterm():
             with reported_as_input(str(job.image_path)):
                 renderer.set_image(job.image)
+            job.image = None  # the texture holds it now
             renderer.set_mesh(deformation.mesh.vertices, deformation.mesh.triangles)
-            with WRITERS[job.kind](job.output, job.size, job.fps) as writer, _frames_bar(job) as bar:
-                for index, target in enumerate(job.targets):
-                    with reported_as_input("rendering"):
-                        writer.add(render(renderer, deformation, target, job.size, job.view, job.outside))
-                    bar((index + 1) / len(job.targets))
-                try:
-                    writer.finish()
-                except OSError as error:
-                    raise InputError(f"{job.output}: cannot write ({error.strerror or error})") from None
+            if job.file is not None:
+                with reported_as_input("rendering"):
+                    render_to_file(
+                        renderer, deformation, job.targets[0], (job.size, job.view), job.outside, job.file
+                    )
+            else:
+                _render_frames(job, renderer, deformation)
         seconds = time.perf_counter() - started
     finally:
         ctx.release()
     note(_wrote(job, len(deformation.mesh.vertices), seconds))
+
+
+def _render_frames(job: WarpJob, renderer, deformation: Deformation) -> None:
+    """Every target of `job` drawn into the writer its output asks for."""
+    from app.warping import render
+
+    with WRITERS[job.kind](job.output, job.size, job.fps) as writer, _frames_bar(job) as bar:
+        for index, target in enumerate(job.targets):
+            with reported_as_input("rendering"):
+                writer.add(render(renderer, deformation, target, job.size, job.view, job.outside))
+            bar((index + 1) / len(job.targets))
+        try:
+            writer.finish()
+        except OSError as error:
+            raise InputError(f"{job.output}: cannot write ({error.strerror or error})") from None
 
 
 def _prepare(job: WarpJob) -> Deformation:
@@ -377,6 +403,16 @@ def _require_warp_arguments(args: argparse.Namespace) -> None:
         raise InputError(
             f"warp needs {' and '.join(missing)}, e.g. warp photo.png --cage cage.json --target target.json "
             "--output out.png (images and cages to try: python -m app demo --list)"
+        )
+
+
+def _require_opaque_output(output: Path, outside: str, background) -> None:
+    """`InputError` before any work if `output` is a format without alpha (JPEG) and the warp leaves
+    pixels transparent: outside the deformed region, unless --outside original or --background."""
+    if not has_alpha(output_format(output)) and outside == "transparent" and background is None:
+        raise InputError(
+            f"{output}: JPEG has no transparency and the warp is transparent outside the deformed cage; "
+            "give --outside original or --background COLOR"
         )
 
 
