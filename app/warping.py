@@ -212,13 +212,13 @@ def render_to_file(
     from app.render import STRIP_ROWS
 
     size, view = frame
-    background = (0.0, 0.0, 0.0, 0.0) if output.background is None else output.background
-    renderer.set_positions(deformation.positions(target))
     if output_format(output.path) == "PNG" and size[1] > STRIP_ROWS and size[0] * size[1] > STREAMED_PIXELS:
+        background = (0.0, 0.0, 0.0, 0.0) if output.background is None else output.background
+        renderer.set_positions(deformation.positions(target))
         strips = renderer.render_strips(size, view, backdrop=outside == "original", background=background)
         write_png_strips(output.path, size, renderer.pixel_type, strips, output.metadata)
         return
-    pixels = renderer.render(size, view, backdrop=outside == "original", background=background)
+    pixels = render(renderer, deformation, target, size, view, outside, output.background)
     write_image(output.path, pixels, output.metadata, output.quality)
 
 
