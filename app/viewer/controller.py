@@ -432,6 +432,11 @@ def _new_cage(state: AppState, value) -> None:
     drawing.start(state)
 
 
+@_command("cage_drawing", "a new cage's clicks: points on the curve ('curve') or control points ('control')")
+def _cage_drawing(state: AppState, value) -> None:
+    drawing.set_style(state, value)
+
+
 @_command("confirm", "close the new cage; use it")
 def _confirm(state: AppState, value) -> None:
     pass  # Enter means something only while a new cage is drawn (`_drawing_command`)

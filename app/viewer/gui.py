@@ -135,6 +135,15 @@ def _panel(state: AppState, commands: list, extras: dict, height: float) -> None
     if imgui.button("Delete selected"):
         commands.append(("delete", None))
     imgui.end_disabled()
+    _choice_row(
+        commands,
+        "clicks:",
+        "cage_drawing",
+        state.cage_drawing,
+        (("curve", "on the curve"), ("control", "control points")),
+        "New cage: the curve passes through the points clicked (as GIMP's and Krita's paths), or the\n"
+        "clicks are its control points; Ctrl+click or a double click makes a sharp corner either way",
+    )
     if len(state.group) > 1:
         selection = f", {len(state.group)} selected"
     else:

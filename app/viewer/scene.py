@@ -28,6 +28,7 @@ from app.framing import output_region
 from app.render import WarpRenderer
 from app.view import View
 from app.viewer.controller import band_corners
+from app.viewer.drawing import clicked_points
 from app.viewer.editing import curve_points, to_image
 from app.viewer.state import AppState
 from app.viewer.view_modes import BY_NAME as VIEW_MODES
@@ -65,6 +66,10 @@ def overlay_arrays(state: AppState) -> tuple[np.ndarray, np.ndarray]:
             segments.append(
                 _closed_segments(curve_points(control), colour, curve_alpha, 2.5 if is_active else 1.5)
             )
+        if (
+            state.drawing is not None and is_active
+        ):  # the clicks: on the curve, or its control points (drawing.STYLES)
+            control = clicked_points(state)
         if len(control) >= 2:
             polygon = control if len(control) >= 3 else control[:2]
             if drawing:  # the points in the order placed, not yet closed

@@ -277,11 +277,18 @@ class Drawing:
         Whether the curve was closed (first point clicked, or Enter).
     last_click : tuple of float or None
         (time, x, y) of the last placement, to tell a double click.
+    clicks : list of (x, y)
+        The points clicked, image pixels, in order (`app.viewer.drawing.control_points`
+        turns them into the cage's control points).
+    corners : list of bool
+        Which clicks are sharp corners (Ctrl+click, double click).
     """
 
     before: Snapshot
     closed: bool = False
     last_click: tuple[float, float, float] | None = None
+    clicks: list = field(default_factory=list)
+    corners: list = field(default_factory=list)
 
 
 @dataclass
@@ -375,6 +382,7 @@ class AppState:
     hovered: int | None = None
     drag: Drag | None = None
     drawing: Drawing | None = None  # a new cage being placed
+    cage_drawing: str = "curve"  # a new cage's clicks: points on the "curve", or "control" points
     fit_rect: bool = False  # "Fit cage" on a photo waits for a rectangle around the subject
     show_folds: bool = True
     show_wireframe: bool = False
