@@ -563,6 +563,13 @@ def _add_viewer_options(parser: argparse.ArgumentParser) -> None:
         "the current folder for a bundled demo or a read-only folder)",
     )
     parser.add_argument(
+        "--window-size",
+        type=_size,
+        metavar="WxH",
+        help="open the window at this size, in screen pixels (default: the size it had when last closed, "
+        "else 90%% of the screen; never larger than the screen)",
+    )
+    parser.add_argument(
         "--parameterization",
         choices=PARAMETERIZATIONS,
         help="start with this boundary parameter of the point kernels: natural or arc-length (default: "
@@ -825,7 +832,12 @@ def _view(args: argparse.Namespace) -> int:
     if args.image is None and (args.session is None or not args.session.exists()):
         script = demo_files(DEFAULT_DEMO).script
     options = Options(
-        stats=args.stats, max_edge=args.max_edge, vertices=args.vertices, script=script, export=args.export
+        stats=args.stats,
+        max_edge=args.max_edge,
+        vertices=args.vertices,
+        script=script,
+        export=args.export,
+        size=args.window_size,
     )
     return run(document, options)
 
@@ -869,6 +881,7 @@ def _demo(args: argparse.Namespace) -> int:
         frames=args.frames,
         fps=args.fps,
         export=args.export,
+        size=args.window_size,
     )
     return run(document, options)
 

@@ -140,7 +140,7 @@ def _panel(state: AppState, commands: list, extras: dict, height: float) -> None
         "clicks:",
         "cage_drawing",
         state.cage_drawing,
-        (("curve", "on the curve"), ("control", "control points")),
+        (("curve", "on curve"), ("control", "control points")),
         "New cage: the curve passes through the points clicked (as GIMP's and Krita's paths), or the\n"
         "clicks are its control points; Ctrl+click or a double click makes a sharp corner either way",
     )
