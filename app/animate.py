@@ -304,6 +304,7 @@ def run_animate(args) -> int:
         session_max_edge,
         session_output,
     )
+    from app.fill import session_fill, set_fill
     from app.keyframes import frame_times
     from app.render import WarpRenderer, create_headless_context, require_render_memory
     from app.warping import WarpSettings, prepare, render
@@ -326,6 +327,7 @@ def run_animate(args) -> int:
         times = frame_times(keyframes, args.fps)
     outside, canvas = session_output(session, args.session)
     outside, canvas = args.outside or outside, args.canvas or canvas
+    fill = session_fill(session.extra, args.session)
     params = session_kernel_params(session, args.session)
     max_edge = args.max_edge if args.max_edge is not None else session_max_edge(session, args.session)
     image = read_image(session.image)
@@ -361,6 +363,7 @@ def run_animate(args) -> int:
         with WarpRenderer(ctx) as renderer, interrupted_by_sigterm():
             with reported_as_input(str(session.image)):
                 renderer.set_image(image)
+            set_fill(renderer, image, session.cage, fill, outside)
             renderer.set_mesh(mesh.vertices, mesh.triangles)
             with WRITERS[kind](path, size, args.fps) as writer, ProgressBar(f"frames ({len(times)})") as bar:
                 for index, moment in enumerate(times):

@@ -230,6 +230,13 @@ def build_parser(prog: str = "python -m app") -> argparse.ArgumentParser:
         "input; where the source cage's region is not covered by the deformed one, the original is seen",
     )
     warp.add_argument(
+        "--fill",
+        metavar="FILL",
+        help="with --outside original, what fills the source cage's region (the subject's original "
+        "position) under the warp: none (the default, or the session's), transparent, a colour such as "
+        "#ffffff, or inpaint (the surroundings continued inwards)",
+    )
+    warp.add_argument(
         "--canvas",
         choices=CANVASES,
         help="source: the output frames the input image (the default, or the session's); grow: it "
@@ -609,6 +616,7 @@ def _examples(*examples: tuple[str, str | None]) -> str:
 
 def _warp(args: argparse.Namespace) -> int:
     import core
+    from app.fill import FILLS, checked_fill, session_fill, set_fill
     from app.render import WarpRenderer, create_headless_context, require_render_memory
     from app.warping import WarpSettings, prepare, render
     from core.kernel_table import PARAMETERIZED_KERNELS
@@ -632,6 +640,7 @@ def _warp(args: argparse.Namespace) -> int:
         if args.max_edge is None:
             args.max_edge = session_max_edge(session, args.session)
         outside, canvas = session_output(session, args.session)
+        fill = session_fill(session.extra, args.session)
         cage_source, target_source = f"{args.session}: cage", f"{args.session}: target"
     else:
         image_path = args.image
@@ -639,6 +648,7 @@ def _warp(args: argparse.Namespace) -> int:
         kernel = DEFAULT_KERNEL if args.kernel is None else args.kernel
         parameterization = "natural"
         outside, canvas = OUTSIDES[0], CANVASES[0]
+        fill = FILLS[0]
         session_params = {}
         cage_source, target_source = str(args.cage), str(args.target)
         if len(target) != len(cage):
@@ -659,6 +669,12 @@ def _warp(args: argparse.Namespace) -> int:
     curve = cage_curve(cage, cage_source, args.samples_per_segment)
     _require_overlap(curve, (width, height), cage_source)
     outside, canvas = args.outside or outside, args.canvas or canvas
+    if args.fill is not None:
+        fill = checked_fill(args.fill)
+        if outside != "original" and fill != "none":
+            raise InputError(
+                "--fill fills the original position behind the warp: give --outside original too"
+            )
     region = output_region((width, height), target, canvas)
     with reported_as_input("output size"):
         size, view = output_frame(region, args.scale, args.size)
@@ -707,6 +723,7 @@ def _warp(args: argparse.Namespace) -> int:
         with WarpRenderer(ctx) as renderer:
             with reported_as_input(str(image_path)):
                 renderer.set_image(image)
+            set_fill(renderer, image, cage, fill, outside)
             renderer.set_mesh(mesh.vertices, mesh.triangles)
             with reported_as_input("rendering"):
                 pixels = render(renderer, deformation, target, size, view, outside)

@@ -26,6 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from app.files import InputError, kernel_names, read_image
+from app.fill import checked_fill
 from app.framing import CANVASES, OUTSIDES
 from app.keyframes import INTERPOLATIONS, MAX_TIME, TIME_RESOLUTION, Keyframe, interpolate
 from app.view import View
@@ -545,6 +546,16 @@ def _outside(state: AppState, value) -> None:
     if value in OUTSIDES:
         state.outside = value
         state.session_dirty = True
+
+
+@_command("fill", "what fills the original position behind the warp: none, transparent, #rrggbb, inpaint")
+def _fill(state: AppState, value) -> None:
+    try:
+        state.fill = checked_fill(value, "fill")
+    except InputError as error:
+        state.say(str(error), error=True)
+        return
+    state.session_dirty = True
 
 
 @_command("canvas", "an export's frame: the source image, or grown to the target")

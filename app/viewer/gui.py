@@ -224,6 +224,8 @@ def _panel(state: AppState, commands: list, extras: dict, height: float) -> None
         "original: the untouched picture around the warp (inside the source cage, where the target does "
         "not cover it, the original is seen); exports and warp --outside do the same",
     )
+    if state.outside == "original":
+        _fill_choice(state, commands)
     _choice_row(
         commands,
         "Canvas: ",
@@ -492,3 +494,34 @@ def _parameterization_choice(state: AppState, live, commands: list) -> None:
     low, high = imgui.get_item_rect_min(), imgui.get_item_rect_max()
     state.spots["arc-length"] = (0.5 * (low.x + high.x), 0.5 * (low.y + high.y))
     imgui.end_disabled()
+
+
+#: The fill combo's entries: (value, label); a colour is the last one.
+FILL_CHOICES = (("none", "original kept"), ("transparent", "transparent"), ("inpaint", "inpainted"))
+
+
+def _fill_choice(state: AppState, commands: list) -> None:
+    """What fills the subject's original position behind the warp (`app.fill`): a list, and a
+    colour picker when the fill is a colour."""
+    labels = dict(FILL_CHOICES)
+    colour = state.fill.startswith("#")
+    imgui.text("  fill:")
+    imgui.same_line()
+    imgui.set_next_item_width(130)
+    if imgui.begin_combo("##fill", "colour" if colour else labels[state.fill]):
+        for value, label in (*FILL_CHOICES, ("#ffffff", "colour")):
+            clicked, _ = imgui.selectable(label, value == state.fill or (colour and value == "#ffffff"))
+            if clicked and not (colour and value == "#ffffff"):
+                commands.append(("fill", value))
+        imgui.end_combo()
+    if imgui.is_item_hovered():
+        imgui.set_tooltip(
+            "what shows where the subject was (inside the source cage) when the warp moves it away;\n"
+            "exports, warp --fill and animate do the same"
+        )
+    if colour:
+        imgui.same_line()
+        rgba = [int(state.fill[i : i + 2], 16) / 255 for i in range(1, len(state.fill), 2)] + [1.0]
+        changed, picked = imgui.color_edit4("##fill colour", rgba[:4], imgui.ColorEditFlags_.no_inputs)
+        if changed:
+            commands.append(("fill", "#" + "".join(f"{round(255 * v):02x}" for v in picked)))

@@ -24,6 +24,7 @@ import time
 
 import numpy as np
 
+from app.fill import set_fill
 from app.framing import output_region
 from app.render import WarpRenderer
 from app.view import View
@@ -179,6 +180,7 @@ class Scene:
     def __init__(self, renderer: WarpRenderer):
         self.renderer = renderer
         self._image = None
+        self._fill_key: tuple | None = None  # what the renderer's backdrop was filled for
         self._basis = None
         self._drawn_target: np.ndarray | None = None
         self._positions: np.ndarray | None = None  # float32, in the renderer's vertex order
@@ -218,6 +220,8 @@ class Scene:
         if state.image is not self._image:
             renderer.set_image(state.image)
             self._image = state.image
+            self._fill_key = None  # a new image drops the filled backdrop
+        self._update_fill(state)
         basis = state.basis
         if basis is not None and basis is not self._basis:
             renderer.set_mesh(basis.mesh.vertices, basis.mesh.triangles)
@@ -244,6 +248,19 @@ class Scene:
         else:
             self._update_positions(state)
         self._update_field(state)
+
+    def _update_fill(self, state: AppState) -> None:
+        """The backdrop with the original position filled (`app.fill`), for the committed cage: a
+        source drag in progress or a new cage being drawn keep the last one."""
+        cage = state.history.current.cage
+        key = (cage.tobytes(), state.fill, state.outside)
+        if key == self._fill_key:
+            return
+        self._fill_key = key
+        try:
+            set_fill(self.renderer, state.image, cage, state.fill, state.outside)
+        except ValueError:  # no valid cage (yet): the plain image
+            self.renderer.set_backdrop_image(None)
 
     def _preview_wanted(self, state: AppState) -> bool:
         """Whether this frame draws the preview mesh: a dense mesh's image while its target or the

@@ -392,6 +392,7 @@ class AppState:
     export_prompt: str | None = None  # the path typed into the export prompt (no dialog program)
     backdrop_opacity: float = 0.0  # of the source image behind the warp (outside "transparent")
     outside: str = "transparent"  # what exports show outside the deformed region (app.framing)
+    fill: str = "none"  # what fills the source cage's region behind the warp, outside "original" (app.fill)
     canvas: str = "source"  # "grow": exports widen to hold the whole target
     power_draft: float | None = None  # the power slider while it is dragged
     time: float = 0.0  # the timeline's current time, seconds
