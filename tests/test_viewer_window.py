@@ -678,8 +678,7 @@ def test_keyframes_are_added_played_exported_and_saved(display, environment):
         xdotool(display, "mouseup", "1")
         viewer.wait_for("saved", 10)  # the release is saved first, before the frame that draws it
         dragged = viewer.wait_for("drag done", 10)
-        xdotool(display, "key", "i")
-        viewer.wait_for("saved", 10)
+        # With a keyframe already, the drag at 1 s made a keyframe there (auto-key).
         keyframes = json.loads(session.read_text())["keyframes"]
         assert [k["time"] for k in keyframes] == [0.0, 1.0]
         assert np.array_equal(keyframes[0]["target"]["control_points"], cage)
@@ -751,6 +750,52 @@ def test_keyframes_are_added_played_exported_and_saved(display, environment):
     finally:
         viewer.kill()
     assert len(json.loads(session.read_text())["keyframes"]) == 2
+
+
+def test_a_drag_between_keyframes_is_keyed_in_the_saved_session_and_undone(display, environment):
+    env, folder = environment
+    session = folder / "autokey.json"
+    cage = np.array(json.loads((ASSETS / "starfish.cage.json").read_text())["control_points"], dtype=float)
+    pose = cage.copy()
+    pose[4] += [40.0, -70.0]  # the right arm up at 2 s
+    value = {
+        "image": str(ASSETS / "starfish.png"),
+        "cage": {"control_points": cage.tolist()},
+        "target": {"control_points": cage.tolist()},
+        "kernel": "poisson",
+        "view": {"scale": 1.0, "offset": [450.0, 250.0]},
+        "keyframes": [
+            {"time": 0.0, "target": {"control_points": cage.tolist()}},
+            {"time": 2.0, "target": {"control_points": pose.tolist()}},
+        ],
+        "interpolation": "linear",
+    }
+    session.write_text(json.dumps(value))
+    viewer = ViewerProcess(["view", "--session", str(session)], env, ROOT)
+    try:
+        window = viewer.wait_for("ready window=", 30).split("=")[1]
+        viewer.wait_for("basis ", 60)
+        xdotool(display, "windowfocus", "--sync", window)
+        xdotool(display, "key", "shift+Right")  # 1 s: the arm halfway up
+        time.sleep(0.3)
+        view = value["view"]
+        shift = np.array([-50.0, 40.0])
+        drag_point(display, window, window_pixel(view, cage[12]), shift)  # the bottom-left arm's tip
+        _, _, saved = wait_for_session(session, lambda c, t, v: len(v["keyframes"]) == 3)
+        keyframes = saved["keyframes"]
+        assert [k["time"] for k in keyframes] == [0.0, 1.0, 2.0]
+        keyed = np.array(keyframes[1]["target"]["control_points"])
+        np.testing.assert_allclose(keyed[12] - cage[12], shift / view["scale"], atol=1.5)
+        np.testing.assert_allclose(keyed[4], 0.5 * (cage[4] + pose[4]), atol=1e-9)  # the pose at 1 s
+        assert np.array_equal(saved["target"]["control_points"], keyframes[1]["target"]["control_points"])
+        xdotool(display, "key", "ctrl+z")
+        _, _, undone = wait_for_session(session, lambda c, t, v: len(v["keyframes"]) == 2)
+        assert [k["time"] for k in undone["keyframes"]] == [0.0, 2.0]
+        xdotool(display, "key", "ctrl+q")
+        code, stderr = viewer.finish()
+        assert code == 0, stderr
+    finally:
+        viewer.kill()
 
 
 def test_distortion_view_shows_the_exact_folds_of_a_point_kernel(display, environment):
