@@ -392,41 +392,47 @@ def _canvas_label(state: AppState) -> None:
     imgui.get_background_draw_list().add_text((float(x) + 4, float(y) + 2), colour, f"canvas: {state.canvas}")
 
 
+def status_summary(state: AppState) -> str:
+    """The status line's figures: kernel, mesh, zoom, the precompute time of the basis drawn, and the
+    median frame times ``--stats`` reports (all frames, and the frames of drags)."""
+    kernel = status_kernel(state)
+    basis = state.basis
+    vertices = f"{len(basis.mesh.vertices):,} vertices" if basis is not None else "no mesh yet"
+    if basis is not None and basis.preview is not None:
+        vertices += f" ({len(basis.preview.vertices):,} while moving)"
+    precompute = f"precompute {basis.seconds:.2f} s" if basis is not None else "precompute -"
+    frame = "frame -"
+    if state.frame_figures is not None:
+        median, drag = state.frame_figures
+        frame = f"frame {median:.1f} ms" + (f", dragging {drag:.1f} ms" if drag > 0 else "")
+    return f"{kernel} | {vertices} | zoom {100 * state.view.scale:.0f} % | {precompute} | {frame} |"
+
+
 def _status(state: AppState, width: float, height: float) -> None:
     """The status line: kernel, mesh, zoom, timings and the last message.
 
     A message too long for the line goes on lines of its own above it, wrapped,
     instead of being cut at the window's edge.
     """
-    kernel = status_kernel(state)
-    vertices = f"{len(state.basis.mesh.vertices):,} vertices" if state.basis is not None else "no mesh yet"
-    if state.basis is not None and state.basis.preview is not None:
-        vertices += f" ({len(state.basis.preview.vertices):,} while moving)"
-    precompute = (
-        f"precompute {state.last_precompute_seconds:.2f} s"
-        if state.last_precompute_seconds is not None
-        else "precompute -"
-    )
-    recent = sorted(state.frame_ms[-60:])
-    frame = f"frame {recent[len(recent) // 2]:.1f} ms" if recent else "frame -"
-    summary = f"{kernel} | {vertices} | zoom {100 * state.view.scale:.0f} % | {precompute} | {frame} |"
+    summary = status_summary(state)
+    message = state.status_message()
     padding = imgui.get_style().window_padding.x
     room = width - 2 * padding
     spacing = imgui.get_style().item_spacing.x
-    inline = imgui.calc_text_size(f"{summary}{state.message}").x + spacing <= room
-    extra = 0.0 if inline or not state.message else imgui.calc_text_size(state.message, wrap_width=room).y
+    inline = imgui.calc_text_size(f"{summary}{message}").x + spacing <= room
+    extra = 0.0 if inline or not message else imgui.calc_text_size(message, wrap_width=room).y
     imgui.set_next_window_pos((0, height - STATUS_HEIGHT - extra))
     imgui.set_next_window_size((width, STATUS_HEIGHT + extra))
     imgui.begin("##status", None, _FIXED | imgui.WindowFlags_.no_title_bar | imgui.WindowFlags_.no_scrollbar)
     colour = (1.0, 0.45, 0.4, 1.0) if state.message_is_error else (0.75, 0.85, 1.0, 1.0)
-    if state.message and not inline:
+    if message and not inline:
         imgui.push_text_wrap_pos(0.0)
-        imgui.text_colored(colour, state.message)
+        imgui.text_colored(colour, message)
         imgui.pop_text_wrap_pos()
     imgui.text(summary)
-    if state.message and inline:
+    if message and inline:
         imgui.same_line()
-        imgui.text_colored(colour, state.message)
+        imgui.text_colored(colour, message)
     imgui.end()
 
 

@@ -405,11 +405,13 @@ class AppState:
     progress: float | None = None  # fraction of the running precompute, None when idle
     progress_label: str = ""
     basis_error: str = ""  # why the wanted basis functions could not be computed
-    last_precompute_seconds: float | None = None
     folded_count: int | None = None
     message: str = ""
     message_is_error: bool = False
+    message_owner: Snapshot | None = None  # the document the message was said about (`status_message`)
     frame_ms: list[float] = field(default_factory=list)
+    #: (median frame, median drag frame) in ms, as ``--stats`` reports them (the window updates them).
+    frame_figures: tuple[float, float] | None = None
     cursor: tuple[float, float] = (0.0, 0.0)  # window pixels
     window_size: tuple[int, int] = (1280, 1024)  # window pixels
     canvas_left: float = 0.0  # window pixels hidden under the side panel
@@ -420,6 +422,12 @@ class AppState:
     quit: bool = False
 
     def say(self, message: str, error: bool = False) -> None:
-        """Show `message` in the status line."""
+        """Show `message` in the status line, for as long as the document stays the one it is about."""
         self.message = " ".join(str(message).split())
         self.message_is_error = error
+        self.message_owner = self.history.current
+
+    def status_message(self) -> str:
+        """What the status line says: the last message, unless the document changed since (an edit,
+        an undo, a redo): "moved 8 control points" belongs to the state that move made."""
+        return self.message if self.message_owner is self.history.current else ""

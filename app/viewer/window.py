@@ -168,6 +168,8 @@ MOUSE_HELP = [
 FRAMES_AFTER_INPUT = 3
 #: Seconds an idle viewer sleeps between frames (input, and the precompute's messages, wake it).
 IDLE_WAIT = 2.0
+#: Seconds between two updates of the status line's frame times (a median of every frame so far).
+FIGURES_INTERVAL = 0.5
 
 
 class Viewer:
@@ -219,6 +221,7 @@ class Viewer:
         #: Times (ms) of the frames drawn while a control point was dragged, for --stats.
         self._drag_frame_ms: list[float] = []
         self._previewing = False  # the last frame drew the preview mesh (announced in test mode)
+        self._figures_at = -FIGURES_INTERVAL  # when the status line's frame times were last computed
         self.window = None
 
     # -- lifetime -------------------------------------------------------------------
@@ -848,7 +851,6 @@ class Viewer:
         state.basis = result
         state.basis_error = ""
         if not cached:
-            state.last_precompute_seconds = result.seconds
             state.progress = None
         vertices = len(result.mesh.vertices)
         preview = 0 if result.preview is None else len(result.preview.vertices)
@@ -1011,6 +1013,7 @@ class Viewer:
         state.frame_ms.append(1e3 * (time.perf_counter() - started))
         if state.drag is not None and state.drag.kind in ("target", "source"):
             self._drag_frame_ms.append(state.frame_ms[-1])
+        self._update_frame_figures()
         self._save_if_needed()
         if not self._announced_ready:
             self._announced_ready = True
@@ -1021,6 +1024,18 @@ class Viewer:
                 self._announce(f"spot {name}={x:.0f},{y:.0f}")
         if glfw.window_should_close(self.window):
             state.quit = True
+
+    def _update_frame_figures(self) -> None:
+        """The status line's frame times: what ``--stats`` would report now, twice a second."""
+        now = time.perf_counter()
+        if now - self._figures_at < FIGURES_INTERVAL:
+            return
+        from app.viewer.gui import frame_statistics
+
+        self._figures_at = now
+        _, median, _ = frame_statistics(self.state.frame_ms)
+        _, drag_median, _ = frame_statistics(self._drag_frame_ms)
+        self.state.frame_figures = (median, drag_median)
 
     def _announce(self, line: str) -> None:
         if self.test_mode:
