@@ -136,6 +136,13 @@ def _warp_command(commands, run, kernels: tuple[str, ...]) -> None:
         "input; where the source cage's region is not covered by the deformed one, the original is seen",
     )
     warp.add_argument(
+        "--fill",
+        metavar="FILL",
+        help="with --outside original, what fills the source cage's region (the subject's original "
+        "position) under the warp: none (the default, or the session's), transparent, a colour such as "
+        "#ffffff, or inpaint (the surroundings continued inwards)",
+    )
+    warp.add_argument(
         "--canvas",
         choices=CANVASES,
         help="source: the output frames the input image (the default, or the session's); grow: it "
@@ -492,6 +499,13 @@ def _add_viewer_options(parser: argparse.ArgumentParser) -> None:
         metavar="PNG",
         help="where Ctrl+E writes (default: asks, proposing STEM-warped.png beside the image, or in "
         "the current folder for a bundled demo or a read-only folder)",
+    )
+    parser.add_argument(
+        "--window-size",
+        type=_size,
+        metavar="WxH",
+        help="open the window at this size, in screen pixels (default: the size it had when last closed, "
+        "else 90%% of the screen; never larger than the screen)",
     )
     parser.add_argument(
         "--parameterization",

@@ -33,7 +33,7 @@ import numpy as np
 
 from app.__main__ import main
 from app.files import read_image, write_png
-from core import examples
+from core.curves import examples
 
 width, height, folder, repeats = int(sys.argv[1]), int(sys.argv[2]), Path(sys.argv[3]), int(sys.argv[4])
 rng = np.random.default_rng(5)

@@ -111,6 +111,7 @@ class WarpRenderer:
         for field in self._fields.values():
             self._mesh_programs.update(field.mesh_programs)
         self._source: SourceImage | None = None
+        self._backdrop_source: SourceImage | None = None  # what the backdrop shows instead (`app.fill`)
         self._image_size: tuple[int, int] | None = None
         self._mesh: MeshBuffers | None = None
         self._preview: MeshBuffers | None = None
@@ -141,6 +142,25 @@ class WarpRenderer:
                 if mesh is not None:
                     mesh.write_uv(self._image_size)
         self._backdrop.set_image_size(self._image_size)
+
+    def set_backdrop_image(self, image: np.ndarray | None) -> None:
+        """What `draw_backdrop` shows instead of the source image (the source with the cage's original
+        position filled, `app.fill`), or None for the source image itself.
+
+        Parameters
+        ----------
+        image : ndarray of shape (H, W, 4), uint8, or None
+            The size of the source image (`set_image` first; a new source image drops it).
+        """
+        self.revision += 1
+        if self._backdrop_source is not None:
+            self._backdrop_source.release()
+            self._backdrop_source = None
+        if image is not None:
+            image = checked_image(self.ctx, image)
+            if self._source is None or self._source.size != (image.shape[1], image.shape[0]):
+                raise ValueError("the backdrop image must have the source image's size")
+            self._backdrop_source = SourceImage(self.ctx, image)
 
     def set_mesh(self, vertices: np.ndarray, triangles: np.ndarray) -> None:
         """Set the undeformed mesh; positions start undeformed, the field at 0.
@@ -351,7 +371,7 @@ class WarpRenderer:
         """
         if self._source is None:
             raise RuntimeError("draw_backdrop needs set_image first")
-        self._backdrop.draw(self._source, view, viewport_size, opacity)
+        self._backdrop.draw(self._backdrop_source or self._source, view, viewport_size, opacity)
 
     def set_overlay(self, segments: np.ndarray, points: np.ndarray) -> None:
         """Set the overlay lines and handles drawn by `draw_overlay` (rewritten in place).
@@ -566,9 +586,10 @@ class WarpRenderer:
 
     def _release_image(self) -> None:
         self._backdrop.release()
-        if self._source is not None:
-            self._source.release()
-        self._source = None
+        for source in (self._source, self._backdrop_source):
+            if source is not None:
+                source.release()
+        self._source = self._backdrop_source = None
 
     def _release_target(self) -> None:
         if self._target is not None:

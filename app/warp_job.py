@@ -43,6 +43,7 @@ from app.files import (
     session_output,
     session_parameterization,
 )
+from app.fill import FILLS, checked_fill, session_fill
 from app.frame_writers import WRITERS, interrupted_by_sigterm
 from app.framing import CANVASES, OUTSIDES, output_frame, output_region
 from app.images import has_alpha, output_format
@@ -71,6 +72,9 @@ class WarpInputs:
     max_edge : float or None
     outside, canvas : str
         What the output shows outside the warp, and what it frames (`app.framing`).
+    fill : str
+        What fills the source cage's region behind the warp with ``outside = original``
+        (`app.fill`).
     cage_source, target_source : str
         How messages name the cage and the target (a file, or ``SESSION: cage``).
     """
@@ -84,6 +88,7 @@ class WarpInputs:
     max_edge: float | None
     outside: str
     canvas: str
+    fill: str
     cage_source: str
     target_source: str
 
@@ -111,6 +116,8 @@ class WarpJob:
         Image pixels to output pixels.
     outside : str
         ``"original"`` or ``"transparent"``.
+    fill : str
+        What fills the source cage's region behind the warp (`app.fill`).
     output : Path
     file : app.warping.OutputFile or None
         How a single image is written (format options, the input's ICC profile and EXIF);
@@ -130,6 +137,7 @@ class WarpJob:
     size: tuple[int, int]
     view: View
     outside: str
+    fill: str
     output: Path
     file: OutputFile | None
     kind: str
@@ -163,6 +171,7 @@ def session_inputs(session: Session, path: Path, kernel: str | None = None) -> W
         max_edge=max_edge,
         outside=outside,
         canvas=canvas,
+        fill=session_fill(session.extra, path),
         cage_source=f"{path}: cage",
         target_source=f"{path}: target",
     )
@@ -180,6 +189,7 @@ def file_inputs(image: Path, cage: Path, target: Path, kernel: str | None) -> Wa
         max_edge=None,
         outside=OUTSIDES[0],
         canvas=CANVASES[0],
+        fill=FILLS[0],
         cage_source=str(cage),
         target_source=str(target),
     )
@@ -222,6 +232,7 @@ def warp_job(args: argparse.Namespace) -> tuple[WarpJob, WarpInputs]:
     curve = checked_curve(inputs, image, args.samples_per_segment)
     canvas = args.canvas or inputs.canvas
     outside = args.outside or inputs.outside
+    fill = _checked_fill(args.fill, inputs.fill, outside)
     _require_opaque_output(args.output, outside, args.background)
     with reported_as_input("output size"):
         size, view = output_frame(
@@ -240,6 +251,7 @@ def warp_job(args: argparse.Namespace) -> tuple[WarpJob, WarpInputs]:
         size=size,
         view=view,
         outside=outside,
+        fill=fill,
         output=args.output,
         file=OutputFile(args.output, photo.metadata, args.quality, args.background),
         kind="image",
@@ -265,6 +277,7 @@ def run_job(job: WarpJob, inspect: Callable[[Deformation, np.ndarray], None] | N
     app.render.ContextUnavailableError
         No OpenGL.
     """
+    from app.fill import set_fill
     from app.render import WarpRenderer, create_headless_context, require_render_memory
     from app.warping import render_to_file
 
@@ -280,6 +293,7 @@ def run_job(job: WarpJob, inspect: Callable[[Deformation, np.ndarray], None] | N
         with WarpRenderer(ctx) as renderer, interrupted_by_sigterm():
             with reported_as_input(str(job.image_path)):
                 renderer.set_image(job.image)
+            set_fill(renderer, job.image, job.curve.control_points, job.fill, job.outside)
             job.image = None  # the texture holds it now
             renderer.set_mesh(deformation.mesh.vertices, deformation.mesh.triangles)
             if job.file is not None:
@@ -404,6 +418,16 @@ def _require_warp_arguments(args: argparse.Namespace) -> None:
             f"warp needs {' and '.join(missing)}, e.g. warp photo.png --cage cage.json --target target.json "
             "--output out.png (images and cages to try: python -m app demo --list)"
         )
+
+
+def _checked_fill(given: str | None, saved: str, outside: str) -> str:
+    """``--fill`` if given (checked; it needs ``outside = original``), else the session's fill."""
+    if given is None:
+        return saved
+    fill = checked_fill(given)
+    if outside != "original" and fill != "none":
+        raise InputError("--fill fills the original position behind the warp: give --outside original too")
+    return fill
 
 
 def _require_opaque_output(output: Path, outside: str, background) -> None:

@@ -12,6 +12,8 @@ from app.viewer import controller, editing
 from app.viewer.controller import LEFT, MIDDLE, RIGHT
 from app.viewer.state import AppState, History, Snapshot
 from core.curves import examples
+from core.curves.bspline import ClosedBSpline
+from core.curves.interpolating_spline import interpolation_parameters
 
 STAR = examples.starfish(points_per_arm=2) * np.array([150.0, -150.0]) + np.array([320.0, 240.0])
 
@@ -284,6 +286,7 @@ def test_a_new_cage_is_drawn_click_by_click_with_gimps_keys(state, monkeypatch):
     clock = iter(np.arange(0.0, 100.0, 1.0))  # a second between clicks: no double clicks
     monkeypatch.setattr(controller.time, "monotonic", lambda: next(clock))
     before = state.history.current
+    controller.command(state, "cage_drawing", "control")  # the clicks are the control points
     controller.command(state, "new_cage")
     assert state.mode == "cage" and state.live.n == 0 and state.drawing is not None
     square = [[100, 100], [400, 120], [420, 380], [90, 300]]
@@ -307,6 +310,37 @@ def test_a_new_cage_is_drawn_click_by_click_with_gimps_keys(state, monkeypatch):
     assert state.history.current == state.live and state.live.image == before.image
     controller.command(state, "undo")
     assert state.live == before
+
+
+def test_by_default_the_new_cage_passes_through_the_clicks_with_corners_where_asked(state, monkeypatch):
+    clock = iter(np.arange(0.0, 100.0, 1.0))
+    monkeypatch.setattr(controller.time, "monotonic", lambda: next(clock))
+    controller.command(state, "new_cage")
+    house = np.array([[100.0, 300.0], [300.0, 300.0], [300.0, 150.0], [200.0, 60.0], [100.0, 150.0]])
+    corners = [True, True, False, True, False]
+    for point, corner in zip(house, corners, strict=True):
+        click(state, point, ctrl=corner)
+    # The handles are the clicks; the control points those of the curve through them.
+    np.testing.assert_allclose(controller.drawing.clicked_points(state), house, atol=1e-12)
+    controller.command(state, "confirm")
+    controller.command(state, "confirm")
+    cage = state.history.current.cage
+    assert len(cage) == 8
+    spline = ClosedBSpline(cage)
+    t = interpolation_parameters(corners)
+    np.testing.assert_allclose(spline(t), house, rtol=0, atol=1e-9)
+    for corner in house[[0, 1, 3]]:  # a corner is a doubled control point there
+        (rows,) = np.nonzero(np.all(np.abs(cage - corner) < 1e-12, axis=1))
+        assert len(rows) == 2 and rows[1] == rows[0] + 1
+    # Switching to control points while drawing redraws the cage being placed from the same clicks.
+    controller.command(state, "new_cage")
+    for point in house[:3]:
+        click(state, point)
+    assert not np.allclose(state.live.cage, house[:3])
+    controller.command(state, "cage_drawing", "control")
+    np.testing.assert_allclose(state.live.cage, house[:3])
+    controller.command(state, "cage_drawing", "nonsense")
+    assert state.message_is_error and state.cage_drawing == "control"
 
 
 def test_a_double_click_makes_a_corner_and_crossing_cages_are_refused(state, monkeypatch):

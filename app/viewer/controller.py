@@ -26,10 +26,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from app.files import InputError, kernel_names, read_image
+from app.fill import checked_fill
 from app.framing import CANVASES, OUTSIDES
 from app.keyframes import INTERPOLATIONS, MAX_TIME, TIME_RESOLUTION, Keyframe, interpolate
 from app.view import View
-from app.viewer import drawing, editing
+from app.viewer import autokey, drawing, editing
 from app.viewer.state import MEASURES, MODES, PARAMETERIZATIONS, SHIFTS, AppState, Drag, Snapshot
 from app.viewer.view_modes import CONTENTS
 
@@ -42,8 +43,17 @@ ZOOM_STEP = 1.15
 KEY_ZOOM_STEP = 1.5
 
 
-def commit(state: AppState, snapshot: Snapshot, message: str | None = None) -> bool:
-    """Make `snapshot` the document as one undoable edit; False if nothing changed."""
+def commit(state: AppState, snapshot: Snapshot, message: str | None = None, pose: bool = False) -> bool:
+    """Make `snapshot` the document as one undoable edit; False if nothing changed.
+
+    `pose`: the edit moves the target (a drag, a reset), and with keyframes it is keyed at the
+    timeline's time in the same step (`app.viewer.autokey`).
+    """
+    if pose:
+        snapshot, keyed = autokey.keyed(state.history.current, snapshot, state.time)
+        if keyed:
+            message = f"{message}; {keyed}" if message else keyed
+            state.keyframe = next(i for i, k in enumerate(snapshot.keyframes) if k.time == state.time)
     state.live = snapshot
     changed = state.history.push(snapshot)
     if changed:
@@ -264,7 +274,9 @@ def _release(state: AppState, button: int) -> None:
             state.say(f"move undone: {problem}", error=True)
             return
     moved = len(drag.indices)
-    commit(state, state.live, f"moved {moved} control points" if moved > 1 else None)
+    commit(
+        state, state.live, f"moved {moved} control points" if moved > 1 else None, pose=drag.kind == "target"
+    )
 
 
 def _fit_in_rectangle(state: AppState, drag) -> None:
@@ -410,6 +422,7 @@ def _undo(state: AppState, value) -> None:
         cancel_drag(state)
     snapshot = state.history.undo()
     show(state, snapshot) if snapshot is not None else state.say("nothing to undo")
+    show_time(state)  # with keyframes, the pose the animation has now at the timeline's time
 
 
 @_command("redo", "redo the edit undone", while_drawing=False)
@@ -418,6 +431,7 @@ def _redo(state: AppState, value) -> None:
         cancel_drag(state)
     snapshot = state.history.redo()
     show(state, snapshot) if snapshot is not None else state.say("nothing to redo")
+    show_time(state)
 
 
 @_command("cancel", "cancel the drag in progress, close a list or the help")
@@ -432,6 +446,11 @@ def _new_cage(state: AppState, value) -> None:
     drawing.start(state)
 
 
+@_command("cage_drawing", "a new cage's clicks: points on the curve ('curve') or control points ('control')")
+def _cage_drawing(state: AppState, value) -> None:
+    drawing.set_style(state, value)
+
+
 @_command("confirm", "close the new cage; use it")
 def _confirm(state: AppState, value) -> None:
     pass  # Enter means something only while a new cage is drawn (`_drawing_command`)
@@ -440,7 +459,7 @@ def _confirm(state: AppState, value) -> None:
 @_command("reset_target", "reset the target to the source cage", undoable=True, while_drawing=False)
 def _reset_target(state: AppState, value) -> None:
     live = state.live
-    commit(state, live.replace(target=live.cage), "target reset to the source cage")
+    commit(state, live.replace(target=live.cage), "target reset to the source cage", pose=True)
 
 
 @_command("fit", "fit the cage to the subject", undoable=True, while_drawing=False)
@@ -540,6 +559,16 @@ def _outside(state: AppState, value) -> None:
     if value in OUTSIDES:
         state.outside = value
         state.session_dirty = True
+
+
+@_command("fill", "what fills the original position behind the warp: none, transparent, #rrggbb, inpaint")
+def _fill(state: AppState, value) -> None:
+    try:
+        state.fill = checked_fill(value, "fill")
+    except InputError as error:
+        state.say(str(error), error=True)
+        return
+    state.session_dirty = True
 
 
 @_command("canvas", "an export's frame: the source image, or grown to the target")

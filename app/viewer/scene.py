@@ -24,10 +24,12 @@ import time
 
 import numpy as np
 
+from app.fill import set_fill
 from app.framing import output_region
 from app.render import WarpRenderer
 from app.view import View
 from app.viewer.controller import band_corners
+from app.viewer.drawing import clicked_points
 from app.viewer.editing import curve_points, to_image
 from app.viewer.state import AppState
 from app.viewer.view_modes import BY_NAME as VIEW_MODES
@@ -65,6 +67,10 @@ def overlay_arrays(state: AppState) -> tuple[np.ndarray, np.ndarray]:
             segments.append(
                 _closed_segments(curve_points(control), colour, curve_alpha, 2.5 if is_active else 1.5)
             )
+        if (
+            state.drawing is not None and is_active
+        ):  # the clicks: on the curve, or its control points (drawing.STYLES)
+            control = clicked_points(state)
         if len(control) >= 2:
             polygon = control if len(control) >= 3 else control[:2]
             if drawing:  # the points in the order placed, not yet closed
@@ -174,6 +180,7 @@ class Scene:
     def __init__(self, renderer: WarpRenderer):
         self.renderer = renderer
         self._image = None
+        self._fill_key: tuple | None = None  # what the renderer's backdrop was filled for
         self._basis = None
         self._drawn_target: np.ndarray | None = None
         self._positions: np.ndarray | None = None  # float32, in the renderer's vertex order
@@ -213,6 +220,8 @@ class Scene:
         if state.image is not self._image:
             renderer.set_image(state.image)
             self._image = state.image
+            self._fill_key = None  # a new image drops the filled backdrop
+        self._update_fill(state)
         basis = state.basis
         if basis is not None and basis is not self._basis:
             renderer.set_mesh(basis.mesh.vertices, basis.mesh.triangles)
@@ -239,6 +248,19 @@ class Scene:
         else:
             self._update_positions(state)
         self._update_field(state)
+
+    def _update_fill(self, state: AppState) -> None:
+        """The backdrop with the original position filled (`app.fill`), for the committed cage: a
+        source drag in progress or a new cage being drawn keep the last one."""
+        cage = state.history.current.cage
+        key = (cage.tobytes(), state.fill, state.outside)
+        if key == self._fill_key:
+            return
+        self._fill_key = key
+        try:
+            set_fill(self.renderer, state.image, cage, state.fill, state.outside)
+        except ValueError:  # no valid cage (yet): the plain image
+            self.renderer.set_backdrop_image(None)
 
     def _preview_wanted(self, state: AppState) -> bool:
         """Whether this frame draws the preview mesh: a dense mesh's image while its target or the

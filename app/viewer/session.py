@@ -45,6 +45,7 @@ from app.files import (
     session_parameterization,
     write_session,
 )
+from app.fill import session_fill
 from app.framing import CANVASES, OUTSIDES
 from app.keyframes import DEFAULT_INTERPOLATION, MAX_TIME, Keyframe, keyframes_json
 from app.view import View
@@ -269,7 +270,12 @@ def restore(path: Path, max_edge: float | None = None) -> Document:
     params = session_kernel_params(session, path)
     preferences = session.extra.get("viewer") if isinstance(session.extra.get("viewer"), dict) else {}
     outside, canvas = session_output(session, path)
-    preferences = {**preferences, "outside": outside, "canvas": canvas}
+    preferences = {
+        **preferences,
+        "outside": outside,
+        "canvas": canvas,
+        "fill": session_fill(session.extra, path),
+    }
     power = params.get("power", preferences.get("power", DEFAULT_POWER))
     shift = params.get("shift", preferences.get("shift", DEFAULT_SHIFT))
     power = finite_number(power)
@@ -448,6 +454,8 @@ def apply_preferences(state: AppState, preferences: dict | None) -> None:
         state.outside = preferences["outside"]
     if preferences.get("canvas") in CANVASES:
         state.canvas = preferences["canvas"]
+    if isinstance(preferences.get("fill"), str):
+        state.fill = preferences["fill"]  # checked by `restore` (app.fill.session_fill)
     if isinstance(preferences.get("loop"), bool):
         state.loop = preferences["loop"]
     time = finite_number(preferences.get("time"))
@@ -481,6 +489,8 @@ def session_of(state: AppState, max_edge: float | None) -> Session:
     if max_edge is not None:
         extra["mesh"] = {"max_edge": float(max_edge)}
     extra["outside"], extra["canvas"] = state.outside, state.canvas
+    if state.fill != "none":  # files without the key read as "none" (and stay as older versions wrote them)
+        extra["fill"] = state.fill
     extra["keyframes"] = keyframes_json(snapshot.keyframes)
     extra["interpolation"] = snapshot.interpolation
     extra["parameterization"] = snapshot.parameterization

@@ -277,11 +277,18 @@ class Drawing:
         Whether the curve was closed (first point clicked, or Enter).
     last_click : tuple of float or None
         (time, x, y) of the last placement, to tell a double click.
+    clicks : list of (x, y)
+        The points clicked, image pixels, in order (`app.viewer.drawing.control_points`
+        turns them into the cage's control points).
+    corners : list of bool
+        Which clicks are sharp corners (Ctrl+click, double click).
     """
 
     before: Snapshot
     closed: bool = False
     last_click: tuple[float, float, float] | None = None
+    clicks: list = field(default_factory=list)
+    corners: list = field(default_factory=list)
 
 
 @dataclass
@@ -375,6 +382,7 @@ class AppState:
     hovered: int | None = None
     drag: Drag | None = None
     drawing: Drawing | None = None  # a new cage being placed
+    cage_drawing: str = "curve"  # a new cage's clicks: points on the "curve", or "control" points
     fit_rect: bool = False  # "Fit cage" on a photo waits for a rectangle around the subject
     show_folds: bool = True
     show_wireframe: bool = False
@@ -384,6 +392,7 @@ class AppState:
     export_prompt: str | None = None  # the path typed into the export prompt (no dialog program)
     backdrop_opacity: float = 0.0  # of the source image behind the warp (outside "transparent")
     outside: str = "transparent"  # what exports show outside the deformed region (app.framing)
+    fill: str = "none"  # what fills the source cage's region behind the warp, outside "original" (app.fill)
     canvas: str = "source"  # "grow": exports widen to hold the whole target
     power_draft: float | None = None  # the power slider while it is dragged
     time: float = 0.0  # the timeline's current time, seconds
@@ -396,11 +405,13 @@ class AppState:
     progress: float | None = None  # fraction of the running precompute, None when idle
     progress_label: str = ""
     basis_error: str = ""  # why the wanted basis functions could not be computed
-    last_precompute_seconds: float | None = None
     folded_count: int | None = None
     message: str = ""
     message_is_error: bool = False
+    message_owner: Snapshot | None = None  # the document the message was said about (`status_message`)
     frame_ms: list[float] = field(default_factory=list)
+    #: (median frame, median drag frame) in ms, as ``--stats`` reports them (the window updates them).
+    frame_figures: tuple[float, float] | None = None
     cursor: tuple[float, float] = (0.0, 0.0)  # window pixels
     window_size: tuple[int, int] = (1280, 1024)  # window pixels
     canvas_left: float = 0.0  # window pixels hidden under the side panel
@@ -411,6 +422,12 @@ class AppState:
     quit: bool = False
 
     def say(self, message: str, error: bool = False) -> None:
-        """Show `message` in the status line."""
+        """Show `message` in the status line, for as long as the document stays the one it is about."""
         self.message = " ".join(str(message).split())
         self.message_is_error = error
+        self.message_owner = self.history.current
+
+    def status_message(self) -> str:
+        """What the status line says: the last message, unless the document changed since (an edit,
+        an undo, a redo): "moved 8 control points" belongs to the state that move made."""
+        return self.message if self.message_owner is self.history.current else ""

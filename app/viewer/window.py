@@ -66,7 +66,7 @@ class Options:
     frames: Path | None = None  # write every replayed frame here (and quit at the end)
     fps: float = 30.0
     export: Path | None = None  # where Ctrl+E writes (default: ask; see `default_export_path`)
-    size: tuple[int, int] = WINDOW_SIZE
+    size: tuple[int, int] | None = None  # the window's (default: as last closed, else fits the screen)
 
 
 def _key_table():
@@ -168,6 +168,8 @@ MOUSE_HELP = [
 FRAMES_AFTER_INPUT = 3
 #: Seconds an idle viewer sleeps between frames (input, and the precompute's messages, wake it).
 IDLE_WAIT = 2.0
+#: Seconds between two updates of the status line's frame times (a median of every frame so far).
+FIGURES_INTERVAL = 0.5
 
 
 class Viewer:
@@ -191,7 +193,7 @@ class Viewer:
             live=document.snapshot,
             image=document.image,
             session_path=Path(document.session_path),
-            window_size=options.size,
+            window_size=options.size or WINDOW_SIZE,
         )
         self._edges: dict[bytes, float] = {}
         self._session_lock = None
@@ -219,6 +221,7 @@ class Viewer:
         #: Times (ms) of the frames drawn while a control point was dragged, for --stats.
         self._drag_frame_ms: list[float] = []
         self._previewing = False  # the last frame drew the preview mesh (announced in test mode)
+        self._figures_at = -FIGURES_INTERVAL  # when the status line's frame times were last computed
         self.window = None
 
     # -- lifetime -------------------------------------------------------------------
@@ -274,12 +277,16 @@ class Viewer:
         # 2D only: no depth or stencil buffer to clear every frame.
         glfw.window_hint(glfw.DEPTH_BITS, 0)
         glfw.window_hint(glfw.STENCIL_BITS, 0)
-        width, height = self.options.size
+        # Hidden until it is placed where it fits (`app.viewer.window_fit`).
+        glfw.window_hint(glfw.VISIBLE, False)
+        x, y, width, height = self._opening_rectangle(glfw)
         window = glfw.create_window(width, height, self._title(), None, None)
         if not window:
             glfw.terminate()
             raise _environment_error("cannot open an OpenGL 3.3 window")
         self.window = window
+        glfw.set_window_pos(window, x, y)
+        glfw.show_window(window)
         glfw.make_context_current(window)
         glfw.swap_interval(0 if self.test_mode else 1)
         self.ctx = moderngl.create_context()
@@ -300,6 +307,34 @@ class Viewer:
         self.state.canvas_left = 300.0
         self._show_document_view()
         self.state.session_dirty = True  # the first save, so the session file exists at once
+
+    def _opening_rectangle(self, glfw) -> tuple[int, int, int, int]:
+        """(x, y, width, height) of the window: asked for, as last closed, or fitted to the screen."""
+        from app.viewer.drawing import STYLES
+        from app.viewer.settings import read_settings, window_rectangle
+        from app.viewer.window_fit import monitor_work_area, opening_rectangle
+
+        settings = read_settings()
+        if settings.get("cage_drawing") in STYLES:
+            self.state.cage_drawing = settings["cage_drawing"]
+        saved = window_rectangle(settings)
+        monitors = [glfw.get_primary_monitor()] + [m for m in glfw.get_monitors() or [] if m]
+        areas = [tuple(glfw.get_monitor_workarea(m)) for m in monitors if m]
+        if not areas:  # no monitor reported: the size asked for, or the old default
+            return (0, 0, *(self.options.size or WINDOW_SIZE))
+        return opening_rectangle(monitor_work_area(areas, saved), saved, self.options.size)
+
+    def _save_settings(self, glfw) -> None:
+        """Remember the window's place and size, and how cages are drawn, for the next viewer."""
+        from app.viewer.settings import write_settings
+
+        x, y = glfw.get_window_pos(self.window)
+        width, height = glfw.get_window_size(self.window)
+        window = {"x": x, "y": y, "width": width, "height": height}
+        try:
+            write_settings({"window": window, "cage_drawing": self.state.cage_drawing})
+        except (InputError, OSError) as error:
+            print(f"note: cannot save the viewer's settings: {error}", file=sys.stderr)
 
     def _load(self, document: Document) -> None:
         """Make `document` the one shown and saved: its history, preferences and session file."""
@@ -338,6 +373,7 @@ class Viewer:
         self._save_if_needed(force=True)
         if self.window is None:
             return
+        self._save_settings(glfw)
         self.scene.release()
         self.renderer.release()
         self.imgui_renderer.shutdown()
@@ -816,7 +852,6 @@ class Viewer:
         state.basis = result
         state.basis_error = ""
         if not cached:
-            state.last_precompute_seconds = result.seconds
             state.progress = None
         vertices = len(result.mesh.vertices)
         preview = 0 if result.preview is None else len(result.preview.vertices)
@@ -979,6 +1014,7 @@ class Viewer:
         state.frame_ms.append(1e3 * (time.perf_counter() - started))
         if state.drag is not None and state.drag.kind in ("target", "source"):
             self._drag_frame_ms.append(state.frame_ms[-1])
+        self._update_frame_figures()
         self._save_if_needed()
         if not self._announced_ready:
             self._announced_ready = True
@@ -989,6 +1025,18 @@ class Viewer:
                 self._announce(f"spot {name}={x:.0f},{y:.0f}")
         if glfw.window_should_close(self.window):
             state.quit = True
+
+    def _update_frame_figures(self) -> None:
+        """The status line's frame times: what ``--stats`` would report now, twice a second."""
+        now = time.perf_counter()
+        if now - self._figures_at < FIGURES_INTERVAL:
+            return
+        from app.viewer.gui import frame_statistics
+
+        self._figures_at = now
+        _, median, _ = frame_statistics(self.state.frame_ms)
+        _, drag_median, _ = frame_statistics(self._drag_frame_ms)
+        self.state.frame_figures = (median, drag_median)
 
     def _announce(self, line: str) -> None:
         if self.test_mode:
