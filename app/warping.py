@@ -214,9 +214,9 @@ def render_to_file(
 
     size, view = frame
     background = (0.0, 0.0, 0.0, 0.0) if output.background is None else output.background
-    positions = deformation.positions(target)
-    renderer.set_positions(positions)
     if output_format(output.path) == "PNG" and size[1] > STRIP_ROWS and size[0] * size[1] > STREAMED_PIXELS:
+        positions = deformation.positions(target)
+        renderer.set_positions(positions)
         edges = None
         if not core.folded_triangles(deformation.mesh, positions).any():  # folds: edges everywhere
             edges = drawn_edges(deformation.mesh, positions, view, renderer.image_size, outside == "original")
@@ -229,7 +229,7 @@ def render_to_file(
         )
         write_png_strips(output.path, size, renderer.pixel_type, strips, output.metadata)
         return
-    pixels = renderer.render(size, view, backdrop=outside == "original", background=background)
+    pixels = render(renderer, deformation, target, size, view, outside, output.background)
     write_image(output.path, pixels, output.metadata, output.quality)
 
 
