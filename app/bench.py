@@ -5,11 +5,11 @@ measured in the same process (the plain numpy reference of `core.newton.referenc
 the finite-element harmonic solve the paper compares against), so that ratios
 stay meaningful on a shared, noisy machine.  The 1,000,000-point memory run,
 the 4K warp and the photograph rows (`app.bench_photos`) run as child processes,
-to measure their own peak memory and their whole time from process start.  The drag frame is
-measured in the real viewer:
-a child ``python -m app demo starfish`` in a window on a private Xvfb server,
-replaying a scripted drag of one control point through the mouse's input path,
-and its ``--stats`` line (``median_drag_frame_ms``) read on exit.
+to measure their own peak memory and their whole time from process start.  The
+drag frame is measured in the real viewer: a child ``python -m app demo starfish``
+in a window on a private Xvfb server, replaying a scripted drag of one control
+point through the mouse's input path, and its ``--stats`` line
+(``median_drag_frame_ms``) read on exit.
 """
 
 from __future__ import annotations

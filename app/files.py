@@ -553,6 +553,15 @@ def read_photo(path: str | os.PathLike) -> Photo:
     return Photo(pixels, info.metadata, info.notes)
 
 
+def image_metadata(path: str | os.PathLike) -> ImageMetadata:
+    """The ICC profile and EXIF block of the image file `path` (orientation reset to 1), without
+    decoding its pixels; empty if the file cannot be read."""
+    try:
+        return read_metadata(_read_bytes(Path(path), MAX_IMAGE_FILE_BYTES)).metadata
+    except InputError:
+        return ImageMetadata()
+
+
 def check_image_size(header: ImageHeader, path: str | os.PathLike) -> None:
     """`InputError` if the image `header` declares has more than `MAX_IMAGE_PIXELS` pixels."""
     if header.pixels > MAX_IMAGE_PIXELS:

@@ -45,26 +45,30 @@ import warnings
 import cv2
 import numpy as np
 from scipy.ndimage import gaussian_filter1d, minimum
-from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import dijkstra
 
-from core.curves.bspline import ClosedBSpline, basis_weights
+from app.fit_colours import (
+    DEFAULT_INSET,
+    border_contrast,
+    boundary_saliency,
+    colour_model,
+    frame_mask,
+    in_focus,
+    log_likelihood,
+)
+from app.fit_curve import fit_closed_bspline, snap_corners
+from app.images.writing import eight_bit
+from core.curves.bspline import ClosedBSpline
 from core.mesh_basis import DEFAULT_SAMPLES_PER_SEGMENT
 from core.validation import MAX_BOUNDARY_SAMPLES, positive_int
 
-#: Most rounds of the tangent-distance fit after the arc-length fit.
-FIT_ROUNDS = 12
 #: Most control points of a fitted cage: what the kernels sample at their default density.
 MAX_POINTS = MAX_BOUNDARY_SAMPLES // DEFAULT_SAMPLES_PER_SEGMENT
-#: Newton steps of the foot-point parameters per round.
-FOOT_POINT_STEPS = 3
-#: Weight of the tangential distance relative to the normal one.
-TANGENTIAL_WEIGHT = 1e-4
-#: Neighbouring control points closer than this (pixels) become a sharp corner.
-CORNER_SNAP = 1.0
-#: Larger images are fitted on a copy of about this many pixels (2048 x 2048): the cost
-#: grows with the outline's length, the cage's accuracy is a fraction of a span.
-FIT_PIXELS = 1 << 22
+#: Larger images are fitted on a copy of at most this many pixels (1024 x 1024), shrunk by a
+#: whole factor: the segmentation's thresholds and windows are in pixels, so a photograph
+#: and its copies at other resolutions must be seen at about the same one (issue 36: a
+#: 4000 x 3000 photograph gets the cage of its 1000 x 750 copy); the cage's accuracy is a
+#: fraction of a span.
+FIT_PIXELS = 1 << 20
 #: Share of the grey levels' variance that Otsu's two classes must explain for an
 #: opaque image to count as a silhouette on a plain background (antialiased
 #: silhouettes: above 0.97; photographs of scikit-image's data: 0.57 to 0.86).
@@ -74,10 +78,6 @@ TWO_TONE = 0.92
 SEGMENT_PIXELS = 1 << 15
 #: GrabCut's rounds of colour models and graph cut.
 GRABCUT_ITERATIONS = 4
-#: Without a rectangle, the frame of this fraction of each side is background.
-DEFAULT_INSET = 0.03
-#: The boundary saliency (`boundary_saliency`) is computed on a copy of this longer side.
-SALIENCY_SIDE = 96
 #: Without a rectangle, GrabCut's rectangle is the box of the central region salient above
 #: this fraction of the saliency's Otsu threshold, grown by `RECT_GROWTH` of its longer side.
 RECT_LEVEL = 0.5
@@ -104,20 +104,6 @@ SEPARATION = 0.78
 #: area and closer than `MERGE_GAP` of the rectangle's diagonal (`_central_component`).
 MERGE_AREA = 0.1
 MERGE_GAP = 0.15
-#: A pixel is probably subject when the border's colour model (`border_contrast`) finds it
-#: this much less likely (natural logarithm: 400 times) than the least likely 5 % of the
-#: frame's own pixels.
-BORDER_CONTRAST = 6.0
-#: The border's colour model is learned from at most about this many pixels of the rest.
-MODEL_SAMPLES = 2000
-#: `in_focus`: the detail is averaged over a Gaussian of this many pixels (of the copy of
-#: `REFINE_PIXELS`); the depth of field is shallow when the frame's median detail is below
-#: `FOCUS_RATIO` of the centre's (measured: chelsea 0.27, astronaut 0.25, coffee 1.00, the
-#: synthetic scenes 0.75 to 1.91), and a pixel is in focus above `FOCUS_LEVEL` of the
-#: centre's upper quartile (on GrabCut's copy).
-FOCUS_WINDOW = 4.0
-FOCUS_RATIO = 0.5
-FOCUS_LEVEL = 0.25
 #: Opening and closing of GrabCut's mask, as a fraction of the rectangle's shorter side.
 SMOOTHING = 0.02
 #: The cage of a segmented subject goes around it grown by this fraction of the
@@ -160,7 +146,7 @@ def fit_cage(
 
     Parameters
     ----------
-    image : ndarray of shape (H, W, 4) or (H, W, 3), uint8
+    image : ndarray of shape (H, W, 4) or (H, W, 3), uint8 or uint16
         RGBA or RGB, row 0 at the top.
     points : int
         n >= 3, the number of control points.
@@ -169,8 +155,8 @@ def fit_cage(
         what is inside is considered.  Default: the whole image (for a photograph,
         all but a frame of `DEFAULT_INSET` of each side).
     max_pixels : int
-        An image of more pixels is fitted on a copy shrunk to about this many
-        (`downscaled`), and the cage mapped back to the image's pixels.
+        An image of more pixels is fitted on a copy shrunk by a whole factor to at most this
+        many (`working_copy`), and the cage mapped back to the image's pixels.
 
     Returns
     -------
@@ -207,7 +193,7 @@ def fit_cage(
         )
     image = _checked_image(image)
     rect = checked_rect(rect, image.shape[1], image.shape[0])
-    image, scale = downscaled(image, positive_int(max_pixels, "max_pixels"))
+    image, scale = working_copy(image, positive_int(max_pixels, "max_pixels"))
     region = None if rect is None else rect / np.tile(scale, 2)
     mask, exact = _subject(image, region)
     if mask is None:
@@ -234,6 +220,27 @@ def fit_cage(
             f"the subject's outline has only {len(contour)} pixels, too few for {points} control "
             "points; use fewer points or a larger image"
         )
+    control_points = _simple_curve(contour, points, region, scale)
+    if control_points is not None:
+        if rect is None:
+            return control_points * scale
+        return np.clip(control_points * scale, rect[:2], rect[:2] + rect[2:])
+    if region is not None:
+        warnings.warn(
+            "no simple curve fits the subject: the cage is the rectangle", CageFitWarning, stacklevel=2
+        )
+        return rectangle_cage(rect, points)
+    raise ValueError("could not fit a simple closed curve to the subject")
+
+
+def _simple_curve(contour: np.ndarray, points: int, region, scale: np.ndarray) -> np.ndarray | None:
+    """Control points (m, 2) of a simple curve fitted to `contour` (K, 2), in the fitted copy's pixels.
+
+    m is `points` unless that curve crosses itself: then the contour is smoothed over a
+    growing fraction of a span, and m lowered, until it does not (a `CageFitWarning` says
+    so).  With `region` (x, y, w, h) the control points are held inside it.  None if no
+    simple curve of 3 or more points was found.
+    """
     length = _perimeter(contour)
     for count in range(points, 2, -1):
         for smoothing in (0.0, 0.25, 0.5, 1.0):
@@ -258,17 +265,10 @@ def fit_cage(
                 warnings.warn(
                     f"the fitted curve with {points} control points crossed itself; {' and '.join(remedy)}",
                     CageFitWarning,
-                    stacklevel=2,
+                    stacklevel=3,
                 )
-            if rect is None:
-                return control_points * scale
-            return np.clip(control_points * scale, rect[:2], rect[:2] + rect[2:])
-    if region is not None:
-        warnings.warn(
-            "no simple curve fits the subject: the cage is the rectangle", CageFitWarning, stacklevel=2
-        )
-        return rectangle_cage(rect, points)
-    raise ValueError("could not fit a simple closed curve to the subject")
+            return control_points
+    return None
 
 
 def subject_mask(image: np.ndarray, rect=None) -> np.ndarray:
@@ -320,6 +320,25 @@ def checked_rect(rect, width: int, height: int) -> np.ndarray | None:
     return values
 
 
+def working_copy(image: np.ndarray, max_pixels: int) -> tuple[np.ndarray, np.ndarray]:
+    """`image` (H, W, C) shrunk by area averaging by the smallest whole factor k that leaves at most
+    `max_pixels` pixels: about W / k x H / k, the image itself if it has no more.
+
+    A whole factor makes a photograph and its copy shrunk by a factor of it the same picture
+    here (area averaging over k x k blocks).  Returns the copy and the scale (W / w, H / h), as
+    `downscaled`.
+    """
+    height, width = image.shape[:2]
+    if height * width <= max_pixels:
+        return image, np.ones(2)
+    factor = int(np.ceil(np.sqrt(height * width / max_pixels)))
+    while round(width / factor) * round(height / factor) > max_pixels:
+        factor += 1
+    size = (max(1, round(width / factor)), max(1, round(height / factor)))
+    small = cv2.resize(image, size, interpolation=cv2.INTER_AREA)
+    return small, np.array([width / size[0], height / size[1]])
+
+
 def downscaled(image: np.ndarray, max_pixels: int) -> tuple[np.ndarray, np.ndarray]:
     """`image` (H, W, C) shrunk by area averaging to at most `max_pixels` pixels.
 
@@ -334,36 +353,6 @@ def downscaled(image: np.ndarray, max_pixels: int) -> tuple[np.ndarray, np.ndarr
     size = (max(1, int(width * factor)), max(1, int(height * factor)))
     small = cv2.resize(image, size, interpolation=cv2.INTER_AREA)
     return small, np.array([width / size[0], height / size[1]])
-
-
-def snap_corners(control_points: np.ndarray, tolerance: float = CORNER_SNAP) -> np.ndarray:
-    """Make neighbouring control points closer than `tolerance` an exact double.
-
-    Least squares pulls two control points together at a sharp corner of the
-    outline.  Less than a pixel apart they are a corner to the eye, but a curvature
-    spike to the numerics; doubled exactly they are the sharp corner that
-    `core.ClosedBSpline` models (Fig. 10 of the paper).  Pairs do not chain, so
-    no point is repeated three times.
-
-    Parameters
-    ----------
-    control_points : ndarray of shape (n, 2)
-    tolerance : float
-        Distance in pixels.
-
-    Returns
-    -------
-    ndarray of shape (n, 2)
-    """
-    points = np.array(control_points, dtype=np.float64)
-    count = len(points)
-    taken = np.zeros(count, dtype=bool)
-    for i in range(count):
-        j = (i + 1) % count
-        if not (taken[i] or taken[j]) and np.linalg.norm(points[i] - points[j]) < tolerance:
-            points[i] = points[j] = 0.5 * (points[i] + points[j])
-            taken[i] = taken[j] = True
-    return points
 
 
 def silhouette_mask(image: np.ndarray) -> np.ndarray:
@@ -471,7 +460,7 @@ def photo_subject(image: np.ndarray, rect=None) -> np.ndarray:
         # background only where it is not probable subject.
         bounds = left, top, right, bottom = 0, 0, small.shape[1], small.shape[0]
         inside = (slice(top, bottom), slice(left, right))
-        seeds[~_frame(small.shape[:2])] = cv2.GC_PR_BGD
+        seeds[~frame_mask(small.shape[:2])] = cv2.GC_PR_BGD
     else:
         seeds[inside] = cv2.GC_PR_BGD
     seeds[inside] = np.where(probable[inside], cv2.GC_PR_FGD, seeds[inside])
@@ -510,7 +499,7 @@ def _ring(subject: np.ndarray) -> np.ndarray:
 def colour_separation(image: np.ndarray, subject: np.ndarray) -> float:
     """How well colour tells the subject from the background around it, in [0, 1] (0.5: not at all).
 
-    GrabCut's Gaussian mixtures (`_colour_model`) are learned from the subject's
+    GrabCut's Gaussian mixtures (`colour_model`) are learned from the subject's
     pixels and from the ring of background around it (`_ring`); the result is the
     mean of the share of subject pixels more likely under the subject's model and
     the share of ring pixels more likely under the background's.  Computed on a
@@ -530,10 +519,10 @@ def colour_separation(image: np.ndarray, subject: np.ndarray) -> float:
         return 0.5
     bgr = np.ascontiguousarray(small[..., ::-1])
     subject_model, background_model = (
-        _colour_model(bgr[inside], bgr[ring]),
-        _colour_model(bgr[ring], bgr[inside]),
+        colour_model(bgr[inside], bgr[ring]),
+        colour_model(bgr[ring], bgr[inside]),
     )
-    closer = _log_likelihood(subject_model, bgr) > _log_likelihood(background_model, bgr)
+    closer = log_likelihood(subject_model, bgr) > log_likelihood(background_model, bgr)
     return float(0.5 * (closer[inside].mean() + (~closer[ring]).mean()))
 
 
@@ -586,118 +575,6 @@ def rectangle_cage(rect, points: int = 16) -> np.ndarray:
         result += [corner, corner]
         result += [corner + (following - corner) * k / (count + 1) for k in range(1, count + 1)]
     return np.array(result)
-
-
-def border_contrast(bgr: np.ndarray) -> np.ndarray:
-    """Pixels whose colour the image's border does not explain: bool (h, w).
-
-    Most photographs are framed with background all around the subject.  A Gaussian
-    mixture of the colours of the frame of `DEFAULT_INSET` of each side is learned
-    (GrabCut's own five components, `_colour_model`); a pixel whose negative log-likelihood
-    under it exceeds the frame's own 95th percentile by `BORDER_CONTRAST` is
-    probably subject, as a saucer whose red is close to its wooden table's but not
-    the same, which the geodesic `boundary_saliency` misses where a dark rim does
-    not part them.
-
-    Parameters
-    ----------
-    bgr : ndarray of shape (h, w, 3), uint8
-        The picture, BGR.
-    """
-    frame = _frame(bgr.shape[:2])
-    if frame.all():  # a picture of a few pixels is all border
-        return np.zeros(frame.shape, bool)
-    model = _colour_model(bgr[frame], bgr[~frame])
-    surprise = -_log_likelihood(model, bgr)
-    return surprise > np.percentile(surprise[frame], 95) + BORDER_CONTRAST
-
-
-def in_focus(fine: np.ndarray, coarse: np.ndarray) -> np.ndarray | None:
-    """The sharp part of a photograph with a shallow depth of field: bool (h, w), or None.
-
-    The detail of a pixel is the root mean square, over a Gaussian window of
-    `FOCUS_WINDOW` pixels, of the grey levels less their Gaussian blur of one pixel:
-    what a defocused background lacks.  The depth of field is shallow when, on the
-    finer copy, the median detail of the border frame (`DEFAULT_INSET`) is below
-    `FOCUS_RATIO` of that of the central quarter of the picture (half its width and
-    height); then the pixels of the coarser copy whose detail there exceeds
-    `FOCUS_LEVEL` of the centre's upper quartile are in focus (at that scale a part of
-    the subject a little soft, as an ear behind the eyes, still has detail).  Otherwise
-    None: sharpness says nothing about the subject (a sharp table under a smooth cup,
-    an evenly textured scene).
-
-    Parameters
-    ----------
-    fine : ndarray of shape (H, W, 3), uint8
-        The picture, RGB, on the finer copy.
-    coarse : ndarray of shape (h, w, 3), uint8
-        The same picture on a coarser copy.
-    """
-    detail = _detail(fine)
-    if np.median(detail[_frame(detail.shape)]) >= FOCUS_RATIO * np.median(_centre(detail)):
-        return None
-    detail = _detail(coarse)
-    return detail > FOCUS_LEVEL * np.percentile(_centre(detail), 75)
-
-
-def _detail(rgb: np.ndarray) -> np.ndarray:
-    """The detail of `in_focus` of the picture `rgb` (h, w, 3) uint8: float32 (h, w)."""
-    grey = cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY).astype(np.float32)
-    fine = grey - cv2.GaussianBlur(grey, (0, 0), 1.0)
-    return np.sqrt(cv2.GaussianBlur(fine**2, (0, 0), FOCUS_WINDOW))
-
-
-def _centre(values: np.ndarray) -> np.ndarray:
-    """The central quarter (half the height and width) of `values` (h, w)."""
-    height, width = values.shape
-    return values[height // 4 : height - height // 4, width // 4 : width - width // 4]
-
-
-def _frame(shape: tuple[int, int]) -> np.ndarray:
-    """The frame of `DEFAULT_INSET` of each side (at least a pixel) of `shape` (h, w): bool (h, w)."""
-    height, width = shape
-    inset = max(1, round(DEFAULT_INSET * min(height, width)))
-    frame = np.ones(shape, bool)
-    frame[inset:-inset, inset:-inset] = False
-    return frame
-
-
-def _colour_model(samples: np.ndarray, others: np.ndarray) -> np.ndarray:
-    """GrabCut's Gaussian mixture of the colours `samples` (N, 3) BGR uint8: float64 (65,).
-
-    Learned as GrabCut learns its background model (k-means with OpenCV's generator
-    seeded, then the components' weights, means and covariances), from a column of
-    pixels; GrabCut needs some of the other side too, `others` (M, 3), M > 0, of which
-    at most about `MODEL_SAMPLES` are given.  Layout: 5 weights, 5 x 3 means, 5 x 3 x 3
-    covariances.
-    """
-    others = others[:: max(1, len(others) // MODEL_SAMPLES)]
-    column = np.ascontiguousarray(np.concatenate([samples, others])[:, None, :])
-    sides = np.repeat(np.uint8([cv2.GC_BGD, cv2.GC_FGD]), [len(samples), len(others)])[:, None]
-    cv2.setRNGSeed(0)
-    models = np.zeros((1, 65)), np.zeros((1, 65))
-    cv2.grabCut(column, sides, None, *models, 0, cv2.GC_INIT_WITH_MASK)
-    return models[0][0]
-
-
-def _log_likelihood(model: np.ndarray, bgr: np.ndarray) -> np.ndarray:
-    """Log-density (h, w) of the colours of `bgr` (h, w, 3) under the mixture `model` (65,).
-
-    `model` is laid out as `_colour_model` returns it.
-
-    Each covariance gets 0.01 on its diagonal, as in GrabCut, so that a component of
-    nearly one colour stays regular.
-    """
-    weights, means, covariances = model[:5], model[5:20].reshape(5, 3), model[20:].reshape(5, 3, 3)
-    colours = bgr.reshape(-1, 3).astype(np.float64)
-    density = np.zeros(len(colours))
-    for k in np.flatnonzero(weights > 0):
-        covariance = covariances[k] + 0.01 * np.eye(3)
-        offset = colours - means[k]
-        distance = np.einsum("ni,ij,nj->n", offset, np.linalg.inv(covariance), offset)
-        scale = np.sqrt((2 * np.pi) ** 3 * np.linalg.det(covariance))
-        density += weights[k] * np.exp(-0.5 * distance) / scale
-    return np.log(np.maximum(density, 1e-300)).reshape(bgr.shape[:2])
 
 
 def refined_subject(
@@ -768,43 +645,6 @@ def refined_subject(
     return subject
 
 
-def boundary_saliency(image: np.ndarray) -> np.ndarray:
-    """How far each pixel is from the image's border in colour, float32 (H, W) in [0, 1].
-
-    Geodesic saliency with the boundary prior (Wei, Wen, Zhu and Sun, "Geodesic
-    saliency using background priors", ECCV 2012): background regions reach the
-    border through pixels of similar colour, a subject is cut off from it by its
-    outline.  On a copy of longer side `SALIENCY_SIDE`, lightly blurred, a step
-    between 4-neighbours costs their CIELAB difference less the median step (so
-    that texture does not add up), and the distance from each of the four sides
-    is computed separately (Dijkstra).  The second smallest of the four is kept,
-    so that a subject may touch one side, as a portrait its bottom edge.
-
-    Parameters
-    ----------
-    image : ndarray of shape (H, W, 3), uint8
-        RGB, row 0 at the top.
-    """
-    height, width = image.shape[:2]
-    factor = SALIENCY_SIDE / max(height, width)
-    size = (max(2, round(width * factor)), max(2, round(height * factor)))
-    small = cv2.GaussianBlur(cv2.resize(image, size, interpolation=cv2.INTER_AREA), (0, 0), 1.0)
-    lab = cv2.cvtColor(small, cv2.COLOR_RGB2LAB).reshape(-1, 3).astype(np.float32)
-    index = np.arange(size[0] * size[1]).reshape(size[1], size[0])
-    first = np.concatenate([index[:, :-1].ravel(), index[:-1, :].ravel()])
-    second = np.concatenate([index[:, 1:].ravel(), index[1:, :].ravel()])
-    step = np.linalg.norm(lab[first] - lab[second], axis=1)
-    # A small floor keeps every edge in the sparse graph (a zero weight would drop it).
-    cost = np.maximum(step - np.median(step), 0) + 1e-3
-    graph = coo_matrix((cost, (first, second)), shape=(index.size, index.size)).tocsr()
-    sides = (index[0], index[-1], index[:, 0], index[:, -1])
-    distances = np.stack([dijkstra(graph, directed=False, indices=side, min_only=True) for side in sides])
-    distances /= np.maximum(distances.max(axis=1, keepdims=True), 1e-12)
-    saliency = np.sort(distances, axis=0)[1].reshape(size[1], size[0]).astype(np.float32)
-    saliency = cv2.resize(saliency, (width, height), interpolation=cv2.INTER_LINEAR)
-    return saliency / max(float(saliency.max()), 1e-12)
-
-
 def mask_outline(mask: np.ndarray) -> np.ndarray:
     """Outer outline of the largest region of `mask` (H, W), ndarray of shape (K, 2), image pixels.
 
@@ -850,7 +690,10 @@ def _subject(image: np.ndarray, rect: np.ndarray | None) -> tuple[np.ndarray | N
 
 
 def _checked_image(image: np.ndarray) -> np.ndarray:
+    """`image` as uint8 (16-bit samples rounded to 8 bits), or ValueError."""
     image = np.asarray(image)
+    if image.dtype == np.uint16 and image.ndim == 3:
+        image = eight_bit(image)
     if image.dtype != np.uint8 or image.ndim != 3 or image.shape[2] not in (3, 4):
         raise ValueError(
             f"image must be an (H, W, 3) or (H, W, 4) uint8 array, got {image.dtype} {image.shape}"
@@ -1013,107 +856,6 @@ def _grown(mask: np.ndarray, fraction: float) -> np.ndarray:
     # The Euclidean distance transform costs the same for any radius, a dilation grows with it.
     outside = cv2.distanceTransform((~mask).astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
     return outside <= radius
-
-
-def fit_closed_bspline(data: np.ndarray, count: int) -> np.ndarray:
-    """Least-squares closed uniform quadratic B-spline through a closed point sequence.
-
-    Starts from the linear fit at arc-length parameters, then minimises the
-    distance to the tangent lines at the foot points (TDM, Wang, Pottmann and Liu
-    2006): plain parameter correction only creeps along the curve, this converges
-    quadratically (a sampled spline is recovered to rounding in a few rounds).
-
-    Parameters
-    ----------
-    data : ndarray of shape (K, 2)
-        Points along a closed curve, in order, the last one followed by the first.
-    count : int
-        n, the number of control points.
-
-    Returns
-    -------
-    ndarray of shape (n, 2)
-        Control points; the curve may cross itself (callers check).
-    """
-    steps = np.linalg.norm(np.diff(data, axis=0, append=data[:1]), axis=1)
-    t = count * np.concatenate([[0.0], np.cumsum(steps)[:-1]]) / steps.sum()
-    index, weights = basis_weights(t, count)
-    control_points = _least_squares(index, weights, data, count)
-    extent = float(np.ptp(data, axis=0).max())
-    # A small tangential term keeps the system regular where the data are noisy
-    # (pixel staircases) without holding the parameters back.
-    tangential = np.sqrt(TANGENTIAL_WEIGHT)
-    best, best_error = control_points, np.inf
-    for _ in range(FIT_ROUNDS):
-        for _ in range(FOOT_POINT_STEPS):
-            t = _foot_point_parameters(control_points, data, t)
-        index, weights = basis_weights(t, count)
-        point, first, _ = _derivatives(control_points, t)
-        # On a wiggly outline (a segmented photograph) the rounds can diverge: keep the
-        # control points of the smallest distance to the data, and stop once it grows.
-        error = float(np.mean(np.sum((point - data) ** 2, axis=1)))
-        if error > best_error:
-            break
-        best, best_error = control_points, error
-        tangent = first / np.maximum(np.linalg.norm(first, axis=1, keepdims=True), 1e-300)
-        normal = np.stack([tangent[:, 1], -tangent[:, 0]], axis=1)
-        # Unknowns (x_1..x_n, y_1..y_n); a row's coefficients are direction x basis weights.
-        columns = np.tile(np.concatenate([index, index + count], axis=1), (2, 1))
-        directions = np.concatenate([normal, tangential * tangent])
-        both = np.tile(weights, (2, 1))
-        coefficients = np.concatenate([directions[:, :1] * both, directions[:, 1:] * both], axis=1)
-        right = np.sum(directions * np.concatenate([data, data]), axis=1)
-        solution = _least_squares(columns, coefficients, right[:, None], 2 * count)[:, 0]
-        updated = np.stack([solution[:count], solution[count:]], axis=1)
-        change = np.abs(updated - control_points).max()
-        control_points = updated
-        if change <= 1e-12 * extent:
-            return control_points
-    return best
-
-
-def _least_squares(columns: np.ndarray, coefficients: np.ndarray, right: np.ndarray, size: int) -> np.ndarray:
-    """Least-squares solution (size, d) of a sparse system through its normal equations.
-
-    Row k of the system has the values ``coefficients[k]`` (R, m) in the columns
-    ``columns[k]`` (R, m) of `size` unknowns, and right-hand sides ``right[k]``
-    (R, d).  The normal equations are assembled from the m nonzeros per row in
-    O(R m^2): a dense least-squares solve of the (R, size) system costs more, and
-    the threads of a parallel BLAS make it slower still on a busy machine.
-    """
-    pairs = (columns[:, :, None] * size + columns[:, None, :]).ravel()
-    products = (coefficients[:, :, None] * coefficients[:, None, :]).ravel()
-    matrix = np.bincount(pairs, products, minlength=size * size).reshape(size, size)
-    moments = np.stack(
-        [np.bincount(columns.ravel(), (coefficients * r[:, None]).ravel(), minlength=size) for r in right.T],
-        axis=1,
-    )
-    return np.linalg.lstsq(matrix, moments, rcond=None)[0]
-
-
-def _derivatives(control_points: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """p(t), p'(t), p''(t) of the closed B-spline, each of shape (K, 2)."""
-    index, weights = basis_weights(t, control_points.shape[0])
-    u = (t - np.floor(t))[:, None]
-    corners = control_points[index]  # (K, 3, 2)
-    point = np.einsum("kj,kjd->kd", weights, corners)
-    first = (u - 1) * corners[:, 0] + (1 - 2 * u) * corners[:, 1] + u * corners[:, 2]
-    second = corners[:, 0] - 2 * corners[:, 1] + corners[:, 2]
-    return point, first, second
-
-
-def _foot_point_parameters(control_points: np.ndarray, data: np.ndarray, t: np.ndarray) -> np.ndarray:
-    """One Newton step per point towards the parameter of its closest curve point."""
-    point, first, second = _derivatives(control_points, t)
-    difference = point - data
-    gradient = np.sum(difference * first, axis=1)
-    speed = np.sum(first * first, axis=1)
-    curvature = speed + np.sum(difference * second, axis=1)
-    # Far from a minimum the Hessian can be small or negative: fall back to the
-    # Gauss-Newton term, and never move by more than half a span.
-    curvature = np.where(curvature > 0.1 * speed, curvature, speed)
-    step = np.clip(gradient / np.maximum(curvature, 1e-300), -0.5, 0.5)
-    return np.mod(t - step, control_points.shape[0])
 
 
 def _largest_component(mask: np.ndarray, *, avoid_border: bool = False) -> tuple[bool, int, np.ndarray]:

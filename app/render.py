@@ -20,7 +20,7 @@ counted from the framebuffer's top-left corner, exactly like the session file.
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 
 import moderngl
 import numpy as np
@@ -448,6 +448,11 @@ class WarpRenderer:
         return pixels
 
     @property
+    def image_size(self) -> tuple[int, int] | None:
+        """(width, height) of the source image, None before `set_image`."""
+        return self._image_size
+
+    @property
     def pixel_type(self) -> np.dtype:
         """The samples `render` returns: uint16 for a 16-bit source image, else uint8."""
         return np.dtype(np.uint8) if self._source is None else self._source.dtype
@@ -461,6 +466,7 @@ class WarpRenderer:
         samples: int = 4,
         background: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0),
         backdrop: bool = False,
+        antialiased: Callable[[tuple[int, int, int, int]], bool] | None = None,
     ) -> Iterator[tuple[int, np.ndarray]]:
         """`render` of the image, a horizontal strip at a time: a large output is never held whole.
 
@@ -469,7 +475,13 @@ class WarpRenderer:
         size, view, samples, background, backdrop
             As in `render` (``content="image"``, without marks).
         rows : int
-            Rows of a strip (the last may have fewer).
+            Rows of a strip (the last may have fewer); it is drawn in tiles of `rows` x `rows`.
+        antialiased : callable, optional
+            Given a tile (left, top, width, height) in output pixels, whether it needs
+            multisampling: False where no edge of what is drawn crosses it (every pixel wholly
+            inside or outside the warp), which then is drawn without (a multisample resolve
+            costs more than the drawing on a software rasteriser; the pixels may differ by a
+            unit where two triangles meet).  None: every tile is multisampled, as in `render`.
 
         Yields
         ------
@@ -478,7 +490,7 @@ class WarpRenderer:
         strip : ndarray of shape (r, width, 4), uint8 or uint16 (`pixel_type`)
             RGBA with straight alpha, a new array each time; the same pixels as `render`'s rows.
         """
-        options = dict(samples=samples, background=background, backdrop=backdrop)
+        options = dict(samples=samples, background=background, backdrop=backdrop, antialiased=antialiased)
         yield from self._strips(size, view, rows, ("image", False, False, False), options, None)
 
     def _strips(self, size, view, rows, what, options, into):
@@ -487,7 +499,8 @@ class WarpRenderer:
         width, height = _output_size(size)
         view = view or View()
         limit = min(TILE, self.ctx.info["GL_MAX_RENDERBUFFER_SIZE"], *self.ctx.info["GL_MAX_VIEWPORT_DIMS"])
-        tile = (min(width, limit), min(height, limit, rows or limit))
+        tile = (min(width, limit, rows or limit), min(height, limit, rows or limit))
+        antialiased = options.get("antialiased") or (lambda box: True)
         # Leave the caller's framebuffer bound afterwards (a viewer exporting mid-frame).
         previous = self.ctx.fbo
         if self._target is not None and previous in self._target[1]:
@@ -502,13 +515,16 @@ class WarpRenderer:
                 count = min(tile[1], height - top)
                 strip = np.empty((count, width, 4), dtype) if into is None else into[top : top + count]
                 for left in range(0, width, tile[0]):
-                    multisample.use()
-                    multisample.clear(red * alpha, green * alpha, blue * alpha, alpha)
+                    smooth = antialiased((left, top, tile[0], tile[1]))
+                    target = multisample if smooth else resolved
+                    target.use()
+                    target.clear(red * alpha, green * alpha, blue * alpha, alpha)
                     shifted = View(view.scale, (view.offset[0] - left, view.offset[1] - top))
                     if options["backdrop"]:
                         self.draw_backdrop(shifted, tile)
                     self._draw(shifted, tile, "caller", *what)
-                    self.ctx.copy_framebuffer(resolved, multisample)
+                    if smooth:
+                        self.ctx.copy_framebuffer(resolved, multisample)
                     resolved.read_into(drawn, components=4, alignment=1, dtype=texture_dtype(dtype))
                     part = strip[:, left : left + tile[0]]
                     # GL rows run bottom-up.

@@ -209,13 +209,24 @@ def render_to_file(
     """
     from app.files import write_image, write_png_strips
     from app.images import output_format
+    from app.images.tiles import crosses, drawn_edges
     from app.render import STRIP_ROWS
 
     size, view = frame
+    background = (0.0, 0.0, 0.0, 0.0) if output.background is None else output.background
     if output_format(output.path) == "PNG" and size[1] > STRIP_ROWS and size[0] * size[1] > STREAMED_PIXELS:
-        background = (0.0, 0.0, 0.0, 0.0) if output.background is None else output.background
-        renderer.set_positions(deformation.positions(target))
-        strips = renderer.render_strips(size, view, backdrop=outside == "original", background=background)
+        positions = deformation.positions(target)
+        renderer.set_positions(positions)
+        edges = None
+        if not core.folded_triangles(deformation.mesh, positions).any():  # folds: edges everywhere
+            edges = drawn_edges(deformation.mesh, positions, view, renderer.image_size, outside == "original")
+        strips = renderer.render_strips(
+            size,
+            view,
+            backdrop=outside == "original",
+            background=background,
+            antialiased=None if edges is None else lambda box: crosses(edges, box),
+        )
         write_png_strips(output.path, size, renderer.pixel_type, strips, output.metadata)
         return
     pixels = render(renderer, deformation, target, size, view, outside, output.background)

@@ -194,6 +194,26 @@ def test_a_large_image_is_fitted_on_a_small_copy_and_the_cage_mapped_back():
     assert distance.mean() < 0.5 * copy_pixel
 
 
+@pytest.mark.parametrize("name", ["astronaut", "coffee"])
+def test_a_photograph_gets_the_cage_of_its_small_copy(name):
+    # Issue 36: a 4000 x 3000 photograph drew a cage across the background where its 1000 x 750
+    # copy fitted correctly.  The fit works at about a megapixel, whatever the resolution.
+    from skimage import data
+
+    large = cv2.resize(getattr(data, name)(), (4000, 3000), interpolation=cv2.INTER_CUBIC)
+    small = cv2.resize(large, (1000, 750), interpolation=cv2.INTER_AREA)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", SubjectUncertainWarning)
+        from_large, from_small = fit_cage(large, 16), fit_cage(small, 16) * 4
+    diameter = np.linalg.norm(np.ptp(from_small, axis=0))
+    assert np.abs(from_large - from_small).max() <= 0.01 * diameter
+
+
+def test_a_16_bit_image_is_fitted_like_its_8_bit_copy():
+    image = np.repeat(np.round(230 - 190 * ellipse_coverage()).astype(np.uint8)[..., None], 3, axis=2)
+    np.testing.assert_array_equal(fit_cage(image.astype(np.uint16) * 257, 12), fit_cage(image, 12))
+
+
 def test_downscaled_maps_pixel_edges_back_exactly():
     image = np.zeros((1000, 3001, 3), dtype=np.uint8)
     small, scale = downscaled(image, 100_000)

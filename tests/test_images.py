@@ -14,7 +14,7 @@ import pytest
 from PIL import Image, ImageCms, ImageOps
 
 from app.__main__ import main
-from app.files import InputError, read_photo, write_image
+from app.files import InputError, read_photo, write_image, write_png_strips
 from app.images import ImageMetadata, encode_image, oriented
 from app.images.colours import parse_colour
 from app.images.metadata import exif_orientation, read_metadata
@@ -124,6 +124,19 @@ def test_exif_is_written_to_png_jpeg_and_webp(tmp_path):
     for extension in (".png", ".jpg", ".webp"):
         write_image(tmp_path / f"out{extension}", gradient16(), ImageMetadata(exif=block))
         assert read_photo(tmp_path / f"out{extension}").metadata.exif == block
+
+
+@pytest.mark.parametrize("dtype", [np.uint8, np.uint16])
+def test_a_png_written_in_strips_reads_back_exactly_with_its_metadata(tmp_path, dtype):
+    image = gradient16(alpha=True) if dtype == np.uint16 else (gradient16(alpha=True) >> 8).astype(np.uint8)
+    metadata = ImageMetadata(
+        icc_profile=srgb_profile(), exif=exif_with_orientation(1).removeprefix(b"Exif\x00\x00")
+    )
+    strips = [(top, image[top : top + 10]) for top in range(0, HEIGHT, 10)]
+    write_png_strips(tmp_path / "strips.png", (WIDTH, HEIGHT), dtype, iter(strips), metadata)
+    back = read_photo(tmp_path / "strips.png")
+    np.testing.assert_array_equal(back.pixels, image)
+    assert back.metadata == metadata
 
 
 def test_png_without_metadata_is_opencvs_own():

@@ -96,6 +96,55 @@ class PngStripWriter:
             self._stream.write(png_chunk(b"IDAT", data[start : start + _IDAT_BYTES]))
 
 
+def drawn_edges(mesh, positions: np.ndarray, view, image_size, backdrop: bool) -> np.ndarray:
+    """The edges a drawing of the warp has, in output pixels: where pixels are partly covered.
+
+    Parameters
+    ----------
+    mesh : core.Mesh
+        Its boundary vertices, in the order of their curve parameters, bound the warp.
+    positions : ndarray of shape (V, 2)
+        The deformed vertices, image pixels.
+    view : app.view.View
+        Image pixels to output pixels.
+    image_size : tuple of int
+        (width, height) of the source image: the backdrop's sides, when it is drawn.
+    backdrop : bool
+        Whether the whole image is drawn under the warp; its sides are edges unless they fall
+        on pixel boundaries (a view of scale 1 and whole offsets).
+
+    Returns
+    -------
+    ndarray of shape (E, 2, 2)
+        Segments, each two (x, y) ends.
+    """
+    order = mesh.boundary[np.argsort(mesh.boundary_parameters)]
+    curve = positions[order] * view.scale + np.asarray(view.offset)
+    segments = [np.stack([curve, np.roll(curve, -1, axis=0)], axis=1)]
+    aligned = view.scale == 1 and all(float(offset).is_integer() for offset in view.offset)
+    if backdrop and not aligned:
+        width, height = image_size
+        corners = np.array([[0, 0], [width, 0], [width, height], [0, height]]) * view.scale
+        corners = corners + np.asarray(view.offset)
+        segments.append(np.stack([corners, np.roll(corners, -1, axis=0)], axis=1))
+    return np.concatenate(segments)
+
+
+def crosses(segments: np.ndarray, box: tuple[int, int, int, int], margin: float = 2.0) -> bool:
+    """Whether any of `segments` (E, 2, 2) may come within `margin` pixels of the tile `box`
+    (left, top, width, height): conservative, by their bounding boxes."""
+    left, top, width, height = box
+    low, high = segments.min(axis=1), segments.max(axis=1)
+    return bool(
+        (
+            (high[:, 0] >= left - margin)
+            & (low[:, 0] <= left + width + margin)
+            & (high[:, 1] >= top - margin)
+            & (low[:, 1] <= top + height + margin)
+        ).any()
+    )
+
+
 def sub_filtered(rows: np.ndarray) -> bytes:
     """PNG scanlines of RGBA `rows` (r, W, 4), uint8 or uint16 (stored big-endian), each with the
     Sub filter: a filter-type byte 1, then every byte minus the one a pixel before it (mod 256)."""

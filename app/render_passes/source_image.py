@@ -10,6 +10,9 @@ from __future__ import annotations
 import moderngl
 import numpy as np
 
+#: Rows of the image uploaded at a time.
+UPLOAD_ROWS = 512
+
 
 def checked_image(ctx: moderngl.Context, image) -> np.ndarray:
     """`image` as an (H, W, 4) uint8 array, or ValueError saying why the GL driver cannot take it.
@@ -53,12 +56,17 @@ class SourceImage:
         height, width = image.shape[:2]
         self.size = (width, height)
         self.dtype = image.dtype
-        # Row 0 of the data is texture row v = 0, so v = y / H needs no flip.  The array is
-        # uploaded as it is (no copy into bytes: a 100-megapixel image is 0.4 GB).
-        self._texture = ctx.texture(
-            (width, height), 4, np.ascontiguousarray(_premultiply(image)), dtype=texture_dtype(image.dtype)
-        )
-        self._texture.build_mipmaps()
+        # Row 0 of the data is texture row v = 0, so v = y / H needs no flip.  Uploaded (and
+        # premultiplied) a strip at a time: a 100-megapixel image is 0.4 GB, and a whole copy of
+        # it on the way to the driver would be as much again.
+        self._texture = ctx.texture((width, height), 4, dtype=texture_dtype(image.dtype))
+        for top in range(0, height, UPLOAD_ROWS):
+            rows = np.ascontiguousarray(_premultiply(image[top : top + UPLOAD_ROWS]))
+            self._texture.write(rows, viewport=(0, top, width, len(rows)))
+        # The mipmaps are built at the first drawing (`bind`): by then the caller may have let go
+        # of `image`, and the driver's temporaries of that step (~0.8 of the image) do not come
+        # on top of the image's array (issue 36: 100 megapixels within 1.5 GiB).
+        self._mipmapped = False
         # Clamp to a transparent border: parts of the domain beyond the image
         # stay empty instead of smearing the edge pixels, and fade smoothly.
         self._sampler = ctx.sampler(
@@ -72,6 +80,9 @@ class SourceImage:
 
     def bind(self, program: moderngl.Program) -> None:
         """Sample the image in `program`'s ``u_image``; `unbind` after drawing."""
+        if not self._mipmapped:
+            self._texture.build_mipmaps()
+            self._mipmapped = True
         self._sampler.use(location=0)
         program["u_image"].value = 0
 

@@ -464,7 +464,7 @@ def _reset_target(state: AppState, value) -> None:
 
 @_command("fit", "fit the cage to the subject", undoable=True, while_drawing=False)
 def _fit(state: AppState, value) -> None:
-    if value is None and (state.image[..., 3] == 255).all():
+    if value is None and (state.image[..., 3] == np.iinfo(state.image.dtype).max).all():
         # A photograph: the user shows where the subject is first.
         state.fit_rect = True
         state.say("drag a rectangle around the subject (Enter: the whole picture, Esc: cancel)")

@@ -26,7 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
-from app.files import InputError, read_json, write_png
+from app.files import IMAGE_SUFFIXES, InputError, image_metadata, read_json, write_image, write_png
 from app.framing import output_frame, output_region
 from app.viewer import controller, editing
 from app.viewer.precompute import Precompute, make_request
@@ -650,7 +650,7 @@ class Viewer:
         if path.suffix.lower() in (".mp4", ".gif") or (typed or "").endswith(("/", os.sep)):
             self._start_animation_export(path, typed)
             return None
-        if path.suffix.lower() != ".png":
+        if path.suffix.lower() not in IMAGE_SUFFIXES:
             path = path.with_name(path.name + ".png")
         try:
             pixels = self._render_export()
@@ -661,7 +661,8 @@ class Viewer:
             state.say("nothing to export yet: the basis functions are still being computed", error=True)
             return None
         try:
-            write_png(path, pixels)
+            # The image's depth (render's), ICC profile and EXIF, in the format of the name, like warp.
+            write_image(path, pixels, image_metadata(state.live.image))
         except InputError as error:
             state.say(str(error), error=True)
             return None
