@@ -312,9 +312,9 @@ def _fem_comparison(curve, vertices, repeats: int, least_seconds: float = ROW_SE
 
 def _forget_densities() -> None:
     """Empty the in-process cache of `poisson`'s densities, so that a timed run solves again."""
-    from core.boundary_integrals.poisson import _densities
+    from core.boundary_integrals.poisson import solved_densities
 
-    _densities.cache_clear()
+    solved_densities.cache_clear()
 
 
 _MEMORY_CHILD = """

@@ -14,7 +14,7 @@ from core.curves.arc_length import checked_parameterization
 from core.curves.bspline import ClosedBSpline
 from core.kernel_table import DEFAULT_KERNEL
 from core.kernels import BOUNDARY_INTEGRAL_KERNELS, DEFAULT_TOLERANCE, Progress, evaluate
-from core.newton import solver
+from core.newton import codes
 from core.validation import as_points, positive_int
 
 
@@ -71,7 +71,7 @@ def basis_functions(
     if kernel in BOUNDARY_INTEGRAL_KERNELS:
         return _boundary_integral_basis(curve, x, kernel, progress, return_report, parameterization, params)
     boundary = curve.sample(per, parameterization)
-    values, report = evaluate(boundary, x, kernel, solver.OUTPUT_BASIS, curve.n, progress, tolerance, params)
+    values, report = evaluate(boundary, x, kernel, codes.OUTPUT_BASIS, curve.n, progress, tolerance, params)
     return (values, report) if return_report else values
 
 

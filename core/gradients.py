@@ -44,7 +44,7 @@ sum_i grad G_i = sum_j grad lambda_j = 0, and, because sum_j lambda_j (p_j - x) 
 g / sum c = 0 holds for every x, sum_i P_i (grad G_i)^T = sum_j p_j (grad lambda_j)^T = I
 (differentiated linear precision), both up to the Newton residual.
 
-Which derivative this is.  Farther than `solver.NEAR_SPACINGS` sample spacings
+Which derivative this is.  Farther than `quadrature_nodes.NEAR_SPACINGS` sample spacings
 from the boundary the nodes are the fixed samples and this is the exact derivative
 of the discrete `core.basis_functions`.  Nearer, the graded rule's nodes follow x
 (their centre is the closest parameter, their grading the distance), and the
@@ -67,7 +67,7 @@ from core.curves.boundary import Boundary
 from core.curves.bspline import ClosedBSpline
 from core.kernel_table import DEFAULT_KERNEL
 from core.kernels import DEFAULT_TOLERANCE, REFINEMENTS, checked_report
-from core.newton import gradient_solver, solver
+from core.newton import codes, gradient_solver
 from core.validation import as_points, positive_float, positive_int
 
 
@@ -115,9 +115,7 @@ def basis_gradients(
     if kernel in kernels.BOUNDARY_INTEGRAL_KERNELS:
         return _boundary_integral_gradients(curve, x, kernel, return_values, return_report, params)
     boundary = curve.sample(per)
-    values, gradients, report = _evaluate(
-        boundary, x, kernel, solver.OUTPUT_BASIS, curve.n, tolerance, params
-    )
+    values, gradients, report = _evaluate(boundary, x, kernel, codes.OUTPUT_BASIS, curve.n, tolerance, params)
     return _returned(gradients, values, report, return_values, return_report)
 
 
@@ -140,7 +138,7 @@ def kernel_gradients(
     if not isinstance(boundary, Boundary):
         raise ValueError(f"boundary must be a core.Boundary, got {type(boundary).__name__}")
     values, gradients, report = _evaluate(
-        boundary, x, kernel, solver.OUTPUT_SAMPLES, boundary.count, tolerance, params
+        boundary, x, kernel, codes.OUTPUT_SAMPLES, boundary.count, tolerance, params
     )
     return _returned(gradients, values, report, return_values, return_report)
 
@@ -174,7 +172,7 @@ def _evaluate(boundary, x, kernel, mode, columns, tolerance, params):
     tolerance = positive_float(tolerance, "tolerance")
     points = as_points(x, "x")
     if kernel in kernels.CONVEX_ONLY:
-        kernels._require_convex(boundary, kernel)
+        kernels.require_convex(boundary, kernel)
     count = points.shape[0]
     values = np.zeros((count, columns))
     gradients = np.zeros((count, 2, columns))
@@ -188,12 +186,12 @@ def _evaluate(boundary, x, kernel, mode, columns, tolerance, params):
     for refinement in (None, *REFINEMENTS):
         if refinement is not None:
             indices = np.flatnonzero(
-                (status == solver.STATUS_NOT_CONVERGED) | (status == solver.STATUS_AT_FEASIBLE_EDGE)
+                (status == codes.STATUS_NOT_CONVERGED) | (status == codes.STATUS_AT_FEASIBLE_EDGE)
             )
             if indices.size == 0:
                 break
             quadrature, factor = boundary.refined(refinement), refinement
-        curve = kernels._curve_arrays(quadrature, mode, columns, factor, boundary.step)
+        curve = kernels.curve_arrays(quadrature, mode, columns, factor, boundary.step)
         geometry = (quadrature.curve.coefficients, quadrature.curve.piece_length, quadrature.corners)
         for start in range(0, indices.size, kernels.CHUNK):
             chunk = indices[start : start + kernels.CHUNK]
@@ -202,8 +200,8 @@ def _evaluate(boundary, x, kernel, mode, columns, tolerance, params):
             diagnostics = [np.zeros(chunk.size, dtype=np.int64), np.zeros(chunk.size, dtype=np.int64)]
             diagnostics.append(np.zeros(chunk.size))
             _in_threads(points[chunk], settings, curve, geometry, rows, derivatives, diagnostics)
-            broken = ~np.isfinite(rows).all(axis=1) & (diagnostics[1] != solver.STATUS_OUTSIDE)
-            diagnostics[1][broken] = solver.STATUS_NOT_CONVERGED
+            broken = ~np.isfinite(rows).all(axis=1) & (diagnostics[1] != codes.STATUS_OUTSIDE)
+            diagnostics[1][broken] = codes.STATUS_NOT_CONVERGED
             diagnostics[2][broken] = np.inf
             values[chunk], gradients[chunk] = rows, derivatives
             iterations[chunk], status[chunk], residual[chunk] = diagnostics
@@ -219,7 +217,7 @@ def _in_threads(points, settings, curve, geometry, rows, derivatives, diagnostic
         gradient_solver.gradient_points(*arguments, 0, 1)
         return
     shares = [
-        kernels._pool(threads).submit(gradient_solver.gradient_points, *arguments, first, threads)
+        kernels.solver_pool(threads).submit(gradient_solver.gradient_points, *arguments, first, threads)
         for first in range(threads)
     ]
     for share in shares:

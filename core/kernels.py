@@ -53,11 +53,12 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
+from core.curves import arc_length_compiled
 from core.curves.arc_length import arc_length_boundary, checked_parameterization
 from core.curves.boundary import Boundary
 from core.curves.crossing_slabs import crossing_slabs
 from core.kernel_table import BOUNDARY_INTEGRAL_KERNELS, CONVEX_ONLY, POINT_KERNELS
-from core.newton import solver
+from core.newton import codes, quadrature_nodes, solver
 from core.validation import as_points, positive_float
 
 #: The real point kernels: their coordinates G (M, n) satisfy G @ P == x (`core.kernel_table`).
@@ -66,20 +67,20 @@ KERNELS = POINT_KERNELS
 DEFAULT_VALUES_KERNEL = "inverse-cube-mean"
 
 _IDENTIFIERS = {
-    "maximum-likelihood": solver.MAXIMUM_LIKELIHOOD,
-    "pseudo-harmonic": solver.PSEUDO_HARMONIC,
-    "power": solver.POWER,
-    "inverse-cube-mean": solver.POWER,
-    "harmonic-like": solver.HARMONIC_LIKE,
-    "modified-mean-value": solver.MODIFIED_MEAN_VALUE,
-    "modified-mean-value-squared": solver.MODIFIED_MEAN_VALUE_SQUARED,
-    "mean-value": solver.MEAN_VALUE,
-    "wachspress": solver.WACHSPRESS,
-    "laplace": solver.LAPLACE,
+    "maximum-likelihood": codes.MAXIMUM_LIKELIHOOD,
+    "pseudo-harmonic": codes.PSEUDO_HARMONIC,
+    "power": codes.POWER,
+    "inverse-cube-mean": codes.POWER,
+    "harmonic-like": codes.HARMONIC_LIKE,
+    "modified-mean-value": codes.MODIFIED_MEAN_VALUE,
+    "modified-mean-value-squared": codes.MODIFIED_MEAN_VALUE_SQUARED,
+    "mean-value": codes.MEAN_VALUE,
+    "wachspress": codes.WACHSPRESS,
+    "laplace": codes.LAPLACE,
 }
-_SHIFTS = {"none": solver.SHIFT_NONE, "integral": solver.SHIFT_INTEGRAL, "mean": solver.SHIFT_MEAN}
+_SHIFTS = {"none": codes.SHIFT_NONE, "integral": codes.SHIFT_INTEGRAL, "mean": codes.SHIFT_MEAN}
 # Named members of the power family: (k, shift) of omega = 1 / r^k (Eq. 19).
-_FIXED_POWERS = {"inverse-cube-mean": (3.0, solver.SHIFT_MEAN)}
+_FIXED_POWERS = {"inverse-cube-mean": (3.0, codes.SHIFT_MEAN)}
 # Newton stops when the linear-precision residual is below this fraction of the diameter.
 DEFAULT_TOLERANCE = 1e-11
 # Quadrature refinements tried, in turn, for points whose kernel the samples do not resolve.
@@ -103,7 +104,7 @@ class SolveReport:
     iterations : ndarray of shape (M,)
         Newton iterations on the point's full quadrature (0 for the explicit
         kernels and boundary points); those of the warm start on a subset of the
-        nodes (`core.newton.solver._coarse_start`) are not counted.
+        nodes (`core.newton.minimisation.coarse_start`) are not counted.
     status : ndarray of shape (M,)
         0 converged, 1 not converged, 3 converged but the minimiser is at the edge
         of the feasible set (lambda-hat is under-resolved by the quadrature).
@@ -118,12 +119,12 @@ class SolveReport:
     @property
     def converged(self) -> np.ndarray:
         """bool ndarray of shape (M,): the point met the tolerance."""
-        return self.status == solver.STATUS_CONVERGED
+        return self.status == codes.STATUS_CONVERGED
 
     @property
     def failed(self) -> np.ndarray:
         """bool ndarray of shape (M,): not converged or at the feasible edge."""
-        return self.status != solver.STATUS_CONVERGED
+        return self.status != codes.STATUS_CONVERGED
 
 
 def kernel_parameters(kernel: str, params: dict) -> tuple[int, float, int]:
@@ -138,7 +139,7 @@ def kernel_parameters(kernel: str, params: dict) -> tuple[int, float, int]:
         raise ValueError(f"unknown kernel {kernel!r}; choose one of: {', '.join(KERNELS)}")
     params = dict(params)
     power = 0.0
-    shift = solver.SHIFT_NONE
+    shift = codes.SHIFT_NONE
     if kernel == "power":
         power = positive_float(params.pop("power", 2.0), "power")
         shift_value = params.pop("shift", "none")
@@ -211,7 +212,7 @@ def kernel(
     if checked_parameterization(parameterization) == "arc-length":
         boundary = arc_length_boundary(boundary.curve, boundary.count, boundary.corners)
     values, report = evaluate(
-        boundary, x, kernel, solver.OUTPUT_SAMPLES, boundary.count, progress, tolerance, params
+        boundary, x, kernel, codes.OUTPUT_SAMPLES, boundary.count, progress, tolerance, params
     )
     return (values, report) if return_report else values
 
@@ -231,7 +232,7 @@ def evaluate(
     tolerance = positive_float(tolerance, "tolerance")
     points = as_points(x, "x")
     if kernel in CONVEX_ONLY:
-        _require_convex(boundary, kernel)
+        require_convex(boundary, kernel)
     count = points.shape[0]
     out = np.zeros((count, columns))
     iterations = np.zeros(count, dtype=np.int64)
@@ -243,7 +244,7 @@ def evaluate(
     # that did not converge) are solved again on finer quadratures.
     for factor in REFINEMENTS:
         again = np.flatnonzero(
-            (status == solver.STATUS_NOT_CONVERGED) | (status == solver.STATUS_AT_FEASIBLE_EDGE)
+            (status == codes.STATUS_NOT_CONVERGED) | (status == codes.STATUS_AT_FEASIBLE_EDGE)
         )
         if again.size == 0:
             break
@@ -267,7 +268,7 @@ def checked_report(points, kernel: str, iterations, status, residual, stacklevel
         counted from this function).
     """
     count = points.shape[0]
-    outside = status == solver.STATUS_OUTSIDE
+    outside = status == codes.STATUS_OUTSIDE
     if outside.any():
         first = int(np.flatnonzero(outside)[0])
         raise ValueError(
@@ -280,7 +281,7 @@ def checked_report(points, kernel: str, iterations, status, residual, stacklevel
         warnings.warn(
             f"{int(failed.sum())} of {count} points did not converge cleanly with kernel "
             f"{kernel!r} (worst linear-precision residual {residual[failed].max():.3g}, "
-            f"{int((status == solver.STATUS_AT_FEASIBLE_EDGE).sum())} at the feasible edge); "
+            f"{int((status == codes.STATUS_AT_FEASIBLE_EDGE).sum())} at the feasible edge); "
             "see return_report=True for which",
             ConvergenceWarning,
             stacklevel=stacklevel,
@@ -303,7 +304,7 @@ class _Run:
 
     def solve(self, boundary, indices, out, iterations, status, residual, progress, factor=1):
         """Solve the points `indices` on `boundary` (the reference one or a refinement)."""
-        curve = _curve_arrays(boundary, self.mode, self.columns, factor, self.reference.step)
+        curve = curve_arrays(boundary, self.mode, self.columns, factor, self.reference.step)
         orientation = 1.0 if self.reference.area > 0 else -1.0
         settings = (
             self.identifier, self.power, self.shift, self.mode, orientation,
@@ -320,8 +321,8 @@ class _Run:
             ]
             _solve_in_threads(self.points[chunk], settings, curve, geometry, rows, diagnostics)
             # A safety net: a row that is not finite is never returned as converged.
-            broken = ~np.isfinite(rows).all(axis=1) & (diagnostics[1] != solver.STATUS_OUTSIDE)
-            diagnostics[1][broken] = solver.STATUS_NOT_CONVERGED
+            broken = ~np.isfinite(rows).all(axis=1) & (diagnostics[1] != codes.STATUS_OUTSIDE)
+            diagnostics[1][broken] = codes.STATUS_NOT_CONVERGED
             diagnostics[2][broken] = np.inf
             out[chunk] = rows
             iterations[chunk], status[chunk], residual[chunk] = diagnostics
@@ -336,7 +337,7 @@ def _solve_in_threads(points, settings, curve, geometry, rows, diagnostics) -> N
         solver.solve_points(points, settings, curve, geometry, rows, *diagnostics, 0, 1)
         return
     shares = [
-        _pool(threads).submit(
+        solver_pool(threads).submit(
             solver.solve_points, points, settings, curve, geometry, rows, *diagnostics, first, threads
         )
         for first in range(threads)
@@ -346,15 +347,15 @@ def _solve_in_threads(points, settings, curve, geometry, rows, diagnostics) -> N
 
 
 @functools.cache
-def _pool(threads: int) -> ThreadPoolExecutor:
+def solver_pool(threads: int) -> ThreadPoolExecutor:
     """The solver's worker threads, made once per process (per thread count)."""
     return ThreadPoolExecutor(threads, thread_name_prefix="transfinite-solver")
 
 
-def _curve_arrays(boundary: Boundary, mode: int, columns: int, factor: int, out_step: float) -> tuple:
+def curve_arrays(boundary: Boundary, mode: int, columns: int, factor: int, out_step: float) -> tuple:
     """The per-sample arrays `core.newton.solver.solve_points` shares between points."""
     count = boundary.count
-    if mode == solver.OUTPUT_BASIS:
+    if mode == codes.OUTPUT_BASIS:
         u = _local_parameters(boundary, columns)
         basis = (0.5 * (1 - u) ** 2, 0.5 * (-2 * u * u + 2 * u + 1), 0.5 * u * u)
     else:
@@ -372,7 +373,7 @@ def _curve_arrays(boundary: Boundary, mode: int, columns: int, factor: int, out_
         boundary.parameters,
         *basis,
         float(boundary.step),
-        solver.SINH_STEP / factor,
+        quadrature_nodes.SINH_STEP / factor,
         float(out_step),
         crossing_slabs(boundary.points[:, 1]),
     )
@@ -381,7 +382,7 @@ def _curve_arrays(boundary: Boundary, mode: int, columns: int, factor: int, out_
 def _local_parameters(boundary: Boundary, spans: int) -> np.ndarray:
     """u in [0, 1] of every sample within the B-spline span the solver files it under, shape (N,).
 
-    The spans' sample ranges are `core.newton.solver.span_first_sample`'s: `per` samples
+    The spans' sample ranges are `core.curves.arc_length_compiled.span_first_sample`'s: `per` samples
     each in the natural parameter, the samples from ceil(S_j / h) on in arc length
     (`core.curves.arc_length`), where u = t(s_k) - j.
     """
@@ -391,7 +392,8 @@ def _local_parameters(boundary: Boundary, spans: int) -> np.ndarray:
         per = count // spans
         return (np.arange(count) % per) / per
     firsts = [
-        solver.span_first_sample(coefficients, count, spans, boundary.step, j) for j in range(spans + 1)
+        arc_length_compiled.span_first_sample(coefficients, count, spans, boundary.step, j)
+        for j in range(spans + 1)
     ]
     span = np.repeat(np.arange(spans), np.diff(firsts))
     return np.clip(boundary.curve.natural(boundary.parameters) - span, 0.0, 1.0)
@@ -403,7 +405,7 @@ def _sample_spacing(points: np.ndarray) -> np.ndarray:
     return np.maximum(chord, np.roll(chord, 1))
 
 
-def _require_convex(boundary: Boundary, kernel: str) -> None:
+def require_convex(boundary: Boundary, kernel: str) -> None:
     orientation = 1.0 if boundary.area > 0 else -1.0
     tangents, second = boundary.tangents, boundary.second_derivatives
     turning = orientation * (tangents[:, 0] * second[:, 1] - tangents[:, 1] * second[:, 0])

@@ -21,9 +21,8 @@ import json, warnings
 import numpy as np
 from numba.core.registry import CPUDispatcher
 import core
-from core.curves import crossing_slabs
 from core.curves import examples
-from core.newton import solver
+from core.newton.compilation import SOLVER_MODULES
 warnings.simplefilter("ignore")
 fractions = []
 compiled = core.compile_solver(fractions.append)
@@ -37,7 +36,7 @@ square = core.ClosedBSpline(np.repeat([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0,
 core.basis_functions(square, [[0.3, 0.6]], "wachspress")
 signatures = {
     n: len(f.signatures)
-    for module in (solver, crossing_slabs)
+    for module in SOLVER_MODULES
     for n, f in vars(module).items()
     if isinstance(f, CPUDispatcher) and f.py_func.__module__ == module.__name__
     and f.targetoptions.get("inline") != "always"  # compiled inside its callers
@@ -109,7 +108,7 @@ def test_without_a_writable_cache_folder_the_solver_compiles_uncached_with_one_n
 
 
 def test_an_edit_of_a_callee_module_recompiles_its_callers_in_other_modules(tmp_path):
-    # closest_point._distances calls solver._closest_parameter and carries its machine code:
+    # closest_point._distances calls closest_parameter.closest_parameter and carries its machine code:
     # numba alone would check only closest_point.py and keep running the old callee.
     shutil.copytree(ROOT / "core", tmp_path / "core", ignore=shutil.ignore_patterns("__pycache__"))
     environment = dict(os.environ, PYTHONPATH=str(tmp_path), NUMBA_CACHE_DIR=str(tmp_path / "cache"))
@@ -131,15 +130,16 @@ def test_an_edit_of_a_callee_module_recompiles_its_callers_in_other_modules(tmp_
 
     assert hits_and_misses() == [0, 1]  # compiled
     assert hits_and_misses() == [1, 0]  # loaded
-    with open(tmp_path / "core" / "newton" / "solver.py", "a") as solver_source:
+    with open(tmp_path / "core" / "curves" / "closest_parameter.py", "a") as solver_source:
         solver_source.write("\n# an edit of the callee's module\n")
     assert hits_and_misses() == [0, 1]  # compiled again, although closest_point.py is unchanged
 
 
 def test_the_cache_stamp_covers_the_modules_compiled_code_reads_constants_from(tmp_path, monkeypatch):
-    # compiled_integrals freezes panels' Gauss nodes (ORDER of them) into its machine code:
-    # an edit of panels.py must change the stamp, or a warm cache runs with the old ORDER past the
-    # ends of the new arrays. A module no compiled code imports (the disk cache of G) must not.
+    # compiled_integrals freezes the Gauss nodes of gauss_legendre (ORDER of them) into its machine
+    # code: an edit of gauss_legendre.py must change the stamp, or a warm cache runs with the old
+    # ORDER past the ends of the new arrays. A module no compiled code imports (the panels, the
+    # disk cache of G) must not.
     from core import jit_cache
 
     copy = tmp_path / "core"
@@ -148,11 +148,12 @@ def test_the_cache_stamp_covers_the_modules_compiled_code_reads_constants_from(t
     monkeypatch.setattr(jit_cache, "_FOLDER", copy)
     changed = {}
     stamped = {
-        "boundary_integrals/panels.py",
+        "boundary_integrals/gauss_legendre.py",
         "boundary_integrals/compiled_integrals.py",
         "curves/bspline.py",
     }
-    for name in (*sorted(stamped), "storage/cache.py", "storage/atomic_write.py"):
+    unstamped = ("boundary_integrals/panels.py", "storage/cache.py", "storage/atomic_write.py")
+    for name in (*sorted(stamped), *unstamped):
         jit_cache.package_stamp.cache_clear()
         before = jit_cache.package_stamp()
         with open(copy / name, "a") as stream:

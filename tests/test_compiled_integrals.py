@@ -27,9 +27,9 @@ def both_paths(monkeypatch, function):
     results = []
     for mode in ("numpy", "compiled"):
         monkeypatch.setattr(compiled_integrals, "mode", mode)
-        poisson._densities.cache_clear()
+        poisson.solved_densities.cache_clear()
         results.append(function())
-    poisson._densities.cache_clear()
+    poisson.solved_densities.cache_clear()
     return results
 
 
@@ -391,7 +391,7 @@ def test_the_compiled_panel_geometry_equals_the_numpy_one(name, monkeypatch):
     bounds = panel_module.curve_panels(curve).bounds
 
     def geometry():
-        return panel_module._panels(curve, bounds)
+        return panel_module.panels_on_intervals(curve, bounds)
 
     numpy_panels, compiled_panels = both_paths(monkeypatch, geometry)
     scale = curve.diameter
@@ -403,9 +403,10 @@ def test_the_compiled_panel_geometry_equals_the_numpy_one(name, monkeypatch):
 
 def test_the_compiled_interpolation_rows_equal_the_numpy_ones(monkeypatch):
     # Random parameters, the nodes themselves (unit rows) and the ends of the panel.
+    from core.boundary_integrals import gauss_legendre
     from core.boundary_integrals import panels as panel_module
 
-    nodes = panel_module._NODES
+    nodes = gauss_legendre.NODES
     u = np.concatenate([np.random.default_rng(6).uniform(-1.0, 1.0, 500), nodes, [-1.0, 1.0, 1e-300]])
     assert u.size >= panel_module.COMPILED_ROWS
 

@@ -25,9 +25,9 @@ def layer_path(request, monkeypatch):
     from core.boundary_integrals import compiled_integrals, poisson
 
     monkeypatch.setattr(compiled_integrals, "mode", request.param)
-    poisson._densities.cache_clear()
+    poisson.solved_densities.cache_clear()
     yield request.param
-    poisson._densities.cache_clear()
+    poisson.solved_densities.cache_clear()
 
 
 def near_boundary_points(curve: core.ClosedBSpline, count: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
@@ -139,7 +139,7 @@ def test_random_polygons_with_sharp_corners(seed, layer_path):
 def test_coarse_panels_at_a_wedge_are_split_by_its_angle():
     # Corners of 8° (seed 147) and 1.8° (seed 636): their coarse panels are at most min(1/16, half
     # the angle) wide in t (panels.WEDGE_ANGLE); of quarter spans only those at a wedge are split.
-    from core.boundary_integrals.panels import WEDGE_WIDTH, _panels, _wedge_widths, _wedged
+    from core.boundary_integrals.panels import WEDGE_WIDTH, _wedge_widths, _wedged, panels_on_intervals
 
     for seed, knot, angle in [(147, 1, 8.0), (636, 1, 1.8)]:
         curve = random_polygon_cage(seed)
@@ -160,7 +160,9 @@ def test_coarse_panels_at_a_wedge_are_split_by_its_angle():
             )
             knot = (int(row[0]) + 1) % curve.n
             starts = np.arange(4 * curve.n) / 4.0
-            split = _wedged(_panels(curve, np.stack([starts, starts + 0.25], axis=1)), _wedge_widths(curve))
+            split = _wedged(
+                panels_on_intervals(curve, np.stack([starts, starts + 0.25], axis=1)), _wedge_widths(curve)
+            )
             np.testing.assert_array_equal(
                 np.flatnonzero(split), np.sort([(4 * knot - 1) % (4 * curve.n), 4 * knot])
             )
@@ -199,11 +201,11 @@ def test_a_corner_block_reaches_as_far_as_its_panels_are_long(monkeypatch):
     from core.boundary_integrals import panels, poisson
 
     monkeypatch.setattr(panels, "THIN_RATIO", 1.5)
-    poisson._densities.cache_clear()
+    poisson.solved_densities.cache_clear()
     curve = random_polygon_cage(23)
     x = np.vstack([interior_points(curve, 300, seed=7), near_boundary_points(curve, 300, seed=8)[0]])
     G = core.basis_functions(curve, x)
-    poisson._densities.cache_clear()
+    poisson.solved_densities.cache_clear()
     assert np.linalg.norm(G @ curve.control_points - x, axis=1).max() <= 1e-8 * curve.diameter
 
 
@@ -232,11 +234,11 @@ def test_the_solve_integrates_between_the_sides_of_a_deeply_graded_corner(monkey
     from core.boundary_integrals import panels, poisson
 
     monkeypatch.setattr(panels, "CORNER_LEVELS", 8)
-    poisson._densities.cache_clear()
+    poisson.solved_densities.cache_clear()
     curve = core.ClosedBSpline(SHAPES["F polygon"])
     x = np.vstack([interior_points(curve, 200, seed=3), near_boundary_points(curve, 200, seed=3)[0]])
     G = core.basis_functions(curve, x)
-    poisson._densities.cache_clear()
+    poisson.solved_densities.cache_clear()
     assert np.linalg.norm(G @ curve.control_points - x, axis=1).max() <= 1e-8 * curve.diameter
 
 
@@ -448,7 +450,8 @@ def test_a_cage_beyond_the_dense_solve_limit_is_refused_in_one_line(monkeypatch)
     import core.boundary_integrals.poisson
 
     monkeypatch.setattr(core.boundary_integrals.poisson, "MAX_NODES", 500)
-    core.boundary_integrals.poisson._densities.cache_clear()  # solved under the real limit by an earlier test
+    # an earlier test solved it under the real limit
+    core.boundary_integrals.poisson.solved_densities.cache_clear()
     curve = core.ClosedBSpline(SHAPES["star"])
     with pytest.raises(
         ValueError, match=r"need [0-9,]+ boundary nodes with kernel 'poisson'.*use kernel 'harmonic'"
@@ -465,7 +468,7 @@ def test_a_cage_far_beyond_the_limit_is_refused_before_its_panels_are_searched(m
         raise AssertionError("the gaps were searched")
 
     monkeypatch.setattr(core.boundary_integrals.panels, "gaps", searched)
-    core.boundary_integrals.poisson._densities.cache_clear()
+    core.boundary_integrals.poisson.solved_densities.cache_clear()
     angle = np.linspace(0.0, 2.0 * np.pi, 1000, endpoint=False)
     curve = core.ClosedBSpline(100.0 * np.stack([np.cos(angle), np.sin(angle)], axis=1))
     with pytest.raises(ValueError, match=r"need at least 32,000 boundary nodes with kernel 'poisson'"):
@@ -506,9 +509,9 @@ def test_same_span_pairs_keep_the_plain_rule_without_changing_the_basis(monkeypa
         lambda curve, panels, t, panel: np.zeros(t.shape, dtype=bool),
     ):
         monkeypatch.setattr(poisson, "smooth_on_own_span", rule)
-        poisson._densities.cache_clear()
+        poisson.solved_densities.cache_clear()
         values.append(core.basis_functions(curve, x))
-    poisson._densities.cache_clear()
+    poisson.solved_densities.cache_clear()
     np.testing.assert_allclose(values[0], values[1], rtol=0, atol=1e-11)
 
 
@@ -523,7 +526,7 @@ def test_nystrom_interpolation_gives_a_finer_solve_s_densities_beside_a_gap(monk
     curve = core.ClosedBSpline(SHAPES["F polygon"])
 
     def halves_level():
-        poisson._densities.cache_clear()
+        poisson.solved_densities.cache_clear()
         levels = densities(curve).levels
         return levels.panels[3], levels.densities[3]  # the fine level's halves
 
@@ -533,7 +536,7 @@ def test_nystrom_interpolation_gives_a_finer_solve_s_densities_beside_a_gap(monk
     assert (fine.lengths > panels.REFINED_RATIO * gap[parent]).sum() > 0
     monkeypatch.setattr(panels, "THIN_RATIO", 1.0)
     finer_halves, finer = halves_level()
-    poisson._densities.cache_clear()
+    poisson.solved_densities.cache_clear()
     beside = (halves.t > 5.3) & (halves.t < 5.75)  # the bottom arm's top edge, under the gap
     t = halves.t[beside]
     owner = np.searchsorted(finer_halves.bounds[:, 0], t, side="right") - 1
@@ -562,14 +565,14 @@ def test_the_far_field_agrees_with_a_far_more_cautious_one(monkeypatch):
 
     curve = core.ClosedBSpline(np.array(HAIRPIN))
     x = np.vstack([interior_points(curve, 200, seed=1), near_boundary_points(curve, 200, seed=2)[0]])
-    poisson._densities.cache_clear()
+    poisson.solved_densities.cache_clear()
     usual = core.basis_functions(curve, x)
     monkeypatch.setattr(cauchy_integrals, "SPAN_SAFE", 3.0)
     monkeypatch.setattr(cauchy_integrals, "SAFE", 1.5)
     monkeypatch.setattr(cauchy_integrals, "CORNER_SAFE", 3.0)
-    poisson._densities.cache_clear()
+    poisson.solved_densities.cache_clear()
     cautious = core.basis_functions(curve, x)
-    poisson._densities.cache_clear()
+    poisson.solved_densities.cache_clear()
     np.testing.assert_allclose(usual, cautious, rtol=0, atol=1e-10)  # measured 4.0e-12
 
 

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from conftest import interior_points
 
-from core.newton import solver
+from core.newton import codes, minimisation, quadrature_nodes, solver
 
 TOLERANCE = 1e-11  # of the diameter, as core.kernels.DEFAULT_TOLERANCE
 
@@ -29,7 +29,7 @@ def _problem(curve, x):
 
 def _newton(ux, uy, inv_r, a, tolerance, phi):
     work = [np.empty(ux.size) for _ in range(4)]
-    return solver._newton(ux, uy, inv_r, a, *work, ux.size, tolerance, *phi)
+    return minimisation.newton_steps(ux, uy, inv_r, a, *work, ux.size, tolerance, *phi)
 
 
 def test_change_bound_is_an_upper_bound_close_to_the_exact_change():
@@ -45,7 +45,7 @@ def test_change_bound_is_an_upper_bound_close_to_the_exact_change():
             z = (delta[0] * ux + delta[1] * uy) * inv_s
             alpha = min(1.0, 0.999 / -z.min()) if z.min() <= -1.0 else 1.0
             exact = -(a * np.log1p(alpha * z)).sum()
-            bound = solver._change_bound(a, ux, uy, inv_s, delta[0], delta[1], alpha, count)
+            bound = minimisation.change_bound(a, ux, uy, inv_s, delta[0], delta[1], alpha, count)
             scale = (a * np.abs(alpha * z)).sum()
             assert bound >= exact - 1e-15 * scale
             # The polynomial bounds are off by at most |z|^3 / 3 (z >= 0) or
@@ -60,7 +60,7 @@ def test_an_infeasible_start_falls_back_to_phi_zero(blob):
         tolerance = TOLERANCE * blob.diameter
         _, status, _, *cold, _ = _newton(ux, uy, inv_r, a, tolerance, (0.0, 0.0))
         _, infeasible_status, _, *fallback, _ = _newton(ux, uy, inv_r, a, tolerance, (3.0, -2.0))
-        assert status == infeasible_status == solver.STATUS_CONVERGED
+        assert status == infeasible_status == codes.STATUS_CONVERGED
         np.testing.assert_allclose(fallback, cold, rtol=0.0, atol=1e-12)
 
 
@@ -73,12 +73,12 @@ def test_coarse_warm_start_reaches_the_full_minimiser_in_fewer_steps(blob):
         spacing = np.linalg.norm(np.diff(boundary.points, axis=0, append=boundary.points[:1]), axis=1).max()
         separation = (1.0 / inv_r.max()) / spacing
         coarse = tuple(np.empty(ux.size) for _ in range(8))
-        start = solver._coarse_start(ux, uy, inv_r, a, ux.size, separation, coarse, tolerance, 0.0, 0.0)
+        start = minimisation.coarse_start(ux, uy, inv_r, a, ux.size, separation, coarse, tolerance, 0.0, 0.0)
         assert start != (0.0, 0.0), "points this far from the boundary get a coarse start"
         assert (1.0 + start[0] * ux + start[1] * uy).min() > 0.0  # feasible for the full rule
         cold, status, residual, *phi, d = _newton(ux, uy, inv_r, a, tolerance, (0.0, 0.0))
         warm, warm_status, warm_residual, *warm_phi, _ = _newton(ux, uy, inv_r, a, tolerance, start)
-        assert status == warm_status == solver.STATUS_CONVERGED
+        assert status == warm_status == codes.STATUS_CONVERGED
         assert max(residual, warm_residual) <= tolerance
         s = 1.0 + phi[0] * ux + phi[1] * uy
         # D of Eq. 17 comes back at the returned phi: Eq. 17's normaliser needs no pass of its own.
@@ -119,7 +119,7 @@ def test_a_newton_step_within_the_full_step_radius_meets_the_armijo_bound():
             [[(h * ux * ux).sum(), (h * ux * uy).sum()], [(h * ux * uy).sum(), (h * uy * uy).sum()]]
         )
         delta = -np.linalg.solve(hessian, g)
-        radius = solver.FULL_STEP * (1.0 - np.linalg.norm(phi))
+        radius = minimisation.FULL_STEP * (1.0 - np.linalg.norm(phi))
         if np.linalg.norm(delta) > radius:
             continue
         near_the_edge += np.linalg.norm(delta) > 0.5 * radius
@@ -127,7 +127,7 @@ def test_a_newton_step_within_the_full_step_radius_meets_the_armijo_bound():
         assert z.min() > -1.0  # feasible
         bound = -(a * z).sum() + 0.5 * (a * z * z * np.maximum(1.0, 1.0 / (1.0 + z))).sum()
         slope = g @ delta
-        assert bound <= solver.ARMIJO * slope
+        assert bound <= minimisation.ARMIJO * slope
     assert near_the_edge >= 20
 
 
@@ -140,8 +140,8 @@ def test_the_graded_side_solves_its_end_spacing_equation():
         step = 10.0 ** rng.uniform(-3.0, -1.0)
         edge = step * rng.uniform(2.0, 40.0)
         scale = edge * 10.0 ** rng.uniform(-12.0, 0.0)
-        intervals, sinh_scale, sigma_step = solver._graded_side(edge, scale, step)
-        if intervals == solver.MAX_WINDOW_NODES // 2 - 1:
+        intervals, sinh_scale, sigma_step = quadrature_nodes.graded_side(edge, scale, step)
+        if intervals == quadrature_nodes.MAX_WINDOW_NODES // 2 - 1:
             continue  # over the node budget: no exact end spacing (documented)
         assert 0.0 < sinh_scale <= scale
         length = np.hypot(sinh_scale, edge) * np.arcsinh(edge / sinh_scale)
@@ -165,20 +165,20 @@ def test_the_peak_scan_is_skipped_only_where_it_passes_for_sure(blob):
             omega = (inv_r / inv_r.max()) ** power
             a = omega / omega.sum()
             spread = chords.max() * inv_r.max()
-            assert spread < 1.0 / solver.NEAR_SPACINGS  # a far point
+            assert spread < 1.0 / quadrature_nodes.NEAR_SPACINGS  # a far point
             results = []
             for bound in (spread, np.inf):
                 work = [np.empty(ux.size) for _ in range(5)]
                 results.append(
-                    solver._maximum_likelihood(
+                    minimisation.maximum_likelihood(
                         ux, uy, inv_r, a, *work, weights, boundary.step, ux.size, tolerance, 0.0, 0.0, bound
                     )
                 )
             np.testing.assert_array_equal(results[0], results[1])  # NaN phi after path-following
             _, status, _, phix, phiy, _ = _newton(ux, uy, inv_r, a, tolerance, (0.0, 0.0))
-            if status == solver.STATUS_CONVERGED:
+            if status == codes.STATUS_CONVERGED:
                 skipped += spread**2 < 2.0 * (1.0 - np.hypot(phix, phiy))
-            flagged += results[1][1] == solver.STATUS_AT_FEASIBLE_EDGE
+            flagged += results[1][1] == codes.STATUS_AT_FEASIBLE_EDGE
     assert skipped > 0 and flagged > 0  # both branches are exercised
 
 
@@ -187,9 +187,9 @@ def _solve_points(curve, x, first=0, stride=1, out=None):
     from core import kernels
 
     boundary = curve.sample(100)
-    arrays = kernels._curve_arrays(boundary, solver.OUTPUT_BASIS, curve.n, 1, boundary.step)
+    arrays = kernels.curve_arrays(boundary, codes.OUTPUT_BASIS, curve.n, 1, boundary.step)
     settings = (
-        solver.HARMONIC_LIKE, 0.0, 0, solver.OUTPUT_BASIS, 1.0 if boundary.area > 0 else -1.0,
+        codes.HARMONIC_LIKE, 0.0, 0, codes.OUTPUT_BASIS, 1.0 if boundary.area > 0 else -1.0,
         boundary.diameter, curve.n, TOLERANCE,
     )  # fmt: skip
     geometry = (boundary.curve.coefficients, boundary.curve.piece_length, boundary.corners)
@@ -226,18 +226,18 @@ def test_mesh_order_starts_reach_the_cold_minimiser_and_the_thread_split_does_no
 def test_the_predicted_start_extrapolates_along_the_last_two_points():
     nan = np.nan
     history = (1.0, 0.0, 0.3, 0.1, 0.0, 0.0, 0.2, 0.1)  # phi grows by 0.1 in x per unit
-    assert solver._predicted_start(2.0, 0.0, history, 1.5) == (pytest.approx(0.4), 0.1, True)
-    assert solver._predicted_start(1.5, 0.5, history, 1.5)[:2] == pytest.approx((0.35, 0.1))
+    assert minimisation.predicted_start(2.0, 0.0, history, 1.5) == (pytest.approx(0.4), 0.1, True)
+    assert minimisation.predicted_start(1.5, 0.5, history, 1.5)[:2] == pytest.approx((0.35, 0.1))
     # Too far from the last point: phi = 0; the last two too far apart: the last phi, no prediction.
-    assert solver._predicted_start(3.0, 0.0, history, 1.5) == (0.0, 0.0, False)
-    assert solver._predicted_start(1.5, 0.0, (1.0, 0.0, 0.3, 0.1, -2.0, 0.0, 0.0, 0.0), 1.5) == (
+    assert minimisation.predicted_start(3.0, 0.0, history, 1.5) == (0.0, 0.0, False)
+    assert minimisation.predicted_start(1.5, 0.0, (1.0, 0.0, 0.3, 0.1, -2.0, 0.0, 0.0, 0.0), 1.5) == (
         0.3,
         0.1,
         False,
     )
-    assert solver._predicted_start(1.5, 0.0, (1.0, 0.0, 0.3, 0.1, nan, nan, nan, nan), 1.5) == (
+    assert minimisation.predicted_start(1.5, 0.0, (1.0, 0.0, 0.3, 0.1, nan, nan, nan, nan), 1.5) == (
         0.3,
         0.1,
         False,
     )
-    assert solver._predicted_start(0.0, 0.0, (nan,) * 8, 1.5) == (0.0, 0.0, False)
+    assert minimisation.predicted_start(0.0, 0.0, (nan,) * 8, 1.5) == (0.0, 0.0, False)

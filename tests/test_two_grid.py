@@ -20,13 +20,13 @@ def coarse_system(curve: core.ClosedBSpline) -> tuple[np.ndarray, np.ndarray]:
         captured["system"] = matrix.copy(), rhs.copy()
         return solve(matrix, rhs)
 
-    poisson._densities.cache_clear()
+    poisson.solved_densities.cache_clear()
     try:
         two_grid.solve = capture
         poisson.densities(poisson.centred(curve, np.zeros((1, 2)))[0])
     finally:
         two_grid.solve = solve
-        poisson._densities.cache_clear()
+        poisson.solved_densities.cache_clear()
     return captured["system"]
 
 

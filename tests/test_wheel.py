@@ -118,7 +118,7 @@ def test_the_installed_wheel_runs_its_commands_from_anywhere(venv, elsewhere):
         "import numpy as np, core; from core.boundary_integrals import compiled_integrals as c, poisson; "
         "square = core.ClosedBSpline(np.array([[0.0, 0], [1, 0], [1, 1], [0, 1]])); "
         "x = np.random.default_rng(1).uniform(0.3, 0.7, (c.LOAD_AFTER_POINTS + 1, 2)); "
-        "core.basis_functions(square, x); poisson._densities.cache_clear(); "
+        "core.basis_functions(square, x); poisson.solved_densities.cache_clear(); "
         "core.basis_functions(square, x[:1]); "
         "from core.boundary_integrals.panels import curve_panels; "
         "poisson.exercise_near_field(square, curve_panels(square)); "

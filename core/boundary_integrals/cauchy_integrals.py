@@ -30,21 +30,17 @@ from scipy.spatial import cKDTree
 
 from core.boundary_integrals import compiled_integrals
 from core.boundary_integrals.compiled_integrals import (
-    _LEGENDRE,
-    _LEGENDRE_VALUES,
     BACKWARD_DIGITS,
     FORWARD_ELLIPSE,
     PLAIN_ELLIPSE,
 )
+from core.boundary_integrals.gauss_legendre import LEGENDRE_VALUES, LEGENDRE_WEIGHTS, NODES, ORDER, WEIGHTS
 from core.boundary_integrals.panels import (
-    _NODES,
-    _WEIGHTS,
-    ORDER,
     Panels,
     interpolation_matrix,
+    panels_on_intervals,
     sharp_corners,
 )
-from core.boundary_integrals.panels import _panels as panels_of_bounds
 from core.curves.bspline import ClosedBSpline
 
 #: Points per block of the far-field products (bounds the memory of a block's weights).
@@ -305,7 +301,7 @@ def adaptive_weights(
         totals = factor[:, None] * ((moments_near - moments_far) @ _DERIVATIVE_MOMENTS.T)
         high, low = 1.0 / (constant + linear + quadratic), 1.0 / (constant - linear + quadratic)
         totals -= high[:, None] - low[:, None] * (-1.0) ** np.arange(ORDER)
-    weights[away] = totals @ _LEGENDRE.T
+    weights[away] = totals @ LEGENDRE_WEIGHTS.T
     return weights, touching
 
 
@@ -322,7 +318,7 @@ def _legendre_moments(r: np.ndarray) -> np.ndarray:
     rho = np.maximum(np.abs(r + root), np.abs(r - root))
     out = np.empty((r.size, ORDER), dtype=np.complex128)
     plain = rho >= PLAIN_ELLIPSE
-    out[plain] = (_WEIGHTS / (_NODES - r[plain, None])) @ _LEGENDRE_VALUES
+    out[plain] = (WEIGHTS / (NODES - r[plain, None])) @ LEGENDRE_VALUES
     rest = ~plain
     first = np.log((r[rest] - 1.0) / (r[rest] + 1.0))
     forward = rho[rest] <= FORWARD_ELLIPSE
@@ -405,7 +401,7 @@ def bisected(
     interpolation); the levels below it interpolate the corrected ones.
     """
     panels, parents = list(levels.panels), list(levels.parents)
-    halves = interpolation_matrix(np.concatenate([0.5 * _NODES - 0.5, 0.5 * _NODES + 0.5]))  # (2q, q)
+    halves = interpolation_matrix(np.concatenate([0.5 * NODES - 0.5, 0.5 * NODES + 0.5]))  # (2q, q)
     # Every level's densities in one array, coarsest first, each level a view of it: the panel
     # tree of `layer_rows` takes it as it is (concatenating 1.5 MB of fresh memory took 0.8 ms).
     rows = [d.shape[0] for d in levels.densities] + [
@@ -430,7 +426,7 @@ def bisected(
         if corrected is not None:
             child[corrected[0]] = corrected[1]
             corrected = None
-        panels.append(panels_of_bounds(curve, bounds.reshape(-1, 2)))
+        panels.append(panels_on_intervals(curve, bounds.reshape(-1, 2)))
         parents.append(np.repeat(np.arange(finest.count), 2))
     for density in densities:
         density.setflags(write=False)  # the combined array stays writeable: numba types it so

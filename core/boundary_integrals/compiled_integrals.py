@@ -42,7 +42,7 @@ import numpy as np
 from numba import njit, prange
 from numba.core.compiler_lock import global_compiler_lock
 
-from core.boundary_integrals.panels import _NODES, _WEIGHTS, ORDER
+from core.boundary_integrals.gauss_legendre import LEGENDRE_VALUES, LEGENDRE_WEIGHTS, NODES, ORDER, WEIGHTS
 
 #: How `cauchy_integrals` chooses: "auto" (compiled where loaded, `loaded`), "numpy", or "compiled"
 #: (compile on first use if need be: tests and `core.newton.compilation.compile_all`).
@@ -159,17 +159,6 @@ def _argument_key(value):
     return None
 
 
-def _legendre_weights() -> np.ndarray:
-    """L (ORDER, ORDER): L[j, k] = w_j (2k + 1) / 2 P_k(s_j) at the Gauss–Legendre nodes s_j and
-    weights w_j, so that Σ_j L[j, k] f(s_j) is f's k-th Legendre coefficient for f of degree
-    < ORDER, and ∫ f(s) g(s) ds = Σ_j f(s_j) Σ_k L[j, k] ∫ P_k(s) g(s) ds."""
-    legendre = np.polynomial.legendre.legvander(_NODES, ORDER - 1)
-    return _WEIGHTS[:, None] * (np.arange(ORDER) + 0.5) * legendre
-
-
-_LEGENDRE = _legendre_weights()
-#: P_k(s_j) at the Gauss–Legendre nodes, (ORDER (j), ORDER (k)).
-_LEGENDRE_VALUES = np.polynomial.legendre.legvander(_NODES, ORDER - 1)
 #: The forward recurrence's coefficients (2k + 1) / (k + 1) and k / (k + 1), (ORDER, 2).
 _FORWARD = np.array([[(2 * k + 1) / (k + 1), k / (k + 1)] for k in range(ORDER)])
 #: `_legendre_moments` runs the recurrence forwards for roots whose Bernstein ellipse parameter
@@ -205,11 +194,11 @@ def _legendre_moments(r, rho, out):
         for k in range(ORDER):
             out[k] = 0.0
         for j in range(ORDER):
-            d = _NODES[j] - r
-            scale = _WEIGHTS[j] / (d.real * d.real + d.imag * d.imag)
+            d = NODES[j] - r
+            scale = WEIGHTS[j] / (d.real * d.real + d.imag * d.imag)
             inverse = complex(d.real * scale, -d.imag * scale)  # w_j / (s_j - r)
             for k in range(ORDER):
-                out[k] += _LEGENDRE_VALUES[j, k] * inverse
+                out[k] += LEGENDRE_VALUES[j, k] * inverse
         return
     first = np.log((r - 1.0) / (r + 1.0))
     if rho <= FORWARD_ELLIPSE:
@@ -284,8 +273,8 @@ def _near_weights(coefficients, a, b, z, power, touch, weights, moments):
         rho = _ellipse(r)
         if power == 1 and rho >= PLAIN_ELLIPSE:  # Σ_k L[j, k] (the rule's I_k) = w_j / (s_j - r)
             for j in range(ORDER):
-                d = _NODES[j] - r
-                scale = _WEIGHTS[j] / (d.real * d.real + d.imag * d.imag)
+                d = NODES[j] - r
+                scale = WEIGHTS[j] / (d.real * d.real + d.imag * d.imag)
                 weights[j] += complex(d.real * scale, -d.imag * scale)
             continue
         _legendre_moments(r, rho, moments[0])
@@ -307,8 +296,8 @@ def _near_weights(coefficients, a, b, z, power, touch, weights, moments):
     for j in range(ORDER):
         real, imaginary = 0.0, 0.0
         for k in range(ORDER):
-            real += _LEGENDRE[j, k] * totals[k].real
-            imaginary += _LEGENDRE[j, k] * totals[k].imag
+            real += LEGENDRE_WEIGHTS[j, k] * totals[k].real
+            imaginary += LEGENDRE_WEIGHTS[j, k] * totals[k].imag
         weights[j] += complex(real, imaginary)
     return False
 
@@ -324,7 +313,7 @@ def interpolation_rows(u, barycentric):
     for i in range(u.shape[0]):
         node, total = -1, 0.0
         for j in range(ORDER):
-            difference = u[i] - _NODES[j]
+            difference = u[i] - NODES[j]
             if difference == 0.0:
                 node = j
             out[i, j] = barycentric[j] / difference  # inf at a node: the row is replaced below
@@ -369,12 +358,12 @@ def panel_geometry(coefficients, bounds):
         length = 0.0
         for j in range(ORDER):  # real arithmetic: complex abs is a hypot, ~4x a square root
             k = p * ORDER + j
-            t[k] = middle + half * _NODES[j]
+            t[k] = middle + half * NODES[j]
             u = t[k] - start
             x, y = c0x + u * (c1x + u * c2x), c0y + u * (c1y + u * c2y)
             dx, dy = c1x + 2.0 * u * c2x, c1y + 2.0 * u * c2y
             z[k], dz[k], d2z[k] = complex(x, y), complex(dx, dy), complex(2.0 * c2x, 2.0 * c2y)
-            weights[k] = half * _WEIGHTS[j]
+            weights[k] = half * WEIGHTS[j]
             length += math.sqrt(dx * dx + dy * dy) * weights[k]
             farthest = max(farthest, (x - centre_x) ** 2 + (y - centre_y) ** 2)
         centres[p], radii[p], lengths[p] = complex(centre_x, centre_y), math.sqrt(farthest), length

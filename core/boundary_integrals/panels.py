@@ -23,10 +23,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from core.boundary_integrals import compiled_integrals
+from core.boundary_integrals.gauss_legendre import NODES, ORDER, WEIGHTS
 from core.curves.bspline import ClosedBSpline
 
-#: Gauss–Legendre nodes per panel.
-ORDER = 16
 #: Dyadic levels of panels towards a sharp corner (a doubled control point).  With 6, points
 #: 1e-6 of the diameter from the curve and 0.005 in t from a corner had G down to -1.6e-10
 #: (random corner cages 13 and 17); with 7, -6.4e-11 there but -1.3e-10 and -1.0e-10 at points
@@ -90,8 +90,6 @@ COMPILED_ROWS = 64
 #: At most this many rounds of splitting for thin parts (and as many for balance and turns).
 THIN_ROUNDS = 12
 
-_NODES, _WEIGHTS = np.polynomial.legendre.leggauss(ORDER)
-
 
 def _barycentric_weights(nodes: np.ndarray) -> np.ndarray:
     difference = nodes[:, None] - nodes[None, :]
@@ -100,7 +98,7 @@ def _barycentric_weights(nodes: np.ndarray) -> np.ndarray:
     return weights / np.abs(weights).max()
 
 
-_BARYCENTRIC = _barycentric_weights(_NODES)
+_BARYCENTRIC = _barycentric_weights(NODES)
 
 
 def interpolation_matrix(u: np.ndarray) -> np.ndarray:
@@ -113,14 +111,12 @@ def interpolation_matrix(u: np.ndarray) -> np.ndarray:
     """
     u = np.asarray(u, dtype=np.float64)
     if u.ndim == 1 and u.size >= COMPILED_ROWS:
-        from core.boundary_integrals import compiled_integrals  # here: it imports this module
-
         rows = compiled_integrals.run_compiled(
             compiled_integrals.interpolation_rows, lambda: (np.ascontiguousarray(u), _BARYCENTRIC)
         )
         if rows is not None:
             return rows
-    difference = u[..., None] - _NODES
+    difference = u[..., None] - NODES
     exact = difference == 0.0
     difference[exact] = 1.0
     terms = _BARYCENTRIC / difference
@@ -180,7 +176,7 @@ def curve_panels(curve: ClosedBSpline) -> Panels:
 def span_panels(curve: ClosedBSpline) -> Panels:
     """One panel a span: the coarsest level of `core.boundary_integrals.cauchy_integrals.Levels`."""
     starts = np.arange(curve.n, dtype=np.float64)
-    return _panels(curve, np.stack([starts, starts + 1.0], axis=1))
+    return panels_on_intervals(curve, np.stack([starts, starts + 1.0], axis=1))
 
 
 def coarse_panels(curve: ClosedBSpline) -> Panels:
@@ -197,7 +193,7 @@ def coarse_panels_and_gaps(curve: ClosedBSpline) -> tuple[Panels, np.ndarray]:
     wedge_widths = _wedge_widths(curve)
     wedges = np.flatnonzero(np.isfinite(wedge_widths))
     for _ in range(2 * THIN_ROUNDS):
-        panels = _panels(curve, bounds)
+        panels = panels_on_intervals(curve, bounds)
         # The rules that look at a panel and its neighbours first; the gaps (a search of the
         # whole curve, most of this function's time) once those hold.
         split = _unbalanced(panels) | _curved(panels)
@@ -214,7 +210,7 @@ def coarse_panels_and_gaps(curve: ClosedBSpline) -> tuple[Panels, np.ndarray]:
         )
         bounds = np.concatenate([bounds[~split], halves])
         bounds = bounds[np.argsort(bounds[:, 0])]
-    panels = _panels(curve, bounds)
+    panels = panels_on_intervals(curve, bounds)
     return panels, np.minimum(gaps(panels, corners), knots_across_wedges(curve, panels, wedges))
 
 
@@ -246,7 +242,7 @@ def graded_panels(curve: ClosedBSpline, coarse: Panels) -> tuple[Panels, np.ndar
     parent = np.asarray(parent, dtype=np.int64)
     start, width = coarse.bounds[parent, 0], np.diff(coarse.bounds, axis=1)[parent, 0]
     bounds = start[:, None] + width[:, None] * np.array(fine)
-    return _panels(curve, bounds), parent, knot
+    return panels_on_intervals(curve, bounds), parent, knot
 
 
 @functools.cache
@@ -298,12 +294,10 @@ def knot_levels(curve: ClosedBSpline) -> np.ndarray:
     return levels
 
 
-def _panels(curve: ClosedBSpline, bounds: np.ndarray) -> Panels:
+def panels_on_intervals(curve: ClosedBSpline, bounds: np.ndarray) -> Panels:
     """The panels of `curve` on the parameter intervals `bounds` (P, 2), each inside the span of
     its start: compiled (`compiled_integrals.panel_geometry`) where its machine code is at hand,
     else numpy."""
-    from core.boundary_integrals import compiled_integrals  # here: it imports this module
-
     geometry = compiled_integrals.run_compiled(
         compiled_integrals.panel_geometry,
         lambda: (curve.piecewise_polynomial().coefficients, np.ascontiguousarray(bounds, dtype=np.float64)),
@@ -313,9 +307,9 @@ def _panels(curve: ClosedBSpline, bounds: np.ndarray) -> Panels:
         return Panels(bounds, t, z, dz, d2z, weights, centres, radii, lengths)
     half = 0.5 * (bounds[:, 1] - bounds[:, 0])
     middle = 0.5 * (bounds[:, 1] + bounds[:, 0])
-    t = (middle[:, None] + half[:, None] * _NODES).ravel()
+    t = (middle[:, None] + half[:, None] * NODES).ravel()
     z, dz, d2z = _evaluate(curve, t, bounds)
-    weights = (half[:, None] * _WEIGHTS).ravel()
+    weights = (half[:, None] * WEIGHTS).ravel()
     ends = _evaluate(curve, bounds.ravel(), np.repeat(bounds, 2, axis=0))[0].reshape(-1, 2)
     z_panels = z.reshape(-1, ORDER)
     lengths = (np.abs(dz) * weights).reshape(-1, ORDER).sum(axis=1)
@@ -431,8 +425,6 @@ def gaps(panels: Panels, corners: np.ndarray) -> np.ndarray:
     starts_corner = np.isin(panels.bounds[:, 0], corners)  # each corner starts a panel
     corner_at = np.sort((middle - 0.5 * panels.lengths)[starts_corner])
     reach = panels.lengths / min(THIN_RATIO, REFINED_RATIO)
-    from core.boundary_integrals import compiled_integrals  # here: it imports this module
-
     circles = (panels.z, panels.centres, panels.radii, panels.lengths)
     found = compiled_integrals.run_compiled(
         compiled_integrals.panel_gaps, lambda: (*circles, middle, float(total), corner_at, reach, float(TURN))

@@ -56,19 +56,18 @@ from core.boundary_integrals.cauchy_integrals import (
     span_coefficients,
     span_parameters,
 )
+from core.boundary_integrals.gauss_legendre import NODES, ORDER
 from core.boundary_integrals.panels import (
-    _NODES,
-    ORDER,
     REFINED_RATIO,
     Panels,
     coarse_panels_and_gaps,
     coarse_per_span,
     graded_panels,
     interpolation_matrix,
+    panels_on_intervals,
     sharp_corners,
     span_panels,
 )
-from core.boundary_integrals.panels import _panels as _make_panels
 from core.boundary_integrals.scratch_arrays import scratch
 from core.curves.bspline import ClosedBSpline
 
@@ -102,7 +101,7 @@ class Densities:
     levels: Levels
 
 
-#: The curves `densities` is solving for, by their points: `_densities`, cached by the points' bytes,
+#: The curves `densities` is solving for, by their points: `solved_densities`, cached by the points' bytes,
 #: takes its curve from here rather than building (and checking) it again.
 _solving: dict[bytes, ClosedBSpline] = {}
 
@@ -113,13 +112,13 @@ def densities(curve: ClosedBSpline) -> Densities:
     key = curve.control_points.tobytes()
     _solving[key] = curve
     try:
-        return _densities(key, curve.control_points.shape[0])
+        return solved_densities(key, curve.control_points.shape[0])
     finally:
         _solving.pop(key, None)
 
 
 @functools.lru_cache(maxsize=4)
-def _densities(points: bytes, count: int) -> Densities:
+def solved_densities(points: bytes, count: int) -> Densities:
     """The compressed Nyström solve (Helsing's RCIP, one level of compression, no recursion).
 
     The equation (I + K) μ = 2 N (K twice the double layer) on the fine panels is split
@@ -201,7 +200,7 @@ def _refuse_beyond_the_limit(curve: ClosedBSpline, nodes: int, bound: str = "") 
 
 
 def _coarse_system(curve: ClosedBSpline, coarse: Panels, blocks: dict, target, panel) -> np.ndarray:
-    """2 K°_c R (K, K) of the coarse equation (`_densities`) but for its near pairs: the plain rule
+    """2 K°_c R (K, K) of the coarse equation (`solved_densities`) but for its near pairs: the plain rule
     at the coarse nodes, 0 within each knot's block (K*, in R) and at the near pairs (target
     nodes, panels (E,), sorted by target: the adaptive rule's, added by the caller), each
     block's columns times its R (`_knot_blocks`).  Compiled where at hand
@@ -244,7 +243,7 @@ def _knot_blocks(curve, fine: Panels, coarse: Panels, knot, parent, interpolatio
     """The knots' compressed blocks: knot j -> (its coarse nodes (C,), R_j = Q (I + K*_j)^-1 P, (C, C)).
 
     Fills the rows of `expand` of the fine panels of each knot's pair of coarse panels with
-    (I + K*_j)^-1 P (`_densities`); `knot` (P_c,) is each coarse panel's knot (-1 for none),
+    (I + K*_j)^-1 P (`solved_densities`); `knot` (P_c,) is each coarse panel's knot (-1 for none),
     `parent` (P_f,) each fine panel's coarse panel, `interpolation` (P_f ORDER, ORDER) each
     fine node's row of P on its coarse panel.  The blocks are solved together by the
     compiled `compiled_integrals.knot_blocks`, their adaptive entries too, where it is at
@@ -393,7 +392,7 @@ def nystrom_halves(curve: ClosedBSpline, fine: Panels, mu: np.ndarray, refine: n
     low, high = fine.bounds[refine, 0], fine.bounds[refine, 1]
     middle = 0.5 * (low + high)
     bounds = np.stack([np.stack([low, middle], 1), np.stack([middle, high], 1)], 1).reshape(-1, 2)
-    halves = _make_panels(curve, bounds)
+    halves = panels_on_intervals(curve, bounds)
     own = (refine[:, None] * ORDER + np.arange(ORDER)).ravel()  # the panels' own nodes
     z = np.concatenate([halves.z, fine.z[own]])
     t = np.concatenate([halves.t, fine.t[own]])
@@ -404,7 +403,7 @@ def nystrom_halves(curve: ClosedBSpline, fine: Panels, mu: np.ndarray, refine: n
     formula = _data(curve, t) - 2.0 * (matrix @ mu)
     split = 2 * count * ORDER
     residual = (mu[own] - formula[split:]).reshape(count, ORDER, -1)
-    to_halves = interpolation_matrix(np.concatenate([0.5 * _NODES - 0.5, 0.5 * _NODES + 0.5]))
+    to_halves = interpolation_matrix(np.concatenate([0.5 * NODES - 0.5, 0.5 * NODES + 0.5]))
     values = formula[:split] + np.matmul(to_halves, residual).reshape(split, -1)
     hit = target[touching]  # panels whose integral met the curve, by their halves or own nodes
     met = np.unique(np.where(hit < split, hit // (2 * ORDER), (hit - split) // ORDER))
@@ -617,7 +616,7 @@ def load_compiled() -> bool:
     """
     compiled_integrals.allow_reading()
     square = ClosedBSpline(np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]))
-    solution = _densities.__wrapped__(square.control_points.tobytes(), square.n)  # solves, uncached
+    solution = solved_densities.__wrapped__(square.control_points.tobytes(), square.n)  # solves, uncached
     cauchy_integrals(square, solution.levels, np.array([[0.5, 0.5]]))
     exercise_near_field(square, solution.levels.panels[-1])
     compiled = (

@@ -30,7 +30,7 @@ import numpy as np
 from scipy.linalg import lu_factor, lu_solve
 
 from core.boundary_integrals import compiled_integrals
-from core.boundary_integrals.panels import _NODES, _WEIGHTS, ORDER
+from core.boundary_integrals.gauss_legendre import NODES, ORDER, WEIGHTS
 from core.boundary_integrals.scratch_arrays import scratch
 
 #: Gauss–Legendre nodes a panel on the coarse grid: with 6 the blob takes a step more than with 8
@@ -54,9 +54,9 @@ def _grids() -> tuple[np.ndarray, np.ndarray]:
     """Π (ORDER, COARSE_ORDER) and Ρ (COARSE_ORDER, ORDER) of the module docstring."""
     nodes, weights = np.polynomial.legendre.leggauss(COARSE_ORDER)
     coarse = np.polynomial.legendre.legvander(nodes, COARSE_ORDER - 1)
-    fine = np.polynomial.legendre.legvander(_NODES, COARSE_ORDER - 1)
+    fine = np.polynomial.legendre.legvander(NODES, COARSE_ORDER - 1)
     prolong = np.linalg.solve(coarse.T, fine.T).T  # fine values of the coarse interpolant
-    restrict = prolong.T * _WEIGHTS[None, :] / weights[:, None]
+    restrict = prolong.T * WEIGHTS[None, :] / weights[:, None]
     return np.ascontiguousarray(prolong), np.ascontiguousarray(restrict)
 
 

@@ -14,8 +14,8 @@ from here on, so that a curve of uniform speed keeps its parameter and the kerne
 whose weights depend on the parameter's scale (the integral shift of Eq. 19-20)
 compare like with like.  The map is monotone on each span j (|p'| > 0 there but
 possibly at a sharp corner's knot) and computed once per cage: the span lengths in
-closed form (`core.newton.solver.span_arc_length`), the inverse t(s) = j + u by safeguarded
-Newton (`core.newton.solver.natural_parameter`).
+closed form (`core.curves.arc_length_compiled.span_arc_length`), the inverse t(s) = j + u by safeguarded
+Newton (`core.curves.arc_length_compiled.natural_parameter`).
 
 The curve q(s) = p(t(s)) is sampled uniformly in s, s_k = k n / N, and handed to
 the solver like any `Boundary`: the quadrature (the trapezoid rule of Sec. 4.1 and
@@ -30,8 +30,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from core.curves import arc_length_compiled
 from core.curves.boundary import Boundary, PiecewisePolynomial
-from core.newton import solver
 from core.validation import as_parameters
 
 PARAMETERIZATIONS = ("natural", "arc-length")
@@ -65,7 +65,7 @@ class ArcLengthCurve:
         spans = natural.shape[0]
         coefficients = np.zeros((spans, 3, 3))
         coefficients[:, :, :2] = natural
-        lengths = np.array([solver.span_arc_length(coefficients, j, 1.0) for j in range(spans)])
+        lengths = np.array([arc_length_compiled.span_arc_length(coefficients, j, 1.0) for j in range(spans)])
         self.length = float(lengths.sum())
         scale = self.length / spans
         coefficients[:, 0, 2] = np.concatenate([[0.0], np.cumsum(lengths)[:-1]]) / scale
@@ -86,12 +86,12 @@ class ArcLengthCurve:
 
     def evaluate(self, s) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """q(s), q'(s), q''(s) (derivatives in s, |q'| = L / n), each of shape (m, 2)."""
-        values = solver.arc_length_samples(self.coefficients, as_parameters(s))
+        values = arc_length_compiled.arc_length_samples(self.coefficients, as_parameters(s))
         return values[:, 0:2], values[:, 2:4], values[:, 4:6]
 
     def natural(self, s) -> np.ndarray:
         """t(s), the natural parameter in [0, n] of parameters s of shape (m,)."""
-        spans, local = solver.natural_parameters(self.coefficients, as_parameters(s))
+        spans, local = arc_length_compiled.natural_parameters(self.coefficients, as_parameters(s))
         return spans + local
 
     def arc_length(self, t) -> np.ndarray:
@@ -100,7 +100,8 @@ class ArcLengthCurve:
         t = np.mod(as_parameters(t), spans)
         span = np.minimum(np.floor(t).astype(np.int64), spans - 1)
         within = [
-            solver.span_arc_length(self.coefficients, j, u) for j, u in zip(span, t - span, strict=True)
+            arc_length_compiled.span_arc_length(self.coefficients, j, u)
+            for j, u in zip(span, t - span, strict=True)
         ]
         return self.coefficients[span, 0, 2] + np.array(within) / self.coefficients[0, 2, 2]
 

@@ -13,7 +13,7 @@ import numpy as np
 from numba import njit, prange
 
 from core.curves.boundary import PiecewisePolynomial
-from core.newton.solver import _closest_parameter
+from core.curves.closest_parameter import closest_parameter
 
 # Direction (radians) of the rays of the crossing test, deliberately not a round angle.
 RAY_ANGLE = 0.6180339887498949
@@ -90,7 +90,7 @@ def _distances(coefficients, piece_length, points, out_t, out_d):
         best = 1e300
         best_t = 0.0
         for k in range(pieces):
-            t, d = _closest_parameter(
+            t, d = closest_parameter(
                 coefficients,
                 piece_length,
                 points[m, 0],

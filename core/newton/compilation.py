@@ -24,12 +24,15 @@ import numpy as np
 from numba.core import event
 from numba.core.registry import CPUDispatcher
 
-from core.curves import crossing_slabs
+from core.curves import arc_length_compiled, closest_parameter, crossing_slabs
+from core.newton import gradient_solver, kernel_weights, minimisation, output_rows, quadrature_nodes, solver
 
-#: The modules compiled on first use, with progress: the solver and its inside test.
-from core.newton import gradient_solver, solver
-
-SOLVER_MODULES = (solver, crossing_slabs)
+#: The modules compiled on first use, with progress: the solver, the parts it calls, and its
+#: inside test.
+SOLVER_MODULES = (
+    solver, quadrature_nodes, kernel_weights, minimisation, output_rows,
+    arc_length_compiled, closest_parameter, crossing_slabs,
+)  # fmt: skip
 #: Compiled on the first use of gradients (`core.basis_gradients`), after the solver.
 GRADIENT_MODULES = (gradient_solver,)
 
@@ -111,7 +114,7 @@ def compile_all() -> None:
     """
     from core.boundary_integrals import compiled_integrals
     from core.boundary_integrals.panels import curve_panels
-    from core.boundary_integrals.poisson import _densities, exercise_near_field, poisson_basis
+    from core.boundary_integrals.poisson import exercise_near_field, poisson_basis, solved_densities
     from core.curves.bspline import ClosedBSpline
     from core.curves.closest_point import distance_to_curve
     from core.meshes.pgw import pgw_basis
@@ -123,7 +126,7 @@ def compile_all() -> None:
     pgw_basis(square, x)
     mode, compiled_integrals.mode = compiled_integrals.mode, "compiled"
     try:
-        _densities.cache_clear()  # the density solve runs the knot blocks: not from the cache
+        solved_densities.cache_clear()  # the density solve runs the knot blocks: not from the cache
         poisson_basis(square, x)
         exercise_near_field(square, curve_panels(square))
     finally:

@@ -16,7 +16,7 @@ derivation is in `core.gradients`; the notation here follows it:
     grad lambda_j = dc_j - lambda_j sum_k dc_k.
 
 Rows of gradients are accumulated like the values (lumped onto samples or
-folded onto the B-spline basis, `solver._accumulate`).
+folded onto the B-spline basis, `output_rows.accumulate`).
 """
 
 from __future__ import annotations
@@ -26,38 +26,39 @@ import math
 import numpy as np
 from numba import njit
 
+from core.curves import closest_parameter
 from core.curves.crossing_slabs import inside_polygon
-from core.newton import solver
+from core.newton import codes, kernel_weights, minimisation, output_rows, quadrature_nodes, solver
 
 
 @njit(cache=True, error_model="numpy", inline="always")
 def _weight_derivative(kernel, power, px, py, tx, ty, sx, sy, w, x, y, ux, uy, r_inv, r_min, omega, constant):
-    """a~_j and grad a~_j of one node (a~ as in `solver._weights`, up to one factor common to all j).
+    """a~_j and grad a~_j of one node (a~ as in `kernel_weights`, up to one factor common to all j).
 
     Scalars only (no array arguments: a call per node must not touch reference
     counts).  `omega` is q^k, q = r_min / r, for the power kernels, and `constant`
     the shift of Eq. 19-20 in the same units (its gradient is added by the caller).
     Returns (a~, da~/dx, da~/dy).
     """
-    if kernel == solver.MAXIMUM_LIKELIHOOD:
+    if kernel == codes.MAXIMUM_LIKELIHOOD:
         return w, 0.0, 0.0
-    if kernel == solver.PSEUDO_HARMONIC:
+    if kernel == codes.PSEUDO_HARMONIC:
         value = w * r_min * r_inv
         return value, value * ux * r_inv, value * uy * r_inv
-    if kernel == solver.POWER or kernel == solver.HARMONIC_LIKE:
-        k = 4.0 if kernel == solver.HARMONIC_LIKE else power
+    if kernel == codes.POWER or kernel == codes.HARMONIC_LIKE:
+        k = 4.0 if kernel == codes.HARMONIC_LIKE else power
         slope = w * k * omega * r_inv  # |grad q^k| w: grad r = -u
         return w * (omega + constant), slope * ux, slope * uy
-    if kernel == solver.MODIFIED_MEAN_VALUE or kernel == solver.MODIFIED_MEAN_VALUE_SQUARED:
+    if kernel == codes.MODIFIED_MEAN_VALUE or kernel == codes.MODIFIED_MEAN_VALUE_SQUARED:
         # omega = |(p - x) x p'| / r^2 (Eq. 23): grad (p - x) x p' = (-p'_y, p'_x), grad r = -u.
         turn = (ux * ty - uy * tx) * r_inv * r_min  # signed (u x p') / r
         sign = 1.0 if turn >= 0.0 else -1.0
         gx = sign * (-ty) * r_inv * r_inv * r_min + 2.0 * abs(turn) * ux * r_inv
         gy = sign * tx * r_inv * r_inv * r_min + 2.0 * abs(turn) * uy * r_inv
-        if kernel == solver.MODIFIED_MEAN_VALUE:
+        if kernel == codes.MODIFIED_MEAN_VALUE:
             return w * abs(turn), w * gx, w * gy
         return w * turn * turn, 2.0 * w * abs(turn) * gx, 2.0 * w * abs(turn) * gy
-    if kernel == solver.MEAN_VALUE:
+    if kernel == codes.MEAN_VALUE:
         # mu = (p - x) x p' / r^3 (Eq. 5).
         q = r_min * r_inv
         cross = (ux * ty - uy * tx) * q * q
@@ -74,7 +75,7 @@ def _weight_derivative(kernel, power, px, py, tx, ty, sx, sy, w, x, y, ux, uy, r
         return 0.0, 0.0, 0.0
     cx = -ty
     cy = tx
-    if kernel == solver.WACHSPRESS:
+    if kernel == codes.WACHSPRESS:
         mu = curvature / (cross * cross)
         return w * mu, w * (-2.0 * mu * cx / cross), w * (-2.0 * mu * cy / cross)
     r2 = dx * dx + dy * dy
@@ -88,7 +89,7 @@ def _weight_derivative(kernel, power, px, py, tx, ty, sx, sy, w, x, y, ux, uy, r
 def _corner_derivative(kernel, corners, c, bx, by, x, y):
     """The point mass of sharp corner c of the three-point family and its gradient.
 
-    mass = q.A / q x A - q.B / q x B with q = corner - x (see `solver._weights`);
+    mass = q.A / q x A - q.B / q x B with q = corner - x (see `kernel_weights.kernel_weights`);
     Wachspress divides it by |q|^2, Laplace negates it.  Returns (a~, da~/dx, da~/dy).
     """
     qx = bx - x
@@ -108,7 +109,7 @@ def _corner_derivative(kernel, corners, c, bx, by, x, y):
         # d/dq (dot / cross) = e / cross - dot (e_y, -e_x) / cross^2; d/dx = -d/dq.
         gx -= sign * (ex / cross - dot * ey / (cross * cross))
         gy -= sign * (ey / cross + dot * ex / (cross * cross))
-    if kernel == solver.WACHSPRESS:
+    if kernel == codes.WACHSPRESS:
         q2 = qx * qx + qy * qy
         return mass / q2, gx / q2 + 2.0 * mass * qx / (q2 * q2), gy / q2 + 2.0 * mass * qy / (q2 * q2)
     return -mass, -gx, -gy
@@ -131,10 +132,10 @@ def _shift(kernel, power, shift, w, inv_r, ux, uy, r_min, count, omega):
 
     Only for the power kernels (Eq. 19-20), in the units of q = r_min / r.
     """
-    if not (kernel == solver.POWER or kernel == solver.HARMONIC_LIKE):
+    if not (kernel == codes.POWER or kernel == codes.HARMONIC_LIKE):
         return 0.0, 0.0, 0.0
-    mode = solver.SHIFT_INTEGRAL if kernel == solver.HARMONIC_LIKE else shift
-    k = 4.0 if kernel == solver.HARMONIC_LIKE else power
+    mode = codes.SHIFT_INTEGRAL if kernel == codes.HARMONIC_LIKE else shift
+    k = 4.0 if kernel == codes.HARMONIC_LIKE else power
     integral = 0.0
     gx = 0.0
     gy = 0.0
@@ -147,9 +148,9 @@ def _shift(kernel, power, shift, w, inv_r, ux, uy, r_min, count, omega):
         gx += slope * ux[j]
         gy += slope * uy[j]
         length += w[j]
-    if mode == solver.SHIFT_MEAN:
+    if mode == codes.SHIFT_MEAN:
         return integral / length, gx / length, gy / length
-    if mode == solver.SHIFT_INTEGRAL:
+    if mode == codes.SHIFT_INTEGRAL:
         return integral, gx, gy
     return 0.0, 0.0, 0.0
 
@@ -161,18 +162,18 @@ def _differentiate(
 ):  # fmt: skip
     """grad lambda_j of the `total` nodes into grad_x, grad_y (each (total,) or longer).
 
-    On entry `a` holds lambda_j (normalised, as `solver._finish` leaves it), `s`
+    On entry `a` holds lambda_j (normalised, as `minimisation.finish` leaves it), `s`
     and `inv_s` hold s_j = 1 + phi . u_j and 1 / s_j for the maximum-likelihood
     family; nodes >= `nodes` are corner point masses (three-point family).
     `omega` is scratch: q_j^k of the power kernels, then a~_j.  See `core.gradients`
     for the formulas.
     """
-    newton = kernel <= solver.MODIFIED_MEAN_VALUE_SQUARED
+    newton = kernel <= codes.MODIFIED_MEAN_VALUE_SQUARED
     constant, shift_x, shift_y = _shift(kernel, power, shift, w, inv_r, ux, uy, r_min, nodes, omega)
     # Pass 1: a~_j into `omega` and grad a~_j into grad_x, grad_y; the power kernels (the common
     # case) in a loop of their own without the kernel's branches, so that it vectorises.
-    if kernel == solver.POWER or kernel == solver.HARMONIC_LIKE:
-        k = 4.0 if kernel == solver.HARMONIC_LIKE else power
+    if kernel == codes.POWER or kernel == codes.HARMONIC_LIKE:
+        k = 4.0 if kernel == codes.HARMONIC_LIKE else power
         for j in range(nodes):
             slope = w[j] * k * omega[j] * inv_r[j]  # |grad q^k| w: grad r = -u
             grad_x[j] = slope * ux[j] + w[j] * shift_x
@@ -283,12 +284,12 @@ def _accumulate_nodes(
     """Add lambda_j and grad lambda_j at the nodes' parameters t_j into the output rows."""
     for j in range(total):
         tj = t[j] - math.floor(t[j] / period) * period
-        if mode == solver.OUTPUT_SAMPLES:
-            solver._accumulate(row, mode, a[j], tj, out_step, out_count, control_count)
-            solver._accumulate(row_x, mode, grad_x[j], tj, out_step, out_count, control_count)
-            solver._accumulate(row_y, mode, grad_y[j], tj, out_step, out_count, control_count)
+        if mode == codes.OUTPUT_SAMPLES:
+            output_rows.accumulate(row, mode, a[j], tj, out_step, out_count, control_count)
+            output_rows.accumulate(row_x, mode, grad_x[j], tj, out_step, out_count, control_count)
+            output_rows.accumulate(row_y, mode, grad_y[j], tj, out_step, out_count, control_count)
             continue
-        # The three B-spline basis functions non-zero at t_j (Sec. 4.3), as in `solver._accumulate`.
+        # The three B-spline basis functions non-zero at t_j (Sec. 4.3), as in `output_rows.accumulate`.
         segment = int(math.floor(tj))
         if segment >= control_count:
             segment = control_count - 1
@@ -311,7 +312,7 @@ def _accumulate_samples(a, grad_x, grad_y, count, basis0, basis1, basis2, contro
     for i in range(control_count):
         before = i - 1 if i > 0 else control_count - 1
         after = i + 1 if i + 1 < control_count else 0
-        # Views indexed from 0, as in `solver._fold_onto_basis`: a computed index i * per + k might
+        # Views indexed from 0, as in `output_rows.fold_onto_basis`: a computed index i * per + k might
         # be negative for all numba knows, and the wrap-around check stops the loop vectorising.
         span_a = a[i * per : (i + 1) * per]
         span_x = grad_x[i * per : (i + 1) * per]
@@ -344,14 +345,14 @@ def _accumulate_samples(a, grad_x, grad_y, count, basis0, basis1, basis2, contro
         row_y[after] += y2
 
 
-# Inlined into gradient_points, as solver._solve_point is into solve_points.
+# Inlined into gradient_points, as solver.solve_point is into solve_points.
 @njit(cache=True, error_model="numpy", inline="always")
 def _gradient_point(x, y, settings, curve, geometry, largest_spacing, row, row_x, row_y, scratch, windows):
     """Evaluate one point and its gradient; returns (iterations, status, residual).
 
-    The nodes are built exactly as in `solver._solve_point` (pass 1, the windows
-    and `solver._refined_nodes`), and so is the Newton start of the maximum-likelihood
-    kernels (`solver._coarse_start`, the last 18 arrays of `scratch`) and, for a far
+    The nodes are built exactly as in `solver.solve_point` (pass 1, the windows
+    and `quadrature_nodes.refined_nodes`), and so is the Newton start of the maximum-likelihood
+    kernels (`minimisation.coarse_start`, the last 18 arrays of `scratch`) and, for a far
     point, the bound that skips the peak scan; a point on the boundary gets its
     Lagrange-limit row and NaN gradients.
     """
@@ -364,37 +365,37 @@ def _gradient_point(x, y, settings, curve, geometry, largest_spacing, row, row_x
     ) = curve  # fmt: skip
     (px, py, tx, ty, sx, sy, w, t, ux, uy, inv_r, a, s, inv_s, trial, trial_inv, blend) = scratch[:17]
     coarse = scratch[17:]
-    likelihood = kernel <= solver.MODIFIED_MEAN_VALUE_SQUARED
+    likelihood = kernel <= codes.MODIFIED_MEAN_VALUE_SQUARED
     count = sample_x.shape[0]
     out_count = int(round(count * step / out_step))
     period = count * step
-    # Pass 1 and the near stretches, as in `solver._solve_point`.
-    near = solver._sample_directions(sample_x, sample_y, spacing, x, y, ux, uy, inv_r)
-    nearest = 1.0 / solver._largest(inv_r, count) if near == 0 else 1e300
-    window_count, nearest_index, nearest = solver._near_stretches(
+    # Pass 1 and the near stretches, as in `solver.solve_point`.
+    near = quadrature_nodes.sample_directions(sample_x, sample_y, spacing, x, y, ux, uy, inv_r)
+    nearest = 1.0 / quadrature_nodes.largest(inv_r, count) if near == 0 else 1e300
+    window_count, nearest_index, nearest = quadrature_nodes.near_stretches(
         sample_x, sample_y, spacing, x, y, near, nearest, windows
     )
-    window_count = solver._merge_windows(
-        window_start, window_stop, min(window_count, solver.MAX_WINDOWS), count, nearest_index
+    window_count = quadrature_nodes.merge_windows(
+        window_start, window_stop, min(window_count, quadrature_nodes.MAX_WINDOWS), count, nearest_index
     )
-    three_point = kernel == solver.WACHSPRESS or kernel == solver.LAPLACE
+    three_point = kernel == codes.WACHSPRESS or kernel == codes.LAPLACE
     corner_count = corners.shape[0] if three_point else 0
     if window_count == 0:
         if not inside_polygon(sample_x, sample_y, slabs, x, y):
-            return 0, solver.STATUS_OUTSIDE, nearest
+            return 0, codes.STATUS_OUTSIDE, nearest
         if corner_count == 0:
             # The trapezoid rule on the shared samples, as in the solver's common case.
-            total = solver._weights(
+            total = kernel_weights.kernel_weights(
                 kernel, power, shift, sample_x, sample_y, tangent_x, tangent_y, second_x, second_y,
                 uniform, x, y, count, corners, ux, uy, inv_r, nearest, a,
             )  # fmt: skip
             phix, phiy = 0.0, 0.0
             if likelihood:
-                phix, phiy = solver._coarse_start(
+                phix, phiy = minimisation.coarse_start(
                     ux, uy, inv_r, a, count, max(nearest / largest_spacing, solver.FAR_START_SEPARATION),
                     coarse, tolerance * diameter, 0.0, 0.0,
                 )  # fmt: skip
-            iterations, status, residual = solver._finish(
+            iterations, status, residual = minimisation.finish(
                 kernel, ux, uy, inv_r, a, s, inv_s, trial, trial_inv, blend, total, sample_x, sample_y,
                 uniform, step, x, y, tolerance * diameter, phix, phiy, largest_spacing / nearest,
             )  # fmt: skip
@@ -403,7 +404,7 @@ def _gradient_point(x, y, settings, curve, geometry, largest_spacing, row, row_x
                 uniform, ux, uy, inv_r, a, s, inv_s, total, count, corners, x, y, nearest, blend, trial,
                 trial_inv,
             )  # fmt: skip
-            if mode == solver.OUTPUT_BASIS:
+            if mode == codes.OUTPUT_BASIS:
                 _accumulate_samples(
                     a, trial, trial_inv, count, basis0, basis1, basis2, control_count, row, row_x, row_y
                 )
@@ -426,7 +427,7 @@ def _gradient_point(x, y, settings, curve, geometry, largest_spacing, row, row_x
         closest_t = nearest_index * step
         closest_d = nearest
         for i in range(window_count):
-            ti, di = solver._closest_parameter(
+            ti, di = closest_parameter.closest_parameter(
                 coefficients, piece_length, x, y, window_start[i] * step, window_stop[i] * step
             )
             window_t[i] = ti
@@ -435,34 +436,34 @@ def _gradient_point(x, y, settings, curve, geometry, largest_spacing, row, row_x
                 closest_d = di
                 closest_t = ti
         if closest_d <= solver.ON_BOUNDARY * diameter:
-            solver._accumulate(
-                row, mode, 1.0, solver._wrap(closest_t, period), out_step, out_count, control_count
+            output_rows.accumulate(
+                row, mode, 1.0, quadrature_nodes.wrap(closest_t, period), out_step, out_count, control_count
             )
             for i in range(row.shape[0]):
                 row_x[i] = math.nan
                 row_y[i] = math.nan
-            return 0, solver.STATUS_CONVERGED, 0.0
-        if solver._side_of_curve(coefficients, piece_length, closest_t, x, y, orientation) < 0:
-            return 0, solver.STATUS_OUTSIDE, closest_d
-        nodes = solver._refined_nodes(
+            return 0, codes.STATUS_CONVERGED, 0.0
+        if closest_parameter.side_of_curve(coefficients, piece_length, closest_t, x, y, orientation) < 0:
+            return 0, codes.STATUS_OUTSIDE, closest_d
+        nodes = quadrature_nodes.refined_nodes(
             window_start, window_stop, window_t, window_d, window_count, count, step, sinh_step,
             coefficients, piece_length, t, w, runs,
         )  # fmt: skip
         run_count = window_count
-    solver._node_geometry(
+    quadrature_nodes.node_geometry(
         t, w, nodes, runs, run_count, step, count, sample_x, sample_y, tangent_x, tangent_y, second_x,
         second_y, coefficients, piece_length, corners, corner_count, px, py, tx, ty, sx, sy,
     )  # fmt: skip
-    r_min = solver._directions(px, py, x, y, nodes, ux, uy, inv_r)
-    total = solver._weights(
+    r_min = quadrature_nodes.directions(px, py, x, y, nodes, ux, uy, inv_r)
+    total = kernel_weights.kernel_weights(
         kernel, power, shift, px, py, tx, ty, sx, sy, w, x, y, nodes, corners, ux, uy, inv_r, r_min, a
     )
     phix, phiy = 0.0, 0.0
     if likelihood:
-        phix, phiy = solver._coarse_start(
+        phix, phiy = minimisation.coarse_start(
             ux, uy, inv_r, a, total, solver.NEAR_START_SEPARATION, coarse, tolerance * diameter, 0.0, 0.0
         )
-    iterations, status, residual = solver._finish(
+    iterations, status, residual = minimisation.finish(
         kernel, ux, uy, inv_r, a, s, inv_s, trial, trial_inv, blend, total,
         px, py, w, step, x, y, tolerance * diameter, phix, phiy, math.inf,
     )  # fmt: skip
@@ -486,25 +487,27 @@ def gradient_points(
     are the x- and y-derivatives of the row out[m].  Releases the GIL.
     """
     count = curve[0].shape[0]
-    capacity = count + solver.MAX_WINDOWS * solver.MAX_WINDOW_NODES + geometry[2].shape[0] + 8
+    capacity = (
+        count + quadrature_nodes.MAX_WINDOWS * quadrature_nodes.MAX_WINDOW_NODES + geometry[2].shape[0] + 8
+    )
     scratch = (
         np.empty(capacity), np.empty(capacity), np.empty(capacity), np.empty(capacity),
         np.empty(capacity), np.empty(capacity), np.empty(capacity), np.empty(capacity),
         np.empty(capacity), np.empty(capacity), np.empty(capacity), np.empty(capacity),
         np.empty(capacity), np.empty(capacity), np.empty(capacity), np.empty(capacity),
         np.empty(capacity),
-        # `solver._coarse_start`'s eight
+        # `minimisation.coarse_start`'s eight
         np.empty(capacity), np.empty(capacity), np.empty(capacity), np.empty(capacity),
         np.empty(capacity), np.empty(capacity), np.empty(capacity), np.empty(capacity),
     )  # fmt: skip
     windows = (
-        np.empty(solver.MAX_WINDOWS + 1, dtype=np.int64),
-        np.empty(solver.MAX_WINDOWS + 1, dtype=np.int64),
-        np.empty(solver.MAX_WINDOWS + 1),
-        np.empty(solver.MAX_WINDOWS + 1),
-        np.empty((solver.MAX_WINDOWS + 1, 3), dtype=np.int64),
+        np.empty(quadrature_nodes.MAX_WINDOWS + 1, dtype=np.int64),
+        np.empty(quadrature_nodes.MAX_WINDOWS + 1, dtype=np.int64),
+        np.empty(quadrature_nodes.MAX_WINDOWS + 1),
+        np.empty(quadrature_nodes.MAX_WINDOWS + 1),
+        np.empty((quadrature_nodes.MAX_WINDOWS + 1, 3), dtype=np.int64),
     )
-    largest_spacing = solver._largest(curve[6], count)
+    largest_spacing = quadrature_nodes.largest(curve[6], count)
     for m in range(first, points.shape[0], stride):
         iterations[m], status[m], residual[m] = _gradient_point(
             points[m, 0], points[m, 1], settings, curve, geometry, largest_spacing, out[m], gradients[m, 0],
