@@ -154,7 +154,12 @@ def certify_injective(curve: ClosedBSpline, target, kernel: str = "poisson") -> 
     refused = _refused_corners(source, points * flip, found)
     if refused is not None:
         return _flipped(refused, flip)
-    return _flipped(_proof(source, points * flip, found), flip)
+    for depth in inner_curve.DEPTHS:
+        try:
+            return _flipped(_proof(source, points * flip, found, depth), flip)
+        except ValueError:  # Γ left the domain where it is thinner than the depth
+            continue
+    return _flipped(_failure("the curve Γ inside the boundary leaves the domain (a part thinner than 1e-5 of it)"), flip)
 
 
 def _failure(reason: str, where=None, samples: int = 0) -> InjectivityCertificate:
@@ -219,11 +224,14 @@ def corner_linear_map(source: np.ndarray, target: np.ndarray, corner: inner_curv
     return images @ np.linalg.inv(sides)
 
 
-def _proof(source: ClosedBSpline, target: np.ndarray, found) -> InjectivityCertificate:
-    """Sample Γ, refine (halve segments, move samples towards the boundary), then combine the
-    bounds of (a), (b), the strip and the corners."""
+def _proof(source: ClosedBSpline, target: np.ndarray, found, depth: float) -> InjectivityCertificate:
+    """Sample Γ at `depth` (a fraction of the diameter), refine (halve segments, move samples towards
+    the boundary), then combine the bounds of (a), (b), the strip and the corners."""
     pieces = inner_curve.pieces(source, found)
-    samples = [evaluate(source, target, piece, first_parameters(piece)) for piece in pieces]
+    samples = []
+    for piece in pieces:
+        parameters = first_parameters(piece)
+        samples.append(evaluate(source, target, piece, parameters, np.full(parameters.size, depth)))
     scale = float(np.ptp(target, axis=0).max() / np.ptp(source.control_points, axis=0).max())
     tolerance = EVALUATION * scale
     for _ in range(ROUNDS):

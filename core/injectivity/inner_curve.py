@@ -28,8 +28,10 @@ import numpy as np
 
 from core.bspline import ClosedBSpline
 
-#: Depth δ of Γ below the boundary, as a fraction of the diameter.
+#: Depth δ of Γ below the boundary, as a fraction of the diameter, and the smaller ones tried
+#: where Γ at that depth leaves the domain (a thinner part).
 DEPTH = 1e-3
+DEPTHS = (DEPTH, 1e-4, 1e-5)
 #: The companion samples are this many times deeper.
 DEEPER = 4.0
 #: Corner arcs' radius: this fraction of the shorter straight side ...
