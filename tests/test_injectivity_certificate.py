@@ -50,7 +50,9 @@ def near_boundary(curve: core.ClosedBSpline, count: int, seed: int) -> np.ndarra
     """`count` points 1e-5 .. 1e-2 diameters inside the curve along its normal, half next to knots."""
     rng = np.random.default_rng(seed)
     half = count // 2
-    t = np.concatenate([rng.uniform(0, curve.n, count - half), rng.integers(0, curve.n, half) + rng.normal(0, 0.05, half)])
+    t = np.concatenate(
+        [rng.uniform(0, curve.n, count - half), rng.integers(0, curve.n, half) + rng.normal(0, 0.05, half)]
+    )
     point, tangent, _ = curve.evaluate(np.mod(t, curve.n))
     speed = np.linalg.norm(tangent, axis=1)
     keep = speed > 1e-6 * curve.diameter
@@ -120,7 +122,9 @@ def test_reflex_corners_are_never_proven_but_the_rest_is(study):
 def test_proves_most_maps_that_are_fold_free_with_margin(study):
     """Of the maps (cages without reflex corners) whose dense min det J is at least 5 % of its mean,
     at least 80 % are proven."""
-    margin = [row for row in study if row[1] and row[0] != "L polygon" and row[5].min() >= 0.05 * row[5].mean()]
+    margin = [
+        row for row in study if row[1] and row[0] != "L polygon" and row[5].min() >= 0.05 * row[5].mean()
+    ]
     proven = sum(row[2].injective for row in margin)
     assert len(margin) >= 40
     assert proven >= 0.8 * len(margin), f"{proven} of {len(margin)}"

@@ -105,7 +105,8 @@ class InjectivityCertificate:
 
     def __str__(self) -> str:
         if self.injective:
-            return f"fold-free, proven (σ₂ ≥ {self.sigma2_min:.3g}, k ≤ {self.k_max:.3g}; {self.samples} samples)"
+            bounds = f"σ₂ ≥ {self.sigma2_min:.3g}, k ≤ {self.k_max:.3g}"
+            return f"fold-free, proven ({bounds}; {self.samples} samples)"
         if self.away_from_corners:
             return (
                 f"fold-free away from {len(self.where)} reflex corner(s), proven outside a radius of "
@@ -134,7 +135,8 @@ def certify_injective(curve: ClosedBSpline, target, kernel: str = "poisson") -> 
     """
     if kernel not in SUPPORTED_KERNELS:
         raise ValueError(
-            f"certify_injective supports the kernel(s) {', '.join(SUPPORTED_KERNELS)} (harmonic maps), got {kernel!r}"
+            f"certify_injective supports the kernel(s) {', '.join(SUPPORTED_KERNELS)} "
+            f"(harmonic maps), got {kernel!r}"
         )
     if not isinstance(curve, ClosedBSpline):
         raise ValueError(f"curve must be a core.ClosedBSpline, got {type(curve).__name__}")
@@ -145,7 +147,7 @@ def certify_injective(curve: ClosedBSpline, target, kernel: str = "poisson") -> 
         raise ValueError(
             f"target must have shape {curve.control_points.shape} like the cage, got {points.shape}"
         )
-    refused = _refused_target(curve, points)
+    refused = _refused_target(curve, points, target)
     if refused is not None:
         return refused
     flip = np.array([1.0, 1.0 if curve.area > 0 else -1.0])
@@ -159,7 +161,9 @@ def certify_injective(curve: ClosedBSpline, target, kernel: str = "poisson") -> 
             return _flipped(_proof(source, points * flip, found, depth), flip)
         except ValueError:  # Γ left the domain where it is thinner than the depth
             continue
-    return _flipped(_failure("the curve Γ inside the boundary leaves the domain (a part thinner than 1e-5 of it)"), flip)
+    return _flipped(
+        _failure("the curve Γ inside the boundary leaves the domain (a part thinner than 1e-5 of it)"), flip
+    )
 
 
 def _failure(reason: str, where=None, samples: int = 0) -> InjectivityCertificate:
@@ -177,10 +181,10 @@ def _flipped(certificate: InjectivityCertificate, flip: np.ndarray) -> Injectivi
     )  # fmt: skip
 
 
-def _refused_target(curve: ClosedBSpline, points: np.ndarray) -> InjectivityCertificate | None:
+def _refused_target(curve: ClosedBSpline, points: np.ndarray, given) -> InjectivityCertificate | None:
     """A failed certificate if the target is not a simple curve of the source's orientation."""
     try:
-        target = ClosedBSpline(points)
+        target = given if isinstance(given, ClosedBSpline) else ClosedBSpline(points)
     except ValueError as error:
         return _failure(f"the target is not a valid cage: {error}")
     crossing = first_crossing(points)
@@ -204,7 +208,8 @@ def _refused_corners(source: ClosedBSpline, target: np.ndarray, found) -> Inject
     if differ.size:
         j = int(differ[0])
         return _failure(
-            f"control points {(j - 1) % source.n} and {j} make a sharp corner in one cage and not in the other",
+            f"control points {(j - 1) % source.n} and {j} make a sharp corner in one cage "
+            "and not in the other",
             source.control_points[j],
         )
     for corner in found:

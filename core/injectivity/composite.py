@@ -77,24 +77,40 @@ def fold_free_deform(
         raise ValueError(f"curve must be a core.ClosedBSpline, got {type(curve).__name__}")
     goal = as_points(target, "target")
     if goal.shape != curve.control_points.shape:
-        raise ValueError(f"target must have shape {curve.control_points.shape} like the cage, got {goal.shape}")
+        raise ValueError(
+            f"target must have shape {curve.control_points.shape} like the cage, got {goal.shape}"
+        )
     final = ClosedBSpline(goal)
     images = as_points(points, "points").copy()
     triangles = None if triangles is None else np.asarray(triangles, dtype=np.int64)
+    on_curve = np.zeros(images.shape[0], dtype=bool)
+    if boundary is not None:
+        indices, parameters = (
+            np.asarray(boundary[0], dtype=np.int64),
+            np.asarray(boundary[1], dtype=np.float64),
+        )
+        on_curve[indices] = True
     start = curve.control_points
     s, step, current, steps = 0.0, 1.0, curve, []
     while s < 1.0:
         following = min(1.0, s + step)
-        cage = (1.0 - following) * start + following * goal
-        certificate = _step_certificate(current, cage, following)
+        cage = (
+            final if following == 1.0 else _path_cage((1.0 - following) * start + following * goal, following)
+        )
+        certificate = certify_injective(current, cage)
         accepted = certificate.injective or certificate.away_from_corners
         if accepted:
-            moved = _mapped(current, cage, images)
-            accepted = step <= SMALLEST_MESH_STEP or triangles is None or not _turns_over(triangles, images, moved)
+            moved = images.copy()
+            moved[~on_curve] = _mapped(current, cage.control_points, images[~on_curve])
+            if boundary is not None:
+                moved[indices] = cage(parameters)
+            accepted = (
+                step <= SMALLEST_MESH_STEP or triangles is None or not _turns_over(triangles, images, moved)
+            )
         if accepted:
             images = moved
             steps.append(certificate)
-            s, current = following, (final if following == 1.0 else ClosedBSpline(cage))
+            s, current = following, cage
             step *= 2.0
         else:
             step *= 0.5
@@ -103,15 +119,13 @@ def fold_free_deform(
                 f"no fold-free step is proven from s = {s:.4g} on the straight path to the target "
                 f"({len(steps)} steps taken): {certificate.reason}"
             )
-    images = _inside(final, images)
-    if boundary is not None:
-        indices, parameters = boundary
-        images[np.asarray(indices, dtype=np.int64)] = final(np.asarray(parameters, dtype=np.float64))
+    images[~on_curve] = _inside(final, images[~on_curve])
     return images, composite_certificate(steps)
 
 
 def _turns_over(triangles: np.ndarray, before: np.ndarray, after: np.ndarray) -> bool:
     """Whether a step turns over a triangle (T, 3) that was not turned over before it."""
+
     def areas(points):
         a, b, c = points[triangles[:, 0]], points[triangles[:, 1]], points[triangles[:, 2]]
         return (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
@@ -119,23 +133,24 @@ def _turns_over(triangles: np.ndarray, before: np.ndarray, after: np.ndarray) ->
     return bool(np.any((areas(after) <= 0) & (areas(before) > 0)))
 
 
-def _step_certificate(current: ClosedBSpline, cage: np.ndarray, s: float) -> InjectivityCertificate:
-    """The certificate of one step; ValueError if the cage at s crosses itself (then no path
-    through it is a bijection)."""
+def _path_cage(points: np.ndarray, s: float) -> ClosedBSpline:
+    """The cage at s on the path; ValueError if it crosses itself (then no map through it is a bijection)."""
     try:
-        ClosedBSpline(cage)
+        return ClosedBSpline(points)
     except ValueError as error:
         raise ValueError(
             f"the straight path from the cage to the target passes through a cage that crosses itself "
             f"(at {s:.3g} of the way): {error}"
         ) from None
-    return certify_injective(current, cage)
 
 
 def _mapped(current: ClosedBSpline, cage: np.ndarray, points: np.ndarray) -> np.ndarray:
     """Images (M, 2) under the harmonic map of `current` onto the cage's control points (n, 2);
     points a hair outside `current` (rounding of the previous step) go to its closest point first."""
-    return basis_functions(current, _inside(current, points), "poisson") @ cage
+    try:
+        return basis_functions(current, points, "poisson") @ cage
+    except ValueError:  # some points are outside: the test below costs, so only now
+        return basis_functions(current, _inside(current, points), "poisson") @ cage
 
 
 def _inside(curve: ClosedBSpline, points: np.ndarray) -> np.ndarray:
@@ -150,9 +165,12 @@ def _inside(curve: ClosedBSpline, points: np.ndarray) -> np.ndarray:
 
 
 def composite_certificate(steps: list[InjectivityCertificate]) -> InjectivityCertificate:
-    """The certificate of a composite of certified steps: σ₂ >= Π σ₂_k, K <= Π K_k with K = (1 + k)/(1 - k)."""
+    """The certificate of a composite of certified steps: σ₂ >= Π σ₂_k, and K <= Π K_k for the
+    dilatations K = (1 + k) / (1 - k)."""
     sigma2 = math.prod(step.sigma2_min for step in steps)
-    dilatation = math.prod((1.0 + step.k_max) / (1.0 - step.k_max) if step.k_max < 1.0 else math.inf for step in steps)
+    dilatation = math.prod(
+        (1.0 + step.k_max) / (1.0 - step.k_max) if step.k_max < 1.0 else math.inf for step in steps
+    )
     k_max = (dilatation - 1.0) / (dilatation + 1.0) if math.isfinite(dilatation) else 1.0
     injective = all(step.injective for step in steps)
     corners = [step.where for step in steps if step.away_from_corners]
@@ -161,7 +179,9 @@ def composite_certificate(steps: list[InjectivityCertificate]) -> InjectivityCer
     if injective:
         reason = f"composite of {len(steps)} proven harmonic step(s)"
     else:
-        reason = f"composite of {len(steps)} harmonic step(s), proven outside discs around reflex sharp corners"
+        reason = (
+            f"composite of {len(steps)} harmonic step(s), proven outside discs around reflex sharp corners"
+        )
     radius = max((step.corner_radius for step in steps), default=0.0)
     return InjectivityCertificate(
         injective, sigma2, k_max, where, reason, samples, not injective, radius, {"steps": len(steps)}
