@@ -403,6 +403,11 @@ def build_parser(prog: str = "python -m app") -> argparse.ArgumentParser:
     bench.add_argument(
         "--skip-drag", action="store_true", help="no viewer drag frame at 6k and 400k vertices (Xvfb)"
     )
+    bench.add_argument(
+        "--skip-fold-free",
+        action="store_true",
+        help="no fold-free warp against libigl at 10k and 50k vertices",
+    )
     bench.set_defaults(run=_bench)
 
     view = _command(
