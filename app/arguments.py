@@ -333,6 +333,11 @@ def _bench_command(commands, run) -> None:
     bench.add_argument(
         "--skip-drag", action="store_true", help="no viewer drag frame at 6k and 400k vertices (Xvfb)"
     )
+    bench.add_argument(
+        "--skip-fold-free",
+        action="store_true",
+        help="no fold-free warp against libigl at 10k and 50k vertices",
+    )
     bench.set_defaults(run=run)
 
 

@@ -79,6 +79,12 @@ def run_bench(args: argparse.Namespace) -> int:
             vertices += (1_000_000,)
         # Quick: each solve once, not again and again for ROW_SECONDS.
         _fem_comparison(curve, vertices, 1 if args.quick else repeats, 0.0 if args.quick else ROW_SECONDS)
+    if not args.skip_fold_free:
+        from app.bench_fold_free import fold_free_rows
+
+        fold_free_rows(
+            curve, 1 if args.quick else repeats, _forget_densities, (2_000,) if args.quick else None
+        )
     children = []
     if not args.skip_memory:
         children.append(lambda: _memory(curve, 20_000 if args.quick else 1_000_000))

@@ -25,7 +25,13 @@ counted apart):
 - vertex s1/s2: the largest sigma_1 / sigma_2 - 1 at the interior vertices from the
   exact Jacobians J = sum_i P'_i grad G_i^T, for the boundary-integral kernels (whose
   gradients cost little): 0 to rounding for the conformal ``cauchy-green``;
-- time: the basis functions of every domain, in this process, without the disk cache.
+- proven: how many maps `core.certify_injective` proves fold-free (harmonic maps only: the
+  default ``poisson`` and its fold-free composite; n/a for the others);
+- time: the basis functions of every domain, in this process, without the disk cache (and, for
+  the fold-free row, its composite maps).
+
+The fold-free row is ``poisson`` made fold-free by `core.fold_free_deform` (certified composite
+harmonic maps on the straight path of cages); where that path crosses itself it keeps the plain map.
 
 `weight_family` is the search over the weights of Eq. 19 (``--search``).
 """
@@ -67,6 +73,7 @@ class KernelChoice:
     label: str
     kernel: str
     params: dict = field(default_factory=dict)
+    fold_free: bool = False
 
 
 @dataclass
@@ -83,6 +90,7 @@ class KernelResult:
     height_rms: list[float] = field(default_factory=list)
     boundary_gap: list[float] = field(default_factory=list)
     vertex_distortion: list[float] = field(default_factory=list)
+    proven: list[bool] = field(default_factory=list)
     seconds: float = 0.0
     unconverged_domains: list[str] = field(default_factory=list)
     skipped: str | None = None
@@ -101,6 +109,7 @@ class KernelResult:
             "height rms": float(np.mean(self.height_rms)),
             "boundary gap": float(np.mean(self.boundary_gap)),
             "vertex distortion": float(np.max(self.vertex_distortion)) if self.vertex_distortion else None,
+            "proven": int(np.count_nonzero(self.proven)) if self.proven else None,
             "seconds": self.seconds,
         }
 
@@ -115,6 +124,9 @@ class StudyResult:
     vertices: int  # mesh vertices over all domains
     meshes: dict = field(default_factory=dict)  # domain name -> core.Mesh, if kept
     bases: dict = field(default_factory=dict)  # (domain name, kernel label) -> G (V, n), if kept
+    positions: dict = field(
+        default_factory=dict
+    )  # (domain, kernel label, deformation label) -> (V, 2), fold-free
 
 
 def default_kernels() -> list[KernelChoice]:
@@ -127,6 +139,8 @@ def default_kernels() -> list[KernelChoice]:
             choices.append(KernelChoice("power 2, shift none", "power", {"power": 2.0, "shift": "none"}))
         else:
             choices.append(KernelChoice(name, name))
+        if name == core.DEFAULT_KERNEL:
+            choices.append(KernelChoice(f"{name}, fold-free", name, fold_free=True))
     return choices
 
 
@@ -279,7 +293,15 @@ def run_study(domains, choices: list[KernelChoice], progress=None, keep: bool = 
             if choice.kernel in core.BOUNDARY_INTEGRAL_KERNELS:
                 gradients = core.basis_gradients(curve, mesh.vertices[mesh.interior], choice.kernel)
             for deformation, target_curve in targets:
-                _measure(result, mesh, areas, weights, warped, reference, deformation.target, target_curve)
+                started = time.perf_counter()
+                deformed, proven = _positions(choice, curve, mesh, warped, deformation.target)
+                if choice.fold_free:
+                    result.seconds += time.perf_counter() - started
+                    if keep:
+                        study.positions[domain.name, choice.label, deformation.label] = deformed
+                if proven is not None:
+                    result.proven.append(proven)
+                _measure(result, mesh, areas, weights, deformed, reference, deformation.target, target_curve)
                 if gradients is not None:
                     sigma = np.linalg.svd(
                         distortion.vertex_jacobians(gradients, deformation.target), compute_uv=False
@@ -288,9 +310,25 @@ def run_study(domains, choices: list[KernelChoice], progress=None, keep: bool = 
     return study
 
 
-def _measure(result, mesh, areas, weights, warped, reference, target, target_curve) -> None:
-    """Append one deformation's measures to `result` (`warped`: an `app.warping.Deformation`)."""
-    deformed = warped.positions(target)
+def _positions(choice: KernelChoice, curve, mesh, warped, target) -> tuple[np.ndarray, bool | None]:
+    """The deformed vertices (V, 2) of a choice (`warped`: an `app.warping.Deformation`) and whether the
+    map is proven fold-free (None where no proof applies: maps that are not harmonic)."""
+    if choice.fold_free:
+        boundary = (mesh.boundary, mesh.boundary_parameters)
+        try:
+            deformed, certificate = core.fold_free_deform(
+                curve, target, mesh.vertices, boundary=boundary, triangles=mesh.triangles
+            )
+        except ValueError:  # the straight path of cages crosses itself: the plain map
+            return warped.positions(target), False
+        return deformed, certificate.injective
+    if choice.kernel == core.DEFAULT_KERNEL:
+        return warped.positions(target), core.certify_injective(curve, target).injective
+    return warped.positions(target), None
+
+
+def _measure(result, mesh, areas, weights, deformed, reference, target, target_curve) -> None:
+    """Append the measures of one deformation, vertices `deformed` (V, 2), to `result`."""
     sigma = distortion.signed_singular_values(
         distortion.triangle_jacobians(mesh.vertices, deformed, mesh.triangles)
     )
@@ -316,18 +354,20 @@ def format_table(study: StudyResult, sort: bool = False) -> str:
     header = (
         f"{'kernel':<{width}}  {'folded':>7}  {'folds':>5}  {'outside':>7}  "
         f"{'s1/s2':>5}  {'p99':>5}  {'map RMS':>7}  {'height RMS':>10}  {'bdry gap':>8}  "
-        f"{'vertex s1/s2-1':>14}  {'time':>6}"
+        f"{'vertex s1/s2-1':>14}  {'proven':>6}  {'time':>6}"
     )
     lines = [header]
     for result in rows:
         s = result.summary()
         flag = "  (not converged everywhere)" if result.unconverged_domains else ""
+        proven = "n/a" if s["proven"] is None else f"{s['proven']:>2}/{s['deformations']:<2}"
         lines.append(
             f"{result.choice.label:<{width}}  {100 * s['folded']:6.2f}%  "
             f"{s['with folds']:>2}/{s['deformations']:<2}  {100 * s['outside']:6.2f}%  "
             f"{s['distortion mean']:5.2f}  {s['distortion 99']:5.2f}  {100 * s['map rms']:6.2f}%  "
             f"{s['height rms']:10.5f}  {100 * s['boundary gap']:7.3f}%  "
             f"{'n/a' if s['vertex distortion'] is None else format(s['vertex distortion'], '.1e'):>14}  "
+            f"{proven:>6}  "
             f"{s['seconds']:5.1f}s{flag}"
         )
     return "\n".join(lines)

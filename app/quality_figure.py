@@ -71,7 +71,12 @@ def figure(domains, study) -> np.ndarray:
         mesh = study.meshes[domain]
         target = targets[domain, label]
         outline = core.ClosedBSpline(target)(np.linspace(0.0, len(target), 64 * len(target), endpoint=False))
-        deformed = {r.choice.label: deform(study.bases[domain, r.choice.label], target) for r in kernels}
+        deformed = {
+            r.choice.label: study.positions.get((domain, r.choice.label, label))
+            if r.choice.fold_free
+            else deform(study.bases[domain, r.choice.label], target)
+            for r in kernels
+        }
         everything = np.concatenate([outline, *deformed.values()])
         low, high = everything.min(axis=0), everything.max(axis=0)
         scale = (PANEL - 16) / max(float((high - low).max()), 1e-300)

@@ -16,6 +16,8 @@ from core.newton.compilation import compile_solver
 from core.deformation import deform
 from core.gradients import basis_gradients, kernel_gradients
 from core.meshes.harmonic import harmonic_basis
+from core.injectivity.certificate import InjectivityCertificate, certify_injective
+from core.injectivity.composite import fold_free_deform
 from core.kernel_table import BOUNDARY_INTEGRAL_KERNELS, COMPLEX_KERNELS, DEFAULT_KERNEL, MESH_ONLY_KERNELS
 from core.kernels import KERNELS, ConvergenceWarning, SolveReport, kernel
 from core.meshes.mesh import Mesh, folded_triangles, triangulate
@@ -32,12 +34,15 @@ __all__ = [
     "CacheWarning",
     "ClosedBSpline",
     "ConvergenceWarning",
+    "InjectivityCertificate",
     "Mesh",
     "SolveReport",
     "basis_functions",
     "basis_gradients",
+    "certify_injective",
     "compile_solver",
     "deform",
+    "fold_free_deform",
     "folded_triangles",
     "harmonic_basis",
     "kernel",

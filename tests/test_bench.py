@@ -5,7 +5,7 @@ import sys
 
 import pytest
 
-from app import bench
+from app import bench, bench_fold_free
 from app.bench import StepFailed, run_child
 
 
@@ -41,6 +41,7 @@ def test_a_failed_row_is_reported_and_the_others_still_run(monkeypatch, capsys):
         skip_warp=False,
         skip_photos=True,
         skip_drag=True,
+        skip_fold_free=True,
     )
     assert bench.run_bench(args) == 1
     assert ran == ["memory", "warp"]
@@ -101,6 +102,11 @@ def test_quick_runs_every_row_once_at_tiny_sizes(monkeypatch):
     monkeypatch.setattr(bench, "_warp_4k", lambda size: calls.update(warp=size))
     monkeypatch.setattr(bench, "_drag_frames", lambda *rest: calls.update(drag=rest))
     monkeypatch.setattr(bench, "photo_rows", lambda sizes, run: calls.update(photos=sizes))
+    monkeypatch.setattr(
+        bench_fold_free,
+        "fold_free_rows",
+        lambda curve, repeats, forget, vertices: calls.update(fold_free=vertices),
+    )
     args = argparse.Namespace(
         quick=True,
         repeats=3,
@@ -110,6 +116,7 @@ def test_quick_runs_every_row_once_at_tiny_sizes(monkeypatch):
         skip_warp=False,
         skip_photos=False,
         skip_drag=False,
+        skip_fold_free=False,
     )
     assert bench.run_bench(args) == 0
     assert calls == {
@@ -119,4 +126,19 @@ def test_quick_runs_every_row_once_at_tiny_sizes(monkeypatch):
         "warp": (640, 360),
         "photos": ((1200, 800),),
         "drag": ((6_000,), 1.0),
+        "fold_free": (2_000,),
     }
+
+
+def test_the_fold_free_row_says_when_libigl_is_missing(monkeypatch, capsys):
+    """Without libigl the row times ours alone and says so; libigl is never needed at run time."""
+    import core
+    from core.curves import examples
+
+    monkeypatch.setitem(sys.modules, "igl", None)  # `import igl` raises ImportError
+    curve = core.ClosedBSpline(examples.blob() * 1000.0)
+    bench_fold_free.fold_free_rows(curve, 1, lambda: None, (300,))
+    out = capsys.readouterr().out
+    assert "libigl is not installed" in out
+    row = out.strip().splitlines()[-1].split()
+    assert row[2] != "0" and row[3] == "0" and row[4] == "yes"  # steps, flips, proven

@@ -1,0 +1,10 @@
+"""Injective (fold-free) harmonic warps: a certificate that a warp never folds, and a fold-free warp.
+
+- `certificate`: `certify_injective`, the proof from samples on a curve just inside the boundary
+  (Chen & Weber 2015's argument principle and maximum principle), with its assumptions;
+- `simple_curve`: a proof that a closed quadratic B-spline does not cross itself;
+- `inner_curve`, `boundary_samples`, `harmonic_parts`: the curve Γ, the samples and bounds on it,
+  and the complex derivatives f_z, f_z̄ of the harmonic map;
+- `composite`: `fold_free_deform`, composite harmonic maps along a path of cages (Schneider,
+  Hormann & Floater 2013), each step certified.
+"""

@@ -1,0 +1,191 @@
+"""A fold-free warp: composite harmonic maps along the straight path of cages, each step certified.
+
+Schneider, Hormann & Floater ("Bijective composite mean value mappings", SGP 2013) compose maps
+along a path of cages: the control points move along P(s) = (1 - s) P + s P', and step k is the
+map of the cage at s_k onto the cage at s_{k+1}.  Here each step is the harmonic map
+(`poisson`) and is proven injective by `core.injectivity.certify_injective`; a bijection of
+each domain onto the next composes to a bijection of the source domain onto the target's, and a
+boundary point at parameter t goes to the target curve at t at every step.  The steps are adaptive:
+the first tries the whole way, a step whose certificate fails is halved, a step that succeeds lets
+the next one double.  σ₂ of the composite is at least the product of the steps' bounds, and its
+dilatation K = (1 + k) / (1 - k) at most the product of theirs.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from core.basis import basis_functions
+from core.boundary_integrals.poisson import closest_point
+from core.curves.bspline import ClosedBSpline
+from core.injectivity.certificate import InjectivityCertificate, certify_injective
+from core.validation import as_points
+
+#: Steps at most (accepted ones), and the smallest step in s, before giving up.
+MAX_STEPS = 64
+SMALLEST_STEP = 1.0 / 1024
+#: A step that turns a triangle over is halved down to this size, then taken anyway.
+SMALLEST_MESH_STEP = 1.0 / 64
+
+
+def fold_free_deform(
+    curve: ClosedBSpline,
+    target,
+    points,
+    *,
+    boundary: tuple | None = None,
+    triangles=None,
+    max_steps: int = MAX_STEPS,
+) -> tuple[np.ndarray, InjectivityCertificate]:
+    """Images of points of the source domain under a certified bijection onto the target's domain.
+
+    Parameters
+    ----------
+    curve : ClosedBSpline
+        The source cage, n control points.
+    target : array_like of shape (n, 2)
+        The target control points; the map takes the source curve at parameter t to the target
+        curve at t.
+    points : array_like of shape (M, 2)
+        Points of the closed source domain.
+    boundary : (indices, parameters), optional
+        Rows of `points` on the curve, int (B,), and their parameters t (B,) (as in `core.Mesh`):
+        their images are set to the target curve at t exactly.  Other points on the curve go to
+        the target curve at their closest parameter anyway.
+    triangles : array_like of shape (T, 3), optional
+        Triangles over `points`, counter-clockwise (as in `core.Mesh`): a step is also halved while it
+        turns a triangle over (the continuous map is a bijection; its piecewise-linear interpolant on
+        coarse triangles may still fold where the map bends strongly), down to `SMALLEST_MESH_STEP`.
+    max_steps : int
+        The most steps to take before giving up.
+
+    Returns
+    -------
+    images : ndarray of shape (M, 2)
+    certificate : InjectivityCertificate
+        Of the composite: injective if every step is; σ₂ and k bounds composed from the steps'.
+
+    Raises
+    ------
+    ValueError
+        The target is not a valid cage, a cage on the straight path crosses itself, or no step
+        size down to `SMALLEST_STEP` is proven within `max_steps` steps.
+    """
+    if not isinstance(curve, ClosedBSpline):
+        raise ValueError(f"curve must be a core.ClosedBSpline, got {type(curve).__name__}")
+    goal = as_points(target, "target")
+    if goal.shape != curve.control_points.shape:
+        raise ValueError(
+            f"target must have shape {curve.control_points.shape} like the cage, got {goal.shape}"
+        )
+    final = ClosedBSpline(goal)
+    images = as_points(points, "points").copy()
+    triangles = None if triangles is None else np.asarray(triangles, dtype=np.int64)
+    on_curve = np.zeros(images.shape[0], dtype=bool)
+    if boundary is not None:
+        indices, parameters = (
+            np.asarray(boundary[0], dtype=np.int64),
+            np.asarray(boundary[1], dtype=np.float64),
+        )
+        on_curve[indices] = True
+    start = curve.control_points
+    s, step, current, steps = 0.0, 1.0, curve, []
+    while s < 1.0:
+        following = min(1.0, s + step)
+        cage = (
+            final if following == 1.0 else _path_cage((1.0 - following) * start + following * goal, following)
+        )
+        certificate = certify_injective(current, cage)
+        accepted = certificate.injective or certificate.away_from_corners
+        if accepted:
+            moved = images.copy()
+            moved[~on_curve] = _mapped(current, cage.control_points, images[~on_curve])
+            if boundary is not None:
+                moved[indices] = cage(parameters)
+            accepted = (
+                step <= SMALLEST_MESH_STEP or triangles is None or not _turns_over(triangles, images, moved)
+            )
+        if accepted:
+            images = moved
+            steps.append(certificate)
+            s, current = following, cage
+            step *= 2.0
+        else:
+            step *= 0.5
+        if step < SMALLEST_STEP or (len(steps) >= max_steps and s < 1.0):
+            raise ValueError(
+                f"no fold-free step is proven from s = {s:.4g} on the straight path to the target "
+                f"({len(steps)} steps taken): {certificate.reason}"
+            )
+    images[~on_curve] = _inside(final, images[~on_curve])
+    return images, composite_certificate(steps)
+
+
+def _turns_over(triangles: np.ndarray, before: np.ndarray, after: np.ndarray) -> bool:
+    """Whether a step turns over a triangle (T, 3) that was not turned over before it."""
+
+    def areas(points):
+        a, b, c = points[triangles[:, 0]], points[triangles[:, 1]], points[triangles[:, 2]]
+        return (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
+
+    return bool(np.any((areas(after) <= 0) & (areas(before) > 0)))
+
+
+def _path_cage(points: np.ndarray, s: float) -> ClosedBSpline:
+    """The cage at s on the path; ValueError if it crosses itself (then no map through it is a bijection)."""
+    try:
+        return ClosedBSpline(points)
+    except ValueError as error:
+        raise ValueError(
+            f"the straight path from the cage to the target passes through a cage that crosses itself "
+            f"(at {s:.3g} of the way): {error}"
+        ) from None
+
+
+def _mapped(current: ClosedBSpline, cage: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """Images (M, 2) under the harmonic map of `current` onto the cage's control points (n, 2);
+    points a hair outside `current` (rounding of the previous step) go to its closest point first."""
+    try:
+        return basis_functions(current, points, "poisson") @ cage
+    except ValueError:  # some points are outside: the test below costs, so only now
+        return basis_functions(current, _inside(current, points), "poisson") @ cage
+
+
+def _inside(curve: ClosedBSpline, points: np.ndarray) -> np.ndarray:
+    """Points (M, 2) with those outside `curve` (by rounding) moved to their closest point on it."""
+    outside = np.flatnonzero(~curve.contains(points))
+    if outside.size == 0:
+        return points
+    parameters, _ = closest_point(curve, points[outside])
+    points = points.copy()
+    points[outside] = curve(parameters)
+    return points
+
+
+def composite_certificate(steps: list[InjectivityCertificate]) -> InjectivityCertificate:
+    """The certificate of a composite of certified steps: σ₂ >= Π σ₂_k, and K <= Π K_k for the
+    dilatations K = (1 + k) / (1 - k)."""
+    sigma2 = math.prod(step.sigma2_min for step in steps)
+    dilatation = math.prod(
+        (1.0 + step.k_max) / (1.0 - step.k_max) if step.k_max < 1.0 else math.inf for step in steps
+    )
+    k_max = (dilatation - 1.0) / (dilatation + 1.0) if math.isfinite(dilatation) else 1.0
+    injective = all(step.injective for step in steps)
+    corners = [step.where for step in steps if step.away_from_corners]
+    where = np.unique(np.concatenate(corners), axis=0) if corners else np.zeros((0, 2))
+    samples = sum(step.samples for step in steps)
+    if injective:
+        reason = f"composite of {len(steps)} proven harmonic step(s)"
+    else:
+        reason = (
+            f"composite of {len(steps)} harmonic step(s), proven outside discs around reflex sharp corners"
+        )
+    radius = max((step.corner_radius for step in steps), default=0.0)
+    return InjectivityCertificate(
+        injective, sigma2, k_max, where, reason, samples, not injective, radius, {"steps": len(steps)}
+    )
+
+
+__all__ = ["composite_certificate", "fold_free_deform"]

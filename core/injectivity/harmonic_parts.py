@@ -1,0 +1,47 @@
+"""The complex derivatives of the harmonic map of a cage onto a target: f_z and f_z̄.
+
+The harmonic map of the domain Ω of a source curve is f(x) = Σ_i G_i(x) P'_i (`core.deform`
+with the exact harmonic coordinates of `poisson`), whose boundary values are the target
+curve at the same parameter.  On a simply connected Ω, f = h + conj(g) with h, g holomorphic,
+and with the control points as complex numbers P'_i = x'_i + i y'_i and exact gradients
+∂G_i (`core.boundary_integrals.poisson.poisson_gradients`):
+
+    f_x = Σ_i ∂_x G_i P'_i,   f_y = Σ_i ∂_y G_i P'_i,
+    f_z = h' = (f_x - i f_y) / 2,   f_z̄ = conj(g') = (f_x + i f_y) / 2.
+
+The Jacobian's determinant is |f_z|² - |f_z̄|², its singular values |f_z| ± |f_z̄|.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from core.boundary_integrals.poisson import poisson_gradients
+from core.curves.bspline import ClosedBSpline
+
+
+def complex_derivatives(
+    curve: ClosedBSpline, target: np.ndarray, x: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """f_z and f_z̄ of the harmonic map of `curve` onto target control points (n, 2) at interior
+    points x (M, 2): two complex ndarrays of shape (M,) (NaN at points on the curve).
+
+    Raises
+    ------
+    ValueError
+        Points of x outside the domain (from `core.boundary_integrals.poisson`).
+    """
+    gradients = poisson_gradients(curve, np.ascontiguousarray(x, dtype=np.float64))  # (M, n, 2)
+    image = target[:, 0] + 1j * target[:, 1]
+    f_x = gradients[:, :, 0] @ image
+    f_y = gradients[:, :, 1] @ image
+    return 0.5 * (f_x - 1j * f_y), 0.5 * (f_x + 1j * f_y)
+
+
+def linear_parts(matrix: np.ndarray) -> tuple[complex, complex]:
+    """L_z and L_z̄ of a real linear map (2, 2): L(w) = L_z w + L_z̄ conj(w) in complex numbers."""
+    (a, b), (c, d) = matrix
+    return complex(0.5 * (a + d), 0.5 * (c - b)), complex(0.5 * (a - d), 0.5 * (c + b))
+
+
+__all__ = ["complex_derivatives", "linear_parts"]
