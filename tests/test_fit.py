@@ -13,22 +13,24 @@ from scipy.spatial import cKDTree
 from app.__main__ import main
 from app.files import read_cage, write_png
 from app.fit import (
-    BAY_MOUTH,
     FIT_PIXELS,
     CageFitWarning,
     SubjectUncertainWarning,
-    _bays_filled,
+    fit_cage,
+    fit_closed_bspline,
+    mask_outline,
+    rectangle_cage,
+    snap_corners,
+)
+from app.subject import (
+    BAY_MOUTH,
+    bays_filled,
     border_contrast,
     checked_rect,
     downscaled,
-    fit_cage,
-    fit_closed_bspline,
     in_focus,
-    mask_outline,
-    rectangle_cage,
     refined_subject,
     silhouette_mask,
-    snap_corners,
     subject_mask,
     two_toned,
 )
@@ -396,7 +398,7 @@ def test_bays_filled_fills_narrow_mouths_and_rounds_open_corners_only():
     subject[220:260, 230:380] = 1  # its foot
     radius = BAY_MOUTH * np.sqrt(subject.sum())
     assert 20 < 2 * radius < 100
-    filled = _bays_filled(subject, (0, 0, 400, 300)).astype(bool)
+    filled = bays_filled(subject, (0, 0, 400, 300)).astype(bool)
     assert filled[subject > 0].all()
     disk = np.zeros_like(subject)
     cv2.circle(disk, (100, 150), 94, 1, -1)
@@ -407,7 +409,7 @@ def test_bays_filled_fills_narrow_mouths_and_rounds_open_corners_only():
     # A closing rounds the inside corner: it adds at most (1 - pi / 4) r^2.
     assert added.sum() <= (1 - np.pi / 4) * radius**2 + 2 * radius
     # Nothing is added outside the bounds.
-    bounded = _bays_filled(subject, (0, 0, 150, 300)).astype(bool)
+    bounded = bays_filled(subject, (0, 0, 150, 300)).astype(bool)
     assert not bounded[:, 150:].any() and bounded[:, :150].sum() >= (subject[:, :150] > 0).sum()
 
 
