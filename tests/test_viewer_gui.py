@@ -9,20 +9,19 @@ import numpy as np
 
 from app.view import View
 from app.viewer.gui import status_kernel
-from app.viewer.state import AppState, History, Snapshot
+from app.viewer.state import AppState, Display, Document, History, Snapshot
 
 SQUARE = np.array([[0.0, 0.0], [100.0, 0.0], [100.0, 100.0], [0.0, 100.0]])
 
 
 def test_the_status_line_names_the_kernel_shown_while_another_is_computed():
     snapshot = Snapshot(Path("square.png"), SQUARE, SQUARE)
-    state = AppState(
-        History(snapshot), snapshot, np.zeros((120, 120, 4), np.uint8), Path("s.json"), view=View(1.0, (0, 0))
-    )
+    document = Document(History(snapshot), snapshot, np.zeros((120, 120, 4), np.uint8), Path("s.json"))
+    state = AppState(document, display=Display(viewport=View(1.0, (0, 0))))
     assert status_kernel(state) == "poisson"  # nothing drawn yet: the one being computed
-    state.basis = SimpleNamespace(kernel="poisson")
+    state.compute.basis = SimpleNamespace(kernel="poisson")
     assert status_kernel(state) == "poisson"
-    state.live = snapshot.replace(kernel="harmonic")
+    state.document.live = snapshot.replace(kernel="harmonic")
     assert status_kernel(state) == "poisson, switching to harmonic..."
-    state.live = snapshot.replace(kernel="power", power=3.0, shift="mean")
+    state.document.live = snapshot.replace(kernel="power", power=3.0, shift="mean")
     assert status_kernel(state) == "poisson, switching to power (k=3, shift mean)..."

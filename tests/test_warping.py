@@ -12,7 +12,7 @@ import core
 from app.files import read_image, write_png
 from app.viewer.precompute import compute, make_request, result_from_message
 from app.viewer.scene import Scene
-from app.viewer.state import AppState, History, Snapshot
+from app.viewer.state import AppState, Document, History, Snapshot
 from app.viewer.window import Viewer
 
 MAX_EDGE = 9.0
@@ -68,9 +68,9 @@ def test_warp_animate_the_viewer_export_and_quality_share_one_pipeline(tmp_path,
     # The viewer: its worker's precompute, its scene, and the export of the current target.
     snapshot = Snapshot(tmp_path / "picture.png", cage, moved)
     request = make_request(snapshot, MAX_EDGE)
-    state = AppState(History(snapshot), snapshot, picture(), tmp_path / "s.json")
-    state.basis = result_from_message(request.key, compute(request))
-    state.mode = "deform"
+    state = AppState(Document(History(snapshot), snapshot, picture(), tmp_path / "s.json"))
+    state.compute.basis = result_from_message(request.key, compute(request))
+    state.selection.edit_mode = "deform"
     # warp and animate made their own GL contexts current and released them: the fixture's
     # renderer draws in its own context again, made current for the viewer's part (then restored).
     with renderer.ctx:

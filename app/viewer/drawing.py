@@ -7,7 +7,7 @@ closed curve), Esc abandons the new cage.  A double click on the last point, or
 Ctrl+click, makes a sharp corner: the point doubled.  A curve that crosses
 itself is refused when it is closed, with the reason.
 
-The points live in ``state.live`` while they are placed, outside the undo
+The points live in ``state.document.live`` while they are placed, outside the undo
 history, so nothing is saved until the cage is made.
 """
 
@@ -26,24 +26,28 @@ HINT = "click to place points; click the first point or press Enter to close; Ba
 
 def start(state: AppState) -> None:
     """Begin a new cage: no points yet, the current document kept to return to."""
-    before = state.drawing.before if state.drawing is not None else state.history.current
-    state.drawing = Drawing(before)
-    state.drag = None
+    before = (
+        state.selection.drawing.before
+        if state.selection.drawing is not None
+        else state.document.history.current
+    )
+    state.selection.drawing = Drawing(before)
+    state.selection.drag = None
     empty = np.zeros((0, 2))
-    state.live = before.replace(cage=empty, target=empty, keyframes=())
-    state.mode = "cage"
-    state.selected = state.hovered = None
-    state.group = frozenset()
+    state.document.live = before.replace(cage=empty, target=empty, keyframes=())
+    state.selection.edit_mode = "cage"
+    state.selection.selected = state.selection.hovered = None
+    state.selection.group = frozenset()
     state.say(f"new cage: {HINT}")
 
 
 def press(state: AppState, x: float, y: float, corner: bool, now: float) -> None:
     """A left click at window point (x, y) at time `now`; `corner`: Ctrl held."""
-    drawing, points = state.drawing, state.live.cage
+    drawing, points = state.selection.drawing, state.document.live.cage
     if drawing.closed:
         state.say("the new cage is closed: Enter makes it the cage, Backspace reopens it, Esc abandons it")
         return
-    window = editing.to_window(state.view, points)
+    window = editing.to_window(state.display.viewport, points)
     if len(points) >= 3 and editing.nearest_handle(window[:1], (x, y)) == 0:
         close(state)
         return
@@ -59,15 +63,15 @@ def press(state: AppState, x: float, y: float, corner: bool, now: float) -> None
         _set(state, np.vstack([points, points[-1:]]))
         state.say(f"point {len(points) - 1} is a sharp corner")
         return
-    position = editing.to_image(state.view, (x, y))
+    position = editing.to_image(state.display.viewport, (x, y))
     _set(state, np.vstack([points, [position, position] if corner else [position]]))
     drawing.last_click = (now, float(x), float(y))
-    state.say(f"{len(state.live.cage)} points: {HINT}")
+    state.say(f"{len(state.document.live.cage)} points: {HINT}")
 
 
 def close(state: AppState) -> bool:
     """Close the curve if it makes a valid cage; False (and the reason in the status line) if not."""
-    points = state.live.cage
+    points = state.document.live.cage
     if len(np.unique(points, axis=0)) < 3:
         state.say("place at least 3 points before closing the cage", error=True)
         return False
@@ -75,8 +79,8 @@ def close(state: AppState) -> bool:
     if problem:
         state.say(f"cannot close the cage: {problem} (Backspace removes the last point)", error=True)
         return False
-    state.drawing.closed = True
-    state.drawing.last_click = None
+    state.selection.drawing.closed = True
+    state.selection.drawing.last_click = None
     state.say(f"closed, {len(points)} points: Enter makes it the cage, Backspace reopens it, Esc abandons it")
     return True
 
@@ -84,18 +88,18 @@ def close(state: AppState) -> bool:
 def confirm(state: AppState) -> Snapshot | None:
     """Enter: close an open curve; on a closed one, end the mode and return the document with the
     new cage (the caller commits it as one undoable edit).  None while the curve stays open."""
-    if not state.drawing.closed:
+    if not state.selection.drawing.closed:
         close(state)
         return None
-    points = state.live.cage
-    state.live = state.drawing.before
-    state.drawing = None
-    return state.live.replace(cage=points, target=points, keyframes=())
+    points = state.document.live.cage
+    state.document.live = state.selection.drawing.before
+    state.selection.drawing = None
+    return state.document.live.replace(cage=points, target=points, keyframes=())
 
 
 def remove_last(state: AppState) -> None:
     """Backspace: reopen a closed curve, or remove the last point placed."""
-    drawing, points = state.drawing, state.live.cage
+    drawing, points = state.selection.drawing, state.document.live.cage
     drawing.last_click = None
     if drawing.closed:
         drawing.closed = False
@@ -109,10 +113,10 @@ def remove_last(state: AppState) -> None:
 
 def abandon(state: AppState) -> None:
     """Esc: back to the document as it was before the new cage."""
-    state.live = state.drawing.before
-    state.drawing = None
+    state.document.live = state.selection.drawing.before
+    state.selection.drawing = None
     state.say("new cage abandoned")
 
 
 def _set(state: AppState, points: np.ndarray) -> None:
-    state.live = state.live.replace(cage=points, target=points, keyframes=())
+    state.document.live = state.document.live.replace(cage=points, target=points, keyframes=())

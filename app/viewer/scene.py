@@ -51,9 +51,9 @@ def overlay_arrays(state: AppState) -> tuple[np.ndarray, np.ndarray]:
     hovered one white.  While a new cage is drawn and still open, its points are
     joined in order, a line runs on to the cursor, and the closed curve is a faint preview.
     """
-    live = state.live
-    active = "source" if state.mode == "cage" else "target"
-    drawing = state.drawing is not None and not state.drawing.closed
+    live = state.document.live
+    active = "source" if state.selection.edit_mode == "cage" else "target"
+    drawing = state.selection.drawing is not None and not state.selection.drawing.closed
     segments, points = [], []
     for kind in sorted(("source", "target"), key=lambda k: k == active):
         control = live.cage if kind == "source" else live.target
@@ -72,7 +72,7 @@ def overlay_arrays(state: AppState) -> tuple[np.ndarray, np.ndarray]:
             else:
                 segments.append(_closed_segments(polygon, colour, 0.45 * alpha, 1.0))
         if drawing and is_active and len(control):
-            cursor = to_image(state.view, [state.cursor])
+            cursor = to_image(state.display.viewport, [state.screen.cursor])
             segments.append(_closed_segments(np.vstack([control[-1:], cursor]), colour, 0.6, 1.0)[:1])
         size = 11.0 if is_active else 7.0
         handles = np.zeros((len(control), 7))
@@ -82,9 +82,9 @@ def overlay_arrays(state: AppState) -> tuple[np.ndarray, np.ndarray]:
         handles[:, 6] = size
         if is_active:
             for index, fill, grow in (
-                *((i, SELECTED_COLOUR, 0.0) for i in state.group),
-                (state.hovered, HOVER_COLOUR, 4.0),
-                (state.selected, SELECTED_COLOUR, 2.0),
+                *((i, SELECTED_COLOUR, 0.0) for i in state.selection.group),
+                (state.selection.hovered, HOVER_COLOUR, 4.0),
+                (state.selection.selected, SELECTED_COLOUR, 2.0),
             ):
                 if index is not None and index < len(control):
                     handles[index, 2:5] = fill
@@ -96,7 +96,7 @@ def overlay_arrays(state: AppState) -> tuple[np.ndarray, np.ndarray]:
     band = band_corners(state)
     if band is not None:
         (x0, y0), (x1, y1) = band
-        corners = to_image(state.view, [[x0, y0], [x1, y0], [x1, y1], [x0, y1]])
+        corners = to_image(state.display.viewport, [[x0, y0], [x1, y0], [x1, y1], [x0, y1]])
         segments.append(_closed_segments(corners, SELECTED_COLOUR, 0.9, 1.0))
     segments = np.concatenate(segments) if segments else np.zeros((0, 2, 7))
     return segments, np.concatenate(points)
@@ -108,14 +108,14 @@ def export_frame(state: AppState) -> np.ndarray | None:
     Shown in deform mode when the target curve leaves the image: with ``canvas="source"``
     the export is clipped there, with ``"grow"`` it widens to this frame.
     """
-    target = state.live.target
-    if state.mode != "deform" or len(target) < 3 or state.image is None:
+    target = state.document.live.target
+    if state.selection.edit_mode != "deform" or len(target) < 3 or state.document.image is None:
         return None
-    height, width = state.image.shape[:2]
+    height, width = state.document.image.shape[:2]
     curve = curve_points(target)
     if curve.min() >= 0 and (curve <= (width, height)).all():
         return None
-    x0, y0, x1, y1 = output_region((width, height), target, state.canvas)
+    x0, y0, x1, y1 = output_region((width, height), target, state.document.canvas)
     return np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]])
 
 
@@ -205,15 +205,15 @@ class Scene:
     def mesh_matches(self, state: AppState) -> bool:
         """Whether the uploaded mesh belongs to the current source cage (so the warp is meaningful)."""
         basis = self._basis
-        return basis is not None and np.array_equal(basis.cage, state.live.cage)
+        return basis is not None and np.array_equal(basis.cage, state.document.live.cage)
 
     def sync(self, state: AppState) -> None:
         """Upload what changed since the last frame."""
         renderer = self.renderer
-        if state.image is not self._image:
-            renderer.set_image(state.image)
-            self._image = state.image
-        basis = state.basis
+        if state.document.image is not self._image:
+            renderer.set_image(state.document.image)
+            self._image = state.document.image
+        basis = state.compute.basis
         if basis is not None and basis is not self._basis:
             renderer.set_mesh(basis.mesh.vertices, basis.mesh.triangles)
             self._basis = basis
@@ -243,19 +243,21 @@ class Scene:
     def _preview_wanted(self, state: AppState) -> bool:
         """Whether this frame draws the preview mesh: a dense mesh's image while its target or the
         view moves."""
-        moving = (state.drag is not None and state.drag.kind == "target") or state.playing
+        moving = (
+            state.selection.drag is not None and state.selection.drag.kind == "target"
+        ) or state.playback.playing
         return (
-            (moving or state.view_moving)
+            (moving or state.display.viewport_moving)
             and self._preview_columns is not None
-            and state.content == "image"
-            and state.mode == "deform"
-            and not state.show_wireframe
+            and state.display.view_mode == "image"
+            and state.selection.edit_mode == "deform"
+            and not state.display.show_wireframe
         )
 
     def _update_preview(self, state: AppState) -> None:
         """The preview mesh's positions, G' @ P' (~20k rows: cheaper than any update of the dense mesh)."""
         self.previewing = True
-        target = state.live.target
+        target = state.document.live.target
         if self._preview_target is not None and np.array_equal(self._preview_target, target):
             return  # a pan or zoom: the positions are those of the last frame
         started = time.perf_counter()
@@ -268,10 +270,14 @@ class Scene:
         self.update_ms = 1e3 * (time.perf_counter() - started)
 
     def _update_positions(self, state: AppState) -> None:
-        basis, target = self._basis, state.live.target
-        dragging = state.drag is not None and state.drag.kind == "target"
+        basis, target = self._basis, state.document.live.target
+        dragging = state.selection.drag is not None and state.selection.drag.kind == "target"
         drawn = self._drawn_target
-        if drawn is not None and np.array_equal(drawn, target) and (self._exact or dragging or state.playing):
+        if (
+            drawn is not None
+            and np.array_equal(drawn, target)
+            and (self._exact or dragging or state.playback.playing)
+        ):
             return
         started = time.perf_counter()
         changed = None if drawn is None else np.flatnonzero(np.any(drawn != target, axis=1))
@@ -283,7 +289,7 @@ class Scene:
                 imaginary = None if self._imaginary is None else self._imaginary[:, i]
                 _add_column(positions, self._columns[:, i], imaginary, delta)
             self._exact = False
-        elif state.playing:
+        elif state.playback.playing:
             # Every frame of playback: float32 and no BLAS (`combined_columns`); the exact product,
             # and the count of folded triangles (which costs more than the product), when it stops.
             self._positions = combined_columns(self._columns, target, self._imaginary)
@@ -312,10 +318,10 @@ class Scene:
     def _count_folds(self, state: AppState, deformed: np.ndarray) -> None:
         import core
 
-        state.folded_count = int(np.count_nonzero(core.folded_triangles(self._basis.mesh, deformed)))
+        state.compute.folded_count = int(np.count_nonzero(core.folded_triangles(self._basis.mesh, deformed)))
 
     def _update_field(self, state: AppState) -> None:
-        mode = VIEW_MODES[state.content]
+        mode = VIEW_MODES[state.display.view_mode]
         if mode.field is not None:
             self._field = mode.field(state, self._basis, self.renderer, self._field)
 
@@ -343,14 +349,21 @@ class Scene:
         """
         renderer = self.renderer
         ctx = renderer.ctx
-        view = View(state.view.scale * pixel_ratio, tuple(v * pixel_ratio for v in state.view.offset))
+        view = View(
+            state.display.viewport.scale * pixel_ratio,
+            tuple(v * pixel_ratio for v in state.display.viewport.offset),
+        )
         meshed = self.mesh_matches(state)
-        content = VIEW_MODES[state.content].drawn
-        warped = meshed and (state.mode == "deform" or content != "image")
+        content = VIEW_MODES[state.display.view_mode].drawn
+        warped = meshed and (state.selection.edit_mode == "deform" or content != "image")
         # The faded source image costs a full textured pass of a software rasteriser: only on request.
-        opacity = (1.0 if state.outside == "original" else state.backdrop_opacity) if warped else 1.0
-        wireframe = state.show_wireframe
-        folds = state.show_folds and content != "distortion"  # that view shows folds per vertex
+        opacity = (
+            (1.0 if state.document.outside == "original" else state.display.backdrop_opacity)
+            if warped
+            else 1.0
+        )
+        wireframe = state.display.show_wireframe
+        folds = state.display.show_folds and content != "distortion"  # that view shows folds per vertex
         size = (int(framebuffer_size[0]), int(framebuffer_size[1]))
         key = (renderer.revision, view, size, warped, content, wireframe, folds, self.previewing, opacity)
 
@@ -379,7 +392,7 @@ class Scene:
         else:
             draw_layer()
         self._drawn_key = key
-        if state.show_overlay:
+        if state.display.show_overlay:
             segments, points = overlay_arrays(state)
             renderer.set_overlay(segments, points)
             renderer.draw_overlay(view, size)

@@ -53,8 +53,8 @@ from app.viewer.session_lock import SessionLock, lock_session
 from app.viewer.state import (
     DEFAULT_POWER,
     DEFAULT_SHIFT,
+    EDIT_MODES,
     MEASURES,
-    MODES,
     SHIFTS,
     AppState,
     Snapshot,
@@ -331,7 +331,7 @@ def history_json(state: AppState) -> dict:
     the session file); ``undo`` is oldest first, ``redo`` has the
     next step last (`History` order).
     """
-    image = state.history.current.image
+    image = state.document.history.current.image
 
     def nearest(steps: tuple[Snapshot, ...]) -> list[dict]:
         """The last `SAVED_STEPS` steps (the nearest to the current state) back to another image."""
@@ -342,7 +342,10 @@ def history_json(state: AppState) -> dict:
             kept.append(_step(snapshot))
         return kept[::-1]
 
-    return {"undo": nearest(state.history.undo_steps), "redo": nearest(state.history.redo_steps)}
+    return {
+        "undo": nearest(state.document.history.undo_steps),
+        "redo": nearest(state.document.history.redo_steps),
+    }
 
 
 def history_of(value, image: Path) -> tuple[list[Snapshot], list[Snapshot]]:
@@ -435,52 +438,52 @@ def fit_or_ellipse(image: np.ndarray, points: int = 16, rect=None) -> tuple[np.n
 def apply_preferences(state: AppState, preferences: dict | None) -> None:
     """Take the session's ``viewer`` settings that make sense."""
     preferences = preferences or {}
-    if preferences.get("mode") in MODES:
-        state.mode = preferences["mode"]
+    if preferences.get("mode") in EDIT_MODES:
+        state.selection.edit_mode = preferences["mode"]
     if preferences.get("content") in CONTENTS:
-        state.content = preferences["content"]
+        state.display.view_mode = preferences["content"]
     if preferences.get("distortion") in MEASURES:
-        state.distortion_measure = preferences["distortion"]
+        state.display.distortion_measure = preferences["distortion"]
     for name in ("show_folds", "show_wireframe", "show_overlay"):
         if isinstance(preferences.get(name), bool):
-            setattr(state, name, preferences[name])
+            setattr(state.display, name, preferences[name])
     if preferences.get("outside") in OUTSIDES:
-        state.outside = preferences["outside"]
+        state.document.outside = preferences["outside"]
     if preferences.get("canvas") in CANVASES:
-        state.canvas = preferences["canvas"]
+        state.document.canvas = preferences["canvas"]
     if isinstance(preferences.get("loop"), bool):
-        state.loop = preferences["loop"]
+        state.playback.loop = preferences["loop"]
     time = finite_number(preferences.get("time"))
     if time is not None and 0 <= time <= MAX_TIME:
-        state.time = time
+        state.playback.time = time
     selected = preferences.get("selected")
-    if isinstance(selected, int) and 0 <= selected < state.live.n:
-        state.selected = selected
+    if isinstance(selected, int) and 0 <= selected < state.document.live.n:
+        state.selection.selected = selected
 
 
 def session_of(state: AppState, max_edge: float | None) -> Session:
     """The session file's content for the committed state (not a drag in progress)."""
-    snapshot = state.history.current
+    snapshot = state.document.history.current
     extra = {
         "viewer": {
-            "mode": state.mode,
-            "content": state.content,
-            "distortion": state.distortion_measure,
-            "show_folds": state.show_folds,
-            "show_wireframe": state.show_wireframe,
-            "show_overlay": state.show_overlay,
-            "selected": state.selected,
+            "mode": state.selection.edit_mode,
+            "content": state.display.view_mode,
+            "distortion": state.display.distortion_measure,
+            "show_folds": state.display.show_folds,
+            "show_wireframe": state.display.show_wireframe,
+            "show_overlay": state.display.show_overlay,
+            "selected": state.selection.selected,
             "power": snapshot.power,
             "shift": snapshot.shift,
-            "time": state.time,
-            "loop": state.loop,
+            "time": state.playback.time,
+            "loop": state.playback.loop,
         }
     }
     if snapshot.kernel_params():
         extra["kernel_params"] = snapshot.kernel_params()
     if max_edge is not None:
         extra["mesh"] = {"max_edge": float(max_edge)}
-    extra["outside"], extra["canvas"] = state.outside, state.canvas
+    extra["outside"], extra["canvas"] = state.document.outside, state.document.canvas
     extra["keyframes"] = keyframes_json(snapshot.keyframes)
     extra["interpolation"] = snapshot.interpolation
     extra["parameterization"] = snapshot.parameterization
@@ -490,8 +493,8 @@ def session_of(state: AppState, max_edge: float | None) -> Session:
         np.array(snapshot.cage),
         np.array(snapshot.target),
         snapshot.kernel,
-        float(state.view.scale),
-        (float(state.view.offset[0]), float(state.view.offset[1])),
+        float(state.display.viewport.scale),
+        (float(state.display.viewport.offset[0]), float(state.display.viewport.offset[1])),
         extra,
     )
 
@@ -502,7 +505,7 @@ def save(state: AppState, max_edge: float | None, new_version: bool = True) -> N
     With `new_version` (the document changed since the file was written) the
     file's previous version becomes backup 1 first (`rotate_backups`).
     """
-    path = state.session_path
+    path = state.document.session_path
     path.parent.mkdir(parents=True, exist_ok=True)
     if new_version:
         try:

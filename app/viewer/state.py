@@ -1,10 +1,13 @@
-"""The viewer's state: immutable edit snapshots, their undo history, and the one `AppState`.
+"""The viewer's model: immutable edit snapshots, their undo history, and `AppState` in small parts.
 
 An edit (moving, inserting or deleting a control point, fitting, subdividing,
 choosing a kernel, opening an image) replaces the whole `Snapshot`; the `History`
 keeps the snapshots, so undo and redo swap whole states and can never get out of
-step with what was drawn.  Everything else in `AppState` is view or session
-state that undo does not touch (zoom, pan, what is shown, the current drag).
+step with what was drawn.  `AppState` holds the `Document` (history, live snapshot,
+image, session file) and the state that undo does not touch, each part with one
+reason to change: `Selection` (edit mode, chosen handles, drag), `Display`
+(viewport, view mode, overlays), `Playback` (timeline), `Compute` (basis functions
+and precompute), `Status` (messages, prompts, quit) and `Screen` (window geometry).
 
 Coordinates are image pixels, x to the right, y down, origin at the image's
 top-left corner, like the cage and session files.
@@ -29,11 +32,10 @@ SHIFTS = ("none", "integral", "mean")
 #: The boundary's parameter of the point kernels (`core.arc_length`, the paper's Fig. 12).
 PARAMETERIZATIONS = ("natural", "arc-length")
 
-#: What the canvas shows.
 #: What the distortion view shows: log2 det J, or log2 sigma_1 / sigma_2 (app.viewer.distortion_view).
 MEASURES = ("area", "conformal")
 #: What a left click edits: the target (deform) or the source cage.
-MODES = ("deform", "cage")
+EDIT_MODES = ("deform", "cage")
 
 
 def _frozen_points(points, name: str) -> np.ndarray:
@@ -353,64 +355,140 @@ class PreviewMesh:
 
 
 @dataclass
-class AppState:
-    """Everything the viewer knows, read and written by `gui` and the event handlers once per frame.
+class Document:
+    """The document shown and saved: its history, the live version, the image, the session file,
+    and what its exports frame.
 
-    The document is `live`: `history.current`, or the version a drag is changing
-    right now (committed to the history when the mouse is released).
+    Attributes
+    ----------
+    history : History
+    live : Snapshot
+        `history.current`, or the version a drag is changing right now (committed to the
+        history when the mouse is released).
+    image : ndarray of shape (H, W, 4), uint8
+        RGBA pixels of ``live.image``.
+    session_path : Path
+    session_dirty : bool
+        An edit to save now.
+    outside : str
+        What exports show outside the deformed region (`app.framing.OUTSIDES`).
+    canvas : str
+        What exports frame: ``"source"``, or ``"grow"`` to hold the whole target.
+    max_edge : float or None
+        A forced mesh edge length (None: from the cage's area).
     """
 
     history: History
     live: Snapshot
-    image: np.ndarray  # (H, W, 4) uint8 RGBA of live.image
+    image: np.ndarray
     session_path: Path
-    view: View = field(default_factory=View)
-    mode: str = "deform"
-    content: str = "image"
-    distortion_measure: str = "area"  # of the distortion view: "area" (det J) or "conformal"
-    distortion: object | None = None  # app.viewer.distortion_view.DistortionSummary of the view shown
+    session_dirty: bool = False
+    outside: str = "transparent"
+    canvas: str = "source"
+    max_edge: float | None = None
+
+
+@dataclass
+class Selection:
+    """What the mouse edits and holds: the edit mode, the chosen handles, the drag in progress."""
+
+    edit_mode: str = "deform"  # one of EDIT_MODES: what a left click edits
     selected: int | None = None  # the last handle clicked: its basis function is shown
     group: frozenset = frozenset()  # the handles moved together (Shift+click, rubber band)
-    view_fitted: bool = True  # the view is `fit_view`'s (a window resize fits it again)
     hovered: int | None = None
     drag: Drag | None = None
     drawing: Drawing | None = None  # a new cage being placed
     fit_rect: bool = False  # "Fit cage" on a photo waits for a rectangle around the subject
+
+
+@dataclass
+class Display:
+    """How the canvas shows the document: the viewport, the view mode and what is drawn over it."""
+
+    viewport: View = field(default_factory=View)
+    view_mode: str = "image"  # a name of app.viewer.view_modes.MODES
+    distortion_measure: str = "area"  # of the distortion view: "area" (det J) or "conformal"
+    distortion: object | None = None  # app.viewer.distortion_view.DistortionSummary of the view shown
+    viewport_fitted: bool = True  # the viewport is `fit_view`'s (a window resize fits it again)
+    viewport_dirty: bool = False  # a zoom or pan to save soon
+    viewport_moving: bool = False  # a pan or a wheel zoom is under way (the window sets it every frame)
     show_folds: bool = True
     show_wireframe: bool = False
     show_overlay: bool = True
     show_help: bool = False
-    open_prompt: str | None = None  # the path typed into the open prompt (no dialog program)
-    export_prompt: str | None = None  # the path typed into the export prompt (no dialog program)
     backdrop_opacity: float = 0.0  # of the source image behind the warp (outside "transparent")
-    outside: str = "transparent"  # what exports show outside the deformed region (app.framing)
-    canvas: str = "source"  # "grow": exports widen to hold the whole target
     power_draft: float | None = None  # the power slider while it is dragged
-    time: float = 0.0  # the timeline's current time, seconds
+
+
+@dataclass
+class Playback:
+    """The timeline: its time, whether the keyframes play, the keyframe chosen."""
+
+    time: float = 0.0  # seconds
     playing: bool = False  # the keyframes play (Space)
     loop: bool = True  # playback starts again at the first keyframe after the last
     keyframe: int | None = None  # the keyframe selected on the timeline
     time_draft: float | None = None  # the selected keyframe's time field while it is dragged
-    max_edge: float | None = None  # forced mesh edge length (None: from the cage's area)
+
+
+@dataclass
+class Compute:
+    """The basis functions drawn and the precompute of the wanted ones."""
+
     basis: BasisResult | None = None  # the result drawn (perhaps of another kernel)
     progress: float | None = None  # fraction of the running precompute, None when idle
     progress_label: str = ""
     basis_error: str = ""  # why the wanted basis functions could not be computed
     last_precompute_seconds: float | None = None
     folded_count: int | None = None
+
+
+@dataclass
+class Status:
+    """What the viewer tells the user, what it asks, and whether it quits."""
+
     message: str = ""
     message_is_error: bool = False
+    open_prompt: str | None = None  # the path typed into the open prompt (no dialog program)
+    export_prompt: str | None = None  # the path typed into the export prompt (no dialog program)
     frame_ms: list[float] = field(default_factory=list)
-    cursor: tuple[float, float] = (0.0, 0.0)  # window pixels
-    window_size: tuple[int, int] = (1280, 1024)  # window pixels
-    canvas_left: float = 0.0  # window pixels hidden under the side panel
-    spots: dict = field(default_factory=dict)  # window points inside some widgets (for tests)
-    session_dirty: bool = False  # an edit to save now
-    view_dirty: bool = False  # a zoom or pan to save soon
-    view_moving: bool = False  # a pan or a wheel zoom is under way (the window sets it every frame)
     quit: bool = False
 
     def say(self, message: str, error: bool = False) -> None:
         """Show `message` in the status line."""
         self.message = " ".join(str(message).split())
         self.message_is_error = error
+
+
+@dataclass
+class Screen:
+    """The window as the canvas sees it, in window pixels."""
+
+    cursor: tuple[float, float] = (0.0, 0.0)
+    window_size: tuple[int, int] = (1280, 1024)
+    canvas_left: float = 0.0  # hidden under the side panel
+
+
+@dataclass
+class AppState:
+    """Everything the viewer knows, read and written by `gui`, the controller and the window once
+    per frame, in small parts that each change for one reason (napari's ViewerModel of small
+    models): the document, the selection, the display, the playback, the compute, the status and
+    the screen."""
+
+    document: Document
+    selection: Selection = field(default_factory=Selection)
+    display: Display = field(default_factory=Display)
+    playback: Playback = field(default_factory=Playback)
+    compute: Compute = field(default_factory=Compute)
+    status: Status = field(default_factory=Status)
+    screen: Screen = field(default_factory=Screen)
+
+    @classmethod
+    def opened(cls, history: History, image: np.ndarray, session_path: Path) -> AppState:
+        """The state of a document just opened: `history`'s current snapshot, live."""
+        return cls(Document(history, history.current, image, Path(session_path)))
+
+    def say(self, message: str, error: bool = False) -> None:
+        """Show `message` in the status line."""
+        self.status.say(message, error)

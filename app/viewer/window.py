@@ -186,13 +186,8 @@ class Viewer:
         # The worker starts first: its imports overlap with the window's creation.  The Newton
         # solver compiles in the background meanwhile (the default kernel needs none).
         self.precompute = Precompute(warm_up=not self.test_mode)
-        self.state = AppState(
-            history=History(document.snapshot),
-            live=document.snapshot,
-            image=document.image,
-            session_path=Path(document.session_path),
-            window_size=options.size,
-        )
+        self.state = AppState.opened(History(document.snapshot), document.image, document.session_path)
+        self.state.screen.window_size = options.size
         self._edges: dict[bytes, float] = {}
         self._session_lock = None
         self._load(document)
@@ -219,23 +214,24 @@ class Viewer:
         #: Times (ms) of the frames drawn while a control point was dragged, for --stats.
         self._drag_frame_ms: list[float] = []
         self._previewing = False  # the last frame drew the preview mesh (announced in test mode)
+        self._spots: dict = {}  # window points of some widgets, announced in test mode for the window tests
         self.window = None
 
     # -- lifetime -------------------------------------------------------------------
 
     def run(self) -> int:
         """Open the window and loop until quit; returns the exit code."""
-        previous = signal.signal(signal.SIGTERM, lambda *_: setattr(self.state, "quit", True))
+        previous = signal.signal(signal.SIGTERM, lambda *_: setattr(self.state.status, "quit", True))
         try:
             self._open_window()
             try:
                 if self.options.script is not None and self.options.play:
                     self._toggle_script()
                 if self.options.playback:
-                    self.state.loop = True
-                    self.state.time = 0.0
+                    self.state.playback.loop = True
+                    self.state.playback.time = 0.0
                     self.command("playback")
-                while not self.state.quit:
+                while not self.state.status.quit:
                     self._frame()
             finally:
                 self._close_window()
@@ -245,7 +241,7 @@ class Viewer:
         if self.options.stats:
             from app.viewer.gui import frame_statistics
 
-            count, median, p95 = frame_statistics(self.state.frame_ms)
+            count, median, p95 = frame_statistics(self.state.status.frame_ms)
             _, drag_median, _ = frame_statistics(self._drag_frame_ms)
             print(
                 f"frames={count} median_frame_ms={median:.2f} p95_frame_ms={p95:.2f} "
@@ -294,22 +290,22 @@ class Viewer:
         self.shortcuts = [(keys, what) for *_, keys, what in _key_table() if keys] + MOUSE_HELP
         self._keys = _key_table()
         glfw.focus_window(window)
-        self.state.window_size = glfw.get_window_size(window)
+        self.state.screen.window_size = glfw.get_window_size(window)
         # Kept by the size callbacks: asking the X server costs a round trip (~0.1 ms) each time.
-        self._sizes = {"window": self.state.window_size, "pixels": glfw.get_framebuffer_size(window)}
-        self.state.canvas_left = 300.0
+        self._sizes = {"window": self.state.screen.window_size, "pixels": glfw.get_framebuffer_size(window)}
+        self.state.screen.canvas_left = 300.0
         self._show_document_view()
-        self.state.session_dirty = True  # the first save, so the session file exists at once
+        self.state.document.session_dirty = True  # the first save, so the session file exists at once
 
     def _load(self, document: Document) -> None:
         """Make `document` the one shown and saved: its history, preferences and session file."""
         state = self.state
-        state.history = History(document.snapshot, undo=document.undo, redo=document.redo)
-        state.live = document.snapshot
-        state.image = document.image
-        state.session_path = Path(document.session_path)
-        state.drag = state.drawing = None
-        state.selected = None
+        state.document.history = History(document.snapshot, undo=document.undo, redo=document.redo)
+        state.document.live = document.snapshot
+        state.document.image = document.image
+        state.document.session_path = Path(document.session_path)
+        state.selection.drag = state.selection.drawing = None
+        state.selection.selected = None
         apply_preferences(state, document.preferences)
         if document.max_edge is not None and self.options.vertices is None:
             self._edges[document.snapshot.cage.tobytes()] = document.max_edge
@@ -327,10 +323,10 @@ class Viewer:
     def _show_document_view(self) -> None:
         """The loaded session's view, or the image fitted to the window."""
         if self._document_view is not None:
-            self.state.view = self._document_view
+            self.state.display.viewport = self._document_view
         else:
             controller.fit_view(self.state, None)
-            self.state.view_dirty = False
+            self.state.display.viewport_dirty = False
 
     def _close_window(self) -> None:
         import glfw
@@ -380,7 +376,7 @@ class Viewer:
         def cursor(_, x, y):
             pointer[:] = x, y
             # A drag keeps its events even over a panel.
-            if self.state.drag is not None or not io.want_capture_mouse:
+            if self.state.selection.drag is not None or not io.want_capture_mouse:
                 self._events.append(("pointer", "move", x, y, 0, 0.0, False, False))
 
         def scroll(_, dx, dy):
@@ -406,7 +402,7 @@ class Viewer:
                 self._events.append(("command", "open_path", path))
 
         def close(_):
-            self.state.quit = True
+            self.state.status.quit = True
 
         def char(*_):
             self._frames_to_draw = FRAMES_AFTER_INPUT
@@ -432,7 +428,7 @@ class Viewer:
                 _, kind, x, y, button, amount, shift, ctrl = event
                 controller.pointer(self.state, kind, x, y, button, amount, shift, ctrl)
                 if kind in ("scroll",) or (
-                    kind == "move" and self.state.drag and self.state.drag.kind == "pan"
+                    kind == "move" and self.state.selection.drag and self.state.selection.drag.kind == "pan"
                 ):
                     self._view_changed_at = time.perf_counter()
             else:
@@ -468,7 +464,7 @@ class Viewer:
             state.say(f"unknown command {name!r}", error=True)
 
     def _command_quit(self, value) -> None:
-        self.state.quit = True
+        self.state.status.quit = True
 
     def _command_save(self, value) -> None:
         self._save_if_needed(force=True, announce=True)
@@ -501,16 +497,16 @@ class Viewer:
     def _follow_window_size(self, size: tuple[int, int]) -> None:
         """A resized window: fit the image again if it was fitted, else keep the canvas centre still."""
         state = self.state
-        old = state.window_size
-        state.window_size = size
+        old = state.screen.window_size
+        state.screen.window_size = size
         if tuple(size) == tuple(old) or size[0] <= 0 or size[1] <= 0:
             return
-        if state.view_fitted:
+        if state.display.viewport_fitted:
             controller.fit_view(state, None)
         else:
             shift = 0.5 * (np.asarray(size, dtype=np.float64) - np.asarray(old, dtype=np.float64))
-            state.view = editing.pan(state.view, shift)
-            state.view_dirty = True
+            state.display.viewport = editing.pan(state.display.viewport, shift)
+            state.display.viewport_dirty = True
         self._view_changed_at = time.perf_counter()
 
     # -- files ----------------------------------------------------------------------------
@@ -520,9 +516,9 @@ class Viewer:
 
         if not any(shutil.which(p) for p in ("zenity", "kdialog", "matedialog", "qarma")):
             # No dialog program to run: ask for the path in the window itself.
-            self.state.open_prompt = str(Path(self.state.live.image).parent) + os.sep
+            self.state.status.open_prompt = str(Path(self.state.document.live.image).parent) + os.sep
             return
-        directory = str(Path(self.state.live.image).parent)
+        directory = str(Path(self.state.document.live.image).parent)
         self._dialog = pfd.open_file("Open an image", directory, IMAGE_FILTERS)
 
     def _poll_dialog(self) -> None:
@@ -557,7 +553,9 @@ class Viewer:
                 if problem:
                     raise InputError(f"{path}: {problem}")
                 controller.commit(
-                    state, state.live.replace(cage=cage, target=cage, keyframes=()), f"cage from {path}"
+                    state,
+                    state.document.live.replace(cage=cage, target=cage, keyframes=()),
+                    f"cage from {path}",
                 )
                 return
             document = open_document(path)  # raises before the current session is left
@@ -573,7 +571,7 @@ class Viewer:
         self._save_if_needed(due=True)
         self._load(document)
         self._show_document_view()
-        self.state.session_dirty = True
+        self.state.document.session_dirty = True
         if self.window is not None:
             import glfw
 
@@ -583,7 +581,7 @@ class Viewer:
         """Replace the document with a new start (the opening cage, or a fitted one), as one undoable edit."""
         state = self.state
         try:
-            snapshot, note = start_snapshot(state.live, state.image, self._start_cage)
+            snapshot, note = start_snapshot(state.document.live, state.document.image, self._start_cage)
         except InputError as error:
             state.say(str(error), error=True)
             return
@@ -595,9 +593,9 @@ class Viewer:
         if self.options.export is not None:
             self.export(self.options.export)
             return
-        proposed = self._last_export or default_export_path(self.state.live.image)
+        proposed = self._last_export or default_export_path(self.state.document.live.image)
         if not any(shutil.which(p) for p in ("zenity", "kdialog", "matedialog", "qarma")):
-            self.state.export_prompt = str(proposed)
+            self.state.status.export_prompt = str(proposed)
             return
         from imgui_bundle import portable_file_dialogs as pfd
 
@@ -640,27 +638,33 @@ class Viewer:
         from app.keyframes import frame_times
 
         state = self.state
-        live = state.live
+        live = state.document.live
         if not live.keyframes:
             state.say("no keyframes to export: add some first (I, or the Keyframe button)", error=True)
             return
-        if state.basis is None or state.basis.key != self._wanted or not self.scene.mesh_matches(state):
+        if (
+            state.compute.basis is None
+            or state.compute.basis.key != self._wanted
+            or not self.scene.mesh_matches(state)
+        ):
             state.say("nothing to export yet: the basis functions are still being computed", error=True)
             return
         try:
             kind = output_kind(path, typed)
             check_output(path, kind)
             times = frame_times(live.keyframes, self.options.fps)
-            height, width = state.image.shape[:2]
-            region = frame_region((width, height), live.keyframes, live.interpolation, times, state.canvas)
+            height, width = state.document.image.shape[:2]
+            region = frame_region(
+                (width, height), live.keyframes, live.interpolation, times, state.document.canvas
+            )
             size, view = output_frame(region)
             writer = WRITERS[kind](path, size, self.options.fps)
         except (InputError, ValueError, OSError) as error:
             state.say(str(error), error=True)
             return
-        state.playing = False
+        state.playback.playing = False
         self._export = AnimationExport(
-            writer, times, size, view, live, state.basis.deformation(), state.outside
+            writer, times, size, view, live, state.compute.basis.deformation(), state.document.outside
         )
         self._last_export = str(path) + os.sep if kind == "png" else str(path)
         state.say(f"exporting {len(times)} frames to {path} (Esc stops)")
@@ -695,40 +699,44 @@ class Viewer:
 
     def _announce_drag_frames(self) -> None:
         """Test mode: the frame times of each drag of a target point, to compare playback with."""
-        dragging = self.state.drag is not None and self.state.drag.kind == "target"
+        dragging = self.state.selection.drag is not None and self.state.selection.drag.kind == "target"
         if dragging and self._drag_first_frame is None:
-            self._drag_first_frame = len(self.state.frame_ms)
+            self._drag_first_frame = len(self.state.status.frame_ms)
         elif not dragging and self._drag_first_frame is not None:
             from app.viewer.gui import frame_statistics
 
-            count, median, _ = frame_statistics(self.state.frame_ms[self._drag_first_frame :])
+            count, median, _ = frame_statistics(self.state.status.frame_ms[self._drag_first_frame :])
             self._announce(f"drag done frames={count} median_frame_ms={median:.2f}")
             self._drag_first_frame = None
 
     def _advance_playback(self) -> None:
         """Move the playing animation on by the wall time since the last frame."""
         state, now = self.state, time.perf_counter()
-        if not state.playing:
+        if not state.playback.playing:
             if self._playback_clock is not None:
                 from app.viewer.gui import frame_statistics
 
-                count, median, _ = frame_statistics(state.frame_ms[self._playback_first_frame :])
+                count, median, _ = frame_statistics(state.status.frame_ms[self._playback_first_frame :])
                 self._announce(f"playback paused frames={count} median_frame_ms={median:.2f}")
             self._playback_clock = None
             return
-        ready = state.basis is not None and state.basis.key == self._wanted and self.scene.mesh_matches(state)
+        ready = (
+            state.compute.basis is not None
+            and state.compute.basis.key == self._wanted
+            and self.scene.mesh_matches(state)
+        )
         if self._playback_clock is None:
-            self._playback_first_frame = len(state.frame_ms)
+            self._playback_first_frame = len(state.status.frame_ms)
             self._announce("playback started")
         elif not ready:  # the animation waits, its time standing still, until it can be seen
-            self._playback_first_frame = len(state.frame_ms)
+            self._playback_first_frame = len(state.status.frame_ms)
         else:
             controller.advance(state, now - self._playback_clock)
         self._playback_clock = now
 
     def _render_export(self) -> np.ndarray | None:
         state = self.state
-        if state.basis is None or state.basis.key != self._wanted:
+        if state.compute.basis is None or state.compute.basis.key != self._wanted:
             return None
         from app.warping import render
 
@@ -736,10 +744,12 @@ class Viewer:
         if deformation is None:
             return None
         self.scene.invalidate_positions()
-        height, width = state.image.shape[:2]
-        region = output_region((width, height), state.live.target, state.canvas)
+        height, width = state.document.image.shape[:2]
+        region = output_region((width, height), state.document.live.target, state.document.canvas)
         size, view = output_frame(region)
-        return render(self.renderer, deformation, state.live.target, size, view, state.outside)
+        return render(
+            self.renderer, deformation, state.document.live.target, size, view, state.document.outside
+        )
 
     def _save_if_needed(self, force: bool = False, announce: bool = False, due: bool = False) -> None:
         """Autosave after an edit, after a zoom or pan settles, or when asked.
@@ -747,12 +757,13 @@ class Viewer:
         `force` writes in any case; `due` writes a pending zoom or pan at once.
         """
         state = self.state
-        due = state.session_dirty or (
-            state.view_dirty and (due or time.perf_counter() - self._view_changed_at >= VIEW_SAVE_DELAY)
+        due = state.document.session_dirty or (
+            state.display.viewport_dirty
+            and (due or time.perf_counter() - self._view_changed_at >= VIEW_SAVE_DELAY)
         )
-        if not (due or force) or state.drag is not None and not force:
+        if not (due or force) or state.selection.drag is not None and not force:
             return
-        current = state.history.current
+        current = state.document.history.current
         if current.n < 3:
             return  # a cage being placed is no session yet
         try:
@@ -761,10 +772,10 @@ class Viewer:
             state.say(f"cannot save the session: {error}", error=True)
             return
         self._saved = current
-        state.session_dirty = state.view_dirty = False
+        state.document.session_dirty = state.display.viewport_dirty = False
         if announce:
-            state.say(f"saved {state.session_path}")
-        self._announce(f"saved {state.session_path}")
+            state.say(f"saved {state.document.session_path}")
+        self._announce(f"saved {state.document.session_path}")
 
     # -- precompute -----------------------------------------------------------------------
 
@@ -782,24 +793,30 @@ class Viewer:
         for message in self.precompute.poll():
             kind, key = message[0], message[1]
             if kind == "progress" and key == self.precompute.pending:
-                state.progress, state.progress_label = message[2], message[3]
+                state.compute.progress, state.compute.progress_label = message[2], message[3]
             elif kind == "done":
-                state.progress = None if self.precompute.pending is None else state.progress
+                state.compute.progress = None if self.precompute.pending is None else state.compute.progress
                 if key == self._wanted:
                     self._apply(message[2])
             elif kind == "error":
                 if self.precompute.pending is None:
-                    state.progress = None
+                    state.compute.progress = None
                 self._failed.add(key)
                 if key == self._wanted:
-                    state.basis_error = message[2]
+                    state.compute.basis_error = message[2]
                     state.say(message[2], error=True)
-        if state.drag is not None or state.drawing is not None or state.live.n < 3:
+        if (
+            state.selection.drag is not None
+            or state.selection.drawing is not None
+            or state.document.live.n < 3
+        ):
             return
-        live = state.live
-        wanted = make_request(live, self._max_edge(live.cage), gradients=VIEW_MODE[state.content].gradients)
+        live = state.document.live
+        wanted = make_request(
+            live, self._max_edge(live.cage), gradients=VIEW_MODE[state.display.view_mode].gradients
+        )
         self._wanted = wanted.key
-        if state.basis is not None and state.basis.key == wanted.key:
+        if state.compute.basis is not None and state.compute.basis.key == wanted.key:
             return
         remembered = self.precompute.remembered(wanted.key)
         if remembered is not None:
@@ -808,16 +825,16 @@ class Viewer:
             return
         elif self.precompute.pending != wanted.key:
             self.precompute.submit(wanted)
-            state.progress, state.progress_label = 0.0, "starting"
-            state.basis_error = ""
+            state.compute.progress, state.compute.progress_label = 0.0, "starting"
+            state.compute.basis_error = ""
 
     def _apply(self, result, cached: bool = False) -> None:
         state = self.state
-        state.basis = result
-        state.basis_error = ""
+        state.compute.basis = result
+        state.compute.basis_error = ""
         if not cached:
-            state.last_precompute_seconds = result.seconds
-            state.progress = None
+            state.compute.last_precompute_seconds = result.seconds
+            state.compute.progress = None
         vertices = len(result.mesh.vertices)
         preview = 0 if result.preview is None else len(result.preview.vertices)
         self._announce(f"basis key={result.key} vertices={vertices} kernel={result.kernel} preview={preview}")
@@ -836,11 +853,11 @@ class Viewer:
             self.state.say("script stopped")
             return
         try:
-            moves = read_script(self.options.script, self.state.live.n)
+            moves = read_script(self.options.script, self.state.document.live.n)
         except InputError as error:
             self.state.say(str(error), error=True)
             return
-        self.state.mode = "deform"
+        self.state.selection.edit_mode = "deform"
         self._player = ScriptPlayer(moves)
         self._script_clock = None
         self.state.say(f"playing {self.options.script.name}")
@@ -850,7 +867,9 @@ class Viewer:
         if player is None:
             return
         ready = (
-            state.basis is not None and state.basis.key == self._wanted and self.precompute.pending is None
+            state.compute.basis is not None
+            and state.compute.basis.key == self._wanted
+            and self.precompute.pending is None
         )
         if self._script_clock is None:
             if not ready:
@@ -862,8 +881,8 @@ class Viewer:
             now = time.perf_counter() - self._script_clock
         events = player.events(
             now,
-            lambda index: state.live.target[index],
-            lambda point: editing.to_window(state.view, point),
+            lambda index: state.document.live.target[index],
+            lambda point: editing.to_window(state.display.viewport, point),
         )
         for kind, x, y in events:
             # The same path as the mouse: the queue that the glfw callbacks fill.
@@ -873,7 +892,7 @@ class Viewer:
             state.say("script finished")
             self._announce("script done")
             if self.options.frames is not None:
-                state.quit = True
+                state.status.quit = True
 
     def _write_frame(self) -> None:
         if self._player is None or self._script_clock is None or self.options.frames is None:
@@ -895,7 +914,11 @@ class Viewer:
         # Input wakes the loop at once; without input, draw only as often as something
         # changes on its own, so that an idle or waiting viewer leaves the CPU to the
         # precompute (the worker runs at lower priority and gets what the UI leaves).
-        if (self._player is not None and self._script_clock is not None) or state.playing or self._export:
+        if (
+            (self._player is not None and self._script_clock is not None)
+            or state.playback.playing
+            or self._export
+        ):
             glfw.poll_events()  # a replay, playback or an export animates every frame
         elif not imgui.get_current_context().input_events_queue.empty():
             glfw.poll_events()  # imgui takes queued input a few events a frame (typed text)
@@ -904,7 +927,7 @@ class Viewer:
             self._frames_to_draw -= 1
         elif self.precompute.pending is not None or self._player is not None:
             glfw.wait_events_timeout(0.1)  # the progress bar
-        elif state.view_dirty or self._dialog is not None or self._save_dialog is not None:
+        elif state.display.viewport_dirty or self._dialog is not None or self._save_dialog is not None:
             glfw.wait_events_timeout(0.05)
         else:
             glfw.wait_events_timeout(IDLE_WAIT)
@@ -934,7 +957,7 @@ class Viewer:
             "playing": self._player is not None,
             "exporting": None if self._export is None else self._export.written / len(self._export.times),
         }
-        commands = gui(state, self.shortcuts, extras)
+        commands = gui(state, self.shortcuts, extras, self._spots)
         any_popup = imgui.PopupFlags_.any_popup_id | imgui.PopupFlags_.any_popup_level
         popup = imgui.is_popup_open("", any_popup)
         if popup != self._popup_is_open:
@@ -948,23 +971,23 @@ class Viewer:
             self.command(name, value)
         self._update_precompute()  # a kernel chosen in the panel starts computing this frame
 
-        shown = state.distortion
-        state.view_moving = (state.drag is not None and state.drag.kind == "pan") or (
-            time.perf_counter() - self._view_changed_at < VIEW_SETTLE
-        )
+        shown = state.display.distortion
+        state.display.viewport_moving = (
+            state.selection.drag is not None and state.selection.drag.kind == "pan"
+        ) or (time.perf_counter() - self._view_changed_at < VIEW_SETTLE)
         self.scene.sync(state)
         if self.test_mode and self.scene.previewing != self._previewing:
             self._previewing = self.scene.previewing
             self._announce(f"preview {'on' if self._previewing else 'off'}")
-        if state.distortion is not shown and state.content == "distortion":
-            d = state.distortion
+        if state.display.distortion is not shown and state.display.view_mode == "distortion":
+            d = state.display.distortion
             self._announce(
-                f"distortion measure={state.distortion_measure} folded={d.folded} exact={d.exact} "
+                f"distortion measure={state.display.distortion_measure} folded={d.folded} exact={d.exact} "
                 f"vertices={d.vertices} min_det={d.min_det:.6g} "
                 f"at={d.min_det_at[0]:.1f},{d.min_det_at[1]:.1f}"
             )
         width, height = self._sizes["pixels"]
-        ratio = width / max(state.window_size[0], 1)
+        ratio = width / max(state.screen.window_size[0], 1)
         self.ctx.screen.use()
         self.ctx.viewport = (0, 0, width, height)
         if width > 0 and height > 0:
@@ -976,26 +999,26 @@ class Viewer:
         self._write_frame()
         self._export_frame()
         glfw.swap_buffers(self.window)
-        state.frame_ms.append(1e3 * (time.perf_counter() - started))
-        if state.drag is not None and state.drag.kind in ("target", "source"):
-            self._drag_frame_ms.append(state.frame_ms[-1])
+        state.status.frame_ms.append(1e3 * (time.perf_counter() - started))
+        if state.selection.drag is not None and state.selection.drag.kind in ("target", "source"):
+            self._drag_frame_ms.append(state.status.frame_ms[-1])
         self._save_if_needed()
         if not self._announced_ready:
             self._announced_ready = True
             window_id = glfw.get_x11_window(self.window) if sys.platform.startswith("linux") else 0
             self._announce(f"ready window={window_id}")
             for name in ("kernel", "arc-length"):
-                x, y = state.spots.get(name, (0, 0))
+                x, y = self._spots.get(name, (0, 0))
                 self._announce(f"spot {name}={x:.0f},{y:.0f}")
         if glfw.window_should_close(self.window):
-            state.quit = True
+            state.status.quit = True
 
     def _announce(self, line: str) -> None:
         if self.test_mode:
             print(line, flush=True)
 
     def _title(self) -> str:
-        return f"Transfinite warp - {Path(self.state.live.image).name}"
+        return f"Transfinite warp - {Path(self.state.document.live.image).name}"
 
 
 @dataclass
