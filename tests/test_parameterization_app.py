@@ -13,7 +13,7 @@ from test_cli import CAGE, files, private_cache, run_main, warp_argv  # noqa: F4
 
 from app.files import read_image
 from app.viewer import session as sessions
-from app.viewer.controller import command as run_command
+from app.viewer.commands import command as run_command
 from app.viewer.demos import demo_files
 from app.viewer.precompute import basis_key, make_request
 from app.viewer.state import AppState, Document, History

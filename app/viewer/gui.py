@@ -2,7 +2,7 @@
 
 `gui(state, shortcuts)` reads `AppState` and returns what the user asked for as
 commands ``(name, value)``, the same ones the keyboard produces, which the window
-runs through `app.viewer.controller.command` (or handles itself: open, save,
+runs through `app.viewer.commands.command` (or handles itself: open, save,
 export, quit, play).  Panels: the controls on the left, the status line at the
 bottom (kernel, vertices, last precompute time, frame time), a colour bar for the
 basis-function and height views, and the help with every shortcut.
@@ -10,7 +10,6 @@ basis-function and height views, and the help with every shortcut.
 
 from __future__ import annotations
 
-import numpy as np
 from imgui_bundle import imgui
 
 from app.files import kernel_names
@@ -481,14 +480,6 @@ def _help(state: AppState, shortcuts: list[tuple[str, str]], width: float, heigh
     imgui.end()
     if opened is False:
         state.display.show_help = False
-
-
-def frame_statistics(frame_ms: list[float]) -> tuple[int, float, float]:
-    """(count, median, 95th percentile) of frame times in ms; zeros without frames."""
-    if not frame_ms:
-        return 0, 0.0, 0.0
-    values = np.asarray(frame_ms)
-    return len(values), float(np.median(values)), float(np.percentile(values, 95))
 
 
 def _parameterization_choice(live, commands: list, spots: dict) -> None:

@@ -67,7 +67,7 @@ SAVED_STEPS = 100
 
 
 @dataclass
-class Document:
+class OpenedDocument:
     """What the viewer opens with.
 
     Attributes
@@ -119,7 +119,7 @@ def open_document(
     max_edge: float | None = None,
     demo_name: str | None = None,
     fresh: bool = False,
-) -> Document:
+) -> OpenedDocument:
     """The document of ``python -m app view [IMAGE] [--cage] [--session] [--fresh]`` (or of a demo).
 
     - ``--session`` that exists: restore that file (IMAGE, ``--cage`` or ``--fresh``
@@ -188,7 +188,7 @@ def open_document(
             # A photograph: its subject is cut out of a picture the user wants to keep whole.
             preferences["outside"] = "original"
     snapshot = Snapshot(Path(os.path.realpath(image)), control_points, control_points)
-    return Document(
+    return OpenedDocument(
         snapshot,
         pixels,
         path,
@@ -232,7 +232,7 @@ def finish_interrupted_save(path: Path) -> list[str]:
     return []
 
 
-def recover(path: Path, image: Path, max_edge: float | None, notices: list[str]) -> Document | None:
+def recover(path: Path, image: Path, max_edge: float | None, notices: list[str]) -> OpenedDocument | None:
     """Restore the session of `image` from `path` or, if that cannot be read, its newest readable backup.
 
     An unreadable `path` (bad JSON, bad keys, a cage that is not simple, another
@@ -261,7 +261,7 @@ def recover(path: Path, image: Path, max_edge: float | None, notices: list[str])
     return None
 
 
-def restore(path: Path, max_edge: float | None = None) -> Document:
+def restore(path: Path, max_edge: float | None = None) -> OpenedDocument:
     """Open a session file: everything, including the view and the undo history."""
     session = read_session(path)
     pixels = read_image(session_image(session, path))
@@ -296,7 +296,7 @@ def restore(path: Path, max_edge: float | None = None) -> Document:
     except (TypeError, ValueError, KeyError, OverflowError) as error:
         undo, redo = [], []
         notices.append(f"{path}: the undo history cannot be read ({error}); starting without it")
-    return Document(
+    return OpenedDocument(
         snapshot,
         pixels,
         path,
@@ -406,7 +406,7 @@ def start_snapshot(current: Snapshot, image: np.ndarray, cage: Path | None) -> t
     return current.replace(cage=points, target=points, keyframes=()), note
 
 
-def begin_with(document: Document, snapshot: Snapshot, message: str) -> None:
+def begin_with(document: OpenedDocument, snapshot: Snapshot, message: str) -> None:
     """Make `snapshot` the document's state as one undoable step (what it held stays a Ctrl+Z away)."""
     if snapshot == document.snapshot:
         return

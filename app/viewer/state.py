@@ -376,6 +376,9 @@ class Document:
         What exports frame: ``"source"``, or ``"grow"`` to hold the whole target.
     max_edge : float or None
         A forced mesh edge length (None: from the cage's area).
+    saved : Snapshot or None
+        What the session file holds now (None: not written yet): an autosave of anything
+        else is a new version of the file.
     """
 
     history: History
@@ -386,6 +389,7 @@ class Document:
     outside: str = "transparent"
     canvas: str = "source"
     max_edge: float | None = None
+    saved: Snapshot | None = None
 
 
 @dataclass
