@@ -44,7 +44,7 @@ from app.files import (
 )
 from app.frame_writers import WRITERS, interrupted_by_sigterm
 from app.framing import CANVASES, OUTSIDES, output_frame, output_region
-from app.view import View
+from app.viewport import View
 from app.warping import Deformation, WarpSettings
 
 DEFAULT_KERNEL = "poisson"  # core.mesh_basis.DEFAULT_KERNEL, the deformation default
@@ -104,7 +104,7 @@ class WarpJob:
         The target control points of each frame, image pixels.
     size : tuple of int
         (width, height) of the output.
-    view : app.view.View
+    view : app.viewport.View
         Image pixels to output pixels.
     outside : str
         ``"original"`` or ``"transparent"``.

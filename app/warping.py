@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 import core
-from app.view import View
+from app.viewport import View
 from core.deformation import deform
 
 

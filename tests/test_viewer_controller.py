@@ -7,10 +7,10 @@ import numpy as np
 import pytest
 
 from app.files import kernel_names
-from app.view import View
 from app.viewer import commands, controller, editing
 from app.viewer.controller import LEFT, MIDDLE, RIGHT
 from app.viewer.state import AppState, Display, Document, History, Snapshot
+from app.viewport import View
 from core import examples
 
 STAR = examples.starfish(points_per_arm=2) * np.array([150.0, -150.0]) + np.array([320.0, 240.0])
@@ -144,7 +144,7 @@ def test_a_cancelled_drag_leaves_nothing_selected_and_delete_needs_cage_mode(sta
             and state.status.message_is_error
             and "cage mode" in state.status.message
         )
-    commands.command(state, "mode", "cage")
+    commands.command(state, "edit_mode", "cage")
     points = window_of(state, STAR)
     controller.pointer(state, "press", *points[2], shift=True)
     controller.pointer(state, "release", *points[2])
@@ -158,7 +158,7 @@ def test_a_cancelled_drag_leaves_nothing_selected_and_delete_needs_cage_mode(sta
 
 
 def test_cage_mode_moves_inserts_and_deletes_source_points(state):
-    commands.command(state, "mode", "cage")
+    commands.command(state, "edit_mode", "cage")
     start = window_of(state, STAR[1])
     drag(state, start, start + [6, 3])
     controller.pointer(state, "release", *(start + [6, 3]))
@@ -180,7 +180,7 @@ def test_cage_mode_moves_inserts_and_deletes_source_points(state):
 
 
 def test_a_source_move_that_crosses_the_curve_is_undone(state):
-    commands.command(state, "mode", "cage")
+    commands.command(state, "edit_mode", "cage")
     start = window_of(state, STAR[0])  # the top tip, dragged down through the whole star
     drag(state, start, window_of(state, STAR[5] + [0, 200]))
     controller.pointer(state, "release", *window_of(state, STAR[5] + [0, 200]))
@@ -212,10 +212,10 @@ def test_commands(state):
     controller.commit(state, state.document.live.replace(target=target))
     commands.command(state, "reset_target")
     np.testing.assert_array_equal(state.document.live.target, state.document.live.cage)
-    commands.command(state, "content", "basis")
+    commands.command(state, "view_mode", "basis")
     commands.command(state, "toggle", "show_wireframe")
     assert state.display.view_mode == "basis" and state.display.show_wireframe
-    commands.command(state, "mode", "cage")
+    commands.command(state, "edit_mode", "cage")
     commands.command(state, "delete")
     assert "select a control point" in state.status.message
     assert not commands.command(state, "fly")

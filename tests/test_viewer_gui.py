@@ -7,9 +7,9 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from app.view import View
 from app.viewer.gui import status_kernel
 from app.viewer.state import AppState, Display, Document, History, Snapshot
+from app.viewport import View
 
 SQUARE = np.array([[0.0, 0.0], [100.0, 0.0], [100.0, 100.0], [0.0, 100.0]])
 

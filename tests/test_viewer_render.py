@@ -14,9 +14,9 @@ import pytest
 import core
 from app.render_passes.fields import HEAT_NEGATIVE, HEAT_STOPS
 from app.render_passes.image import HIGHLIGHT_COLOUR
-from app.view import View
 from app.viewer.scene import Scene
 from app.viewer.state import AppState, BasisResult, Compute, Document, Drag, History, Snapshot
+from app.viewport import View
 
 
 def grid_mesh(count=21, size=100.0):
@@ -491,7 +491,7 @@ def test_the_scene_skips_the_fold_pass_only_where_it_would_mark_nothing(renderer
 def test_may_fold_keeps_the_pass_for_a_triangle_within_the_margin(renderer):
     """`WarpRenderer.may_fold`: a triangle squeezed to a sliver thinner than FOLD_MARGIN of its area
     (not folded, but within float32 reach of it) keeps the fold pass; a thicker sliver does not."""
-    from app.render_passes.fold_test import FOLD_MARGIN
+    from app.render_passes.fold_possible import FOLD_MARGIN
 
     vertices, triangles = grid_mesh(count=5, size=100.0)
     renderer.set_mesh(vertices, triangles)

@@ -9,11 +9,11 @@ import numpy as np
 import pytest
 
 from app.files import InputError, Session, kernel_names, read_session, session_kernel_params, session_max_edge
-from app.view import View
 from app.viewer import session as sessions
 from app.viewer.demos import demo_files
 from app.viewer.session_files import BACKUPS, backup_path, backups, session_path_for
 from app.viewer.state import AppState, Display, Document, History
+from app.viewport import View
 
 
 @pytest.fixture(autouse=True)

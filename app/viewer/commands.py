@@ -32,7 +32,7 @@ from app.viewer.controller import (
     zoom,
 )
 from app.viewer.state import EDIT_MODES, MEASURES, PARAMETERIZATIONS, SHIFTS, AppState
-from app.viewer.view_modes import CONTENTS
+from app.viewer.view_modes import VIEW_MODE_NAMES
 
 
 class WindowActions(Protocol):
@@ -204,8 +204,8 @@ def _delete(state: AppState, value) -> None:
     delete(state, value)
 
 
-@_command("mode", "deform (drag the target) or cage (edit the source)", while_drawing=False)
-def _mode(state: AppState, value) -> None:
+@_command("edit_mode", "deform (drag the target) or cage (edit the source)", while_drawing=False)
+def _edit_mode(state: AppState, value) -> None:
     state.selection.edit_mode = (
         value if value in EDIT_MODES else ("cage" if state.selection.edit_mode == "deform" else "deform")
     )
@@ -214,9 +214,9 @@ def _mode(state: AppState, value) -> None:
     state.document.session_dirty = True
 
 
-@_command("content", "what the canvas shows: image, basis, height or distortion")
-def _content(state: AppState, value) -> None:
-    if value in CONTENTS:
+@_command("view_mode", "what the canvas shows: image, basis, height or distortion")
+def _view_mode(state: AppState, value) -> None:
+    if value in VIEW_MODE_NAMES:
         state.display.view_mode = value
         state.document.session_dirty = True
 

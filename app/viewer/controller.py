@@ -25,9 +25,9 @@ import numpy as np
 
 from app.files import InputError, read_image
 from app.keyframes import Keyframe, interpolate
-from app.view import View
 from app.viewer import drawing, editing
 from app.viewer.state import AppState, Drag, Snapshot
+from app.viewport import View
 
 LEFT, RIGHT, MIDDLE = 0, 1, 2
 #: Window pixels of the status line at the bottom (kept in step with app.viewer.gui).

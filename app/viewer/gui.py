@@ -115,11 +115,22 @@ def _panel(state: AppState, commands: list, extras: dict, height: float, spots: 
     imgui.set_next_window_size_constraints((PANEL_WIDTH, 0), (PANEL_WIDTH, height - STATUS_HEIGHT))
     imgui.begin("Transfinite warp", None, _FIXED | imgui.WindowFlags_.always_auto_resize)
 
+    _edit_section(state, live, commands)
+    _kernel_section(state, live, commands, spots)
+    _show_section(state, commands)
+    _timeline(state, commands, extras)
+    _file_section(state, commands, extras)
+    state.screen.canvas_left = PANEL_WIDTH
+    imgui.end()
+
+
+def _edit_section(state: AppState, live, commands: list) -> None:
+    """What a click edits, undo, and the edits of the whole cage."""
     imgui.separator_text("Edit")
     if imgui.radio_button("Deform (target, blue)", state.selection.edit_mode == "deform"):
-        commands.append(("mode", "deform"))
+        commands.append(("edit_mode", "deform"))
     if imgui.radio_button("Edit cage (source, green)", state.selection.edit_mode == "cage"):
-        commands.append(("mode", "cage"))
+        commands.append(("edit_mode", "cage"))
     if imgui.button("Undo"):
         commands.append(("undo", None))
     imgui.same_line()
@@ -151,6 +162,9 @@ def _panel(state: AppState, commands: list, extras: dict, height: float, spots: 
         )
     imgui.text_disabled(f"{live.n} control points{selection}")
 
+
+def _kernel_section(state: AppState, live, commands: list, spots: dict) -> None:
+    """The kernel, its parameters, and the precompute's progress or error."""
     imgui.separator_text("Kernel")
     names = kernel_names()
     spots["kernel"] = tuple(imgui.get_cursor_screen_pos() + imgui.ImVec2(24, 8))
@@ -191,10 +205,13 @@ def _panel(state: AppState, commands: list, extras: dict, height: float, spots: 
         imgui.text_disabled(f"showing {state.compute.basis.kernel} until {live.kernel} is ready")
         imgui.pop_text_wrap_pos()
 
+
+def _show_section(state: AppState, commands: list) -> None:
+    """What the canvas shows, and what exports frame."""
     imgui.separator_text("Show")
     for mode in VIEW_MODES:
         if imgui.radio_button(mode.label, state.display.view_mode == mode.name):
-            commands.append(("content", mode.name))
+            commands.append(("view_mode", mode.name))
     if state.display.view_mode == "distortion":
         _choice_row(
             commands,
@@ -241,8 +258,9 @@ def _panel(state: AppState, commands: list, extras: dict, height: float, spots: 
     if state.compute.folded_count:
         imgui.text_colored((1.0, 0.5, 0.8, 1.0), f"{state.compute.folded_count} folded triangles")
 
-    _timeline(state, commands, extras)
 
+def _file_section(state: AppState, commands: list, extras: dict) -> None:
+    """Open, save, export, start over, the demo script, help and quit."""
     imgui.separator_text("File")
     if imgui.button("Open image..."):
         commands.append(("open", None))
@@ -268,8 +286,6 @@ def _panel(state: AppState, commands: list, extras: dict, height: float, spots: 
     imgui.same_line()
     if imgui.button("Quit"):
         commands.append(("quit", None))
-    state.screen.canvas_left = PANEL_WIDTH
-    imgui.end()
 
 
 #: Window pixels of the timeline strip.

@@ -30,9 +30,16 @@ def key_table() -> list[tuple]:
         ),
         (glfw.KEY_E, ctrl | shift, "export", "again", "Ctrl+Shift+E", "export again to the last file"),
         (glfw.KEY_Q, ctrl, "quit", None, "Ctrl+Q", "quit"),
-        (glfw.KEY_TAB, 0, "mode", None, "Tab", "switch between deforming and editing the cage"),
-        (glfw.KEY_D, 0, "mode", "deform", "D", "deform: drag the blue target points"),
-        (glfw.KEY_C, 0, "mode", "cage", "C", "cage: drag green points, click to add, right-click to delete"),
+        (glfw.KEY_TAB, 0, "edit_mode", None, "Tab", "switch between deforming and editing the cage"),
+        (glfw.KEY_D, 0, "edit_mode", "deform", "D", "deform: drag the blue target points"),
+        (
+            glfw.KEY_C,
+            0,
+            "edit_mode",
+            "cage",
+            "C",
+            "cage: drag green points, click to add, right-click to delete",
+        ),
         (
             glfw.KEY_N,
             0,
@@ -61,7 +68,7 @@ def key_table() -> list[tuple]:
         (glfw.KEY_K, shift, "cycle_kernel", "previous", None, None),
         # The views, Shift+1, Shift+2, ... in the panel's order.
         *(
-            (glfw.KEY_1 + k, shift, "content", mode.name, f"Shift+{k + 1}", mode.help)
+            (glfw.KEY_1 + k, shift, "view_mode", mode.name, f"Shift+{k + 1}", mode.help)
             for k, mode in enumerate(VIEW_MODES)
         ),
         (glfw.KEY_EQUAL, 0, "zoom", "in", "+, -", "zoom in, out (about the canvas centre)"),

@@ -21,16 +21,17 @@
 from __future__ import annotations
 
 import time
+from dataclasses import dataclass
 
 import numpy as np
 
 from app.framing import output_region
 from app.render import WarpRenderer
-from app.view import View
 from app.viewer.controller import band_corners
 from app.viewer.editing import curve_points, to_image
 from app.viewer.state import AppState
 from app.viewer.view_modes import BY_NAME as VIEW_MODES
+from app.viewport import View
 from core.deformation import deform
 
 #: Straight RGB of the overlays: the source curve green, the target blue (the paper's Fig. 11).
@@ -163,6 +164,36 @@ def _add_column(positions: np.ndarray, real: np.ndarray, imaginary: np.ndarray |
         positions[1] += imaginary * delta[0]
 
 
+@dataclass(frozen=True)
+class Columns:
+    """Columns of G, float32, column-major, rows in the renderer's vertex order (so that a drag
+    writes without a gather).
+
+    Attributes
+    ----------
+    columns : ndarray of shape (V, n)
+        G, or its real part.
+    imaginary : ndarray of shape (V, n) or None
+        The imaginary part of complex coordinates (Cauchy-Green).
+    order : ndarray of shape (V,) or None
+        The renderer's vertex order: row k is the mesh's vertex order[k].
+    """
+
+    columns: np.ndarray
+    imaginary: np.ndarray | None = None
+    order: np.ndarray | None = None
+
+
+@dataclass
+class Layer:
+    """The backdrop-and-mesh layer kept between frames: its framebuffer, the key of what it holds,
+    and the key of what the last frame drew (a picture drawn twice in a row is kept)."""
+
+    framebuffer: object = None  # moderngl.Framebuffer
+    key: tuple | None = None
+    drawn: tuple | None = None
+
+
 class Scene:
     """The renderer's side of the state, updated once per frame by `sync`.
 
@@ -177,26 +208,26 @@ class Scene:
         self._basis = None
         self._drawn_target: np.ndarray | None = None
         self._positions: np.ndarray | None = None  # float32, in the renderer's vertex order
-        self._order: np.ndarray | None = None
-        self._columns: np.ndarray | None = None
-        self._imaginary: np.ndarray | None = None  # imaginary parts of complex coordinates, or None
+        self._dense: Columns | None = None  # G of the drawn mesh, in the renderer's vertex order
         self._exact = False
         self._field = None
-        # The preview mesh's G, float32, column-major, rows in the renderer's preview vertex order.
-        self._preview_columns: np.ndarray | None = None
-        self._preview_imaginary: np.ndarray | None = None
+        # The preview mesh's G, rows in the renderer's preview vertex order.
+        self._preview: Columns | None = None
         self._preview_target: np.ndarray | None = None  # what the preview's positions were made for
         #: Whether the frame being drawn shows the preview mesh (`sync` decides).
         self.previewing = False
         # The backdrop-and-mesh layer (`draw`) and what it was drawn with.
-        self._layer = None
-        self.layer_key: tuple | None = None  # what the layer holds
-        self._drawn_key: tuple | None = None  # what the last frame drew
+        self._layer = Layer()
         #: CPU time of the last per-drag position update (ms), for the status line and tests.
         self.update_ms = 0.0
         # The renderer's revision at which `_positions` were written, and the fold check made there.
         self._positions_revision: int | None = None
         self._fold_check: tuple[int, bool] | None = None
+
+    @property
+    def layer_key(self) -> tuple | None:
+        """What the backdrop-and-mesh layer's framebuffer holds (None: nothing kept)."""
+        return self._layer.key
 
     @property
     def has_mesh(self) -> bool:
@@ -218,19 +249,23 @@ class Scene:
             renderer.set_mesh(basis.mesh.vertices, basis.mesh.triangles)
             self._basis = basis
             # The columns of G in the renderer's row order, so a drag writes without a gather.
-            self._order = renderer.vertex_order
-            self._columns = np.asfortranarray(basis.columns[self._order])
+            order = renderer.vertex_order
             imaginary = basis.imaginary_columns
-            self._imaginary = None if imaginary is None else np.asfortranarray(imaginary[self._order])
+            self._dense = Columns(
+                np.asfortranarray(basis.columns[order]),
+                None if imaginary is None else np.asfortranarray(imaginary[order]),
+                order,
+            )
             self._drawn_target = None
             self._field = None
-            self._preview_columns = self._preview_imaginary = self._preview_target = None
+            self._preview = self._preview_target = None
             if basis.preview is not None:
                 renderer.set_preview_mesh(basis.preview.vertices, basis.preview.triangles)
                 rows = basis.preview.basis[renderer.preview_vertex_order]
-                self._preview_columns = np.asfortranarray(rows.real, dtype=np.float32)
-                if np.iscomplexobj(rows):
-                    self._preview_imaginary = np.asfortranarray(rows.imag, dtype=np.float32)
+                self._preview = Columns(
+                    np.asfortranarray(rows.real, dtype=np.float32),
+                    np.asfortranarray(rows.imag, dtype=np.float32) if np.iscomplexobj(rows) else None,
+                )
         self.previewing = False
         if not self.mesh_matches(state):
             return
@@ -248,7 +283,7 @@ class Scene:
         ) or state.playback.playing
         return (
             (moving or state.display.viewport_moving)
-            and self._preview_columns is not None
+            and self._preview is not None
             and state.display.view_mode == "image"
             and state.selection.edit_mode == "deform"
             and not state.display.show_wireframe
@@ -262,7 +297,7 @@ class Scene:
             return  # a pan or zoom: the positions are those of the last frame
         started = time.perf_counter()
         self.renderer.set_preview_positions(
-            combined_columns(self._preview_columns, target, self._preview_imaginary)
+            combined_columns(self._preview.columns, target, self._preview.imaginary)
         )
         self._preview_target = np.array(target)
         # The dense mesh is left as it was (`_drawn_target` with it): once the motion stops it gets
@@ -286,17 +321,18 @@ class Scene:
             positions = self._positions.T  # (2, V) views of the two coordinates
             for i in changed:
                 delta = (target[i] - drawn[i]).astype(np.float32)
-                imaginary = None if self._imaginary is None else self._imaginary[:, i]
-                _add_column(positions, self._columns[:, i], imaginary, delta)
+                dense = self._dense
+                imaginary = None if dense.imaginary is None else dense.imaginary[:, i]
+                _add_column(positions, dense.columns[:, i], imaginary, delta)
             self._exact = False
         elif state.playback.playing:
             # Every frame of playback: float32 and no BLAS (`combined_columns`); the exact product,
             # and the count of folded triangles (which costs more than the product), when it stops.
-            self._positions = combined_columns(self._columns, target, self._imaginary)
+            self._positions = combined_columns(self._dense.columns, target, self._dense.imaginary)
             self._exact = False
         else:
             deformed = deform(basis.basis, target)
-            self._positions = deformed[self._order].astype(np.float32)
+            self._positions = deformed[self._dense.order].astype(np.float32)
             self._exact = True
             self._count_folds(state, deformed)
         self.renderer.set_ordered_positions(self._positions)
@@ -378,20 +414,21 @@ class Scene:
                     view, size, content=content, wireframe=wireframe, folds=marked, preview=self.previewing
                 )
 
-        if key == self.layer_key and self._layer is not None and self._layer.size == size:
-            ctx.copy_framebuffer(ctx.fbo, self._layer)
-        elif key == self._drawn_key:  # the same picture again: keep it for the frames to come
+        layer = self._layer
+        if key == layer.key and layer.framebuffer is not None and layer.framebuffer.size == size:
+            ctx.copy_framebuffer(ctx.fbo, layer.framebuffer)
+        elif key == layer.drawn:  # the same picture again: keep it for the frames to come
             target, viewport = ctx.fbo, ctx.viewport
-            layer = self._layer_framebuffer(size)
-            layer.use()
+            framebuffer = self._layer_framebuffer(size)
+            framebuffer.use()
             draw_layer()
-            self.layer_key = key
+            layer.key = key
             target.use()
             ctx.viewport = viewport
-            ctx.copy_framebuffer(target, layer)
+            ctx.copy_framebuffer(target, framebuffer)
         else:
             draw_layer()
-        self._drawn_key = key
+        layer.drawn = key
         if state.display.show_overlay:
             segments, points = overlay_arrays(state)
             renderer.set_overlay(segments, points)
@@ -399,13 +436,14 @@ class Scene:
 
     def _layer_framebuffer(self, size: tuple[int, int]):
         """The framebuffer of the backdrop-and-mesh layer, (re)made at `size`."""
-        if self._layer is None or self._layer.size != size:
+        layer = self._layer
+        if layer.framebuffer is None or layer.framebuffer.size != size:
             self.release()
-            self._layer = self.renderer.ctx.simple_framebuffer(size, components=4)
-        return self._layer
+            layer.framebuffer = self.renderer.ctx.simple_framebuffer(size, components=4)
+        return layer.framebuffer
 
     def release(self) -> None:
         """Free the layer's framebuffer (the renderer is the caller's to release)."""
-        if self._layer is not None:
-            self._layer.release()
-        self._layer = None
+        if self._layer.framebuffer is not None:
+            self._layer.framebuffer.release()
+        self._layer.framebuffer = None

@@ -47,7 +47,6 @@ from app.files import (
 )
 from app.framing import CANVASES, OUTSIDES
 from app.keyframes import DEFAULT_INTERPOLATION, MAX_TIME, Keyframe, keyframes_json
-from app.view import View
 from app.viewer.session_files import backups, keep_aside, rotate_backups, session_path_for
 from app.viewer.session_lock import SessionLock, lock_session
 from app.viewer.state import (
@@ -59,7 +58,8 @@ from app.viewer.state import (
     AppState,
     Snapshot,
 )
-from app.viewer.view_modes import CONTENTS
+from app.viewer.view_modes import VIEW_MODE_NAMES
+from app.viewport import View
 from core.atomic_write import abandoned_temporaries
 
 #: Undo steps (and redo steps) written into the session file.
@@ -440,7 +440,7 @@ def apply_preferences(state: AppState, preferences: dict | None) -> None:
     preferences = preferences or {}
     if preferences.get("mode") in EDIT_MODES:
         state.selection.edit_mode = preferences["mode"]
-    if preferences.get("content") in CONTENTS:
+    if preferences.get("content") in VIEW_MODE_NAMES:
         state.display.view_mode = preferences["content"]
     if preferences.get("distortion") in MEASURES:
         state.display.distortion_measure = preferences["distortion"]

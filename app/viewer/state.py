@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from app.keyframes import DEFAULT_INTERPOLATION, INTERPOLATIONS, Keyframe, sorted_keyframes
-from app.view import View
+from app.viewport import View
 
 #: Parameters of the ``power`` kernel family (Eq. 19) when a session does not say.
 DEFAULT_POWER = 4.0
