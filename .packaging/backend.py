@@ -5,11 +5,12 @@ numba compiles on first use (~30 s of one core on a 2-core machine).  This backe
 that compilation once while the package is built, so that an installed package starts
 every kernel from the cache:
 
-- ``pip install -e .`` (``build_editable``) compiles into ``core/__pycache__`` of the
-  source tree, where the editable install imports `core` from; a cache that is already
+- ``pip install -e .`` (``build_editable``) compiles into the ``__pycache__`` folders of `core`'s
+  subpackages in the source tree, where the editable install imports `core` from; a cache that is already
   fresh loads in about a second instead.
 - ``pip wheel .`` / ``pip install .`` (``build_wheel``) compiles from scratch and ships
-  the files (``core/__pycache__/*.nbi``, ``*.nbc``) in the wheel as package data.
+  the files (``core/*/__pycache__/*.nbi``, ``*.nbc``) in the wheel as package data
+  (`pyproject.toml` lists every subpackage that holds compiled functions).
 
 numba uses a cached function only where the numba version, the Python version, the CPU
 model and the function's source all match the build's (the build environment gets
@@ -40,11 +41,12 @@ from setuptools.build_meta import (  # noqa: F401  (the hooks this backend does 
 )
 
 ROOT = Path(__file__).resolve().parent.parent
-CACHE = ROOT / "core" / "__pycache__"
+#: The package whose `__pycache__` folders (its own and its subpackages') hold numba's cache.
+CORE = ROOT / "core"
 
 
 def _precompile(fresh: bool) -> None:
-    """Compile `core` into numba's in-tree cache (`core.compilation.compile_all`).
+    """Compile `core` into numba's in-tree cache (`core.newton.compilation.compile_all`).
 
     With `fresh`, numba's files of `core` are deleted first, so that the folder holds
     exactly what the current sources compile to (a wheel ships it whole).
@@ -52,15 +54,15 @@ def _precompile(fresh: bool) -> None:
     if os.environ.get("TRANSFINITE_PRECOMPILE", "1") == "0":
         print("transfinite-warp: TRANSFINITE_PRECOMPILE=0: the solver compiles on first use", file=sys.stderr)
         return
-    if fresh and CACHE.is_dir():
-        for path in [*CACHE.glob("*.nbi"), *CACHE.glob("*.nbc")]:
+    if fresh:
+        for path in [*CORE.rglob("__pycache__/*.nbi"), *CORE.rglob("__pycache__/*.nbc")]:
             path.unlink()
     environment = {key: value for key, value in os.environ.items() if key != "NUMBA_CACHE_DIR"}
     environment["PYTHONPATH"] = os.pathsep.join(filter(None, [str(ROOT), environment.get("PYTHONPATH")]))
     print("transfinite-warp: compiling the solver into the package (~30 s)", file=sys.stderr, flush=True)
     start = time.perf_counter()
     result = subprocess.run(
-        [sys.executable, "-c", "from core.compilation import compile_all; compile_all()"],
+        [sys.executable, "-c", "from core.newton.compilation import compile_all; compile_all()"],
         cwd=ROOT,
         env=environment,
         capture_output=True,

@@ -81,7 +81,9 @@ def animation_job(args: argparse.Namespace) -> WarpJob:
         size=size,
         view=view,
         outside=args.outside or inputs.outside,
+        fill=inputs.fill,
         output=path,
+        file=None,
         kind=kind,
         fps=args.fps,
     )

@@ -13,10 +13,12 @@ from pathlib import Path
 from app.console import EXIT_BAD_INPUT, fail
 from app.files import kernel_names
 from app.framing import CANVASES, OUTSIDES
+from app.images import DEFAULT_QUALITY
+from app.images.colours import parse_colour
 from app.keyframes import MAX_FPS, MIN_FPS
 from app.viewer.demos import SCRIPT_FORMAT
 from app.warp_job import DEFAULT_KERNEL
-from core.arc_length import PARAMETERIZATIONS
+from core.curves.arc_length import PARAMETERIZATIONS
 
 
 def command_parser(prog: str, runs: dict) -> argparse.ArgumentParser:
@@ -85,22 +87,28 @@ def _warp_command(commands, run, kernels: tuple[str, ...]) -> None:
         help="session JSON of the viewer: image, cage, target and kernel; its target, not its keyframes "
         "(animate plays those); the output is framed like the image, not like the viewer's window",
     )
-    warp.add_argument("--output", type=Path, help="output PNG (RGBA); required")
     warp.add_argument(
-        "--kernel",
-        metavar="NAME",
-        help=f"one of {', '.join(kernels)} (default: {DEFAULT_KERNEL}, or the session's)",
+        "--output",
+        type=Path,
+        help="output image, its format by its extension: .png (RGBA, 8 or 16 bits like the input), "
+        ".tif/.tiff (RGBA, 16 bits kept), .jpg/.jpeg (no transparency: give --outside original or "
+        "--background), .webp; the input's ICC profile and EXIF are carried over; required",
     )
     warp.add_argument(
-        "--parameterization",
-        choices=PARAMETERIZATIONS,
-        help="the boundary parameter of the point kernels' integrals: natural (the B-spline's, the "
-        "default, or the session's) or arc-length (the paper's Fig. 12; harmonic and pgw do not "
-        "depend on it)",
+        "--quality",
+        type=_quality_value,
+        default=DEFAULT_QUALITY,
+        metavar="Q",
+        help=f"JPEG and WebP quality, 1-100 (default {DEFAULT_QUALITY})",
     )
     warp.add_argument(
-        "--max-edge", type=_positive(float), metavar="PX", help="longest mesh edge in image pixels"
+        "--background",
+        type=_colour,
+        metavar="COLOR",
+        help="fill what the warp leaves transparent with COLOR: a name (white, black, grey...), #rrggbb "
+        "or r,g,b (0-255); needed for a JPEG output unless --outside original covers everything",
     )
+    _deformation_arguments(warp, kernels)
     size = warp.add_mutually_exclusive_group()
     size.add_argument("--scale", type=_positive(float), metavar="S", help="output size = input size x S")
     size.add_argument(
@@ -112,6 +120,13 @@ def _warp_command(commands, run, kernels: tuple[str, ...]) -> None:
         help="what the output shows outside the deformed region: transparent (the default, or the "
         "session's), or original: the untouched image, so pixels away from both cages are exactly the "
         "input; where the source cage's region is not covered by the deformed one, the original is seen",
+    )
+    warp.add_argument(
+        "--fill",
+        metavar="FILL",
+        help="with --outside original, what fills the source cage's region (the subject's original "
+        "position) under the warp: none (the default, or the session's), transparent, a colour such as "
+        "#ffffff, or inpaint (the surroundings continued inwards)",
     )
     warp.add_argument(
         "--canvas",
@@ -141,6 +156,25 @@ def _warp_command(commands, run, kernels: tuple[str, ...]) -> None:
         "piecewise linear map at triangle centroids (exact for the finite-element harmonic basis)",
     )
     warp.set_defaults(run=run)
+
+
+def _deformation_arguments(warp: argparse.ArgumentParser, kernels: tuple[str, ...]) -> None:
+    """``warp``'s kernel, boundary parameterization and mesh size."""
+    warp.add_argument(
+        "--kernel",
+        metavar="NAME",
+        help=f"one of {', '.join(kernels)} (default: {DEFAULT_KERNEL}, or the session's)",
+    )
+    warp.add_argument(
+        "--parameterization",
+        choices=PARAMETERIZATIONS,
+        help="the boundary parameter of the point kernels' integrals: natural (the B-spline's, the "
+        "default, or the session's) or arc-length (the paper's Fig. 12; harmonic and pgw do not "
+        "depend on it)",
+    )
+    warp.add_argument(
+        "--max-edge", type=_positive(float), metavar="PX", help="longest mesh edge in image pixels"
+    )
 
 
 def _fit_command(commands, run) -> None:
@@ -296,6 +330,11 @@ def _bench_command(commands, run) -> None:
     bench.add_argument("--skip-fem", action="store_true", help="no finite-element comparison")
     bench.add_argument("--skip-memory", action="store_true", help="no 1,000,000-point memory run")
     bench.add_argument("--skip-warp", action="store_true", help="no end-to-end 4K warp")
+    bench.add_argument(
+        "--skip-photos",
+        action="store_true",
+        help="no 24 and 100 megapixel photograph warps against reading and writing them (about 2 minutes)",
+    )
     bench.add_argument(
         "--skip-drag", action="store_true", help="no viewer drag frame at 6k and 400k vertices (Xvfb)"
     )
@@ -467,6 +506,13 @@ def _add_viewer_options(parser: argparse.ArgumentParser) -> None:
         "the current folder for a bundled demo or a read-only folder)",
     )
     parser.add_argument(
+        "--window-size",
+        type=_size,
+        metavar="WxH",
+        help="open the window at this size, in screen pixels (default: the size it had when last closed, "
+        "else 90%% of the screen; never larger than the screen)",
+    )
+    parser.add_argument(
         "--parameterization",
         choices=PARAMETERIZATIONS,
         help="start with this boundary parameter of the point kernels: natural or arc-length (default: "
@@ -563,3 +609,22 @@ def _size(text: str) -> tuple[int, int]:
     if width < 1 or height < 1:
         raise argparse.ArgumentTypeError(f"width and height must be positive, got {text!r}")
     return width, height
+
+
+def _quality_value(text: str) -> int:
+    """argparse type: a JPEG/WebP quality, an integer 1-100."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected an integer 1-100, got {text!r}") from None
+    if not 1 <= value <= 100:
+        raise argparse.ArgumentTypeError(f"must be an integer 1-100, got {text!r}")
+    return value
+
+
+def _colour(text: str) -> tuple[float, float, float, float]:
+    """argparse type: a colour (`app.images.colours.parse_colour`)."""
+    try:
+        return parse_colour(text)
+    except ValueError as error:
+        raise argparse.ArgumentTypeError(str(error)) from None

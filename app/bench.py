@@ -1,14 +1,15 @@
 """``python -m app bench``: the performance table on this machine.
 
 Every row is the median of repeated runs in this one process, next to a baseline
-measured in the same process (the plain numpy reference of `core.reference`, and
+measured in the same process (the plain numpy reference of `core.newton.reference`, and
 the finite-element harmonic solve the paper compares against), so that ratios
-stay meaningful on a shared, noisy machine.  The 1,000,000-point memory run and
-the 4K warp run as child processes, to measure their own peak memory and their
-whole time from process start.  The drag frame is measured in the real viewer:
-a child ``python -m app demo starfish`` in a window on a private Xvfb server,
-replaying a scripted drag of one control point through the mouse's input path,
-and its ``--stats`` line (``median_drag_frame_ms``) read on exit.
+stay meaningful on a shared, noisy machine.  The 1,000,000-point memory run,
+the 4K warp and the photograph rows (`app.bench_photos`) run as child processes,
+to measure their own peak memory and their whole time from process start.  The
+drag frame is measured in the real viewer: a child ``python -m app demo starfish``
+in a window on a private Xvfb server, replaying a scripted drag of one control
+point through the mouse's input path, and its ``--stats`` line
+(``median_drag_frame_ms``) read on exit.
 """
 
 from __future__ import annotations
@@ -32,10 +33,11 @@ from pathlib import Path
 import numpy as np
 
 import core
+from app.bench_photos import PHOTO_SIZES, QUICK_SIZE, photo_rows
 from app.console import EXIT_ENVIRONMENT, EXIT_OK, ProgressBar
-from core import examples
-from core.compilation import GRADIENTS_MESSAGE as GRADIENTS_COMPILING
-from core.poisson import load_compiled
+from core.boundary_integrals.poisson import load_compiled
+from core.curves import examples
+from core.newton.compilation import GRADIENTS_MESSAGE as GRADIENTS_COMPILING
 
 # The paper's Fig. 7 setting: a 12-point domain, N = 100 n samples, 26,000 points.
 SAMPLES_PER_SEGMENT = 100
@@ -82,6 +84,8 @@ def run_bench(args: argparse.Namespace) -> int:
         children.append(lambda: _memory(curve, 20_000 if args.quick else 1_000_000))
     if not args.skip_warp:
         children.append(lambda: _warp_4k((640, 360) if args.quick else (3840, 2160)))
+    if not args.skip_photos:
+        children.append(lambda: photo_rows((QUICK_SIZE,) if args.quick else PHOTO_SIZES, run_child))
     if not args.skip_drag:
         children.append(
             lambda: _drag_frames(DRAG_VERTICES[:1], 1.0) if args.quick else _drag_frames(DRAG_VERTICES)
@@ -226,8 +230,8 @@ def _point_kernels(curve, sizes, repeats, quick) -> None:
     count = min(sizes[0], 200 if quick else 1_000)
     x = _points(curve, count, seed=1)
     # The baseline solves only farther than a few sample spacings from the boundary.
-    from core.closest_point import distance_to_curve
-    from core.reference import reference_kernel
+    from core.curves.closest_point import distance_to_curve
+    from core.newton.reference import reference_kernel
 
     x = x[distance_to_curve(curve.piecewise_polynomial(), x) > 0.02 * curve.diameter]
     boundary = curve.sample(SAMPLES_PER_SEGMENT)
@@ -307,8 +311,8 @@ def _fem_comparison(curve, vertices, repeats: int, least_seconds: float = ROW_SE
 
 
 def _forget_densities() -> None:
-    """Empty the in-process cache of `core.poisson`'s densities, so that a timed run solves again."""
-    from core.poisson import _densities
+    """Empty the in-process cache of `poisson`'s densities, so that a timed run solves again."""
+    from core.boundary_integrals.poisson import _densities
 
     _densities.cache_clear()
 
@@ -317,7 +321,7 @@ _MEMORY_CHILD = """
 import sys, time, warnings
 import numpy as np
 import core
-from core import examples
+from core.curves import examples
 curve = core.ClosedBSpline(examples.blob() * {scale})
 core.basis_functions(curve, [[500.0, 300.0]], "harmonic-like")
 rng = np.random.default_rng(2)

@@ -244,7 +244,12 @@ def _view(args: argparse.Namespace) -> int:
     if args.image is None and (args.session is None or not args.session.exists()):
         script = demo_files(DEFAULT_DEMO).script
     options = Options(
-        stats=args.stats, max_edge=args.max_edge, vertices=args.vertices, script=script, export=args.export
+        stats=args.stats,
+        max_edge=args.max_edge,
+        vertices=args.vertices,
+        script=script,
+        export=args.export,
+        size=args.window_size,
     )
     return run(document, options)
 
@@ -288,6 +293,7 @@ def _demo(args: argparse.Namespace) -> int:
         frames=args.frames,
         fps=args.fps,
         export=args.export,
+        size=args.window_size,
     )
     return run(document, options)
 

@@ -6,7 +6,7 @@ one mesh of the domain (Sec. 4.3).  Every interpolant is compared with the
 harmonic one (Sec. 4.2), the paper's reference, by its area-weighted RMS and its
 maximum distance over the vertices.  The point kernels integrate over the boundary
 in its natural B-spline parameter, in its arc length (``--parameterization
-arc-length``, `core.arc_length`) or both, side by side (the paper's Fig. 12).  The
+arc-length``, `core.curves.arc_length`) or both, side by side (the paper's Fig. 12).  The
 figure shows each one from above in height bands of 0.1 (negative red, above 1
 green, blue to yellow in between).
 """
@@ -33,8 +33,8 @@ from app.files import (
     reported_as_input,
     write_png,
 )
-from core.compilation import MESSAGE as COMPILING
 from core.mesh_basis import MESH_ONLY_KERNELS
+from core.newton.compilation import MESSAGE as COMPILING
 
 #: Reference kernel of the comparison.
 REFERENCE = "harmonic"
@@ -98,7 +98,7 @@ def run_compare(args: argparse.Namespace) -> int:
     """The ``compare`` command: table on stdout, figure to ``args.output``; returns the exit code."""
     import core
     from app.render import create_headless_context
-    from core.examples import wave_heights
+    from core.curves.examples import wave_heights
 
     check_writable(args.output, suffix=".png")
     refuse_overwriting_inputs(args.output, {"domain cage": args.cage, "data file": args.data})

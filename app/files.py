@@ -19,7 +19,7 @@ import math
 import os
 import re
 import stat
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field
 from numbers import Real
 from pathlib import Path
@@ -27,16 +27,30 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from app.console import captured_c_stderr
+from app.console import captured_c_stderr, note
 from app.image_header import MAX_IMAGE_PIXELS, ImageHeader, image_header
+from app.images import (
+    DEFAULT_QUALITY,
+    OUTPUT_FORMATS,
+    ImageMetadata,
+    Photo,
+    encode_image,
+    oriented,
+    output_format,
+    read_metadata,
+    rgba_pixels,
+)
+from app.images.tiles import PngStripWriter
 from app.keyframes import DEFAULT_INTERPOLATION, INTERPOLATIONS, Keyframe, sorted_keyframes
-from core.atomic_write import NAME_MAX, write_atomically
+from core.storage.atomic_write import NAME_MAX, write_atomically
 from core.validation import MAX_CONTROL_POINTS, as_points, too_many_control_points
 
 #: Largest image file read into memory.
 MAX_IMAGE_FILE_BYTES = 1 << 30
 #: Largest JSON file (cage, session, script, data) read: parsed, it takes about 10 times that.
 MAX_JSON_FILE_BYTES = 1 << 27
+#: The extensions of the image files written (`write_image`): PNG, TIFF, JPEG, WebP.
+IMAGE_SUFFIXES = tuple(OUTPUT_FORMATS)
 #: Largest cage coordinate, in pixels: beyond it float64 has no sub-pixel precision left.
 MAX_COORDINATE = 1e15
 
@@ -83,7 +97,7 @@ def cage_curve(control_points: np.ndarray, where: str, samples_per_segment: int 
 def write_atomic(path: str | os.PathLike, data: bytes) -> None:
     """Write `data` to `path` through a temporary file in the same directory and `os.replace`.
 
-    Temporaries left by a killed process are removed first (`core.atomic_write`);
+    Temporaries left by a killed process are removed first (`core.storage.atomic_write`);
     a new file gets the mode the umask gives, a replaced one keeps its mode.
 
     Raises
@@ -99,19 +113,21 @@ def write_atomic(path: str | os.PathLike, data: bytes) -> None:
         raise InputError(f"{path}: cannot write ({error.strerror or error})") from None
 
 
-def check_writable(path: str | os.PathLike, *, suffix: str | None = None) -> None:
+def check_writable(path: str | os.PathLike, *, suffix: str | tuple[str, ...] | None = None) -> None:
     """Raise `InputError` early if `path` obviously cannot be written (before long work).
 
     Parameters
     ----------
     path : path-like
         The output file.
-    suffix : str, optional
-        Required file name extension, e.g. ``".png"`` (compared case-insensitively).
+    suffix : str or tuple of str, optional
+        Required file name extension, e.g. ``".png"``, or one of several (`IMAGE_SUFFIXES`),
+        compared case-insensitively.
     """
     path = Path(path)
-    if suffix is not None and path.suffix.lower() != suffix:
-        raise InputError(f"{path}: the output file name must end in {suffix}")
+    suffixes = (suffix,) if isinstance(suffix, str) else suffix
+    if suffixes is not None and path.suffix.lower() not in suffixes:
+        raise InputError(f"{path}: the output file name must end in {', '.join(suffixes)}")
     check_name_length(path)
     try:
         if path.is_dir():
@@ -421,7 +437,7 @@ def session_output(session: Session, path: str | os.PathLike = "session") -> tup
 def session_parameterization(session: Session, path: str | os.PathLike = "session") -> str:
     """The session's ``parameterization`` of the boundary for the point kernels (Fig. 12):
     ``"natural"`` (also when absent, as in older sessions) or ``"arc-length"``."""
-    from core.arc_length import DEFAULT_PARAMETERIZATION, PARAMETERIZATIONS
+    from core.curves.arc_length import DEFAULT_PARAMETERIZATION, PARAMETERIZATIONS
 
     value = session.extra.get("parameterization", DEFAULT_PARAMETERIZATION)
     if value not in PARAMETERIZATIONS:
@@ -489,15 +505,31 @@ def _view(value, path: Path) -> tuple[float, tuple[float, float]]:
 
 
 def read_image(path: str | os.PathLike) -> np.ndarray:
-    """Decode an image file (PNG, JPEG, ... anything OpenCV reads) as RGBA.
-
-    The header is read first: an image of more than `MAX_IMAGE_PIXELS` pixels is
-    refused before anything is allocated for it.
+    """The pixels of an image file: `read_photo`'s, without the metadata.
 
     Returns
     -------
-    ndarray of shape (H, W, 4), uint8
-        Straight alpha (255 where the file has none), row 0 at the top.
+    ndarray of shape (H, W, 4), uint8 or uint16 (the file's depth)
+        Straight alpha (the type's maximum where the file has none), row 0 at the top of the
+        displayed picture (EXIF orientation applied).
+    """
+    return read_photo(path).pixels
+
+
+def read_photo(path: str | os.PathLike) -> Photo:
+    """Decode an image file (PNG, JPEG, TIFF, WebP, ... anything OpenCV reads) as RGBA and its metadata.
+
+    The header is read first: an image of more than `MAX_IMAGE_PIXELS` pixels is
+    refused before anything is allocated for it.  8- and 16-bit samples are kept; grey,
+    palette and CMYK pictures become RGB; the EXIF orientation is applied, so that cage
+    coordinates are in the frame every viewer shows; the ICC profile and EXIF block are
+    kept for writing (`write_image`).  What is dropped or ignored (a malformed EXIF
+    block, the other pages of a TIFF) is a note.
+
+    Returns
+    -------
+    Photo
+        ``pixels`` of shape (H, W, 4), uint8 or uint16, straight alpha, row 0 at the top.
 
     Raises
     ------
@@ -511,17 +543,23 @@ def read_image(path: str | os.PathLike) -> np.ndarray:
     header = image_header(data)
     if header is not None:
         check_image_size(header, path)
-    image = _decode(data, path)
-    if image.dtype == np.uint16:
-        image = ((image.astype(np.uint32) + 128) // 257).astype(np.uint8)
-    elif image.dtype != np.uint8:
-        raise InputError(f"{path}: unsupported pixel type {image.dtype}; use 8- or 16-bit images")
-    if image.ndim == 2:
-        return cv2.cvtColor(image, cv2.COLOR_GRAY2RGBA)
-    conversions = {3: cv2.COLOR_BGR2RGBA, 4: cv2.COLOR_BGRA2RGBA}
-    if image.shape[2] not in conversions:
-        raise InputError(f"{path}: unsupported image with {image.shape[2]} channels")
-    return cv2.cvtColor(image, conversions[image.shape[2]])
+    info = read_metadata(data)
+    decoded = _decode(data, path)
+    del data  # the encoded file is no longer needed: less memory held with the pixels
+    with reported_as_input(str(path)):
+        pixels = oriented(rgba_pixels(decoded), info.orientation)
+    for line in info.notes:
+        note(f"{path}: {line}")
+    return Photo(pixels, info.metadata, info.notes)
+
+
+def image_metadata(path: str | os.PathLike) -> ImageMetadata:
+    """The ICC profile and EXIF block of the image file `path` (orientation reset to 1), without
+    decoding its pixels; empty if the file cannot be read."""
+    try:
+        return read_metadata(_read_bytes(Path(path), MAX_IMAGE_FILE_BYTES)).metadata
+    except InputError:
+        return ImageMetadata()
 
 
 def check_image_size(header: ImageHeader, path: str | os.PathLike) -> None:
@@ -554,17 +592,67 @@ def _decode(data: bytes, path: Path) -> np.ndarray:
     return image
 
 
-def encode_png(image: np.ndarray) -> bytes:
-    """PNG bytes of an RGBA uint8 image of shape (H, W, 4), row 0 at the top."""
-    ok, buffer = cv2.imencode(".png", cv2.cvtColor(image, cv2.COLOR_RGBA2BGRA))
-    if not ok:
-        raise RuntimeError("OpenCV failed to encode a PNG")
-    return buffer.tobytes()
+def encode_png(image: np.ndarray, metadata: ImageMetadata | None = None) -> bytes:
+    """PNG bytes of an RGBA image of shape (H, W, 4), uint8 or uint16 (kept), row 0 at the top,
+    with the ICC profile and EXIF block of `metadata` if given."""
+    return encode_image(image, "PNG", metadata)
 
 
-def write_png(path: str | os.PathLike, image: np.ndarray) -> None:
-    """Write an RGBA uint8 image of shape (H, W, 4) as PNG, atomically."""
-    write_atomic(path, encode_png(image))
+def write_png(path: str | os.PathLike, image: np.ndarray, metadata: ImageMetadata | None = None) -> None:
+    """Write an RGBA image of shape (H, W, 4), uint8 or uint16, as PNG, atomically."""
+    write_atomic(path, encode_png(image, metadata))
+
+
+def write_image(
+    path: str | os.PathLike,
+    image: np.ndarray,
+    metadata: ImageMetadata | None = None,
+    quality: int = DEFAULT_QUALITY,
+) -> None:
+    """Write an RGBA image (H, W, 4), uint8 or uint16, in the format of `path`'s extension, atomically.
+
+    PNG and TIFF keep 16 bits; JPEG and WebP are 8-bit at `quality`.  The ICC profile and
+    EXIF block of `metadata` are embedded (`app.images.writing`).
+
+    Raises
+    ------
+    InputError
+        An extension not written, or transparent pixels for a JPEG: nothing is written.
+    """
+    with reported_as_input(str(path)):
+        data = encode_image(image, output_format(path), metadata, quality)
+    write_atomic(path, data)
+
+
+def write_png_strips(
+    path: str | os.PathLike,
+    size: tuple[int, int],
+    dtype,
+    strips: Iterable[tuple[int, np.ndarray]],
+    metadata: ImageMetadata | None = None,
+) -> None:
+    """Write a PNG of (width, height) RGBA pixels from its horizontal strips, atomically.
+
+    Each strip (top row, ndarray of shape (r, width, 4) of `dtype`) is compressed while the
+    next one is made (`app.images.tiles.PngStripWriter`): the whole image is never in memory.
+    """
+    path = Path(path)
+    check_writable(path)
+
+    def write(stream) -> None:
+        writer = PngStripWriter(stream, size, dtype, metadata)
+        try:
+            for _, rows in strips:
+                writer.add(rows)
+            writer.finish()
+        except BaseException:
+            writer.close()
+            raise
+
+    try:
+        write_atomically(path, write)
+    except OSError as error:
+        raise InputError(f"{path}: cannot write ({error.strerror or error})") from None
 
 
 def _read_bytes(path: Path, limit: int) -> bytes:

@@ -1,20 +1,35 @@
 """Fit a cage (closed uniform quadratic B-spline, Sec. 4.1) around the main subject of an image.
 
-The subject is `app.subject.subject_mask`'s: an alpha channel, a silhouette on a plain
-background, or the subject of a photograph found by GrabCut and refined.  The cage goes
-`SUBJECT_MARGIN` outside a photograph's subject, because a segmentation is uncertain by a
-few pixels and a cage that cuts into the subject tears it when deformed, while a thin band
-of background inside the cage just moves along.
+The subject (`subject_mask`) is, in this order of trust:
+
+- the alpha channel, when the image has one that is not all opaque;
+- a silhouette on a plain background, when the grey levels are two-toned (Otsu's
+  threshold explains at least `TWO_TONE` of their variance): the largest object of
+  that threshold, in the polarity in which it does not touch the border;
+- otherwise a photograph: GrabCut (Rother, Kolmogorov and Blake 2004) on a copy of
+  about `SEGMENT_PIXELS` pixels.  Outside the rectangle is background; inside it
+  the probable subject is seeded by the geodesic boundary saliency
+  (`boundary_saliency`) and by the colours that the border does not explain
+  (`border_contrast`); when the depth of field is shallow (`in_focus`), only what
+  is in focus, and the subject may then run into the border.
+  Of what GrabCut keeps, the largest and most central region is taken, its holes
+  filled and its outline smoothed; then the band along its outline is decided
+  anew on a finer copy (`refined_subject`), from the colours of the subject's core
+  and of the background next to it, and holes and bays with a narrow mouth
+  (a dark collar between a face and a suit) are filled.  The cage goes `SUBJECT_MARGIN` outside the
+  result, because a segmentation is uncertain by a few pixels and a cage that cuts
+  into the subject tears it when deformed, while a thin band of background inside
+  the cage just moves along.
 
 A photograph's subject is uncertain when it is tiny or when colour hardly tells it
-from the background around it (`app.subject.colour_separation`): `fit_cage` then warns.
-With a rectangle from the user there is always a cage, inside it: the rectangle itself
+from the background around it (`colour_separation`): `fit_cage` then warns.  With a
+rectangle from the user there is always a cage, inside it: the rectangle itself
 when nothing stands out there.
 
 Alpha channels and plain silhouettes are exact to the pixel and get no margin.  The
 outer contour of the subject is parameterised by arc length and the n control
 points solve the linear least squares problem ``B(t) P = contour`` with the folded
-basis of `core.bspline`; then a few rounds move every parameter to its foot point
+basis of `core.curves.bspline`; then a few rounds move every parameter to its foot point
 on the current curve and minimise the distances to the tangent lines there, so
 the result fits the distance to the curve, not to fixed parameters.
 
@@ -29,38 +44,88 @@ import warnings
 
 import cv2
 import numpy as np
-from scipy.ndimage import gaussian_filter1d
+from scipy.ndimage import gaussian_filter1d, minimum
 
-from app.subject import checked_image, checked_rect, colour_separation, downscaled, find_subject, grown
-from core.bspline import ClosedBSpline, basis_weights
+from app.fit_colours import (
+    DEFAULT_INSET,
+    border_contrast,
+    boundary_saliency,
+    colour_model,
+    frame_mask,
+    in_focus,
+    log_likelihood,
+)
+from app.fit_curve import fit_closed_bspline, snap_corners
+from app.images.writing import eight_bit
+from core.curves.bspline import ClosedBSpline
 from core.mesh_basis import DEFAULT_SAMPLES_PER_SEGMENT
 from core.validation import MAX_BOUNDARY_SAMPLES, positive_int
 
-#: Most rounds of the tangent-distance fit after the arc-length fit.
-FIT_ROUNDS = 12
 #: Most control points of a fitted cage: what the kernels sample at their default density.
 MAX_POINTS = MAX_BOUNDARY_SAMPLES // DEFAULT_SAMPLES_PER_SEGMENT
-#: Newton steps of the foot-point parameters per round.
-FOOT_POINT_STEPS = 3
-#: Weight of the tangential distance relative to the normal one.
-TANGENTIAL_WEIGHT = 1e-4
-#: Neighbouring control points closer than this (pixels) become a sharp corner.
-CORNER_SNAP = 1.0
-#: Larger images are fitted on a copy of about this many pixels (2048 x 2048): the cost
-#: grows with the outline's length, the cage's accuracy is a fraction of a span.
-FIT_PIXELS = 1 << 22
+#: Larger images are fitted on a copy of at most this many pixels (1024 x 1024), shrunk by a
+#: whole factor: the segmentation's thresholds and windows are in pixels, so a photograph
+#: and its copies at other resolutions must be seen at about the same one (issue 36: a
+#: 4000 x 3000 photograph gets the cage of its 1000 x 750 copy); the cage's accuracy is a
+#: fraction of a span.
+FIT_PIXELS = 1 << 20
+#: Share of the grey levels' variance that Otsu's two classes must explain for an
+#: opaque image to count as a silhouette on a plain background (antialiased
+#: silhouettes: above 0.97; photographs of scikit-image's data: 0.57 to 0.86).
+TWO_TONE = 0.92
+#: GrabCut runs on a copy of about this many pixels (256 x 256): its cost grows with
+#: the pixels, and a cage of a few dozen control points needs no finer outline.
+SEGMENT_PIXELS = 1 << 15
+#: GrabCut's rounds of colour models and graph cut.
+GRABCUT_ITERATIONS = 4
+#: Without a rectangle, GrabCut's rectangle is the box of the central region salient above
+#: this fraction of the saliency's Otsu threshold, grown by `RECT_GROWTH` of its longer side.
+RECT_LEVEL = 0.5
+RECT_GROWTH = 0.08
+#: Inside the rectangle, pixels salient above this fraction of the Otsu threshold seed
+#: the probable subject, the others the probable background.
+SEED_LEVEL = 0.25
+#: A subject of less than this share of the rectangle is a detail (an eye of a close-up
+#: face): GrabCut starts again from the rectangle alone, and the larger result is kept.
+MIN_SUBJECT = 0.05
+#: The larger result of that second run is kept only if it stands out from the background
+#: next to it (`_stands_out`): on scikit-image's rocket the first run keeps the rocket (2 %),
+#: the second the sky beside it, no more salient than the sky around that.
 #: A subject of less than `SMALL_SUBJECT` of the picture (or rectangle), or whose colours
 #: and those of the background around it tell them apart for less than `SEPARATION` of
-#: their pixels (`app.subject.colour_separation`), is uncertain: `fit_cage` warns
+#: their pixels (`colour_separation`), is uncertain: `fit_cage` warns
 #: (`SubjectUncertainWarning`).  Measured on scikit-image's photographs: 0.82 to 0.99
 #: where the cage holds the subject (chelsea 0.82, astronaut 0.88), 0.71 to 0.74 on the
 #: cameraman, the motorcycle and the coins, whose cages miss much of them, 0.64 and 0.50
 #: on the Hubble deep field and the moon, which have no single subject.
 SMALL_SUBJECT = 0.01
 SEPARATION = 0.78
+#: Other parts of GrabCut's result join the main one when at least this share of its
+#: area and closer than `MERGE_GAP` of the rectangle's diagonal (`_central_component`).
+MERGE_AREA = 0.1
+MERGE_GAP = 0.15
+#: Opening and closing of GrabCut's mask, as a fraction of the rectangle's shorter side.
+SMOOTHING = 0.02
 #: The cage of a segmented subject goes around it grown by this fraction of the
 #: diagonal of its bounding box.
 SUBJECT_MARGIN = 0.015
+#: GrabCut's outline is refined (`refined_subject`) on a copy of about this many pixels
+#: (362 x 362): twice as fine as `SEGMENT_PIXELS` in each direction.
+REFINE_PIXELS = 1 << 17
+#: Half the width of the band of the outline that the refinement decides anew, as a
+#: fraction of the square root of the subject's area (5.7 % of the side of a square).
+REFINE_BAND = 0.1
+#: The background's colours are learned out to this many band widths from the outline.
+REFINE_RING = 3
+#: Rounds of the refinement: each can move the outline by one band width.
+REFINE_ROUNDS = 2
+#: The refinement needs this many pixels of the core and of the ring to learn its models
+#: (GrabCut's mixtures have five components).
+MIN_SAMPLES = 50
+#: Holes and bays of the subject whose mouth is narrower than twice this fraction of the
+#: square root of its area are filled (`_bays_filled`): a portrait's dark collar ring,
+#: left out by its colour, is part of the subject; an L's open corner stays open.
+BAY_MOUTH = 0.15
 
 
 class CageFitWarning(UserWarning):
@@ -81,7 +146,7 @@ def fit_cage(
 
     Parameters
     ----------
-    image : ndarray of shape (H, W, 4) or (H, W, 3), uint8
+    image : ndarray of shape (H, W, 4) or (H, W, 3), uint8 or uint16
         RGBA or RGB, row 0 at the top.
     points : int
         n >= 3, the number of control points.
@@ -90,8 +155,8 @@ def fit_cage(
         what is inside is considered.  Default: the whole image (for a photograph,
         all but a frame of `DEFAULT_INSET` of each side).
     max_pixels : int
-        An image of more pixels is fitted on a copy shrunk to about this many
-        (`downscaled`), and the cage mapped back to the image's pixels.
+        An image of more pixels is fitted on a copy shrunk by a whole factor to at most this
+        many (`working_copy`), and the cage mapped back to the image's pixels.
 
     Returns
     -------
@@ -126,11 +191,11 @@ def fit_cage(
             f"points={points:,} is more than the {MAX_POINTS:,} control points the kernels sample at "
             f"{DEFAULT_SAMPLES_PER_SEGMENT} per span; use 3 <= points <= {MAX_POINTS:,}"
         )
-    image = checked_image(image)
+    image = _checked_image(image)
     rect = checked_rect(rect, image.shape[1], image.shape[0])
-    image, scale = downscaled(image, positive_int(max_pixels, "max_pixels"))
+    image, scale = working_copy(image, positive_int(max_pixels, "max_pixels"))
     region = None if rect is None else rect / np.tile(scale, 2)
-    mask, exact = find_subject(image, region)
+    mask, exact = _subject(image, region)
     if mask is None:
         warnings.warn(
             "the subject is uncertain: nothing stands out inside the rectangle, so the cage is the rectangle",
@@ -140,7 +205,7 @@ def fit_cage(
         return rectangle_cage(rect, points)
     if not exact:
         _warn_if_uncertain(image, mask, region)
-        mask = grown(mask, SUBJECT_MARGIN)
+        mask = _grown(mask, SUBJECT_MARGIN)
     contour = mask_outline(mask)
     if len(contour) < 3 * points:
         if region is not None:
@@ -155,7 +220,7 @@ def fit_cage(
             f"the subject's outline has only {len(contour)} pixels, too few for {points} control "
             "points; use fewer points or a larger image"
         )
-    control_points = _simple_fit(contour, points, region, float(np.sqrt(np.prod(scale))))
+    control_points = _simple_curve(contour, points, region, scale)
     if control_points is not None:
         if rect is None:
             return control_points * scale
@@ -168,15 +233,13 @@ def fit_cage(
     raise ValueError("could not fit a simple closed curve to the subject")
 
 
-def _simple_fit(
-    contour: np.ndarray, points: int, region: np.ndarray | None, pixel: float
-) -> np.ndarray | None:
-    """Control points (m, 2) of a simple closed curve fitted to `contour` (K, 2), or None.
+def _simple_curve(contour: np.ndarray, points: int, region, scale: np.ndarray) -> np.ndarray | None:
+    """Control points (m, 2) of a simple curve fitted to `contour` (K, 2), in the fitted copy's pixels.
 
-    The first of `points`, `points` - 1, ... 3 control points and of growing smoothings of the
-    contour whose curve does not cross itself, held inside `region` (x, y, width, height) if
-    given; a `CageFitWarning` says what was given up.  `pixel` is the side of one pixel of the
-    contour's copy in image pixels (to report the smoothing in them).
+    m is `points` unless that curve crosses itself: then the contour is smoothed over a
+    growing fraction of a span, and m lowered, until it does not (a `CageFitWarning` says
+    so).  With `region` (x, y, w, h) the control points are held inside it.  None if no
+    simple curve of 3 or more points was found.
     """
     length = _perimeter(contour)
     for count in range(points, 2, -1):
@@ -197,7 +260,8 @@ def _simple_fit(
             if (count, smoothing) != (points, 0.0):
                 remedy = [f"used {count} points"] if count != points else []
                 if sigma:
-                    remedy.append(f"smoothed the outline over {sigma * length / len(contour) * pixel:.1f} px")
+                    pixels = sigma * length / len(contour) * float(np.sqrt(np.prod(scale)))
+                    remedy.append(f"smoothed the outline over {pixels:.1f} px")
                 warnings.warn(
                     f"the fitted curve with {points} control points crossed itself; {' and '.join(remedy)}",
                     CageFitWarning,
@@ -207,34 +271,259 @@ def _simple_fit(
     return None
 
 
-def snap_corners(control_points: np.ndarray, tolerance: float = CORNER_SNAP) -> np.ndarray:
-    """Make neighbouring control points closer than `tolerance` an exact double.
+def subject_mask(image: np.ndarray, rect=None) -> np.ndarray:
+    """The main subject of the image, bool ndarray of shape (H, W), without the cage's margin.
 
-    Least squares pulls two control points together at a sharp corner of the
-    outline.  Less than a pixel apart they are a corner to the eye, but a curvature
-    spike to the numerics; doubled exactly they are the sharp corner that
-    `core.ClosedBSpline` models (Fig. 10 of the paper).  Pairs do not chain, so
-    no point is repeated three times.
+    `fit_cage` fits its cage around this mask (computed on its working copy).
 
     Parameters
     ----------
-    control_points : ndarray of shape (n, 2)
-    tolerance : float
-        Distance in pixels.
+    image : ndarray of shape (H, W, 4) or (H, W, 3), uint8
+        RGBA or RGB, row 0 at the top.
+    rect : sequence of 4 numbers (x, y, width, height), optional
+        As in `fit_cage`: nothing outside it is part of the subject.
 
-    Returns
-    -------
-    ndarray of shape (n, 2)
+    Raises
+    ------
+    ValueError
+        If the image or the rectangle is invalid, or no subject is found.
     """
-    points = np.array(control_points, dtype=np.float64)
-    count = len(points)
-    taken = np.zeros(count, dtype=bool)
-    for i in range(count):
-        j = (i + 1) % count
-        if not (taken[i] or taken[j]) and np.linalg.norm(points[i] - points[j]) < tolerance:
-            points[i] = points[j] = 0.5 * (points[i] + points[j])
-            taken[i] = taken[j] = True
-    return points
+    image = _checked_image(image)
+    mask = _subject(image, checked_rect(rect, image.shape[1], image.shape[0]))[0]
+    if mask is None:
+        raise ValueError("found no subject inside the rectangle")
+    return mask
+
+
+def checked_rect(rect, width: int, height: int) -> np.ndarray | None:
+    """`rect` as float64 (x, y, width, height), shape (4,), or None; `ValueError` unless inside the image.
+
+    The rectangle must have a positive width and height and lie within the
+    `width` x `height` image (x right, y down, origin at the top-left corner).
+    """
+    if rect is None:
+        return None
+    try:
+        values = np.array(rect, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"rect must be four numbers x, y, width, height, got {rect!r}") from None
+    if values.shape != (4,) or not np.isfinite(values).all():
+        raise ValueError(f"rect must be four finite numbers x, y, width, height, got {rect!r}")
+    x, y, w, h = values
+    if w <= 0 or h <= 0:
+        raise ValueError(f"rect must have a positive width and height, got {w:g}x{h:g}")
+    if x < 0 or y < 0 or x + w > width or y + h > height:
+        raise ValueError(
+            f"rect reaches outside the {width}x{height} image: it spans x {x:g} to {x + w:g} "
+            f"and y {y:g} to {y + h:g}"
+        )
+    return values
+
+
+def working_copy(image: np.ndarray, max_pixels: int) -> tuple[np.ndarray, np.ndarray]:
+    """`image` (H, W, C) shrunk by area averaging by the smallest whole factor k that leaves at most
+    `max_pixels` pixels: about W / k x H / k, the image itself if it has no more.
+
+    A whole factor makes a photograph and its copy shrunk by a factor of it the same picture
+    here (area averaging over k x k blocks).  Returns the copy and the scale (W / w, H / h), as
+    `downscaled`.
+    """
+    height, width = image.shape[:2]
+    if height * width <= max_pixels:
+        return image, np.ones(2)
+    factor = int(np.ceil(np.sqrt(height * width / max_pixels)))
+    while round(width / factor) * round(height / factor) > max_pixels:
+        factor += 1
+    size = (max(1, round(width / factor)), max(1, round(height / factor)))
+    small = cv2.resize(image, size, interpolation=cv2.INTER_AREA)
+    return small, np.array([width / size[0], height / size[1]])
+
+
+def downscaled(image: np.ndarray, max_pixels: int) -> tuple[np.ndarray, np.ndarray]:
+    """`image` (H, W, C) shrunk by area averaging to at most `max_pixels` pixels.
+
+    Returns the copy (h, w, C) (the image itself if small enough) and the scale
+    (W / w, H / h), shape (2,), that maps its pixel coordinates (x right, y down,
+    origin at the top-left corner) back to the image's.
+    """
+    height, width = image.shape[:2]
+    if height * width <= max_pixels:
+        return image, np.ones(2)
+    factor = np.sqrt(max_pixels / (height * width))
+    size = (max(1, int(width * factor)), max(1, int(height * factor)))
+    small = cv2.resize(image, size, interpolation=cv2.INTER_AREA)
+    return small, np.array([width / size[0], height / size[1]])
+
+
+def silhouette_mask(image: np.ndarray) -> np.ndarray:
+    """The main object of a silhouette image, bool ndarray of shape (H, W).
+
+    The alpha channel decides when it is present and not all opaque; otherwise
+    the object is the largest component of an Otsu threshold, taking the polarity
+    (dark or light object) whose largest component does not touch the border.
+    """
+    image = _checked_image(image)
+    if image.shape[2] == 4 and image[..., 3].min() < 255:
+        candidates = [_largest_component(image[..., 3] >= 128)]
+    else:
+        grey = _grey(image)
+        _, light = cv2.threshold(grey, 0, 1, cv2.THRESH_BINARY + cv2.THRESH_OTSU)
+        size = max(3, (min(image.shape[:2]) // 200) | 1)
+        kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (size, size))
+        candidates = []
+        for mask in (light, 1 - light):
+            mask = cv2.morphologyEx(mask.astype(np.uint8), cv2.MORPH_OPEN, kernel)
+            mask = cv2.morphologyEx(mask, cv2.MORPH_CLOSE, kernel)
+            candidates.append(_largest_component(mask > 0, avoid_border=True))
+    touches, area, mask = max(candidates, key=lambda c: (not c[0], c[1]))
+    if area < 16:
+        raise ValueError("found no object in the image (the silhouette is empty or tiny)")
+    return mask
+
+
+def two_toned(image: np.ndarray) -> bool:
+    """Whether Otsu's threshold explains at least `TWO_TONE` of the grey levels' variance.
+
+    `image` is (H, W, C) uint8, C >= 3.  True for a silhouette on a plain
+    background, false for a photograph (and for a constant image).
+    """
+    grey = _grey(image)
+    threshold, _ = cv2.threshold(grey, 0, 1, cv2.THRESH_BINARY + cv2.THRESH_OTSU)
+    histogram = np.bincount(grey.ravel(), minlength=256).astype(np.float64)
+    levels = np.arange(256.0)
+    light = levels > threshold
+    count, total = histogram.sum(), histogram[light].sum()
+    variance = histogram @ levels**2 / count - (histogram @ levels / count) ** 2
+    if total in (0, count) or variance <= 0:
+        return False
+    mean_light = histogram[light] @ levels[light] / total
+    mean_dark = histogram[~light] @ levels[~light] / (count - total)
+    between = total / count * (1 - total / count) * (mean_light - mean_dark) ** 2
+    return bool(between >= TWO_TONE * variance)
+
+
+def photo_subject(image: np.ndarray, rect=None) -> np.ndarray:
+    """The main subject of a photograph by GrabCut, bool ndarray of shape (H, W).
+
+    Parameters
+    ----------
+    image : ndarray of shape (H, W, C), uint8, C >= 3
+        RGB(A), row 0 at the top; the alpha channel is ignored.
+    rect : ndarray of shape (4,), optional
+        (x, y, width, height) inside the image (`checked_rect`); nothing outside it is
+        the subject.  Default: the box of the central salient region, grown by
+        `RECT_GROWTH`, within all but a frame of `DEFAULT_INSET` of each side.
+
+    Notes
+    -----
+    GrabCut runs on a copy of about `SEGMENT_PIXELS` pixels, with OpenCV's random
+    generator seeded so that a photograph always gives the same cage.  Outside the
+    rectangle is background; inside, the pixels whose `boundary_saliency` exceeds
+    `SEED_LEVEL` of its Otsu threshold and those of `border_contrast` are probable
+    subject, the others probable background.  When the depth of field is shallow
+    (`in_focus` is not None), only the probable subject in focus stays so, and
+    without a rectangle the whole picture is considered, its frame of `DEFAULT_INSET`
+    background except where it is probable subject (a close-up runs into the
+    border; its out-of-focus surroundings are the background).  The result is
+    opened, its most central large component kept
+    (`_central_component`), its holes filled and closed.  A result smaller than
+    `MIN_SUBJECT` of the rectangle is a detail: GrabCut runs again from the
+    rectangle alone (all of it probable subject; with a shallow depth of field and no
+    rectangle, all but the frame's background) and the larger result is kept: on
+    scikit-image's chelsea the first run keeps an eye (3 % of the picture), the second
+    the head and both ears.
+    That result is scaled to a copy of about `REFINE_PIXELS` pixels, refined there
+    (`refined_subject`, nothing outside the rectangle), its holes and narrow-mouthed
+    bays filled (`_bays_filled`), and scaled back to (H, W), each time by bilinear
+    interpolation of the 0/1 mask.
+    """
+    height, width = image.shape[:2]
+    small, scale = downscaled(np.ascontiguousarray(image[..., :3]), SEGMENT_PIXELS)
+    saliency = np.round(255 * boundary_saliency(small)).astype(np.uint8)
+    otsu, _ = cv2.threshold(saliency, 0, 1, cv2.THRESH_BINARY + cv2.THRESH_OTSU)
+    if rect is None:
+        bounds = _salient_bounds(saliency > RECT_LEVEL * otsu)
+    else:
+        bounds = _pixel_bounds(np.asarray(rect) / np.tile(scale, 2), small.shape[:2])
+    left, top, right, bottom = bounds
+    inside = (slice(top, bottom), slice(left, right))
+    bgr = np.ascontiguousarray(small[..., ::-1])
+    probable = (saliency > SEED_LEVEL * otsu) | border_contrast(bgr)
+    fine, fine_scale = downscaled(np.ascontiguousarray(image[..., :3]), REFINE_PIXELS)
+    sharp = in_focus(fine, small)
+    seeds = np.full(small.shape[:2], cv2.GC_BGD, np.uint8)
+    if sharp is not None:
+        # A shallow depth of field: what is out of focus is background.
+        probable &= sharp
+    if sharp is not None and rect is None:
+        # A subject in focus may run into the border (a close-up's ears): the frame is
+        # background only where it is not probable subject.
+        bounds = left, top, right, bottom = 0, 0, small.shape[1], small.shape[0]
+        inside = (slice(top, bottom), slice(left, right))
+        seeds[~frame_mask(small.shape[:2])] = cv2.GC_PR_BGD
+    else:
+        seeds[inside] = cv2.GC_PR_BGD
+    seeds[inside] = np.where(probable[inside], cv2.GC_PR_FGD, seeds[inside])
+    subject = _grabcut_region(bgr, seeds, bounds)
+    if subject.sum() < MIN_SUBJECT * (right - left) * (bottom - top):
+        seeds = np.where(seeds == cv2.GC_BGD, seeds, cv2.GC_PR_FGD).astype(np.uint8)
+        larger = _grabcut_region(bgr, seeds, bounds)
+        if larger.sum() > subject.sum() and (_stands_out(saliency, larger) or not subject.any()):
+            subject = larger
+    subject = _resized(subject, fine.shape[:2])
+    limits = (0, 0, fine.shape[1], fine.shape[0])
+    if rect is not None:
+        limits = _pixel_bounds(np.asarray(rect) / np.tile(fine_scale, 2), fine.shape[:2])
+    subject = refined_subject(np.ascontiguousarray(fine[..., ::-1]), subject, limits)
+    subject = _bays_filled(subject, limits)
+    return _resized(subject, (height, width)) > 0
+
+
+def _stands_out(saliency: np.ndarray, subject: np.ndarray) -> bool:
+    """Whether `subject` (h, w) uint8 is more salient on average than the background around it.
+
+    The background around it is the ring from 1 to `REFINE_RING` band widths
+    (`REFINE_BAND` sqrt(area)) outside its outline; `saliency` is (h, w), uint8 or float.
+    """
+    inside, ring = subject > 0, _ring(subject)
+    return bool(ring.any() and saliency[inside].mean() > saliency[ring].mean())
+
+
+def _ring(subject: np.ndarray) -> np.ndarray:
+    """The background around `subject` (h, w) uint8: bool (h, w), out to `REFINE_RING` band widths."""
+    band = max(2.0, REFINE_BAND * np.sqrt(float(subject.sum())))
+    outside = cv2.distanceTransform((subject == 0).astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+    return (outside > 0) & (outside <= REFINE_RING * band)
+
+
+def colour_separation(image: np.ndarray, subject: np.ndarray) -> float:
+    """How well colour tells the subject from the background around it, in [0, 1] (0.5: not at all).
+
+    GrabCut's Gaussian mixtures (`colour_model`) are learned from the subject's
+    pixels and from the ring of background around it (`_ring`); the result is the
+    mean of the share of subject pixels more likely under the subject's model and
+    the share of ring pixels more likely under the background's.  Computed on a
+    copy of about `SEGMENT_PIXELS` pixels.
+
+    Parameters
+    ----------
+    image : ndarray of shape (H, W, C), uint8, C >= 3
+        RGB(A), row 0 at the top.
+    subject : ndarray of shape (H, W), bool
+    """
+    small, _ = downscaled(np.ascontiguousarray(image[..., :3]), SEGMENT_PIXELS)
+    inside = _resized(subject, small.shape[:2])
+    ring = _ring(inside)
+    inside = inside > 0
+    if inside.sum() < MIN_SAMPLES or ring.sum() < MIN_SAMPLES:
+        return 0.5
+    bgr = np.ascontiguousarray(small[..., ::-1])
+    subject_model, background_model = (
+        colour_model(bgr[inside], bgr[ring]),
+        colour_model(bgr[ring], bgr[inside]),
+    )
+    closer = log_likelihood(subject_model, bgr) > log_likelihood(background_model, bgr)
+    return float(0.5 * (closer[inside].mean() + (~closer[ring]).mean()))
 
 
 def _warn_if_uncertain(image: np.ndarray, subject: np.ndarray, rect: np.ndarray | None) -> None:
@@ -288,6 +577,74 @@ def rectangle_cage(rect, points: int = 16) -> np.ndarray:
     return np.array(result)
 
 
+def refined_subject(
+    bgr: np.ndarray, subject: np.ndarray, bounds: tuple[int, int, int, int], rounds: int = REFINE_ROUNDS
+) -> np.ndarray:
+    """GrabCut's `subject` (h, w) uint8 decided anew near its outline from local colour models.
+
+    GrabCut learns the subject's colours from everything seeded as probable subject,
+    which on a busy background (gravel, foliage) includes a halo around the subject;
+    the learned model then keeps a band of background all around it.  Here the
+    subject's colours are learned from its core only (`subject` eroded by the band
+    half-width b = `REFINE_BAND` sqrt(area)), the background's from the ring between
+    b and `REFINE_RING` b outside the outline (within `bounds`), so from the
+    background next to the subject rather than from distant parts of the picture
+    that may share its colours.  With these models frozen, one graph cut (OpenCV's
+    ``GC_EVAL_FREEZE_MODEL``) decides the band within b of the outline; the result is
+    cleaned up as in `_grabcut_region`.  `rounds` such rounds are made.
+
+    Parameters
+    ----------
+    bgr : ndarray of shape (h, w, 3), uint8
+        The picture, BGR.
+    subject : ndarray of shape (h, w), uint8
+        1 on the subject.
+    bounds : (left, top, right, bottom)
+        The pixels that may belong to the subject (the rectangle); `subject` is cut to them.
+
+    Returns
+    -------
+    ndarray of shape (h, w), uint8
+        1 on the subject; `subject` itself when it is too thin to have a core.
+    """
+    left, top, right, bottom = bounds
+    allowed = np.zeros(subject.shape, bool)
+    allowed[top:bottom, left:right] = True
+    subject = np.where(allowed, subject, 0).astype(np.uint8)
+    for _ in range(rounds):
+        band = max(2, round(REFINE_BAND * np.sqrt(float(subject.sum()))))
+        # Distances cost the same for any band, an erosion or dilation by a disk grows with it.
+        inside = cv2.distanceTransform(subject, cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+        outside = cv2.distanceTransform(1 - subject, cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+        core = inside > band
+        outer = (outside <= band) & allowed
+        ring = (outside <= REFINE_RING * band) & ~outer & allowed
+        if core.sum() < MIN_SAMPLES or ring.sum() < MIN_SAMPLES:
+            break
+        # GrabCut learns its models from every pixel of the image it is given: give it the
+        # core and the ring alone, as a column of pixels.
+        samples = np.ascontiguousarray(np.concatenate([bgr[core], bgr[ring]])[:, None, :])
+        sides = np.repeat(np.uint8([cv2.GC_FGD, cv2.GC_BGD]), [core.sum(), ring.sum()])[:, None]
+        cv2.setRNGSeed(0)
+        models = np.zeros((1, 65)), np.zeros((1, 65))
+        cv2.grabCut(samples, sides, None, *models, 0, cv2.GC_INIT_WITH_MASK)
+        labels = np.where(subject > 0, cv2.GC_PR_FGD, cv2.GC_PR_BGD).astype(np.uint8)
+        labels[~outer] = cv2.GC_BGD
+        labels[core] = cv2.GC_FGD
+        # Only the band is undecided: the graph cut runs on its box, a pixel wider.
+        x, y, w, h = cv2.boundingRect(outer.astype(np.uint8))
+        box = slice(max(y - 1, 0), y + h + 1), slice(max(x - 1, 0), x + w + 1)
+        cut = np.ascontiguousarray(labels[box])
+        cv2.grabCut(np.ascontiguousarray(bgr[box]), cut, None, *models, 1, cv2.GC_EVAL_FREEZE_MODEL)
+        found = np.zeros_like(subject)
+        found[box] = (cut == cv2.GC_FGD) | (cut == cv2.GC_PR_FGD)
+        x, y, w, h = cv2.boundingRect(subject)
+        subject = _cleaned(found, (x, y, x + w, y + h))
+        if not subject.any():
+            break
+    return subject
+
+
 def mask_outline(mask: np.ndarray) -> np.ndarray:
     """Outer outline of the largest region of `mask` (H, W), ndarray of shape (K, 2), image pixels.
 
@@ -305,105 +662,218 @@ def mask_outline(mask: np.ndarray) -> np.ndarray:
     return contour + 0.5 * outward
 
 
-def fit_closed_bspline(data: np.ndarray, count: int) -> np.ndarray:
-    """Least-squares closed uniform quadratic B-spline through a closed point sequence.
+def _subject(image: np.ndarray, rect: np.ndarray | None) -> tuple[np.ndarray | None, bool]:
+    """(mask (H, W) bool, whether it is exact): the subject of a checked image inside `rect`.
 
-    Starts from the linear fit at arc-length parameters, then minimises the
-    distance to the tangent lines at the foot points (TDM, Wang, Pottmann and Liu
-    2006): plain parameter correction only creeps along the curve, this converges
-    quadratically (a sampled spline is recovered to rounding in a few rounds).
-
-    Parameters
-    ----------
-    data : ndarray of shape (K, 2)
-        Points along a closed curve, in order, the last one followed by the first.
-    count : int
-        n, the number of control points.
-
-    Returns
-    -------
-    ndarray of shape (n, 2)
-        Control points; the curve may cross itself (callers check).
+    With a rectangle in which nothing is found (a texture, an empty patch) the mask is
+    None; without one, that raises `ValueError`.
     """
-    steps = np.linalg.norm(np.diff(data, axis=0, append=data[:1]), axis=1)
-    t = count * np.concatenate([[0.0], np.cumsum(steps)[:-1]]) / steps.sum()
-    index, weights = basis_weights(t, count)
-    control_points = _least_squares(index, weights, data, count)
-    extent = float(np.ptp(data, axis=0).max())
-    # A small tangential term keeps the system regular where the data are noisy
-    # (pixel staircases) without holding the parameters back.
-    tangential = np.sqrt(TANGENTIAL_WEIGHT)
-    best, best_error = control_points, np.inf
-    for _ in range(FIT_ROUNDS):
-        for _ in range(FOOT_POINT_STEPS):
-            t = _foot_point_parameters(control_points, data, t)
-        index, weights = basis_weights(t, count)
-        point, first, _ = _derivatives(control_points, t)
-        # On a wiggly outline (a segmented photograph) the rounds can diverge: keep the
-        # control points of the smallest distance to the data, and stop once it grows.
-        error = float(np.mean(np.sum((point - data) ** 2, axis=1)))
-        if error > best_error:
-            break
-        best, best_error = control_points, error
-        tangent = first / np.maximum(np.linalg.norm(first, axis=1, keepdims=True), 1e-300)
-        normal = np.stack([tangent[:, 1], -tangent[:, 0]], axis=1)
-        # Unknowns (x_1..x_n, y_1..y_n); a row's coefficients are direction x basis weights.
-        columns = np.tile(np.concatenate([index, index + count], axis=1), (2, 1))
-        directions = np.concatenate([normal, tangential * tangent])
-        both = np.tile(weights, (2, 1))
-        coefficients = np.concatenate([directions[:, :1] * both, directions[:, 1:] * both], axis=1)
-        right = np.sum(directions * np.concatenate([data, data]), axis=1)
-        solution = _least_squares(columns, coefficients, right[:, None], 2 * count)[:, 0]
-        updated = np.stack([solution[:count], solution[count:]], axis=1)
-        change = np.abs(updated - control_points).max()
-        control_points = updated
-        if change <= 1e-12 * extent:
-            return control_points
-    return best
+    height, width = image.shape[:2]
+    left, top, right, bottom = (0, 0, width, height) if rect is None else _pixel_bounds(rect, (height, width))
+    crop = image[top:bottom, left:right]
+    if (crop.shape[2] == 4 and crop[..., 3].min() < 255) or two_toned(crop):
+        try:
+            found = silhouette_mask(crop)
+        except ValueError:
+            if rect is None:
+                raise
+            return None, True
+        mask = np.zeros((height, width), dtype=bool)
+        mask[top:bottom, left:right] = found
+        return mask, True
+    mask = photo_subject(image, rect)
+    if mask.sum() >= 16:
+        return mask, False
+    if rect is None:
+        raise ValueError("found no subject in the image (GrabCut kept nothing); give a rectangle around it")
+    return None, False
 
 
-def _least_squares(columns: np.ndarray, coefficients: np.ndarray, right: np.ndarray, size: int) -> np.ndarray:
-    """Least-squares solution (size, d) of a sparse system through its normal equations.
+def _checked_image(image: np.ndarray) -> np.ndarray:
+    """`image` as uint8 (16-bit samples rounded to 8 bits), or ValueError."""
+    image = np.asarray(image)
+    if image.dtype == np.uint16 and image.ndim == 3:
+        image = eight_bit(image)
+    if image.dtype != np.uint8 or image.ndim != 3 or image.shape[2] not in (3, 4):
+        raise ValueError(
+            f"image must be an (H, W, 3) or (H, W, 4) uint8 array, got {image.dtype} {image.shape}"
+        )
+    if min(image.shape[:2]) < 2:
+        raise ValueError(f"image must be at least 2x2 pixels, got {image.shape[1]}x{image.shape[0]}")
+    return image
 
-    Row k of the system has the values ``coefficients[k]`` (R, m) in the columns
-    ``columns[k]`` (R, m) of `size` unknowns, and right-hand sides ``right[k]``
-    (R, d).  The normal equations are assembled from the m nonzeros per row in
-    O(R m^2): a dense least-squares solve of the (R, size) system costs more, and
-    the threads of a parallel BLAS make it slower still on a busy machine.
+
+def _grey(image: np.ndarray) -> np.ndarray:
+    """Lightly blurred grey levels (H, W) uint8 of an RGB(A) image."""
+    return cv2.GaussianBlur(cv2.cvtColor(np.ascontiguousarray(image[..., :3]), cv2.COLOR_RGB2GRAY), (5, 5), 0)
+
+
+def _pixel_bounds(rect: np.ndarray, shape: tuple[int, int]) -> tuple[int, int, int, int]:
+    """(left, top, right, bottom): the pixels of `shape` (H, W) that `rect` (x, y, w, h) touches."""
+    height, width = shape
+    left = min(max(int(np.floor(rect[0])), 0), width - 1)
+    top = min(max(int(np.floor(rect[1])), 0), height - 1)
+    right = max(min(int(np.ceil(rect[0] + rect[2])), width), left + 1)
+    bottom = max(min(int(np.ceil(rect[1] + rect[3])), height), top + 1)
+    return left, top, right, bottom
+
+
+def _salient_bounds(salient: np.ndarray) -> tuple[int, int, int, int]:
+    """(left, top, right, bottom) of the default rectangle around the salient mask (h, w).
+
+    The box of its most central large component grown by `RECT_GROWTH`, within the
+    image less a frame of `DEFAULT_INSET`; that frame alone if nothing is salient.
     """
-    pairs = (columns[:, :, None] * size + columns[:, None, :]).ravel()
-    products = (coefficients[:, :, None] * coefficients[:, None, :]).ravel()
-    matrix = np.bincount(pairs, products, minlength=size * size).reshape(size, size)
-    moments = np.stack(
-        [np.bincount(columns.ravel(), (coefficients * r[:, None]).ravel(), minlength=size) for r in right.T],
-        axis=1,
+    height, width = salient.shape
+    inset = DEFAULT_INSET * np.array([width, height])
+    low, high = np.ceil(inset).astype(int), np.floor([width, height] - inset).astype(int)
+    high = np.maximum(high, low + 1)
+    kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (5, 5))
+    region = _central_component(
+        cv2.morphologyEx(salient.astype(np.uint8), cv2.MORPH_CLOSE, kernel),
+        0.5 * np.array([width, height]),
+        np.array([width, height]),
     )
-    return np.linalg.lstsq(matrix, moments, rcond=None)[0]
+    if not region.any():
+        return int(low[0]), int(low[1]), int(high[0]), int(high[1])
+    x, y, w, h = cv2.boundingRect(region)
+    growth = RECT_GROWTH * max(w, h)
+    left, top = np.minimum(np.maximum(low, np.floor([x - growth, y - growth])), high - 1).astype(int)
+    right, bottom = np.maximum(
+        np.minimum(high, np.ceil([x + w + growth, y + h + growth])), [left + 1, top + 1]
+    )
+    return int(left), int(top), int(right), int(bottom)
 
 
-def _derivatives(control_points: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """p(t), p'(t), p''(t) of the closed B-spline, each of shape (K, 2)."""
-    index, weights = basis_weights(t, control_points.shape[0])
-    u = (t - np.floor(t))[:, None]
-    corners = control_points[index]  # (K, 3, 2)
-    point = np.einsum("kj,kjd->kd", weights, corners)
-    first = (u - 1) * corners[:, 0] + (1 - 2 * u) * corners[:, 1] + u * corners[:, 2]
-    second = corners[:, 0] - 2 * corners[:, 1] + corners[:, 2]
-    return point, first, second
+def _grabcut_region(bgr: np.ndarray, seeds: np.ndarray, bounds: tuple[int, int, int, int]) -> np.ndarray:
+    """GrabCut of `bgr` (h, w, 3) from `seeds` (h, w), cleaned up: uint8 (h, w), 1 on the subject.
+
+    Nothing (all 0) when the seeds lack either side, from which GrabCut learns its colours
+    (a rectangle of a pixel or two on GrabCut's copy).
+    """
+    subject = (seeds == cv2.GC_FGD) | (seeds == cv2.GC_PR_FGD)
+    if subject.all() or not subject.any():
+        return np.zeros(seeds.shape, np.uint8)
+    labels = seeds.copy()
+    cv2.setRNGSeed(0)  # GrabCut's k-means starts from OpenCV's global random generator
+    models = np.zeros((1, 65)), np.zeros((1, 65))
+    cv2.grabCut(bgr, labels, None, *models, GRABCUT_ITERATIONS, cv2.GC_INIT_WITH_MASK)
+    found = ((labels == cv2.GC_FGD) | (labels == cv2.GC_PR_FGD)).astype(np.uint8)
+    return _cleaned(found, bounds)
 
 
-def _foot_point_parameters(control_points: np.ndarray, data: np.ndarray, t: np.ndarray) -> np.ndarray:
-    """One Newton step per point towards the parameter of its closest curve point."""
-    point, first, second = _derivatives(control_points, t)
-    difference = point - data
-    gradient = np.sum(difference * first, axis=1)
-    speed = np.sum(first * first, axis=1)
-    curvature = speed + np.sum(difference * second, axis=1)
-    # Far from a minimum the Hessian can be small or negative: fall back to the
-    # Gauss-Newton term, and never move by more than half a span.
-    curvature = np.where(curvature > 0.1 * speed, curvature, speed)
-    step = np.clip(gradient / np.maximum(curvature, 1e-300), -0.5, 0.5)
-    return np.mod(t - step, control_points.shape[0])
+def _cleaned(found: np.ndarray, bounds: tuple[int, int, int, int]) -> np.ndarray:
+    """GrabCut's `found` (h, w) uint8 opened, its main region (`_central_component`) filled and closed.
+
+    The kernels are `SMOOTHING` of the shorter side of `bounds` (left, top, right, bottom),
+    whose centre is the centre of `_central_component`.
+    """
+    left, top, right, bottom = bounds
+    size = max(3, round(SMOOTHING * min(right - left, bottom - top)) | 1)
+    kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (size, size))
+    found = cv2.morphologyEx(found, cv2.MORPH_OPEN, kernel)
+    centre = 0.5 * np.array([left + right, top + bottom])
+    subject = _filled(_central_component(found, centre, np.array([right - left, bottom - top])))
+    return cv2.morphologyEx(subject, cv2.MORPH_CLOSE, kernel)
+
+
+def _central_component(mask: np.ndarray, centre: np.ndarray, extent: np.ndarray) -> np.ndarray:
+    """The main region of `mask` (h, w): uint8 (h, w), 1 inside.
+
+    The 8-connected component of the largest area x exp(-r^2) wins, r being the
+    distance of its centroid from `centre` (x, y) in units of half the `extent`
+    (width, height): one centred on a corner of the rectangle must be 7.4 times
+    larger than a centred one.  Components of at least `MERGE_AREA` of its area
+    closer to it than `MERGE_GAP` of the extent's diagonal join it (a straight
+    bridge across each gap): a subject cut in two by a thin strip of background-coloured
+    pixels, as a portrait by a dark collar, stays one subject.
+    """
+    count, labels, stats, centroids = cv2.connectedComponentsWithStats(mask, connectivity=8)
+    if count <= 1:
+        return np.zeros(mask.shape, np.uint8)
+    area = stats[1:, cv2.CC_STAT_AREA]
+    offset = (centroids[1:] + 0.5 - centre) / (0.5 * extent)
+    best = 1 + int(np.argmax(area * np.exp(-np.sum(offset**2, axis=1))))
+    gap = MERGE_GAP * float(np.hypot(*extent))
+    distance = cv2.distanceTransform((labels != best).astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+    nearest = minimum(distance, labels, index=np.arange(1, count))
+    joined = np.flatnonzero((nearest <= gap) & (area >= MERGE_AREA * area[best - 1])) + 1
+    region = np.isin(labels, joined).astype(np.uint8)
+    best_points = np.argwhere(labels == best)[:, ::-1]  # (x, y)
+    for part in joined[joined != best]:
+        points = np.argwhere(labels == part)[:, ::-1]
+        start = points[np.argmin(distance[points[:, 1], points[:, 0]])]
+        end = best_points[np.argmin(np.sum((best_points - start) ** 2, axis=1))]
+        # A bridge half as wide as it is long: the B-spline smooths it into a waist.
+        thickness = max(3, round(0.5 * nearest[part - 1]))
+        cv2.line(region, tuple(int(v) for v in start), tuple(int(v) for v in end), 1, thickness)
+    return region
+
+
+def _bays_filled(subject: np.ndarray, bounds: tuple[int, int, int, int]) -> np.ndarray:
+    """`subject` (h, w) uint8 with its holes and narrow-mouthed bays filled: uint8 (h, w), 1 inside.
+
+    A closing by a disk of radius r = `BAY_MOUTH` sqrt(area) whose dilation has its holes
+    filled before the erosion: the dilation seals every bay whose mouth is narrower
+    than 2 r, the filling fills the sealed bay however deep it is, the erosion gives
+    back the outline elsewhere (an open concave corner is only rounded, within r).
+    Distance transforms stand for the dilation and the erosion, whose cost would grow
+    with r.  Nothing outside `bounds` (left, top, right, bottom) is added.
+    """
+    left, top, right, bottom = bounds
+    radius = BAY_MOUTH * np.sqrt(float(subject.sum()))
+    pad = int(np.ceil(radius)) + 1
+    padded = cv2.copyMakeBorder(subject, pad, pad, pad, pad, cv2.BORDER_CONSTANT, value=0)
+    outside = cv2.distanceTransform(1 - padded, cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+    grown = _filled((outside <= radius).astype(np.uint8))
+    inside = cv2.distanceTransform(grown, cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+    closed = (inside > radius)[pad:-pad, pad:-pad] | (subject > 0)
+    allowed = np.zeros(subject.shape, bool)
+    allowed[top:bottom, left:right] = True
+    return _filled((closed & allowed).astype(np.uint8))
+
+
+def _resized(mask: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
+    """0/1 `mask` (h, w) resized to `shape` (H, W) by bilinear interpolation: uint8 (H, W)."""
+    if mask.shape == tuple(shape):
+        return mask.astype(np.uint8)
+    resized = cv2.resize(mask.astype(np.float32), shape[::-1], interpolation=cv2.INTER_LINEAR)
+    return (resized >= 0.5).astype(np.uint8)
+
+
+def _filled(mask: np.ndarray) -> np.ndarray:
+    """`mask` (h, w) uint8 with every hole filled: the inside of its outer contours."""
+    contours, _ = cv2.findContours(mask, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE)
+    filled = np.zeros_like(mask)
+    cv2.drawContours(filled, contours, -1, 1, thickness=cv2.FILLED)
+    return filled
+
+
+def _grown(mask: np.ndarray, fraction: float) -> np.ndarray:
+    """`mask` (H, W) bool grown by `fraction` of its bounding box's diagonal (at least one pixel)."""
+    rows, columns = np.nonzero(mask)
+    radius = max(1.0, fraction * np.hypot(np.ptp(rows) + 1, np.ptp(columns) + 1))
+    # The Euclidean distance transform costs the same for any radius, a dilation grows with it.
+    outside = cv2.distanceTransform((~mask).astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+    return outside <= radius
+
+
+def _largest_component(mask: np.ndarray, *, avoid_border: bool = False) -> tuple[bool, int, np.ndarray]:
+    """(touches the border, area, mask) of the largest 8-connected component.
+
+    With `avoid_border`, components touching the border count only if no other exists.
+    """
+    count, labels, stats, _ = cv2.connectedComponentsWithStats(mask.astype(np.uint8), connectivity=8)
+    if count <= 1:
+        return True, 0, np.zeros(mask.shape, dtype=bool)
+    height, width = mask.shape
+    left, top = stats[1:, cv2.CC_STAT_LEFT], stats[1:, cv2.CC_STAT_TOP]
+    right, bottom = left + stats[1:, cv2.CC_STAT_WIDTH], top + stats[1:, cv2.CC_STAT_HEIGHT]
+    touches = (left == 0) | (top == 0) | (right == width) | (bottom == height)
+    area = stats[1:, cv2.CC_STAT_AREA]
+    order = np.lexsort((-area, touches)) if avoid_border else np.argsort(-area)
+    best = int(order[0])
+    return bool(touches[best]), int(area[best]), labels == best + 1
 
 
 def _perimeter(contour: np.ndarray) -> float:

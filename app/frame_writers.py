@@ -29,7 +29,8 @@ from pathlib import Path
 import numpy as np
 
 from app.files import InputError, check_name_length, check_writable, encode_png, write_png
-from core.atomic_write import temporary_path
+from app.images.writing import eight_bit
+from core.storage.atomic_write import temporary_path
 
 #: Straight RGB that MP4 and GIF frames show where the warp is transparent.
 BACKGROUND = (255, 255, 255)
@@ -88,7 +89,9 @@ def _check_folder(path: Path) -> None:
 
 
 def flatten(rgba: np.ndarray) -> np.ndarray:
-    """RGB uint8 (H, W, 3) of straight-alpha RGBA (H, W, 4) composited over `BACKGROUND`."""
+    """RGB uint8 (H, W, 3) of straight-alpha RGBA (H, W, 4), uint8 or uint16 (rounded to 8 bits: video
+    and GIF have no more), composited over `BACKGROUND`."""
+    rgba = eight_bit(rgba)
     alpha = rgba[..., 3:4].astype(np.float32) / 255.0
     colour = rgba[..., :3].astype(np.float32)
     return np.round(colour * alpha + np.asarray(BACKGROUND, np.float32) * (1.0 - alpha)).astype(np.uint8)

@@ -11,12 +11,12 @@ counted apart):
   collapse, and how many deformations fold anywhere;
 - outside: the mean share of interior vertices mapped outside the target curve
   (the "spill-out" of the paper's Fig. 11);
-- sigma_1 / sigma_2: conformal distortion per triangle (`core.distortion`), folded
-  triangles counted as `core.distortion.DISTORTION_CAP`; the mean over the source
+- sigma_1 / sigma_2: conformal distortion per triangle (`core.meshes.distortion`), folded
+  triangles counted as `core.meshes.distortion.DISTORTION_CAP`; the mean over the source
   area and the area-weighted 99th percentile, averaged over the deformations;
 - map RMS: distance of the deformed vertices to the FEM harmonic deformation, in %
   of the target's diameter (area-weighted RMS over the vertices);
-- height RMS: distance of the height interpolant of `core.examples.wave_heights` to
+- height RMS: distance of the height interpolant of `core.curves.examples.wave_heights` to
   the FEM harmonic one (what ``compare`` shows), averaged over the domains (the real
   part, for the complex Cauchy–Green coordinates);
 - boundary gap: the largest distance from a deformed boundary vertex to the target
@@ -42,12 +42,12 @@ import numpy as np
 import core
 from app.console import EXIT_OK, ProgressBar, note
 from app.files import InputError, kernel_names, reported_as_input
-from core import distortion
-from core.arc_length import checked_parameterization
-from core.compilation import MESSAGE as COMPILING
+from core.curves.arc_length import checked_parameterization
 from core.deformation import deform
 from core.kernel_table import BY_NAME, COMPILED_KERNELS
 from core.kernels import kernel_parameters
+from core.meshes import distortion
+from core.newton.compilation import MESSAGE as COMPILING
 from core.validation import positive_int
 
 #: The reference of the distances: the finite-element harmonic basis (Sec. 4.2).
@@ -222,7 +222,7 @@ def run_study(domains, choices: list[KernelChoice], progress=None, keep: bool = 
     """
     from app.compare import vertex_areas
     from app.warping import WarpSettings, prepare
-    from core.examples import wave_heights
+    from core.curves.examples import wave_heights
 
     if not choices or choices[0].kernel != REFERENCE:
         choices = [KernelChoice(REFERENCE, REFERENCE)] + [c for c in choices if c.kernel != REFERENCE]

@@ -42,7 +42,7 @@ def figure(domains, study) -> np.ndarray:
         Opaque RGBA on white.
     """
     import core
-    from core import distortion
+    from core.meshes import distortion
 
     kernels = [result for result in study.kernels if result.skipped is None]
     folded = np.array([result.folded for result in kernels])  # (kernels, deformations)

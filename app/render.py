@@ -20,6 +20,8 @@ counted from the framebuffer's top-left corner, exactly like the session file.
 
 from __future__ import annotations
 
+from collections.abc import Callable, Iterator
+
 import moderngl
 import numpy as np
 
@@ -31,11 +33,13 @@ from app.render_passes.fields import DistortionPass, FieldPass, heat_map_pass, h
 from app.render_passes.image import ImagePass
 from app.render_passes.mesh_buffers import MeshBuffers, checked_mesh
 from app.render_passes.overlay import OverlayPass
-from app.render_passes.source_image import SourceImage, checked_image
+from app.render_passes.source_image import SourceImage, checked_image, texture_dtype
 from app.viewport import View
 
 #: Largest side of one offscreen drawing of `WarpRenderer.render`; larger outputs are drawn in tiles.
 TILE = 4096
+#: Rows of a strip of `WarpRenderer.render_strips`: a 12000-pixel-wide strip is 49 MB at 8 bits.
+STRIP_ROWS = 1024
 
 
 class ContextUnavailableError(RuntimeError):
@@ -107,10 +111,11 @@ class WarpRenderer:
         for field in self._fields.values():
             self._mesh_programs.update(field.mesh_programs)
         self._source: SourceImage | None = None
+        self._backdrop_source: SourceImage | None = None  # what the backdrop shows instead (`app.fill`)
         self._image_size: tuple[int, int] | None = None
         self._mesh: MeshBuffers | None = None
         self._preview: MeshBuffers | None = None
-        self._target: tuple[tuple[int, int], int, list] | None = None
+        self._target: tuple[tuple, list] | None = None
         #: Counts the changes of what `draw` and `draw_backdrop` would draw (image, meshes,
         #: positions, fields): a picture drawn at one revision can be reused until the next.
         self.revision = 0
@@ -122,8 +127,9 @@ class WarpRenderer:
 
         Parameters
         ----------
-        image : ndarray of shape (H, W, 4), uint8
-            RGBA with straight (non-premultiplied) alpha, row 0 at the top.
+        image : ndarray of shape (H, W, 4), uint8 or uint16
+            RGBA with straight (non-premultiplied) alpha, row 0 at the top.  A 16-bit image
+            is drawn, and `render` reads it back, at 16 bits.
         """
         self.revision += 1
         image = checked_image(self.ctx, image)
@@ -136,6 +142,25 @@ class WarpRenderer:
                 if mesh is not None:
                     mesh.write_uv(self._image_size)
         self._backdrop.set_image_size(self._image_size)
+
+    def set_backdrop_image(self, image: np.ndarray | None) -> None:
+        """What `draw_backdrop` shows instead of the source image (the source with the cage's original
+        position filled, `app.fill`), or None for the source image itself.
+
+        Parameters
+        ----------
+        image : ndarray of shape (H, W, 4), uint8, or None
+            The size of the source image (`set_image` first; a new source image drops it).
+        """
+        self.revision += 1
+        if self._backdrop_source is not None:
+            self._backdrop_source.release()
+            self._backdrop_source = None
+        if image is not None:
+            image = checked_image(self.ctx, image)
+            if self._source is None or self._source.size != (image.shape[1], image.shape[0]):
+                raise ValueError("the backdrop image must have the source image's size")
+            self._backdrop_source = SourceImage(self.ctx, image)
 
     def set_mesh(self, vertices: np.ndarray, triangles: np.ndarray) -> None:
         """Set the undeformed mesh; positions start undeformed, the field at 0.
@@ -162,7 +187,7 @@ class WarpRenderer:
         A software rasteriser's frame grows with the triangle count (llvmpipe, 1280x1024:
         ~170 ms for 800k triangles, ~30 ms for 50k), so the viewer draws a dense
         mesh's deformation through a preview mesh of ~20k vertices while a handle moves,
-        with positions the dense mesh's P1 interpolant gives there (`core.mesh_transfer`).
+        with positions the dense mesh's P1 interpolant gives there (`core.meshes.mesh_transfer`).
 
         Parameters
         ----------
@@ -346,7 +371,7 @@ class WarpRenderer:
         """
         if self._source is None:
             raise RuntimeError("draw_backdrop needs set_image first")
-        self._backdrop.draw(self._source, view, viewport_size, opacity)
+        self._backdrop.draw(self._backdrop_source or self._source, view, viewport_size, opacity)
 
     def set_overlay(self, segments: np.ndarray, points: np.ndarray) -> None:
         """Set the overlay lines and handles drawn by `draw_overlay` (rewritten in place).
@@ -412,41 +437,102 @@ class WarpRenderer:
 
         Returns
         -------
-        ndarray of shape (height, width, 4), uint8
+        ndarray of shape (height, width, 4), uint8, or uint16 for a 16-bit source image
             RGBA with straight alpha, row 0 at the top.
         """
-        width, height = int(size[0]), int(size[1])
-        if not (1 <= width and 1 <= height and width * height <= MAX_OUTPUT_PIXELS):
-            raise ValueError(
-                f"output size {width}x{height} is not 1 to {MAX_OUTPUT_PIXELS / 1e6:.0f} megapixels"
-            )
+        width, height = _output_size(size)
+        pixels = np.empty((height, width, 4), self.pixel_type)
+        options = dict(samples=samples, background=background, backdrop=backdrop)
+        for _ in self._strips(size, view, None, (content, wireframe, highlight, folds), options, pixels):
+            pass
+        return pixels
+
+    @property
+    def image_size(self) -> tuple[int, int] | None:
+        """(width, height) of the source image, None before `set_image`."""
+        return self._image_size
+
+    @property
+    def pixel_type(self) -> np.dtype:
+        """The samples `render` returns: uint16 for a 16-bit source image, else uint8."""
+        return np.dtype(np.uint8) if self._source is None else self._source.dtype
+
+    def render_strips(
+        self,
+        size: tuple[int, int],
+        view: View | None = None,
+        *,
+        rows: int = STRIP_ROWS,
+        samples: int = 4,
+        background: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0),
+        backdrop: bool = False,
+        antialiased: Callable[[tuple[int, int, int, int]], bool] | None = None,
+    ) -> Iterator[tuple[int, np.ndarray]]:
+        """`render` of the image, a horizontal strip at a time: a large output is never held whole.
+
+        Parameters
+        ----------
+        size, view, samples, background, backdrop
+            As in `render` (``content="image"``, without marks).
+        rows : int
+            Rows of a strip (the last may have fewer); it is drawn in tiles of `rows` x `rows`.
+        antialiased : callable, optional
+            Given a tile (left, top, width, height) in output pixels, whether it needs
+            multisampling: False where no edge of what is drawn crosses it (every pixel wholly
+            inside or outside the warp), which then is drawn without (a multisample resolve
+            costs more than the drawing on a software rasteriser; the pixels may differ by a
+            unit where two triangles meet).  None: every tile is multisampled, as in `render`.
+
+        Yields
+        ------
+        top : int
+            The strip's first row.
+        strip : ndarray of shape (r, width, 4), uint8 or uint16 (`pixel_type`)
+            RGBA with straight alpha, a new array each time; the same pixels as `render`'s rows.
+        """
+        options = dict(samples=samples, background=background, backdrop=backdrop, antialiased=antialiased)
+        yield from self._strips(size, view, rows, ("image", False, False, False), options, None)
+
+    def _strips(self, size, view, rows, what, options, into):
+        """The strips of `render` (into rows of `into` if given, else new arrays), `rows` high or one
+        tile; `what` is ``(content, wireframe, highlight, folds)``, `options` the drawing's."""
+        width, height = _output_size(size)
         view = view or View()
         limit = min(TILE, self.ctx.info["GL_MAX_RENDERBUFFER_SIZE"], *self.ctx.info["GL_MAX_VIEWPORT_DIMS"])
-        tile = (min(width, limit), min(height, limit))
+        tile = (min(width, limit, rows or limit), min(height, limit, rows or limit))
+        antialiased = options.get("antialiased") or (lambda box: True)
         # Leave the caller's framebuffer bound afterwards (a viewer exporting mid-frame).
         previous = self.ctx.fbo
-        if self._target is not None and previous in self._target[2]:
+        if self._target is not None and previous in self._target[1]:
             previous = None  # ours, perhaps about to be replaced
-        multisample, resolved = self._framebuffers(tile, max(0, min(int(samples), self.ctx.max_samples)))
-        pixels = np.empty((height, width, 4), np.uint8)
-        red, green, blue, alpha = background
-        for top in range(0, height, tile[1]):
-            for left in range(0, width, tile[0]):
-                multisample.use()
-                multisample.clear(red * alpha, green * alpha, blue * alpha, alpha)
-                shifted = View(view.scale, (view.offset[0] - left, view.offset[1] - top))
-                if backdrop:
-                    self.draw_backdrop(shifted, tile)
-                self._draw(shifted, tile, "caller", content, wireframe, highlight, folds)
-                self.ctx.copy_framebuffer(resolved, multisample)
-                data = resolved.read(components=4, alignment=1)
-                # GL rows run bottom-up.
-                drawn = np.frombuffer(data, dtype=np.uint8).reshape(tile[1], tile[0], 4)[::-1]
-                part = pixels[top : top + tile[1], left : left + tile[0]]
-                part[...] = drawn[: part.shape[0], : part.shape[1]]
-        if previous is not None:
-            previous.use()
-        return _unpremultiply(pixels)
+        dtype = self.pixel_type
+        samples = max(0, min(int(options["samples"]), self.ctx.max_samples))
+        multisample, resolved = self._framebuffers(tile, samples, dtype)
+        drawn = np.empty((tile[1], tile[0], 4), dtype)
+        red, green, blue, alpha = options["background"]
+        try:
+            for top in range(0, height, tile[1]):
+                count = min(tile[1], height - top)
+                strip = np.empty((count, width, 4), dtype) if into is None else into[top : top + count]
+                for left in range(0, width, tile[0]):
+                    smooth = antialiased((left, top, tile[0], tile[1]))
+                    target = multisample if smooth else resolved
+                    target.use()
+                    target.clear(red * alpha, green * alpha, blue * alpha, alpha)
+                    shifted = View(view.scale, (view.offset[0] - left, view.offset[1] - top))
+                    if options["backdrop"]:
+                        self.draw_backdrop(shifted, tile)
+                    self._draw(shifted, tile, "caller", *what)
+                    if smooth:
+                        self.ctx.copy_framebuffer(resolved, multisample)
+                    resolved.read_into(drawn, components=4, alignment=1, dtype=texture_dtype(dtype))
+                    part = strip[:, left : left + tile[0]]
+                    # GL rows run bottom-up.
+                    part[...] = drawn[::-1][: part.shape[0], : part.shape[1]]
+                yield top, _unpremultiply(strip)
+        finally:
+            if previous is not None:
+                previous.use()
 
     # -- lifetime -----------------------------------------------------------
 
@@ -468,17 +554,20 @@ class WarpRenderer:
 
     # -- internals ----------------------------------------------------------
 
-    def _framebuffers(self, size: tuple[int, int], samples: int):
-        """Multisampled and resolve framebuffers of `size`, kept for the next render of that size."""
-        if self._target is None or self._target[:2] != (size, samples):
+    def _framebuffers(self, size: tuple[int, int], samples: int, dtype: np.dtype):
+        """Multisampled and resolve framebuffers of `size` and samples of `dtype` (8 or 16 bits),
+        kept for the next render of that kind."""
+        kind = (size, samples, dtype)
+        if self._target is None or self._target[0] != kind:
             # Only one size is kept: a 4K 4x multisample target alone is ~130 MB.
             self._release_target()
-            colour = self.ctx.renderbuffer(size, 4, samples=samples)
-            resolved_colour = self.ctx.renderbuffer(size, 4)
+            gl_type = texture_dtype(dtype)
+            colour = self.ctx.renderbuffer(size, 4, samples=samples, dtype=gl_type)
+            resolved_colour = self.ctx.renderbuffer(size, 4, dtype=gl_type)
             multisample = self.ctx.framebuffer(color_attachments=[colour])
             resolved = self.ctx.framebuffer(color_attachments=[resolved_colour])
-            self._target = (size, samples, [multisample, resolved, colour, resolved_colour])
-        objects = self._target[2]
+            self._target = (kind, [multisample, resolved, colour, resolved_colour])
+        objects = self._target[1]
         return objects[0], objects[1]
 
     def _build_mesh(self, vertices: np.ndarray, triangles: np.ndarray) -> MeshBuffers:
@@ -513,26 +602,40 @@ class WarpRenderer:
 
     def _release_image(self) -> None:
         self._backdrop.release()
-        if self._source is not None:
-            self._source.release()
-        self._source = None
+        for source in (self._source, self._backdrop_source):
+            if source is not None:
+                source.release()
+        self._source = self._backdrop_source = None
 
     def _release_target(self) -> None:
         if self._target is not None:
-            if self.ctx.fbo in self._target[2]:
+            if self.ctx.fbo in self._target[1]:
                 # GL falls back to the default framebuffer when the bound one is deleted.
                 self.ctx.fbo = self.ctx.screen
-            for item in self._target[2]:
+            for item in self._target[1]:
                 item.release()
         self._target = None
 
 
+def _output_size(size: tuple[int, int]) -> tuple[int, int]:
+    """(width, height) as ints, or ValueError if it is not 1 to `MAX_OUTPUT_PIXELS` pixels."""
+    width, height = int(size[0]), int(size[1])
+    if not (1 <= width and 1 <= height and width * height <= MAX_OUTPUT_PIXELS):
+        raise ValueError(f"output size {width}x{height} is not 1 to {MAX_OUTPUT_PIXELS / 1e6:.0f} megapixels")
+    return width, height
+
+
 def _unpremultiply(pixels: np.ndarray) -> np.ndarray:
-    """RGBA uint8 (H, W, 4), premultiplied -> straight alpha, in place; only partly covered pixels change."""
+    """RGBA uint8 or uint16 (H, W, 4), premultiplied -> straight alpha, in place; only partly covered
+    pixels change (opaque ones are exactly what was drawn)."""
     result = pixels
+    maximum = np.iinfo(result.dtype).max
     alpha = result[..., 3]
-    partial = (alpha > 0) & (alpha < 255)
+    partial = (alpha > 0) & (alpha < maximum)
     if partial.any():
-        a = alpha[partial].astype(np.float32)[:, None]
-        result[partial, :3] = np.clip(result[partial, :3] * (255.0 / a) + 0.5, 0, 255).astype(np.uint8)
+        # float64 for 16 bits: float32's 24 bits would round c * 65535 / a off by a unit.
+        wide = np.float32 if maximum == 255 else np.float64
+        a = alpha[partial].astype(wide)[:, None]
+        straight = np.clip(result[partial, :3] * (wide(maximum) / a) + 0.5, 0, maximum)
+        result[partial, :3] = straight.astype(result.dtype)
     return result

@@ -25,13 +25,14 @@ import numpy as np
 
 from app.console import ProgressBar, note
 from app.files import (
+    IMAGE_SUFFIXES,
     InputError,
     Session,
     cage_curve,
     check_writable,
     kernel_names,
     read_cage,
-    read_image,
+    read_photo,
     read_session,
     refuse_overwriting_inputs,
     reported_as_input,
@@ -42,10 +43,12 @@ from app.files import (
     session_output,
     session_parameterization,
 )
+from app.fill import FILLS, checked_fill, session_fill
 from app.frame_writers import WRITERS, interrupted_by_sigterm
 from app.framing import CANVASES, OUTSIDES, output_frame, output_region
+from app.images import has_alpha, output_format
 from app.viewport import View
-from app.warping import Deformation, WarpSettings
+from app.warping import Deformation, OutputFile, WarpSettings
 
 DEFAULT_KERNEL = "poisson"  # core.mesh_basis.DEFAULT_KERNEL, the deformation default
 #: A target larger than this many times the output's larger side is reported.
@@ -69,6 +72,9 @@ class WarpInputs:
     max_edge : float or None
     outside, canvas : str
         What the output shows outside the warp, and what it frames (`app.framing`).
+    fill : str
+        What fills the source cage's region behind the warp with ``outside = original``
+        (`app.fill`).
     cage_source, target_source : str
         How messages name the cage and the target (a file, or ``SESSION: cage``).
     """
@@ -82,18 +88,20 @@ class WarpInputs:
     max_edge: float | None
     outside: str
     canvas: str
+    fill: str
     cage_source: str
     target_source: str
 
 
-@dataclass(frozen=True)
+@dataclass
 class WarpJob:
     """A warp to draw: image, cage, settings, frames, framing and output.
 
     Attributes
     ----------
-    image : ndarray of shape (H, W, 4), uint8
-        The source image, RGBA.
+    image : ndarray of shape (H, W, 4), uint8 or uint16, or None
+        The source image, RGBA; None once `run_job` has uploaded it (a 100-megapixel input is
+        not held twice).
     image_path : Path
     curve : core.ClosedBSpline
         The source cage.
@@ -108,7 +116,12 @@ class WarpJob:
         Image pixels to output pixels.
     outside : str
         ``"original"`` or ``"transparent"``.
+    fill : str
+        What fills the source cage's region behind the warp (`app.fill`).
     output : Path
+    file : app.warping.OutputFile or None
+        How a single image is written (format options, the input's ICC profile and EXIF);
+        None for an animation.
     kind : str
         The writer: a key of `app.frame_writers.WRITERS` (``"image"`` for one file).
     fps : float
@@ -124,14 +137,17 @@ class WarpJob:
     size: tuple[int, int]
     view: View
     outside: str
+    fill: str
     output: Path
+    file: OutputFile | None
     kind: str
     fps: float = 0.0
+    #: (width, height) of the source image, kept when the image is released.
+    image_size: tuple[int, int] = (0, 0)
 
-    @property
-    def image_size(self) -> tuple[int, int]:
-        """(width, height) of the source image."""
-        return width_height(self.image)
+    def __post_init__(self) -> None:
+        if self.image is not None:
+            self.image_size = width_height(self.image)
 
 
 def session_inputs(session: Session, path: Path, kernel: str | None = None) -> WarpInputs:
@@ -155,6 +171,7 @@ def session_inputs(session: Session, path: Path, kernel: str | None = None) -> W
         max_edge=max_edge,
         outside=outside,
         canvas=canvas,
+        fill=session_fill(session.extra, path),
         cage_source=f"{path}: cage",
         target_source=f"{path}: target",
     )
@@ -172,6 +189,7 @@ def file_inputs(image: Path, cage: Path, target: Path, kernel: str | None) -> Wa
         max_edge=None,
         outside=OUTSIDES[0],
         canvas=CANVASES[0],
+        fill=FILLS[0],
         cage_source=str(cage),
         target_source=str(target),
     )
@@ -192,7 +210,7 @@ def warp_job(args: argparse.Namespace) -> tuple[WarpJob, WarpInputs]:
         Anything wrong with the arguments or the files, before any slow work.
     """
     _require_warp_arguments(args)
-    check_writable(args.output, suffix=".png")
+    check_writable(args.output, suffix=IMAGE_SUFFIXES)
     if args.session is not None:
         given = [f"--{name}" for name in ("cage", "target") if getattr(args, name) is not None]
         if args.image is not None or given:
@@ -209,9 +227,13 @@ def warp_job(args: argparse.Namespace) -> tuple[WarpJob, WarpInputs]:
     refuse_overwriting_inputs(
         args.output, {"source cage": args.cage, "target cage": args.target, "session file": args.session}
     )
-    image = read_image(inputs.image_path)
+    photo = read_photo(inputs.image_path)
+    image = photo.pixels
     curve = checked_curve(inputs, image, args.samples_per_segment)
     canvas = args.canvas or inputs.canvas
+    outside = args.outside or inputs.outside
+    fill = _checked_fill(args.fill, inputs.fill, outside)
+    _require_opaque_output(args.output, outside, args.background)
     with reported_as_input("output size"):
         size, view = output_frame(
             output_region(width_height(image), inputs.target, canvas), args.scale, args.size
@@ -228,8 +250,10 @@ def warp_job(args: argparse.Namespace) -> tuple[WarpJob, WarpInputs]:
         targets=(inputs.target,),
         size=size,
         view=view,
-        outside=args.outside or inputs.outside,
+        outside=outside,
+        fill=fill,
         output=args.output,
+        file=OutputFile(args.output, photo.metadata, args.quality, args.background),
         kind="image",
     )
     return job, inputs
@@ -253,8 +277,9 @@ def run_job(job: WarpJob, inspect: Callable[[Deformation, np.ndarray], None] | N
     app.render.ContextUnavailableError
         No OpenGL.
     """
+    from app.fill import set_fill
     from app.render import WarpRenderer, create_headless_context, require_render_memory
-    from app.warping import render
+    from app.warping import render_to_file
 
     # The GL context comes first: without one there is no point in the long precompute.
     require_render_memory(job.image_size, job.size, context=True)
@@ -268,27 +293,42 @@ def run_job(job: WarpJob, inspect: Callable[[Deformation, np.ndarray], None] | N
         with WarpRenderer(ctx) as renderer, interrupted_by_sigterm():
             with reported_as_input(str(job.image_path)):
                 renderer.set_image(job.image)
+            set_fill(renderer, job.image, job.curve.control_points, job.fill, job.outside)
+            job.image = None  # the texture holds it now
             renderer.set_mesh(deformation.mesh.vertices, deformation.mesh.triangles)
-            with WRITERS[job.kind](job.output, job.size, job.fps) as writer, _frames_bar(job) as bar:
-                for index, target in enumerate(job.targets):
-                    with reported_as_input("rendering"):
-                        writer.add(render(renderer, deformation, target, job.size, job.view, job.outside))
-                    bar((index + 1) / len(job.targets))
-                try:
-                    writer.finish()
-                except OSError as error:
-                    raise InputError(f"{job.output}: cannot write ({error.strerror or error})") from None
+            if job.file is not None:
+                with reported_as_input("rendering"):
+                    render_to_file(
+                        renderer, deformation, job.targets[0], (job.size, job.view), job.outside, job.file
+                    )
+            else:
+                _render_frames(job, renderer, deformation)
         seconds = time.perf_counter() - started
     finally:
         ctx.release()
     note(_wrote(job, len(deformation.mesh.vertices), seconds))
 
 
+def _render_frames(job: WarpJob, renderer, deformation: Deformation) -> None:
+    """Every target of `job` drawn into the writer its output asks for."""
+    from app.warping import render
+
+    with WRITERS[job.kind](job.output, job.size, job.fps) as writer, _frames_bar(job) as bar:
+        for index, target in enumerate(job.targets):
+            with reported_as_input("rendering"):
+                writer.add(render(renderer, deformation, target, job.size, job.view, job.outside))
+            bar((index + 1) / len(job.targets))
+        try:
+            writer.finish()
+        except OSError as error:
+            raise InputError(f"{job.output}: cannot write ({error.strerror or error})") from None
+
+
 def _prepare(job: WarpJob) -> Deformation:
     """The mesh of the job's cage and its basis functions, with progress and notes."""
     import core
     from app.warping import prepare
-    from core.compilation import MESSAGE as COMPILING
+    from core.newton.compilation import MESSAGE as COMPILING
 
     kernel = job.settings.kernel
     with reported_as_input(f"{job.source}: meshing"):
@@ -377,6 +417,26 @@ def _require_warp_arguments(args: argparse.Namespace) -> None:
         raise InputError(
             f"warp needs {' and '.join(missing)}, e.g. warp photo.png --cage cage.json --target target.json "
             "--output out.png (images and cages to try: python -m app demo --list)"
+        )
+
+
+def _checked_fill(given: str | None, saved: str, outside: str) -> str:
+    """``--fill`` if given (checked; it needs ``outside = original``), else the session's fill."""
+    if given is None:
+        return saved
+    fill = checked_fill(given)
+    if outside != "original" and fill != "none":
+        raise InputError("--fill fills the original position behind the warp: give --outside original too")
+    return fill
+
+
+def _require_opaque_output(output: Path, outside: str, background) -> None:
+    """`InputError` before any work if `output` is a format without alpha (JPEG) and the warp leaves
+    pixels transparent: outside the deformed region, unless --outside original or --background."""
+    if not has_alpha(output_format(output)) and outside == "transparent" and background is None:
+        raise InputError(
+            f"{output}: JPEG has no transparency and the warp is transparent outside the deformed cage; "
+            "give --outside original or --background COLOR"
         )
 
 

@@ -1,5 +1,5 @@
 """What ``warp`` says of a deformation besides its pixels: the fold warning, and ``--report``'s worst
-Jacobians (`core.distortion.worst_distortion`)."""
+Jacobians (`core.meshes.distortion.worst_distortion`)."""
 
 from __future__ import annotations
 
@@ -7,8 +7,8 @@ import numpy as np
 
 from app.console import ProgressBar, note
 from app.warping import Deformation
-from core.compilation import GRADIENT_MESSAGE as GRADIENT_COMPILING
 from core.kernel_table import COMPILED_KERNELS
+from core.newton.compilation import GRADIENT_MESSAGE as GRADIENT_COMPILING
 
 
 def warn_of_folds(
@@ -55,7 +55,7 @@ def distortion_report(
         The kernel's parameters.
     """
     import core
-    from core.distortion import triangle_jacobians, vertex_jacobians, worst_distortion
+    from core.meshes.distortion import triangle_jacobians, vertex_jacobians, worst_distortion
 
     if kernel in core.MESH_ONLY_KERNELS or params.get("parameterization", "natural") != "natural":
         # No pointwise gradients (FEM, PGW; the arc-length parameterisation): the Jacobians of

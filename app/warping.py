@@ -17,10 +17,12 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 
 import core
+from app.images import DEFAULT_QUALITY, ImageMetadata
 from app.viewport import View
 from core.deformation import deform
 
@@ -45,6 +47,33 @@ class WarpSettings:
     params: dict = field(default_factory=dict)
     max_edge: float | None = None
     cache: bool = True
+
+
+#: Outputs of more pixels than this (one 4096 x 4096 tile) are written strip by strip when PNG;
+#: smaller ones are encoded whole, byte for byte as before.
+STREAMED_PIXELS = 4096 * 4096
+
+
+@dataclass(frozen=True)
+class OutputFile:
+    """Where and how a warp is written.
+
+    Attributes
+    ----------
+    path : Path
+        The file; its extension chooses the format (`app.images.output_format`).
+    metadata : app.images.ImageMetadata, optional
+        The input's ICC profile and EXIF block.
+    quality : int
+        JPEG and WebP quality.
+    background : tuple of float, optional
+        Straight RGBA in [0, 1] under the warp (``--background``); transparent if None.
+    """
+
+    path: Path
+    metadata: ImageMetadata | None = None
+    quality: int = DEFAULT_QUALITY
+    background: tuple[float, float, float, float] | None = None
 
 
 @dataclass(frozen=True)
@@ -122,6 +151,7 @@ def render(
     size: tuple[int, int],
     view: View,
     outside: str,
+    background: tuple[float, float, float, float] | None = None,
 ) -> np.ndarray:
     """The image on `renderer` drawn on the mesh deformed to `target`.
 
@@ -138,14 +168,69 @@ def render(
         Image pixels to output pixels.
     outside : str
         ``"original"`` draws the source image behind the warp, ``"transparent"`` leaves it clear.
+    background : tuple of float, optional
+        Straight RGBA in [0, 1] under everything (``--background``); transparent if None.
 
     Returns
     -------
-    ndarray of shape (height, width, 4), uint8
-        Premultiplied RGBA.
+    ndarray of shape (height, width, 4), uint8, or uint16 for a 16-bit source image
+        RGBA with straight alpha.
     """
     renderer.set_positions(deformation.positions(target))
-    return renderer.render(size, view, backdrop=outside == "original")
+    clear = (0.0, 0.0, 0.0, 0.0) if background is None else background
+    return renderer.render(size, view, backdrop=outside == "original", background=clear)
 
 
-__all__ = ["Deformation", "WarpSettings", "prepare", "render"]
+def render_to_file(
+    renderer,
+    deformation: Deformation,
+    target: np.ndarray,
+    frame: tuple[tuple[int, int], View],
+    outside: str,
+    output: OutputFile,
+) -> None:
+    """`render` written to `output.path` in its format: a PNG larger than one strip is drawn and
+    compressed strip by strip (`WarpRenderer.render_strips`), so that the output is never whole in
+    memory and compressing overlaps drawing; other outputs are rendered whole, then encoded.
+
+    Parameters
+    ----------
+    renderer, deformation, target, outside
+        As in `render`.
+    frame : tuple
+        (width, height) of the output and the `View` of image pixels to output pixels.
+    output : OutputFile
+        Where and how to write.
+
+    Raises
+    ------
+    app.files.InputError
+        The file cannot be written, or transparent pixels for a JPEG (nothing is written).
+    """
+    from app.files import write_image, write_png_strips
+    from app.images import output_format
+    from app.images.tiles import crosses, drawn_edges
+    from app.render import STRIP_ROWS
+
+    size, view = frame
+    background = (0.0, 0.0, 0.0, 0.0) if output.background is None else output.background
+    if output_format(output.path) == "PNG" and size[1] > STRIP_ROWS and size[0] * size[1] > STREAMED_PIXELS:
+        positions = deformation.positions(target)
+        renderer.set_positions(positions)
+        edges = None
+        if not core.folded_triangles(deformation.mesh, positions).any():  # folds: edges everywhere
+            edges = drawn_edges(deformation.mesh, positions, view, renderer.image_size, outside == "original")
+        strips = renderer.render_strips(
+            size,
+            view,
+            backdrop=outside == "original",
+            background=background,
+            antialiased=None if edges is None else lambda box: crosses(edges, box),
+        )
+        write_png_strips(output.path, size, renderer.pixel_type, strips, output.metadata)
+        return
+    pixels = render(renderer, deformation, target, size, view, outside, output.background)
+    write_image(output.path, pixels, output.metadata, output.quality)
+
+
+__all__ = ["Deformation", "OutputFile", "WarpSettings", "prepare", "render", "render_to_file"]

@@ -10,17 +10,17 @@ import core.blas_threads  # noqa: F401, I001
 # Then: the compiled functions of the package compile uncached where numba cannot cache.
 import core.jit_cache  # noqa: F401, I001
 from core.basis import basis_functions
-from core.boundary import Boundary
-from core.bspline import ClosedBSpline
-from core.compilation import compile_solver
+from core.curves.boundary import Boundary
+from core.curves.bspline import ClosedBSpline
+from core.newton.compilation import compile_solver
 from core.deformation import deform
 from core.gradients import basis_gradients, kernel_gradients
-from core.harmonic import harmonic_basis
+from core.meshes.harmonic import harmonic_basis
 from core.kernel_table import BOUNDARY_INTEGRAL_KERNELS, COMPLEX_KERNELS, DEFAULT_KERNEL, MESH_ONLY_KERNELS
 from core.kernels import KERNELS, ConvergenceWarning, SolveReport, kernel
-from core.mesh import Mesh, folded_triangles, triangulate
+from core.meshes.mesh import Mesh, folded_triangles, triangulate
 from core.mesh_basis import CacheWarning, mesh_basis_functions
-from core.pgw import pgw_basis
+from core.meshes.pgw import pgw_basis
 
 __all__ = [
     "BOUNDARY_INTEGRAL_KERNELS",

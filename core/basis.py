@@ -10,11 +10,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from core import solver
-from core.arc_length import checked_parameterization
-from core.bspline import ClosedBSpline
+from core.curves.arc_length import checked_parameterization
+from core.curves.bspline import ClosedBSpline
 from core.kernel_table import DEFAULT_KERNEL
 from core.kernels import BOUNDARY_INTEGRAL_KERNELS, DEFAULT_TOLERANCE, Progress, evaluate
+from core.newton import solver
 from core.validation import as_points, positive_int
 
 
@@ -42,10 +42,10 @@ def basis_functions(
     kernel : str
         One of `core.KERNELS` (see `core.kernel` for parameters).  ``"poisson"``
         (the default) gives the exact harmonic coordinates by a boundary integral
-        equation (`core.poisson`), ``"cauchy-green"`` the complex Cauchy–Green
-        coordinates (`core.cauchy_green`); neither takes parameters, and neither
+        equation (`core.boundary_integrals.poisson`), ``"cauchy-green"`` the complex Cauchy–Green
+        coordinates (`core.boundary_integrals.cauchy_green`); neither takes parameters, and neither
         depends on the boundary's parameterization or on `samples_per_segment`
-        (their panels are chosen for the accuracy stated in `core.panels`).
+        (their panels are chosen for the accuracy stated in `core.boundary_integrals.panels`).
     samples_per_segment : int
         N / n, boundary samples per span for the Newton kernels (the paper uses 100).
     progress : callable, optional
@@ -57,7 +57,7 @@ def basis_functions(
     parameterization : str
         ``"natural"`` (the B-spline parameter t, the paper's choice) or
         ``"arc-length"``: the kernel's integrals run over the arc length s and
-        G_i(x) = int lambda(x, s) N_i(t(s)) ds (Fig. 12, `core.arc_length`).
+        G_i(x) = int lambda(x, s) N_i(t(s)) ds (Fig. 12, `core.curves.arc_length`).
 
     Returns
     -------
@@ -77,8 +77,8 @@ def basis_functions(
 
 def _boundary_integral_basis(curve, x, kernel, progress, return_report, parameterization, params):
     """`basis_functions` of the boundary-integral kernels; the report holds the linear-precision residuals."""
-    from core.cauchy_green import cauchy_green_basis
-    from core.poisson import poisson_basis
+    from core.boundary_integrals.cauchy_green import cauchy_green_basis
+    from core.boundary_integrals.poisson import poisson_basis
 
     checked_parameterization(parameterization)
     if params:

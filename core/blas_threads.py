@@ -1,6 +1,6 @@
 """One BLAS thread for the boundary-integral kernels' many small matrix products.
 
-`core.poisson` and `core.cauchy_green` spend their time in thousands of products of a
+`poisson` and `cauchy_green` spend their time in thousands of products of a
 few hundred rows each.  OpenBLAS threads those, and on a machine whose cores are busy
 (the viewer draws while its worker computes; other programs run) its threads wait for
 each other: on the 2-core development machine under load, the default kernel's basis

@@ -1,7 +1,7 @@
 """The deformation of a basis: deformed points from coordinates and target control points.
 
 Real coordinates G (M, n) map target control points P' (n, 2) to ``G @ P'``; the
-complex Cauchy–Green coordinates (`core.cauchy_green`) act on the points as complex
+complex Cauchy–Green coordinates (`core.boundary_integrals.cauchy_green`) act on the points as complex
 numbers, f = C (P'_x + i P'_y).  `deform` is both, so that every caller draws either.
 """
 

@@ -32,7 +32,7 @@ Differentiating g(phi(x), x) = 0 (the implicit function theorem):
 and grad b_j = kappa grad a_j with kappa = sum_k b_k / sum_k a_k.  The weights'
 gradients, for omega = 1, 1 / r (Eq. 18), 1 / r^k + shift (Eq. 19-20: the shift's
 gradient is the quadrature of grad r^-k = k r^-k u / r) and |d theta / dt| =
-|(p - x) x p'| / r^2 (Eq. 23, and its square), are in `core.gradient_solver`.
+|(p - x) x p'| / r^2 (Eq. 23, and its square), are in `core.newton.gradient_solver`.
 
 Explicit kernels (mean value Eq. 5, Wachspress and Laplace Sec. 1.1, with the
 point masses of sharp corners): lambda_j = m_j / sum_k m_k with m_j = w_j mu(x, t_j),
@@ -62,11 +62,12 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from core import gradient_solver, kernels, solver
-from core.boundary import Boundary
-from core.bspline import ClosedBSpline
+from core import kernels
+from core.curves.boundary import Boundary
+from core.curves.bspline import ClosedBSpline
 from core.kernel_table import DEFAULT_KERNEL
 from core.kernels import DEFAULT_TOLERANCE, REFINEMENTS, checked_report
+from core.newton import gradient_solver, solver
 from core.validation import as_points, positive_float, positive_int
 
 
@@ -147,8 +148,8 @@ def kernel_gradients(
 def _boundary_integral_gradients(curve, x, kernel, return_values, return_report, params):
     """`basis_gradients` of ``"poisson"`` (real) and ``"cauchy-green"`` ((dC/dz, i dC/dz), complex)."""
     from core.basis import basis_functions
-    from core.cauchy_green import cauchy_green_derivatives
-    from core.poisson import poisson_gradients
+    from core.boundary_integrals.cauchy_green import cauchy_green_derivatives
+    from core.boundary_integrals.poisson import poisson_gradients
 
     if params:
         raise ValueError(f"kernel {kernel!r} does not take parameter(s) {', '.join(sorted(params))}")

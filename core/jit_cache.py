@@ -11,7 +11,7 @@ everything works, only each run compiles again.
 
 numba also checks a cached function against its own source file only, while a compiled
 function carries the machine code of the functions it calls, from other modules too
-(`core.gradient_solver` and `core.closest_point` call `core.solver`): after an edit of
+(`core.newton.gradient_solver` and `core.curves.closest_point` call `core.newton.solver`): after an edit of
 the callee alone the caller's cache would still run the old code.  Here every compiled
 function of the package is stamped with the content of all of the package's modules that
 hold compiled functions (`_PackageLocator`), so any edit of one recompiles them all.
@@ -64,29 +64,47 @@ _FOLDER = Path(__file__).resolve().parent
 def package_stamp() -> str:
     """SHA-256 of the package's modules that hold compiled functions (``njit`` in their text) and
     of the modules of the package they import, transitively: a compiled function freezes the
-    constants it reads from them (`core.layer_compiled` reads the panels' Gauss nodes)."""
-    texts = {path.name: path.read_bytes() for path in _FOLDER.glob("*.py") if path.name != "jit_cache.py"}
+    constants it reads from them (`core.boundary_integrals.compiled_integrals` reads the Gauss
+    nodes of `core.boundary_integrals.gauss_legendre`)."""
+    texts = {
+        _dotted(path): path.read_bytes()
+        for path in sorted(_FOLDER.rglob("*.py"))
+        if path.name not in ("jit_cache.py", "__init__.py")
+    }
     stamped = {name for name, text in texts.items() if b"njit" in text}
     pending = sorted(stamped)
     while pending:
-        text = texts[pending.pop()]
-        modules = _SUBMODULE.findall(text) + [
-            m.strip() for names in _NAMES.findall(text) for m in names.split(b",")
-        ]
-        for module in modules:
-            name = module.decode() + ".py"
-            if name in texts and name not in stamped:
-                stamped.add(name)
-                pending.append(name)
+        for module in imported_modules(texts[pending.pop()]):
+            if module in texts and module not in stamped:
+                stamped.add(module)
+                pending.append(module)
     digest = hashlib.sha256()
     for name in sorted(stamped):
         digest.update(name.encode() + b"\0" + texts[name] + b"\0")
     return digest.hexdigest()
 
 
-#: ``from core.X import ...`` and ``from core import X, Y``: the package's modules a module imports.
-_SUBMODULE = re.compile(rb"^\s*from core\.(\w+) import", re.MULTILINE)
-_NAMES = re.compile(rb"^\s*from core import ([\w, ]+)$", re.MULTILINE)
+def imported_modules(text: bytes) -> set[str]:
+    """The modules of `core` that source `text` may import, as names relative to `core`
+    (``newton.solver``): ``from core.X import ...`` gives X, ``from core.X import Y`` also X.Y."""
+    modules = set()
+    for base, names in _FROM.findall(text):
+        base = base.decode().lstrip(".")
+        names = re.sub(rb"#[^\n]*", b"", names)
+        modules.add(base)
+        modules |= {f"{base}.{name.decode()}".lstrip(".") for name in _NAME.findall(names)}
+    return modules
+
+
+def _dotted(path: Path) -> str:
+    """The name of the module at `path` relative to `core`: ``newton/solver.py`` -> ``newton.solver``."""
+    return ".".join(path.relative_to(_FOLDER).with_suffix("").parts)
+
+
+#: ``from core.X import names`` (names on one line or in parentheses) and ``from core import X, Y``.
+_FROM = re.compile(rb"^\s*from core((?:\.\w+)*) import (\([^)]*\)|[^\n]*)", re.MULTILINE)
+#: An imported name, without its ``as`` alias.
+_NAME = re.compile(rb"(\w+)(?:\s+as\s+\w+)?")
 
 
 class _PackageLocator(_CacheLocator):

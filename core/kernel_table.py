@@ -1,8 +1,8 @@
 """Every kernel of the project in one table: what it is, and what each part of the code reads.
 
 Adding a kernel is one `Kernel` row here and its computation: a weight function in
-`core.solver` (and its derivative in `core.gradients`) for the Newton family, a module
-like `core.poisson` for a boundary-integral kernel.  The tuples below (`POINT_KERNELS`,
+`core.newton.solver` (and its derivative in `core.gradients`) for the Newton family, a module
+like `core.boundary_integrals.poisson` for a boundary-integral kernel.  The tuples below (`POINT_KERNELS`,
 `CONVEX_ONLY`, ...) are derived from the table; nothing else lists kernels.
 """
 
@@ -11,10 +11,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 #: Families: how a kernel is computed.
-BOUNDARY_INTEGRAL = "boundary integral"  # core.poisson, core.cauchy_green: one solve per cage
-NEWTON = "weighted maximum likelihood"  # core.solver: a 2-variable convex problem per point (Eq. 16)
-EXPLICIT = "explicit"  # core.solver, closed-form weights (mean value, three-point family)
-MESH = "mesh"  # defined through the mesh or by line intersections (core.harmonic, core.pgw)
+BOUNDARY_INTEGRAL = "boundary integral"  # boundary_integrals.poisson, .cauchy_green: one solve per cage
+NEWTON = "weighted maximum likelihood"  # core.newton.solver: a 2-variable convex problem per point (Eq. 16)
+EXPLICIT = "explicit"  # core.newton.solver, closed-form weights (mean value, three-point family)
+MESH = "mesh"  # defined through the mesh or by line intersections (core.meshes.harmonic, core.meshes.pgw)
 
 
 @dataclass(frozen=True)
@@ -66,7 +66,11 @@ class Kernel:
 DEFAULT_KERNEL = "poisson"
 
 TABLE = (
-    Kernel("poisson", BOUNDARY_INTEGRAL, "Poisson kernel, Eq. 2 and 7; double layer (core.poisson)"),
+    Kernel(
+        "poisson",
+        BOUNDARY_INTEGRAL,
+        "Poisson kernel, Eq. 2 and 7; double layer (core.boundary_integrals.poisson)",
+    ),
     Kernel("harmonic-like", NEWTON, "Eq. 20"),
     Kernel("mean-value", EXPLICIT, "Eq. 5"),
     Kernel("modified-mean-value", NEWTON, "Eq. 22-23"),
@@ -78,7 +82,10 @@ TABLE = (
     Kernel("wachspress", EXPLICIT, "Sec. 1.1, three-point family", convex_only=True),
     Kernel("laplace", EXPLICIT, "Sec. 1.1, three-point family", convex_only=True),
     Kernel(
-        "cauchy-green", BOUNDARY_INTEGRAL, "Cauchy-Green coordinates (core.cauchy_green)", complex_valued=True
+        "cauchy-green",
+        BOUNDARY_INTEGRAL,
+        "Cauchy-Green coordinates (core.boundary_integrals.cauchy_green)",
+        complex_valued=True,
     ),
     Kernel("pgw", MESH, "positive Gordon-Wixom, Sec. 1.1", gradients=False, parameters=("angles",)),
     Kernel("harmonic", MESH, "finite-element harmonic, Sec. 4.2", gradients=False),

@@ -6,9 +6,9 @@ The table of kernels (names are a public contract; the list is `core.kernel_tabl
 name                           weight omega_x or kernel                         paper
 =============================  ===============================================  ==============
 poisson (default)              the Poisson kernel: harmonic coordinates by a     Sec. 1.1, Eq. 2
-                               boundary integral equation (`core.poisson`)
+                               boundary integral equation (`core.boundary_integrals.poisson`)
 cauchy-green                   complex Cauchy-Green coordinates, conformal,      Sec. 1.1
-                               not interpolating (`core.cauchy_green`)
+                               not interpolating (`core.boundary_integrals.cauchy_green`)
 mean-value                     mu = (p - x) x p' / r^3, may be negative          Eq. 5
 modified-mean-value            omega = |d theta / dt|                            Eq. 22-23
 modified-mean-value-squared    omega = |d theta / dt|^2                          Sec. 3.4
@@ -21,7 +21,7 @@ wachspress, laplace            three-point family, convex domains only          
 =============================  ===============================================  ==============
 
 The weighted maximum-likelihood kernels (Eq. 17) solve a two-variable convex
-problem per point (Eq. 16); see `core.solver`.  The two boundary-integral kernels
+problem per point (Eq. 16); see `core.newton.solver`.  The two boundary-integral kernels
 (`BOUNDARY_INTEGRAL_KERNELS`) solve one linear system per cage and need no Newton
 solver and no compilation; `core.basis_functions` evaluates them, `kernel` (the
 values lambda(x, t) at the samples) does not apply to them.
@@ -53,11 +53,11 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
-from core import solver
-from core.arc_length import arc_length_boundary, checked_parameterization
-from core.boundary import Boundary
-from core.crossing_slabs import crossing_slabs
+from core.curves.arc_length import arc_length_boundary, checked_parameterization
+from core.curves.boundary import Boundary
+from core.curves.crossing_slabs import crossing_slabs
 from core.kernel_table import BOUNDARY_INTEGRAL_KERNELS, CONVEX_ONLY, POINT_KERNELS
+from core.newton import solver
 from core.validation import as_points, positive_float
 
 #: The real point kernels: their coordinates G (M, n) satisfy G @ P == x (`core.kernel_table`).
@@ -103,7 +103,7 @@ class SolveReport:
     iterations : ndarray of shape (M,)
         Newton iterations on the point's full quadrature (0 for the explicit
         kernels and boundary points); those of the warm start on a subset of the
-        nodes (`core.solver._coarse_start`) are not counted.
+        nodes (`core.newton.solver._coarse_start`) are not counted.
     status : ndarray of shape (M,)
         0 converged, 1 not converged, 3 converged but the minimiser is at the edge
         of the feasible set (lambda-hat is under-resolved by the quadrature).
@@ -193,7 +193,7 @@ def kernel(
     parameterization : str
         ``"natural"``: the boundary's own parameter t.  ``"arc-length"``: the
         kernel in the arc length s (Fig. 12c) at the N samples s_k = k n / N (normalised arc length) of
-        `core.arc_length.arc_length_boundary`; needs a boundary
+        `core.curves.arc_length.arc_length_boundary`; needs a boundary
         from `ClosedBSpline.sample` (natural).
 
     Returns
@@ -352,7 +352,7 @@ def _pool(threads: int) -> ThreadPoolExecutor:
 
 
 def _curve_arrays(boundary: Boundary, mode: int, columns: int, factor: int, out_step: float) -> tuple:
-    """The per-sample arrays `core.solver.solve_points` shares between points."""
+    """The per-sample arrays `core.newton.solver.solve_points` shares between points."""
     count = boundary.count
     if mode == solver.OUTPUT_BASIS:
         u = _local_parameters(boundary, columns)
@@ -381,9 +381,9 @@ def _curve_arrays(boundary: Boundary, mode: int, columns: int, factor: int, out_
 def _local_parameters(boundary: Boundary, spans: int) -> np.ndarray:
     """u in [0, 1] of every sample within the B-spline span the solver files it under, shape (N,).
 
-    The spans' sample ranges are `core.solver.span_first_sample`'s: `per` samples
+    The spans' sample ranges are `core.newton.solver.span_first_sample`'s: `per` samples
     each in the natural parameter, the samples from ceil(S_j / h) on in arc length
-    (`core.arc_length`), where u = t(s_k) - j.
+    (`core.curves.arc_length`), where u = t(s_k) - j.
     """
     count = boundary.count
     coefficients = boundary.curve.coefficients

@@ -19,11 +19,8 @@ from collections.abc import Callable
 
 import numpy as np
 
-from core import cache as disk_cache
-from core.arc_length import checked_parameterization
-from core.bspline import ClosedBSpline
-from core.compilation import compile_solver
-from core.harmonic import harmonic_basis
+from core.curves.arc_length import checked_parameterization
+from core.curves.bspline import ClosedBSpline
 from core.kernel_table import (
     BY_NAME,
     COMPILED_KERNELS,
@@ -35,8 +32,11 @@ from core.kernel_table import (
     POINT_KERNELS,
 )
 from core.kernels import DEFAULT_TOLERANCE
-from core.mesh import Mesh, require_mesh_of
-from core.pgw import pgw_basis
+from core.meshes.harmonic import harmonic_basis
+from core.meshes.mesh import Mesh, require_mesh_of
+from core.meshes.pgw import pgw_basis
+from core.newton.compilation import compile_solver
+from core.storage import cache as disk_cache
 from core.validation import checked_samples_per_segment
 
 #: Kernels whose G is not kept in the disk cache: complex, and cheaper to evaluate than to check.
@@ -86,7 +86,7 @@ def mesh_basis_functions(
     progress : callable, optional
         Called with the fraction done in [0, 1].
     cache : bool
-        Read and write the result in the disk cache (`core.cache`).  An entry
+        Read and write the result in the disk cache (`core.storage.cache`).  An entry
         that fails its checksum or `invariant_problem` is recomputed and
         replaced, with a `CacheWarning` saying so.
     compiling : callable, optional
@@ -97,7 +97,7 @@ def mesh_basis_functions(
         Also return grad G_i at the vertices (`core.basis_gradients`), for the
         point kernels of `core.KERNELS` and the natural parameterisation only:
         ``"harmonic"`` and ``"pgw"`` have no pointwise gradients (the
-        per-triangle Jacobians of `core.distortion` are exact for the piecewise
+        per-triangle Jacobians of `core.meshes.distortion` are exact for the piecewise
         linear ``"harmonic"`` basis).  Cached like G, in an entry of its own
         checked by `gradient_invariant_problem`.
     parameterization : str
@@ -148,7 +148,7 @@ def mesh_basis_functions(
         if kernel in MESH_ONLY_KERNELS:
             raise ValueError(
                 f"kernel {kernel!r} has no pointwise gradients; use the per-triangle Jacobians "
-                "(core.distortion.triangle_jacobians) or a kernel of core.KERNELS"
+                "(core.meshes.distortion.triangle_jacobians) or a kernel of core.KERNELS"
             )
         if parameterization != "natural":
             raise ValueError(
@@ -328,7 +328,7 @@ def _vertex_gradients(curve, mesh, kernel, samples_per_segment, cache, params) -
 
 
 def _cache_key(curve, mesh, kernel, samples_per_segment, params, **what) -> str:
-    """`core.cache.cache_key` of this cage, mesh and kernel (`what`: parameterization, quantity)."""
+    """`core.storage.cache.cache_key` of this cage, mesh and kernel (`what`: parameterization, quantity)."""
     return disk_cache.cache_key(
         curve.control_points,
         mesh.vertices,
@@ -362,7 +362,7 @@ def _compute(curve, mesh, kernel, samples_per_segment, progress, parameterizatio
             progress(1.0)
         return values
     if kernel == "poisson" and not params and interior[-1] - interior[0] + 1 == interior.size:  # a view
-        from core.poisson import poisson_basis
+        from core.boundary_integrals.poisson import poisson_basis
 
         rows = slice(int(interior[0]), int(interior[-1]) + 1)
         poisson_basis(curve, mesh.vertices[rows], progress, out=values[rows])

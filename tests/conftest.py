@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import core
-from core import examples
+from core.curves import examples
 
 
 def interior_points(curve: core.ClosedBSpline, count: int, seed: int, margin: float = 0.0) -> np.ndarray:
@@ -17,7 +17,7 @@ def interior_points(curve: core.ClosedBSpline, count: int, seed: int, margin: fl
 
     With margin > 0, only points farther than margin * diameter from the curve.
     """
-    from core.closest_point import distance_to_curve
+    from core.curves.closest_point import distance_to_curve
 
     rng = np.random.default_rng(seed)
     low = curve.control_points.min(axis=0)

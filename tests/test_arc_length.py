@@ -1,4 +1,4 @@
-"""core.arc_length: the boundary in its (normalised) arc length, and the kernels in it (Fig. 12)."""
+"""core.curves.arc_length: the boundary in its (normalised) arc length, and the kernels in it (Fig. 12)."""
 
 from __future__ import annotations
 
@@ -8,8 +8,8 @@ from conftest import interior_points, l_polygon, pixel_blob
 from scipy.integrate import quad
 
 import core
-from core import examples
-from core.arc_length import ArcLengthCurve
+from core.curves import examples
+from core.curves.arc_length import ArcLengthCurve
 
 # Weighted maximum-likelihood kernels: linear precision to the Newton tolerance, positive.
 POSITIVE = (
@@ -41,7 +41,7 @@ CAGES = cages()
 
 
 def reference_arc_length(curve: core.ClosedBSpline, t: float) -> float:
-    """int_0^t |p'| by adaptive quadrature, span by span (independent of core.arc_length)."""
+    """int_0^t |p'| by adaptive quadrature, span by span (independent of core.curves.arc_length)."""
     speed = lambda v: float(np.linalg.norm(curve.derivative([v])[0]))  # noqa: E731
     whole = int(np.floor(t))
     total = sum(quad(speed, j, j + 1, epsabs=0, epsrel=2e-14, limit=200)[0] for j in range(whole))

@@ -1,4 +1,4 @@
-"""Tests of core.atomic_write: atomic replacement, stale temporaries, the umask."""
+"""Tests of core.storage.atomic_write: atomic replacement, stale temporaries, the umask."""
 
 import os
 import subprocess
@@ -6,7 +6,7 @@ import sys
 
 import pytest
 
-from core.atomic_write import remove_stale_temporaries, temporary_path, write_atomically
+from core.storage.atomic_write import remove_stale_temporaries, temporary_path, write_atomically
 
 
 @pytest.fixture(scope="module")

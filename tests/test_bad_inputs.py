@@ -9,18 +9,22 @@ own (an address-space limit) or more than one line to state.
 """
 
 import hashlib
+import io
 import json
 import os
 import random
+import re
 import resource
 import stat
 import subprocess
 import sys
 import time
+import zlib
 from pathlib import Path
 
 import numpy as np
 import pytest
+from PIL import Image
 from test_cli import CAGE, picture, transformed
 
 from app.__main__ import main
@@ -565,3 +569,88 @@ def test_outputs_up_to_the_pixel_limit_are_framed_and_drawn_in_tiles():
     assert output_frame((0, 0, 11585, 11585))[0] == (11585, 11585)
     with pytest.raises(ValueError, match=r"the output would be 16384x16384 pixels \(268 megapixels\)"):
         output_frame((0, 0, 100, 100), size=(16384, 16384))
+
+
+def _photo_bytes(format: str, **options) -> bytes:
+    """A 160 x 120 photograph (test_cli's picture) encoded by Pillow."""
+    stream = io.BytesIO()
+    Image.fromarray(picture()[..., :3]).save(stream, format=format, **options)
+    return stream.getvalue()
+
+
+def _exif(orientation) -> bytes:
+    exif = Image.Exif()
+    exif[0x0112] = orientation
+    return exif.tobytes()
+
+
+def _png_with_chunk(kind: bytes, payload: bytes) -> bytes:
+    from app.images.writing import png_chunk
+
+    data = _photo_bytes("PNG")
+    return data[:33] + png_chunk(kind, payload) + data[33:]
+
+
+def _jpeg_declaring(width: int, height: int) -> bytes:
+    """A JPEG whose frame header declares `width` x `height` and whose data is cut short."""
+    data = _photo_bytes("JPEG")
+    start = next(i for i in range(2, len(data) - 9) if data[i] == 0xFF and data[i + 1] == 0xC0)
+    return (
+        data[: start + 5]
+        + height.to_bytes(2, "big")
+        + width.to_bytes(2, "big")
+        + data[start + 9 : start + 200]
+    )
+
+
+#: Bad photographs (issue 36): the file's bytes, the exit code, and the one line on stderr.
+BAD_PHOTOGRAPHS = {
+    "truncated JPEG": (lambda: _photo_bytes("JPEG")[:900], 2, r"photo: cannot decode the image"),
+    "truncated TIFF": (
+        lambda: _photo_bytes("TIFF", compression="tiff_lzw")[:20000],
+        2,
+        r"photo: cannot decode the image",
+    ),
+    "truncated WebP": (lambda: _photo_bytes("WEBP")[:300], 2, r"photo: cannot decode the image"),
+    "JPEG bomb": (
+        lambda: _jpeg_declaring(60000, 60000),
+        2,
+        r"photo: the JPEG image is 60000x60000 pixels \(3600 megapixels\); at most 134 megapixels",
+    ),
+    "orientation 9": (
+        lambda: _photo_bytes("JPEG", exif=_exif(9)),
+        0,
+        r"photo: its EXIF orientation 9 is not one of 1-8; ignored",
+    ),
+    "malformed EXIF": (
+        lambda: _photo_bytes("JPEG", exif=b"Exif\x00\x00MM\x00*\x00\x00\xff\xf0"),
+        0,
+        r"photo: its EXIF block is malformed \(its first IFD is beyond the block's end\); dropped",
+    ),
+    "garbage ICC profile": (
+        lambda: _photo_bytes("JPEG", icc_profile=b"not a profile" * 20),
+        0,
+        r"photo: its ICC profile is not a valid profile \(no 'acsp' signature\); carried over unchanged",
+    ),
+    "ICC profile over 16 MB": (
+        lambda: _png_with_chunk(b"iCCP", b"big\x00\x00" + zlib.compress(bytes(17 << 20))),
+        0,
+        r"photo: its ICC profile is 17 MiB, more than 16 MiB; dropped",
+    ),
+    "two-page TIFF": (
+        lambda: _photo_bytes("TIFF", save_all=True, append_images=[Image.new("RGB", (8, 8))]),
+        0,
+        r"photo: the TIFF has 2 pages; only the first is read",
+    ),
+}
+
+
+@pytest.mark.parametrize("case", list(BAD_PHOTOGRAPHS))
+def test_bad_photographs_are_one_line(folder, capfd, case):
+    make, code, pattern = BAD_PHOTOGRAPHS[case]
+    (folder / "photo").write_bytes(make())
+    capfd.readouterr()
+    assert main([str(a) for a in warp(folder, image=folder / "photo")]) == code
+    lines = [line for line in capfd.readouterr().err.strip().splitlines() if f"{folder / 'photo'}:" in line]
+    assert len(lines) == 1 and re.search(pattern, lines[0]), lines
+    assert (folder / "out.png").exists() == (code == 0)

@@ -9,8 +9,8 @@ import pytest
 from conftest import interior_points
 
 import core
-from core import examples
-from core.closest_point import distance_to_curve
+from core.curves import examples
+from core.curves.closest_point import distance_to_curve
 
 POINT_KERNELS = tuple(name for name in core.KERNELS if name not in ("wachspress", "laplace"))
 # Every weighted maximum-likelihood kernel but omega = 1, whose interpolation is very slow (Sec. 3.1).
@@ -42,7 +42,7 @@ def test_partition_of_unity_and_linear_precision(name, ellipse, blob):
     np.testing.assert_allclose(G.sum(axis=1), 1.0, atol=1e-13)
     error = np.abs(G @ curve.control_points - x).max()
     if name == "poisson":
-        # The boundary integral's discretisation error (core.poisson: ~1e-10 of the diameter).
+        # The boundary integral's discretisation error (poisson: ~1e-10 of the diameter).
         assert error <= 1e-9 * curve.diameter
         np.testing.assert_allclose(report.residual, np.linalg.norm(G @ curve.control_points - x, axis=1))
     elif name in POINT_KERNELS and name != "mean-value":

@@ -33,7 +33,14 @@ def test_a_failed_row_is_reported_and_the_others_still_run(monkeypatch, capsys):
     monkeypatch.setattr(bench, "_memory", fail)
     monkeypatch.setattr(bench, "_warp_4k", lambda size: ran.append("warp"))
     args = argparse.Namespace(
-        quick=True, repeats=1, large=False, skip_fem=True, skip_memory=False, skip_warp=False, skip_drag=True
+        quick=True,
+        repeats=1,
+        large=False,
+        skip_fem=True,
+        skip_memory=False,
+        skip_warp=False,
+        skip_photos=True,
+        skip_drag=True,
     )
     assert bench.run_bench(args) == 1
     assert ran == ["memory", "warp"]
@@ -93,6 +100,7 @@ def test_quick_runs_every_row_once_at_tiny_sizes(monkeypatch):
     monkeypatch.setattr(bench, "_memory", lambda curve, count: calls.update(memory=count))
     monkeypatch.setattr(bench, "_warp_4k", lambda size: calls.update(warp=size))
     monkeypatch.setattr(bench, "_drag_frames", lambda *rest: calls.update(drag=rest))
+    monkeypatch.setattr(bench, "photo_rows", lambda sizes, run: calls.update(photos=sizes))
     args = argparse.Namespace(
         quick=True,
         repeats=3,
@@ -100,6 +108,7 @@ def test_quick_runs_every_row_once_at_tiny_sizes(monkeypatch):
         skip_fem=False,
         skip_memory=False,
         skip_warp=False,
+        skip_photos=False,
         skip_drag=False,
     )
     assert bench.run_bench(args) == 0
@@ -108,5 +117,6 @@ def test_quick_runs_every_row_once_at_tiny_sizes(monkeypatch):
         "fem": ((2_000,), 1, 0.0),
         "memory": 20_000,
         "warp": (640, 360),
+        "photos": ((1200, 800),),
         "drag": ((6_000,), 1.0),
     }

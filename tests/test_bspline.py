@@ -9,8 +9,8 @@ import pytest
 from conftest import near_cusp
 
 import core
-from core import bspline, examples
-from core.bspline import ClosedBSpline, knot_loops
+from core.curves import bspline, examples
+from core.curves.bspline import ClosedBSpline, knot_loops
 
 
 def test_curve_is_the_folded_basis_times_the_control_points(blob):

@@ -172,7 +172,14 @@ BAD_WARP_INPUTS = {
         lambda d: warp_argv(d, **{"--output": (d / "folder.png").mkdir() or d / "folder.png"}),
         r"folder.png: cannot write, it is a directory",
     ),
-    "output not PNG": (lambda d: warp_argv(d, **{"--output": d / "out.jpg"}), r"out.jpg: .*must end in .png"),
+    "output not an image format": (
+        lambda d: warp_argv(d, **{"--output": d / "out.bmp"}),
+        r"out.bmp: the output file name must end in .png, .tif, .tiff, .jpg, .jpeg, .webp",
+    ),
+    "transparent JPEG": (
+        lambda d: warp_argv(d, **{"--output": d / "out.jpg"}),
+        r"out.jpg: JPEG has no transparency .* give --outside original or --background COLOR",
+    ),
     "missing --cage": (lambda d: warp_argv(d, **{"--cage": None}), r"warp needs --cage \(or --session\)"),
     "nothing": (
         lambda d: ["warp"],

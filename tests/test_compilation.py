@@ -21,7 +21,9 @@ import json, warnings
 import numpy as np
 from numba.core.registry import CPUDispatcher
 import core
-from core import crossing_slabs, examples, solver
+from core.curves import crossing_slabs
+from core.curves import examples
+from core.newton import solver
 warnings.simplefilter("ignore")
 fractions = []
 compiled = core.compile_solver(fractions.append)
@@ -53,7 +55,7 @@ def _run_child(cache: Path) -> dict:
 
 
 def test_a_cold_cache_compiles_once_with_progress_and_the_next_run_loads_it(tmp_path):
-    from core.compilation import solver_weights
+    from core.newton.compilation import solver_weights
 
     cold = _run_child(tmp_path)
     fractions = cold["fractions"]
@@ -67,7 +69,7 @@ def test_a_cold_cache_compiles_once_with_progress_and_the_next_run_loads_it(tmp_
 def test_once_loaded_in_a_process_compile_solver_returns_at_once(monkeypatch):
     # mesh_basis_functions calls it before every solve: a second call must neither read the
     # solver's source for progress weights nor run a trial solve.
-    from core import compilation
+    from core.newton import compilation
 
     compilation.compile_solver()
 
@@ -82,18 +84,19 @@ def test_once_loaded_in_a_process_compile_solver_returns_at_once(monkeypatch):
 
 
 def test_without_a_writable_cache_folder_the_solver_compiles_uncached_with_one_note(tmp_path):
-    # A copy of the package whose __pycache__ cannot be made (a file is in the way), with
+    # A copy of the package whose __pycache__ folders cannot be made (a file is in the way), with
     # NUMBA_CACHE_DIR and the home folder where no folder can be created either: numba has no
     # cache locator for it (`cannot cache function '_slab': no locator available`).
     shutil.copytree(ROOT / "core", tmp_path / "core", ignore=shutil.ignore_patterns("__pycache__"))
-    (tmp_path / "core" / "__pycache__").write_text("")
+    for package in (tmp_path / "core").rglob("__init__.py"):
+        (package.parent / "__pycache__").write_text("")
     blocked = str(tmp_path / "core" / "__pycache__" / "numba")  # under a file: never creatable
     environment = dict(
         os.environ, PYTHONPATH=str(tmp_path), NUMBA_CACHE_DIR=blocked, XDG_CACHE_HOME=blocked, HOME=blocked
     )
     child = (
         "import numpy as np, core\n"
-        "from core.crossing_slabs import crossing_slabs\n"
+        "from core.curves.crossing_slabs import crossing_slabs\n"
         "print(crossing_slabs(np.array([0.0, 1.0, 1.0, 0.0]))[0].tolist())\n"
     )
     result = subprocess.run(
@@ -112,7 +115,7 @@ def test_an_edit_of_a_callee_module_recompiles_its_callers_in_other_modules(tmp_
     environment = dict(os.environ, PYTHONPATH=str(tmp_path), NUMBA_CACHE_DIR=str(tmp_path / "cache"))
     child = (
         "import numpy as np, core\n"
-        "from core import closest_point\n"
+        "from core.curves import closest_point\n"
         "curve = core.ClosedBSpline([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])\n"
         "closest_point.distance_to_curve(curve.piecewise_polynomial(), np.array([[0.5, 0.5]]))\n"
         "print(closest_point._distances.stats.cache_hits.total(), "
@@ -128,24 +131,28 @@ def test_an_edit_of_a_callee_module_recompiles_its_callers_in_other_modules(tmp_
 
     assert hits_and_misses() == [0, 1]  # compiled
     assert hits_and_misses() == [1, 0]  # loaded
-    with open(tmp_path / "core" / "solver.py", "a") as solver_source:
+    with open(tmp_path / "core" / "newton" / "solver.py", "a") as solver_source:
         solver_source.write("\n# an edit of the callee's module\n")
     assert hits_and_misses() == [0, 1]  # compiled again, although closest_point.py is unchanged
 
 
 def test_the_cache_stamp_covers_the_modules_compiled_code_reads_constants_from(tmp_path, monkeypatch):
-    # core.layer_compiled freezes core.panels' Gauss nodes (ORDER of them) into its machine code:
+    # compiled_integrals freezes panels' Gauss nodes (ORDER of them) into its machine code:
     # an edit of panels.py must change the stamp, or a warm cache runs with the old ORDER past the
     # ends of the new arrays. A module no compiled code imports (the disk cache of G) must not.
     from core import jit_cache
 
     copy = tmp_path / "core"
-    copy.mkdir()
-    for path in Path(jit_cache.__file__).resolve().parent.glob("*.py"):
-        (copy / path.name).write_bytes(path.read_bytes())
+    source = Path(jit_cache.__file__).resolve().parent
+    shutil.copytree(source, copy, ignore=shutil.ignore_patterns("__pycache__"))
     monkeypatch.setattr(jit_cache, "_FOLDER", copy)
     changed = {}
-    for name in ("panels.py", "layer_compiled.py", "bspline.py", "cache.py", "atomic_write.py"):
+    stamped = {
+        "boundary_integrals/panels.py",
+        "boundary_integrals/compiled_integrals.py",
+        "curves/bspline.py",
+    }
+    for name in (*sorted(stamped), "storage/cache.py", "storage/atomic_write.py"):
         jit_cache.package_stamp.cache_clear()
         before = jit_cache.package_stamp()
         with open(copy / name, "a") as stream:
@@ -153,5 +160,4 @@ def test_the_cache_stamp_covers_the_modules_compiled_code_reads_constants_from(t
         jit_cache.package_stamp.cache_clear()
         changed[name] = jit_cache.package_stamp() != before
     jit_cache.package_stamp.cache_clear()
-    stamped = {"panels.py", "layer_compiled.py", "bspline.py"}
     assert changed == {name: name in stamped for name in changed}

@@ -1,4 +1,4 @@
-"""core.crossing_slabs: the slab-indexed point-in-polygon test equals the test over every edge."""
+"""core.curves.crossing_slabs: the slab-indexed point-in-polygon test equals the test over every edge."""
 
 from __future__ import annotations
 
@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 import core
-from core import examples
-from core.crossing_slabs import crossing_slabs, inside_polygon
+from core.curves import examples
+from core.curves.crossing_slabs import crossing_slabs, inside_polygon
 
 
 def _crossing_number(polygon: np.ndarray, points: np.ndarray) -> np.ndarray:

@@ -1,11 +1,11 @@
-"""Tests of core.diameter: the exact diameter of a point set in O(N log N)."""
+"""Tests of core.curves.diameter: the exact diameter of a point set in O(N log N)."""
 
 import tracemalloc
 
 import numpy as np
 import pytest
 
-from core.diameter import point_set_diameter
+from core.curves.diameter import point_set_diameter
 
 
 def brute_force(points):

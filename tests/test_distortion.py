@@ -1,4 +1,5 @@
-"""core.distortion: singular values, conformal distortion and folded area on maps with known answers."""
+"""core.meshes.distortion: singular values, conformal distortion and folded area on maps with known
+answers."""
 
 from __future__ import annotations
 
@@ -6,7 +7,8 @@ import numpy as np
 import pytest
 
 import core
-from core import distortion, examples
+from core.curves import examples
+from core.meshes import distortion
 
 
 def grid(columns: int = 6, rows: int = 4) -> tuple[np.ndarray, np.ndarray]:

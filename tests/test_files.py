@@ -160,7 +160,8 @@ def test_read_image_converts_every_layout_to_rgba(tmp_path):
 
     grey16 = np.full((4, 4), 65535, dtype=np.uint16)
     (tmp_path / "grey16.png").write_bytes(encoded(grey16))
-    assert read_image(tmp_path / "grey16.png")[0, 0].tolist() == [255, 255, 255, 255]
+    grey16 = read_image(tmp_path / "grey16.png")  # the depth is kept (issue 36)
+    assert grey16.dtype == np.uint16 and grey16[0, 0].tolist() == [65535] * 4
 
 
 def test_bad_images(tmp_path, capfd):

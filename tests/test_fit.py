@@ -13,24 +13,22 @@ from scipy.spatial import cKDTree
 from app.__main__ import main
 from app.files import read_cage, write_png
 from app.fit import (
+    BAY_MOUTH,
     FIT_PIXELS,
     CageFitWarning,
     SubjectUncertainWarning,
-    fit_cage,
-    fit_closed_bspline,
-    mask_outline,
-    rectangle_cage,
-    snap_corners,
-)
-from app.subject import (
-    BAY_MOUTH,
-    bays_filled,
+    _bays_filled,
     border_contrast,
     checked_rect,
     downscaled,
+    fit_cage,
+    fit_closed_bspline,
     in_focus,
+    mask_outline,
+    rectangle_cage,
     refined_subject,
     silhouette_mask,
+    snap_corners,
     subject_mask,
     two_toned,
 )
@@ -194,6 +192,26 @@ def test_a_large_image_is_fitted_on_a_small_copy_and_the_cage_mapped_back():
     distance, _ = cKDTree(ellipse_points() * scale).query(curve_points(control_points))
     assert distance.max() < 1.5 * copy_pixel
     assert distance.mean() < 0.5 * copy_pixel
+
+
+@pytest.mark.parametrize("name", ["astronaut", "coffee"])
+def test_a_photograph_gets_the_cage_of_its_small_copy(name):
+    # Issue 36: a 4000 x 3000 photograph drew a cage across the background where its 1000 x 750
+    # copy fitted correctly.  The fit works at about a megapixel, whatever the resolution.
+    from skimage import data
+
+    large = cv2.resize(getattr(data, name)(), (4000, 3000), interpolation=cv2.INTER_CUBIC)
+    small = cv2.resize(large, (1000, 750), interpolation=cv2.INTER_AREA)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", SubjectUncertainWarning)
+        from_large, from_small = fit_cage(large, 16), fit_cage(small, 16) * 4
+    diameter = np.linalg.norm(np.ptp(from_small, axis=0))
+    assert np.abs(from_large - from_small).max() <= 0.01 * diameter
+
+
+def test_a_16_bit_image_is_fitted_like_its_8_bit_copy():
+    image = np.repeat(np.round(230 - 190 * ellipse_coverage()).astype(np.uint8)[..., None], 3, axis=2)
+    np.testing.assert_array_equal(fit_cage(image.astype(np.uint16) * 257, 12), fit_cage(image, 12))
 
 
 def test_downscaled_maps_pixel_edges_back_exactly():
@@ -398,7 +416,7 @@ def test_bays_filled_fills_narrow_mouths_and_rounds_open_corners_only():
     subject[220:260, 230:380] = 1  # its foot
     radius = BAY_MOUTH * np.sqrt(subject.sum())
     assert 20 < 2 * radius < 100
-    filled = bays_filled(subject, (0, 0, 400, 300)).astype(bool)
+    filled = _bays_filled(subject, (0, 0, 400, 300)).astype(bool)
     assert filled[subject > 0].all()
     disk = np.zeros_like(subject)
     cv2.circle(disk, (100, 150), 94, 1, -1)
@@ -409,7 +427,7 @@ def test_bays_filled_fills_narrow_mouths_and_rounds_open_corners_only():
     # A closing rounds the inside corner: it adds at most (1 - pi / 4) r^2.
     assert added.sum() <= (1 - np.pi / 4) * radius**2 + 2 * radius
     # Nothing is added outside the bounds.
-    bounded = bays_filled(subject, (0, 0, 150, 300)).astype(bool)
+    bounded = _bays_filled(subject, (0, 0, 150, 300)).astype(bool)
     assert not bounded[:, 150:].any() and bounded[:, :150].sum() >= (subject[:, :150] > 0).sum()
 
 

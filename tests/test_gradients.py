@@ -18,8 +18,8 @@ from test_basis import inward_offsets
 from test_boundary import circle
 
 import core
-from core import examples
-from core.closest_point import distance_to_curve
+from core.curves import examples
+from core.curves.closest_point import distance_to_curve
 
 NEWTON_KERNELS = tuple(
     name
@@ -260,10 +260,10 @@ def test_a_damaged_gradient_entry_is_recomputed_and_reported(mesh_setup, cache_d
         wrong.reshape(-1).view(np.uint64)[7] ^= np.uint64(1) << np.uint64(30)
     elif damage == "rescaled, checksummed":
         wrong *= 1.0 + 1e-6
-        checksum = core.cache._checksum(path.stem, wrong, errors)
+        checksum = core.storage.cache._checksum(path.stem, wrong, errors)
     else:
         wrong[:, 0] += 1e-6 * np.abs(stored).max()
-        checksum = core.cache._checksum(path.stem, wrong, errors)
+        checksum = core.storage.cache._checksum(path.stem, wrong, errors)
     with open(path, "wb") as stream:
         np.savez(stream, basis=wrong, errors=errors, checksum=np.array(checksum))
     with pytest.warns(core.CacheWarning, match=re.escape(problem)):

@@ -1,4 +1,4 @@
-"""Tests of core.harmonic: the finite-element harmonic basis (Sec. 4.2)."""
+"""Tests of core.meshes.harmonic: the finite-element harmonic basis (Sec. 4.2)."""
 
 import numpy as np
 import pytest
@@ -8,8 +8,8 @@ from scipy.sparse import lil_matrix
 from scipy.sparse.linalg import cg
 
 import core
-from core.harmonic import harmonic_basis, stiffness_matrix
-from core.mesh import Mesh, triangulate
+from core.meshes.harmonic import harmonic_basis, stiffness_matrix
+from core.meshes.mesh import Mesh, triangulate
 
 CAGES = {
     "starfish": starfish(),

@@ -1,11 +1,11 @@
-"""Tests of core.hex_lattice: the triangular lattice that meshes the inside of a domain."""
+"""Tests of core.meshes.hex_lattice: the triangular lattice that meshes the inside of a domain."""
 
 import math
 
 import numpy as np
 import pytest
 
-from core.hex_lattice import HexLattice
+from core.meshes.hex_lattice import HexLattice
 
 
 @pytest.fixture(scope="module")

@@ -15,7 +15,7 @@ from conftest import interior_points
 from test_boundary import circle
 
 import core
-from core import examples
+from core.curves import examples
 
 # The weighted maximum-likelihood family (Eq. 14-17): every kernel but the explicit ones, so
 # that any kernel added to core.KERNELS is covered by the property tests below.
@@ -228,7 +228,7 @@ def test_example_cages_are_valid():
 
 
 def test_compiled_solver_matches_the_plain_numpy_reference(blob):
-    from core.reference import reference_kernel
+    from core.newton.reference import reference_kernel
 
     boundary = blob.sample(30)
     x = interior_points(blob, 100, seed=10, margin=0.05)
@@ -244,7 +244,7 @@ def test_compiled_solver_matches_the_plain_numpy_reference(blob):
 
 def test_path_following_brings_unshifted_powers_home(blob):
     # Newton from phi = 0 crawls when omega = 1 / r^k spans many orders of magnitude;
-    # the continuation of core.solver reaches the same minimiser (Eq. 16 is convex).
+    # the continuation of core.newton.solver reaches the same minimiser (Eq. 16 is convex).
     x = interior_points(blob, 3000, seed=21)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", core.ConvergenceWarning)

@@ -17,7 +17,7 @@ FORBIDDEN = ("app", "moderngl", "glfw", "imgui_bundle", "OpenGL")
 
 def test_core_imports_no_gui_or_gl_module():
     offenders = []
-    for path in sorted((ROOT / "core").glob("*.py")):
+    for path in sorted((ROOT / "core").rglob("*.py")):
         for node in ast.walk(ast.parse(path.read_text())):
             if isinstance(node, ast.Import):
                 names = [alias.name for alias in node.names]
@@ -25,7 +25,9 @@ def test_core_imports_no_gui_or_gl_module():
                 names = [node.module or ""]
             else:
                 continue
-            offenders += [f"{path.name}: {name}" for name in names if name.split(".")[0] in FORBIDDEN]
+            offenders += [
+                f"{path.relative_to(ROOT)}: {name}" for name in names if name.split(".")[0] in FORBIDDEN
+            ]
     assert offenders == []
 
 
@@ -158,6 +160,23 @@ def test_the_wheel_lists_every_package_and_the_bundled_folders():
             ["git", "ls-files", folder], capture_output=True, text=True, cwd=ROOT, check=True
         ).stdout.split()
         assert shipped == {Path(name).name for name in tracked}, f"every file of {folder}/ is shipped"
+
+
+def test_the_wheel_ships_numbas_cache_of_every_package_with_compiled_functions():
+    # .packaging/backend.py compiles core into the __pycache__ beside each compiled module; the
+    # wheel carries those files only for the packages that pyproject.toml lists.
+    package_data = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]["package-data"]
+    compiled = {
+        ".".join(path.parent.relative_to(ROOT).parts)
+        for path in (ROOT / "core").rglob("*.py")
+        for node in ast.walk(ast.parse(path.read_text()))
+        if isinstance(node, ast.ImportFrom)
+        and node.module == "numba"
+        and "njit" in {a.name for a in node.names}
+    }
+    shipped = {package for package, patterns in package_data.items() if "__pycache__/*.nbi" in patterns}
+    assert compiled and compiled == shipped
+    assert all("__pycache__/*.nbc" in package_data[package] for package in shipped)
 
 
 def test_documents_cited_in_the_project_are_in_the_repository():

@@ -1,4 +1,4 @@
-"""Tests of core.mesh: conforming quality triangulations of B-spline domains."""
+"""Tests of core.meshes.mesh: conforming quality triangulations of B-spline domains."""
 
 import numpy as np
 import pytest
@@ -6,9 +6,9 @@ from conftest import l_polygon as l_shape
 from conftest import near_cusp, pixel_blob, wavy_star
 
 import core
-from core import examples
-from core.closest_point import distance_to_curve
-from core.mesh import Mesh, _Refinement, _Sizing, folded_triangles, triangulate
+from core.curves import examples
+from core.curves.closest_point import distance_to_curve
+from core.meshes.mesh import Mesh, _Refinement, _Sizing, folded_triangles, triangulate
 
 
 def starfish(arms=5, n=20):

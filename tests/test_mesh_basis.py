@@ -1,22 +1,22 @@
-"""Tests of core.mesh_basis and core.cache: basis functions at mesh vertices, cached on disk."""
+"""Tests of core.mesh_basis and core.storage.cache: basis functions at mesh vertices, cached on disk."""
 
 import hashlib
 import os
 import re
+import shutil
 import warnings
-from pathlib import Path
 
 import numpy as np
 import pytest
 from conftest import wavy_star as starfish
 
 import core
-from core import cache as disk_cache
 from core import mesh_basis
-from core.harmonic import harmonic_basis
-from core.mesh import triangulate
 from core.mesh_basis import MESH_ONLY_KERNELS, mesh_basis_functions
-from core.pgw import pgw_basis
+from core.meshes.harmonic import harmonic_basis
+from core.meshes.mesh import triangulate
+from core.meshes.pgw import pgw_basis
+from core.storage import cache as disk_cache
 
 
 @pytest.fixture(autouse=True)
@@ -98,7 +98,7 @@ def test_the_default_kernel_writes_its_interior_rows_in_place_and_gives_the_same
     # The interior vertices of a triangulation are one range of rows: poisson_basis writes them
     # there (no copy, no fresh array); a mesh whose interior is not one range takes the copy.
     from core.basis import basis_functions
-    from core.mesh import Mesh
+    from core.meshes.mesh import Mesh
 
     curve, mesh = setup
     inside = mesh.vertices[mesh.interior]
@@ -452,7 +452,7 @@ def test_no_warnings_for_a_normal_call(setup):
 
 
 def test_cache_keys_change_with_the_numerical_code(monkeypatch):
-    from core import cache
+    from core.storage import cache
 
     arguments = (
         np.zeros((3, 2)),
@@ -472,16 +472,18 @@ def test_cache_keys_change_with_the_numerical_code(monkeypatch):
 def test_the_code_of_every_kernel_is_in_the_cache_key(tmp_path, monkeypatch):
     # An edit of any module that computes G (here the boundary-integral kernels', which a list
     # of numerical modules had missed) changes every key; the cache's own plumbing does not.
-    from core import cache
+    from core.storage import cache
 
-    source = Path(cache.__file__).resolve().parent
     copy = tmp_path / "core"
-    copy.mkdir()
-    for path in source.glob("*.py"):
-        (copy / path.name).write_bytes(path.read_bytes())
-    monkeypatch.setattr(cache, "__file__", str(copy / "cache.py"))
+    shutil.copytree(cache.CORE_FOLDER, copy, ignore=shutil.ignore_patterns("__pycache__"))
+    monkeypatch.setattr(cache, "CORE_FOLDER", copy)
     digests = {}
-    for name in ("poisson.py", "layer.py", "layer_compiled.py", "panels.py", "solver.py", "atomic_write.py"):
+    integrals = ("poisson.py", "cauchy_integrals.py", "compiled_integrals.py", "panels.py")
+    for name in (
+        *(f"boundary_integrals/{name}" for name in integrals),
+        "newton/solver.py",
+        "storage/atomic_write.py",
+    ):
         cache._code_digest.cache_clear()
         before = cache._code_digest()
         with open(copy / name, "a") as stream:
@@ -489,7 +491,7 @@ def test_the_code_of_every_kernel_is_in_the_cache_key(tmp_path, monkeypatch):
         cache._code_digest.cache_clear()
         digests[name] = before != cache._code_digest()
     cache._code_digest.cache_clear()
-    assert digests == {name: name != "atomic_write.py" for name in digests}
+    assert digests == {name: name != "storage/atomic_write.py" for name in digests}
 
 
 # ---------------------------------------------------------------- forged entries (issue 23)
@@ -560,7 +562,7 @@ def test_a_key_that_others_may_read_turns_the_cache_off(setup, cache_directory, 
 
 
 def test_processes_making_the_key_at_once_agree_on_one(tmp_path):
-    from core import cache_secret
+    from core.storage import cache_secret
 
     path = tmp_path / "state" / "cache.key"
     cache_secret._create(path)

@@ -1,4 +1,4 @@
-"""core.mesh_transfer: the P1 interpolant of one mesh at other points, and G moved to a coarser mesh.
+"""core.meshes.mesh_transfer: the P1 interpolant of one mesh at other points, and G moved to a coarser mesh.
 
 By properties: barycentric rows sum to 1 and reproduce linear functions to round-off,
 points are found inside their triangle (the nearest-centroid candidates grow until
@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 
 import core
-from core import examples
-from core.mesh_transfer import interpolation_matrix, transfer_basis
+from core.curves import examples
+from core.meshes.mesh_transfer import interpolation_matrix, transfer_basis
 
 
 @pytest.fixture(scope="module")

@@ -1,4 +1,4 @@
-"""Tests of core.pgw: transfinite positive Gordon-Wixom basis functions (Sec. 1.1)."""
+"""Tests of core.meshes.pgw: transfinite positive Gordon-Wixom basis functions (Sec. 1.1)."""
 
 import numpy as np
 import pytest
@@ -7,7 +7,7 @@ from conftest import wavy_star as starfish
 from scipy.optimize import brentq
 
 import core
-from core.pgw import pgw_basis
+from core.meshes.pgw import pgw_basis
 
 CONVEX = np.array([[2.0, 0.0], [1.0, 1.5], [-1.0, 1.2], [-1.5, -0.5], [0.5, -1.5]])
 CAGES = {

@@ -1,4 +1,4 @@
-"""core.poisson and core.cauchy_green: the boundary-integral kernels, by their properties."""
+"""core.boundary_integrals.poisson and cauchy_green: the boundary-integral kernels, by their properties."""
 
 from __future__ import annotations
 
@@ -11,20 +11,20 @@ from conftest import interior_points
 
 import core
 from app.quality_suite import built_in_shapes
-from core.distortion import vertex_jacobians
-from core.panels import coarse_panels, graded_panels
-from core.poisson import closest_point, densities
+from core.boundary_integrals.panels import coarse_panels, graded_panels
+from core.boundary_integrals.poisson import closest_point, densities
+from core.meshes.distortion import vertex_jacobians
 
 SHAPES = built_in_shapes()
 
 
 @pytest.fixture(params=["numpy", "compiled"])
 def layer_path(request, monkeypatch):
-    """Both implementations of the boundary integrals (`core.layer` and `core.layer_compiled`),
+    """Both implementations of the boundary integrals (`cauchy_integrals` and `compiled_integrals`),
     each with its own density solve."""
-    from core import layer_compiled, poisson
+    from core.boundary_integrals import compiled_integrals, poisson
 
-    monkeypatch.setattr(layer_compiled, "mode", request.param)
+    monkeypatch.setattr(compiled_integrals, "mode", request.param)
     poisson._densities.cache_clear()
     yield request.param
     poisson._densities.cache_clear()
@@ -82,7 +82,7 @@ def test_partition_of_unity_and_linear_precision_down_to_the_boundary(name, seed
 def test_points_that_missed_the_non_negativity_bound(name, point, layer_path):
     # Found by other seeds of the test above.  With 3 levels of grading at least at every knot
     # (panels.MIN_KNOT_LEVELS) the first two had G = -4.8e-10 and -2.6e-10; with `SAFE` on the
-    # coarse panels of a corner's block (whose densities are restrictions, layer.CORNER_SAFE) the
+    # coarse panels of a corner's block (whose densities are restrictions, cauchy_integrals.CORNER_SAFE) the
     # third had -2.7e-10; the fourth had -1.6e-10 before its panel's halves took their densities
     # by Nyström interpolation (poisson.nystrom_halves).
     curve = core.ClosedBSpline(SHAPES[name])
@@ -112,7 +112,7 @@ def test_random_polygons_with_sharp_corners(seed, layer_path):
     # split (panels.TURN), the corner's basis function was off by up to -2.3e-6 near it.
     # Seeds 13 and 17 have points 1e-6 of the diameter from the curve, 0.005 in t from a corner:
     # with 6 levels of grading towards corners their G reached -1.6e-10 and -1.2e-10.  Seed 45 had
-    # G = -5.4e-8 half a span's length from a long span (layer.SPAN_SAFE), seeds 88 and 93 -5.7e-8
+    # G = -5.4e-8 half a span's length from a long span (cauchy_integrals.SPAN_SAFE), seeds 88 and 93 -5.7e-8
     # with 2 coarse panels on their smooth spans (panels.coarse_per_span), at the second points.
     # Seeds 147, 369 and 636 have wedges (corners of 8°, 3.4° and 1.8°): before their coarse
     # panels were split by the angle (panels.WEDGE_ANGLE), G reached -6.1e-10, -4.0e-8 and -8.0e-5
@@ -139,7 +139,7 @@ def test_random_polygons_with_sharp_corners(seed, layer_path):
 def test_coarse_panels_at_a_wedge_are_split_by_its_angle():
     # Corners of 8° (seed 147) and 1.8° (seed 636): their coarse panels are at most min(1/16, half
     # the angle) wide in t (panels.WEDGE_ANGLE); of quarter spans only those at a wedge are split.
-    from core.panels import WEDGE_WIDTH, _panels, _wedge_widths, _wedged
+    from core.boundary_integrals.panels import WEDGE_WIDTH, _panels, _wedge_widths, _wedged
 
     for seed, knot, angle in [(147, 1, 8.0), (636, 1, 1.8)]:
         curve = random_polygon_cage(seed)
@@ -170,7 +170,7 @@ def test_a_knot_across_a_wedge_splits_the_panels_facing_it(monkeypatch):
     # Random corner cage 645: a 5.7° spike at t = 1, the knot t = 2 on its far side.  The gaps leave
     # the far side of a wedge to the tip's block, so a panel of the near side 37 long faced the knot
     # 2.5 away; each panel now is at most THIN_RATIO times its distance to a knot across a wedge.
-    from core.panels import THIN_RATIO, coarse_panels_and_gaps
+    from core.boundary_integrals.panels import THIN_RATIO, coarse_panels_and_gaps
 
     curve = random_polygon_cage(645)
     knot = curve.evaluate(np.array([2.0]))[0] @ np.array([1.0, 1j])
@@ -183,7 +183,7 @@ def test_a_knot_across_a_wedge_splits_the_panels_facing_it(monkeypatch):
 
     assert worst_ratio() <= THIN_RATIO
     nowhere = lambda curve, panels, wedges: np.full(panels.count, np.inf)  # noqa: E731
-    monkeypatch.setattr(core.panels, "knots_across_wedges", nowhere)
+    monkeypatch.setattr(core.boundary_integrals.panels, "knots_across_wedges", nowhere)
     assert worst_ratio() > 10.0
 
 
@@ -196,7 +196,7 @@ def test_a_corner_block_reaches_as_far_as_its_panels_are_long(monkeypatch):
     # diameter from the curve beside the spike, whose two sides come closer than the graded
     # panels towards its corner are long: the default THIN_RATIO of 2 keeps this cage's panels
     # long enough, and at it G >= -4.4e-12.)
-    from core import panels, poisson
+    from core.boundary_integrals import panels, poisson
 
     monkeypatch.setattr(panels, "THIN_RATIO", 1.5)
     poisson._densities.cache_clear()
@@ -229,7 +229,7 @@ def test_the_solve_integrates_between_the_sides_of_a_deeply_graded_corner(monkey
     # With 8 levels toward a corner, the nodes on its two sides come within 1e-10 of the diameter
     # of each other; the solve integrates their interaction (it took them for points on the curve
     # and dropped it: linear precision 1.2e-4 of the diameter).
-    from core import panels, poisson
+    from core.boundary_integrals import panels, poisson
 
     monkeypatch.setattr(panels, "CORNER_LEVELS", 8)
     poisson._densities.cache_clear()
@@ -352,7 +352,7 @@ def test_smooth_spans_take_two_coarse_panels_and_keep_the_bounds_on_a_large_cage
     # (panels.coarse_per_span): half the unknowns of a smooth cage, whose LU is then an eighth as
     # long.  The bounds must hold on a cage of 60 control points, its densities in one LU of
     # 1,920 unknowns (0.3 s; with 4 a span, 1.7 s).
-    from core.panels import coarse_per_span, knot_levels
+    from core.boundary_integrals.panels import coarse_per_span, knot_levels
 
     assert coarse_per_span(core.ClosedBSpline(SHAPES["F polygon"])) == 4
     assert coarse_per_span(core.ClosedBSpline(SHAPES["hook"])) == 2
@@ -394,11 +394,11 @@ def test_a_cage_far_from_the_origin_keeps_the_bounds():
 
 
 def test_same_span_weights_are_the_closed_form_of_the_kernel():
-    # layer.fill_same_span: on a straight span (a doubled control point's) the double layer's kernel
-    # is 0, exactly, where Re(f / (τ - z)) from the positions left up to 1.8e-6 next to a node; at a
-    # node itself the weight is the curvature limit s Im(τ''/τ') w / 4π.
-    from core import poisson
-    from core.panels import curve_panels, sharp_corners
+    # cauchy_integrals.fill_same_span: on a straight span (a doubled control point's) the double
+    # layer's kernel is 0, exactly, where Re(f / (τ - z)) from the positions left up to 1.8e-6
+    # next to a node; at a node itself the weight is the curvature limit s Im(τ''/τ') w / 4π.
+    from core.boundary_integrals import poisson
+    from core.boundary_integrals.panels import curve_panels, sharp_corners
 
     curve = core.ClosedBSpline(np.array(HAIRPIN))
     panels = curve_panels(curve)
@@ -445,10 +445,10 @@ def test_cauchy_green_does_not_interpolate_the_target_curve():
 
 
 def test_a_cage_beyond_the_dense_solve_limit_is_refused_in_one_line(monkeypatch):
-    import core.poisson
+    import core.boundary_integrals.poisson
 
-    monkeypatch.setattr(core.poisson, "MAX_NODES", 500)
-    core.poisson._densities.cache_clear()  # solved under the real limit by an earlier test
+    monkeypatch.setattr(core.boundary_integrals.poisson, "MAX_NODES", 500)
+    core.boundary_integrals.poisson._densities.cache_clear()  # solved under the real limit by an earlier test
     curve = core.ClosedBSpline(SHAPES["star"])
     with pytest.raises(
         ValueError, match=r"need [0-9,]+ boundary nodes with kernel 'poisson'.*use kernel 'harmonic'"
@@ -458,14 +458,14 @@ def test_a_cage_beyond_the_dense_solve_limit_is_refused_in_one_line(monkeypatch)
 
 def test_a_cage_far_beyond_the_limit_is_refused_before_its_panels_are_searched(monkeypatch):
     # 1,000 control points: 32,000 coarse nodes before any split.  Searching its gaps took ~40 s.
-    import core.panels
-    import core.poisson
+    import core.boundary_integrals.panels
+    import core.boundary_integrals.poisson
 
     def searched(*arguments):
         raise AssertionError("the gaps were searched")
 
-    monkeypatch.setattr(core.panels, "gaps", searched)
-    core.poisson._densities.cache_clear()
+    monkeypatch.setattr(core.boundary_integrals.panels, "gaps", searched)
+    core.boundary_integrals.poisson._densities.cache_clear()
     angle = np.linspace(0.0, 2.0 * np.pi, 1000, endpoint=False)
     curve = core.ClosedBSpline(100.0 * np.stack([np.cos(angle), np.sin(angle)], axis=1))
     with pytest.raises(ValueError, match=r"need at least 32,000 boundary nodes with kernel 'poisson'"):
@@ -486,22 +486,25 @@ def test_a_point_near_no_finest_panel_is_evaluated_alone(layer_path):
 
 
 def test_same_span_pairs_keep_the_plain_rule_without_changing_the_basis(monkeypatch):
-    # On one span the double layer's kernel has no singularity (layer.smooth_on_own_span): the
+    # On one span the double layer's kernel has no singularity (cauchy_integrals.smooth_on_own_span): the
     # solve gives those near pairs the plain rule instead of the adaptive one.  The basis must not
     # move (measured 2.2e-12 on the hairpin, whose nodes crowd towards its corners).
-    from core import layer, poisson
-    from core.panels import ORDER, curve_panels
+    from core.boundary_integrals import cauchy_integrals, poisson
+    from core.boundary_integrals.panels import ORDER, curve_panels
 
     curve = core.ClosedBSpline(np.array(HAIRPIN))
     panels = curve_panels(curve)
-    target, panel = layer.near_pairs(panels, panels.z, curve.diameter)
-    smooth = layer.smooth_on_own_span(curve, panels, panels.t[target], panel)
+    target, panel = cauchy_integrals.near_pairs(panels, panels.z, curve.diameter)
+    smooth = cauchy_integrals.smooth_on_own_span(curve, panels, panels.t[target], panel)
     span_of_node = np.floor(panels.t[target] + 1e-12)
     assert np.all(span_of_node[smooth] == np.floor(panels.bounds[panel[smooth], 0] + 1e-12))
     assert smooth.mean() > 0.4 and not smooth[target // ORDER != panel].all()
     x = np.vstack([interior_points(curve, 200, seed=1), near_boundary_points(curve, 200, seed=2)[0]])
     values = []
-    for rule in (layer.smooth_on_own_span, lambda curve, panels, t, panel: np.zeros(t.shape, dtype=bool)):
+    for rule in (
+        cauchy_integrals.smooth_on_own_span,
+        lambda curve, panels, t, panel: np.zeros(t.shape, dtype=bool),
+    ):
         monkeypatch.setattr(poisson, "smooth_on_own_span", rule)
         poisson._densities.cache_clear()
         values.append(core.basis_functions(curve, x))
@@ -514,8 +517,8 @@ def test_nystrom_interpolation_gives_a_finer_solve_s_densities_beside_a_gap(monk
     # their degree-15 interpolant of the density is off by 5e-10 between the nodes (the solve agrees
     # with a finer one to 4e-14 at the nodes).  The halves' densities by Nyström interpolation must
     # be a solve with panels split at their gap's width (panels.THIN_RATIO = 1), to rounding.
-    from core import panels, poisson
-    from core.panels import ORDER, interpolation_matrix
+    from core.boundary_integrals import panels, poisson
+    from core.boundary_integrals.panels import ORDER, interpolation_matrix
 
     curve = core.ClosedBSpline(SHAPES["F polygon"])
 
@@ -555,15 +558,15 @@ def test_the_far_field_agrees_with_a_far_more_cautious_one(monkeypatch):
     # corner) and SPAN_SAFE (spans) panel lengths away.  Three times as cautious must change G by
     # no more than the bounds allow: with the spans' far field from half a span, the hairpin's G
     # moved by 9.5e-9 (a span's restricted density integrates the kernel's degree-15 interpolant).
-    from core import layer, poisson
+    from core.boundary_integrals import cauchy_integrals, poisson
 
     curve = core.ClosedBSpline(np.array(HAIRPIN))
     x = np.vstack([interior_points(curve, 200, seed=1), near_boundary_points(curve, 200, seed=2)[0]])
     poisson._densities.cache_clear()
     usual = core.basis_functions(curve, x)
-    monkeypatch.setattr(layer, "SPAN_SAFE", 3.0)
-    monkeypatch.setattr(layer, "SAFE", 1.5)
-    monkeypatch.setattr(layer, "CORNER_SAFE", 3.0)
+    monkeypatch.setattr(cauchy_integrals, "SPAN_SAFE", 3.0)
+    monkeypatch.setattr(cauchy_integrals, "SAFE", 1.5)
+    monkeypatch.setattr(cauchy_integrals, "CORNER_SAFE", 3.0)
     poisson._densities.cache_clear()
     cautious = core.basis_functions(curve, x)
     poisson._densities.cache_clear()
@@ -571,17 +574,17 @@ def test_the_far_field_agrees_with_a_far_more_cautious_one(monkeypatch):
 
 
 def test_near_pairs_are_the_same_by_direct_comparison_and_by_search_tree(monkeypatch):
-    from core import layer
-    from core.panels import coarse_panels
+    from core.boundary_integrals import cauchy_integrals
+    from core.boundary_integrals.panels import coarse_panels
 
     curve = random_polygon_cage(29)  # a spike beside a long panel: near pairs across the domain
     panels = coarse_panels(curve)
     rng = np.random.default_rng(5)
     targets = np.concatenate([panels.z, panels.z + 0.01 * curve.diameter * rng.normal(size=panels.size)])
-    monkeypatch.setattr(layer, "DIRECT_PAIRS", targets.size * panels.count)
-    direct = layer.near_pairs(panels, targets, curve.diameter)
-    monkeypatch.setattr(layer, "DIRECT_PAIRS", 0)
-    searched = layer.near_pairs(panels, targets, curve.diameter)
+    monkeypatch.setattr(cauchy_integrals, "DIRECT_PAIRS", targets.size * panels.count)
+    direct = cauchy_integrals.near_pairs(panels, targets, curve.diameter)
+    monkeypatch.setattr(cauchy_integrals, "DIRECT_PAIRS", 0)
+    searched = cauchy_integrals.near_pairs(panels, targets, curve.diameter)
     assert direct[0].size > panels.size
     np.testing.assert_array_equal(direct[0], searched[0])
     np.testing.assert_array_equal(direct[1], searched[1])

@@ -10,7 +10,7 @@ from app.__main__ import main
 from app.files import InputError, read_image
 from app.quality import KernelChoice, format_table, parse_kernel, run_study
 from app.quality_suite import Deformation, Domain, handles, polygon, standard_suite
-from core import examples
+from core.curves import examples
 
 AFFINE = np.array([[1.6, 0.5], [-0.2, 0.8]])
 

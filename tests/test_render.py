@@ -5,6 +5,8 @@ Meshes and deformations are built here (scipy Delaunay, affine maps), so the
 renderer is tested independently of core's mesher and kernels.
 """
 
+from types import SimpleNamespace
+
 import cv2
 import numpy as np
 import pytest
@@ -377,3 +379,37 @@ def test_outputs_over_the_pixel_limit_are_refused(renderer, monkeypatch):
     renderer.set_mesh(np.array([[0.0, 0.0], [8.0, 0.0], [0.0, 8.0]]), np.array([[0, 1, 2]]))
     with pytest.raises(ValueError, match=r"output size 16384x16384 is not 1 to 134 megapixels"):
         renderer.render((16384, 16384))
+
+
+@pytest.mark.parametrize("backdrop", [False, True])
+def test_strips_are_the_rows_of_render_and_skip_multisampling_only_off_the_edges(renderer, backdrop):
+    from app.images.tiles import crosses, drawn_edges
+
+    image = smooth_image()
+    vertices, triangles, boundary = ellipse_mesh((160, 120), (120, 85), 6, seed=3)
+    renderer.set_image(image)
+    renderer.set_mesh(vertices, triangles)
+    positions = affine(rotation(0.3) * 1.1, (-20, 15), vertices)
+    renderer.set_positions(positions)
+    view = View(1.3, (7.0, -4.0))
+    whole = renderer.render((331, 247), view, backdrop=backdrop)
+    strips = list(renderer.render_strips((331, 247), view, rows=40, backdrop=backdrop))
+    assert [top for top, _ in strips] == list(range(0, 247, 40))
+    tiled = np.concatenate([rows for _, rows in strips])
+    assert np.abs(tiled.astype(int) - whole).max() <= 1  # the tiles' shifted views, as above
+
+    # The ellipse mesh's first vertices are its boundary, in order (core.Mesh's two fields).
+    order = np.arange(len(boundary))
+    mesh = SimpleNamespace(boundary=order, boundary_parameters=order.astype(float))
+    edges = drawn_edges(mesh, positions, view, (160, 120), backdrop)
+    plain = set()
+    for top, rows in renderer.render_strips(
+        (331, 247),
+        view,
+        rows=40,
+        backdrop=backdrop,
+        antialiased=lambda box: crosses(edges, box) or plain.add(box),
+    ):
+        difference = np.abs(rows.astype(int) - whole[top : top + len(rows)]).max(axis=2)
+        assert difference.max() <= 1, top  # one unit where two triangles meet inside the warp
+    assert plain  # some tiles were drawn without multisampling

@@ -38,7 +38,7 @@ def test_the_source_distribution_carries_the_build_backend(tmp_path):
     needed_files = (
         "pyproject.toml",
         "README.md",
-        "core/poisson.py",
+        "core/boundary_integrals/poisson.py",
         "app/__main__.py",
         "shaders/mesh.vert.glsl",
     )

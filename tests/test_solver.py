@@ -1,4 +1,4 @@
-"""core.solver: the Newton solve of Eq. 16 and its warm start, below the public kernels.
+"""core.newton.solver: the Newton solve of Eq. 16 and its warm start, below the public kernels.
 
 The answer must not depend on where Newton starts: from phi = 0 (the paper), from
 the minimiser on a subset of the nodes (`_coarse_start`) or from an infeasible
@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from conftest import interior_points
 
-from core import solver
+from core.newton import solver
 
 TOLERANCE = 1e-11  # of the diameter, as core.kernels.DEFAULT_TOLERANCE
 

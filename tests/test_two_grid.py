@@ -1,4 +1,4 @@
-"""The two-grid solve of the coarse double-layer system (core.two_grid)."""
+"""The two-grid solve of the coarse double-layer system (core.boundary_integrals.two_grid)."""
 
 from __future__ import annotations
 
@@ -7,11 +7,12 @@ import pytest
 from test_poisson import SHAPES, random_polygon_cage
 
 import core
-from core import examples, layer_compiled, poisson, two_grid
+from core.boundary_integrals import compiled_integrals, poisson, two_grid
+from core.curves import examples
 
 
 def coarse_system(curve: core.ClosedBSpline) -> tuple[np.ndarray, np.ndarray]:
-    """The coarse system matrix (K, K) and right-hand sides (K, n + 1) `core.poisson` solves for `curve`."""
+    """The coarse system matrix (K, K) and right-hand sides (K, n + 1) `poisson` solves for `curve`."""
     captured = {}
     solve = two_grid.solve
 
@@ -88,7 +89,7 @@ def test_the_compiled_products_equal_numpys(monkeypatch):
     coarse_size = matrix.shape[0] // 16 * two_grid.COARSE_ORDER
     results = {}
     for mode in ("numpy", "compiled"):
-        monkeypatch.setattr(layer_compiled, "mode", mode)
+        monkeypatch.setattr(compiled_integrals, "mode", mode)
         galerkin = two_grid._galerkin(matrix, np.full((coarse_size, coarse_size), np.nan))
         product = two_grid._product(matrix, rhs, np.full_like(rhs, np.nan))
         results[mode] = galerkin, product, two_grid.solve(matrix, rhs)
@@ -100,5 +101,5 @@ def test_the_compiled_products_equal_numpys(monkeypatch):
 def test_the_rows_product_covers_every_row_in_any_number_of_runs(runs):
     rng = np.random.default_rng(5)
     matrix, x = rng.normal(size=(7, 5)), rng.normal(size=(5, 3))
-    out = layer_compiled.rows_product(matrix, x, runs, np.full((7, 3), np.nan))
+    out = compiled_integrals.rows_product(matrix, x, runs, np.full((7, 3), np.nan))
     np.testing.assert_allclose(out, matrix @ x, rtol=1e-15, atol=1e-15)

@@ -11,7 +11,9 @@ from app.viewer import commands, controller, editing
 from app.viewer.controller import LEFT, MIDDLE, RIGHT
 from app.viewer.state import AppState, Display, Document, History, Snapshot
 from app.viewport import View
-from core import examples
+from core.curves import examples
+from core.curves.bspline import ClosedBSpline
+from core.curves.interpolating_spline import interpolation_parameters
 
 STAR = examples.starfish(points_per_arm=2) * np.array([150.0, -150.0]) + np.array([320.0, 240.0])
 
@@ -304,6 +306,7 @@ def test_a_new_cage_is_drawn_click_by_click_with_gimps_keys(state, monkeypatch):
     clock = iter(np.arange(0.0, 100.0, 1.0))  # a second between clicks: no double clicks
     monkeypatch.setattr(controller.time, "monotonic", lambda: next(clock))
     before = state.document.history.current
+    commands.command(state, "cage_drawing", "control")  # the clicks are the control points
     commands.command(state, "new_cage")
     assert (
         state.selection.edit_mode == "cage"
@@ -333,6 +336,37 @@ def test_a_new_cage_is_drawn_click_by_click_with_gimps_keys(state, monkeypatch):
     assert state.document.history.current == state.document.live and state.document.live.image == before.image
     commands.command(state, "undo")
     assert state.document.live == before
+
+
+def test_by_default_the_new_cage_passes_through_the_clicks_with_corners_where_asked(state, monkeypatch):
+    clock = iter(np.arange(0.0, 100.0, 1.0))
+    monkeypatch.setattr(controller.time, "monotonic", lambda: next(clock))
+    commands.command(state, "new_cage")
+    house = np.array([[100.0, 300.0], [300.0, 300.0], [300.0, 150.0], [200.0, 60.0], [100.0, 150.0]])
+    corners = [True, True, False, True, False]
+    for point, corner in zip(house, corners, strict=True):
+        click(state, point, ctrl=corner)
+    # The handles are the clicks; the control points those of the curve through them.
+    np.testing.assert_allclose(controller.drawing.clicked_points(state), house, atol=1e-12)
+    commands.command(state, "confirm")
+    commands.command(state, "confirm")
+    cage = state.document.history.current.cage
+    assert len(cage) == 8
+    spline = ClosedBSpline(cage)
+    t = interpolation_parameters(corners)
+    np.testing.assert_allclose(spline(t), house, rtol=0, atol=1e-9)
+    for corner in house[[0, 1, 3]]:  # a corner is a doubled control point there
+        (rows,) = np.nonzero(np.all(np.abs(cage - corner) < 1e-12, axis=1))
+        assert len(rows) == 2 and rows[1] == rows[0] + 1
+    # Switching to control points while drawing redraws the cage being placed from the same clicks.
+    commands.command(state, "new_cage")
+    for point in house[:3]:
+        click(state, point)
+    assert not np.allclose(state.document.live.cage, house[:3])
+    commands.command(state, "cage_drawing", "control")
+    np.testing.assert_allclose(state.document.live.cage, house[:3])
+    commands.command(state, "cage_drawing", "nonsense")
+    assert state.status.message_is_error and state.selection.cage_drawing == "control"
 
 
 def test_a_double_click_makes_a_corner_and_crossing_cages_are_refused(state, monkeypatch):

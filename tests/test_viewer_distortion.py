@@ -5,7 +5,7 @@ import pytest
 
 import core
 from app.viewer.distortion_view import FOLDED, vertex_distortion
-from core import examples
+from core.curves import examples
 
 
 @pytest.fixture(scope="module")
@@ -42,7 +42,7 @@ def test_vertex_jacobians_are_the_derivative_of_the_deformation(blob):
     rng = np.random.default_rng(12)
     target = curve.control_points + rng.normal(scale=12.0, size=curve.control_points.shape)
     values, _ = vertex_distortion(mesh.vertices, mesh.triangles, basis, gradients, target, "area")
-    from core.closest_point import distance_to_curve
+    from core.curves.closest_point import distance_to_curve
 
     # Away from the boundary, where the gradients are the derivative of the discrete values.
     distance = distance_to_curve(curve.piecewise_polynomial(), mesh.vertices)
@@ -68,7 +68,7 @@ def test_a_fold_is_found_at_the_vertices_where_det_j_changes_sign(blob):
     target[3] = centre + 1.6 * (centre - target[3])  # pulled right through the domain
     values, summary = vertex_distortion(mesh.vertices, mesh.triangles, basis, gradients, target, "area")
     exact = np.isfinite(gradients).all(axis=(1, 2))
-    jacobians = core.distortion.vertex_jacobians(gradients[exact], target)
+    jacobians = core.meshes.distortion.vertex_jacobians(gradients[exact], target)
     folded_exact = np.linalg.det(jacobians) <= 0
     assert folded_exact.any() and (~folded_exact).any()
     np.testing.assert_array_equal(values[exact] == FOLDED, folded_exact)

@@ -6,7 +6,7 @@ import pytest
 import core
 from app.viewer import editing
 from app.viewport import View
-from core import examples
+from core.curves import examples
 
 
 @pytest.fixture

@@ -9,7 +9,7 @@ import pytest
 import core
 from app.viewer.precompute import Precompute, basis_key, compute, make_request
 from app.viewer.state import Snapshot
-from core import examples
+from core.curves import examples
 
 STAR = examples.starfish(points_per_arm=2) * np.array([100.0, -100.0]) + 200.0
 
@@ -145,10 +145,10 @@ def test_the_worker_ends_quietly_when_the_viewer_is_gone(cache):
 
 def test_a_dense_mesh_gets_a_preview_mesh_that_draws_its_interpolant(cache, monkeypatch):
     """Above PREVIEW_FROM_VERTICES vertices the result carries a coarser mesh and G moved onto it
-    (core.mesh_transfer); below, none.  Thresholds lowered so that a small mesh shows both."""
+    (core.meshes.mesh_transfer); below, none.  Thresholds lowered so that a small mesh shows both."""
     from app.viewer import precompute as module
     from app.viewer.precompute import PREVIEW_PHASE, result_from_message
-    from core.mesh_transfer import interpolation_matrix
+    from core.meshes.mesh_transfer import interpolation_matrix
 
     request = make_request(snapshot(), 3.0)
     assert compute(request)["preview"] is None  # a few thousand vertices: no preview

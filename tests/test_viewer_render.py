@@ -154,8 +154,8 @@ def test_one_drag_event_at_100k_vertices_is_cheap(renderer):
 def preview_setup(renderer):
     """A dense FEM mesh of a blob in a 320 x 240 image, its G, and a preview mesh with G moved onto it."""
     from app.viewer.state import PreviewMesh
-    from core import examples
-    from core.mesh_transfer import transfer_basis
+    from core.curves import examples
+    from core.meshes.mesh_transfer import transfer_basis
 
     cage = examples.blob() * (240.0, 200.0) + (40.0, 15.0)
     curve = core.ClosedBSpline(cage)
@@ -240,7 +240,7 @@ def test_complex_coordinates_draw_what_core_deform_computes(renderer):
     exact product all act on the target points as complex numbers (`core.deform`)."""
     from app.viewer.scene import combined_columns
 
-    cage = core.examples.blob() * (240.0, 200.0) + (40.0, 15.0)
+    cage = core.curves.examples.blob() * (240.0, 200.0) + (40.0, 15.0)
     curve = core.ClosedBSpline(cage)
     mesh = core.triangulate(curve, max_edge=12.0)
     basis = core.mesh_basis_functions(curve, mesh, "cauchy-green")

@@ -577,7 +577,9 @@ def test_rough_edges_redraw_escape_delete_group_moves_zoom_and_resize(display, e
         viewer.kill()
 
 
-def test_drawing_a_new_cage_with_clicks_backspace_enter_and_escape(display, environment):
+def test_drawing_a_new_cage_through_clicks_with_corners_backspace_enter_and_escape(display, environment):
+    from core.curves.bspline import ClosedBSpline
+
     viewer, state = starfish_viewer(environment, "state-draw")
     try:
         window = viewer.wait_for("ready window=", 30).split("=")[1]
@@ -585,31 +587,45 @@ def test_drawing_a_new_cage_with_clicks_backspace_enter_and_escape(display, envi
         session = main_session(state, "starfish")
         original, _, value = session_points(session)
         view = value["view"]
+        clicked = []  # window pixels of the points placed
 
-        def click_at(point, repeat=1):
-            x, y = window_pixel(view, point)
-            xdotool(display, "mousemove", "--window", window, f"{x:.0f}", f"{y:.0f}")
+        def click_at(point, repeat=1, ctrl=False):
+            x, y = (round(v) for v in window_pixel(view, point))
+            xdotool(display, "mousemove", "--window", window, str(x), str(y))
             time.sleep(0.15)
+            if ctrl:
+                xdotool(display, "keydown", "ctrl")
             xdotool(display, "click", "--repeat", str(repeat), "--delay", "80", "1")
+            if ctrl:
+                xdotool(display, "keyup", "ctrl")
             time.sleep(0.5)  # longer than a double click
+            return np.array([x, y], dtype=float)
 
-        corners = np.array([[140.0, 100.0], [500.0, 110.0], [520.0, 400.0], [120.0, 380.0]])
+        # A house: the clicks are points on the outline (the default), its corners sharp.
+        house = np.array([[140.0, 400.0], [500.0, 400.0], [500.0, 200.0], [320.0, 90.0], [140.0, 200.0]])
         xdotool(display, "windowfocus", "--sync", window)
         xdotool(display, "key", "n")
-        click_at(corners[0])
-        click_at(corners[1], repeat=2)  # a double click: a sharp corner
+        clicked.append(click_at(house[0], ctrl=True))  # Ctrl+click: a sharp corner
+        clicked.append(click_at(house[1], repeat=2))  # a double click: a sharp corner
         click_at([320.0, 240.0])  # a point too many ...
         xdotool(display, "key", "BackSpace")  # ... removed again
-        click_at(corners[2])
-        click_at(corners[3])
+        clicked.append(click_at(house[2]))
+        clicked.append(click_at(house[3]))
+        clicked.append(click_at(house[4]))
         xdotool(display, "key", "Return")  # closes the curve
         time.sleep(0.3)
         assert np.array_equal(session_points(session)[0], original)  # nothing saved while drawing
         xdotool(display, "key", "Return")  # and makes it the cage
         cage, target, _ = wait_for_session(session, lambda c, t, v: len(c) != len(original))
-        expected = np.array([corners[0], corners[1], corners[1], corners[2], corners[3]])
-        np.testing.assert_allclose(cage, expected, atol=1.0 / view["scale"])
-        assert np.array_equal(cage, target) and np.array_equal(cage[1], cage[2])
+        assert len(cage) == 7 and np.array_equal(cage, target)
+        # The curve passes within half a window pixel of every click ...
+        curve = window_pixel(view, ClosedBSpline(cage)(np.linspace(0.0, len(cage), 20000, endpoint=False)))
+        for point in clicked:
+            assert np.hypot(*(curve - point).T).min() <= 0.5, point
+        # ... and the two corners are doubled control points at their clicks.
+        for point in clicked[:2]:
+            (rows,) = np.nonzero(np.all(np.abs(window_pixel(view, cage) - point) < 1e-6, axis=1))
+            assert len(rows) == 2 and rows[1] == rows[0] + 1, (point, cage)
 
         # Esc abandons a new cage: the one just made stays.
         xdotool(display, "key", "n")
@@ -664,8 +680,7 @@ def test_keyframes_are_added_played_exported_and_saved(display, environment):
         xdotool(display, "mouseup", "1")
         viewer.wait_for("saved", 10)  # the release is saved first, before the frame that draws it
         dragged = viewer.wait_for("drag done", 10)
-        xdotool(display, "key", "i")
-        viewer.wait_for("saved", 10)
+        # With a keyframe already, the drag at 1 s made a keyframe there (auto-key).
         keyframes = json.loads(session.read_text())["keyframes"]
         assert [k["time"] for k in keyframes] == [0.0, 1.0]
         assert np.array_equal(keyframes[0]["target"]["control_points"], cage)
@@ -737,6 +752,52 @@ def test_keyframes_are_added_played_exported_and_saved(display, environment):
     finally:
         viewer.kill()
     assert len(json.loads(session.read_text())["keyframes"]) == 2
+
+
+def test_a_drag_between_keyframes_is_keyed_in_the_saved_session_and_undone(display, environment):
+    env, folder = environment
+    session = folder / "autokey.json"
+    cage = np.array(json.loads((ASSETS / "starfish.cage.json").read_text())["control_points"], dtype=float)
+    pose = cage.copy()
+    pose[4] += [40.0, -70.0]  # the right arm up at 2 s
+    value = {
+        "image": str(ASSETS / "starfish.png"),
+        "cage": {"control_points": cage.tolist()},
+        "target": {"control_points": cage.tolist()},
+        "kernel": "poisson",
+        "view": {"scale": 1.0, "offset": [450.0, 250.0]},
+        "keyframes": [
+            {"time": 0.0, "target": {"control_points": cage.tolist()}},
+            {"time": 2.0, "target": {"control_points": pose.tolist()}},
+        ],
+        "interpolation": "linear",
+    }
+    session.write_text(json.dumps(value))
+    viewer = ViewerProcess(["view", "--session", str(session)], env, ROOT)
+    try:
+        window = viewer.wait_for("ready window=", 30).split("=")[1]
+        viewer.wait_for("basis ", 60)
+        xdotool(display, "windowfocus", "--sync", window)
+        xdotool(display, "key", "shift+Right")  # 1 s: the arm halfway up
+        time.sleep(0.3)
+        view = value["view"]
+        shift = np.array([-50.0, 40.0])
+        drag_point(display, window, window_pixel(view, cage[12]), shift)  # the bottom-left arm's tip
+        _, _, saved = wait_for_session(session, lambda c, t, v: len(v["keyframes"]) == 3)
+        keyframes = saved["keyframes"]
+        assert [k["time"] for k in keyframes] == [0.0, 1.0, 2.0]
+        keyed = np.array(keyframes[1]["target"]["control_points"])
+        np.testing.assert_allclose(keyed[12] - cage[12], shift / view["scale"], atol=1.5)
+        np.testing.assert_allclose(keyed[4], 0.5 * (cage[4] + pose[4]), atol=1e-9)  # the pose at 1 s
+        assert np.array_equal(saved["target"]["control_points"], keyframes[1]["target"]["control_points"])
+        xdotool(display, "key", "ctrl+z")
+        _, _, undone = wait_for_session(session, lambda c, t, v: len(v["keyframes"]) == 2)
+        assert [k["time"] for k in undone["keyframes"]] == [0.0, 2.0]
+        xdotool(display, "key", "ctrl+q")
+        code, stderr = viewer.finish()
+        assert code == 0, stderr
+    finally:
+        viewer.kill()
 
 
 def test_distortion_view_shows_the_exact_folds_of_a_point_kernel(display, environment):

@@ -1,4 +1,4 @@
-"""``warp --report``: the deformation's worst Jacobians (core.distortion.worst_distortion) on stdout."""
+"""``warp --report``: the deformation's worst Jacobians (distortion.worst_distortion) on stdout."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ import pytest
 from test_cli import AFFINE, CAGE, files, private_cache, run_main, warp_argv  # noqa: F401 (fixtures)
 
 import core
-from core.distortion import signed_singular_values, vertex_jacobians, worst_distortion
+from core.meshes.distortion import signed_singular_values, vertex_jacobians, worst_distortion
 
 LINE = re.compile(r"^(min det J|max sigma1/sigma2): (\S+) at \((\S+), (\S+)\) px$")
 

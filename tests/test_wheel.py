@@ -110,17 +110,18 @@ def test_the_installed_wheel_runs_its_commands_from_anywhere(venv, elsewhere):
     first_use = command("python", "-c", "import core; print(core.compile_solver(gradients=True))")
     assert first_use.stdout.split() == ["False"], f"the installed wheel compiled:\n{first_use.stderr}"
     # The default kernel reads its compiled boundary integrals from numba's cache once a process
-    # has evaluated LOAD_AFTER_POINTS points (core.layer_compiled.loaded), never compiling them:
+    # has evaluated LOAD_AFTER_POINTS points (compiled_integrals.loaded), never compiling them:
     # from the wheel they must be there, for the evaluation, the next density solve and what a
     # solve calls only beside thin parts (poisson.exercise_near_field).
     compiled_layer = command(
         "python", "-c",
-        "import numpy as np, core; from core import layer_compiled as c, poisson; "
+        "import numpy as np, core; from core.boundary_integrals import compiled_integrals as c, poisson; "
         "square = core.ClosedBSpline(np.array([[0.0, 0], [1, 0], [1, 1], [0, 1]])); "
         "x = np.random.default_rng(1).uniform(0.3, 0.7, (c.LOAD_AFTER_POINTS + 1, 2)); "
         "core.basis_functions(square, x); poisson._densities.cache_clear(); "
         "core.basis_functions(square, x[:1]); "
-        "from core.panels import curve_panels; poisson.exercise_near_field(square, curve_panels(square)); "
+        "from core.boundary_integrals.panels import curve_panels; "
+        "poisson.exercise_near_field(square, curve_panels(square)); "
         "print(*(len(f.overloads) for f in "
         "(c.adaptive_pairs, c.layer_rows, c.layer_matrix_rows, c.knot_blocks, c.coarse_system, "
         "c.panel_geometry, c.panel_gaps, c.close_pairs, c.galerkin_matrix, c.rows_product, "

@@ -181,17 +181,21 @@ class ViewerProcess:
         Environment (DISPLAY, cache and state directories); the test hook is added.
     cwd : path-like
         The repository root.
+    window_size : (int, int) or None
+        ``--window-size`` (the tests' screen positions are laid out for 1280x1024); None: the
+        viewer's own choice (the size it last had, or one that fits the screen).
     """
 
-    def __init__(self, args: list[str], env: dict, cwd):
+    def __init__(self, args: list[str], env: dict, cwd, window_size=(1280, 1024)):
         import queue
         import sys
         import threading
 
         self.lines: list[str] = []
         self._queue: queue.Queue = queue.Queue()
+        size = [] if window_size is None else ["--window-size", "{}x{}".format(*window_size)]
         self.process = subprocess.Popen(
-            [sys.executable, "-m", "app", *args],
+            [sys.executable, "-m", "app", *args, *size],
             cwd=cwd,
             env={**env, "TRANSFINITE_VIEWER_TEST": "1"},
             stdout=subprocess.PIPE,

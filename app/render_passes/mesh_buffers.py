@@ -15,7 +15,7 @@ import moderngl
 import numpy as np
 
 from app.render_passes.fold_possible import FoldMargins
-from core.mesh import unique_edges
+from core.meshes.mesh import unique_edges
 
 
 def checked_mesh(vertices, triangles) -> tuple[np.ndarray, np.ndarray]:

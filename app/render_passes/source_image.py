@@ -1,9 +1,17 @@
-"""The source image on the GPU: a mipmapped texture with premultiplied alpha and its sampler."""
+"""The source image on the GPU: a mipmapped texture with premultiplied alpha and its sampler.
+
+An 8-bit image is an RGBA8 texture; a 16-bit one an RGBA16 texture (normalised 16-bit
+integers, filtered and mipmapped like RGBA8), so that a 16-bit photograph is drawn and
+read back at its depth.
+"""
 
 from __future__ import annotations
 
 import moderngl
 import numpy as np
+
+#: Rows of the image uploaded at a time.
+UPLOAD_ROWS = 512
 
 
 def checked_image(ctx: moderngl.Context, image) -> np.ndarray:
@@ -13,11 +21,13 @@ def checked_image(ctx: moderngl.Context, image) -> np.ndarray:
     ----------
     ctx : moderngl.Context
         The context whose largest texture side limits the image.
-    image : array_like of shape (H, W, 4), uint8
+    image : array_like of shape (H, W, 4), uint8 or uint16
     """
     image = np.asarray(image)
-    if image.dtype != np.uint8 or image.ndim != 3 or image.shape[2] != 4:
-        raise ValueError(f"image must be an (H, W, 4) uint8 array, got {image.dtype} of shape {image.shape}")
+    if image.dtype not in (np.uint8, np.uint16) or image.ndim != 3 or image.shape[2] != 4:
+        raise ValueError(
+            f"image must be an (H, W, 4) uint8 or uint16 array, got {image.dtype} of shape {image.shape}"
+        )
     height, width = image.shape[:2]
     limit = ctx.info["GL_MAX_TEXTURE_SIZE"]
     if max(width, height) > limit:
@@ -31,21 +41,32 @@ class SourceImage:
     Parameters
     ----------
     ctx : moderngl.Context
-    image : ndarray of shape (H, W, 4), uint8
+    image : ndarray of shape (H, W, 4), uint8 or uint16
         RGBA with straight alpha, row 0 at the top, as `checked_image` returns it.
 
     Attributes
     ----------
     size : tuple of int
         (W, H) of the image.
+    dtype : numpy.dtype
+        uint8 or uint16: the image's samples, and those a drawing of it is read back in.
     """
 
     def __init__(self, ctx: moderngl.Context, image: np.ndarray):
         height, width = image.shape[:2]
         self.size = (width, height)
-        # Row 0 of the data is texture row v = 0, so v = y / H needs no flip.
-        self._texture = ctx.texture((width, height), 4, _premultiply(image).tobytes())
-        self._texture.build_mipmaps()
+        self.dtype = image.dtype
+        # Row 0 of the data is texture row v = 0, so v = y / H needs no flip.  Uploaded (and
+        # premultiplied) a strip at a time: a 100-megapixel image is 0.4 GB, and a whole copy of
+        # it on the way to the driver would be as much again.
+        self._texture = ctx.texture((width, height), 4, dtype=texture_dtype(image.dtype))
+        for top in range(0, height, UPLOAD_ROWS):
+            rows = np.ascontiguousarray(_premultiply(image[top : top + UPLOAD_ROWS]))
+            self._texture.write(rows, viewport=(0, top, width, len(rows)))
+        # The mipmaps are built at the first drawing (`bind`): by then the caller may have let go
+        # of `image`, and the driver's temporaries of that step (~0.8 of the image) do not come
+        # on top of the image's array (issue 36: 100 megapixels within 1.5 GiB).
+        self._mipmapped = False
         # Clamp to a transparent border: parts of the domain beyond the image
         # stay empty instead of smearing the edge pixels, and fade smoothly.
         self._sampler = ctx.sampler(
@@ -59,6 +80,9 @@ class SourceImage:
 
     def bind(self, program: moderngl.Program) -> None:
         """Sample the image in `program`'s ``u_image``; `unbind` after drawing."""
+        if not self._mipmapped:
+            self._texture.build_mipmaps()
+            self._mipmapped = True
         self._sampler.use(location=0)
         program["u_image"].value = 0
 
@@ -84,11 +108,20 @@ def _anisotropy(ctx: moderngl.Context) -> float:
     return min(16.0, ctx.max_anisotropy)
 
 
+def texture_dtype(dtype: np.dtype) -> str:
+    """moderngl's texture and renderbuffer type for samples of `dtype`: normalised 8 or 16 bits."""
+    return "f1" if np.dtype(dtype) == np.uint8 else "nu2"
+
+
 def _premultiply(image: np.ndarray) -> np.ndarray:
-    """RGBA uint8 (H, W, 4), straight alpha -> premultiplied, rounded."""
+    """RGBA uint8 or uint16 (H, W, 4), straight alpha -> premultiplied, rounded."""
     alpha = image[..., 3]
-    if alpha.min() == 255:
+    maximum = np.iinfo(image.dtype).max
+    if alpha.min() == maximum:
         return image
+    wide = np.uint16 if image.dtype == np.uint8 else np.uint32
     result = image.copy()
-    result[..., :3] = ((image[..., :3].astype(np.uint16) * alpha[..., None] + 127) // 255).astype(np.uint8)
+    result[..., :3] = ((image[..., :3].astype(wide) * alpha[..., None] + maximum // 2) // maximum).astype(
+        image.dtype
+    )
     return result

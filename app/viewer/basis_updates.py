@@ -104,7 +104,6 @@ class BasisUpdates:
         compute.basis = result
         compute.basis_error = ""
         if not cached:
-            compute.last_precompute_seconds = result.seconds
             compute.progress = None
         vertices = len(result.mesh.vertices)
         preview = 0 if result.preview is None else len(result.preview.vertices)

@@ -15,7 +15,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Protocol
 
-from app.files import kernel_names
+import numpy as np
+
+from app.files import InputError, kernel_names
+from app.fill import checked_fill
 from app.framing import CANVASES, OUTSIDES
 from app.keyframes import INTERPOLATIONS, MAX_TIME, TIME_RESOLUTION, Keyframe
 from app.viewer import drawing, editing
@@ -141,6 +144,7 @@ def _undo(state: AppState, value) -> None:
         cancel_drag(state)
     snapshot = state.document.history.undo()
     show(state, snapshot) if snapshot is not None else state.say("nothing to undo")
+    show_time(state)  # with keyframes, the pose the animation has now at the timeline's time
 
 
 @_command("redo", "redo the edit undone", while_drawing=False)
@@ -149,6 +153,7 @@ def _redo(state: AppState, value) -> None:
         cancel_drag(state)
     snapshot = state.document.history.redo()
     show(state, snapshot) if snapshot is not None else state.say("nothing to redo")
+    show_time(state)
 
 
 @_command("cancel", "cancel the drag in progress, close a list or the help")
@@ -163,6 +168,11 @@ def _new_cage(state: AppState, value) -> None:
     drawing.start(state)
 
 
+@_command("cage_drawing", "a new cage's clicks: points on the curve ('curve') or control points ('control')")
+def _cage_drawing(state: AppState, value) -> None:
+    drawing.set_style(state, value)
+
+
 @_command("confirm", "close the new cage; use it")
 def _confirm(state: AppState, value) -> None:
     pass  # Enter means something only while a new cage is drawn (`_drawing_command`)
@@ -171,12 +181,12 @@ def _confirm(state: AppState, value) -> None:
 @_command("reset_target", "reset the target to the source cage", undoable=True, while_drawing=False)
 def _reset_target(state: AppState, value) -> None:
     live = state.document.live
-    commit(state, live.replace(target=live.cage), "target reset to the source cage")
+    commit(state, live.replace(target=live.cage), "target reset to the source cage", pose=True)
 
 
 @_command("fit", "fit the cage to the subject", undoable=True, while_drawing=False)
 def _fit(state: AppState, value) -> None:
-    if value is None and (state.document.image[..., 3] == 255).all():
+    if value is None and (state.document.image[..., 3] == np.iinfo(state.document.image.dtype).max).all():
         # A photograph: the user shows where the subject is first.
         state.selection.fit_rect = True
         state.say("drag a rectangle around the subject (Enter: the whole picture, Esc: cancel)")
@@ -273,6 +283,16 @@ def _outside(state: AppState, value) -> None:
     if value in OUTSIDES:
         state.document.outside = value
         state.document.session_dirty = True
+
+
+@_command("fill", "what fills the original position behind the warp: none, transparent, #rrggbb, inpaint")
+def _fill(state: AppState, value) -> None:
+    try:
+        state.document.fill = checked_fill(value, "fill")
+    except InputError as error:
+        state.say(str(error), error=True)
+        return
+    state.document.session_dirty = True
 
 
 @_command("canvas", "an export's frame: the source image, or grown to the target")

@@ -25,7 +25,7 @@ import numpy as np
 
 from app.files import InputError, read_image
 from app.keyframes import Keyframe, interpolate
-from app.viewer import drawing, editing
+from app.viewer import autokey, drawing, editing
 from app.viewer.state import AppState, Drag, Snapshot
 from app.viewport import View
 
@@ -38,8 +38,18 @@ ZOOM_STEP = 1.15
 KEY_ZOOM_STEP = 1.5
 
 
-def commit(state: AppState, snapshot: Snapshot, message: str | None = None) -> bool:
-    """Make `snapshot` the document as one undoable edit; False if nothing changed."""
+def commit(state: AppState, snapshot: Snapshot, message: str | None = None, pose: bool = False) -> bool:
+    """Make `snapshot` the document as one undoable edit; False if nothing changed.
+
+    `pose`: the edit moves the target (a drag, a reset), and with keyframes it is keyed at the
+    timeline's time in the same step (`app.viewer.autokey`).
+    """
+    if pose:
+        moment = state.playback.time
+        snapshot, keyed = autokey.keyed(state.document.history.current, snapshot, moment)
+        if keyed:
+            message = f"{message}; {keyed}" if message else keyed
+            state.playback.keyframe = next(i for i, k in enumerate(snapshot.keyframes) if k.time == moment)
     state.document.live = snapshot
     changed = state.document.history.push(snapshot)
     if changed:
@@ -271,7 +281,8 @@ def _release(state: AppState, button: int) -> None:
             state.say(f"move undone: {problem}", error=True)
             return
     moved = len(drag.indices)
-    commit(state, state.document.live, f"moved {moved} control points" if moved > 1 else None)
+    message = f"moved {moved} control points" if moved > 1 else None
+    commit(state, state.document.live, message, pose=drag.kind == "target")
 
 
 def _fit_in_rectangle(state: AppState, drag) -> None:

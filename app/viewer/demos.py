@@ -392,7 +392,7 @@ def _files_in(directory: Path, name: str) -> DemoFiles:
 
 
 def _cache_directory() -> Path:
-    from core.cache import cache_directory
+    from core.storage.cache import cache_directory
 
     return cache_directory() / "demos"
 

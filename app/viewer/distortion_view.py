@@ -1,7 +1,7 @@
 """The viewer's distortion view: how much the deformation stretches, shears or folds, per vertex.
 
 The deformation x' = sum_i G_i(x) P'_i has the Jacobian J(x) = sum_i P'_i (grad G_i(x))^T
-(`core.distortion.vertex_jacobians`).  With the gradients of a point kernel
+(`core.meshes.distortion.vertex_jacobians`).  With the gradients of a point kernel
 (`core.mesh_basis_functions(gradients=True)`), J is exact at every interior
 vertex, and so is the fold test det J <= 0: the vertex-exact fold overlay.
 Without them (the FEM ``harmonic`` kernel is piecewise linear, ``pgw`` has no
@@ -26,7 +26,7 @@ import numpy as np
 
 from app.viewer.state import MEASURES
 from core.deformation import deform
-from core.distortion import signed_singular_values, triangle_jacobians, vertex_jacobians
+from core.meshes.distortion import signed_singular_values, triangle_jacobians, vertex_jacobians
 
 #: The per-vertex value of a folded vertex (the shader paints values below -50 as folds).
 FOLDED = -100.0

@@ -1,13 +1,16 @@
 """Drawing a new cage by clicking, with GIMP's habits (the "new cage" mode).
 
-Each click places the next control point; clicking the first point or pressing
-Enter closes the curve; Enter on a closed curve makes it the cage (one undoable
-step) and switches to deforming.  Backspace removes the last point (or reopens a
-closed curve), Esc abandons the new cage.  A double click on the last point, or
-Ctrl+click, makes a sharp corner: the point doubled.  A curve that crosses
+Each click places the next point; clicking the first point or pressing Enter
+closes the curve; Enter on a closed curve makes it the cage (one undoable step)
+and switches to deforming.  Backspace removes the last point (or reopens a closed
+curve), Esc abandons the new cage.  A double click on the last point, or
+Ctrl+click, makes a sharp corner: a doubled control point.  A curve that crosses
 itself is refused when it is closed, with the reason.
 
-The points live in ``state.document.live`` while they are placed, outside the undo
+The clicks are points on the curve (``state.selection.cage_drawing == "curve"``, the
+default: the control points are those of the closed B-spline through them,
+`core.curves.interpolating_spline`), or the control points themselves (``"control"``).
+The control points live in ``state.document.live`` while they are placed, outside the undo
 history, so nothing is saved until the cage is made.
 """
 
@@ -17,6 +20,10 @@ import numpy as np
 
 from app.viewer import editing
 from app.viewer.state import AppState, Drawing, Snapshot
+from core.curves.interpolating_spline import interpolating_control_points
+
+#: What a click places: a point on the curve, or a control point (the panel's choice).
+STYLES = ("curve", "control")
 
 #: Two clicks this close in time (seconds) and space (window pixels) are a double click.
 DOUBLE_CLICK_SECONDS = 0.4
@@ -43,12 +50,12 @@ def start(state: AppState) -> None:
 
 def press(state: AppState, x: float, y: float, corner: bool, now: float) -> None:
     """A left click at window point (x, y) at time `now`; `corner`: Ctrl held."""
-    drawing, points = state.selection.drawing, state.document.live.cage
+    drawing = state.selection.drawing
     if drawing.closed:
         state.say("the new cage is closed: Enter makes it the cage, Backspace reopens it, Esc abandons it")
         return
-    window = editing.to_window(state.display.viewport, points)
-    if len(points) >= 3 and editing.nearest_handle(window[:1], (x, y)) == 0:
+    window = editing.to_window(state.display.viewport, clicked_points(state))
+    if len(drawing.clicks) >= 3 and editing.nearest_handle(window[:1], (x, y)) == 0:
         close(state)
         return
     last = drawing.last_click
@@ -58,21 +65,24 @@ def press(state: AppState, x: float, y: float, corner: bool, now: float) -> None
         and np.hypot(x - last[1], y - last[2]) <= DOUBLE_CLICK_PIXELS
     ):
         drawing.last_click = None
-        if len(points) >= 2 and np.array_equal(points[-1], points[-2]):
+        if drawing.corners[-1]:
             return  # already a corner
-        _set(state, np.vstack([points, points[-1:]]))
-        state.say(f"point {len(points) - 1} is a sharp corner")
+        drawing.corners[-1] = True
+        _update(state)
+        state.say(f"point {len(drawing.clicks) - 1} is a sharp corner")
         return
     position = editing.to_image(state.display.viewport, (x, y))
-    _set(state, np.vstack([points, [position, position] if corner else [position]]))
+    drawing.clicks.append((float(position[0]), float(position[1])))
+    drawing.corners.append(bool(corner))
+    _update(state)
     drawing.last_click = (now, float(x), float(y))
-    state.say(f"{len(state.document.live.cage)} points: {HINT}")
+    state.say(f"{len(drawing.clicks)} points: {HINT}")
 
 
 def close(state: AppState) -> bool:
     """Close the curve if it makes a valid cage; False (and the reason in the status line) if not."""
     points = state.document.live.cage
-    if len(np.unique(points, axis=0)) < 3:
+    if len(np.unique(clicked_points(state), axis=0)) < 3:
         state.say("place at least 3 points before closing the cage", error=True)
         return False
     problem = editing.cage_problem(points)
@@ -81,7 +91,8 @@ def close(state: AppState) -> bool:
         return False
     state.selection.drawing.closed = True
     state.selection.drawing.last_click = None
-    state.say(f"closed, {len(points)} points: Enter makes it the cage, Backspace reopens it, Esc abandons it")
+    count = len(state.selection.drawing.clicks)
+    state.say(f"closed, {count} points: Enter makes it the cage, Backspace reopens it, Esc abandons it")
     return True
 
 
@@ -99,14 +110,15 @@ def confirm(state: AppState) -> Snapshot | None:
 
 def remove_last(state: AppState) -> None:
     """Backspace: reopen a closed curve, or remove the last point placed."""
-    drawing, points = state.selection.drawing, state.document.live.cage
+    drawing = state.selection.drawing
     drawing.last_click = None
     if drawing.closed:
         drawing.closed = False
         state.say(f"reopened: {HINT}")
-    elif len(points):
-        _set(state, points[:-1])
-        state.say(f"{len(points) - 1} points: {HINT}")
+    elif drawing.clicks:
+        del drawing.clicks[-1], drawing.corners[-1]
+        _update(state)
+        state.say(f"{len(drawing.clicks)} points: {HINT}")
     else:
         state.say("no point to remove (Esc abandons the new cage)")
 
@@ -118,5 +130,35 @@ def abandon(state: AppState) -> None:
     state.say("new cage abandoned")
 
 
-def _set(state: AppState, points: np.ndarray) -> None:
+def set_style(state: AppState, style: str) -> None:
+    """The panel's choice: clicks are points on the curve ("curve") or control points ("control");
+    a cage being drawn follows at once."""
+    if style not in STYLES:
+        state.say(f"unknown way of drawing a cage {style!r}", error=True)
+        return
+    state.selection.cage_drawing = style
+    if state.selection.drawing is not None:
+        _update(state)
+
+
+def control_points(clicks, corners, style: str) -> np.ndarray:
+    """The control points (n, 2), image pixels, of the clicks (m, 2) with their `corners` (m,):
+    those of the curve through them (``style="curve"``), or the clicks with each corner doubled."""
+    clicks = np.asarray(clicks, dtype=np.float64).reshape(-1, 2)
+    corners = np.asarray(corners, dtype=bool).reshape(-1)
+    if not len(clicks):
+        return np.zeros((0, 2))
+    if style == "curve":
+        return interpolating_control_points(clicks, corners)
+    return np.repeat(clicks, np.where(corners, 2, 1), axis=0)
+
+
+def clicked_points(state: AppState) -> np.ndarray:
+    """The points clicked so far (m, 2), image pixels: the handles shown while a cage is drawn."""
+    return np.asarray(state.selection.drawing.clicks, dtype=np.float64).reshape(-1, 2)
+
+
+def _update(state: AppState) -> None:
+    drawing = state.selection.drawing
+    points = control_points(drawing.clicks, drawing.corners, state.selection.cage_drawing)
     state.document.live = state.document.live.replace(cage=points, target=points, keyframes=())

@@ -18,7 +18,7 @@ from functools import cache
 import numpy as np
 
 from app.viewport import View
-from core.bspline import basis_weights
+from core.curves.bspline import basis_weights
 
 #: Window pixels within which a click grabs a handle.
 PICK_RADIUS = 10.0

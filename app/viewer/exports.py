@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from app.files import InputError, write_png
+from app.files import IMAGE_SUFFIXES, InputError, image_metadata, write_image
 from app.framing import output_frame, output_region
 from app.viewer.dialogs import FileDialogs
 from app.viewer.state import AppState, Snapshot
@@ -113,7 +113,7 @@ class Exporter:
         if path.suffix.lower() in (".mp4", ".gif") or (typed or "").endswith(("/", os.sep)):
             self._start_animation(path, typed)
             return None
-        if path.suffix.lower() != ".png":
+        if path.suffix.lower() not in IMAGE_SUFFIXES:
             path = path.with_name(path.name + ".png")
         try:
             pixels = self.render_still()
@@ -124,7 +124,8 @@ class Exporter:
             state.say("nothing to export yet: the basis functions are still being computed", error=True)
             return None
         try:
-            write_png(path, pixels)
+            # The image's depth (render's), ICC profile and EXIF, in the format of the name, like warp.
+            write_image(path, pixels, image_metadata(state.document.live.image))
         except InputError as error:
             state.say(str(error), error=True)
             return None

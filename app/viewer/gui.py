@@ -154,6 +154,15 @@ def _edit_section(state: AppState, live, commands: list) -> None:
     if imgui.button("Delete selected"):
         commands.append(("delete", None))
     imgui.end_disabled()
+    _choice_row(
+        commands,
+        "clicks:",
+        "cage_drawing",
+        state.selection.cage_drawing,
+        (("curve", "on curve"), ("control", "control points")),
+        "New cage: the curve passes through the points clicked (as GIMP's and Krita's paths), or the\n"
+        "clicks are its control points; Ctrl+click or a double click makes a sharp corner either way",
+    )
     if len(state.selection.group) > 1:
         selection = f", {len(state.selection.group)} selected"
     else:
@@ -244,6 +253,8 @@ def _show_section(state: AppState, commands: list) -> None:
         "original: the untouched picture around the warp (inside the source cage, where the target does "
         "not cover it, the original is seen); exports and warp --outside do the same",
     )
+    if state.document.outside == "original":
+        _fill_choice(state, commands)
     _choice_row(
         commands,
         "Canvas: ",
@@ -410,51 +421,49 @@ def _canvas_label(state: AppState) -> None:
     )
 
 
+def status_summary(state: AppState) -> str:
+    """The status line's figures: kernel, mesh, zoom, the precompute time of the basis drawn, and the
+    median frame times ``--stats`` reports (all frames, and the frames of drags)."""
+    kernel = status_kernel(state)
+    basis = state.compute.basis
+    vertices = f"{len(basis.mesh.vertices):,} vertices" if basis is not None else "no mesh yet"
+    if basis is not None and basis.preview is not None:
+        vertices += f" ({len(basis.preview.vertices):,} while moving)"
+    precompute = f"precompute {basis.seconds:.2f} s" if basis is not None else "precompute -"
+    frame = "frame -"
+    if state.status.frame_figures is not None:
+        median, drag = state.status.frame_figures
+        frame = f"frame {median:.1f} ms" + (f", dragging {drag:.1f} ms" if drag > 0 else "")
+    return (
+        f"{kernel} | {vertices} | zoom {100 * state.display.viewport.scale:.0f} % | {precompute} | {frame} |"
+    )
+
+
 def _status(state: AppState, width: float, height: float) -> None:
     """The status line: kernel, mesh, zoom, timings and the last message.
 
     A message too long for the line goes on lines of its own above it, wrapped,
     instead of being cut at the window's edge.
     """
-    kernel = status_kernel(state)
-    vertices = (
-        f"{len(state.compute.basis.mesh.vertices):,} vertices"
-        if state.compute.basis is not None
-        else "no mesh yet"
-    )
-    if state.compute.basis is not None and state.compute.basis.preview is not None:
-        vertices += f" ({len(state.compute.basis.preview.vertices):,} while moving)"
-    precompute = (
-        f"precompute {state.compute.last_precompute_seconds:.2f} s"
-        if state.compute.last_precompute_seconds is not None
-        else "precompute -"
-    )
-    recent = sorted(state.status.frame_ms[-60:])
-    frame = f"frame {recent[len(recent) // 2]:.1f} ms" if recent else "frame -"
-    summary = (
-        f"{kernel} | {vertices} | zoom {100 * state.display.viewport.scale:.0f} % | {precompute} | {frame} |"
-    )
+    summary = status_summary(state)
+    message = state.status_message()
     padding = imgui.get_style().window_padding.x
     room = width - 2 * padding
     spacing = imgui.get_style().item_spacing.x
-    inline = imgui.calc_text_size(f"{summary}{state.status.message}").x + spacing <= room
-    extra = (
-        0.0
-        if inline or not state.status.message
-        else imgui.calc_text_size(state.status.message, wrap_width=room).y
-    )
+    inline = imgui.calc_text_size(f"{summary}{message}").x + spacing <= room
+    extra = 0.0 if inline or not message else imgui.calc_text_size(message, wrap_width=room).y
     imgui.set_next_window_pos((0, height - STATUS_HEIGHT - extra))
     imgui.set_next_window_size((width, STATUS_HEIGHT + extra))
     imgui.begin("##status", None, _FIXED | imgui.WindowFlags_.no_title_bar | imgui.WindowFlags_.no_scrollbar)
     colour = (1.0, 0.45, 0.4, 1.0) if state.status.message_is_error else (0.75, 0.85, 1.0, 1.0)
-    if state.status.message and not inline:
+    if message and not inline:
         imgui.push_text_wrap_pos(0.0)
-        imgui.text_colored(colour, state.status.message)
+        imgui.text_colored(colour, message)
         imgui.pop_text_wrap_pos()
     imgui.text(summary)
-    if state.status.message and inline:
+    if message and inline:
         imgui.same_line()
-        imgui.text_colored(colour, state.status.message)
+        imgui.text_colored(colour, message)
     imgui.end()
 
 
@@ -514,3 +523,35 @@ def _parameterization_choice(live, commands: list, spots: dict) -> None:
     low, high = imgui.get_item_rect_min(), imgui.get_item_rect_max()
     spots["arc-length"] = (0.5 * (low.x + high.x), 0.5 * (low.y + high.y))
     imgui.end_disabled()
+
+
+#: The fill combo's entries: (value, label); a colour is the last one.
+FILL_CHOICES = (("none", "original kept"), ("transparent", "transparent"), ("inpaint", "inpainted"))
+
+
+def _fill_choice(state: AppState, commands: list) -> None:
+    """What fills the subject's original position behind the warp (`app.fill`): a list, and a
+    colour picker when the fill is a colour."""
+    labels = dict(FILL_CHOICES)
+    fill = state.document.fill
+    colour = fill.startswith("#")
+    imgui.text("  fill:")
+    imgui.same_line()
+    imgui.set_next_item_width(130)
+    if imgui.begin_combo("##fill", "colour" if colour else labels[fill]):
+        for value, label in (*FILL_CHOICES, ("#ffffff", "colour")):
+            clicked, _ = imgui.selectable(label, value == fill or (colour and value == "#ffffff"))
+            if clicked and not (colour and value == "#ffffff"):
+                commands.append(("fill", value))
+        imgui.end_combo()
+    if imgui.is_item_hovered():
+        imgui.set_tooltip(
+            "what shows where the subject was (inside the source cage) when the warp moves it away;\n"
+            "exports, warp --fill and animate do the same"
+        )
+    if colour:
+        imgui.same_line()
+        rgba = [int(fill[i : i + 2], 16) / 255 for i in range(1, len(fill), 2)] + [1.0]
+        changed, picked = imgui.color_edit4("##fill colour", rgba[:4], imgui.ColorEditFlags_.no_inputs)
+        if changed:
+            commands.append(("fill", "#" + "".join(f"{round(255 * v):02x}" for v in picked)))

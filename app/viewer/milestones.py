@@ -5,7 +5,12 @@ frame times of ``--stats``."""
 
 from __future__ import annotations
 
+import time
+
 from app.viewer.state import AppState
+
+#: Seconds between two updates of the status line's frame times (a median of every frame so far).
+FIGURES_INTERVAL = 0.5
 
 
 def frame_statistics(frame_ms: list[float]) -> tuple[int, float, float]:
@@ -38,6 +43,7 @@ class Milestones:
         self.drag_frame_ms: list[float] = []
         #: Window points of some widgets (`app.viewer.gui.gui` fills it), announced for the tests.
         self.spots: dict = {}
+        self.figures_at = -FIGURES_INTERVAL  # when the status line's frame times were last computed
 
     def announce(self, line: str) -> None:
         if self.test_mode:
@@ -83,12 +89,23 @@ class Milestones:
         drag = state.selection.drag
         if drag is not None and drag.kind in ("target", "source"):
             self.drag_frame_ms.append(state.status.frame_ms[-1])
+        self._update_figures(state)
         if not self.announced_ready:
             self.announced_ready = True
             self.announce(f"ready window={window_id}")
             for name in ("kernel", "arc-length"):
                 x, y = self.spots.get(name, (0, 0))
                 self.announce(f"spot {name}={x:.0f},{y:.0f}")
+
+    def _update_figures(self, state: AppState) -> None:
+        """The status line's frame times: what ``--stats`` would report now, twice a second."""
+        now = time.perf_counter()
+        if now - self.figures_at < FIGURES_INTERVAL:
+            return
+        self.figures_at = now
+        _, median, _ = frame_statistics(state.status.frame_ms)
+        _, drag_median, _ = frame_statistics(self.drag_frame_ms)
+        state.status.frame_figures = (median, drag_median)
 
     def statistics(self, state: AppState) -> str:
         """``--stats``: frames=N median_frame_ms=X p95_frame_ms=Y median_drag_frame_ms=Z."""

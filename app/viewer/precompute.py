@@ -2,7 +2,7 @@
 
 Meshing the cage and computing G (V x n) take seconds, and on the very first run
 numba compiles the solver first (tens of seconds, its own progress phase, see
-`core.compilation`).  Compiling holds the GIL, so in a thread it would stall the
+`core.newton.compilation`).  Compiling holds the GIL, so in a thread it would stall the
 viewer's frames; a separate process (started with ``spawn``, at lowered priority)
 keeps the UI responsive and still gets the otherwise idle cores.  The protocol is two pipes:
 
@@ -156,7 +156,7 @@ def compute(request: Request, progress=None) -> dict:
     """
     import core
     from app.warping import WarpSettings, prepare
-    from core.compilation import MESSAGE as COMPILING
+    from core.newton.compilation import MESSAGE as COMPILING
 
     started = time.perf_counter()
     curve = core.ClosedBSpline(request.cage)
@@ -220,13 +220,13 @@ def compute(request: Request, progress=None) -> dict:
 
 def _preview(curve, mesh, basis: np.ndarray, max_edge: float, kernel: str) -> tuple:
     """(vertices, triangles, basis) of a mesh of about `PREVIEW_VERTICES` vertices of the same curve,
-    whose rows of G draw what the dense mesh draws at its vertices (`core.mesh_transfer`).
+    whose rows of G draw what the dense mesh draws at its vertices (`core.meshes.mesh_transfer`).
 
     The complex coordinates (no Lagrange property, so their boundary rows are not the
     B-spline basis that `transfer_basis` puts there) are evaluated at the preview's vertices.
     """
     import core
-    from core.mesh_transfer import transfer_basis
+    from core.meshes.mesh_transfer import transfer_basis
 
     coarse = core.triangulate(curve, max_edge=max_edge * np.sqrt(len(mesh.vertices) / PREVIEW_VERTICES))
     if np.iscomplexobj(basis):
@@ -390,7 +390,7 @@ def _serve(requests, results, nice: int) -> None:
 
 
 def _serve_requests(requests, results) -> None:
-    from core.poisson import load_compiled
+    from core.boundary_integrals.poisson import load_compiled
 
     waiting = []
     compiled_layer = False

@@ -25,9 +25,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from app.fill import set_fill
 from app.framing import output_region
 from app.render import WarpRenderer
 from app.viewer.controller import band_corners
+from app.viewer.drawing import clicked_points
 from app.viewer.editing import curve_points, to_image
 from app.viewer.state import AppState
 from app.viewer.view_modes import BY_NAME as VIEW_MODES
@@ -66,6 +68,10 @@ def overlay_arrays(state: AppState) -> tuple[np.ndarray, np.ndarray]:
             segments.append(
                 _closed_segments(curve_points(control), colour, curve_alpha, 2.5 if is_active else 1.5)
             )
+        if state.selection.drawing is not None and is_active:
+            control = clicked_points(
+                state
+            )  # the clicks: on the curve, or its control points (drawing.STYLES)
         if len(control) >= 2:
             polygon = control if len(control) >= 3 else control[:2]
             if drawing:  # the points in the order placed, not yet closed
@@ -205,6 +211,7 @@ class Scene:
     def __init__(self, renderer: WarpRenderer):
         self.renderer = renderer
         self._image = None
+        self._fill_key: tuple | None = None  # what the renderer's backdrop was filled for
         self._basis = None
         self._drawn_target: np.ndarray | None = None
         self._positions: np.ndarray | None = None  # float32, in the renderer's vertex order
@@ -220,9 +227,9 @@ class Scene:
         self._layer = Layer()
         #: CPU time of the last per-drag position update (ms), for the status line and tests.
         self.update_ms = 0.0
-        # The renderer's revision at which `_positions` were written, and the fold check made there.
-        self._positions_revision: int | None = None
-        self._fold_check: tuple[int, bool] | None = None
+        # (the renderer's revision at which `_positions` were written, whether they may fold there:
+        # None until asked).
+        self._fold_check: tuple[int, bool | None] | None = None
 
     @property
     def layer_key(self) -> tuple | None:
@@ -244,6 +251,8 @@ class Scene:
         if state.document.image is not self._image:
             renderer.set_image(state.document.image)
             self._image = state.document.image
+            self._fill_key = None  # a new image drops the filled backdrop
+        self._update_fill(state)
         basis = state.compute.basis
         if basis is not None and basis is not self._basis:
             renderer.set_mesh(basis.mesh.vertices, basis.mesh.triangles)
@@ -274,6 +283,20 @@ class Scene:
         else:
             self._update_positions(state)
         self._update_field(state)
+
+    def _update_fill(self, state: AppState) -> None:
+        """The backdrop with the original position filled (`app.fill`), for the committed cage: a
+        source drag in progress or a new cage being drawn keep the last one."""
+        document = state.document
+        cage = document.history.current.cage
+        key = (cage.tobytes(), document.fill, document.outside)
+        if key == self._fill_key:
+            return
+        self._fill_key = key
+        try:
+            set_fill(self.renderer, document.image, cage, document.fill, document.outside)
+        except ValueError:  # no valid cage (yet): the plain image
+            self.renderer.set_backdrop_image(None)
 
     def _preview_wanted(self, state: AppState) -> bool:
         """Whether this frame draws the preview mesh: a dense mesh's image while its target or the
@@ -336,7 +359,7 @@ class Scene:
             self._exact = True
             self._count_folds(state, deformed)
         self.renderer.set_ordered_positions(self._positions)
-        self._positions_revision = self.renderer.revision
+        self._fold_check = (self.renderer.revision, None)
         self._drawn_target = np.array(target)
         self.update_ms = 1e3 * (time.perf_counter() - started)
 
@@ -345,9 +368,10 @@ class Scene:
         True whenever the positions drawn are not the ones this scene wrote last (the preview's,
         an export's)."""
         revision = self.renderer.revision
-        if self.previewing or self._positions is None or self._positions_revision != revision:
+        check = self._fold_check
+        if self.previewing or self._positions is None or check is None or check[0] != revision:
             return True
-        if self._fold_check is None or self._fold_check[0] != revision:
+        if check[1] is None:
             self._fold_check = (revision, self.renderer.may_fold(self._positions))
         return self._fold_check[1]
 

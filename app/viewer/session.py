@@ -4,7 +4,7 @@ The session file is the one of .docs/architecture.md (``image``, ``cage``, ``tar
 ``kernel``, ``view``) plus keys of its own that `python -m app warp --session`
 also reads, so that it exports exactly what the viewer showed: ``kernel_params``
 (the ``power`` kernel's ``power`` and ``shift``), ``parameterization`` (``"natural"``,
-the default of older sessions, or ``"arc-length"``: `core.arc_length`) and ``mesh``
+the default of older sessions, or ``"arc-length"``: `core.curves.arc_length`) and ``mesh``
 (``{"max_edge": h}``, the mesh the viewer used), and the animation that ``animate`` renders:
 ``keyframes`` (``[{"time": s, "target": {cage}}, ...]``) and ``interpolation``
 (`app.keyframes`).  ``viewer`` keeps what only the viewer needs
@@ -45,6 +45,7 @@ from app.files import (
     session_parameterization,
     write_session,
 )
+from app.fill import session_fill
 from app.framing import CANVASES, OUTSIDES
 from app.keyframes import DEFAULT_INTERPOLATION, MAX_TIME, Keyframe, keyframes_json
 from app.viewer.session_files import backups, keep_aside, rotate_backups, session_path_for
@@ -60,7 +61,7 @@ from app.viewer.state import (
 )
 from app.viewer.view_modes import VIEW_MODE_NAMES
 from app.viewport import View
-from core.atomic_write import abandoned_temporaries
+from core.storage.atomic_write import abandoned_temporaries
 
 #: Undo steps (and redo steps) written into the session file.
 SAVED_STEPS = 100
@@ -204,7 +205,7 @@ def finish_interrupted_save(path: Path) -> list[str]:
     """Complete an autosave of `path` that a killed viewer wrote whole but did not rename.
 
     An autosave writes a temporary file, flushes it and renames it over `path`
-    (`core.atomic_write`); ``kill -9`` between the write and the rename left the
+    (`core.storage.atomic_write`); ``kill -9`` between the write and the rename left the
     newest state in the temporary, which the next write would delete.  The newest
     such temporary that is a readable session and newer than `path` becomes `path`
     (the old `path` becomes backup 1); a partly written one is left to be removed.
@@ -269,7 +270,12 @@ def restore(path: Path, max_edge: float | None = None) -> OpenedDocument:
     params = session_kernel_params(session, path)
     preferences = session.extra.get("viewer") if isinstance(session.extra.get("viewer"), dict) else {}
     outside, canvas = session_output(session, path)
-    preferences = {**preferences, "outside": outside, "canvas": canvas}
+    preferences = {
+        **preferences,
+        "outside": outside,
+        "canvas": canvas,
+        "fill": session_fill(session.extra, path),
+    }
     power = params.get("power", preferences.get("power", DEFAULT_POWER))
     shift = params.get("shift", preferences.get("shift", DEFAULT_SHIFT))
     power = finite_number(power)
@@ -451,6 +457,8 @@ def apply_preferences(state: AppState, preferences: dict | None) -> None:
         state.document.outside = preferences["outside"]
     if preferences.get("canvas") in CANVASES:
         state.document.canvas = preferences["canvas"]
+    if isinstance(preferences.get("fill"), str):
+        state.document.fill = preferences["fill"]  # checked by `restore` (app.fill.session_fill)
     if isinstance(preferences.get("loop"), bool):
         state.playback.loop = preferences["loop"]
     time = finite_number(preferences.get("time"))
@@ -484,6 +492,10 @@ def session_of(state: AppState, max_edge: float | None) -> Session:
     if max_edge is not None:
         extra["mesh"] = {"max_edge": float(max_edge)}
     extra["outside"], extra["canvas"] = state.document.outside, state.document.canvas
+    if (
+        state.document.fill != "none"
+    ):  # files without the key read as "none" (and stay as older versions wrote them)
+        extra["fill"] = state.document.fill
     extra["keyframes"] = keyframes_json(snapshot.keyframes)
     extra["interpolation"] = snapshot.interpolation
     extra["parameterization"] = snapshot.parameterization

@@ -29,7 +29,7 @@ DEFAULT_POWER = 4.0
 DEFAULT_SHIFT = "mean"
 SHIFTS = ("none", "integral", "mean")
 
-#: The boundary's parameter of the point kernels (`core.arc_length`, the paper's Fig. 12).
+#: The boundary's parameter of the point kernels (`core.curves.arc_length`, the paper's Fig. 12).
 PARAMETERIZATIONS = ("natural", "arc-length")
 
 #: What the distortion view shows: log2 det J, or log2 sigma_1 / sigma_2 (app.viewer.distortion_view).
@@ -279,11 +279,18 @@ class Drawing:
         Whether the curve was closed (first point clicked, or Enter).
     last_click : tuple of float or None
         (time, x, y) of the last placement, to tell a double click.
+    clicks : list of (x, y)
+        The points clicked, image pixels, in order (`app.viewer.drawing.control_points`
+        turns them into the cage's control points).
+    corners : list of bool
+        Which clicks are sharp corners (Ctrl+click, double click).
     """
 
     before: Snapshot
     closed: bool = False
     last_click: tuple[float, float, float] | None = None
+    clicks: list = field(default_factory=list)
+    corners: list = field(default_factory=list)
 
 
 @dataclass
@@ -345,7 +352,7 @@ class PreviewMesh:
         Undeformed, image pixels.
     triangles : ndarray of shape (T', 3)
     basis : ndarray of shape (V', n), float64
-        ``core.mesh_transfer.transfer_basis`` of the dense mesh's G: the preview's
+        ``core.meshes.mesh_transfer.transfer_basis`` of the dense mesh's G: the preview's
         deformed vertices are ``basis @ target``.
     """
 
@@ -374,6 +381,8 @@ class Document:
         What exports show outside the deformed region (`app.framing.OUTSIDES`).
     canvas : str
         What exports frame: ``"source"``, or ``"grow"`` to hold the whole target.
+    fill : str
+        What fills the source cage's region behind the warp, with outside "original" (`app.fill`).
     max_edge : float or None
         A forced mesh edge length (None: from the cage's area).
     saved : Snapshot or None
@@ -388,6 +397,7 @@ class Document:
     session_dirty: bool = False
     outside: str = "transparent"
     canvas: str = "source"
+    fill: str = "none"
     max_edge: float | None = None
     saved: Snapshot | None = None
 
@@ -402,6 +412,7 @@ class Selection:
     hovered: int | None = None
     drag: Drag | None = None
     drawing: Drawing | None = None  # a new cage being placed
+    cage_drawing: str = "curve"  # a new cage's clicks: points on the "curve", or "control" points
     fit_rect: bool = False  # "Fit cage" on a photo waits for a rectangle around the subject
 
 
@@ -443,7 +454,6 @@ class Compute:
     progress: float | None = None  # fraction of the running precompute, None when idle
     progress_label: str = ""
     basis_error: str = ""  # why the wanted basis functions could not be computed
-    last_precompute_seconds: float | None = None
     folded_count: int | None = None
 
 
@@ -453,15 +463,19 @@ class Status:
 
     message: str = ""
     message_is_error: bool = False
+    message_owner: Snapshot | None = None  # the document the message was said about (`status_message`)
     open_prompt: str | None = None  # the path typed into the open prompt (no dialog program)
     export_prompt: str | None = None  # the path typed into the export prompt (no dialog program)
     frame_ms: list[float] = field(default_factory=list)
+    #: (median frame, median drag frame) in ms, as ``--stats`` reports them (the window updates them).
+    frame_figures: tuple[float, float] | None = None
     quit: bool = False
 
-    def say(self, message: str, error: bool = False) -> None:
-        """Show `message` in the status line."""
+    def say(self, message: str, error: bool = False, owner: Snapshot | None = None) -> None:
+        """Show `message` in the status line, for as long as `owner` is the document shown."""
         self.message = " ".join(str(message).split())
         self.message_is_error = error
+        self.message_owner = owner
 
 
 @dataclass
@@ -494,5 +508,11 @@ class AppState:
         return cls(Document(history, history.current, image, Path(session_path)))
 
     def say(self, message: str, error: bool = False) -> None:
-        """Show `message` in the status line."""
-        self.status.say(message, error)
+        """Show `message` in the status line, for as long as the document stays the one it is about."""
+        self.status.say(message, error, self.document.history.current)
+
+    def status_message(self) -> str:
+        """What the status line says: the last message, unless the document changed since (an edit,
+        an undo, a redo): "moved 8 control points" belongs to the state that move made."""
+        status = self.status
+        return status.message if status.message_owner is self.document.history.current else ""

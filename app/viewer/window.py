@@ -62,7 +62,7 @@ class Options:
     frames: Path | None = None  # write every replayed frame here (and quit at the end)
     fps: float = 30.0
     export: Path | None = None  # where Ctrl+E writes (default: ask; see `default_export_path`)
-    size: tuple[int, int] = WINDOW_SIZE
+    size: tuple[int, int] | None = None  # the window's (default: as last closed, else fits the screen)
 
 
 class Viewer:
@@ -85,7 +85,7 @@ class Viewer:
         precompute = Precompute(warm_up=not self.milestones.test_mode)
         self.basis = BasisUpdates(precompute, options.max_edge, options.vertices, announce)
         self.state = AppState.opened(History(document.snapshot), document.image, document.session_path)
-        self.state.screen.window_size = options.size
+        self.state.screen.window_size = options.size or WINDOW_SIZE
         self.opened: OpenedDocument | None = None  # the session file's lock, view and start cage
         self._load(document)
         self.input = InputQueue()
@@ -143,12 +143,16 @@ class Viewer:
         # 2D only: no depth or stencil buffer to clear every frame.
         glfw.window_hint(glfw.DEPTH_BITS, 0)
         glfw.window_hint(glfw.STENCIL_BITS, 0)
-        width, height = self.options.size
+        # Hidden until it is placed where it fits (`app.viewer.window_fit`).
+        glfw.window_hint(glfw.VISIBLE, False)
+        x, y, width, height = self._opening_rectangle(glfw)
         window = glfw.create_window(width, height, self._title(), None, None)
         if not window:
             glfw.terminate()
             raise _environment_error("cannot open an OpenGL 3.3 window")
         self.window = window
+        glfw.set_window_pos(window, x, y)
+        glfw.show_window(window)
         glfw.make_context_current(window)
         glfw.swap_interval(0 if self.milestones.test_mode else 1)
         self.ctx = moderngl.create_context()
@@ -169,6 +173,34 @@ class Viewer:
         self._show_document_view()
         self.state.document.session_dirty = True  # the first save, so the session file exists at once
 
+    def _opening_rectangle(self, glfw) -> tuple[int, int, int, int]:
+        """(x, y, width, height) of the window: asked for, as last closed, or fitted to the screen."""
+        from app.viewer.drawing import STYLES
+        from app.viewer.settings import read_settings, window_rectangle
+        from app.viewer.window_fit import monitor_work_area, opening_rectangle
+
+        settings = read_settings()
+        if settings.get("cage_drawing") in STYLES:
+            self.state.selection.cage_drawing = settings["cage_drawing"]
+        saved = window_rectangle(settings)
+        monitors = [glfw.get_primary_monitor()] + [m for m in glfw.get_monitors() or [] if m]
+        areas = [tuple(glfw.get_monitor_workarea(m)) for m in monitors if m]
+        if not areas:  # no monitor reported: the size asked for, or the old default
+            return (0, 0, *(self.options.size or WINDOW_SIZE))
+        return opening_rectangle(monitor_work_area(areas, saved), saved, self.options.size)
+
+    def _save_settings(self, glfw) -> None:
+        """Remember the window's place and size, and how cages are drawn, for the next viewer."""
+        from app.viewer.settings import write_settings
+
+        x, y = glfw.get_window_pos(self.window)
+        width, height = glfw.get_window_size(self.window)
+        window = {"x": x, "y": y, "width": width, "height": height}
+        try:
+            write_settings({"window": window, "cage_drawing": self.state.selection.cage_drawing})
+        except (InputError, OSError) as error:
+            print(f"note: cannot save the viewer's settings: {error}", file=sys.stderr)
+
     def _close_window(self) -> None:
         import glfw
         from imgui_bundle import imgui
@@ -176,6 +208,7 @@ class Viewer:
         self._save_if_needed(force=True)
         if self.window is None:
             return
+        self._save_settings(glfw)
         self.scene.release()
         self.renderer.release()
         self.imgui_renderer.shutdown()

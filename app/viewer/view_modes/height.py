@@ -6,8 +6,8 @@ from app.viewer.view_modes.mode import ViewMode
 
 
 def field(state, basis, renderer, current):
-    """Upload G @ h (V,) for the wave heights h of `core.examples.wave_heights`."""
-    from core.examples import wave_heights
+    """Upload G @ h (V,) for the wave heights h of `core.curves.examples.wave_heights`."""
+    from core.curves.examples import wave_heights
 
     signature = ("height", basis.key)
     if signature != current:

@@ -1,0 +1,1 @@
+"""The boundary-integral kernels: Gauss panels, Cauchy integrals, the Poisson kernel, Cauchy-Green."""

@@ -1,0 +1,1 @@
+"""Closed curves: quadratic B-splines (Sec. 4.1), sampled boundaries, arc length, distances, inside tests."""

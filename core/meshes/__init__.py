@@ -1,0 +1,1 @@
+"""Triangle meshes of the domain and the kernels defined on them (FEM harmonic, positive Gordon-Wixom)."""

@@ -1,0 +1,512 @@
+"""Per-point gradients of the barycentric kernels, compiled with numba next to `core.newton.solver`.
+
+One point x is evaluated exactly as `core.newton.solver` evaluates it (the same nodes
+t_j and weights w_j: the trapezoid rule far from the boundary, the graded sinh
+rule near it; the same weights, Newton solve and normalisation, by calling the
+solver's own helpers), and then the x-derivative of every quadrature-weighted
+kernel value lambda_j = w_j lambda(x, t_j) is formed in closed form.  The
+derivation is in `core.gradients`; the notation here follows it:
+
+    a~_j      the unnormalised weight w_j omega_x(t_j) (Eq. 18-20, 23) or the
+              explicit kernel w_j mu(x, t_j) (Eq. 5, Sec. 1.1), and grad a~_j,
+    b_j       = lambda_j r_j s_j, proportional to a~_j (Eq. 14 and 17),
+    H         = sum_j b_j u_j u_j^T / s_j^2, the Hessian of F (Eq. 16),
+    Phi       = d phi / d x = H^-1 (D - I + K + v phi^T)   (implicit function theorem),
+    dc_j      = grad b_j / (r_j s_j) + lambda_j (u_j / r_j - grad s_j / s_j),
+    grad lambda_j = dc_j - lambda_j sum_k dc_k.
+
+Rows of gradients are accumulated like the values (lumped onto samples or
+folded onto the B-spline basis, `solver._accumulate`).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from core.curves.crossing_slabs import inside_polygon
+from core.newton import solver
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _weight_derivative(kernel, power, px, py, tx, ty, sx, sy, w, x, y, ux, uy, r_inv, r_min, omega, constant):
+    """a~_j and grad a~_j of one node (a~ as in `solver._weights`, up to one factor common to all j).
+
+    Scalars only (no array arguments: a call per node must not touch reference
+    counts).  `omega` is q^k, q = r_min / r, for the power kernels, and `constant`
+    the shift of Eq. 19-20 in the same units (its gradient is added by the caller).
+    Returns (a~, da~/dx, da~/dy).
+    """
+    if kernel == solver.MAXIMUM_LIKELIHOOD:
+        return w, 0.0, 0.0
+    if kernel == solver.PSEUDO_HARMONIC:
+        value = w * r_min * r_inv
+        return value, value * ux * r_inv, value * uy * r_inv
+    if kernel == solver.POWER or kernel == solver.HARMONIC_LIKE:
+        k = 4.0 if kernel == solver.HARMONIC_LIKE else power
+        slope = w * k * omega * r_inv  # |grad q^k| w: grad r = -u
+        return w * (omega + constant), slope * ux, slope * uy
+    if kernel == solver.MODIFIED_MEAN_VALUE or kernel == solver.MODIFIED_MEAN_VALUE_SQUARED:
+        # omega = |(p - x) x p'| / r^2 (Eq. 23): grad (p - x) x p' = (-p'_y, p'_x), grad r = -u.
+        turn = (ux * ty - uy * tx) * r_inv * r_min  # signed (u x p') / r
+        sign = 1.0 if turn >= 0.0 else -1.0
+        gx = sign * (-ty) * r_inv * r_inv * r_min + 2.0 * abs(turn) * ux * r_inv
+        gy = sign * tx * r_inv * r_inv * r_min + 2.0 * abs(turn) * uy * r_inv
+        if kernel == solver.MODIFIED_MEAN_VALUE:
+            return w * abs(turn), w * gx, w * gy
+        return w * turn * turn, 2.0 * w * abs(turn) * gx, 2.0 * w * abs(turn) * gy
+    if kernel == solver.MEAN_VALUE:
+        # mu = (p - x) x p' / r^3 (Eq. 5).
+        q = r_min * r_inv
+        cross = (ux * ty - uy * tx) * q * q
+        gx = -ty * r_inv * q * q + 3.0 * cross * ux * r_inv
+        gy = tx * r_inv * q * q + 3.0 * cross * uy * r_inv
+        return w * cross, w * gx, w * gy
+    # WACHSPRESS or LAPLACE (Sec. 1.1), a curve node.
+    speed2 = tx * tx + ty * ty
+    dx = px - x
+    dy = py - y
+    cross = dx * ty - dy * tx
+    curvature = tx * sy - ty * sx
+    if speed2 == 0.0 or cross == 0.0:
+        return 0.0, 0.0, 0.0
+    cx = -ty
+    cy = tx
+    if kernel == solver.WACHSPRESS:
+        mu = curvature / (cross * cross)
+        return w * mu, w * (-2.0 * mu * cx / cross), w * (-2.0 * mu * cy / cross)
+    r2 = dx * dx + dy * dy
+    mu = (2.0 * speed2 * cross - r2 * curvature) / (cross * cross)
+    gx = (2.0 * speed2 * cx + 2.0 * curvature * dx) / (cross * cross) - 2.0 * mu * cx / cross
+    gy = (2.0 * speed2 * cy + 2.0 * curvature * dy) / (cross * cross) - 2.0 * mu * cy / cross
+    return w * mu, w * gx, w * gy
+
+
+@njit(cache=True, error_model="numpy")
+def _corner_derivative(kernel, corners, c, bx, by, x, y):
+    """The point mass of sharp corner c of the three-point family and its gradient.
+
+    mass = q.A / q x A - q.B / q x B with q = corner - x (see `solver._weights`);
+    Wachspress divides it by |q|^2, Laplace negates it.  Returns (a~, da~/dx, da~/dy).
+    """
+    qx = bx - x
+    qy = by - y
+    mass = 0.0
+    gx = 0.0
+    gy = 0.0
+    for side in range(2):
+        ex = corners[c, 1 + 2 * side]
+        ey = corners[c, 2 + 2 * side]
+        dot = qx * ex + qy * ey
+        cross = qx * ey - qy * ex
+        if cross == 0.0:
+            return 0.0, 0.0, 0.0
+        sign = 1.0 if side == 0 else -1.0
+        mass += sign * dot / cross
+        # d/dq (dot / cross) = e / cross - dot (e_y, -e_x) / cross^2; d/dx = -d/dq.
+        gx -= sign * (ex / cross - dot * ey / (cross * cross))
+        gy -= sign * (ey / cross + dot * ex / (cross * cross))
+    if kernel == solver.WACHSPRESS:
+        q2 = qx * qx + qy * qy
+        return mass / q2, gx / q2 + 2.0 * mass * qx / (q2 * q2), gy / q2 + 2.0 * mass * qy / (q2 * q2)
+    return -mass, -gx, -gy
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _power(q, k):
+    """q^k, by multiplication for the powers 3 and 4 of the named kernels."""
+    if k == 3.0:
+        return q * q * q
+    if k == 4.0:
+        q2 = q * q
+        return q2 * q2
+    return q**k
+
+
+@njit(cache=True, error_model="numpy", fastmath={"contract", "arcp", "reassoc", "nsz"})
+def _shift(kernel, power, shift, w, inv_r, ux, uy, r_min, count, omega):
+    """omega_j = q_j^k (into `omega`) and the shift of Eq. 19-20 with its gradient: (c, dc/dx, dc/dy).
+
+    Only for the power kernels (Eq. 19-20), in the units of q = r_min / r.
+    """
+    if not (kernel == solver.POWER or kernel == solver.HARMONIC_LIKE):
+        return 0.0, 0.0, 0.0
+    mode = solver.SHIFT_INTEGRAL if kernel == solver.HARMONIC_LIKE else shift
+    k = 4.0 if kernel == solver.HARMONIC_LIKE else power
+    integral = 0.0
+    gx = 0.0
+    gy = 0.0
+    length = 0.0
+    for j in range(count):
+        value = _power(r_min * inv_r[j], k)
+        omega[j] = value
+        integral += w[j] * value
+        slope = w[j] * k * value * inv_r[j]
+        gx += slope * ux[j]
+        gy += slope * uy[j]
+        length += w[j]
+    if mode == solver.SHIFT_MEAN:
+        return integral / length, gx / length, gy / length
+    if mode == solver.SHIFT_INTEGRAL:
+        return integral, gx, gy
+    return 0.0, 0.0, 0.0
+
+
+@njit(cache=True, error_model="numpy", fastmath={"contract", "arcp", "reassoc", "nsz"})
+def _differentiate(
+    kernel, power, shift, px, py, tx, ty, sx, sy, w, ux, uy, inv_r, a, s, inv_s, total, nodes, corners,
+    x, y, r_min, omega, grad_x, grad_y,
+):  # fmt: skip
+    """grad lambda_j of the `total` nodes into grad_x, grad_y (each (total,) or longer).
+
+    On entry `a` holds lambda_j (normalised, as `solver._finish` leaves it), `s`
+    and `inv_s` hold s_j = 1 + phi . u_j and 1 / s_j for the maximum-likelihood
+    family; nodes >= `nodes` are corner point masses (three-point family).
+    `omega` is scratch: q_j^k of the power kernels, then a~_j.  See `core.gradients`
+    for the formulas.
+    """
+    newton = kernel <= solver.MODIFIED_MEAN_VALUE_SQUARED
+    constant, shift_x, shift_y = _shift(kernel, power, shift, w, inv_r, ux, uy, r_min, nodes, omega)
+    # Pass 1: a~_j into `omega` and grad a~_j into grad_x, grad_y; the power kernels (the common
+    # case) in a loop of their own without the kernel's branches, so that it vectorises.
+    if kernel == solver.POWER or kernel == solver.HARMONIC_LIKE:
+        k = 4.0 if kernel == solver.HARMONIC_LIKE else power
+        for j in range(nodes):
+            slope = w[j] * k * omega[j] * inv_r[j]  # |grad q^k| w: grad r = -u
+            grad_x[j] = slope * ux[j] + w[j] * shift_x
+            grad_y[j] = slope * uy[j] + w[j] * shift_y
+            omega[j] = w[j] * (omega[j] + constant)
+    else:
+        for j in range(nodes):
+            value, gx, gy = _weight_derivative(
+                kernel, power, px[j], py[j], tx[j], ty[j], sx[j], sy[j], w[j], x, y, ux[j], uy[j], inv_r[j],
+                r_min, omega[j], constant,
+            )  # fmt: skip
+            omega[j] = value
+            grad_x[j] = gx + w[j] * shift_x
+            grad_y[j] = gy + w[j] * shift_y
+    for j in range(nodes, total):
+        omega[j], grad_x[j], grad_y[j] = _corner_derivative(kernel, corners, j - nodes, px[j], py[j], x, y)
+    sum_a = 0.0
+    if not newton:
+        # lambda_j = m_j / M: grad lambda_j = grad m_j / M - lambda_j sum_k grad m_k / M.
+        for j in range(total):
+            sum_a += omega[j]
+        _normalise(grad_x, grad_y, a, total, 1.0 / sum_a)
+        return
+    # Pass 2: the sums of a~ and b, H, K, v, D~ and the least squares of phi from s_j - 1 = phi . u_j.
+    sum_b = 0.0
+    hxx = hxy = hyy = 0.0
+    kxx = kxy = kyy = 0.0
+    vx = vy = 0.0
+    dxx = dxy = dyx = dyy = 0.0
+    lxx = lxy = lyy = 0.0
+    rx = ry = 0.0
+    for j in range(total):
+        gx = grad_x[j]
+        gy = grad_y[j]
+        sum_a += omega[j]
+        u0 = ux[j]
+        u1 = uy[j]
+        inv = inv_s[j]
+        lam = a[j] * inv
+        hb = lam / inv_r[j]
+        sum_b += hb * s[j] * s[j]
+        hxx += hb * u0 * u0
+        hxy += hb * u0 * u1
+        hyy += hb * u1 * u1
+        kxx += lam * u0 * u0
+        kxy += lam * u0 * u1
+        kyy += lam * u1 * u1
+        vx += lam * u0
+        vy += lam * u1
+        dxx += u0 * gx * inv
+        dxy += u0 * gy * inv
+        dyx += u1 * gx * inv
+        dyy += u1 * gy * inv
+        lxx += u0 * u0
+        lxy += u0 * u1
+        lyy += u1 * u1
+        rx += u0 * (s[j] - 1.0)
+        ry += u1 * (s[j] - 1.0)
+    kappa = sum_b / sum_a
+    normal = lxx * lyy - lxy * lxy
+    phix = (lyy * rx - lxy * ry) / normal
+    phiy = (lxx * ry - lxy * rx) / normal
+    # dg/dx (*), column beta: kappa D~ e_beta - e_beta + K e_beta + v phi_beta.
+    mxx = kappa * dxx - 1.0 + kxx + vx * phix
+    mxy = kappa * dxy + kxy + vx * phiy
+    myx = kappa * dyx + kxy + vy * phix
+    myy = kappa * dyy - 1.0 + kyy + vy * phiy
+    determinant = hxx * hyy - hxy * hxy
+    fxx = (hyy * mxx - hxy * myx) / determinant
+    fxy = (hyy * mxy - hxy * myy) / determinant
+    fyx = (hxx * myx - hxy * mxx) / determinant
+    fyy = (hxx * myy - hxy * mxy) / determinant
+    # Pass 3: dc_j = grad b_j / (r_j s_j) + lambda_j (u_j / r_j - grad s_j / s_j).
+    for j in range(total):
+        u0 = ux[j]
+        u1 = uy[j]
+        r_inv = inv_r[j]
+        inv = inv_s[j]
+        lam = a[j]
+        excess = s[j] - 1.0
+        # grad s_j at the moving phi: Phi^T u_j + d(phi . u_j)/dx, du/dx = -(I - u u^T) / r.
+        dsx = fxx * u0 + fyx * u1 - (phix - excess * u0) * r_inv
+        dsy = fxy * u0 + fyy * u1 - (phiy - excess * u1) * r_inv
+        grad_x[j] = kappa * grad_x[j] * r_inv * inv + lam * (u0 * r_inv - dsx * inv)
+        grad_y[j] = kappa * grad_y[j] * r_inv * inv + lam * (u1 * r_inv - dsy * inv)
+    _normalise(grad_x, grad_y, a, total, 1.0)
+
+
+@njit(cache=True, error_model="numpy", fastmath={"contract", "arcp", "reassoc", "nsz"})
+def _normalise(grad_x, grad_y, a, total, scale):
+    """grad_j <- scale grad_j - a_j sum_k scale grad_k: the derivative of dividing by the sum."""
+    sum_x = 0.0
+    sum_y = 0.0
+    for j in range(total):
+        grad_x[j] *= scale
+        grad_y[j] *= scale
+        sum_x += grad_x[j]
+        sum_y += grad_y[j]
+    for j in range(total):
+        grad_x[j] -= a[j] * sum_x
+        grad_y[j] -= a[j] * sum_y
+
+
+@njit(cache=True, error_model="numpy")
+def _accumulate_nodes(
+    a, grad_x, grad_y, t, total, period, mode, out_step, out_count, control_count, row, row_x, row_y
+):
+    """Add lambda_j and grad lambda_j at the nodes' parameters t_j into the output rows."""
+    for j in range(total):
+        tj = t[j] - math.floor(t[j] / period) * period
+        if mode == solver.OUTPUT_SAMPLES:
+            solver._accumulate(row, mode, a[j], tj, out_step, out_count, control_count)
+            solver._accumulate(row_x, mode, grad_x[j], tj, out_step, out_count, control_count)
+            solver._accumulate(row_y, mode, grad_y[j], tj, out_step, out_count, control_count)
+            continue
+        # The three B-spline basis functions non-zero at t_j (Sec. 4.3), as in `solver._accumulate`.
+        segment = int(math.floor(tj))
+        if segment >= control_count:
+            segment = control_count - 1
+        u = tj - segment
+        b0 = 0.5 * (1.0 - u) * (1.0 - u)
+        b1 = 0.5 * (-2.0 * u * u + 2.0 * u + 1.0)
+        b2 = 0.5 * u * u
+        before = segment - 1 if segment > 0 else control_count - 1
+        after = segment + 1 if segment + 1 < control_count else 0
+        for out, value in ((row, a[j]), (row_x, grad_x[j]), (row_y, grad_y[j])):
+            out[before] += value * b0
+            out[segment] += value * b1
+            out[after] += value * b2
+
+
+@njit(cache=True, error_model="numpy", fastmath={"contract", "arcp", "reassoc", "nsz"})
+def _accumulate_samples(a, grad_x, grad_y, count, basis0, basis1, basis2, control_count, row, row_x, row_y):
+    """Fold lambda_k and grad lambda_k at the N uniform samples onto the B-spline basis, span by span."""
+    per = count // control_count
+    for i in range(control_count):
+        before = i - 1 if i > 0 else control_count - 1
+        after = i + 1 if i + 1 < control_count else 0
+        # Views indexed from 0, as in `solver._fold_onto_basis`: a computed index i * per + k might
+        # be negative for all numba knows, and the wrap-around check stops the loop vectorising.
+        span_a = a[i * per : (i + 1) * per]
+        span_x = grad_x[i * per : (i + 1) * per]
+        span_y = grad_y[i * per : (i + 1) * per]
+        span0 = basis0[i * per : (i + 1) * per]
+        span1 = basis1[i * per : (i + 1) * per]
+        span2 = basis2[i * per : (i + 1) * per]
+        a0 = a1 = a2 = x0 = x1 = x2 = y0 = y1 = y2 = 0.0
+        for k in range(span_a.shape[0]):
+            b0 = span0[k]
+            b1 = span1[k]
+            b2 = span2[k]
+            a0 += span_a[k] * b0
+            a1 += span_a[k] * b1
+            a2 += span_a[k] * b2
+            x0 += span_x[k] * b0
+            x1 += span_x[k] * b1
+            x2 += span_x[k] * b2
+            y0 += span_y[k] * b0
+            y1 += span_y[k] * b1
+            y2 += span_y[k] * b2
+        row[before] += a0
+        row[i] += a1
+        row[after] += a2
+        row_x[before] += x0
+        row_x[i] += x1
+        row_x[after] += x2
+        row_y[before] += y0
+        row_y[i] += y1
+        row_y[after] += y2
+
+
+# Inlined into gradient_points, as solver._solve_point is into solve_points.
+@njit(cache=True, error_model="numpy", inline="always")
+def _gradient_point(x, y, settings, curve, geometry, largest_spacing, row, row_x, row_y, scratch, windows):
+    """Evaluate one point and its gradient; returns (iterations, status, residual).
+
+    The nodes are built exactly as in `solver._solve_point` (pass 1, the windows
+    and `solver._refined_nodes`), and so is the Newton start of the maximum-likelihood
+    kernels (`solver._coarse_start`, the last 18 arrays of `scratch`) and, for a far
+    point, the bound that skips the peak scan; a point on the boundary gets its
+    Lagrange-limit row and NaN gradients.
+    """
+    kernel, power, shift, mode, orientation, diameter, control_count, tolerance = settings
+    coefficients, piece_length, corners = geometry
+    window_start, window_stop, window_t, window_d, runs = windows
+    (
+        sample_x, sample_y, tangent_x, tangent_y, second_x, second_y, spacing, uniform, sample_t,
+        basis0, basis1, basis2, step, sinh_step, out_step, slabs,
+    ) = curve  # fmt: skip
+    (px, py, tx, ty, sx, sy, w, t, ux, uy, inv_r, a, s, inv_s, trial, trial_inv, blend) = scratch[:17]
+    coarse = scratch[17:]
+    likelihood = kernel <= solver.MODIFIED_MEAN_VALUE_SQUARED
+    count = sample_x.shape[0]
+    out_count = int(round(count * step / out_step))
+    period = count * step
+    # Pass 1 and the near stretches, as in `solver._solve_point`.
+    near = solver._sample_directions(sample_x, sample_y, spacing, x, y, ux, uy, inv_r)
+    nearest = 1.0 / solver._largest(inv_r, count) if near == 0 else 1e300
+    window_count, nearest_index, nearest = solver._near_stretches(
+        sample_x, sample_y, spacing, x, y, near, nearest, windows
+    )
+    window_count = solver._merge_windows(
+        window_start, window_stop, min(window_count, solver.MAX_WINDOWS), count, nearest_index
+    )
+    three_point = kernel == solver.WACHSPRESS or kernel == solver.LAPLACE
+    corner_count = corners.shape[0] if three_point else 0
+    if window_count == 0:
+        if not inside_polygon(sample_x, sample_y, slabs, x, y):
+            return 0, solver.STATUS_OUTSIDE, nearest
+        if corner_count == 0:
+            # The trapezoid rule on the shared samples, as in the solver's common case.
+            total = solver._weights(
+                kernel, power, shift, sample_x, sample_y, tangent_x, tangent_y, second_x, second_y,
+                uniform, x, y, count, corners, ux, uy, inv_r, nearest, a,
+            )  # fmt: skip
+            phix, phiy = 0.0, 0.0
+            if likelihood:
+                phix, phiy = solver._coarse_start(
+                    ux, uy, inv_r, a, count, max(nearest / largest_spacing, solver.FAR_START_SEPARATION),
+                    coarse, tolerance * diameter, 0.0, 0.0,
+                )  # fmt: skip
+            iterations, status, residual = solver._finish(
+                kernel, ux, uy, inv_r, a, s, inv_s, trial, trial_inv, blend, total, sample_x, sample_y,
+                uniform, step, x, y, tolerance * diameter, phix, phiy, largest_spacing / nearest,
+            )  # fmt: skip
+            _differentiate(
+                kernel, power, shift, sample_x, sample_y, tangent_x, tangent_y, second_x, second_y,
+                uniform, ux, uy, inv_r, a, s, inv_s, total, count, corners, x, y, nearest, blend, trial,
+                trial_inv,
+            )  # fmt: skip
+            if mode == solver.OUTPUT_BASIS:
+                _accumulate_samples(
+                    a, trial, trial_inv, count, basis0, basis1, basis2, control_count, row, row_x, row_y
+                )
+            else:
+                _accumulate_nodes(
+                    a, trial, trial_inv, sample_t, total, period, mode, out_step, out_count, control_count,
+                    row, row_x, row_y,
+                )  # fmt: skip
+            return iterations, status, residual
+        nodes = 0
+        for k in range(count):
+            t[nodes] = sample_t[k]
+            w[nodes] = step
+            nodes += 1
+        runs[0, 0] = 0  # every sample, one run
+        runs[0, 1] = 0
+        runs[0, 2] = count
+        run_count = 1
+    else:
+        closest_t = nearest_index * step
+        closest_d = nearest
+        for i in range(window_count):
+            ti, di = solver._closest_parameter(
+                coefficients, piece_length, x, y, window_start[i] * step, window_stop[i] * step
+            )
+            window_t[i] = ti
+            window_d[i] = di
+            if di < closest_d:
+                closest_d = di
+                closest_t = ti
+        if closest_d <= solver.ON_BOUNDARY * diameter:
+            solver._accumulate(
+                row, mode, 1.0, solver._wrap(closest_t, period), out_step, out_count, control_count
+            )
+            for i in range(row.shape[0]):
+                row_x[i] = math.nan
+                row_y[i] = math.nan
+            return 0, solver.STATUS_CONVERGED, 0.0
+        if solver._side_of_curve(coefficients, piece_length, closest_t, x, y, orientation) < 0:
+            return 0, solver.STATUS_OUTSIDE, closest_d
+        nodes = solver._refined_nodes(
+            window_start, window_stop, window_t, window_d, window_count, count, step, sinh_step,
+            coefficients, piece_length, t, w, runs,
+        )  # fmt: skip
+        run_count = window_count
+    solver._node_geometry(
+        t, w, nodes, runs, run_count, step, count, sample_x, sample_y, tangent_x, tangent_y, second_x,
+        second_y, coefficients, piece_length, corners, corner_count, px, py, tx, ty, sx, sy,
+    )  # fmt: skip
+    r_min = solver._directions(px, py, x, y, nodes, ux, uy, inv_r)
+    total = solver._weights(
+        kernel, power, shift, px, py, tx, ty, sx, sy, w, x, y, nodes, corners, ux, uy, inv_r, r_min, a
+    )
+    phix, phiy = 0.0, 0.0
+    if likelihood:
+        phix, phiy = solver._coarse_start(
+            ux, uy, inv_r, a, total, solver.NEAR_START_SEPARATION, coarse, tolerance * diameter, 0.0, 0.0
+        )
+    iterations, status, residual = solver._finish(
+        kernel, ux, uy, inv_r, a, s, inv_s, trial, trial_inv, blend, total,
+        px, py, w, step, x, y, tolerance * diameter, phix, phiy, math.inf,
+    )  # fmt: skip
+    _differentiate(
+        kernel, power, shift, px, py, tx, ty, sx, sy, w, ux, uy, inv_r, a, s, inv_s, total, nodes, corners,
+        x, y, r_min, blend, trial, trial_inv,
+    )  # fmt: skip
+    _accumulate_nodes(
+        a, trial, trial_inv, t, total, period, mode, out_step, out_count, control_count, row, row_x, row_y
+    )
+    return iterations, status, residual
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def gradient_points(
+    points, settings, curve, geometry, out, gradients, iterations, status, residual, first, stride
+):
+    """Values (M, columns) and gradients (M, 2, columns) of the points first, first + stride, ...
+
+    Arguments as in `solver.solve_points`; gradients[m, 0] and gradients[m, 1]
+    are the x- and y-derivatives of the row out[m].  Releases the GIL.
+    """
+    count = curve[0].shape[0]
+    capacity = count + solver.MAX_WINDOWS * solver.MAX_WINDOW_NODES + geometry[2].shape[0] + 8
+    scratch = (
+        np.empty(capacity), np.empty(capacity), np.empty(capacity), np.empty(capacity),
+        np.empty(capacity), np.empty(capacity), np.empty(capacity), np.empty(capacity),
+        np.empty(capacity), np.empty(capacity), np.empty(capacity), np.empty(capacity),
+        np.empty(capacity), np.empty(capacity), np.empty(capacity), np.empty(capacity),
+        np.empty(capacity),
+        # `solver._coarse_start`'s eight
+        np.empty(capacity), np.empty(capacity), np.empty(capacity), np.empty(capacity),
+        np.empty(capacity), np.empty(capacity), np.empty(capacity), np.empty(capacity),
+    )  # fmt: skip
+    windows = (
+        np.empty(solver.MAX_WINDOWS + 1, dtype=np.int64),
+        np.empty(solver.MAX_WINDOWS + 1, dtype=np.int64),
+        np.empty(solver.MAX_WINDOWS + 1),
+        np.empty(solver.MAX_WINDOWS + 1),
+        np.empty((solver.MAX_WINDOWS + 1, 3), dtype=np.int64),
+    )
+    largest_spacing = solver._largest(curve[6], count)
+    for m in range(first, points.shape[0], stride):
+        iterations[m], status[m], residual[m] = _gradient_point(
+            points[m, 0], points[m, 1], settings, curve, geometry, largest_spacing, out[m], gradients[m, 0],
+            gradients[m, 1], scratch, windows,
+        )  # fmt: skip
