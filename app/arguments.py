@@ -108,21 +108,7 @@ def _warp_command(commands, run, kernels: tuple[str, ...]) -> None:
         help="fill what the warp leaves transparent with COLOR: a name (white, black, grey...), #rrggbb "
         "or r,g,b (0-255); needed for a JPEG output unless --outside original covers everything",
     )
-    warp.add_argument(
-        "--kernel",
-        metavar="NAME",
-        help=f"one of {', '.join(kernels)} (default: {DEFAULT_KERNEL}, or the session's)",
-    )
-    warp.add_argument(
-        "--parameterization",
-        choices=PARAMETERIZATIONS,
-        help="the boundary parameter of the point kernels' integrals: natural (the B-spline's, the "
-        "default, or the session's) or arc-length (the paper's Fig. 12; harmonic and pgw do not "
-        "depend on it)",
-    )
-    warp.add_argument(
-        "--max-edge", type=_positive(float), metavar="PX", help="longest mesh edge in image pixels"
-    )
+    _deformation_arguments(warp, kernels)
     size = warp.add_mutually_exclusive_group()
     size.add_argument("--scale", type=_positive(float), metavar="S", help="output size = input size x S")
     size.add_argument(
@@ -170,6 +156,25 @@ def _warp_command(commands, run, kernels: tuple[str, ...]) -> None:
         "piecewise linear map at triangle centroids (exact for the finite-element harmonic basis)",
     )
     warp.set_defaults(run=run)
+
+
+def _deformation_arguments(warp: argparse.ArgumentParser, kernels: tuple[str, ...]) -> None:
+    """``warp``'s kernel, boundary parameterization and mesh size."""
+    warp.add_argument(
+        "--kernel",
+        metavar="NAME",
+        help=f"one of {', '.join(kernels)} (default: {DEFAULT_KERNEL}, or the session's)",
+    )
+    warp.add_argument(
+        "--parameterization",
+        choices=PARAMETERIZATIONS,
+        help="the boundary parameter of the point kernels' integrals: natural (the B-spline's, the "
+        "default, or the session's) or arc-length (the paper's Fig. 12; harmonic and pgw do not "
+        "depend on it)",
+    )
+    warp.add_argument(
+        "--max-edge", type=_positive(float), metavar="PX", help="longest mesh edge in image pixels"
+    )
 
 
 def _fit_command(commands, run) -> None:

@@ -206,7 +206,7 @@ def figure(ctx, mesh, interpolants: list[Interpolant]) -> np.ndarray:
         Opaque RGBA on white.
     """
     from app.render import WarpRenderer
-    from app.view import View
+    from app.viewport import View
 
     columns = min(COLUMNS, len(interpolants))
     rows = -(-len(interpolants) // columns)

@@ -12,7 +12,7 @@ import numpy as np
 
 from app.image_header import MAX_IMAGE_PIXELS
 from app.keyframes import Keyframe, interpolate
-from app.view import View
+from app.viewport import View
 from core.curves.bspline import basis_weights
 
 #: Most pixels of an output (`output_frame`, `app.render.WarpRenderer.render`), as of an input image.

@@ -34,7 +34,7 @@ from app.render_passes.image import ImagePass
 from app.render_passes.mesh_buffers import MeshBuffers, checked_mesh
 from app.render_passes.overlay import OverlayPass
 from app.render_passes.source_image import SourceImage, checked_image, texture_dtype
-from app.view import View
+from app.viewport import View
 
 #: Largest side of one offscreen drawing of `WarpRenderer.render`; larger outputs are drawn in tiles.
 TILE = 4096
@@ -261,7 +261,7 @@ class WarpRenderer:
         -------
         bool
             False when every triangle keeps its orientation with a margin
-            (`app.render_passes.fold_test.FOLD_MARGIN`) far beyond the pass's float32
+            (`app.render_passes.fold_possible.FOLD_MARGIN`) far beyond the pass's float32
             rounding, so that the pass would emit nothing.
         """
         self._require_mesh()

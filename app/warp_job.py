@@ -47,7 +47,7 @@ from app.fill import FILLS, checked_fill, session_fill
 from app.frame_writers import WRITERS, interrupted_by_sigterm
 from app.framing import CANVASES, OUTSIDES, output_frame, output_region
 from app.images import has_alpha, output_format
-from app.view import View
+from app.viewport import View
 from app.warping import Deformation, OutputFile, WarpSettings
 
 DEFAULT_KERNEL = "poisson"  # core.mesh_basis.DEFAULT_KERNEL, the deformation default
@@ -112,7 +112,7 @@ class WarpJob:
         The target control points of each frame, image pixels.
     size : tuple of int
         (width, height) of the output.
-    view : app.view.View
+    view : app.viewport.View
         Image pixels to output pixels.
     outside : str
         ``"original"`` or ``"transparent"``.

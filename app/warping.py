@@ -23,7 +23,7 @@ import numpy as np
 
 import core
 from app.images import DEFAULT_QUALITY, ImageMetadata
-from app.view import View
+from app.viewport import View
 from core.deformation import deform
 
 

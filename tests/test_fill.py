@@ -69,17 +69,19 @@ def test_inpainting_continues_the_surroundings():
 
 def viewer_state(tmp_path: Path, fill: str):
     """The viewer's state on the starfish with its top arm pulled far out, outside = original."""
-    from app.viewer.state import AppState, History, Snapshot
+    from app.viewer.state import AppState, Document, History, Snapshot
 
     cage = read_cage(ASSETS / "starfish.cage.json")
     target = cage.copy()
     target[:4] += [140.0, 60.0]  # the top arm moved away: its original position shows
     snapshot = Snapshot((ASSETS / "starfish.png").resolve(), cage, target)
-    state = AppState(History(snapshot), snapshot, read_image(ASSETS / "starfish.png"), tmp_path / "s.json")
-    state.outside = "original"
-    from app.viewer import controller
+    state = AppState(
+        Document(History(snapshot), snapshot, read_image(ASSETS / "starfish.png"), tmp_path / "s.json")
+    )
+    state.document.outside = "original"
+    from app.viewer import commands
 
-    controller.command(state, "fill", fill)
+    commands.command(state, "fill", fill)
     return state
 
 
@@ -92,19 +94,23 @@ def test_the_viewers_export_and_warp_fill_write_the_same_pixels(renderer, tmp_pa
     from app.warping import render
 
     state = viewer_state(tmp_path, fill)
-    assert state.fill == fill and not state.message_is_error
+    assert state.document.fill == fill and not state.status.message_is_error
     max_edge = 12.0
-    request = make_request(state.live, max_edge)
-    state.basis = result_from_message(request.key, compute(request))
+    request = make_request(state.document.live, max_edge)
+    state.compute.basis = result_from_message(request.key, compute(request))
     scene = Scene(renderer)
     scene.sync(state)
-    # The viewer's export (app.viewer.window.Viewer._render_export): the scene's renderer.
-    height, width = state.image.shape[:2]
-    size, view = output_frame(output_region((width, height), state.live.target, state.canvas))
-    viewer_pixels = render(renderer, scene.deformation(state), state.live.target, size, view, state.outside)
+    # The viewer's export (app.viewer.exports.Exporter.render_still): the scene's renderer.
+    height, width = state.document.image.shape[:2]
+    size, view = output_frame(
+        output_region((width, height), state.document.live.target, state.document.canvas)
+    )
+    viewer_pixels = render(
+        renderer, scene.deformation(state), state.document.live.target, size, view, state.document.outside
+    )
     save(state, max_edge)
-    assert read_session(state.session_path).extra["fill"] == fill
-    plain = render(renderer, scene.deformation(state), state.live.target, size, view, "transparent")
+    assert read_session(state.document.session_path).extra["fill"] == fill
+    plain = render(renderer, scene.deformation(state), state.document.live.target, size, view, "transparent")
 
     def warp(*arguments) -> np.ndarray:
         output = tmp_path / f"warp-{len(arguments)}.png"
@@ -118,10 +124,10 @@ def test_the_viewers_export_and_warp_fill_write_the_same_pixels(renderer, tmp_pa
         assert result.returncode == 0, result.stderr
         return read_image(output)
 
-    from_session = warp("--session", str(state.session_path))
+    from_session = warp("--session", str(state.document.session_path))
     cage, target = tmp_path / "cage.json", tmp_path / "target.json"
-    cage.write_text(json.dumps({"control_points": state.live.cage.tolist()}))
-    target.write_text(json.dumps({"control_points": state.live.target.tolist()}))
+    cage.write_text(json.dumps({"control_points": state.document.live.cage.tolist()}))
+    target.write_text(json.dumps({"control_points": state.document.live.target.tolist()}))
     from_options = warp(
         str(ASSETS / "starfish.png"), "--cage", str(cage), "--target", str(target),
         "--max-edge", str(max_edge), "--outside", "original", "--fill", fill,
@@ -129,8 +135,8 @@ def test_the_viewers_export_and_warp_fill_write_the_same_pixels(renderer, tmp_pa
     np.testing.assert_array_equal(viewer_pixels, from_session)
     np.testing.assert_array_equal(viewer_pixels, from_options)
     # And the fill shows: where the arm was and the warp is not, the original subject is gone.
-    mask = cage_mask(state.live.cage, (height, width)) & (plain[..., 3] == 0)
-    original = state.image[mask].astype(int)
+    mask = cage_mask(state.document.live.cage, (height, width)) & (plain[..., 3] == 0)
+    original = state.document.image[mask].astype(int)
     assert np.abs(viewer_pixels[mask].astype(int) - original).mean() > 20
     if fill.startswith("#"):
         assert (viewer_pixels[mask] == colour_of(fill)).all()

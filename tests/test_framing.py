@@ -5,8 +5,8 @@ import pytest
 from test_render import ellipse_mesh, polygon_mask, smooth_image
 
 from app.framing import output_frame, output_region
-from app.view import View
 from app.viewer.editing import curve_points
+from app.viewport import View
 
 SQUARE = np.array([[0.0, 0.0], [100.0, 0.0], [100.0, 100.0], [0.0, 100.0]])
 

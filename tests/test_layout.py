@@ -40,7 +40,7 @@ def test_importing_core_loads_no_gui_or_gl_module():
 
 
 def test_the_geometry_of_framing_and_editing_loads_no_gl_module():
-    # The viewer's document, editing and framing are plain geometry (app.view): testable without GL.
+    # The viewer's document, editing and framing are plain geometry (app.viewport): testable without GL.
     modules = "app.framing, app.viewer.state, app.viewer.editing, app.viewer.controller, app.viewer.session"
     loaded = f"sorted(m for m in sys.modules if m.split('.')[0] in {FORBIDDEN[1:]!r})"
     code = f"import sys, {modules}; print({loaded})"

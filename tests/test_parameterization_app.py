@@ -13,10 +13,10 @@ from test_cli import CAGE, files, private_cache, run_main, warp_argv  # noqa: F4
 
 from app.files import read_image
 from app.viewer import session as sessions
-from app.viewer.controller import command as run_command
+from app.viewer.commands import command as run_command
 from app.viewer.demos import demo_files
 from app.viewer.precompute import basis_key, make_request
-from app.viewer.state import AppState, History
+from app.viewer.state import AppState, Document, History
 
 
 @pytest.fixture(autouse=True)
@@ -112,15 +112,15 @@ def starfish_state(tmp_path):
     demo = demo_files("starfish")
     document = sessions.open_document(demo.image, demo.cage, tmp_path / "s.json")
     snapshot = document.snapshot.replace(kernel="harmonic-like")
-    return AppState(History(snapshot), snapshot, document.image, tmp_path / "s.json")
+    return AppState(Document(History(snapshot), snapshot, document.image, tmp_path / "s.json"))
 
 
 def test_the_panel_command_is_one_undoable_step_and_changes_the_precompute(tmp_path):
     state = starfish_state(tmp_path)
-    natural = state.live
+    natural = state.document.live
     assert run_command(state, "parameterization", "arc-length")
-    arc = state.live
-    assert arc.parameterization == "arc-length" and state.history.undo_steps[-1] == natural
+    arc = state.document.live
+    assert arc.parameterization == "arc-length" and state.document.history.undo_steps[-1] == natural
     assert make_request(arc, 4.0).params == {"parameterization": "arc-length"}
     assert basis_key(arc, 4.0) != basis_key(natural, 4.0)
     # The mesh-based kernels do not depend on it: the same basis functions, no new precompute.
@@ -129,29 +129,29 @@ def test_the_panel_command_is_one_undoable_step_and_changes_the_precompute(tmp_p
     )
     assert make_request(arc.replace(kernel="harmonic"), 4.0).params == {}
     run_command(state, "parameterization", "chord")
-    assert state.live == arc and "unknown parameterization" in state.message
+    assert state.document.live == arc and "unknown parameterization" in state.status.message
     run_command(state, "undo", None)
-    assert state.live == natural
+    assert state.document.live == natural
 
 
 def test_the_session_round_trip_and_older_sessions(tmp_path):
     state = starfish_state(tmp_path)
     run_command(state, "parameterization", "arc-length")
     sessions.save(state, None)
-    stored = json.loads(state.session_path.read_text())
+    stored = json.loads(state.document.session_path.read_text())
     assert stored["parameterization"] == "arc-length"
     assert stored["history"]["undo"][-1]["parameterization"] == "natural"
-    restored = sessions.restore(state.session_path)
-    assert restored.snapshot == state.live and restored.snapshot.parameterization == "arc-length"
+    restored = sessions.restore(state.document.session_path)
+    assert restored.snapshot == state.document.live and restored.snapshot.parameterization == "arc-length"
     assert restored.undo[-1].parameterization == "natural"
     # A session of the version before the choice: no key anywhere, natural everywhere.
     del stored["parameterization"]
     for step in stored["history"]["undo"]:
         del step["parameterization"]
-    state.session_path.write_text(json.dumps(stored))
-    older = sessions.restore(state.session_path)
+    state.document.session_path.write_text(json.dumps(stored))
+    older = sessions.restore(state.document.session_path)
     assert older.snapshot.parameterization == "natural" and older.undo[-1].parameterization == "natural"
-    assert older.snapshot == state.live.replace(parameterization="natural")
+    assert older.snapshot == state.document.live.replace(parameterization="natural")
 
 
 def test_view_starts_with_the_command_lines_parameterization(tmp_path, monkeypatch):

@@ -122,7 +122,7 @@ def test_demo_sessions_hold_their_scripts_as_keyframes(name):
 
 def test_export_of_a_demo_is_proposed_in_the_current_folder_not_in_the_package(tmp_path, monkeypatch):
     from app.viewer.demos import demo_files, is_demo_file
-    from app.viewer.window import default_export_path
+    from app.viewer.exports import default_export_path
 
     monkeypatch.chdir(tmp_path)
     demo = demo_files("starfish").image

@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 
 import core
-from app.view import View
 from app.viewer import editing
+from app.viewport import View
 from core.curves import examples
 
 

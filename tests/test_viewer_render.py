@@ -14,9 +14,9 @@ import pytest
 import core
 from app.render_passes.fields import HEAT_NEGATIVE, HEAT_STOPS
 from app.render_passes.image import HIGHLIGHT_COLOUR
-from app.view import View
 from app.viewer.scene import Scene
-from app.viewer.state import AppState, BasisResult, Drag, History, Snapshot
+from app.viewer.state import AppState, BasisResult, Compute, Document, Drag, History, Snapshot
+from app.viewport import View
 
 
 def grid_mesh(count=21, size=100.0):
@@ -127,16 +127,18 @@ def test_one_drag_event_at_100k_vertices_is_cheap(renderer):
     mesh = core.Mesh(vertices, triangles, np.zeros(0, int), np.zeros(0))
     result = BasisResult("k", cage, mesh, basis, np.asfortranarray(basis, np.float32), "harmonic-like", 1.0)
     snapshot = Snapshot(Path("x.png"), cage, cage)
-    state = AppState(History(snapshot), snapshot, opaque_image(), Path("s.json"), basis=result)
+    state = AppState(
+        Document(History(snapshot), snapshot, opaque_image(), Path("s.json")), compute=Compute(basis=result)
+    )
     scene = Scene(renderer)
-    renderer.set_image(state.image)
+    renderer.set_image(state.document.image)
     scene.sync(state)  # uploads the mesh and the exact positions
-    state.drag = Drag("target", 3, np.zeros(2), snapshot)
+    state.selection.drag = Drag("target", 3, np.zeros(2), snapshot)
     times = []
     for _ in range(30):
-        target = state.live.target.copy()
+        target = state.document.live.target.copy()
         target[3] += [0.5, -0.25]
-        state.live = state.live.replace(target=target)
+        state.document.live = state.document.live.replace(target=target)
         started = time.perf_counter()
         scene.sync(state)
         times.append(time.perf_counter() - started)
@@ -144,8 +146,8 @@ def test_one_drag_event_at_100k_vertices_is_cheap(renderer):
     print(f"per drag event at {count} vertices: {median_ms:.3f} ms (update {scene.update_ms:.3f} ms)")
     assert median_ms < 3.0  # ~0.3 ms measured; generous for a busy machine
     # The incremental positions agree with the exact product.
-    state.drag = None
-    exact = basis @ state.live.target
+    state.selection.drag = None
+    exact = basis @ state.document.live.target
     np.testing.assert_allclose(scene._positions, exact[renderer.vertex_order], atol=1e-2)
 
 
@@ -250,15 +252,17 @@ def test_complex_coordinates_draw_what_core_deform_computes(renderer):
     np.testing.assert_allclose(combined_columns(columns, target, imaginary), exact, atol=2e-3)
     result = BasisResult("k", cage, mesh, basis, columns, "cauchy-green", 1.0, imaginary_columns=imaginary)
     snapshot = Snapshot(Path("x.png"), cage, cage)
-    state = AppState(History(snapshot), snapshot, opaque_image(), Path("s.json"), basis=result)
+    state = AppState(
+        Document(History(snapshot), snapshot, opaque_image(), Path("s.json")), compute=Compute(basis=result)
+    )
     scene = Scene(renderer)
-    renderer.set_image(state.image)
+    renderer.set_image(state.document.image)
     scene.sync(state)
-    state.drag = Drag("target", 3, np.zeros(2), snapshot)
+    state.selection.drag = Drag("target", 3, np.zeros(2), snapshot)
     moved = cage.copy()
     for _ in range(5):
         moved[3] += (2.0, -1.0)
-        state.live = state.live.replace(target=moved.copy())
+        state.document.live = state.document.live.replace(target=moved.copy())
         scene.sync(state)
     assert not scene._exact  # the per-drag rank-one path ran
     np.testing.assert_allclose(scene._positions, core.deform(basis, moved)[renderer.vertex_order], atol=2e-3)
@@ -270,8 +274,10 @@ def test_the_scene_draws_the_preview_while_the_target_moves(renderer):
     other views and the cage mode keep the dense mesh."""
     result, cage = preview_setup(renderer)
     snapshot = Snapshot(Path("x.png"), cage, cage)
-    state = AppState(History(snapshot), snapshot, opaque_image(), Path("s.json"), basis=result)
-    state.mode = "deform"
+    state = AppState(
+        Document(History(snapshot), snapshot, opaque_image(), Path("s.json")), compute=Compute(basis=result)
+    )
+    state.selection.edit_mode = "deform"
     scene = Scene(renderer)
     scene.sync(state)
     assert not scene.previewing and renderer.has_preview
@@ -286,39 +292,43 @@ def test_the_scene_draws_the_preview_while_the_target_moves(renderer):
 
     before = dense_positions()
     np.testing.assert_allclose(before, result.mesh.vertices, atol=1e-3)
-    state.drag = Drag("target", 3, np.zeros(2), snapshot)
+    state.selection.drag = Drag("target", 3, np.zeros(2), snapshot)
     target = cage.copy()
     target[3] += (30.0, -12.0)
-    state.live = state.live.replace(target=target)
+    state.document.live = state.document.live.replace(target=target)
     scene.sync(state)
     assert scene.previewing
     np.testing.assert_array_equal(dense_positions(), before)  # the dense mesh is left alone
     np.testing.assert_allclose(preview_positions(), result.preview.basis @ target, atol=1e-3)
-    for setting, value in (("show_wireframe", True), ("content", "basis"), ("mode", "cage")):
-        original = getattr(state, setting)
-        setattr(state, setting, value)
+    for part, setting, value in (
+        (state.display, "show_wireframe", True),
+        (state.display, "view_mode", "basis"),
+        (state.selection, "edit_mode", "cage"),
+    ):
+        original = getattr(part, setting)
+        setattr(part, setting, value)
         scene.sync(state)
         assert not scene.previewing, setting
-        setattr(state, setting, original)
-    state.drag = None  # released: the exact product on the dense mesh
+        setattr(part, setting, original)
+    state.selection.drag = None  # released: the exact product on the dense mesh
     scene.sync(state)
     assert not scene.previewing
     np.testing.assert_allclose(dense_positions(), result.basis @ target, atol=1e-3)
-    state.playing = True  # keyframe playback moves the target every frame: the preview again
+    state.playback.playing = True  # keyframe playback moves the target every frame: the preview again
     scene.sync(state)
     assert scene.previewing
-    state.playing = False
+    state.playback.playing = False
     scene.sync(state)
     exact = scene._positions
     # A pan or a wheel zoom: the preview while the view moves, and afterwards the dense mesh
     # as it was (the target did not change: nothing recomputed).
-    state.view_moving = True
+    state.display.viewport_moving = True
     scene.sync(state)
     assert scene.previewing
     revision = renderer.revision
     scene.sync(state)  # the view goes on moving, the target does not: nothing written again
     assert scene.previewing and renderer.revision == revision
-    state.view_moving = False
+    state.display.viewport_moving = False
     scene.sync(state)
     assert not scene.previewing and scene._positions is exact
 
@@ -332,21 +342,23 @@ def test_playback_frames_skip_the_exact_product_and_the_fold_count_until_it_stop
     mesh = core.Mesh(vertices, triangles, np.zeros(0, int), np.zeros(0))
     result = BasisResult("k", cage, mesh, basis, np.asfortranarray(basis, np.float32), "harmonic", 1.0)
     snapshot = Snapshot(Path("x.png"), cage, cage)
-    state = AppState(History(snapshot), snapshot, opaque_image(), Path("s.json"), basis=result)
+    state = AppState(
+        Document(History(snapshot), snapshot, opaque_image(), Path("s.json")), compute=Compute(basis=result)
+    )
     scene = Scene(renderer)
     scene.sync(state)
-    counted = state.folded_count
-    state.playing = True
+    counted = state.compute.folded_count
+    state.playback.playing = True
     target = cage + rng.normal(0, 40, cage.shape)  # folds some triangles
-    state.live = state.live.replace(target=target)
+    state.document.live = state.document.live.replace(target=target)
     scene.sync(state)
     np.testing.assert_allclose(scene._positions, (basis @ target)[renderer.vertex_order], atol=1e-3)
-    assert state.folded_count == counted  # not counted while playing
-    state.playing = False  # stopped on that frame: exact float64 positions, folds counted
+    assert state.compute.folded_count == counted  # not counted while playing
+    state.playback.playing = False  # stopped on that frame: exact float64 positions, folds counted
     scene.sync(state)
     exact = basis @ target
     assert np.array_equal(scene._positions, exact[renderer.vertex_order].astype(np.float32))
-    assert state.folded_count == np.count_nonzero(core.folded_triangles(mesh, exact)) > 0
+    assert state.compute.folded_count == np.count_nonzero(core.folded_triangles(mesh, exact)) > 0
 
 
 def test_the_export_frame_is_shown_when_the_target_leaves_the_image():
@@ -354,20 +366,20 @@ def test_the_export_frame_is_shown_when_the_target_leaves_the_image():
 
     cage = np.array([[20.0, 20.0], [80.0, 20.0], [80.0, 80.0], [20.0, 80.0]])
     snapshot = Snapshot(Path("x.png"), cage, cage)
-    state = AppState(History(snapshot), snapshot, opaque_image(), Path("s.json"))
-    state.mode = "deform"
+    state = AppState(Document(History(snapshot), snapshot, opaque_image(), Path("s.json")))
+    state.selection.edit_mode = "deform"
     assert export_frame(state) is None  # inside the image: the export is what is seen
     target = cage.copy()
     target[1] = [140.0, -30.0]
-    state.live = state.live.replace(target=target)
+    state.document.live = state.document.live.replace(target=target)
     np.testing.assert_array_equal(export_frame(state), [[0, 0], [100, 0], [100, 100], [0, 100]])
-    state.canvas = "grow"
+    state.document.canvas = "grow"
     frame = export_frame(state)
     assert frame[0, 1] < 0 and frame[1, 0] > 100 and frame[2, 1] == 100  # widened up and right
     segments, _ = overlay_arrays(state)
     drawn = {tuple(np.round(segment[0, :2], 6)) for segment in segments}
     assert all(tuple(corner) in drawn for corner in frame)
-    state.mode = "cage"
+    state.selection.edit_mode = "cage"
     assert export_frame(state) is None
 
 
@@ -377,8 +389,10 @@ def test_the_mesh_layer_is_drawn_again_only_when_what_it_shows_changes(renderer,
     draw only the overlays.  The pixels are those of a full redraw."""
     result, cage = preview_setup(renderer)
     snapshot = Snapshot(Path("x.png"), cage, cage)
-    state = AppState(History(snapshot), snapshot, opaque_image(), Path("s.json"), basis=result)
-    state.mode, state.view = "deform", View(1.0, (0.0, 0.0))
+    state = AppState(
+        Document(History(snapshot), snapshot, opaque_image(), Path("s.json")), compute=Compute(basis=result)
+    )
+    state.selection.edit_mode, state.display.viewport = "deform", View(1.0, (0.0, 0.0))
     scene = Scene(renderer)
     drawn = []
     draw = renderer.draw
@@ -395,14 +409,14 @@ def test_the_mesh_layer_is_drawn_again_only_when_what_it_shows_changes(renderer,
     assert len(drawn) == 1 and scene.layer_key is None  # drawn straight into the framebuffer
     assert np.array_equal(frame(), first) and len(drawn) == 2  # the same again: into the layer
     assert np.array_equal(frame(), first) and len(drawn) == 2  # copied
-    state.hovered = 3
+    state.selection.hovered = 3
     hovered = frame()
     assert len(drawn) == 2 and not np.array_equal(hovered, first)  # only the overlay changed
     for change in (
-        lambda: setattr(state, "live", state.live.replace(target=cage + (4.0, 0.0))),
-        lambda: setattr(state, "view", View(1.5, (-20.0, 0.0))),
-        lambda: setattr(state, "show_folds", not state.show_folds),
-        lambda: setattr(state, "outside", "original"),
+        lambda: setattr(state.document, "live", state.document.live.replace(target=cage + (4.0, 0.0))),
+        lambda: setattr(state.display, "viewport", View(1.5, (-20.0, 0.0))),
+        lambda: setattr(state.display, "show_folds", not state.display.show_folds),
+        lambda: setattr(state.document, "outside", "original"),
     ):
         before = len(drawn)
         change()
@@ -429,8 +443,14 @@ def test_the_scene_skips_the_fold_pass_only_where_it_would_mark_nothing(renderer
     image = np.zeros((100, 100, 4), np.uint8)
     image[..., 0] = rng.integers(0, 256, (100, 100))
     image[..., 1:] = 255
-    state = AppState(History(snapshot), snapshot, image, Path("s.json"), basis=result)
-    state.mode, state.view, state.show_folds = "deform", View(2.0, (20.0, 10.0)), True
+    state = AppState(
+        Document(History(snapshot), snapshot, image, Path("s.json")), compute=Compute(basis=result)
+    )
+    state.selection.edit_mode, state.display.viewport, state.display.show_folds = (
+        "deform",
+        View(2.0, (20.0, 10.0)),
+        True,
+    )
     scene = Scene(renderer)
     passes = []
     draw = renderer.draw
@@ -448,7 +468,7 @@ def test_the_scene_skips_the_fold_pass_only_where_it_would_mark_nothing(renderer
 
     def check(target: np.ndarray) -> bool:
         """Show `target`; whether the fold pass was skipped (the pixels checked against the pass)."""
-        state.live = state.live.replace(target=target)
+        state.document.live = state.document.live.replace(target=target)
         drawn, pixels = frame(forced=False)
         forced, expected = frame(forced=True)
         assert forced == [True] and np.array_equal(pixels, expected)
@@ -458,8 +478,8 @@ def test_the_scene_skips_the_fold_pass_only_where_it_would_mark_nothing(renderer
         target = cage + rng.uniform(-15, 15, size=(4, 2))
         assert not core.folded_triangles(mesh, g @ target).any()
         assert check(target)
-    state.drag = Drag("target", 1, np.zeros(2), snapshot)  # per-drag updates of corner 1
-    target = state.live.target.copy()
+    state.selection.drag = Drag("target", 1, np.zeros(2), snapshot)  # per-drag updates of corner 1
+    target = state.document.live.target.copy()
     for step in range(6):
         target[1] += (-30.0, 4.0)  # pulled left, past corner 0 from the fourth step on
         folded = core.folded_triangles(mesh, g @ target).any()
@@ -471,7 +491,7 @@ def test_the_scene_skips_the_fold_pass_only_where_it_would_mark_nothing(renderer
 def test_may_fold_keeps_the_pass_for_a_triangle_within_the_margin(renderer):
     """`WarpRenderer.may_fold`: a triangle squeezed to a sliver thinner than FOLD_MARGIN of its area
     (not folded, but within float32 reach of it) keeps the fold pass; a thicker sliver does not."""
-    from app.render_passes.fold_test import FOLD_MARGIN
+    from app.render_passes.fold_possible import FOLD_MARGIN
 
     vertices, triangles = grid_mesh(count=5, size=100.0)
     renderer.set_mesh(vertices, triangles)

@@ -9,11 +9,11 @@ import numpy as np
 import pytest
 
 from app.files import InputError, Session, kernel_names, read_session, session_kernel_params, session_max_edge
-from app.view import View
 from app.viewer import session as sessions
 from app.viewer.demos import demo_files
 from app.viewer.session_files import BACKUPS, backup_path, backups, session_path_for
-from app.viewer.state import AppState, History
+from app.viewer.state import AppState, Display, Document, History
+from app.viewport import View
 
 
 @pytest.fixture(autouse=True)
@@ -64,8 +64,11 @@ def test_save_and_restore_everything(tmp_path):
     target = snapshot.target.copy()
     target[2] += [12, -4]
     snapshot = snapshot.replace(target=target)
-    state = AppState(History(snapshot), snapshot, document.image, path, view=View(1.25, (310.0, 7.5)))
-    state.mode, state.content, state.selected = "cage", "height", 2
+    state = AppState(
+        Document(History(snapshot), snapshot, document.image, path),
+        display=Display(viewport=View(1.25, (310.0, 7.5))),
+    )
+    state.selection.edit_mode, state.display.view_mode, state.selection.selected = "cage", "height", 2
     sessions.save(state, 2.5)
     stored = json.loads(path.read_text())
     assert stored["kernel_params"] == {"power": 3.0, "shift": "none"}
@@ -74,9 +77,13 @@ def test_save_and_restore_everything(tmp_path):
     restored = sessions.restore(path)
     assert restored.snapshot == snapshot and restored.view == View(1.25, (310.0, 7.5))
     assert restored.max_edge == 2.5
-    again = AppState(History(restored.snapshot), restored.snapshot, restored.image, path)
+    again = AppState(Document(History(restored.snapshot), restored.snapshot, restored.image, path))
     sessions.apply_preferences(again, restored.preferences)
-    assert (again.mode, again.content, again.selected) == ("cage", "height", 2)
+    assert (again.selection.edit_mode, again.display.view_mode, again.selection.selected) == (
+        "cage",
+        "height",
+        2,
+    )
     with pytest.raises(InputError, match="exists: open it alone with --session"):
         sessions.open_document(files.image, None, path)
     broken = path.with_name("broken.json")
@@ -116,7 +123,7 @@ def test_a_saved_session_reads_back_with_the_shared_reader(tmp_path):
     files = demo_files("character")
     path = tmp_path / "c.json"
     document = sessions.open_document(files.image, files.cage, path)
-    state = AppState(History(document.snapshot), document.snapshot, document.image, path)
+    state = AppState(Document(History(document.snapshot), document.snapshot, document.image, path))
     sessions.save(state, None)
     session = read_session(path)
     assert session.image.resolve() == files.image.resolve() and session.kernel == "poisson"
@@ -130,7 +137,7 @@ def test_a_session_keeps_the_kernel_it_names_whatever_the_default(tmp_path):
     path = tmp_path / "c.json"
     document = sessions.open_document(files.image, files.cage, path)
     snapshot = dataclasses.replace(document.snapshot, kernel="harmonic-like")
-    sessions.save(AppState(History(snapshot), snapshot, document.image, path), None)
+    sessions.save(AppState(Document(History(snapshot), snapshot, document.image, path)), None)
     reopened = sessions.open_document(session=path)
     assert reopened.snapshot.kernel == "harmonic-like"
 
@@ -141,28 +148,28 @@ def test_an_edit_is_saved_and_restored_with_every_kernel(tmp_path, kernel):
     path = tmp_path / "c.json"
     document = sessions.open_document(files.image, files.cage, path)
     snapshot = dataclasses.replace(document.snapshot, kernel=kernel)
-    state = AppState(History(snapshot), snapshot, document.image, path)
+    state = AppState(Document(History(snapshot), snapshot, document.image, path))
     edited(state, 7)
     sessions.save(state, None)
     document.lock.release()
     reopened = sessions.open_document(session=path)
     assert reopened.snapshot.kernel == kernel
-    np.testing.assert_array_equal(reopened.snapshot.target, state.live.target)
+    np.testing.assert_array_equal(reopened.snapshot.target, state.document.live.target)
     assert not np.array_equal(reopened.snapshot.target, reopened.snapshot.cage)
 
 
 def edited(state: AppState, step: int) -> None:
     """Move control point 0 of the target by (step, -step): one undoable edit."""
-    target = state.live.target.copy()
+    target = state.document.live.target.copy()
     target[0] += [step, -step]
-    snapshot = state.live.replace(target=target)
-    state.history.push(snapshot)
-    state.live = snapshot
+    snapshot = state.document.live.replace(target=target)
+    state.document.history.push(snapshot)
+    state.document.live = snapshot
 
 
 def opened_state(document) -> AppState:
     history = History(document.snapshot, undo=document.undo, redo=document.redo)
-    return AppState(history, document.snapshot, document.image, document.session_path)
+    return AppState(Document(history, document.snapshot, document.image, document.session_path))
 
 
 def test_reopening_an_image_restores_its_state_and_undo_history():
@@ -171,25 +178,27 @@ def test_reopening_an_image_restores_its_state_and_undo_history():
     state = opened_state(first)
     for step in (1, 2, 3):
         edited(state, step)
-    state.history.undo()  # one step to redo
-    state.live = state.history.current
+    state.document.history.undo()  # one step to redo
+    state.document.live = state.document.history.current
     state = replace_kernel(state, "pseudo-harmonic")
     sessions.save(state, None)
     again = sessions.open_document(files.image, files.cage)  # the same command once more
     assert again.restored and again.session_path == first.session_path
-    assert again.snapshot == state.history.current
-    assert again.undo == list(state.history.undo_steps) and again.redo == list(state.history.redo_steps)
+    assert again.snapshot == state.document.history.current
+    assert again.undo == list(state.document.history.undo_steps) and again.redo == list(
+        state.document.history.redo_steps
+    )
     assert len(again.undo) == 3 and len(again.redo) == 0  # the kernel change dropped the redo step
     assert again.notices[-1].startswith("restored starfish.png from the session (3 undo steps)")
-    history = opened_state(again).history
+    history = opened_state(again).document.history
     assert history.undo().kernel == "poisson" and history.undo() == again.undo[1]
-    assert sessions.open_document().snapshot == state.history.current  # the bare viewer too
+    assert sessions.open_document().snapshot == state.document.history.current  # the bare viewer too
 
 
 def replace_kernel(state: AppState, kernel: str) -> AppState:
-    snapshot = state.live.replace(kernel=kernel)
-    state.history.push(snapshot)
-    state.live = snapshot
+    snapshot = state.document.live.replace(kernel=kernel)
+    state.document.history.push(snapshot)
+    state.document.live = snapshot
     return state
 
 
@@ -199,12 +208,12 @@ def test_the_saved_history_is_bounded_and_in_order():
     for step in range(sessions.SAVED_STEPS + 20):
         edited(state, step)
     for _ in range(5):
-        state.history.undo()
+        state.document.history.undo()
     sessions.save(state, None)
-    restored = sessions.restore(state.session_path)
-    assert restored.undo == list(state.history.undo_steps[-sessions.SAVED_STEPS :])
-    assert restored.redo == list(state.history.redo_steps) and len(restored.redo) == 5
-    text = state.session_path.read_text()
+    restored = sessions.restore(state.document.session_path)
+    assert restored.undo == list(state.document.history.undo_steps[-sessions.SAVED_STEPS :])
+    assert restored.redo == list(state.document.history.redo_steps) and len(restored.redo) == 5
+    text = state.document.session_path.read_text()
     assert not re.search(r"^\s*-?[0-9][0-9.eE+-]*,?$", text, re.MULTILINE)  # no number alone on a line
     assert text.count("[[") == 0 and text.count("\n") > 2 * len(restored.undo)  # but a pair a line
 
@@ -214,11 +223,11 @@ def test_a_damaged_history_is_dropped_but_the_state_restored(tmp_path):
     state = opened_state(sessions.open_document(files.image, files.cage))
     edited(state, 4)
     sessions.save(state, None)
-    value = json.loads(state.session_path.read_text())
+    value = json.loads(state.document.session_path.read_text())
     value["history"]["undo"][0]["kernel"] = "no-such-kernel"
-    state.session_path.write_text(json.dumps(value))
+    state.document.session_path.write_text(json.dumps(value))
     restored = sessions.open_document(files.image, files.cage)
-    assert restored.snapshot == state.history.current and restored.undo == []
+    assert restored.snapshot == state.document.history.current and restored.undo == []
     assert (
         "the undo history cannot be read" in restored.notices[0] and "no-such-kernel" in restored.notices[0]
     )
@@ -227,14 +236,14 @@ def test_a_damaged_history_is_dropped_but_the_state_restored(tmp_path):
 def test_autosave_keeps_the_last_versions_and_view_changes_do_not_rotate():
     files = demo_files("starfish")
     state = opened_state(sessions.open_document(files.image, files.cage))
-    path = state.session_path
+    path = state.document.session_path
     sessions.save(state, None)
     versions = [path.read_bytes()]
     for step in range(1, BACKUPS + 3):
         edited(state, step)
         sessions.save(state, None)
         versions.append(path.read_bytes())
-    state.view = View(2.0, (5.0, 6.0))
+    state.display.viewport = View(2.0, (5.0, 6.0))
     sessions.save(state, None, new_version=False)  # a zoom: the same version, no rotation
     assert backups(path) == [backup_path(path, k) for k in range(1, BACKUPS + 1)]
     for k in range(1, BACKUPS + 1):
@@ -247,10 +256,10 @@ def test_autosave_keeps_the_last_versions_and_view_changes_do_not_rotate():
 def test_an_unreadable_session_is_kept_aside_and_the_newest_backup_restored(damage):
     files = demo_files("starfish")
     state = opened_state(sessions.open_document(files.image, files.cage))
-    path = state.session_path
+    path = state.document.session_path
     edited(state, 7)
     sessions.save(state, None)
-    good = state.history.current
+    good = state.document.history.current
     edited(state, 8)
     sessions.save(state, None)  # the version with 7 is backup 1 now
     path.write_bytes(damage)
@@ -275,7 +284,7 @@ def test_nothing_readable_starts_afresh_and_keeps_the_bad_file():
 def test_another_images_session_under_this_name_is_not_taken():
     files, other = demo_files("starfish"), demo_files("pattern")
     state = opened_state(sessions.open_document(other.image, other.cage))
-    state.session_path = session_path_for(files.image)  # as if the names collided
+    state.document.session_path = session_path_for(files.image)  # as if the names collided
     sessions.save(state, None)
     document = sessions.open_document(files.image, files.cage)
     assert document.snapshot.image == files.image.resolve() and not document.restored
@@ -287,10 +296,10 @@ def test_fresh_starts_over_and_keeps_the_old_session():
     state = opened_state(sessions.open_document(files.image, files.cage))
     edited(state, 5)
     sessions.save(state, None)
-    before = state.session_path.read_bytes()
+    before = state.document.session_path.read_bytes()
     fresh = sessions.open_document(files.image, files.cage, fresh=True)
-    assert not fresh.restored and not fresh.undo and not state.session_path.exists()
-    (aside,) = state.session_path.parent.glob("*.replaced-*.json")
+    assert not fresh.restored and not fresh.undo and not state.document.session_path.exists()
+    (aside,) = state.document.session_path.parent.glob("*.replaced-*.json")
     assert aside.read_bytes() == before and str(aside) in fresh.notices[0]
     with pytest.raises(InputError, match="--fresh"):
         sessions.open_document(session=aside, fresh=True)
@@ -323,9 +332,9 @@ def test_keyframes_are_saved_restored_and_in_the_history_steps(tmp_path):
     moved = cage + [5.0, -3.0]
     first = document.snapshot.replace(keyframes=(Keyframe(0.0, cage),))
     second = first.replace(keyframes=(*first.keyframes, Keyframe(1.5, moved)), interpolation="linear")
-    state = AppState(History(first), first, document.image, path)
-    state.history.push(second)
-    state.live, state.time, state.loop = second, 0.75, False
+    state = AppState(Document(History(first), first, document.image, path))
+    state.document.history.push(second)
+    state.document.live, state.playback.time, state.playback.loop = second, 0.75, False
     sessions.save(state, None)
     stored = json.loads(path.read_text())
     assert [k["time"] for k in stored["keyframes"]] == [0.0, 1.5] and stored["interpolation"] == "linear"
@@ -333,9 +342,9 @@ def test_keyframes_are_saved_restored_and_in_the_history_steps(tmp_path):
     assert len(stored["history"]["undo"][0]["keyframes"]) == 1  # the step before the second keyframe
     restored = sessions.restore(path)
     assert restored.snapshot == second and restored.undo == [first]
-    again = AppState(History(restored.snapshot), restored.snapshot, restored.image, path)
+    again = AppState(Document(History(restored.snapshot), restored.snapshot, restored.image, path))
     sessions.apply_preferences(again, restored.preferences)
-    assert (again.time, again.loop) == (0.75, False)
+    assert (again.playback.time, again.playback.loop) == (0.75, False)
 
 
 def test_old_sessions_without_keyframes_still_load(tmp_path):
@@ -356,7 +365,7 @@ def test_old_sessions_without_keyframes_still_load(tmp_path):
     restored = sessions.restore(path)
     assert restored.snapshot.keyframes == () and restored.snapshot.interpolation == "catmull-rom"
     assert len(restored.undo) == 1 and restored.undo[0].keyframes == ()
-    assert restored.snapshot == state.live
+    assert restored.snapshot == state.document.live
 
 
 def test_bad_keyframes_in_a_session_are_named(tmp_path):
@@ -452,12 +461,12 @@ def test_an_autosave_killed_before_its_rename_is_finished_on_the_next_open(given
 
     files = demo_files("starfish")
     state = opened_state(sessions.open_document(files.image, files.cage))
-    path = state.session_path
+    path = state.document.session_path
     edited(state, 1)
     sessions.save(state, None)
     saved = path.read_bytes()
     edited(state, 2)
-    newest = state.history.current
+    newest = state.document.history.current
     interrupted = path.parent / f".{path.name}.{_dead_pid()}.0123abcd.tmp"
     sessions.write_session(interrupted, sessions.session_of(state, None))
     edited(state, 3)

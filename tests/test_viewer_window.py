@@ -496,7 +496,7 @@ def wait_for_session(path: Path, predicate, timeout: float = 10.0):
 
 def test_rough_edges_redraw_escape_delete_group_moves_zoom_and_resize(display, environment):
     from app.viewer import controller
-    from app.viewer.state import AppState, History, Snapshot
+    from app.viewer.state import AppState, Document, History, Snapshot
 
     viewer, state = starfish_viewer(environment, "state-edges")
     try:
@@ -560,14 +560,16 @@ def test_rough_edges_redraw_escape_delete_group_moves_zoom_and_resize(display, e
         # A smaller window fits the image again instead of cutting it off.
         xdotool(display, "windowsize", window, "900", "640")
         image = read_image(ASSETS / "starfish.png")
-        expected = AppState(History(Snapshot(Path("s.png"), cage, cage)), None, image, Path("s.json"))
-        expected.window_size, expected.canvas_left = (900, 640), 300.0
+        expected = AppState(
+            Document(History(Snapshot(Path("s.png"), cage, cage)), None, image, Path("s.json"))
+        )
+        expected.screen.window_size, expected.screen.canvas_left = (900, 640), 300.0
         controller.fit_view(expected, None)
         _, _, resized = wait_for_session(
-            session, lambda c, t, v: abs(v["view"]["scale"] - expected.view.scale) < 1e-9
+            session, lambda c, t, v: abs(v["view"]["scale"] - expected.display.viewport.scale) < 1e-9
         )
-        assert expected.view.scale < fitted
-        np.testing.assert_allclose(resized["view"]["offset"], expected.view.offset)
+        assert expected.display.viewport.scale < fitted
+        np.testing.assert_allclose(resized["view"]["offset"], expected.display.viewport.offset)
         xdotool(display, "key", "ctrl+q")
         code, stderr = viewer.finish()
         assert code == 0, stderr

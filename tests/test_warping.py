@@ -10,10 +10,10 @@ from test_cli import CAGE, picture, run_main, transformed
 import app.warping
 import core
 from app.files import read_image, write_png
+from app.viewer.exports import Exporter
 from app.viewer.precompute import compute, make_request, result_from_message
 from app.viewer.scene import Scene
-from app.viewer.state import AppState, History, Snapshot
-from app.viewer.window import Viewer
+from app.viewer.state import AppState, Document, History, Snapshot
 
 MAX_EDGE = 9.0
 
@@ -68,21 +68,18 @@ def test_warp_animate_the_viewer_export_and_quality_share_one_pipeline(tmp_path,
     # The viewer: its worker's precompute, its scene, and the export of the current target.
     snapshot = Snapshot(tmp_path / "picture.png", cage, moved)
     request = make_request(snapshot, MAX_EDGE)
-    state = AppState(History(snapshot), snapshot, picture(), tmp_path / "s.json")
-    state.basis = result_from_message(request.key, compute(request))
-    state.mode = "deform"
+    state = AppState(Document(History(snapshot), snapshot, picture(), tmp_path / "s.json"))
+    state.compute.basis = result_from_message(request.key, compute(request))
+    state.selection.edit_mode = "deform"
     # warp and animate made their own GL contexts current and released them: the fixture's
     # renderer draws in its own context again, made current for the viewer's part (then restored).
     with renderer.ctx:
-        viewer = Viewer.__new__(Viewer)
-        viewer.state, viewer.renderer, viewer.scene, viewer._wanted = (
-            state,
-            renderer,
-            Scene(renderer),
-            request.key,
+        scene = Scene(renderer)
+        exporter = Exporter(
+            state, scene, lambda s: s.compute.basis.key == request.key, None, 30.0, print, None
         )
-        viewer.scene.sync(state)
-        np.testing.assert_array_equal(viewer._render_export(), warped)
+        scene.sync(state)
+        np.testing.assert_array_equal(exporter.render_still(), warped)
     assert spied[6:] == ["prepare", "render"]
 
     # quality measures the positions of the same preparation.

@@ -105,7 +105,7 @@ def drawn_edges(mesh, positions: np.ndarray, view, image_size, backdrop: bool) -
         Its boundary vertices, in the order of their curve parameters, bound the warp.
     positions : ndarray of shape (V, 2)
         The deformed vertices, image pixels.
-    view : app.view.View
+    view : app.viewport.View
         Image pixels to output pixels.
     image_size : tuple of int
         (width, height) of the source image: the backdrop's sides, when it is drawn.

@@ -7,6 +7,6 @@
 - `overlay`: antialiased lines and round handles on top;
 
 and what they share: `mesh_buffers` (one mesh's buffers and vertex arrays), `source_image`
-(the texture), `fold_test` (whether the fold pass could mark anything) and `gl_state` (the
+(the texture), `fold_possible` (whether the fold pass could mark anything) and `gl_state` (the
 view's uniforms, the blending).
 """

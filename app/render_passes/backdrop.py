@@ -8,7 +8,7 @@ import numpy as np
 
 from app.render_passes.gl_state import premultiplied_blending, set_view
 from app.render_passes.source_image import SourceImage
-from app.view import View
+from app.viewport import View
 
 
 class BackdropPass:

@@ -10,7 +10,7 @@ import numpy as np
 from app.render_passes.gl_state import premultiplied_blending, set_view
 from app.render_passes.mesh_buffers import MeshBuffers
 from app.shaders import load_shader
-from app.view import View
+from app.viewport import View
 
 #: Height bands of the paper's Fig. 1: [k, k + 1] / 10 for k = -1..10.
 BAND_START = -0.1

@@ -6,7 +6,7 @@ from collections.abc import Iterable
 
 import moderngl
 
-from app.view import View
+from app.viewport import View
 
 
 def set_view(programs: Iterable[moderngl.Program], view: View, viewport_size: tuple[int, int]) -> None:

@@ -9,7 +9,7 @@ from app.render_passes.gl_state import premultiplied_blending, set_view
 from app.render_passes.mesh_buffers import MeshBuffers
 from app.render_passes.source_image import SourceImage
 from app.shaders import load_shader
-from app.view import View
+from app.viewport import View
 
 #: Premultiplied RGBA of the marks.
 WIREFRAME_COLOUR = (0.0, 0.0, 0.0, 0.35)

@@ -14,7 +14,7 @@ from __future__ import annotations
 import moderngl
 import numpy as np
 
-from app.render_passes.fold_test import FoldTest
+from app.render_passes.fold_possible import FoldMargins
 from core.meshes.mesh import unique_edges
 
 
@@ -95,9 +95,8 @@ class MeshBuffers:
         self.vertices, self.order, self.triangle_indices = vertices, order, indices
         self.highlight_count = 0
         self.has_field = False
-        self._ctx = ctx
         self._outline_program = outline_program
-        self._fold_test: FoldTest | None = None
+        self._fold_margins: FoldMargins | None = None
         self._edge_vao: moderngl.VertexArray | None = None
         self.positions = ctx.buffer(vertices[order].astype("f4").tobytes(), dynamic=True)
         self.uv = ctx.buffer(self._uv(image_size).tobytes())
@@ -164,16 +163,17 @@ class MeshBuffers:
         self.highlight_count = len(selected)
 
     def may_fold(self, positions: np.ndarray) -> bool:
-        """`FoldTest.may_fold` of this mesh for float32 positions (V, 2) in `order`."""
-        if self._fold_test is None:
-            self._fold_test = FoldTest(self.vertices[self.order], self.triangle_indices)
-        return self._fold_test.may_fold(positions)
+        """`FoldMargins.may_fold` of this mesh for float32 positions (V, 2) in `order`."""
+        if self._fold_margins is None:
+            self._fold_margins = FoldMargins(self.vertices[self.order], self.triangle_indices)
+        return self._fold_margins.may_fold(positions)
 
     def edge_vao(self) -> moderngl.VertexArray:
         """The edges' vertex array, built on first use (0.5 s for a 400k-vertex mesh)."""
         if self._edge_vao is None:
-            edges = self._ctx.buffer(unique_edges(self.triangle_indices).astype("u4").tobytes())
-            self._edge_vao = self._ctx.vertex_array(
+            ctx = self._outline_program.ctx
+            edges = ctx.buffer(unique_edges(self.triangle_indices).astype("u4").tobytes())
+            self._edge_vao = ctx.vertex_array(
                 self._outline_program,
                 [(self.positions, "2f", "in_position")],
                 index_buffer=edges,

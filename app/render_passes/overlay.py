@@ -8,7 +8,7 @@ import numpy as np
 
 from app.render_passes.gl_state import premultiplied_blending, set_view
 from app.shaders import load_shader
-from app.view import View
+from app.viewport import View
 
 #: Floats per overlay vertex: x, y (image pixels), r, g, b, a (straight alpha),
 #: size (line width or handle diameter, framebuffer pixels).

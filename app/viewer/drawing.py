@@ -7,10 +7,10 @@ curve), Esc abandons the new cage.  A double click on the last point, or
 Ctrl+click, makes a sharp corner: a doubled control point.  A curve that crosses
 itself is refused when it is closed, with the reason.
 
-The clicks are points on the curve (``state.cage_drawing == "curve"``, the
+The clicks are points on the curve (``state.selection.cage_drawing == "curve"``, the
 default: the control points are those of the closed B-spline through them,
 `core.curves.interpolating_spline`), or the control points themselves (``"control"``).
-The control points live in ``state.live`` while they are placed, outside the undo
+The control points live in ``state.document.live`` while they are placed, outside the undo
 history, so nothing is saved until the cage is made.
 """
 
@@ -33,24 +33,28 @@ HINT = "click to place points; click the first point or press Enter to close; Ba
 
 def start(state: AppState) -> None:
     """Begin a new cage: no points yet, the current document kept to return to."""
-    before = state.drawing.before if state.drawing is not None else state.history.current
-    state.drawing = Drawing(before)
-    state.drag = None
+    before = (
+        state.selection.drawing.before
+        if state.selection.drawing is not None
+        else state.document.history.current
+    )
+    state.selection.drawing = Drawing(before)
+    state.selection.drag = None
     empty = np.zeros((0, 2))
-    state.live = before.replace(cage=empty, target=empty, keyframes=())
-    state.mode = "cage"
-    state.selected = state.hovered = None
-    state.group = frozenset()
+    state.document.live = before.replace(cage=empty, target=empty, keyframes=())
+    state.selection.edit_mode = "cage"
+    state.selection.selected = state.selection.hovered = None
+    state.selection.group = frozenset()
     state.say(f"new cage: {HINT}")
 
 
 def press(state: AppState, x: float, y: float, corner: bool, now: float) -> None:
     """A left click at window point (x, y) at time `now`; `corner`: Ctrl held."""
-    drawing = state.drawing
+    drawing = state.selection.drawing
     if drawing.closed:
         state.say("the new cage is closed: Enter makes it the cage, Backspace reopens it, Esc abandons it")
         return
-    window = editing.to_window(state.view, clicked_points(state))
+    window = editing.to_window(state.display.viewport, clicked_points(state))
     if len(drawing.clicks) >= 3 and editing.nearest_handle(window[:1], (x, y)) == 0:
         close(state)
         return
@@ -67,7 +71,7 @@ def press(state: AppState, x: float, y: float, corner: bool, now: float) -> None
         _update(state)
         state.say(f"point {len(drawing.clicks) - 1} is a sharp corner")
         return
-    position = editing.to_image(state.view, (x, y))
+    position = editing.to_image(state.display.viewport, (x, y))
     drawing.clicks.append((float(position[0]), float(position[1])))
     drawing.corners.append(bool(corner))
     _update(state)
@@ -77,7 +81,7 @@ def press(state: AppState, x: float, y: float, corner: bool, now: float) -> None
 
 def close(state: AppState) -> bool:
     """Close the curve if it makes a valid cage; False (and the reason in the status line) if not."""
-    points = state.live.cage
+    points = state.document.live.cage
     if len(np.unique(clicked_points(state), axis=0)) < 3:
         state.say("place at least 3 points before closing the cage", error=True)
         return False
@@ -85,9 +89,9 @@ def close(state: AppState) -> bool:
     if problem:
         state.say(f"cannot close the cage: {problem} (Backspace removes the last point)", error=True)
         return False
-    state.drawing.closed = True
-    state.drawing.last_click = None
-    count = len(state.drawing.clicks)
+    state.selection.drawing.closed = True
+    state.selection.drawing.last_click = None
+    count = len(state.selection.drawing.clicks)
     state.say(f"closed, {count} points: Enter makes it the cage, Backspace reopens it, Esc abandons it")
     return True
 
@@ -95,18 +99,18 @@ def close(state: AppState) -> bool:
 def confirm(state: AppState) -> Snapshot | None:
     """Enter: close an open curve; on a closed one, end the mode and return the document with the
     new cage (the caller commits it as one undoable edit).  None while the curve stays open."""
-    if not state.drawing.closed:
+    if not state.selection.drawing.closed:
         close(state)
         return None
-    points = state.live.cage
-    state.live = state.drawing.before
-    state.drawing = None
-    return state.live.replace(cage=points, target=points, keyframes=())
+    points = state.document.live.cage
+    state.document.live = state.selection.drawing.before
+    state.selection.drawing = None
+    return state.document.live.replace(cage=points, target=points, keyframes=())
 
 
 def remove_last(state: AppState) -> None:
     """Backspace: reopen a closed curve, or remove the last point placed."""
-    drawing = state.drawing
+    drawing = state.selection.drawing
     drawing.last_click = None
     if drawing.closed:
         drawing.closed = False
@@ -121,8 +125,8 @@ def remove_last(state: AppState) -> None:
 
 def abandon(state: AppState) -> None:
     """Esc: back to the document as it was before the new cage."""
-    state.live = state.drawing.before
-    state.drawing = None
+    state.document.live = state.selection.drawing.before
+    state.selection.drawing = None
     state.say("new cage abandoned")
 
 
@@ -132,8 +136,8 @@ def set_style(state: AppState, style: str) -> None:
     if style not in STYLES:
         state.say(f"unknown way of drawing a cage {style!r}", error=True)
         return
-    state.cage_drawing = style
-    if state.drawing is not None:
+    state.selection.cage_drawing = style
+    if state.selection.drawing is not None:
         _update(state)
 
 
@@ -151,10 +155,10 @@ def control_points(clicks, corners, style: str) -> np.ndarray:
 
 def clicked_points(state: AppState) -> np.ndarray:
     """The points clicked so far (m, 2), image pixels: the handles shown while a cage is drawn."""
-    return np.asarray(state.drawing.clicks, dtype=np.float64).reshape(-1, 2)
+    return np.asarray(state.selection.drawing.clicks, dtype=np.float64).reshape(-1, 2)
 
 
 def _update(state: AppState) -> None:
-    drawing = state.drawing
-    points = control_points(drawing.clicks, drawing.corners, state.cage_drawing)
-    state.live = state.live.replace(cage=points, target=points, keyframes=())
+    drawing = state.selection.drawing
+    points = control_points(drawing.clicks, drawing.corners, state.selection.cage_drawing)
+    state.document.live = state.document.live.replace(cage=points, target=points, keyframes=())

@@ -17,7 +17,7 @@ from functools import cache
 
 import numpy as np
 
-from app.view import View
+from app.viewport import View
 from core.curves.bspline import basis_weights
 
 #: Window pixels within which a click grabs a handle.

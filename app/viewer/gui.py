@@ -2,7 +2,7 @@
 
 `gui(state, shortcuts)` reads `AppState` and returns what the user asked for as
 commands ``(name, value)``, the same ones the keyboard produces, which the window
-runs through `app.viewer.controller.command` (or handles itself: open, save,
+runs through `app.viewer.commands.command` (or handles itself: open, save,
 export, quit, play).  Panels: the controls on the left, the status line at the
 bottom (kernel, vertices, last precompute time, frame time), a colour bar for the
 basis-function and height views, and the help with every shortcut.
@@ -10,7 +10,6 @@ basis-function and height views, and the help with every shortcut.
 
 from __future__ import annotations
 
-import numpy as np
 from imgui_bundle import imgui
 
 from app.files import kernel_names
@@ -33,7 +32,9 @@ _FIXED = (
 )
 
 
-def gui(state: AppState, shortcuts: list[tuple[str, str]], extras: dict | None = None) -> list[tuple]:
+def gui(
+    state: AppState, shortcuts: list[tuple[str, str]], extras: dict | None = None, spots: dict | None = None
+) -> list[tuple]:
     """Draw every widget; return the commands the user gave, in order.
 
     Parameters
@@ -44,19 +45,23 @@ def gui(state: AppState, shortcuts: list[tuple[str, str]], extras: dict | None =
     extras : dict, optional
         ``session_saved`` (str), ``script`` (bool: a demo script can be played),
         ``playing`` (bool), ``dialogs`` (bool: a file dialog program exists).
+    spots : dict, optional
+        Filled with the window points (x, y) of some widgets, ``"kernel"`` (the kernel list) and
+        ``"arc-length"`` (that button), which the window tests click; not part of the model.
     """
     extras = extras or {}
+    spots = {} if spots is None else spots
     commands: list[tuple] = []
-    width, height = state.window_size
-    _panel(state, commands, extras, height)
+    width, height = state.screen.window_size
+    _panel(state, commands, extras, height, spots)
     _status(state, width, height)
     _canvas_label(state)
-    if state.content != "image" and state.basis is not None:
+    if state.display.view_mode != "image" and state.compute.basis is not None:
         _colour_bar(state, width, height)
-    if state.show_help:
+    if state.display.show_help:
         _help(state, shortcuts, width, height)
     for kind in ("open", "export"):
-        if getattr(state, f"{kind}_prompt") is not None:
+        if getattr(state.status, f"{kind}_prompt") is not None:
             _path_prompt(state, commands, (width, height), kind)
     return commands
 
@@ -90,31 +95,42 @@ def _path_prompt(state: AppState, commands: list[tuple], size: tuple[float, floa
             imgui.set_keyboard_focus_here()
         # The proposed path starts selected, as in a file dialog: typing replaces it.
         flags = imgui.InputTextFlags_.enter_returns_true | imgui.InputTextFlags_.auto_select_all
-        entered, text = imgui.input_text(f"##{kind}", getattr(state, field), flags)
-        setattr(state, field, text)
+        entered, text = imgui.input_text(f"##{kind}", getattr(state.status, field), flags)
+        setattr(state.status, field, text)
         if (entered or imgui.button(button)) and text.strip():
             commands.append((command, text.strip()))
-            setattr(state, field, None)
+            setattr(state.status, field, None)
         imgui.same_line()
         if imgui.button("Cancel"):
-            setattr(state, field, None)
+            setattr(state.status, field, None)
     imgui.end()
     if opened is False:
-        setattr(state, field, None)
+        setattr(state.status, field, None)
 
 
-def _panel(state: AppState, commands: list, extras: dict, height: float) -> None:
-    live = state.live
+def _panel(state: AppState, commands: list, extras: dict, height: float, spots: dict) -> None:
+    live = state.document.live
     imgui.set_next_window_pos((0, 0))
     # As tall as its content: every pixel of panel costs a software rasteriser time.
     imgui.set_next_window_size_constraints((PANEL_WIDTH, 0), (PANEL_WIDTH, height - STATUS_HEIGHT))
     imgui.begin("Transfinite warp", None, _FIXED | imgui.WindowFlags_.always_auto_resize)
 
+    _edit_section(state, live, commands)
+    _kernel_section(state, live, commands, spots)
+    _show_section(state, commands)
+    _timeline(state, commands, extras)
+    _file_section(state, commands, extras)
+    state.screen.canvas_left = PANEL_WIDTH
+    imgui.end()
+
+
+def _edit_section(state: AppState, live, commands: list) -> None:
+    """What a click edits, undo, and the edits of the whole cage."""
     imgui.separator_text("Edit")
-    if imgui.radio_button("Deform (target, blue)", state.mode == "deform"):
-        commands.append(("mode", "deform"))
-    if imgui.radio_button("Edit cage (source, green)", state.mode == "cage"):
-        commands.append(("mode", "cage"))
+    if imgui.radio_button("Deform (target, blue)", state.selection.edit_mode == "deform"):
+        commands.append(("edit_mode", "deform"))
+    if imgui.radio_button("Edit cage (source, green)", state.selection.edit_mode == "cage"):
+        commands.append(("edit_mode", "cage"))
     if imgui.button("Undo"):
         commands.append(("undo", None))
     imgui.same_line()
@@ -131,7 +147,10 @@ def _panel(state: AppState, commands: list, extras: dict, height: float) -> None
     if imgui.button("New cage"):
         commands.append(("new_cage", None))
     imgui.same_line()
-    imgui.begin_disabled((state.selected is None and not state.group) or state.mode != "cage")
+    imgui.begin_disabled(
+        (state.selection.selected is None and not state.selection.group)
+        or state.selection.edit_mode != "cage"
+    )
     if imgui.button("Delete selected"):
         commands.append(("delete", None))
     imgui.end_disabled()
@@ -139,20 +158,25 @@ def _panel(state: AppState, commands: list, extras: dict, height: float) -> None
         commands,
         "clicks:",
         "cage_drawing",
-        state.cage_drawing,
+        state.selection.cage_drawing,
         (("curve", "on curve"), ("control", "control points")),
         "New cage: the curve passes through the points clicked (as GIMP's and Krita's paths), or the\n"
         "clicks are its control points; Ctrl+click or a double click makes a sharp corner either way",
     )
-    if len(state.group) > 1:
-        selection = f", {len(state.group)} selected"
+    if len(state.selection.group) > 1:
+        selection = f", {len(state.selection.group)} selected"
     else:
-        selection = f", point {state.selected} selected" if state.selected is not None else ""
+        selection = (
+            f", point {state.selection.selected} selected" if state.selection.selected is not None else ""
+        )
     imgui.text_disabled(f"{live.n} control points{selection}")
 
+
+def _kernel_section(state: AppState, live, commands: list, spots: dict) -> None:
+    """The kernel, its parameters, and the precompute's progress or error."""
     imgui.separator_text("Kernel")
     names = kernel_names()
-    state.spots["kernel"] = tuple(imgui.get_cursor_screen_pos() + imgui.ImVec2(24, 8))
+    spots["kernel"] = tuple(imgui.get_cursor_screen_pos() + imgui.ImVec2(24, 8))
     if imgui.begin_combo("##kernel", live.kernel):
         for name in names:
             clicked, _ = imgui.selectable(name, name == live.kernel)
@@ -161,43 +185,48 @@ def _panel(state: AppState, commands: list, extras: dict, height: float) -> None
         imgui.end_combo()
     if live.kernel == "power":
         # The slider edits a draft; the kernel changes (one undo step, one precompute) on release.
-        if state.power_draft is None or not imgui.is_any_item_active():
-            state.power_draft = live.power
-        _, state.power_draft = imgui.slider_float("power k", state.power_draft, 0.5, 8.0, "%.2f")
+        if state.display.power_draft is None or not imgui.is_any_item_active():
+            state.display.power_draft = live.power
+        _, state.display.power_draft = imgui.slider_float(
+            "power k", state.display.power_draft, 0.5, 8.0, "%.2f"
+        )
         if imgui.is_item_deactivated_after_edit():
-            commands.append(("power", round(state.power_draft, 2)))
+            commands.append(("power", round(state.display.power_draft, 2)))
         if imgui.begin_combo("shift", live.shift):
             for shift in SHIFTS:
                 clicked, _ = imgui.selectable(shift, shift == live.shift)
                 if clicked and shift != live.shift:
                     commands.append(("shift", shift))
             imgui.end_combo()
-    _parameterization_choice(state, live, commands)
-    if state.progress is not None:
+    _parameterization_choice(live, commands, spots)
+    if state.compute.progress is not None:
         # The phase on its own wrapped line: centred in the bar, a long one lost its first letters.
         imgui.push_text_wrap_pos(PANEL_WIDTH - 12)
-        imgui.text(state.progress_label)
+        imgui.text(state.compute.progress_label)
         imgui.pop_text_wrap_pos()
-        imgui.progress_bar(state.progress, (-1, 0), f"{100 * state.progress:.0f}%")
-    elif state.basis_error:
+        imgui.progress_bar(state.compute.progress, (-1, 0), f"{100 * state.compute.progress:.0f}%")
+    elif state.compute.basis_error:
         imgui.push_text_wrap_pos(PANEL_WIDTH - 12)
-        imgui.text_colored((1.0, 0.45, 0.4, 1.0), state.basis_error)
+        imgui.text_colored((1.0, 0.45, 0.4, 1.0), state.compute.basis_error)
         imgui.pop_text_wrap_pos()
-    if state.basis is not None and state.basis.kernel != live.kernel:
+    if state.compute.basis is not None and state.compute.basis.kernel != live.kernel:
         imgui.push_text_wrap_pos(PANEL_WIDTH - 12)
-        imgui.text_disabled(f"showing {state.basis.kernel} until {live.kernel} is ready")
+        imgui.text_disabled(f"showing {state.compute.basis.kernel} until {live.kernel} is ready")
         imgui.pop_text_wrap_pos()
 
+
+def _show_section(state: AppState, commands: list) -> None:
+    """What the canvas shows, and what exports frame."""
     imgui.separator_text("Show")
     for mode in VIEW_MODES:
-        if imgui.radio_button(mode.label, state.content == mode.name):
-            commands.append(("content", mode.name))
-    if state.content == "distortion":
+        if imgui.radio_button(mode.label, state.display.view_mode == mode.name):
+            commands.append(("view_mode", mode.name))
+    if state.display.view_mode == "distortion":
         _choice_row(
             commands,
             "  measure:",
             "distortion_measure",
-            state.distortion_measure,
+            state.display.distortion_measure,
             (("area", "area"), ("conformal", "angles")),
             "area: log2 det J, the area change; angles: log2 sigma1/sigma2, how much the\n"
             "stretch differs between directions. Folded vertices (det J <= 0) are black.",
@@ -207,41 +236,42 @@ def _panel(state: AppState, commands: list, extras: dict, height: float) -> None
         ("show_wireframe", "Mesh edges"),
         ("show_overlay", "Curves and handles"),
     ):
-        changed, _ = imgui.checkbox(label, getattr(state, field))
+        changed, _ = imgui.checkbox(label, getattr(state.display, field))
         if changed:
             commands.append(("toggle", field))
-    if state.outside == "transparent":
+    if state.document.outside == "transparent":
         imgui.set_next_item_width(150)
-        _, state.backdrop_opacity = imgui.slider_float(
-            "source image", state.backdrop_opacity, 0.0, 1.0, "%.2f"
+        _, state.display.backdrop_opacity = imgui.slider_float(
+            "source image", state.display.backdrop_opacity, 0.0, 1.0, "%.2f"
         )
     _choice_row(
         commands,
         "Outside:",
         "outside",
-        state.outside,
+        state.document.outside,
         (("transparent", "transparent"), ("original", "original")),
         "original: the untouched picture around the warp (inside the source cage, where the target does "
         "not cover it, the original is seen); exports and warp --outside do the same",
     )
-    if state.outside == "original":
+    if state.document.outside == "original":
         _fill_choice(state, commands)
     _choice_row(
         commands,
         "Canvas: ",
         "canvas",
-        state.canvas,
+        state.document.canvas,
         (("source", "source"), ("grow", "grow")),
         "what exports frame: source, the image (a target leaving it is cut off), or grow, the image and "
         "the whole target curve; warp --canvas and animate --canvas do the same",
     )
     if imgui.button("Fit view"):
         commands.append(("fit_view", None))
-    if state.folded_count:
-        imgui.text_colored((1.0, 0.5, 0.8, 1.0), f"{state.folded_count} folded triangles")
+    if state.compute.folded_count:
+        imgui.text_colored((1.0, 0.5, 0.8, 1.0), f"{state.compute.folded_count} folded triangles")
 
-    _timeline(state, commands, extras)
 
+def _file_section(state: AppState, commands: list, extras: dict) -> None:
+    """Open, save, export, start over, the demo script, help and quit."""
     imgui.separator_text("File")
     if imgui.button("Open image..."):
         commands.append(("open", None))
@@ -260,15 +290,13 @@ def _panel(state: AppState, commands: list, extras: dict, height: float) -> None
         if imgui.button("Stop script" if extras.get("playing") else "Play demo script"):
             commands.append(("play", None))
     imgui.push_text_wrap_pos(PANEL_WIDTH - 12)
-    imgui.text_disabled(f"session: {state.session_path}")
+    imgui.text_disabled(f"session: {state.document.session_path}")
     imgui.pop_text_wrap_pos()
     if imgui.button("Help (F1)"):
         commands.append(("help", None))
     imgui.same_line()
     if imgui.button("Quit"):
         commands.append(("quit", None))
-    state.canvas_left = PANEL_WIDTH
-    imgui.end()
 
 
 #: Window pixels of the timeline strip.
@@ -279,16 +307,16 @@ KEYFRAME_PICK = 6.0
 
 def timeline_end(state: AppState) -> float:
     """The time (seconds) at the right end of the timeline: past the last keyframe and the current time."""
-    span = state.live.time_span
+    span = state.document.live.time_span
     last = span[1] if span else 0.0
-    return max(1.0, 1.1 * last, state.time)
+    return max(1.0, 1.1 * last, state.playback.time)
 
 
 def _timeline(state: AppState, commands: list, extras: dict) -> None:
     """Keyframes on a strip of time: click or drag to scrub, click a mark to select its keyframe."""
-    live = state.live
+    live = state.document.live
     imgui.separator_text("Animation")
-    if imgui.button("Pause" if state.playing else "Play"):
+    if imgui.button("Pause" if state.playback.playing else "Play"):
         commands.append(("playback", None))
     imgui.same_line()
     if imgui.button("Keyframe"):
@@ -296,7 +324,7 @@ def _timeline(state: AppState, commands: list, extras: dict) -> None:
     if imgui.is_item_hovered():
         imgui.set_tooltip("a keyframe at the current time from the target shown (I); one there is replaced")
     imgui.same_line()
-    imgui.begin_disabled(state.keyframe is None)
+    imgui.begin_disabled(state.playback.keyframe is None)
     if imgui.button("Delete key"):
         commands.append(("delete_keyframe", None))
     imgui.end_disabled()
@@ -304,7 +332,6 @@ def _timeline(state: AppState, commands: list, extras: dict) -> None:
     end = timeline_end(state)
     left, top = imgui.get_cursor_screen_pos()
     width = PANEL_WIDTH - 2 * imgui.get_style().window_padding.x
-    state.spots["timeline"] = (left, top, left + width, top + TIMELINE_HEIGHT, end)
     imgui.invisible_button("##timeline", (width, TIMELINE_HEIGHT))
     marks = [left + width * keyframe.time / end for keyframe in live.keyframes]
     if imgui.is_item_activated():
@@ -324,28 +351,28 @@ def _timeline(state: AppState, commands: list, extras: dict) -> None:
         x = left + width * second / end
         draw.add_line((x, top + TIMELINE_HEIGHT - 6), (x, top + TIMELINE_HEIGHT), packed((0.6, 0.6, 0.6)))
     for index, x in enumerate(marks):
-        colour = (1.0, 0.86, 0.2) if index == state.keyframe else (0.22, 0.48, 1.0)
-        size = 7.0 if index == state.keyframe else 5.5
+        colour = (1.0, 0.86, 0.2) if index == state.playback.keyframe else (0.22, 0.48, 1.0)
+        size = 7.0 if index == state.playback.keyframe else 5.5
         corners = [(x, middle - size), (x + size, middle), (x, middle + size), (x - size, middle)]
         draw.add_quad_filled(*corners, packed(colour))
-    now = left + width * state.time / end
+    now = left + width * state.playback.time / end
     draw.add_line((now, top), (now, top + TIMELINE_HEIGHT), packed((1.0, 1.0, 1.0)), 2.0)
 
     span = live.time_span
     total = f" of {span[0]:.2f}..{span[1]:.2f} s" if span else ", no keyframes"
-    imgui.text(f"t = {state.time:.2f} s{total}")
-    if state.keyframe is not None and state.keyframe < len(live.keyframes):
-        keyframe_time = live.keyframes[state.keyframe].time
+    imgui.text(f"t = {state.playback.time:.2f} s{total}")
+    if state.playback.keyframe is not None and state.playback.keyframe < len(live.keyframes):
+        keyframe_time = live.keyframes[state.playback.keyframe].time
         # The field edits a draft; the keyframe moves (one undo step) when it is released.
-        if state.time_draft is None or not imgui.is_any_item_active():
-            state.time_draft = keyframe_time
+        if state.playback.time_draft is None or not imgui.is_any_item_active():
+            state.playback.time_draft = keyframe_time
         imgui.set_next_item_width(120)
-        _, state.time_draft = imgui.drag_float(
-            "keyframe time (s)", state.time_draft, 0.01, 0.0, MAX_TIME, "%.2f"
+        _, state.playback.time_draft = imgui.drag_float(
+            "keyframe time (s)", state.playback.time_draft, 0.01, 0.0, MAX_TIME, "%.2f"
         )
         if imgui.is_item_deactivated_after_edit():
-            commands.append(("keyframe_time", (state.keyframe, round(state.time_draft, 3))))
-    changed, _ = imgui.checkbox("Loop", state.loop)
+            commands.append(("keyframe_time", (state.playback.keyframe, round(state.playback.time_draft, 3))))
+    changed, _ = imgui.checkbox("Loop", state.playback.loop)
     if changed:
         commands.append(("toggle", "loop"))
     imgui.same_line()
@@ -375,37 +402,41 @@ def _choice_row(commands: list, title: str, command: str, current: str, choices:
 
 def status_kernel(state: AppState) -> str:
     """The status line's kernel: the one drawn, and the one being computed while they differ."""
-    live = state.live
+    live = state.document.live
     wanted = live.kernel + (f" (k={live.power:g}, shift {live.shift})" if live.kernel == "power" else "")
-    if state.basis is None or state.basis.kernel == live.kernel:
+    if state.compute.basis is None or state.compute.basis.kernel == live.kernel:
         return wanted
-    return f"{state.basis.kernel}, switching to {wanted}..."
+    return f"{state.compute.basis.kernel}, switching to {wanted}..."
 
 
 def _canvas_label(state: AppState) -> None:
     """Name the grey frame of what an export holds (`scene.export_frame`) at its top-left corner."""
-    frame = export_frame(state) if state.show_overlay else None
+    frame = export_frame(state) if state.display.show_overlay else None
     if frame is None:
         return
-    x, y = to_window(state.view, frame[:1])[0]
+    x, y = to_window(state.display.viewport, frame[:1])[0]
     colour = imgui.get_color_u32((0.85, 0.85, 0.85, 0.9))
-    imgui.get_background_draw_list().add_text((float(x) + 4, float(y) + 2), colour, f"canvas: {state.canvas}")
+    imgui.get_background_draw_list().add_text(
+        (float(x) + 4, float(y) + 2), colour, f"canvas: {state.document.canvas}"
+    )
 
 
 def status_summary(state: AppState) -> str:
     """The status line's figures: kernel, mesh, zoom, the precompute time of the basis drawn, and the
     median frame times ``--stats`` reports (all frames, and the frames of drags)."""
     kernel = status_kernel(state)
-    basis = state.basis
+    basis = state.compute.basis
     vertices = f"{len(basis.mesh.vertices):,} vertices" if basis is not None else "no mesh yet"
     if basis is not None and basis.preview is not None:
         vertices += f" ({len(basis.preview.vertices):,} while moving)"
     precompute = f"precompute {basis.seconds:.2f} s" if basis is not None else "precompute -"
     frame = "frame -"
-    if state.frame_figures is not None:
-        median, drag = state.frame_figures
+    if state.status.frame_figures is not None:
+        median, drag = state.status.frame_figures
         frame = f"frame {median:.1f} ms" + (f", dragging {drag:.1f} ms" if drag > 0 else "")
-    return f"{kernel} | {vertices} | zoom {100 * state.view.scale:.0f} % | {precompute} | {frame} |"
+    return (
+        f"{kernel} | {vertices} | zoom {100 * state.display.viewport.scale:.0f} % | {precompute} | {frame} |"
+    )
 
 
 def _status(state: AppState, width: float, height: float) -> None:
@@ -424,7 +455,7 @@ def _status(state: AppState, width: float, height: float) -> None:
     imgui.set_next_window_pos((0, height - STATUS_HEIGHT - extra))
     imgui.set_next_window_size((width, STATUS_HEIGHT + extra))
     imgui.begin("##status", None, _FIXED | imgui.WindowFlags_.no_title_bar | imgui.WindowFlags_.no_scrollbar)
-    colour = (1.0, 0.45, 0.4, 1.0) if state.message_is_error else (0.75, 0.85, 1.0, 1.0)
+    colour = (1.0, 0.45, 0.4, 1.0) if state.status.message_is_error else (0.75, 0.85, 1.0, 1.0)
     if message and not inline:
         imgui.push_text_wrap_pos(0.0)
         imgui.text_colored(colour, message)
@@ -438,7 +469,7 @@ def _status(state: AppState, width: float, height: float) -> None:
 
 def _colour_bar(state: AppState, width: float, height: float) -> None:
     """The legend of the view shown (`app.viewer.view_modes`), at the canvas's bottom right."""
-    mode = VIEW_MODE[state.content]
+    mode = VIEW_MODE[state.display.view_mode]
     if mode.legend is None:
         return
     bar_width, bar_height = 240.0, mode.legend_height
@@ -473,20 +504,12 @@ def _help(state: AppState, shortcuts: list[tuple[str, str]], width: float, heigh
             imgui.end_table()
     imgui.end()
     if opened is False:
-        state.show_help = False
+        state.display.show_help = False
 
 
-def frame_statistics(frame_ms: list[float]) -> tuple[int, float, float]:
-    """(count, median, 95th percentile) of frame times in ms; zeros without frames."""
-    if not frame_ms:
-        return 0, 0.0, 0.0
-    values = np.asarray(frame_ms)
-    return len(values), float(np.median(values)), float(np.percentile(values, 95))
-
-
-def _parameterization_choice(state: AppState, live, commands: list) -> None:
+def _parameterization_choice(live, commands: list, spots: dict) -> None:
     """The boundary parameter of the point kernels (Fig. 12); greyed for harmonic and pgw.
-    Its last button's centre is ``state.spots["arc-length"]`` (for the window tests)."""
+    Its last button's centre is ``spots["arc-length"]`` (for the window tests)."""
     imgui.begin_disabled(not live.parameterized)
     _choice_row(
         commands,
@@ -498,7 +521,7 @@ def _parameterization_choice(state: AppState, live, commands: list) -> None:
         "(the paper's Fig. 12); harmonic and pgw do not depend on it",
     )
     low, high = imgui.get_item_rect_min(), imgui.get_item_rect_max()
-    state.spots["arc-length"] = (0.5 * (low.x + high.x), 0.5 * (low.y + high.y))
+    spots["arc-length"] = (0.5 * (low.x + high.x), 0.5 * (low.y + high.y))
     imgui.end_disabled()
 
 
@@ -510,13 +533,14 @@ def _fill_choice(state: AppState, commands: list) -> None:
     """What fills the subject's original position behind the warp (`app.fill`): a list, and a
     colour picker when the fill is a colour."""
     labels = dict(FILL_CHOICES)
-    colour = state.fill.startswith("#")
+    fill = state.document.fill
+    colour = fill.startswith("#")
     imgui.text("  fill:")
     imgui.same_line()
     imgui.set_next_item_width(130)
-    if imgui.begin_combo("##fill", "colour" if colour else labels[state.fill]):
+    if imgui.begin_combo("##fill", "colour" if colour else labels[fill]):
         for value, label in (*FILL_CHOICES, ("#ffffff", "colour")):
-            clicked, _ = imgui.selectable(label, value == state.fill or (colour and value == "#ffffff"))
+            clicked, _ = imgui.selectable(label, value == fill or (colour and value == "#ffffff"))
             if clicked and not (colour and value == "#ffffff"):
                 commands.append(("fill", value))
         imgui.end_combo()
@@ -527,7 +551,7 @@ def _fill_choice(state: AppState, commands: list) -> None:
         )
     if colour:
         imgui.same_line()
-        rgba = [int(state.fill[i : i + 2], 16) / 255 for i in range(1, len(state.fill), 2)] + [1.0]
+        rgba = [int(fill[i : i + 2], 16) / 255 for i in range(1, len(fill), 2)] + [1.0]
         changed, picked = imgui.color_edit4("##fill colour", rgba[:4], imgui.ColorEditFlags_.no_inputs)
         if changed:
             commands.append(("fill", "#" + "".join(f"{round(255 * v):02x}" for v in picked)))

@@ -21,18 +21,19 @@
 from __future__ import annotations
 
 import time
+from dataclasses import dataclass
 
 import numpy as np
 
 from app.fill import set_fill
 from app.framing import output_region
 from app.render import WarpRenderer
-from app.view import View
 from app.viewer.controller import band_corners
 from app.viewer.drawing import clicked_points
 from app.viewer.editing import curve_points, to_image
 from app.viewer.state import AppState
 from app.viewer.view_modes import BY_NAME as VIEW_MODES
+from app.viewport import View
 from core.deformation import deform
 
 #: Straight RGB of the overlays: the source curve green, the target blue (the paper's Fig. 11).
@@ -53,9 +54,9 @@ def overlay_arrays(state: AppState) -> tuple[np.ndarray, np.ndarray]:
     hovered one white.  While a new cage is drawn and still open, its points are
     joined in order, a line runs on to the cursor, and the closed curve is a faint preview.
     """
-    live = state.live
-    active = "source" if state.mode == "cage" else "target"
-    drawing = state.drawing is not None and not state.drawing.closed
+    live = state.document.live
+    active = "source" if state.selection.edit_mode == "cage" else "target"
+    drawing = state.selection.drawing is not None and not state.selection.drawing.closed
     segments, points = [], []
     for kind in sorted(("source", "target"), key=lambda k: k == active):
         control = live.cage if kind == "source" else live.target
@@ -67,10 +68,10 @@ def overlay_arrays(state: AppState) -> tuple[np.ndarray, np.ndarray]:
             segments.append(
                 _closed_segments(curve_points(control), colour, curve_alpha, 2.5 if is_active else 1.5)
             )
-        if (
-            state.drawing is not None and is_active
-        ):  # the clicks: on the curve, or its control points (drawing.STYLES)
-            control = clicked_points(state)
+        if state.selection.drawing is not None and is_active:
+            control = clicked_points(
+                state
+            )  # the clicks: on the curve, or its control points (drawing.STYLES)
         if len(control) >= 2:
             polygon = control if len(control) >= 3 else control[:2]
             if drawing:  # the points in the order placed, not yet closed
@@ -78,7 +79,7 @@ def overlay_arrays(state: AppState) -> tuple[np.ndarray, np.ndarray]:
             else:
                 segments.append(_closed_segments(polygon, colour, 0.45 * alpha, 1.0))
         if drawing and is_active and len(control):
-            cursor = to_image(state.view, [state.cursor])
+            cursor = to_image(state.display.viewport, [state.screen.cursor])
             segments.append(_closed_segments(np.vstack([control[-1:], cursor]), colour, 0.6, 1.0)[:1])
         size = 11.0 if is_active else 7.0
         handles = np.zeros((len(control), 7))
@@ -88,9 +89,9 @@ def overlay_arrays(state: AppState) -> tuple[np.ndarray, np.ndarray]:
         handles[:, 6] = size
         if is_active:
             for index, fill, grow in (
-                *((i, SELECTED_COLOUR, 0.0) for i in state.group),
-                (state.hovered, HOVER_COLOUR, 4.0),
-                (state.selected, SELECTED_COLOUR, 2.0),
+                *((i, SELECTED_COLOUR, 0.0) for i in state.selection.group),
+                (state.selection.hovered, HOVER_COLOUR, 4.0),
+                (state.selection.selected, SELECTED_COLOUR, 2.0),
             ):
                 if index is not None and index < len(control):
                     handles[index, 2:5] = fill
@@ -102,7 +103,7 @@ def overlay_arrays(state: AppState) -> tuple[np.ndarray, np.ndarray]:
     band = band_corners(state)
     if band is not None:
         (x0, y0), (x1, y1) = band
-        corners = to_image(state.view, [[x0, y0], [x1, y0], [x1, y1], [x0, y1]])
+        corners = to_image(state.display.viewport, [[x0, y0], [x1, y0], [x1, y1], [x0, y1]])
         segments.append(_closed_segments(corners, SELECTED_COLOUR, 0.9, 1.0))
     segments = np.concatenate(segments) if segments else np.zeros((0, 2, 7))
     return segments, np.concatenate(points)
@@ -114,14 +115,14 @@ def export_frame(state: AppState) -> np.ndarray | None:
     Shown in deform mode when the target curve leaves the image: with ``canvas="source"``
     the export is clipped there, with ``"grow"`` it widens to this frame.
     """
-    target = state.live.target
-    if state.mode != "deform" or len(target) < 3 or state.image is None:
+    target = state.document.live.target
+    if state.selection.edit_mode != "deform" or len(target) < 3 or state.document.image is None:
         return None
-    height, width = state.image.shape[:2]
+    height, width = state.document.image.shape[:2]
     curve = curve_points(target)
     if curve.min() >= 0 and (curve <= (width, height)).all():
         return None
-    x0, y0, x1, y1 = output_region((width, height), target, state.canvas)
+    x0, y0, x1, y1 = output_region((width, height), target, state.document.canvas)
     return np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]])
 
 
@@ -169,6 +170,36 @@ def _add_column(positions: np.ndarray, real: np.ndarray, imaginary: np.ndarray |
         positions[1] += imaginary * delta[0]
 
 
+@dataclass(frozen=True)
+class Columns:
+    """Columns of G, float32, column-major, rows in the renderer's vertex order (so that a drag
+    writes without a gather).
+
+    Attributes
+    ----------
+    columns : ndarray of shape (V, n)
+        G, or its real part.
+    imaginary : ndarray of shape (V, n) or None
+        The imaginary part of complex coordinates (Cauchy-Green).
+    order : ndarray of shape (V,) or None
+        The renderer's vertex order: row k is the mesh's vertex order[k].
+    """
+
+    columns: np.ndarray
+    imaginary: np.ndarray | None = None
+    order: np.ndarray | None = None
+
+
+@dataclass
+class Layer:
+    """The backdrop-and-mesh layer kept between frames: its framebuffer, the key of what it holds,
+    and the key of what the last frame drew (a picture drawn twice in a row is kept)."""
+
+    framebuffer: object = None  # moderngl.Framebuffer
+    key: tuple | None = None
+    drawn: tuple | None = None
+
+
 class Scene:
     """The renderer's side of the state, updated once per frame by `sync`.
 
@@ -184,26 +215,26 @@ class Scene:
         self._basis = None
         self._drawn_target: np.ndarray | None = None
         self._positions: np.ndarray | None = None  # float32, in the renderer's vertex order
-        self._order: np.ndarray | None = None
-        self._columns: np.ndarray | None = None
-        self._imaginary: np.ndarray | None = None  # imaginary parts of complex coordinates, or None
+        self._dense: Columns | None = None  # G of the drawn mesh, in the renderer's vertex order
         self._exact = False
         self._field = None
-        # The preview mesh's G, float32, column-major, rows in the renderer's preview vertex order.
-        self._preview_columns: np.ndarray | None = None
-        self._preview_imaginary: np.ndarray | None = None
+        # The preview mesh's G, rows in the renderer's preview vertex order.
+        self._preview: Columns | None = None
         self._preview_target: np.ndarray | None = None  # what the preview's positions were made for
         #: Whether the frame being drawn shows the preview mesh (`sync` decides).
         self.previewing = False
         # The backdrop-and-mesh layer (`draw`) and what it was drawn with.
-        self._layer = None
-        self.layer_key: tuple | None = None  # what the layer holds
-        self._drawn_key: tuple | None = None  # what the last frame drew
+        self._layer = Layer()
         #: CPU time of the last per-drag position update (ms), for the status line and tests.
         self.update_ms = 0.0
-        # The renderer's revision at which `_positions` were written, and the fold check made there.
-        self._positions_revision: int | None = None
-        self._fold_check: tuple[int, bool] | None = None
+        # (the renderer's revision at which `_positions` were written, whether they may fold there:
+        # None until asked).
+        self._fold_check: tuple[int, bool | None] | None = None
+
+    @property
+    def layer_key(self) -> tuple | None:
+        """What the backdrop-and-mesh layer's framebuffer holds (None: nothing kept)."""
+        return self._layer.key
 
     @property
     def has_mesh(self) -> bool:
@@ -212,34 +243,38 @@ class Scene:
     def mesh_matches(self, state: AppState) -> bool:
         """Whether the uploaded mesh belongs to the current source cage (so the warp is meaningful)."""
         basis = self._basis
-        return basis is not None and np.array_equal(basis.cage, state.live.cage)
+        return basis is not None and np.array_equal(basis.cage, state.document.live.cage)
 
     def sync(self, state: AppState) -> None:
         """Upload what changed since the last frame."""
         renderer = self.renderer
-        if state.image is not self._image:
-            renderer.set_image(state.image)
-            self._image = state.image
+        if state.document.image is not self._image:
+            renderer.set_image(state.document.image)
+            self._image = state.document.image
             self._fill_key = None  # a new image drops the filled backdrop
         self._update_fill(state)
-        basis = state.basis
+        basis = state.compute.basis
         if basis is not None and basis is not self._basis:
             renderer.set_mesh(basis.mesh.vertices, basis.mesh.triangles)
             self._basis = basis
             # The columns of G in the renderer's row order, so a drag writes without a gather.
-            self._order = renderer.vertex_order
-            self._columns = np.asfortranarray(basis.columns[self._order])
+            order = renderer.vertex_order
             imaginary = basis.imaginary_columns
-            self._imaginary = None if imaginary is None else np.asfortranarray(imaginary[self._order])
+            self._dense = Columns(
+                np.asfortranarray(basis.columns[order]),
+                None if imaginary is None else np.asfortranarray(imaginary[order]),
+                order,
+            )
             self._drawn_target = None
             self._field = None
-            self._preview_columns = self._preview_imaginary = self._preview_target = None
+            self._preview = self._preview_target = None
             if basis.preview is not None:
                 renderer.set_preview_mesh(basis.preview.vertices, basis.preview.triangles)
                 rows = basis.preview.basis[renderer.preview_vertex_order]
-                self._preview_columns = np.asfortranarray(rows.real, dtype=np.float32)
-                if np.iscomplexobj(rows):
-                    self._preview_imaginary = np.asfortranarray(rows.imag, dtype=np.float32)
+                self._preview = Columns(
+                    np.asfortranarray(rows.real, dtype=np.float32),
+                    np.asfortranarray(rows.imag, dtype=np.float32) if np.iscomplexobj(rows) else None,
+                )
         self.previewing = False
         if not self.mesh_matches(state):
             return
@@ -252,37 +287,40 @@ class Scene:
     def _update_fill(self, state: AppState) -> None:
         """The backdrop with the original position filled (`app.fill`), for the committed cage: a
         source drag in progress or a new cage being drawn keep the last one."""
-        cage = state.history.current.cage
-        key = (cage.tobytes(), state.fill, state.outside)
+        document = state.document
+        cage = document.history.current.cage
+        key = (cage.tobytes(), document.fill, document.outside)
         if key == self._fill_key:
             return
         self._fill_key = key
         try:
-            set_fill(self.renderer, state.image, cage, state.fill, state.outside)
+            set_fill(self.renderer, document.image, cage, document.fill, document.outside)
         except ValueError:  # no valid cage (yet): the plain image
             self.renderer.set_backdrop_image(None)
 
     def _preview_wanted(self, state: AppState) -> bool:
         """Whether this frame draws the preview mesh: a dense mesh's image while its target or the
         view moves."""
-        moving = (state.drag is not None and state.drag.kind == "target") or state.playing
+        moving = (
+            state.selection.drag is not None and state.selection.drag.kind == "target"
+        ) or state.playback.playing
         return (
-            (moving or state.view_moving)
-            and self._preview_columns is not None
-            and state.content == "image"
-            and state.mode == "deform"
-            and not state.show_wireframe
+            (moving or state.display.viewport_moving)
+            and self._preview is not None
+            and state.display.view_mode == "image"
+            and state.selection.edit_mode == "deform"
+            and not state.display.show_wireframe
         )
 
     def _update_preview(self, state: AppState) -> None:
         """The preview mesh's positions, G' @ P' (~20k rows: cheaper than any update of the dense mesh)."""
         self.previewing = True
-        target = state.live.target
+        target = state.document.live.target
         if self._preview_target is not None and np.array_equal(self._preview_target, target):
             return  # a pan or zoom: the positions are those of the last frame
         started = time.perf_counter()
         self.renderer.set_preview_positions(
-            combined_columns(self._preview_columns, target, self._preview_imaginary)
+            combined_columns(self._preview.columns, target, self._preview.imaginary)
         )
         self._preview_target = np.array(target)
         # The dense mesh is left as it was (`_drawn_target` with it): once the motion stops it gets
@@ -290,10 +328,14 @@ class Scene:
         self.update_ms = 1e3 * (time.perf_counter() - started)
 
     def _update_positions(self, state: AppState) -> None:
-        basis, target = self._basis, state.live.target
-        dragging = state.drag is not None and state.drag.kind == "target"
+        basis, target = self._basis, state.document.live.target
+        dragging = state.selection.drag is not None and state.selection.drag.kind == "target"
         drawn = self._drawn_target
-        if drawn is not None and np.array_equal(drawn, target) and (self._exact or dragging or state.playing):
+        if (
+            drawn is not None
+            and np.array_equal(drawn, target)
+            and (self._exact or dragging or state.playback.playing)
+        ):
             return
         started = time.perf_counter()
         changed = None if drawn is None else np.flatnonzero(np.any(drawn != target, axis=1))
@@ -302,21 +344,22 @@ class Scene:
             positions = self._positions.T  # (2, V) views of the two coordinates
             for i in changed:
                 delta = (target[i] - drawn[i]).astype(np.float32)
-                imaginary = None if self._imaginary is None else self._imaginary[:, i]
-                _add_column(positions, self._columns[:, i], imaginary, delta)
+                dense = self._dense
+                imaginary = None if dense.imaginary is None else dense.imaginary[:, i]
+                _add_column(positions, dense.columns[:, i], imaginary, delta)
             self._exact = False
-        elif state.playing:
+        elif state.playback.playing:
             # Every frame of playback: float32 and no BLAS (`combined_columns`); the exact product,
             # and the count of folded triangles (which costs more than the product), when it stops.
-            self._positions = combined_columns(self._columns, target, self._imaginary)
+            self._positions = combined_columns(self._dense.columns, target, self._dense.imaginary)
             self._exact = False
         else:
             deformed = deform(basis.basis, target)
-            self._positions = deformed[self._order].astype(np.float32)
+            self._positions = deformed[self._dense.order].astype(np.float32)
             self._exact = True
             self._count_folds(state, deformed)
         self.renderer.set_ordered_positions(self._positions)
-        self._positions_revision = self.renderer.revision
+        self._fold_check = (self.renderer.revision, None)
         self._drawn_target = np.array(target)
         self.update_ms = 1e3 * (time.perf_counter() - started)
 
@@ -325,19 +368,20 @@ class Scene:
         True whenever the positions drawn are not the ones this scene wrote last (the preview's,
         an export's)."""
         revision = self.renderer.revision
-        if self.previewing or self._positions is None or self._positions_revision != revision:
+        check = self._fold_check
+        if self.previewing or self._positions is None or check is None or check[0] != revision:
             return True
-        if self._fold_check is None or self._fold_check[0] != revision:
+        if check[1] is None:
             self._fold_check = (revision, self.renderer.may_fold(self._positions))
         return self._fold_check[1]
 
     def _count_folds(self, state: AppState, deformed: np.ndarray) -> None:
         import core
 
-        state.folded_count = int(np.count_nonzero(core.folded_triangles(self._basis.mesh, deformed)))
+        state.compute.folded_count = int(np.count_nonzero(core.folded_triangles(self._basis.mesh, deformed)))
 
     def _update_field(self, state: AppState) -> None:
-        mode = VIEW_MODES[state.content]
+        mode = VIEW_MODES[state.display.view_mode]
         if mode.field is not None:
             self._field = mode.field(state, self._basis, self.renderer, self._field)
 
@@ -365,14 +409,21 @@ class Scene:
         """
         renderer = self.renderer
         ctx = renderer.ctx
-        view = View(state.view.scale * pixel_ratio, tuple(v * pixel_ratio for v in state.view.offset))
+        view = View(
+            state.display.viewport.scale * pixel_ratio,
+            tuple(v * pixel_ratio for v in state.display.viewport.offset),
+        )
         meshed = self.mesh_matches(state)
-        content = VIEW_MODES[state.content].drawn
-        warped = meshed and (state.mode == "deform" or content != "image")
+        content = VIEW_MODES[state.display.view_mode].drawn
+        warped = meshed and (state.selection.edit_mode == "deform" or content != "image")
         # The faded source image costs a full textured pass of a software rasteriser: only on request.
-        opacity = (1.0 if state.outside == "original" else state.backdrop_opacity) if warped else 1.0
-        wireframe = state.show_wireframe
-        folds = state.show_folds and content != "distortion"  # that view shows folds per vertex
+        opacity = (
+            (1.0 if state.document.outside == "original" else state.display.backdrop_opacity)
+            if warped
+            else 1.0
+        )
+        wireframe = state.display.show_wireframe
+        folds = state.display.show_folds and content != "distortion"  # that view shows folds per vertex
         size = (int(framebuffer_size[0]), int(framebuffer_size[1]))
         key = (renderer.revision, view, size, warped, content, wireframe, folds, self.previewing, opacity)
 
@@ -387,34 +438,36 @@ class Scene:
                     view, size, content=content, wireframe=wireframe, folds=marked, preview=self.previewing
                 )
 
-        if key == self.layer_key and self._layer is not None and self._layer.size == size:
-            ctx.copy_framebuffer(ctx.fbo, self._layer)
-        elif key == self._drawn_key:  # the same picture again: keep it for the frames to come
+        layer = self._layer
+        if key == layer.key and layer.framebuffer is not None and layer.framebuffer.size == size:
+            ctx.copy_framebuffer(ctx.fbo, layer.framebuffer)
+        elif key == layer.drawn:  # the same picture again: keep it for the frames to come
             target, viewport = ctx.fbo, ctx.viewport
-            layer = self._layer_framebuffer(size)
-            layer.use()
+            framebuffer = self._layer_framebuffer(size)
+            framebuffer.use()
             draw_layer()
-            self.layer_key = key
+            layer.key = key
             target.use()
             ctx.viewport = viewport
-            ctx.copy_framebuffer(target, layer)
+            ctx.copy_framebuffer(target, framebuffer)
         else:
             draw_layer()
-        self._drawn_key = key
-        if state.show_overlay:
+        layer.drawn = key
+        if state.display.show_overlay:
             segments, points = overlay_arrays(state)
             renderer.set_overlay(segments, points)
             renderer.draw_overlay(view, size)
 
     def _layer_framebuffer(self, size: tuple[int, int]):
         """The framebuffer of the backdrop-and-mesh layer, (re)made at `size`."""
-        if self._layer is None or self._layer.size != size:
+        layer = self._layer
+        if layer.framebuffer is None or layer.framebuffer.size != size:
             self.release()
-            self._layer = self.renderer.ctx.simple_framebuffer(size, components=4)
-        return self._layer
+            layer.framebuffer = self.renderer.ctx.simple_framebuffer(size, components=4)
+        return layer.framebuffer
 
     def release(self) -> None:
         """Free the layer's framebuffer (the renderer is the caller's to release)."""
-        if self._layer is not None:
-            self._layer.release()
-        self._layer = None
+        if self._layer.framebuffer is not None:
+            self._layer.framebuffer.release()
+        self._layer.framebuffer = None

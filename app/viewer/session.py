@@ -48,19 +48,19 @@ from app.files import (
 from app.fill import session_fill
 from app.framing import CANVASES, OUTSIDES
 from app.keyframes import DEFAULT_INTERPOLATION, MAX_TIME, Keyframe, keyframes_json
-from app.view import View
 from app.viewer.session_files import backups, keep_aside, rotate_backups, session_path_for
 from app.viewer.session_lock import SessionLock, lock_session
 from app.viewer.state import (
     DEFAULT_POWER,
     DEFAULT_SHIFT,
+    EDIT_MODES,
     MEASURES,
-    MODES,
     SHIFTS,
     AppState,
     Snapshot,
 )
-from app.viewer.view_modes import CONTENTS
+from app.viewer.view_modes import VIEW_MODE_NAMES
+from app.viewport import View
 from core.storage.atomic_write import abandoned_temporaries
 
 #: Undo steps (and redo steps) written into the session file.
@@ -68,7 +68,7 @@ SAVED_STEPS = 100
 
 
 @dataclass
-class Document:
+class OpenedDocument:
     """What the viewer opens with.
 
     Attributes
@@ -120,7 +120,7 @@ def open_document(
     max_edge: float | None = None,
     demo_name: str | None = None,
     fresh: bool = False,
-) -> Document:
+) -> OpenedDocument:
     """The document of ``python -m app view [IMAGE] [--cage] [--session] [--fresh]`` (or of a demo).
 
     - ``--session`` that exists: restore that file (IMAGE, ``--cage`` or ``--fresh``
@@ -189,7 +189,7 @@ def open_document(
             # A photograph: its subject is cut out of a picture the user wants to keep whole.
             preferences["outside"] = "original"
     snapshot = Snapshot(Path(os.path.realpath(image)), control_points, control_points)
-    return Document(
+    return OpenedDocument(
         snapshot,
         pixels,
         path,
@@ -233,7 +233,7 @@ def finish_interrupted_save(path: Path) -> list[str]:
     return []
 
 
-def recover(path: Path, image: Path, max_edge: float | None, notices: list[str]) -> Document | None:
+def recover(path: Path, image: Path, max_edge: float | None, notices: list[str]) -> OpenedDocument | None:
     """Restore the session of `image` from `path` or, if that cannot be read, its newest readable backup.
 
     An unreadable `path` (bad JSON, bad keys, a cage that is not simple, another
@@ -262,7 +262,7 @@ def recover(path: Path, image: Path, max_edge: float | None, notices: list[str])
     return None
 
 
-def restore(path: Path, max_edge: float | None = None) -> Document:
+def restore(path: Path, max_edge: float | None = None) -> OpenedDocument:
     """Open a session file: everything, including the view and the undo history."""
     session = read_session(path)
     pixels = read_image(session_image(session, path))
@@ -302,7 +302,7 @@ def restore(path: Path, max_edge: float | None = None) -> Document:
     except (TypeError, ValueError, KeyError, OverflowError) as error:
         undo, redo = [], []
         notices.append(f"{path}: the undo history cannot be read ({error}); starting without it")
-    return Document(
+    return OpenedDocument(
         snapshot,
         pixels,
         path,
@@ -337,7 +337,7 @@ def history_json(state: AppState) -> dict:
     the session file); ``undo`` is oldest first, ``redo`` has the
     next step last (`History` order).
     """
-    image = state.history.current.image
+    image = state.document.history.current.image
 
     def nearest(steps: tuple[Snapshot, ...]) -> list[dict]:
         """The last `SAVED_STEPS` steps (the nearest to the current state) back to another image."""
@@ -348,7 +348,10 @@ def history_json(state: AppState) -> dict:
             kept.append(_step(snapshot))
         return kept[::-1]
 
-    return {"undo": nearest(state.history.undo_steps), "redo": nearest(state.history.redo_steps)}
+    return {
+        "undo": nearest(state.document.history.undo_steps),
+        "redo": nearest(state.document.history.redo_steps),
+    }
 
 
 def history_of(value, image: Path) -> tuple[list[Snapshot], list[Snapshot]]:
@@ -409,7 +412,7 @@ def start_snapshot(current: Snapshot, image: np.ndarray, cage: Path | None) -> t
     return current.replace(cage=points, target=points, keyframes=()), note
 
 
-def begin_with(document: Document, snapshot: Snapshot, message: str) -> None:
+def begin_with(document: OpenedDocument, snapshot: Snapshot, message: str) -> None:
     """Make `snapshot` the document's state as one undoable step (what it held stays a Ctrl+Z away)."""
     if snapshot == document.snapshot:
         return
@@ -441,56 +444,58 @@ def fit_or_ellipse(image: np.ndarray, points: int = 16, rect=None) -> tuple[np.n
 def apply_preferences(state: AppState, preferences: dict | None) -> None:
     """Take the session's ``viewer`` settings that make sense."""
     preferences = preferences or {}
-    if preferences.get("mode") in MODES:
-        state.mode = preferences["mode"]
-    if preferences.get("content") in CONTENTS:
-        state.content = preferences["content"]
+    if preferences.get("mode") in EDIT_MODES:
+        state.selection.edit_mode = preferences["mode"]
+    if preferences.get("content") in VIEW_MODE_NAMES:
+        state.display.view_mode = preferences["content"]
     if preferences.get("distortion") in MEASURES:
-        state.distortion_measure = preferences["distortion"]
+        state.display.distortion_measure = preferences["distortion"]
     for name in ("show_folds", "show_wireframe", "show_overlay"):
         if isinstance(preferences.get(name), bool):
-            setattr(state, name, preferences[name])
+            setattr(state.display, name, preferences[name])
     if preferences.get("outside") in OUTSIDES:
-        state.outside = preferences["outside"]
+        state.document.outside = preferences["outside"]
     if preferences.get("canvas") in CANVASES:
-        state.canvas = preferences["canvas"]
+        state.document.canvas = preferences["canvas"]
     if isinstance(preferences.get("fill"), str):
-        state.fill = preferences["fill"]  # checked by `restore` (app.fill.session_fill)
+        state.document.fill = preferences["fill"]  # checked by `restore` (app.fill.session_fill)
     if isinstance(preferences.get("loop"), bool):
-        state.loop = preferences["loop"]
+        state.playback.loop = preferences["loop"]
     time = finite_number(preferences.get("time"))
     if time is not None and 0 <= time <= MAX_TIME:
-        state.time = time
+        state.playback.time = time
     selected = preferences.get("selected")
-    if isinstance(selected, int) and 0 <= selected < state.live.n:
-        state.selected = selected
+    if isinstance(selected, int) and 0 <= selected < state.document.live.n:
+        state.selection.selected = selected
 
 
 def session_of(state: AppState, max_edge: float | None) -> Session:
     """The session file's content for the committed state (not a drag in progress)."""
-    snapshot = state.history.current
+    snapshot = state.document.history.current
     extra = {
         "viewer": {
-            "mode": state.mode,
-            "content": state.content,
-            "distortion": state.distortion_measure,
-            "show_folds": state.show_folds,
-            "show_wireframe": state.show_wireframe,
-            "show_overlay": state.show_overlay,
-            "selected": state.selected,
+            "mode": state.selection.edit_mode,
+            "content": state.display.view_mode,
+            "distortion": state.display.distortion_measure,
+            "show_folds": state.display.show_folds,
+            "show_wireframe": state.display.show_wireframe,
+            "show_overlay": state.display.show_overlay,
+            "selected": state.selection.selected,
             "power": snapshot.power,
             "shift": snapshot.shift,
-            "time": state.time,
-            "loop": state.loop,
+            "time": state.playback.time,
+            "loop": state.playback.loop,
         }
     }
     if snapshot.kernel_params():
         extra["kernel_params"] = snapshot.kernel_params()
     if max_edge is not None:
         extra["mesh"] = {"max_edge": float(max_edge)}
-    extra["outside"], extra["canvas"] = state.outside, state.canvas
-    if state.fill != "none":  # files without the key read as "none" (and stay as older versions wrote them)
-        extra["fill"] = state.fill
+    extra["outside"], extra["canvas"] = state.document.outside, state.document.canvas
+    if (
+        state.document.fill != "none"
+    ):  # files without the key read as "none" (and stay as older versions wrote them)
+        extra["fill"] = state.document.fill
     extra["keyframes"] = keyframes_json(snapshot.keyframes)
     extra["interpolation"] = snapshot.interpolation
     extra["parameterization"] = snapshot.parameterization
@@ -500,8 +505,8 @@ def session_of(state: AppState, max_edge: float | None) -> Session:
         np.array(snapshot.cage),
         np.array(snapshot.target),
         snapshot.kernel,
-        float(state.view.scale),
-        (float(state.view.offset[0]), float(state.view.offset[1])),
+        float(state.display.viewport.scale),
+        (float(state.display.viewport.offset[0]), float(state.display.viewport.offset[1])),
         extra,
     )
 
@@ -512,7 +517,7 @@ def save(state: AppState, max_edge: float | None, new_version: bool = True) -> N
     With `new_version` (the document changed since the file was written) the
     file's previous version becomes backup 1 first (`rotate_backups`).
     """
-    path = state.session_path
+    path = state.document.session_path
     path.parent.mkdir(parents=True, exist_ok=True)
     if new_version:
         try:

@@ -1,10 +1,13 @@
-"""The viewer's state: immutable edit snapshots, their undo history, and the one `AppState`.
+"""The viewer's model: immutable edit snapshots, their undo history, and `AppState` in small parts.
 
 An edit (moving, inserting or deleting a control point, fitting, subdividing,
 choosing a kernel, opening an image) replaces the whole `Snapshot`; the `History`
 keeps the snapshots, so undo and redo swap whole states and can never get out of
-step with what was drawn.  Everything else in `AppState` is view or session
-state that undo does not touch (zoom, pan, what is shown, the current drag).
+step with what was drawn.  `AppState` holds the `Document` (history, live snapshot,
+image, session file) and the state that undo does not touch, each part with one
+reason to change: `Selection` (edit mode, chosen handles, drag), `Display`
+(viewport, view mode, overlays), `Playback` (timeline), `Compute` (basis functions
+and precompute), `Status` (messages, prompts, quit) and `Screen` (window geometry).
 
 Coordinates are image pixels, x to the right, y down, origin at the image's
 top-left corner, like the cage and session files.
@@ -19,7 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from app.keyframes import DEFAULT_INTERPOLATION, INTERPOLATIONS, Keyframe, sorted_keyframes
-from app.view import View
+from app.viewport import View
 
 #: Parameters of the ``power`` kernel family (Eq. 19) when a session does not say.
 DEFAULT_POWER = 4.0
@@ -29,11 +32,10 @@ SHIFTS = ("none", "integral", "mean")
 #: The boundary's parameter of the point kernels (`core.curves.arc_length`, the paper's Fig. 12).
 PARAMETERIZATIONS = ("natural", "arc-length")
 
-#: What the canvas shows.
 #: What the distortion view shows: log2 det J, or log2 sigma_1 / sigma_2 (app.viewer.distortion_view).
 MEASURES = ("area", "conformal")
 #: What a left click edits: the target (deform) or the source cage.
-MODES = ("deform", "cage")
+EDIT_MODES = ("deform", "cage")
 
 
 def _frozen_points(points, name: str) -> np.ndarray:
@@ -360,74 +362,157 @@ class PreviewMesh:
 
 
 @dataclass
-class AppState:
-    """Everything the viewer knows, read and written by `gui` and the event handlers once per frame.
+class Document:
+    """The document shown and saved: its history, the live version, the image, the session file,
+    and what its exports frame.
 
-    The document is `live`: `history.current`, or the version a drag is changing
-    right now (committed to the history when the mouse is released).
+    Attributes
+    ----------
+    history : History
+    live : Snapshot
+        `history.current`, or the version a drag is changing right now (committed to the
+        history when the mouse is released).
+    image : ndarray of shape (H, W, 4), uint8
+        RGBA pixels of ``live.image``.
+    session_path : Path
+    session_dirty : bool
+        An edit to save now.
+    outside : str
+        What exports show outside the deformed region (`app.framing.OUTSIDES`).
+    canvas : str
+        What exports frame: ``"source"``, or ``"grow"`` to hold the whole target.
+    fill : str
+        What fills the source cage's region behind the warp, with outside "original" (`app.fill`).
+    max_edge : float or None
+        A forced mesh edge length (None: from the cage's area).
+    saved : Snapshot or None
+        What the session file holds now (None: not written yet): an autosave of anything
+        else is a new version of the file.
     """
 
     history: History
     live: Snapshot
-    image: np.ndarray  # (H, W, 4) uint8 RGBA of live.image
+    image: np.ndarray
     session_path: Path
-    view: View = field(default_factory=View)
-    mode: str = "deform"
-    content: str = "image"
-    distortion_measure: str = "area"  # of the distortion view: "area" (det J) or "conformal"
-    distortion: object | None = None  # app.viewer.distortion_view.DistortionSummary of the view shown
+    session_dirty: bool = False
+    outside: str = "transparent"
+    canvas: str = "source"
+    fill: str = "none"
+    max_edge: float | None = None
+    saved: Snapshot | None = None
+
+
+@dataclass
+class Selection:
+    """What the mouse edits and holds: the edit mode, the chosen handles, the drag in progress."""
+
+    edit_mode: str = "deform"  # one of EDIT_MODES: what a left click edits
     selected: int | None = None  # the last handle clicked: its basis function is shown
     group: frozenset = frozenset()  # the handles moved together (Shift+click, rubber band)
-    view_fitted: bool = True  # the view is `fit_view`'s (a window resize fits it again)
     hovered: int | None = None
     drag: Drag | None = None
     drawing: Drawing | None = None  # a new cage being placed
     cage_drawing: str = "curve"  # a new cage's clicks: points on the "curve", or "control" points
     fit_rect: bool = False  # "Fit cage" on a photo waits for a rectangle around the subject
+
+
+@dataclass
+class Display:
+    """How the canvas shows the document: the viewport, the view mode and what is drawn over it."""
+
+    viewport: View = field(default_factory=View)
+    view_mode: str = "image"  # a name of app.viewer.view_modes.MODES
+    distortion_measure: str = "area"  # of the distortion view: "area" (det J) or "conformal"
+    distortion: object | None = None  # app.viewer.distortion_view.DistortionSummary of the view shown
+    viewport_fitted: bool = True  # the viewport is `fit_view`'s (a window resize fits it again)
+    viewport_dirty: bool = False  # a zoom or pan to save soon
+    viewport_moving: bool = False  # a pan or a wheel zoom is under way (the window sets it every frame)
     show_folds: bool = True
     show_wireframe: bool = False
     show_overlay: bool = True
     show_help: bool = False
-    open_prompt: str | None = None  # the path typed into the open prompt (no dialog program)
-    export_prompt: str | None = None  # the path typed into the export prompt (no dialog program)
     backdrop_opacity: float = 0.0  # of the source image behind the warp (outside "transparent")
-    outside: str = "transparent"  # what exports show outside the deformed region (app.framing)
-    fill: str = "none"  # what fills the source cage's region behind the warp, outside "original" (app.fill)
-    canvas: str = "source"  # "grow": exports widen to hold the whole target
     power_draft: float | None = None  # the power slider while it is dragged
-    time: float = 0.0  # the timeline's current time, seconds
+
+
+@dataclass
+class Playback:
+    """The timeline: its time, whether the keyframes play, the keyframe chosen."""
+
+    time: float = 0.0  # seconds
     playing: bool = False  # the keyframes play (Space)
     loop: bool = True  # playback starts again at the first keyframe after the last
     keyframe: int | None = None  # the keyframe selected on the timeline
     time_draft: float | None = None  # the selected keyframe's time field while it is dragged
-    max_edge: float | None = None  # forced mesh edge length (None: from the cage's area)
+
+
+@dataclass
+class Compute:
+    """The basis functions drawn and the precompute of the wanted ones."""
+
     basis: BasisResult | None = None  # the result drawn (perhaps of another kernel)
     progress: float | None = None  # fraction of the running precompute, None when idle
     progress_label: str = ""
     basis_error: str = ""  # why the wanted basis functions could not be computed
     folded_count: int | None = None
+
+
+@dataclass
+class Status:
+    """What the viewer tells the user, what it asks, and whether it quits."""
+
     message: str = ""
     message_is_error: bool = False
     message_owner: Snapshot | None = None  # the document the message was said about (`status_message`)
+    open_prompt: str | None = None  # the path typed into the open prompt (no dialog program)
+    export_prompt: str | None = None  # the path typed into the export prompt (no dialog program)
     frame_ms: list[float] = field(default_factory=list)
     #: (median frame, median drag frame) in ms, as ``--stats`` reports them (the window updates them).
     frame_figures: tuple[float, float] | None = None
-    cursor: tuple[float, float] = (0.0, 0.0)  # window pixels
-    window_size: tuple[int, int] = (1280, 1024)  # window pixels
-    canvas_left: float = 0.0  # window pixels hidden under the side panel
-    spots: dict = field(default_factory=dict)  # window points inside some widgets (for tests)
-    session_dirty: bool = False  # an edit to save now
-    view_dirty: bool = False  # a zoom or pan to save soon
-    view_moving: bool = False  # a pan or a wheel zoom is under way (the window sets it every frame)
     quit: bool = False
+
+    def say(self, message: str, error: bool = False, owner: Snapshot | None = None) -> None:
+        """Show `message` in the status line, for as long as `owner` is the document shown."""
+        self.message = " ".join(str(message).split())
+        self.message_is_error = error
+        self.message_owner = owner
+
+
+@dataclass
+class Screen:
+    """The window as the canvas sees it, in window pixels."""
+
+    cursor: tuple[float, float] = (0.0, 0.0)
+    window_size: tuple[int, int] = (1280, 1024)
+    canvas_left: float = 0.0  # hidden under the side panel
+
+
+@dataclass
+class AppState:
+    """Everything the viewer knows, read and written by `gui`, the controller and the window once
+    per frame, in small parts that each change for one reason (napari's ViewerModel of small
+    models): the document, the selection, the display, the playback, the compute, the status and
+    the screen."""
+
+    document: Document
+    selection: Selection = field(default_factory=Selection)
+    display: Display = field(default_factory=Display)
+    playback: Playback = field(default_factory=Playback)
+    compute: Compute = field(default_factory=Compute)
+    status: Status = field(default_factory=Status)
+    screen: Screen = field(default_factory=Screen)
+
+    @classmethod
+    def opened(cls, history: History, image: np.ndarray, session_path: Path) -> AppState:
+        """The state of a document just opened: `history`'s current snapshot, live."""
+        return cls(Document(history, history.current, image, Path(session_path)))
 
     def say(self, message: str, error: bool = False) -> None:
         """Show `message` in the status line, for as long as the document stays the one it is about."""
-        self.message = " ".join(str(message).split())
-        self.message_is_error = error
-        self.message_owner = self.history.current
+        self.status.say(message, error, self.document.history.current)
 
     def status_message(self) -> str:
         """What the status line says: the last message, unless the document changed since (an edit,
         an undo, a redo): "moved 8 control points" belongs to the state that move made."""
-        return self.message if self.message_owner is self.history.current else ""
+        status = self.status
+        return status.message if status.message_owner is self.document.history.current else ""

@@ -15,4 +15,4 @@ from app.viewer.view_modes.mode import ViewMode
 MODES: tuple[ViewMode, ...] = (image.MODE, basis.MODE, height.MODE, distortion.MODE)
 BY_NAME = {mode.name: mode for mode in MODES}
 #: The views' names, in the panel's order.
-CONTENTS = tuple(BY_NAME)
+VIEW_MODE_NAMES = tuple(BY_NAME)

@@ -7,7 +7,7 @@ from app.viewer.view_modes.mode import ViewMode
 
 def field(state, basis, renderer, current):
     """Upload G_i (V,) of the selected control point (the first if none)."""
-    index = state.selected if state.selected is not None else 0
+    index = state.selection.selected if state.selection.selected is not None else 0
     signature = ("basis", basis.key, index)
     if signature != current and index < basis.basis.shape[1]:
         renderer.set_field(basis.basis[:, index].real)
@@ -22,7 +22,7 @@ def legend(state, draw, left: float, top: float, span: float) -> None:
     from app.render_passes.fields import HEAT_NEGATIVE, HEAT_STOPS
     from app.viewer.view_modes.colours import packed
 
-    index = state.selected if state.selected is not None else 0
+    index = state.selection.selected if state.selection.selected is not None else 0
     imgui.text(f"basis function G_{index} (Fig. 8)")
     top += 20
     negative = 0.12 * span

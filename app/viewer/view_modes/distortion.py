@@ -6,22 +6,23 @@ from app.viewer.view_modes.mode import ViewMode
 
 
 def field(state, basis, renderer, current):
-    """Upload log2 det J or log2 sigma1/sigma2 (V,) for the target shown; sets ``state.distortion``."""
+    """Upload log2 det J or log2 sigma1/sigma2 (V,) for the target shown; sets
+    ``state.display.distortion``."""
     from app.viewer.distortion_view import vertex_distortion
 
-    target = state.live.target
-    signature = ("distortion", basis.key, state.distortion_measure, target.tobytes())
+    target = state.document.live.target
+    signature = ("distortion", basis.key, state.display.distortion_measure, target.tobytes())
     if signature != current:
-        values, state.distortion = vertex_distortion(
+        values, state.display.distortion = vertex_distortion(
             basis.mesh.vertices,
             basis.mesh.triangles,
             basis.basis,
             basis.gradients,
             target,
-            state.distortion_measure,
+            state.display.distortion_measure,
         )
         renderer.set_field(values)
-    renderer.set_distortion_measure(state.distortion_measure)
+    renderer.set_distortion_measure(state.display.distortion_measure)
     return signature
 
 
@@ -39,7 +40,7 @@ def legend(state, draw, left: float, top: float, span: float) -> None:
     from app.viewer.view_modes.colours import packed
 
     white = (1.0, 1.0, 1.0)
-    area = state.distortion_measure == "area"
+    area = state.display.distortion_measure == "area"
     imgui.text("area change det J" if area else "anisotropy sigma1/sigma2")
     top += 20
     folded = 0.16 * span
@@ -58,7 +59,7 @@ def legend(state, draw, left: float, top: float, span: float) -> None:
     for text, x in labels:
         draw.add_text((left + x, top + 26), packed(white), text)
     imgui.dummy((span, 48))
-    summary = state.distortion
+    summary = state.display.distortion
     if summary is not None:
         worst = f"min det {summary.min_det:.3g}" if area else f"max {summary.max_ratio:.3g}"
         imgui.text_disabled(f"{worst}, {summary.folded} folded")

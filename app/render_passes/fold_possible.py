@@ -13,8 +13,8 @@ import numpy as np
 FOLD_MARGIN = 1e-3
 
 
-class FoldTest:
-    """The fold test of one mesh: its triangles' corners, orientations and margins.
+class FoldMargins:
+    """What decides whether one mesh may fold: its triangles' corners, orientations and margins.
 
     Parameters
     ----------

@@ -1,0 +1,237 @@
+"""The viewer's exports (Ctrl+E): the warped image at the image's full resolution, like
+``warp --session``, or the keyframed animation, like ``animate``, one frame written per frame the
+viewer draws (Esc stops it).  Both draw through `app.warping.render` on the window's renderer, so
+they are ``warp``'s and ``animate``'s pixels."""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from app.files import IMAGE_SUFFIXES, InputError, image_metadata, write_image
+from app.framing import output_frame, output_region
+from app.viewer.dialogs import FileDialogs
+from app.viewer.state import AppState, Snapshot
+
+
+@dataclass
+class AnimationExport:
+    """An animation export in progress in the viewer: one frame written per drawn frame.
+
+    Attributes
+    ----------
+    writer : app.frame_writers.FrameWriter
+    times : ndarray of shape (F,)
+        Seconds of every frame (`app.keyframes.frame_times`).
+    size, view
+        Output size (width, height) and image-to-output `View` (`app.framing`).
+    snapshot : Snapshot
+        The document when the export started (its keyframes and interpolation).
+    deformation : app.warping.Deformation
+        The mesh drawn and its G.
+    outside : str
+    written : int
+        Frames written so far.
+    """
+
+    writer: object
+    times: np.ndarray
+    size: tuple[int, int]
+    view: object
+    snapshot: Snapshot
+    deformation: object  # app.warping.Deformation
+    outside: str
+    written: int = 0
+
+
+class Exporter:
+    """Ctrl+E and Ctrl+Shift+E of one viewer.
+
+    Parameters
+    ----------
+    state : AppState
+    scene : app.viewer.scene.Scene
+        Holds the window's renderer and the mesh it draws.
+    ready : callable
+        ``ready(state)``: whether the basis drawn is the live snapshot's.
+    path : Path, optional
+        Where Ctrl+E writes (``--export``); default: ask.
+    fps : float
+        Frames per second of an animation export.
+    announce : callable
+        Called with one line per export (the window tests read them).
+    dialogs : FileDialogs
+    """
+
+    def __init__(
+        self,
+        state: AppState,
+        scene,
+        ready: Callable[[AppState], bool],
+        path: Path | None,
+        fps: float,
+        announce: Callable[[str], None],
+        dialogs: FileDialogs,
+    ):
+        self.state, self.scene, self.ready = state, scene, ready
+        self.path, self.fps = path, fps
+        self.announce, self.dialogs = announce, dialogs
+        # Where the last export went, as typed (a folder of frames ends in a slash).
+        self.last: str | None = None if path is None else str(path)
+        self.animation: AnimationExport | None = None
+
+    @property
+    def progress(self) -> float | None:
+        """The fraction of the animation export written, None when none runs."""
+        return None if self.animation is None else self.animation.written / len(self.animation.times)
+
+    def ask_path(self, again: bool = False) -> None:
+        """Ctrl+E: where to write (``--export`` if given, else a save dialog or the in-window
+        prompt); `again` (Ctrl+Shift+E) writes to the last file without asking."""
+        if again and self.last is not None:
+            self.export(Path(self.last).expanduser(), self.last)
+            return
+        if self.path is not None:
+            self.export(self.path)
+            return
+        proposed = self.last or default_export_path(self.state.document.live.image)
+        if not self.dialogs.ask_save(proposed):
+            self.state.status.export_prompt = str(proposed)
+
+    def export(self, path: Path, typed: str | None = None) -> Path | None:
+        """Write the warped image at the image's full resolution, like ``warp --session``.
+
+        A name ending in .mp4 or .gif, or in a slash (`typed`, the text as typed),
+        starts exporting the animation instead, like ``animate``: one frame per
+        drawn frame of the viewer, until it is complete (Esc stops it).
+        """
+        state = self.state
+        if path.suffix.lower() in (".mp4", ".gif") or (typed or "").endswith(("/", os.sep)):
+            self._start_animation(path, typed)
+            return None
+        if path.suffix.lower() not in IMAGE_SUFFIXES:
+            path = path.with_name(path.name + ".png")
+        try:
+            pixels = self.render_still()
+        except ValueError as error:  # an output over app.framing.MAX_OUTPUT_PIXELS
+            state.say(str(error), error=True)
+            return None
+        if pixels is None:
+            state.say("nothing to export yet: the basis functions are still being computed", error=True)
+            return None
+        try:
+            # The image's depth (render's), ICC profile and EXIF, in the format of the name, like warp.
+            write_image(path, pixels, image_metadata(state.document.live.image))
+        except InputError as error:
+            state.say(str(error), error=True)
+            return None
+        self.last = str(path)
+        state.say(f"exported {path} (Ctrl+Shift+E writes it again)")
+        self.announce(f"exported {path}")
+        return path
+
+    def render_still(self) -> np.ndarray | None:
+        """The live target's warp framed like ``warp`` (RGBA (H, W, 4)), None before its basis is ready."""
+        state = self.state
+        if not self.ready(state):
+            return None
+        from app.warping import render
+
+        deformation = self.scene.deformation(state)
+        if deformation is None:
+            return None
+        self.scene.invalidate_positions()
+        height, width = state.document.image.shape[:2]
+        target = state.document.live.target
+        size, view = output_frame(output_region((width, height), target, state.document.canvas))
+        return render(self.scene.renderer, deformation, target, size, view, state.document.outside)
+
+    def cancel(self) -> bool:
+        """Esc: stop the animation export, if one runs (nothing is written)."""
+        if self.animation is None:
+            return False
+        self.animation.writer.abort()
+        self.animation = None
+        self.state.say("animation export stopped; nothing was written")
+        return True
+
+    def _start_animation(self, path: Path, typed: str | None) -> None:
+        from app.frame_writers import WRITERS, check_output, output_kind
+        from app.framing import frame_region
+        from app.keyframes import frame_times
+
+        state = self.state
+        live = state.document.live
+        if not live.keyframes:
+            state.say("no keyframes to export: add some first (I, or the Keyframe button)", error=True)
+            return
+        if not self.ready(state) or not self.scene.mesh_matches(state):
+            state.say("nothing to export yet: the basis functions are still being computed", error=True)
+            return
+        try:
+            kind = output_kind(path, typed)
+            check_output(path, kind)
+            times = frame_times(live.keyframes, self.fps)
+            height, width = state.document.image.shape[:2]
+            canvas = state.document.canvas
+            size, view = output_frame(
+                frame_region((width, height), live.keyframes, live.interpolation, times, canvas)
+            )
+            writer = WRITERS[kind](path, size, self.fps)
+        except (InputError, ValueError, OSError) as error:
+            state.say(str(error), error=True)
+            return
+        state.playback.playing = False
+        deformation = state.compute.basis.deformation()
+        self.animation = AnimationExport(writer, times, size, view, live, deformation, state.document.outside)
+        self.last = str(path) + os.sep if kind == "png" else str(path)
+        state.say(f"exporting {len(times)} frames to {path} (Esc stops)")
+
+    def next_frame(self) -> None:
+        """Render and write the next frame of the animation being exported; finish after the last."""
+        export, state = self.animation, self.state
+        if export is None:
+            return
+        from app.keyframes import interpolate
+        from app.warping import render
+
+        snapshot = export.snapshot
+        target = interpolate(snapshot.keyframes, float(export.times[export.written]), snapshot.interpolation)
+        self.scene.invalidate_positions()
+        try:
+            pixels = render(
+                self.scene.renderer, export.deformation, target, export.size, export.view, export.outside
+            )
+            export.writer.add(pixels)
+            export.written += 1
+            if export.written == len(export.times):
+                export.writer.finish()
+        except (OSError, ValueError) as error:
+            export.writer.abort()
+            self.animation = None
+            state.say(f"cannot export the animation: {error}", error=True)
+            return
+        if export.written == len(export.times):
+            self.animation = None
+            state.say(f"exported {len(export.times)} frames to {export.writer.path}")
+            self.announce(f"exported {export.writer.path}")
+
+
+def default_export_path(image: Path) -> Path:
+    """Where Ctrl+E proposes to write: ``STEM-warped.png`` beside the image, numbered if it exists;
+    in the current folder for a bundled demo (inside the installed package) or a read-only folder."""
+    from app.viewer.demos import is_demo_file
+
+    image = Path(image)
+    if is_demo_file(image) or not os.access(image.parent, os.W_OK):
+        image = Path.cwd() / image.name
+    for number in range(1, 1000):
+        suffix = "" if number == 1 else f"-{number}"
+        path = image.with_name(f"{image.stem}-warped{suffix}.png")
+        if not path.exists():
+            return path
+    return image.with_name(f"{image.stem}-warped.png")

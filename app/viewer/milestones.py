@@ -1,0 +1,117 @@
+"""What the running viewer reports about itself: one line per milestone on stdout in test mode
+(``TRANSFINITE_VIEWER_TEST=1``: ``ready window=ID``, ``basis ...``, ``saved PATH``, ``drag done
+...``, ``popup open``, ``spot kernel=X,Y``, ...) for the tests that drive the real window, and the
+frame times of ``--stats``."""
+
+from __future__ import annotations
+
+import time
+
+from app.viewer.state import AppState
+
+#: Seconds between two updates of the status line's frame times (a median of every frame so far).
+FIGURES_INTERVAL = 0.5
+
+
+def frame_statistics(frame_ms: list[float]) -> tuple[int, float, float]:
+    """(count, median, 95th percentile) of frame times in ms; zeros without frames."""
+    import numpy as np
+
+    if not frame_ms:
+        return 0, 0.0, 0.0
+    values = np.asarray(frame_ms)
+    return len(values), float(np.median(values)), float(np.percentile(values, 95))
+
+
+class Milestones:
+    """The announcements of one viewer, and the frame times of its drags.
+
+    Parameters
+    ----------
+    test_mode : bool
+        Print the milestones (otherwise only ``--stats`` is kept).
+    """
+
+    def __init__(self, test_mode: bool):
+        self.test_mode = test_mode
+        self.announced_ready = False
+        self.previewing = False  # the last frame drew the preview mesh
+        self.popup_open = False  # an imgui popup (a list) is open: Esc closes it
+        self.typing = False  # a text field has the keyboard
+        self.drag_first_frame: int | None = None
+        #: Times (ms) of the frames drawn while a control point was dragged, for --stats.
+        self.drag_frame_ms: list[float] = []
+        #: Window points of some widgets (`app.viewer.gui.gui` fills it), announced for the tests.
+        self.spots: dict = {}
+        self.figures_at = -FIGURES_INTERVAL  # when the status line's frame times were last computed
+
+    def announce(self, line: str) -> None:
+        if self.test_mode:
+            print(line, flush=True)
+
+    def drags(self, state: AppState) -> None:
+        """Test mode: the frame times of each drag of a target point, to compare playback with."""
+        if not self.test_mode:
+            return
+        drag = state.selection.drag
+        dragging = drag is not None and drag.kind == "target"
+        if dragging and self.drag_first_frame is None:
+            self.drag_first_frame = len(state.status.frame_ms)
+        elif not dragging and self.drag_first_frame is not None:
+            count, median, _ = frame_statistics(state.status.frame_ms[self.drag_first_frame :])
+            self.announce(f"drag done frames={count} median_frame_ms={median:.2f}")
+            self.drag_first_frame = None
+
+    def widgets(self, popup: bool, typing: bool) -> None:
+        """Whether a popup is open and whether a text field takes the keys, announced when it changes."""
+        if popup != self.popup_open:
+            self.announce(f"popup {'open' if popup else 'closed'}")
+        self.popup_open = popup
+        if typing != self.typing:
+            self.announce(f"text input {'on' if typing else 'off'}")  # keys go to a text field
+            self.typing = typing
+
+    def drawn(self, state: AppState, previewing: bool, shown_distortion) -> None:
+        """A frame was prepared: the preview mesh switched, or a new distortion summary."""
+        if self.test_mode and previewing != self.previewing:
+            self.previewing = previewing
+            self.announce(f"preview {'on' if previewing else 'off'}")
+        summary = state.display.distortion
+        if summary is not shown_distortion and state.display.view_mode == "distortion":
+            self.announce(
+                f"distortion measure={state.display.distortion_measure} folded={summary.folded} "
+                f"exact={summary.exact} vertices={summary.vertices} min_det={summary.min_det:.6g} "
+                f"at={summary.min_det_at[0]:.1f},{summary.min_det_at[1]:.1f}"
+            )
+
+    def frame_done(self, state: AppState, window_id: int) -> None:
+        """The frame's time is in `state.status.frame_ms`; after the first, ``ready`` and the spots."""
+        drag = state.selection.drag
+        if drag is not None and drag.kind in ("target", "source"):
+            self.drag_frame_ms.append(state.status.frame_ms[-1])
+        self._update_figures(state)
+        if not self.announced_ready:
+            self.announced_ready = True
+            self.announce(f"ready window={window_id}")
+            for name in ("kernel", "arc-length"):
+                x, y = self.spots.get(name, (0, 0))
+                self.announce(f"spot {name}={x:.0f},{y:.0f}")
+
+    def _update_figures(self, state: AppState) -> None:
+        """The status line's frame times: what ``--stats`` would report now, twice a second."""
+        now = time.perf_counter()
+        if now - self.figures_at < FIGURES_INTERVAL:
+            return
+        self.figures_at = now
+        _, median, _ = frame_statistics(state.status.frame_ms)
+        _, drag_median, _ = frame_statistics(self.drag_frame_ms)
+        state.status.frame_figures = (median, drag_median)
+
+    def statistics(self, state: AppState) -> str:
+        """``--stats``: frames=N median_frame_ms=X p95_frame_ms=Y median_drag_frame_ms=Z."""
+        count, median, p95 = frame_statistics(state.status.frame_ms)
+        _, drag_median, _ = frame_statistics(self.drag_frame_ms)
+        return (
+            f"frames={count} median_frame_ms={median:.2f} p95_frame_ms={p95:.2f} "
+            f"median_drag_frame_ms={drag_median:.2f}"
+        )
