@@ -298,6 +298,7 @@ def run_animate(args) -> int:
         read_session,
         refuse_overwriting_inputs,
         reported_as_input,
+        session_fold_free,
         session_image,
         session_kernel_params,
         session_keyframes,
@@ -353,7 +354,9 @@ def run_animate(args) -> int:
             ProgressBar(f"basis functions ({session.kernel})") as bar,
             reported_as_input(f"{args.session}: kernel {session.kernel!r}"),
         ):
-            settings = WarpSettings(session.kernel, params, max_edge)
+            settings = WarpSettings(
+                session.kernel, params, max_edge, fold_free=session_fold_free(session, args.session)
+            )
             deformation = prepare(curve, settings, mesh, progress=bar, compiling=compiling)
         require_render_memory((width, height), size, context=False)
         if compiling.seconds is not None:
@@ -365,7 +368,8 @@ def run_animate(args) -> int:
             with WRITERS[kind](path, size, args.fps) as writer, ProgressBar(f"frames ({len(times)})") as bar:
                 for index, moment in enumerate(times):
                     target = interpolate(keyframes, float(moment), interpolation)
-                    writer.add(render(renderer, deformation, target, size, view, outside))
+                    with reported_as_input(f"{args.session}: frame {index}"):  # a fold-free path may cross
+                        writer.add(render(renderer, deformation, target, size, view, outside))
                     bar((index + 1) / len(times))
                 try:
                     writer.finish()

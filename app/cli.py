@@ -54,6 +54,7 @@ from app.files import (
     refuse_overwriting_inputs,
     reported_as_input,
     same_file,
+    session_fold_free,
     session_image,
     session_kernel_params,
     session_max_edge,
@@ -247,6 +248,13 @@ def build_parser(prog: str = "python -m app") -> argparse.ArgumentParser:
         help="allow --output to be the input image (otherwise refused)",
     )
     warp.add_argument(
+        "--fold-free",
+        action="store_true",
+        help="a warp that provably never folds and still meets the target curve: composite harmonic maps "
+        "along the straight path of cages, each certified injective (core.fold_free_deform; poisson only; "
+        'a session with "fold_free": true asks for it too)',
+    )
+    warp.add_argument(
         "--report",
         action="store_true",
         help="print on stdout, one line each, the deformation's smallest det J (area change), largest "
@@ -254,7 +262,8 @@ def build_parser(prog: str = "python -m app") -> argparse.ArgumentParser:
         "where the extremes are in source-image pixels.  Point kernels: the exact Jacobian "
         "sum_i P'_i grad G_i at the interior mesh vertices (core.basis_gradients); harmonic, pgw and "
         "--parameterization arc-length have no pointwise gradients: the per-triangle Jacobian of the "
-        "piecewise linear map at triangle centroids (exact for the finite-element harmonic basis)",
+        "piecewise linear map at triangle centroids (exact for the finite-element harmonic basis); "
+        "then the injectivity certificate of the map (core.certify_injective; poisson only)",
     )
     warp.set_defaults(run=_warp)
 
@@ -630,6 +639,7 @@ def _warp(args: argparse.Namespace) -> int:
         if args.max_edge is None:
             args.max_edge = session_max_edge(session, args.session)
         outside, canvas = session_output(session, args.session)
+        args.fold_free = args.fold_free or session_fold_free(session, args.session)
         cage_source, target_source = f"{args.session}: cage", f"{args.session}: target"
     else:
         image_path = args.image
@@ -645,6 +655,10 @@ def _warp(args: argparse.Namespace) -> int:
             )
     if kernel not in kernel_names():
         raise InputError(f"unknown kernel {kernel!r}; choose one of {', '.join(kernel_names())}")
+    if args.fold_free and kernel != DEFAULT_KERNEL:
+        raise InputError(
+            f"--fold-free: fold-free warps are harmonic: use the {DEFAULT_KERNEL} kernel, not {kernel!r}"
+        )
     _refuse_overwriting_input(args.output, image_path, args.overwrite_input)
     refuse_overwriting_inputs(
         args.output, {"source cage": args.cage, "target cage": args.target, "session file": args.session}
@@ -679,7 +693,7 @@ def _warp(args: argparse.Namespace) -> int:
     ctx = create_headless_context()
     try:
         started = time.perf_counter()
-        settings = WarpSettings(kernel, params, args.max_edge)
+        settings = WarpSettings(kernel, params, args.max_edge, fold_free=args.fold_free)
         with reported_as_input(f"{cage_source}: meshing"):
             mesh = core.triangulate(curve, max_edge=args.max_edge)
         note(f"mesh: {len(mesh.vertices)} vertices, {len(mesh.triangles)} triangles")
@@ -691,10 +705,15 @@ def _warp(args: argparse.Namespace) -> int:
             deformation = prepare(curve, settings, mesh, progress=bar, compiling=compiling)
         if compiling.seconds is not None:
             note(f"compiled the solver in {compiling.seconds:.1f} s (first run only; numba caches it)")
-        deformed = deformation.positions(target)
+        with reported_as_input(f"{target_source}: fold-free"):
+            deformed = deformation.positions(target)
         if args.report:
             with reported_as_input(f"{cage_source}: kernel {kernel!r}: gradients"):
-                report = _distortion_report(curve, mesh, kernel, target, deformed, params)
+                report = _distortion_report(curve, mesh, kernel, target, deformed, params, args.fold_free)
+            certificate = deformation.certificate(target)
+            report.append(
+                f"certificate: {'n/a (not a harmonic map)' if certificate is None else certificate}"
+            )
         folded = np.count_nonzero(core.folded_triangles(mesh, deformed))
         if folded:
             note(
@@ -728,14 +747,18 @@ def _why_folded(target: np.ndarray, target_source: str) -> str:
     return f"{target_source} may need a gentler move"
 
 
-def _distortion_report(curve, mesh, kernel, target, deformed, params) -> list[str]:
+def _distortion_report(curve, mesh, kernel, target, deformed, params, fold_free=False) -> list[str]:
     """The lines of ``warp --report``: worst det J, worst sigma1/sigma2, folded count, with where."""
     import core
     from core.distortion import triangle_jacobians, vertex_jacobians, worst_distortion
 
-    if kernel in core.MESH_ONLY_KERNELS or params.get("parameterization", "natural") != "natural":
-        # No pointwise gradients (FEM, PGW; the arc-length parameterisation): the Jacobians of
-        # the piecewise linear map, exact for the FEM basis.
+    if (
+        kernel in core.MESH_ONLY_KERNELS
+        or params.get("parameterization", "natural") != "natural"
+        or fold_free
+    ):
+        # No pointwise gradients (FEM, PGW; the arc-length parameterisation; a composite of maps): the
+        # Jacobians of the piecewise linear map, exact for the FEM basis.
         jacobians = triangle_jacobians(mesh.vertices, deformed, mesh.triangles)
         where = mesh.vertices[mesh.triangles].mean(axis=1)
         points = "triangles (per-triangle Jacobian, at centroids)"

@@ -192,7 +192,10 @@ def test_help_describes_the_measures_with_examples():
 
 
 def test_the_fold_free_row_unfolds_the_drag_and_says_what_is_proven():
-    choices = [KernelChoice("poisson", "poisson"), KernelChoice("poisson, fold-free", "poisson", fold_free=True)]
+    choices = [
+        KernelChoice("poisson", "poisson"),
+        KernelChoice("poisson, fold-free", "poisson", fold_free=True),
+    ]
     study = run_study(known_suite(), choices)
     _, plain, fold_free = study.kernels
     assert plain.proven == [True, True, False] and plain.folded[2] > 0
