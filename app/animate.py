@@ -76,7 +76,9 @@ def animation_job(args: argparse.Namespace) -> WarpJob:
         image_path=inputs.image_path,
         curve=curve,
         source=str(args.session),
-        settings=WarpSettings(inputs.kernel, kernel_params(inputs, None, None), max_edge),
+        settings=WarpSettings(
+            inputs.kernel, kernel_params(inputs, None, None), max_edge, fold_free=inputs.fold_free
+        ),
         targets=tuple(interpolate(keyframes, float(moment), interpolation) for moment in times),
         size=size,
         view=view,

@@ -146,6 +146,13 @@ def _warp_command(commands, run, kernels: tuple[str, ...]) -> None:
         help="allow --output to be the input image (otherwise refused)",
     )
     warp.add_argument(
+        "--fold-free",
+        action="store_true",
+        help="a warp that provably never folds and still meets the target curve: composite harmonic maps "
+        "along the straight path of cages, each certified injective (core.fold_free_deform; poisson only; "
+        'a session with "fold_free": true asks for it too)',
+    )
+    warp.add_argument(
         "--report",
         action="store_true",
         help="print on stdout, one line each, the deformation's smallest det J (area change), largest "
@@ -153,7 +160,8 @@ def _warp_command(commands, run, kernels: tuple[str, ...]) -> None:
         "where the extremes are in source-image pixels.  Point kernels: the exact Jacobian "
         "sum_i P'_i grad G_i at the interior mesh vertices (core.basis_gradients); harmonic, pgw and "
         "--parameterization arc-length have no pointwise gradients: the per-triangle Jacobian of the "
-        "piecewise linear map at triangle centroids (exact for the finite-element harmonic basis)",
+        "piecewise linear map at triangle centroids (exact for the finite-element harmonic basis); "
+        "then the injectivity certificate of the map (core.certify_injective; poisson only)",
     )
     warp.set_defaults(run=run)
 

@@ -161,10 +161,17 @@ def _warp(args: argparse.Namespace) -> int:
     def inspect(deformation, deformed) -> None:
         if args.report:
             kernel, params = job.settings.kernel, job.settings.params
+            target, fold_free = job.targets[0], job.settings.fold_free
             with reported_as_input(f"{job.source}: kernel {kernel!r}: gradients"):
                 report.extend(
-                    distortion_report(job.curve, deformation.mesh, kernel, job.targets[0], deformed, params)
+                    distortion_report(
+                        job.curve, deformation.mesh, kernel, target, deformed, params, fold_free
+                    )
                 )
+            certificate = deformation.certificate(target)
+            report.append(
+                f"certificate: {'n/a (not a harmonic map)' if certificate is None else certificate}"
+            )
         warn_of_folds(deformation, deformed, job.targets[0], inputs.target_source)
 
     run_job(job, inspect)

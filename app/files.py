@@ -417,6 +417,14 @@ def session_max_edge(session: Session, path: str | os.PathLike = "session") -> f
     return edge
 
 
+def session_fold_free(session: Session, path: str | os.PathLike = "session") -> bool:
+    """Whether a session asks for fold-free warps (``"fold_free": true``; false when absent)."""
+    value = session.extra.get("fold_free", False)
+    if not isinstance(value, bool):
+        raise InputError(f'{path}: "fold_free" must be true or false, got {_shown(value)}')
+    return value
+
+
 def session_output(session: Session, path: str | os.PathLike = "session") -> tuple[str, str]:
     """The session's ``outside`` and ``canvas`` settings (default ``"transparent"``, ``"source"``).
 

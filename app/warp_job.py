@@ -37,6 +37,7 @@ from app.files import (
     refuse_overwriting_inputs,
     reported_as_input,
     same_file,
+    session_fold_free,
     session_image,
     session_kernel_params,
     session_max_edge,
@@ -75,6 +76,8 @@ class WarpInputs:
     fill : str
         What fills the source cage's region behind the warp with ``outside = original``
         (`app.fill`).
+    fold_free : bool
+        Deform by the certified fold-free map (`core.fold_free_deform`) instead of G P'.
     cage_source, target_source : str
         How messages name the cage and the target (a file, or ``SESSION: cage``).
     """
@@ -89,6 +92,7 @@ class WarpInputs:
     outside: str
     canvas: str
     fill: str
+    fold_free: bool
     cage_source: str
     target_source: str
 
@@ -172,6 +176,7 @@ def session_inputs(session: Session, path: Path, kernel: str | None = None) -> W
         outside=outside,
         canvas=canvas,
         fill=session_fill(session.extra, path),
+        fold_free=session_fold_free(session, path),
         cage_source=f"{path}: cage",
         target_source=f"{path}: target",
     )
@@ -190,6 +195,7 @@ def file_inputs(image: Path, cage: Path, target: Path, kernel: str | None) -> Wa
         outside=OUTSIDES[0],
         canvas=CANVASES[0],
         fill=FILLS[0],
+        fold_free=False,
         cage_source=str(cage),
         target_source=str(target),
     )
@@ -233,6 +239,12 @@ def warp_job(args: argparse.Namespace) -> tuple[WarpJob, WarpInputs]:
     canvas = args.canvas or inputs.canvas
     outside = args.outside or inputs.outside
     fill = _checked_fill(args.fill, inputs.fill, outside)
+    fold_free = args.fold_free or inputs.fold_free
+    if fold_free and inputs.kernel != DEFAULT_KERNEL:
+        raise InputError(
+            f"--fold-free: fold-free warps are harmonic: use the {DEFAULT_KERNEL} kernel, "
+            f"not {inputs.kernel!r}"
+        )
     _require_opaque_output(args.output, outside, args.background)
     with reported_as_input("output size"):
         size, view = output_frame(
@@ -246,7 +258,7 @@ def warp_job(args: argparse.Namespace) -> tuple[WarpJob, WarpInputs]:
         image_path=inputs.image_path,
         curve=curve,
         source=inputs.cage_source,
-        settings=WarpSettings(inputs.kernel, params, max_edge),
+        settings=WarpSettings(inputs.kernel, params, max_edge, fold_free=fold_free),
         targets=(inputs.target,),
         size=size,
         view=view,
@@ -288,7 +300,9 @@ def run_job(job: WarpJob, inspect: Callable[[Deformation, np.ndarray], None] | N
         started = time.perf_counter()
         deformation = _prepare(job)
         if inspect is not None:
-            inspect(deformation, deformation.positions(job.targets[0]))
+            with reported_as_input(f"{job.source}: fold-free"):  # a fold-free path may cross itself
+                deformed = deformation.positions(job.targets[0])
+            inspect(deformation, deformed)
         require_render_memory(job.image_size, job.size, context=False)
         with WarpRenderer(ctx) as renderer, interrupted_by_sigterm():
             with reported_as_input(str(job.image_path)):
@@ -315,7 +329,7 @@ def _render_frames(job: WarpJob, renderer, deformation: Deformation) -> None:
 
     with WRITERS[job.kind](job.output, job.size, job.fps) as writer, _frames_bar(job) as bar:
         for index, target in enumerate(job.targets):
-            with reported_as_input("rendering"):
+            with reported_as_input(f"rendering frame {index}"):  # a fold-free path may cross itself
                 writer.add(render(renderer, deformation, target, job.size, job.view, job.outside))
             bar((index + 1) / len(job.targets))
         try:

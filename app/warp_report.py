@@ -38,7 +38,7 @@ def why_folded(target: np.ndarray, target_source: str) -> str:
 
 
 def distortion_report(
-    curve, mesh, kernel: str, target: np.ndarray, deformed: np.ndarray, params: dict
+    curve, mesh, kernel: str, target: np.ndarray, deformed: np.ndarray, params: dict, fold_free: bool = False
 ) -> list[str]:
     """The lines of ``warp --report``: worst det J, worst sigma1/sigma2, folded count, with where.
 
@@ -53,13 +53,19 @@ def distortion_report(
         The mesh vertices deformed to `target`.
     params : dict
         The kernel's parameters.
+    fold_free : bool
+        `deformed` is a composite of maps (`core.fold_free_deform`): no pointwise gradients.
     """
     import core
     from core.meshes.distortion import triangle_jacobians, vertex_jacobians, worst_distortion
 
-    if kernel in core.MESH_ONLY_KERNELS or params.get("parameterization", "natural") != "natural":
-        # No pointwise gradients (FEM, PGW; the arc-length parameterisation): the Jacobians of
-        # the piecewise linear map, exact for the FEM basis.
+    if (
+        kernel in core.MESH_ONLY_KERNELS
+        or params.get("parameterization", "natural") != "natural"
+        or fold_free
+    ):
+        # No pointwise gradients (FEM, PGW; the arc-length parameterisation; a composite of maps): the
+        # Jacobians of the piecewise linear map, exact for the FEM basis.
         jacobians = triangle_jacobians(mesh.vertices, deformed, mesh.triangles)
         where = mesh.vertices[mesh.triangles].mean(axis=1)
         points = "triangles (per-triangle Jacobian, at centroids)"

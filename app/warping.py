@@ -41,12 +41,16 @@ class WarpSettings:
         Longest mesh edge in image pixels; None for the automatic size.
     cache : bool
         Read and write the on-disk basis cache.
+    fold_free : bool
+        Deform by `core.fold_free_deform` (a certified bijection onto the target; ``poisson`` only)
+        instead of G P'.
     """
 
     kernel: str = core.DEFAULT_KERNEL
     params: dict = field(default_factory=dict)
     max_edge: float | None = None
     cache: bool = True
+    fold_free: bool = False
 
 
 #: Outputs of more pixels than this (one 4096 x 4096 tile) are written strip by strip when PNG;
@@ -88,15 +92,44 @@ class Deformation:
         G at the mesh vertices; complex for the Cauchy-Green kernel.
     kernel : str
         The kernel that computed `basis`.
+    curve : core.ClosedBSpline, optional
+        The cage (needed by `fold_free` and `certificate`).
+    fold_free : bool
+        `positions` are those of `core.fold_free_deform`, not G P'.
     """
 
     mesh: core.Mesh
     basis: np.ndarray
     kernel: str
+    curve: core.ClosedBSpline | None = None
+    fold_free: bool = False
+    _last: dict = field(default_factory=dict, compare=False, repr=False)
 
     def positions(self, target: np.ndarray) -> np.ndarray:
-        """Deformed vertices (V, 2) for the target control points (n, 2) (`core.deform`)."""
-        return deform(self.basis, target)
+        """Deformed vertices (V, 2) for the target control points (n, 2): `core.deform`, or the
+        certified fold-free map (ValueError where the straight path of cages crosses itself)."""
+        if not self.fold_free:
+            return deform(self.basis, target)
+        return self._fold_free(target)[0]
+
+    def certificate(self, target: np.ndarray) -> core.InjectivityCertificate | None:
+        """What is proven about the map to `target` (`core.certify_injective`; of the composite when
+        `fold_free`); None for kernels whose maps are not harmonic."""
+        if self.fold_free:
+            return self._fold_free(target)[1]
+        if self.kernel != core.DEFAULT_KERNEL or self.curve is None:
+            return None
+        return core.certify_injective(self.curve, target)
+
+    def _fold_free(self, target: np.ndarray):
+        key = np.asarray(target, dtype=np.float64).tobytes()
+        if key not in self._last:  # `warp` asks for the positions, the report and the render
+            self._last.clear()
+            boundary = (self.mesh.boundary, self.mesh.boundary_parameters)
+            self._last[key] = core.fold_free_deform(
+                self.curve, target, self.mesh.vertices, boundary=boundary, triangles=self.mesh.triangles
+            )
+        return self._last[key]
 
 
 def prepare(
@@ -128,6 +161,11 @@ def prepare(
     ValueError
         From `core.triangulate` and `core.mesh_basis_functions`, for a cage or settings they refuse.
     """
+    if settings.fold_free and settings.kernel != core.DEFAULT_KERNEL:
+        raise ValueError(
+            f"fold-free warps are harmonic: they need the {core.DEFAULT_KERNEL} kernel, "
+            f"got {settings.kernel!r}"
+        )
     if mesh is None:
         mesh = core.triangulate(curve, max_edge=settings.max_edge, progress=meshing)
     if progress is not None:
@@ -141,7 +179,7 @@ def prepare(
         cache=settings.cache,
         **settings.params,
     )
-    return Deformation(mesh, basis, settings.kernel)
+    return Deformation(mesh, basis, settings.kernel, curve, settings.fold_free)
 
 
 def render(

@@ -65,7 +65,7 @@ def near_boundary(curve: core.ClosedBSpline, count: int, seed: int) -> np.ndarra
 
 def dense_check(curve, target, points):
     """σ₂, k and det J (each (M,)) of the harmonic map at points (M, 2)."""
-    h, g = complex_derivatives(curve, target, points)
+    h, g, _ = complex_derivatives(curve, target, points)
     return np.abs(h) - np.abs(g), np.abs(g) / np.abs(h), np.abs(h) ** 2 - np.abs(g) ** 2
 
 

@@ -16,9 +16,11 @@ LINE = re.compile(r"^(min det J|max sigma1/sigma2): (\S+) at \((\S+), (\S+)\) px
 
 
 def parse(out: str) -> dict:
-    lines = out.strip().split("\n")
-    assert len(lines) == 3, out
     values = {}
+    lines = out.strip().split("\n")
+    assert len(lines) == 4, out
+    assert lines[3].startswith("certificate: "), lines[3]
+    values["certificate"] = lines[3].removeprefix("certificate: ")
     for line in lines[:2]:
         match = LINE.match(line)
         assert match, line
@@ -109,3 +111,34 @@ def test_report_refuses_wrong_shapes():
         worst_distortion(np.zeros((4, 2, 2)), np.zeros((3, 2)))
     with pytest.raises(ValueError, match="no finite Jacobian"):
         worst_distortion(np.full((1, 2, 2), np.nan), np.zeros((1, 2)))
+
+
+def test_report_prints_the_certificate_of_a_harmonic_map(files, capfd):  # noqa: F811
+    code, out, err = run_main([*warp_argv(files), "--report"], capfd)
+    assert code == 0, err
+    assert parse(out)["certificate"].startswith("fold-free, proven (σ₂ ≥ ")
+    code, out, err = run_main([*warp_argv(files), "--kernel", "inverse-cube-mean", "--report"], capfd)
+    assert code == 0, err
+    assert parse(out)["certificate"] == "n/a (not a harmonic map)"
+
+
+def test_fold_free_unfolds_a_folding_move_and_proves_it(files, capfd):  # noqa: F811
+    # Control point 1 (80, 30) pulled down to (80, 80): the plain harmonic map folds under it.
+    target = np.array(CAGE, dtype=float)
+    target[1] = [80.0, 80.0]
+    (files / "fold.json").write_text(json.dumps({"control_points": target.tolist()}))
+    argv = [*warp_argv(files, **{"--target": files / "fold.json"}), "--report"]
+    code, out, err = run_main(argv, capfd)
+    assert code == 0, err
+    plain = parse(out)
+    assert plain["folded"][0] > 0 and plain["certificate"].startswith("not proven fold-free")
+    code, out, err = run_main([*argv, "--fold-free"], capfd)
+    assert code == 0, err
+    fold_free = parse(out)
+    assert fold_free["folded"][0] == 0 and fold_free["folded"][2].startswith("triangles")
+    assert fold_free["certificate"].startswith("fold-free, proven")
+
+
+def test_fold_free_needs_the_harmonic_kernel(files, capfd):  # noqa: F811
+    code, out, err = run_main([*warp_argv(files), "--fold-free", "--kernel", "mean-value"], capfd)
+    assert code == 2 and err.count("\n") == 1 and "use the poisson kernel" in err

@@ -34,6 +34,11 @@ SAFETY = 2.0
 #: Across the strip between Γ and the boundary σ₂ varies by at most this many times its variation
 #: between Γ and the deeper companion, divided by (DEEPER - 1) (its mean rate over that interval).
 STRIP_SAFETY = 2.0
+#: The allowance for a sample's evaluation error: this many times the identity map's error there
+#: (`core.injectivity.harmonic_parts.complex_derivatives`), taken off σ₂ twice (|h'| and |g'|).
+ERROR_SAFETY = 10.0
+#: Times a sample's depth is quartered where its deeper companion lies outside the domain.
+INSIDE_TRIES = 6
 #: First samples: per unit of parameter on offset pieces, and per corner arc.
 PER_SPAN = 8
 PER_ARC = 16
@@ -43,7 +48,8 @@ PER_ARC = 16
 class PieceSamples:
     """Samples of one piece: parameters (m,) in the piece's order, points (m, 2) of Γ, h' and f_z̄
     (complex (m,), |f_z̄| = |g'|), the lower bound of σ₂ = |h'| - |g'| across the strip from the
-    sample to the boundary (m,), and on offset pieces the depth of each sample (m,) (None on arcs)."""
+    sample to the boundary (m,), on offset pieces the depth of each sample (m,) (None on arcs), and
+    the allowance for the evaluation error of h' and g' (m,)."""
 
     parameters: np.ndarray
     points: np.ndarray
@@ -51,6 +57,7 @@ class PieceSamples:
     g: np.ndarray
     sigma_strip: np.ndarray
     depths: np.ndarray | None = None
+    allowance: np.ndarray | None = None
 
 
 def first_parameters(piece: Piece) -> np.ndarray:
@@ -70,16 +77,29 @@ def evaluate(
     diameter (`DEPTH` if None)."""
     if piece.corner is not None:
         points = arc_points(piece.corner, parameters)
-        h, g = complex_derivatives(curve, target, points)
-        return PieceSamples(parameters, points, h, g, np.abs(h) - np.abs(g))
-    depths = np.full(parameters.size, DEPTH) if depths is None else depths
+        h, g, error = complex_derivatives(curve, target, points)
+        allowance = ERROR_SAFETY * error
+        return PieceSamples(
+            parameters, points, h, g, np.abs(h) - np.abs(g) - 2.0 * allowance, None, allowance
+        )
+    depths = np.full(parameters.size, DEPTH) if depths is None else np.asarray(depths, dtype=np.float64)
     points, deeper = offset_points(curve, parameters, depths * curve.diameter)
-    h_both, g_both = complex_derivatives(curve, target, np.concatenate([points, deeper]))
+    for _ in range(INSIDE_TRIES):  # a thin part: the deeper point left the domain, come closer
+        outside = np.flatnonzero(~curve.contains(deeper))
+        if outside.size == 0:
+            break
+        depths = depths.copy()
+        depths[outside] *= 0.25
+        points[outside], deeper[outside] = offset_points(
+            curve, parameters[outside], depths[outside] * curve.diameter
+        )
+    h_both, g_both, error = complex_derivatives(curve, target, np.concatenate([points, deeper]))
     m = parameters.size
+    allowance = ERROR_SAFETY * np.maximum(error[:m], error[m:])
     sigma = np.abs(h_both) - np.abs(g_both)
     near, far = sigma[:m], sigma[m:]
-    strip = np.minimum(near, far) - STRIP_SAFETY / (DEEPER - 1.0) * np.abs(near - far)
-    return PieceSamples(parameters, points, h_both[:m], g_both[:m], strip, depths)
+    strip = np.minimum(near, far) - STRIP_SAFETY / (DEEPER - 1.0) * np.abs(near - far) - 2.0 * allowance
+    return PieceSamples(parameters, points, h_both[:m], g_both[:m], strip, depths, allowance)
 
 
 def merged(old: PieceSamples, new: PieceSamples) -> PieceSamples:
@@ -98,7 +118,10 @@ def merged(old: PieceSamples, new: PieceSamples) -> PieceSamples:
 
 
 def _fields(samples: PieceSamples) -> tuple:
-    return samples.parameters, samples.points, samples.h, samples.g, samples.sigma_strip, samples.depths
+    return (
+        samples.parameters, samples.points, samples.h, samples.g, samples.sigma_strip, samples.depths,
+        samples.allowance,
+    )  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -119,10 +142,10 @@ class SegmentBounds:
 
 
 def segment_bounds(
-    points: np.ndarray, h: np.ndarray, g: np.ndarray, sigma_strip: np.ndarray
+    points: np.ndarray, h: np.ndarray, g: np.ndarray, sigma_strip: np.ndarray, allowance: np.ndarray
 ) -> SegmentBounds:
-    """`SegmentBounds` of the closed polygon through points (N, 2) with samples h, g (N,) complex and
-    strip bounds sigma_strip (N,)."""
+    """`SegmentBounds` of the closed polygon through points (N, 2) with samples h, g (N,) complex,
+    strip bounds sigma_strip (N,) and the allowances (N,) for the samples' evaluation error."""
     following = np.roll(np.arange(points.shape[0]), -1)
     length = np.linalg.norm(points[following] - points, axis=1)
     safe = np.where(length > 0, length, 1.0)
@@ -130,7 +153,7 @@ def segment_bounds(
     quotient_g = np.where(length > 0, np.abs(g[following] - g) / safe, 0.0)
     lipschitz_h = SAFETY * np.maximum.reduce([quotient_h, np.roll(quotient_h, 1), np.roll(quotient_h, -1)])
     lipschitz_g = SAFETY * np.maximum.reduce([quotient_g, np.roll(quotient_g, 1), np.roll(quotient_g, -1)])
-    size_h, size_g = np.abs(h), np.abs(g)
+    size_h, size_g = np.abs(h) - allowance, np.abs(g) + allowance
     lower = 0.5 * (size_h + size_h[following] - lipschitz_h * length)
     upper = 0.5 * (size_g + size_g[following] + lipschitz_g * length)
     strip = 0.5 * (sigma_strip + sigma_strip[following] - (lipschitz_h + lipschitz_g) * length)

@@ -61,8 +61,10 @@ EVALUATION = 1e-6
 #: Refinement rounds and total samples before giving up.
 ROUNDS = 14
 MAX_SAMPLES = 40_000
-#: Samples move towards the boundary (their strip thinner) down to this fraction of the diameter.
+#: Samples move towards the boundary (their strip thinner) down to this fraction of the diameter,
+#: and away from it (where their evaluation is not accurate enough) up to this one.
 MIN_DEPTH = 2e-6
+MAX_DEPTH = 0.02
 #: Kernels the certificate supports.
 SUPPORTED_KERNELS = ("poisson",)
 
@@ -241,21 +243,29 @@ def _proof(source: ClosedBSpline, target: np.ndarray, found, depth: float) -> In
     tolerance = EVALUATION * scale
     for _ in range(ROUNDS):
         flat = _concatenated(samples)
-        bounds = segment_bounds(flat["points"], flat["h"], flat["g"], flat["sigma_strip"])
+        bounds = segment_bounds(flat["points"], flat["h"], flat["g"], flat["sigma_strip"], flat["allowance"])
         failing = (
-            np.minimum(bounds.h_low - bounds.g_high, bounds.sigma_strip) <= tolerance
-        ) | ~bounds.turn_exact
-        hopeless = np.flatnonzero(np.abs(flat["h"]) - np.abs(flat["g"]) <= tolerance)
+            ~(np.minimum(bounds.h_low - bounds.g_high, bounds.sigma_strip) > tolerance) | ~bounds.turn_exact
+        )
+        raw = np.abs(flat["h"]) - np.abs(flat["g"])
+        # Where the evaluation error is a good part of σ₂ the sample is too close to the curve for
+        # its accuracy: it moves away; where it is small and the strip's bound thin, closer.
+        inaccurate = ~(flat["allowance"] <= 0.25 * np.abs(raw))
+        hopeless = np.flatnonzero(~inaccurate & ~(raw - 2.0 * flat["allowance"] > tolerance))
         if hopeless.size:
             where = flat["points"][hopeless]
             return _failure("the Jacobian is not positive near the marked points", where, flat["count"])
         if not failing.any():
             return _combined(source, target, found, samples, flat, bounds, tolerance)
-        shallow = (flat["sigma_strip"] <= tolerance) & (flat["depth"] > MIN_DEPTH)
+        offset = flat["depth"] > 0
+        factor = np.ones(raw.size)
+        factor[inaccurate & offset & (flat["depth"] < MAX_DEPTH)] = 4.0
+        closer = (flat["sigma_strip"] <= tolerance) & (flat["allowance"] <= 0.05 * np.abs(raw))
+        factor[closer & offset & (flat["depth"] > MIN_DEPTH)] = 0.25
         refinable = failing & flat["refinable"]
-        if not (refinable.any() or shallow.any()) or flat["count"] > MAX_SAMPLES:
+        if not (refinable.any() or (factor != 1).any()) or flat["count"] > MAX_SAMPLES:
             break
-        samples = _refined(source, target, pieces, samples, flat, refinable, shallow)
+        samples = _refined(source, target, pieces, samples, flat, refinable, factor)
     where = flat["points"][np.flatnonzero(failing)]
     return _failure("the bounds between samples stay too thin near the marked points", where, flat["count"])
 
@@ -270,6 +280,7 @@ def _concatenated(samples) -> dict:
         "h": np.concatenate([s.h for s in samples]),
         "g": np.concatenate([s.g for s in samples]),
         "sigma_strip": np.concatenate([s.sigma_strip for s in samples]),
+        "allowance": np.concatenate([s.allowance for s in samples]),
         "depth": np.concatenate(
             [np.zeros(s.parameters.size) if s.depths is None else s.depths for s in samples]
         ),
@@ -280,20 +291,20 @@ def _concatenated(samples) -> dict:
     }
 
 
-def _refined(source, target, pieces, samples, flat, refinable, shallow):
+def _refined(source, target, pieces, samples, flat, refinable, factor):
     """The samples with a new one in the middle of every refinable failing segment (at the smaller
-    depth of its ends), and the `shallow` ones again at a quarter of their depth."""
+    depth of its ends), and those whose depth `factor` (N,) is not 1 again at their depth times it."""
     result = list(samples)
-    for k in np.unique(flat["piece"][np.flatnonzero(refinable | shallow)]):
+    for k in np.unique(flat["piece"][np.flatnonzero(refinable | (factor != 1))]):
         first = flat["offset"][k]
         local = np.flatnonzero(refinable[first : first + samples[k].parameters.size])
         parameters, depths = samples[k].parameters, samples[k].depths
         middles = 0.5 * (parameters[local] + parameters[local + 1])
         new_depths = None if depths is None else np.minimum(depths[local], depths[local + 1])
-        deepen = np.flatnonzero(shallow[first : first + parameters.size])
-        if deepen.size:
-            middles = np.concatenate([middles, parameters[deepen]])
-            new_depths = np.concatenate([new_depths, 0.25 * depths[deepen]])
+        moved = np.flatnonzero(factor[first : first + parameters.size] != 1)
+        if moved.size:
+            middles = np.concatenate([middles, parameters[moved]])
+            new_depths = np.concatenate([new_depths, factor[first + moved] * depths[moved]])
         result[k] = merged(samples[k], evaluate(source, target, pieces[k], middles, new_depths))
     return result
 

@@ -22,9 +22,16 @@ from core.curves.bspline import ClosedBSpline
 
 def complex_derivatives(
     curve: ClosedBSpline, target: np.ndarray, x: np.ndarray
-) -> tuple[np.ndarray, np.ndarray]:
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """f_z and f_z̄ of the harmonic map of `curve` onto target control points (n, 2) at interior
-    points x (M, 2): two complex ndarrays of shape (M,) (NaN at points on the curve).
+    points x (M, 2), two complex ndarrays of shape (M,) (NaN at points on the curve), and an
+    estimate of their evaluation error (M,).
+
+    The error estimate is the identity's: the same gradients reproduce the identity map
+    (Σ_i ∇G_i P_i^T = I, differentiated linear precision) up to their error, so
+    |f_z - 1| + |f_z̄| of the map onto the source itself is their error there; it is scaled by
+    how much larger the target is than the source.  It grows where a point is close to the
+    curve (the layer's error divided by the distance) and at tight bends.
 
     Raises
     ------
@@ -32,10 +39,14 @@ def complex_derivatives(
         Points of x outside the domain (from `core.boundary_integrals.poisson`).
     """
     gradients = poisson_gradients(curve, np.ascontiguousarray(x, dtype=np.float64))  # (M, n, 2)
-    image = target[:, 0] + 1j * target[:, 1]
-    f_x = gradients[:, :, 0] @ image
-    f_y = gradients[:, :, 1] @ image
-    return 0.5 * (f_x - 1j * f_y), 0.5 * (f_x + 1j * f_y)
+    source = curve.control_points
+    images = np.stack([target[:, 0] + 1j * target[:, 1], source[:, 0] + 1j * source[:, 1]], axis=1)
+    f_x = gradients[:, :, 0] @ images
+    f_y = gradients[:, :, 1] @ images
+    f_z, f_zbar = 0.5 * (f_x - 1j * f_y), 0.5 * (f_x + 1j * f_y)
+    scale = np.ptp(target, axis=0).max() / np.ptp(source, axis=0).max()
+    error = scale * (np.abs(f_z[:, 1] - 1.0) + np.abs(f_zbar[:, 1]))
+    return f_z[:, 0], f_zbar[:, 0], error
 
 
 def linear_parts(matrix: np.ndarray) -> tuple[complex, complex]:

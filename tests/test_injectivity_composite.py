@@ -1,0 +1,95 @@
+"""core.fold_free_deform: composite harmonic maps along the straight path of cages, each step certified."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import core
+from app.quality_suite import built_in_shapes
+
+#: A cage whose control point 1 pulled down to (80, 80) folds the plain harmonic map under it.
+CAGE = np.array([[30, 20], [80, 30], [130, 18], [140, 60], [128, 100], [80, 92], [28, 102], [20, 60]], float)
+
+
+@pytest.fixture(scope="module")
+def mesh():
+    return core.triangulate(core.ClosedBSpline(CAGE), max_edge=4.0)
+
+
+def folds(mesh, images) -> int:
+    return int(np.count_nonzero(core.folded_triangles(mesh, images)))
+
+
+def test_an_affine_target_is_one_step_and_exact(mesh):
+    curve = core.ClosedBSpline(CAGE)
+    matrix, shift = np.array([[0.9, -0.2], [0.15, 1.05]]), np.array([18.0, -6.0])
+    images, certificate = core.fold_free_deform(curve, CAGE @ matrix.T + shift, mesh.vertices)
+    np.testing.assert_allclose(images, mesh.vertices @ matrix.T + shift, atol=1e-6 * curve.diameter)
+    assert certificate.injective and certificate.extra["steps"] == 1
+    sigma = np.linalg.svd(matrix, compute_uv=False)
+    assert sigma[1] * (1 - 1e-4) <= certificate.sigma2_min <= sigma[1] * (1 + 1e-6)
+
+
+def test_a_folding_drag_becomes_a_certified_bijection(mesh):
+    curve = core.ClosedBSpline(CAGE)
+    target = CAGE.copy()
+    target[1] = [80.0, 80.0]
+    plain = core.deform(core.basis_functions(curve, mesh.vertices), target)
+    assert folds(mesh, plain) > 0
+    boundary = (mesh.boundary, mesh.boundary_parameters)
+    images, certificate = core.fold_free_deform(
+        curve, target, mesh.vertices, boundary=boundary, triangles=mesh.triangles
+    )
+    assert certificate.injective and certificate.extra["steps"] > 1 and certificate.sigma2_min > 0
+    assert folds(mesh, images) == 0
+    final = core.ClosedBSpline(target)
+    np.testing.assert_array_equal(images[mesh.boundary], final(mesh.boundary_parameters))
+    assert final.contains(images[mesh.interior]).all()
+
+
+def test_boundary_points_without_parameters_stay_on_the_target_curve(mesh):
+    curve = core.ClosedBSpline(CAGE)
+    target = CAGE.copy()
+    target[1] = [80.0, 80.0]
+    images, _ = core.fold_free_deform(curve, target, mesh.vertices)
+    gap = np.linalg.norm(images[mesh.boundary] - core.ClosedBSpline(target)(mesh.boundary_parameters), axis=1)
+    assert gap.max() < 1e-6 * curve.diameter
+
+
+def test_a_cornered_cage_is_unfolded_away_from_its_reflex_corners():
+    """The F polygon (sharp corners, three of them reflex) with its arm bent down: proven outside
+    small discs at the reflex corners, where harmonic maps generically fold (`core.injectivity`)."""
+    points = built_in_shapes()["F polygon"]
+    curve = core.ClosedBSpline(points)
+    mesh = core.triangulate(curve, max_edge=0.03)
+    target = points.copy()
+    arm = points[:, 0] > 0.6  # the two arms' ends
+    target[arm] += [0.0, -0.25]
+    images, certificate = core.fold_free_deform(
+        curve,
+        target,
+        mesh.vertices,
+        boundary=(mesh.boundary, mesh.boundary_parameters),
+        triangles=mesh.triangles,
+    )
+    assert not certificate.injective and certificate.away_from_corners
+    assert certificate.where.shape[1] == 2 and certificate.corner_radius < 0.1
+    assert folds(mesh, images) == 0
+    assert core.ClosedBSpline(target).contains(images[mesh.interior]).all()
+
+
+def test_a_path_through_a_crossing_cage_is_refused():
+    square = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
+    # The top pulled down below the bottom: a simple target, but halfway the cage is flat.
+    target = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, -1.0], [0.0, -1.0]])
+    with pytest.raises(ValueError, match="straight path from the cage to the target passes through a cage"):
+        core.fold_free_deform(core.ClosedBSpline(square), target, [[0.5, 0.5]])
+
+
+def test_bad_input_raises_one_clear_error():
+    curve = core.ClosedBSpline(CAGE)
+    with pytest.raises(ValueError, match="target must have shape"):
+        core.fold_free_deform(curve, CAGE[:-1], [[80.0, 60.0]])
+    with pytest.raises(ValueError, match="points must have shape"):
+        core.fold_free_deform(curve, CAGE, [1.0, 2.0, 3.0])
