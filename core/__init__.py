@@ -18,9 +18,10 @@ from core.gradients import basis_gradients, kernel_gradients
 from core.meshes.harmonic import harmonic_basis
 from core.kernel_table import BOUNDARY_INTEGRAL_KERNELS, COMPLEX_KERNELS, DEFAULT_KERNEL, MESH_ONLY_KERNELS
 from core.kernels import KERNELS, ConvergenceWarning, SolveReport, kernel
-from core.meshes.mesh import Mesh, folded_triangles, triangulate
+from core.meshes.mesh import Mesh, folded_triangles
 from core.mesh_basis import CacheWarning, mesh_basis_functions
 from core.meshes.pgw import pgw_basis
+from core.meshes.triangulation import triangulate
 
 __all__ = [
     "BOUNDARY_INTEGRAL_KERNELS",
