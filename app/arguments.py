@@ -125,6 +125,12 @@ def _warp_command(commands, run, kernels: tuple[str, ...]) -> None:
         action="store_true",
         help="allow --output to be the input image (otherwise refused)",
     )
+    _checking_arguments(warp)
+    warp.set_defaults(run=run)
+
+
+def _checking_arguments(warp: argparse.ArgumentParser) -> None:
+    """``warp``'s checks of the deformation: ``--fold-free`` and ``--report``."""
     warp.add_argument(
         "--fold-free",
         action="store_true",
@@ -143,7 +149,6 @@ def _warp_command(commands, run, kernels: tuple[str, ...]) -> None:
         "piecewise linear map at triangle centroids (exact for the finite-element harmonic basis); "
         "then the injectivity certificate of the map (core.certify_injective; poisson only)",
     )
-    warp.set_defaults(run=run)
 
 
 def _deformation_arguments(warp: argparse.ArgumentParser, kernels: tuple[str, ...]) -> None:
