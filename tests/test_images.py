@@ -261,3 +261,20 @@ def test_transparent_to_jpeg_is_one_line_exit_2_and_background_fills(tmp_path, c
     assert warp(tmp_path, "in.png", "out.jpg", "--background", "#0000ff") == 0
     corner = np.asarray(Image.open(tmp_path / "out.jpg"))[1, 1]
     assert corner[2] > 240 and corner[:2].max() < 15
+
+
+@pytest.mark.parametrize("compression", [5, 8])  # LZW, deflate
+def test_16_bit_tiffs_compressed_either_way_are_read_at_16_bits(tmp_path, compression):
+    image = gradient16()
+    ok, data = cv2.imencode(
+        ".tif", cv2.cvtColor(image, cv2.COLOR_RGBA2BGRA), [cv2.IMWRITE_TIFF_COMPRESSION, compression]
+    )
+    (tmp_path / "in.tif").write_bytes(data.tobytes())
+    np.testing.assert_array_equal(read_photo(tmp_path / "in.tif").pixels, image)
+
+
+def test_an_8_bit_tiff_with_alpha_is_read_straight_and_others_see_its_alpha(tmp_path):
+    image = (gradient16(alpha=True) >> 8).astype(np.uint8)
+    write_image(tmp_path / "out.tif", image)
+    np.testing.assert_array_equal(read_photo(tmp_path / "out.tif").pixels, image)
+    np.testing.assert_array_equal(np.asarray(Image.open(tmp_path / "out.tif")), image)  # ExtraSamples

@@ -21,6 +21,8 @@ import numpy as np
 MAX_ICC_BYTES = 16 << 20
 #: The EXIF tag of the orientation (a SHORT in the first IFD).
 ORIENTATION_TAG = 0x0112
+#: The TIFF tag of the bits of each sample.
+_BITS_PER_SAMPLE = 258
 #: The marker that precedes the EXIF block in JPEG APP1 segments (and in Pillow's ``info["exif"]``).
 EXIF_PREFIX = b"Exif\x00\x00"
 
@@ -53,8 +55,8 @@ class FileInfo:
     orientation : int
         EXIF orientation, 1 to 8 (1 when absent or unusable).
     mode : str or None
-        Pillow's pixel mode (``"RGB"``, ``"CMYK"``, ``"P"``, ``"I;16"``...); None if Pillow cannot
-        open the file.
+        Pillow's pixel mode (``"RGB"``, ``"CMYK"``, ``"P"``, ``"I;16"``...; ``"RGBA;16"`` for a
+        16-bit RGBA TIFF); None if Pillow cannot open the file.
     notes : tuple of str
         One line each about what was dropped or ignored (a damaged profile, a second TIFF page...).
     """
@@ -86,6 +88,8 @@ def read_metadata(data: bytes) -> FileInfo:
             info, mode, kind = dict(image.info), image.mode, image.format
             frames = getattr(image, "n_frames", 1) if kind == "TIFF" else 1
             tiff_orientation = image.tag_v2.get(ORIENTATION_TAG) if kind == "TIFF" else None
+            if kind == "TIFF" and mode == "RGBA" and image.tag_v2.get(_BITS_PER_SAMPLE) != (8, 8, 8, 8):
+                mode = "RGBA;16"  # Pillow calls 16-bit RGBA "RGBA" too (it would read 8 bits of it)
     except Exception:  # Pillow raises many kinds; OpenCV's decoder then says what is wrong
         return FileInfo(ImageMetadata())
     if frames > 1:
