@@ -278,3 +278,13 @@ def test_an_8_bit_tiff_with_alpha_is_read_straight_and_others_see_its_alpha(tmp_
     write_image(tmp_path / "out.tif", image)
     np.testing.assert_array_equal(read_photo(tmp_path / "out.tif").pixels, image)
     np.testing.assert_array_equal(np.asarray(Image.open(tmp_path / "out.tif")), image)  # ExtraSamples
+
+
+def test_a_png_profile_over_pillows_1_mb_limit_is_carried_with_the_orientation(tmp_path):
+    profile = bytearray(np.random.default_rng(4).integers(0, 256, 3 << 20, dtype=np.uint8).tobytes())
+    profile[36:40] = b"acsp"
+    exif = exif_with_orientation(8).removeprefix(b"Exif\x00\x00")
+    (tmp_path / "in.png").write_bytes(encode_image(gradient16(), "PNG", ImageMetadata(bytes(profile), exif)))
+    photo = read_photo(tmp_path / "in.png")
+    assert photo.metadata.icc_profile == bytes(profile)
+    assert photo.pixels.shape == (WIDTH, HEIGHT, 4)  # orientation 8: turned a quarter
