@@ -205,12 +205,13 @@ def test_identity_warp_of_16_bits_gives_the_input_back(tmp_path, extension):
     assert warp(tmp_path, f"in{extension}", f"out{extension}", "--outside", "original") == 0
     back = read_photo(tmp_path / f"out{extension}").pixels
     assert back.dtype == np.uint16
-    # Within 16/65535 (the bound); the texture sampled at texel centres leaves ~2 units
-    # along the cage's curve, where the mesh's interpolated coordinates meet the backdrop.
-    assert np.abs(back.astype(int) - image).max() <= 16
+    # The bound is 16/65535; the texture sampled at texel centres through the mesh's
+    # interpolated coordinates leaves a unit on a few pixels (3 of 6144 here).
+    difference = np.abs(back.astype(int) - image).max(axis=2)
+    assert difference.max() <= 1 and np.count_nonzero(difference) < 0.01 * difference.size
 
 
-def test_16_bit_alpha_is_unpremultiplied_within_one_unit(tmp_path):
+def test_16_bit_alpha_is_kept_and_colour_unpremultiplied_within_two_units(tmp_path):
     image = gradient16(alpha=True)
     write_image(tmp_path / "in.png", image)
     # A cage around the whole picture: every output pixel is the warp alone (no backdrop under it).
@@ -220,10 +221,10 @@ def test_16_bit_alpha_is_unpremultiplied_within_one_unit(tmp_path):
     assert warp(tmp_path, "in.png", "out.png", cage=around) == 0
     back = read_photo(tmp_path / "out.png").pixels
     np.testing.assert_array_equal(back[..., 3], image[..., 3])
-    # Premultiplied 16-bit colour loses what alpha < 1 cannot hold: c * a / 65535 rounded, then
-    # divided back; the error is at most 65535 / (2 a) + 1 units.
+    # Premultiplied 16-bit colour keeps c * a / 65535 rounded, then divided back: for the alphas
+    # here (>= 20000) that loses under a unit; the texture's filtering at texel centres adds one.
     error = np.abs(back[..., :3].astype(int) - image[..., :3]).max(axis=2)
-    assert (error <= 65535 / (2 * image[..., 3]) + 1 + 2).all()
+    assert error.max() <= 2 and np.mean(error <= 1) > 0.99
 
 
 def test_orientation_6_jpeg_warps_in_the_displayed_frame_with_profile_and_exif(tmp_path):
