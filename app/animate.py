@@ -37,6 +37,7 @@ import numpy as np
 
 from app.files import InputError, check_name_length, check_writable, encode_png
 from app.framing import output_frame, output_region
+from app.images import ImageMetadata
 from app.images.writing import eight_bit
 from app.keyframes import Keyframe, interpolate
 from core.atomic_write import temporary_path
@@ -124,14 +125,18 @@ def flatten(rgba: np.ndarray) -> np.ndarray:
 
 
 class FrameWriter:
-    """Writes frames (RGBA uint8, (H, W, 4), straight alpha) to a temporary place; `finish` renames it.
+    """Writes frames (RGBA, (H, W, 4), uint8 or uint16, straight alpha) to a temporary place; `finish`
+    renames it.
 
     Use as a context manager: leaving it by an exception calls `abort`, which
     removes what was written; `finish` must be called for the output to appear.
+    `metadata` (the image's ICC profile and EXIF) goes into the frames of formats
+    that hold it (PNG frames).
     """
 
-    def __init__(self, path: Path, size: tuple[int, int], fps: float):
+    def __init__(self, path: Path, size: tuple[int, int], fps: float, metadata: ImageMetadata | None = None):
         self.path, self.size, self.fps = Path(path), (int(size[0]), int(size[1])), float(fps)
+        self.metadata = metadata
         self.count = 0
 
     def add(self, rgba: np.ndarray) -> None:
@@ -157,13 +162,14 @@ class PngFrames(FrameWriter):
     An existing folder of frames is replaced as a whole (it holds only frames, `check_output`).
     """
 
-    def __init__(self, path: Path, size: tuple[int, int], fps: float):
-        super().__init__(path, size, fps)
+    def __init__(self, path: Path, size: tuple[int, int], fps: float, metadata: ImageMetadata | None = None):
+        super().__init__(path, size, fps, metadata)
         self.temporary = temporary_path(self.path)
         self.temporary.mkdir()
 
     def add(self, rgba: np.ndarray) -> None:
-        (self.temporary / f"frame_{self.count:05d}.png").write_bytes(encode_png(rgba))
+        # The image's depth (16-bit frames of a 16-bit image) and metadata, as warp writes them.
+        (self.temporary / f"frame_{self.count:05d}.png").write_bytes(encode_png(rgba, self.metadata))
         self.count += 1
 
     def finish(self) -> None:
@@ -182,10 +188,10 @@ class PngFrames(FrameWriter):
 class Mp4Writer(FrameWriter):
     """MPEG-4 Part 2 video (``mp4v``) through OpenCV, flattened over `BACKGROUND`, padded to even sizes."""
 
-    def __init__(self, path: Path, size: tuple[int, int], fps: float):
+    def __init__(self, path: Path, size: tuple[int, int], fps: float, metadata: ImageMetadata | None = None):
         import cv2
 
-        super().__init__(path, size, fps)
+        super().__init__(path, size, fps, metadata)
         self.padded = (size[0] + size[0] % 2, size[1] + size[1] % 2)
         # The container comes from the name's extension, so the temporary ends in .mp4 too.
         self.temporary = temporary_path(self.path, ".mp4")
@@ -222,8 +228,8 @@ class GifWriter(FrameWriter):
     palette from a few of them and writes the file.
     """
 
-    def __init__(self, path: Path, size: tuple[int, int], fps: float):
-        super().__init__(path, size, fps)
+    def __init__(self, path: Path, size: tuple[int, int], fps: float, metadata: ImageMetadata | None = None):
+        super().__init__(path, size, fps, metadata)
         self.frames: list[np.ndarray] = []
 
     def add(self, rgba: np.ndarray) -> None:
@@ -297,7 +303,7 @@ def run_animate(args) -> int:
     from app.console import EXIT_OK, ProgressBar, note
     from app.files import (
         cage_curve,
-        read_image,
+        read_photo,
         read_session,
         refuse_overwriting_inputs,
         reported_as_input,
@@ -331,7 +337,8 @@ def run_animate(args) -> int:
     outside, canvas = args.outside or outside, args.canvas or canvas
     params = session_kernel_params(session, args.session)
     max_edge = args.max_edge if args.max_edge is not None else session_max_edge(session, args.session)
-    image = read_image(session.image)
+    photo = read_photo(session.image)
+    image = photo.pixels
     height, width = image.shape[:2]
     curve = cage_curve(session.cage, f"{args.session}: cage")
     with reported_as_input("output size"):
@@ -365,7 +372,10 @@ def run_animate(args) -> int:
             with reported_as_input(str(session.image)):
                 renderer.set_image(image)
             renderer.set_mesh(mesh.vertices, mesh.triangles)
-            with WRITERS[kind](path, size, args.fps) as writer, ProgressBar(f"frames ({len(times)})") as bar:
+            with (
+                WRITERS[kind](path, size, args.fps, photo.metadata) as writer,
+                ProgressBar(f"frames ({len(times)})") as bar,
+            ):
                 for index, moment in enumerate(times):
                     target = interpolate(keyframes, float(moment), interpolation)
                     writer.add(render(renderer, deformation, target, size, view, outside))

@@ -289,3 +289,25 @@ def test_a_png_profile_over_pillows_1_mb_limit_is_carried_with_the_orientation(t
     photo = read_photo(tmp_path / "in.png")
     assert photo.metadata.icc_profile == bytes(profile)
     assert photo.pixels.shape == (WIDTH, HEIGHT, 4)  # orientation 8: turned a quarter
+
+
+def test_animates_png_frames_keep_the_depth_and_the_profile(tmp_path):
+    profile = srgb_profile()
+    write_image(tmp_path / "in.png", gradient16(), ImageMetadata(icc_profile=profile))
+    cage = {"control_points": CAGE}
+    session = {
+        "image": "in.png",
+        "cage": cage,
+        "target": cage,
+        "kernel": "poisson",
+        "view": {"scale": 1.0, "offset": [0, 0]},
+        "outside": "original",
+        "keyframes": [{"time": t, "target": cage} for t in (0.0, 1.0)],
+    }
+    (tmp_path / "session.json").write_text(json.dumps(session))
+    frames = tmp_path / "frames"
+    assert main(["animate", str(tmp_path / "session.json"), "--output", f"{frames}/", "--fps", "2"]) == 0
+    for frame in sorted(frames.iterdir()):
+        photo = read_photo(frame)
+        assert photo.pixels.dtype == np.uint16 and photo.metadata.icc_profile == profile
+        assert np.abs(photo.pixels.astype(int) - gradient16()).max() <= 1

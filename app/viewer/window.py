@@ -654,7 +654,7 @@ class Viewer:
             height, width = state.image.shape[:2]
             region = frame_region((width, height), live.keyframes, live.interpolation, times, state.canvas)
             size, view = output_frame(region)
-            writer = WRITERS[kind](path, size, self.options.fps)
+            writer = WRITERS[kind](path, size, self.options.fps, image_metadata(live.image))
         except (InputError, ValueError, OSError) as error:
             state.say(str(error), error=True)
             return
