@@ -311,3 +311,20 @@ def test_animates_png_frames_keep_the_depth_and_the_profile(tmp_path):
         photo = read_photo(frame)
         assert photo.pixels.dtype == np.uint16 and photo.metadata.icc_profile == profile
         assert np.abs(photo.pixels.astype(int) - gradient16()).max() <= 1
+
+
+@pytest.mark.parametrize("sixteen", [False, True])
+def test_a_large_png_output_is_streamed_with_the_pixels_of_a_whole_one(tmp_path, monkeypatch, sixteen):
+    image = gradient16() if sixteen else (gradient16() >> 8).astype(np.uint8)
+    profile = srgb_profile()
+    write_image(tmp_path / "in.png", image, ImageMetadata(icc_profile=profile))
+    assert warp(tmp_path, "in.png", "whole.png", "--outside", "original") == 0
+    # Every output counts as large: drawn in strips, compressed while drawn (app.images.tiles).
+    monkeypatch.setattr("app.warping.STREAMED_PIXELS", 0)
+    monkeypatch.setattr("app.render.STRIP_ROWS", 16)
+    assert warp(tmp_path, "in.png", "streamed.png", "--outside", "original") == 0
+    whole, streamed = read_photo(tmp_path / "whole.png"), read_photo(tmp_path / "streamed.png")
+    assert streamed.pixels.dtype == image.dtype and streamed.metadata.icc_profile == profile
+    assert (tmp_path / "whole.png").read_bytes() != (tmp_path / "streamed.png").read_bytes()
+    # Tiles off the warp's edges are drawn without multisampling: a unit where triangles meet.
+    assert np.abs(streamed.pixels.astype(int) - whole.pixels).max() <= 1
