@@ -64,11 +64,13 @@ def _warp_command(commands, run, kernels: tuple[str, ...]) -> None:
         commands,
         "warp",
         "deform an image from a source cage to a target cage",
-        "Deform IMAGE by moving CAGE's control points to TARGET's and write the result (PNG,\n"
-        "TIFF, JPEG or WebP, by --output's extension), transparent outside the deformed cage\n"
-        "(or, with --outside original, over the untouched picture).  Cage files are JSON\n"
-        '{"control_points": [[x, y], ...]} in image pixels, x right, y down, origin at the\n'
-        "image's top-left corner.  Images and cages to try it on come with the program:\n"
+        "Deform IMAGE by moving CAGE's control points to TARGET's and write the result:\n"
+        "PNG, TIFF, JPEG or WebP by the output's extension, at the input's bit depth where\n"
+        "the format allows, with its ICC profile and EXIF; transparent outside the deformed\n"
+        "cage (or, with --outside original, over the untouched picture).  Cage files are\n"
+        '{"control_points": [[x, y], ...]} JSON in image pixels, x right, y down, origin\n'
+        "at the top-left corner of the image as displayed (after its EXIF orientation).\n"
+        "Images and cages to try it on come with the program:\n"
         "python -m app demo --list prints where they are.",
         ("%(prog)s photo.png --cage cage.json --target target.json --output out.png", None),
         ("%(prog)s photo.png --cage c.json --target t.json --output out.png --kernel mean-value", None),
