@@ -1,7 +1,6 @@
-"""Where warped frames go: one image file, a folder of PNG frames, an MP4 or a GIF, chosen by the
+"""Where the frames of an animation go: a folder of PNG frames, an MP4 or a GIF, chosen by the
 output's name (`output_kind`, `WRITERS`).
 
-- ``OUT.png``: one RGBA image with straight alpha, ``warp``'s output (`ImageFile`).
 - ``OUT.mp4``: OpenCV's video writer with the MPEG-4 Part 2 codec (``mp4v``, the
   one every opencv-python wheel has; H.264 is not in them).  Video has no alpha:
   transparent pixels are flattened over `BACKGROUND`, and an odd width or height
@@ -28,7 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
-from app.files import InputError, check_name_length, check_writable, encode_png, write_image
+from app.files import InputError, check_name_length, check_writable, encode_png
 from app.images import ImageMetadata
 from app.images.writing import eight_bit
 from core.storage.atomic_write import temporary_path
@@ -240,29 +239,6 @@ class GifWriter(FrameWriter):
         self.frames.clear()
 
 
-class ImageFile(FrameWriter):
-    """One image: the single frame added, written atomically by `finish` in the format of its
-    name's extension, with `metadata` (`app.files.write_image`)."""
-
-    def __init__(
-        self, path: Path, size: tuple[int, int], fps: float = 0.0, metadata: ImageMetadata | None = None
-    ):
-        super().__init__(path, size, fps, metadata)
-        self.pixels: np.ndarray | None = None
-
-    def add(self, rgba: np.ndarray) -> None:
-        if self.pixels is not None:
-            raise ValueError(f"{self.path}: an image file holds one frame")
-        self.pixels = rgba
-        self.count += 1
-
-    def finish(self) -> None:
-        write_image(self.path, self.pixels, self.metadata)
-
-    def abort(self) -> None:
-        self.pixels = None
-
-
 def gif_delays(count: int, fps: float) -> list[int]:
     """Milliseconds each of `count` GIF frames is shown at `fps`: whole hundredths of a second
     (all GIF can hold) whose running sum is frame k's true time k / fps rounded, so that the
@@ -272,8 +248,8 @@ def gif_delays(count: int, fps: float) -> list[int]:
     return [10 * max(2, int(step)) for step in np.diff(ends)]
 
 
-#: The writer of each output kind: "image" a single PNG file (`warp`), the others `output_kind`'s.
-WRITERS = {"image": ImageFile, "mp4": Mp4Writer, "gif": GifWriter, "png": PngFrames}
+#: The writer of each kind of `output_kind`.
+WRITERS = {"mp4": Mp4Writer, "gif": GifWriter, "png": PngFrames}
 
 
 @contextlib.contextmanager

@@ -127,7 +127,8 @@ class WarpJob:
         How the output is written: a single image's format options, and the input's ICC profile
         and EXIF (also in an animation's PNG frames); None for no metadata.
     kind : str
-        The writer: a key of `app.frame_writers.WRITERS` (``"image"`` for one file).
+        The writer: a key of `app.frame_writers.WRITERS`, or ``"image"`` for one file
+        (``warp``'s, written by `app.warping.render_to_file`).
     fps : float
         Frames per second of an animation (0 for one image).
     """
