@@ -33,19 +33,19 @@ and gradients lose accuracy as the distance shrinks).  What is left:
   the certificate proves the rest of the domain and reports the reflex corners as unproven
   (`away_from_corners`).
 
-What is proven, and under which assumptions: the conclusion holds if (A1) the evaluated
-f_z, f_z̄ at each sample are within its allowance of the exact ones: `boundary_samples.ERROR_SAFETY` (10) times
-the error with which the same gradients reproduce the identity map there (their linear
-precision), plus `EVALUATION` relative to the target's scale (where that error is a good part of
-σ₂ the sample moves away from the curve); (A2) the Lipschitz constants of h' and g' along each
-segment of Γ are at most `boundary_samples.SAFETY` (2) times the largest difference quotient of the segment and
-its neighbours (refinement halves segments until the margin holds); (A3) across the strip
-between Γ and the boundary σ₂ drops by at most `boundary_samples.STRIP_SAFETY` (2) its mean rate between Γ
-and the companion 4δ deep (samples move closer to the boundary where that bound is thin).
-The argument principle, the maximum principle, the corner sectors' bound and the simple-target
-proof are exact; A1-A3 are estimates, checked against a dense evaluation of the exact Jacobian
-on 200 random deformations (tests/test_injectivity_certificate.py).  When in doubt the answer is
-`injective=False`.
+What is proven, and under which assumptions (the constants are `boundary_samples`'): the
+conclusion holds if (A1) the evaluated f_z, f_z̄ at each sample are within its allowance of the
+exact ones: `ERROR_SAFETY` (10) times the error with which the same gradients reproduce the
+identity map there (their linear precision), plus `EVALUATION` relative to the target's scale
+(where that error is a good part of σ₂ the sample moves away from the curve); (A2) the
+Lipschitz constants of h' and g' along each segment of Γ are at most `SAFETY` (2) times the
+largest difference quotient of the segment and its neighbours (refinement halves segments until
+the margin holds); (A3) across the strip between Γ and the boundary σ₂ drops by at most
+`STRIP_SAFETY` (2) times its mean rate between Γ and the companion 4δ deep (samples move closer to
+the boundary where that bound is thin).  The argument principle, the maximum principle, the
+corner sectors' bound and the simple-target proof are exact; A1-A3 are estimates, checked against
+a dense evaluation of the exact Jacobian on 200 random deformations
+(tests/test_injectivity_certificate.py).  When in doubt the answer is `injective=False`.
 """
 
 from __future__ import annotations
