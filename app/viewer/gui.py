@@ -246,11 +246,14 @@ def _panel(state: AppState, commands: list, extras: dict, height: float) -> None
     if imgui.button("Open image..."):
         commands.append(("open", None))
     imgui.same_line()
+    if imgui.button("Open session..."):
+        commands.append(("open_session", None))
     if imgui.button("Save"):
         commands.append(("save", None))
     imgui.same_line()
     if imgui.button("Export..."):
         commands.append(("export", None))
+    imgui.same_line()
     if imgui.button("Start over"):
         commands.append(("start_over", None))
     if imgui.is_item_hovered():

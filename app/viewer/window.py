@@ -16,7 +16,6 @@ window, and does not wait for vertical sync.
 from __future__ import annotations
 
 import os
-import shutil
 import signal
 import sys
 import time
@@ -29,6 +28,7 @@ import numpy as np
 from app.files import InputError, read_json, write_png
 from app.framing import output_frame, output_region
 from app.viewer import controller, editing
+from app.viewer.file_dialogs import FileRequests
 from app.viewer.precompute import Precompute, make_request
 from app.viewer.session import Document, apply_preferences, open_document, save, start_snapshot
 from app.viewer.state import AppState, History, Snapshot
@@ -43,14 +43,6 @@ VIEW_SAVE_DELAY = 0.5
 #: (a dense mesh is drawn through its preview mesh meanwhile); below VIEW_SAVE_DELAY, so the
 #: frames drawn while the zoom or pan waits to be saved show the dense mesh again.
 VIEW_SETTLE = 0.25
-IMAGE_FILTERS = [
-    "Images",
-    "*.png *.jpg *.jpeg *.bmp *.tif *.tiff *.webp",
-    "Sessions",
-    "*.json",
-    "All files",
-    "*",
-]
 
 
 @dataclass
@@ -80,6 +72,7 @@ def _key_table():
         (glfw.KEY_Y, ctrl, "redo", None, None, None),
         (glfw.KEY_ESCAPE, 0, "cancel", None, "Esc", "cancel the drag in progress, close a list or the help"),
         (glfw.KEY_O, ctrl, "open", None, "Ctrl+O", "open an image (or drop a file on the window)"),
+        (glfw.KEY_O, ctrl | shift, "open_session", None, "Ctrl+Shift+O", "open a session file"),
         (glfw.KEY_S, ctrl, "save", None, "Ctrl+S", "save the session now (it also saves itself)"),
         (
             glfw.KEY_E,
@@ -201,8 +194,7 @@ class Viewer:
         self._wanted: str | None = None
         self._failed: set[str] = set()
         self._events: deque = deque()
-        self._dialog = None
-        self._save_dialog = None
+        self.dialogs = FileRequests()
         self._view_changed_at = 0.0
         self._player = None
         self._script_clock: float | None = None
@@ -482,6 +474,7 @@ class Viewer:
         "export": "export the warped image or the animation (value 'again': to the last file)",
         "export_path": "export to the path given",
         "open": "open an image",
+        "open_session": "open a session file",
         "open_path": "open the image at the path given",
         "play": "play or stop the demo script",
         "start_over": "start over: the image without a cage",
@@ -519,7 +512,10 @@ class Viewer:
         self.export(Path(value).expanduser(), value)
 
     def _command_open(self, value) -> None:
-        self._open_dialog()
+        self.dialogs.ask_open(self.state, "image", Path(self.state.live.image).parent)
+
+    def _command_open_session(self, value) -> None:
+        self.dialogs.ask_open(self.state, "session", self.state.session_path.parent)
 
     def _command_open_path(self, value) -> None:
         self.open_path(Path(value))
@@ -551,27 +547,9 @@ class Viewer:
 
     # -- files ----------------------------------------------------------------------------
 
-    def _open_dialog(self) -> None:
-        from imgui_bundle import portable_file_dialogs as pfd
-
-        if not any(shutil.which(p) for p in ("zenity", "kdialog", "matedialog", "qarma")):
-            # No dialog program to run: ask for the path in the window itself.
-            self.state.open_prompt = str(Path(self.state.live.image).parent) + os.sep
-            return
-        directory = str(Path(self.state.live.image).parent)
-        self._dialog = pfd.open_file("Open an image", directory, IMAGE_FILTERS)
-
     def _poll_dialog(self) -> None:
-        if self._dialog is not None and self._dialog.ready(0):
-            paths = self._dialog.result()
-            self._dialog = None
-            if paths:
-                self.open_path(Path(paths[0]))
-        if self._save_dialog is not None and self._save_dialog.ready(0):
-            path = self._save_dialog.result()
-            self._save_dialog = None
-            if path:
-                self.export(Path(path))
+        for name, value in self.dialogs.poll():  # a file dialog answered (`app.viewer.file_dialogs`)
+            self.command(name, value)
 
     def open_path(self, path: Path) -> None:
         """Open a dropped or chosen file: an image or a session (each in its own session file), or a cage.
@@ -632,12 +610,7 @@ class Viewer:
             self.export(self.options.export)
             return
         proposed = self._last_export or default_export_path(self.state.live.image)
-        if not any(shutil.which(p) for p in ("zenity", "kdialog", "matedialog", "qarma")):
-            self.state.export_prompt = str(proposed)
-            return
-        from imgui_bundle import portable_file_dialogs as pfd
-
-        self._save_dialog = pfd.save_file("Export the warped image", str(proposed), ["PNG images", "*.png"])
+        self.dialogs.ask_export(self.state, proposed)
 
     def export(self, path: Path, typed: str | None = None) -> Path | None:
         """Write the warped image at the image's full resolution, like ``warp --session``.
@@ -938,7 +911,7 @@ class Viewer:
             self._frames_to_draw -= 1
         elif self.precompute.pending is not None or self._player is not None:
             glfw.wait_events_timeout(0.1)  # the progress bar
-        elif state.view_dirty or self._dialog is not None or self._save_dialog is not None:
+        elif state.view_dirty or self.dialogs.waiting:
             glfw.wait_events_timeout(0.05)
         else:
             glfw.wait_events_timeout(IDLE_WAIT)
