@@ -161,6 +161,9 @@ MOUSE_HELP = [
 FRAMES_AFTER_INPUT = 3
 #: Seconds an idle viewer sleeps between frames (input, and the precompute's messages, wake it).
 IDLE_WAIT = 2.0
+#: Seconds of an animation export's frames rendered between two window frames (the window's own
+#: frame costs as much as several exported ones on a software rasteriser).
+EXPORT_BUDGET = 0.25
 #: Seconds between two updates of the status line's frame times (a median of every frame so far).
 FIGURES_INTERVAL = 0.5
 
@@ -674,7 +677,9 @@ class Viewer:
         state.say(f"exporting {len(times)} frames to {path} (Esc stops)")
 
     def _export_frame(self) -> None:
-        """Render and write the next frame of the animation being exported; finish after the last."""
+        """Render and write the next frames of the animation being exported, for `EXPORT_BUDGET`
+        seconds (a window frame between them keeps the progress shown and Esc heard); finish after
+        the last.  Each frame is what `animate` renders (`app.warping.render`)."""
         export, state = self._export, self.state
         if export is None:
             return
@@ -682,13 +687,18 @@ class Viewer:
         from app.warping import render
 
         snapshot = export.snapshot
-        target = interpolate(snapshot.keyframes, float(export.times[export.written]), snapshot.interpolation)
         self.scene.invalidate_positions()
+        started = time.perf_counter()
         try:
-            export.writer.add(
-                render(self.renderer, export.deformation, target, export.size, export.view, export.outside)
-            )
-            export.written += 1
+            while export.written < len(export.times) and time.perf_counter() - started < EXPORT_BUDGET:
+                moment = float(export.times[export.written])
+                target = interpolate(snapshot.keyframes, moment, snapshot.interpolation)
+                export.writer.add(
+                    render(
+                        self.renderer, export.deformation, target, export.size, export.view, export.outside
+                    )
+                )
+                export.written += 1
             if export.written == len(export.times):
                 export.writer.finish()
         except (OSError, ValueError) as error:
