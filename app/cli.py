@@ -616,7 +616,7 @@ def _examples(*examples: tuple[str, str | None]) -> str:
 
 def _warp(args: argparse.Namespace) -> int:
     import core
-    from app.fill import FILLS, checked_fill, session_fill, set_fill
+    from app.fill import FILLS, chosen_fill, session_fill, set_fill
     from app.render import WarpRenderer, create_headless_context, require_render_memory
     from app.warping import WarpSettings, prepare, render
     from core.kernel_table import PARAMETERIZED_KERNELS
@@ -669,12 +669,7 @@ def _warp(args: argparse.Namespace) -> int:
     curve = cage_curve(cage, cage_source, args.samples_per_segment)
     _require_overlap(curve, (width, height), cage_source)
     outside, canvas = args.outside or outside, args.canvas or canvas
-    if args.fill is not None:
-        fill = checked_fill(args.fill)
-        if outside != "original" and fill != "none":
-            raise InputError(
-                "--fill fills the original position behind the warp: give --outside original too"
-            )
+    fill = chosen_fill(args.fill, fill, outside)
     region = output_region((width, height), target, canvas)
     with reported_as_input("output size"):
         size, view = output_frame(region, args.scale, args.size)

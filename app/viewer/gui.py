@@ -135,15 +135,7 @@ def _panel(state: AppState, commands: list, extras: dict, height: float) -> None
     if imgui.button("Delete selected"):
         commands.append(("delete", None))
     imgui.end_disabled()
-    _choice_row(
-        commands,
-        "clicks:",
-        "cage_drawing",
-        state.cage_drawing,
-        (("curve", "on curve"), ("control", "control points")),
-        "New cage: the curve passes through the points clicked (as GIMP's and Krita's paths), or the\n"
-        "clicks are its control points; Ctrl+click or a double click makes a sharp corner either way",
-    )
+    _cage_drawing_choice(state, commands)
     if len(state.group) > 1:
         selection = f", {len(state.group)} selected"
     else:
@@ -534,3 +526,16 @@ def _fill_choice(state: AppState, commands: list) -> None:
         changed, picked = imgui.color_edit4("##fill colour", rgba[:4], imgui.ColorEditFlags_.no_inputs)
         if changed:
             commands.append(("fill", "#" + "".join(f"{round(255 * v):02x}" for v in picked)))
+
+
+def _cage_drawing_choice(state: AppState, commands: list) -> None:
+    """What a click places while a new cage is drawn (`app.viewer.drawing.STYLES`)."""
+    _choice_row(
+        commands,
+        "clicks:",
+        "cage_drawing",
+        state.cage_drawing,
+        (("curve", "on curve"), ("control", "control points")),
+        "New cage: the curve passes through the points clicked (as GIMP's and Krita's paths), or the\n"
+        "clicks are its control points; Ctrl+click or a double click makes a sharp corner either way",
+    )
