@@ -274,7 +274,13 @@ class Viewer:
         glfw.window_hint(glfw.STENCIL_BITS, 0)
         # Hidden until it is placed where it fits (`app.viewer.window_fit`).
         glfw.window_hint(glfw.VISIBLE, False)
-        x, y, width, height = self._opening_rectangle(glfw)
+        from app.viewer.drawing import STYLES
+        from app.viewer.settings import read_settings
+
+        settings = read_settings()  # the last viewer's (`app.viewer.settings`)
+        if settings.get("cage_drawing") in STYLES:
+            self.state.cage_drawing = settings["cage_drawing"]
+        x, y, width, height = self._opening_rectangle(glfw, settings)
         window = glfw.create_window(width, height, self._title(), None, None)
         if not window:
             glfw.terminate()
@@ -303,15 +309,11 @@ class Viewer:
         self._show_document_view()
         self.state.session_dirty = True  # the first save, so the session file exists at once
 
-    def _opening_rectangle(self, glfw) -> tuple[int, int, int, int]:
+    def _opening_rectangle(self, glfw, settings: dict) -> tuple[int, int, int, int]:
         """(x, y, width, height) of the window: asked for, as last closed, or fitted to the screen."""
-        from app.viewer.drawing import STYLES
-        from app.viewer.settings import read_settings, window_rectangle
+        from app.viewer.settings import window_rectangle
         from app.viewer.window_fit import monitor_work_area, opening_rectangle
 
-        settings = read_settings()
-        if settings.get("cage_drawing") in STYLES:
-            self.state.cage_drawing = settings["cage_drawing"]
         saved = window_rectangle(settings)
         monitors = [glfw.get_primary_monitor()] + [m for m in glfw.get_monitors() or [] if m]
         areas = [tuple(glfw.get_monitor_workarea(m)) for m in monitors if m]
