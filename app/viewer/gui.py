@@ -104,13 +104,40 @@ def _path_prompt(state: AppState, commands: list[tuple], size: tuple[float, floa
 
 
 def _panel(state: AppState, commands: list, extras: dict, height: float) -> None:
-    live = state.live
     imgui.set_next_window_pos((0, 0))
     # As tall as its content: every pixel of panel costs a software rasteriser time.
     imgui.set_next_window_size_constraints((PANEL_WIDTH, 0), (PANEL_WIDTH, height - STATUS_HEIGHT))
     imgui.begin("Transfinite warp", None, _FIXED | imgui.WindowFlags_.always_auto_resize)
+    # A window too short for the whole panel (a 1024x600 screen) opens with two sections folded.
+    tall = height >= FOLD_BELOW_HEIGHT
+    if _section("Edit"):
+        _edit_section(state, commands)
+    if _section("Kernel"):
+        _kernel_section(state, commands)
+    if _section("Show", tall):
+        _show_section(state, commands)
+    if _section("Animation", tall):
+        _timeline(state, commands, extras)
+    if _section("File"):
+        _file_section(state, commands, extras)
+    state.canvas_left = PANEL_WIDTH
+    # Its bottom edge and the pixels of content scrolled out of sight (for the window tests).
+    state.spots["panel"] = (imgui.get_window_pos().y + imgui.get_window_size().y, imgui.get_scroll_max_y())
+    imgui.end()
 
-    imgui.separator_text("Edit")
+
+#: Window height (pixels) below which the panel's "Show" and "Animation" sections open folded.
+FOLD_BELOW_HEIGHT = 900
+
+
+def _section(title: str, open_at_first: bool = True) -> bool:
+    """A heading that folds its section (a click); whether the section's widgets are shown."""
+    imgui.set_next_item_open(open_at_first, imgui.Cond_.once)
+    return imgui.collapsing_header(title)
+
+
+def _edit_section(state: AppState, commands: list) -> None:
+    live = state.live
     if imgui.radio_button("Deform (target, blue)", state.mode == "deform"):
         commands.append(("mode", "deform"))
     if imgui.radio_button("Edit cage (source, green)", state.mode == "cage"):
@@ -142,7 +169,9 @@ def _panel(state: AppState, commands: list, extras: dict, height: float) -> None
         selection = f", point {state.selected} selected" if state.selected is not None else ""
     imgui.text_disabled(f"{live.n} control points{selection}")
 
-    imgui.separator_text("Kernel")
+
+def _kernel_section(state: AppState, commands: list) -> None:
+    live = state.live
     names = kernel_names()
     state.spots["kernel"] = tuple(imgui.get_cursor_screen_pos() + imgui.ImVec2(24, 8))
     if imgui.begin_combo("##kernel", live.kernel):
@@ -180,7 +209,8 @@ def _panel(state: AppState, commands: list, extras: dict, height: float) -> None
         imgui.text_disabled(f"showing {state.basis.kernel} until {live.kernel} is ready")
         imgui.pop_text_wrap_pos()
 
-    imgui.separator_text("Show")
+
+def _show_section(state: AppState, commands: list) -> None:
     for mode in VIEW_MODES:
         if imgui.radio_button(mode.label, state.content == mode.name):
             commands.append(("content", mode.name))
@@ -232,9 +262,8 @@ def _panel(state: AppState, commands: list, extras: dict, height: float) -> None
     if state.folded_count:
         imgui.text_colored((1.0, 0.5, 0.8, 1.0), f"{state.folded_count} folded triangles")
 
-    _timeline(state, commands, extras)
 
-    imgui.separator_text("File")
+def _file_section(state: AppState, commands: list, extras: dict) -> None:
     if imgui.button("Open image..."):
         commands.append(("open", None))
     imgui.same_line()
@@ -245,7 +274,6 @@ def _panel(state: AppState, commands: list, extras: dict, height: float) -> None
     imgui.same_line()
     if imgui.button("Export..."):
         commands.append(("export", None))
-    imgui.same_line()
     if imgui.button("Start over"):
         commands.append(("start_over", None))
     if imgui.is_item_hovered():
@@ -262,8 +290,6 @@ def _panel(state: AppState, commands: list, extras: dict, height: float) -> None
     imgui.same_line()
     if imgui.button("Quit"):
         commands.append(("quit", None))
-    state.canvas_left = PANEL_WIDTH
-    imgui.end()
 
 
 #: Window pixels of the timeline strip.
@@ -282,7 +308,6 @@ def timeline_end(state: AppState) -> float:
 def _timeline(state: AppState, commands: list, extras: dict) -> None:
     """Keyframes on a strip of time: click or drag to scrub, click a mark to select its keyframe."""
     live = state.live
-    imgui.separator_text("Animation")
     if imgui.button("Pause" if state.playing else "Play"):
         commands.append(("playback", None))
     imgui.same_line()

@@ -207,6 +207,7 @@ class Viewer:
         self._close_popups = False
         self._popup_is_open = False
         self._typing = False
+        self._panel_spot = None  # the panel's bottom and hidden height last announced (test mode)
         # Where the last export went, as typed (a folder of frames ends in a slash).
         self._last_export: str | None = None if options.export is None else str(options.export)
         self._export: AnimationExport | None = None
@@ -959,6 +960,10 @@ class Viewer:
         if popup != self._popup_is_open:
             self._announce(f"popup {'open' if popup else 'closed'}")
         self._popup_is_open = popup
+        panel = state.spots.get("panel")
+        if panel != self._panel_spot:  # its layout settles over the first frames: each one for the tests
+            self._panel_spot = panel
+            self._announce(f"spot panel={panel[0]:.0f},{panel[1]:.0f}")
         typing = imgui.get_io().want_text_input
         if typing != self._typing:
             self._announce(f"text input {'on' if typing else 'off'}")  # keys go to a text field
