@@ -51,6 +51,20 @@ def session_fill(extra: dict, path="session") -> str:
     return checked_fill(extra.get("fill", "none"), f'{path}: "fill"')
 
 
+def chosen_fill(option: str | None, saved: str, outside: str) -> str:
+    """The fill of a command: ``--fill`` (`option`, None when not given) over the session's (`saved`).
+
+    Raises `InputError` for a bad `option`, or a fill other than ``none`` asked for without
+    ``--outside original`` (there is no backdrop to fill then).
+    """
+    if option is None:
+        return saved
+    fill = checked_fill(option)
+    if outside != "original" and fill != "none":
+        raise InputError("--fill fills the original position behind the warp: give --outside original too")
+    return fill
+
+
 def colour_of(fill: str) -> tuple[int, int, int, int]:
     """The RGBA (0-255) of a colour fill ``#rrggbb`` (opaque) or ``#rrggbbaa``."""
     digits = checked_fill(fill)[1:]

@@ -47,7 +47,7 @@ class WindowActions(Protocol):
 
     def ask_export_path(self, again: bool) -> None: ...
 
-    def ask_open_path(self) -> None: ...
+    def ask_open_path(self, what: str) -> None: ...
 
     def open_path(self, path) -> None: ...
 
@@ -501,7 +501,12 @@ def _export_path(viewer: WindowActions, value) -> None:
 
 @_window_command("open", "open an image")
 def _open(viewer: WindowActions, value) -> None:
-    viewer.ask_open_path()
+    viewer.ask_open_path("image")
+
+
+@_window_command("open_session", "open a session file")
+def _open_session(viewer: WindowActions, value) -> None:
+    viewer.ask_open_path("session")
 
 
 @_window_command("open_path", "open the image at the path given")

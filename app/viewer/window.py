@@ -27,8 +27,8 @@ from pathlib import Path
 from app.files import InputError, read_json
 from app.viewer import commands, controller, editing
 from app.viewer.basis_updates import BasisUpdates
-from app.viewer.dialogs import FileDialogs
 from app.viewer.exports import Exporter
+from app.viewer.file_dialogs import FileRequests
 from app.viewer.milestones import Milestones
 from app.viewer.playback_clock import PlaybackClock
 from app.viewer.precompute import Precompute
@@ -89,7 +89,7 @@ class Viewer:
         self.opened: OpenedDocument | None = None  # the session file's lock, view and start cage
         self._load(document)
         self.input = InputQueue()
-        self.dialogs = FileDialogs()
+        self.dialogs = FileRequests()
         self.script = ScriptReplay(options.script, options.frames, options.fps, announce)
         self.playback = PlaybackClock(announce)
         self.exporter = Exporter(
@@ -145,7 +145,13 @@ class Viewer:
         glfw.window_hint(glfw.STENCIL_BITS, 0)
         # Hidden until it is placed where it fits (`app.viewer.window_fit`).
         glfw.window_hint(glfw.VISIBLE, False)
-        x, y, width, height = self._opening_rectangle(glfw)
+        from app.viewer.drawing import STYLES
+        from app.viewer.settings import read_settings
+
+        settings = read_settings()  # the last viewer's (`app.viewer.settings`)
+        if settings.get("cage_drawing") in STYLES:
+            self.state.selection.cage_drawing = settings["cage_drawing"]
+        x, y, width, height = self._opening_rectangle(glfw, settings)
         window = glfw.create_window(width, height, self._title(), None, None)
         if not window:
             glfw.terminate()
@@ -173,15 +179,11 @@ class Viewer:
         self._show_document_view()
         self.state.document.session_dirty = True  # the first save, so the session file exists at once
 
-    def _opening_rectangle(self, glfw) -> tuple[int, int, int, int]:
+    def _opening_rectangle(self, glfw, settings: dict) -> tuple[int, int, int, int]:
         """(x, y, width, height) of the window: asked for, as last closed, or fitted to the screen."""
-        from app.viewer.drawing import STYLES
-        from app.viewer.settings import read_settings, window_rectangle
+        from app.viewer.settings import window_rectangle
         from app.viewer.window_fit import monitor_work_area, opening_rectangle
 
-        settings = read_settings()
-        if settings.get("cage_drawing") in STYLES:
-            self.state.selection.cage_drawing = settings["cage_drawing"]
         saved = window_rectangle(settings)
         monitors = [glfw.get_primary_monitor()] + [m for m in glfw.get_monitors() or [] if m]
         areas = [tuple(glfw.get_monitor_workarea(m)) for m in monitors if m]
@@ -355,11 +357,12 @@ class Viewer:
     def ask_export_path(self, again: bool) -> None:
         self.exporter.ask_path(again)
 
-    def ask_open_path(self) -> None:
-        """Ctrl+O: a file dialog, or the in-window prompt without a dialog program."""
-        directory = Path(self.state.document.live.image).parent
-        if not self.dialogs.ask_open(directory):
-            self.state.status.open_prompt = str(directory) + os.sep
+    def ask_open_path(self, what: str) -> None:
+        """Ctrl+O (`what` "image") or Ctrl+Shift+O ("session"): a file dialog where one can open,
+        the in-window prompt otherwise (`app.viewer.file_dialogs`)."""
+        document = self.state.document
+        folder = Path(document.live.image if what == "image" else document.session_path).parent
+        self.dialogs.ask_open(self.state, what, folder)
 
     def toggle_script(self) -> None:
         self.script.toggle(self.state)
@@ -383,11 +386,8 @@ class Viewer:
         self._save_if_needed()
         self.milestones.drags(state)
         self.playback.tick(state, self.basis.ready(state) and self.scene.mesh_matches(state))
-        opened, saved = self.dialogs.poll()
-        if opened is not None:
-            self.open_path(opened)
-        if saved is not None:
-            self.export(saved)
+        for name, value in self.dialogs.poll():  # a file dialog answered (`app.viewer.file_dialogs`)
+            self.command(name, value)
         self.basis.update(state)
         self._widgets(imgui)
         self.basis.update(state)  # a kernel chosen in the panel starts computing this frame
