@@ -51,8 +51,9 @@ def overlay_arrays(state: AppState) -> tuple[np.ndarray, np.ndarray]:
 
     The curve of the mode being edited is drawn wider and on top, with large
     handles; the other one thinner and fainter.  The selected handle is yellow, the
-    hovered one white.  While a new cage is drawn and still open, its points are
-    joined in order, a line runs on to the cursor, and the closed curve is a faint preview.
+    hovered one white.  While a new cage is drawn only it is shown, its handles at the
+    points clicked; while it is still open they are joined in order, a line runs on to the
+    cursor, and the closed curve is a faint preview.
     """
     live = state.document.live
     active = "source" if state.selection.edit_mode == "cage" else "target"
@@ -62,6 +63,8 @@ def overlay_arrays(state: AppState) -> tuple[np.ndarray, np.ndarray]:
         control = live.cage if kind == "source" else live.target
         colour = SOURCE_COLOUR if kind == "source" else TARGET_COLOUR
         is_active = kind == active
+        if state.selection.drawing is not None and not is_active:
+            continue  # the target of a cage being drawn is that cage: its control points would only confuse
         alpha = 1.0 if is_active else 0.55
         if len(control) >= 3:
             curve_alpha = 0.35 * alpha if drawing else alpha
