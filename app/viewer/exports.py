@@ -190,7 +190,7 @@ class Exporter:
             state.say(str(error), error=True)
             return
         state.playback.playing = False
-        deformation = state.compute.basis.deformation()
+        deformation = state.compute.basis.deformation(fold_free=live.fold_free)
         self.animation = AnimationExport(writer, times, size, view, live, deformation, state.document.outside)
         self.last = str(path) + os.sep if kind == "png" else str(path)
         state.say(f"exporting {len(times)} frames to {path} (Esc stops)")

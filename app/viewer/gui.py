@@ -16,6 +16,7 @@ from app.files import kernel_names
 from app.keyframes import MAX_TIME
 from app.viewer.controller import STATUS_HEIGHT
 from app.viewer.editing import to_window
+from app.viewer.fold_free import HARMONIC_KERNEL, current_check, status_text
 from app.viewer.scene import export_frame
 from app.viewer.state import PARAMETERIZATIONS, SHIFTS, AppState
 from app.viewer.view_modes import BY_NAME as VIEW_MODE
@@ -191,6 +192,7 @@ def _kernel_section(state: AppState, live, commands: list, spots: dict) -> None:
             if clicked and name != live.kernel:
                 commands.append(("kernel", name))
         imgui.end_combo()
+    _fold_free_toggle(live, commands)
     if live.kernel == "power":
         # The slider edits a draft; the kernel changes (one undo step, one precompute) on release.
         if state.display.power_draft is None or not imgui.is_any_item_active():
@@ -443,8 +445,36 @@ def status_summary(state: AppState) -> str:
         median, drag = state.status.frame_figures
         frame = f"frame {median:.1f} ms" + (f", dragging {drag:.1f} ms" if drag > 0 else "")
     return (
-        f"{kernel} | {vertices} | zoom {100 * state.display.viewport.scale:.0f} % | {precompute} | {frame} |"
+        f"{kernel} | {vertices} | zoom {100 * state.display.viewport.scale:.0f} % | {precompute} | {frame} | "
+        f"{status_check(state)} |"
     )
+
+
+def status_check(state: AppState) -> str:
+    """What is proven about the warp shown (`app.viewer.fold_free`): of the live target only."""
+    live = state.document.live
+    if live.kernel != HARMONIC_KERNEL:
+        return f"no fold-free proof ({HARMONIC_KERNEL} only)"
+    check = current_check(state)
+    if check is not None:
+        return status_text(check, state.compute.folded_count)
+    if state.compute.basis is None:
+        return "fold-free: -"
+    return "computing the fold-free map..." if live.fold_free else "checking folds..."
+
+
+def _fold_free_toggle(live, commands: list) -> None:
+    """The "Fold-free" switch (B), for the harmonic kernel only."""
+    imgui.begin_disabled(live.kernel != HARMONIC_KERNEL)
+    changed, _ = imgui.checkbox("Fold-free (proven)", live.fold_free)
+    if changed:
+        commands.append(("fold_free", None))
+    imgui.end_disabled()
+    if imgui.is_item_hovered(imgui.HoveredFlags_.allow_when_disabled):
+        imgui.set_tooltip(
+            "a warp that provably never folds and still meets the target curve (B); drawn once a drag\n"
+            f"pauses, saved in the session for warp and animate; needs the {HARMONIC_KERNEL} kernel"
+        )
 
 
 def _status(state: AppState, width: float, height: float) -> None:

@@ -54,6 +54,7 @@ def key_table() -> list[tuple]:
         (glfw.KEY_ENTER, 0, "confirm", None, "Enter", "close the new cage; use it"),
         (glfw.KEY_KP_ENTER, 0, "confirm", None, None, None),
         (glfw.KEY_R, 0, "reset_target", None, "R", "reset the target to the source cage"),
+        (glfw.KEY_B, 0, "fold_free", None, "B", "fold-free on or off: a warp proven never to fold (poisson)"),
         (
             glfw.KEY_F,
             0,

@@ -29,6 +29,7 @@ from app.viewer import commands, controller, editing
 from app.viewer.basis_updates import BasisUpdates
 from app.viewer.exports import Exporter
 from app.viewer.file_dialogs import FileRequests
+from app.viewer.fold_free import CheckUpdates, CheckWorker
 from app.viewer.milestones import Milestones
 from app.viewer.playback_clock import PlaybackClock
 from app.viewer.precompute import Precompute
@@ -84,6 +85,8 @@ class Viewer:
         # solver compiles in the background meanwhile (the default kernel needs none).
         precompute = Precompute(warm_up=not self.milestones.test_mode)
         self.basis = BasisUpdates(precompute, options.max_edge, options.vertices, announce)
+        # The injectivity check and fold-free map of the live target, in a process of their own.
+        self.checks = CheckUpdates(CheckWorker(), announce)
         self.state = AppState.opened(History(document.snapshot), document.image, document.session_path)
         self.state.screen.window_size = options.size or WINDOW_SIZE
         self.opened: OpenedDocument | None = None  # the session file's lock, view and start cage
@@ -96,7 +99,9 @@ class Viewer:
             self.state, None, self.basis.ready, options.export, options.fps, announce, self.dialogs
         )
         self.window = None
-        self.ctx = self.imgui_renderer = self.renderer = self.scene = None  # made with the window
+        self.ctx = self.imgui_renderer = self.scene = (
+            None  # made with the window (the scene holds the renderer)
+        )
 
     # -- lifetime -------------------------------------------------------------------
 
@@ -119,6 +124,7 @@ class Viewer:
         finally:
             signal.signal(signal.SIGTERM, previous)
             self.basis.precompute.close()
+            self.checks.worker.close()
         if self.options.stats:
             print(self.milestones.statistics(self.state), flush=True)
         return 0
@@ -167,8 +173,7 @@ class Viewer:
         self.imgui_renderer = GuiRenderer(window, self.ctx)
         self.input.chain_callbacks(glfw, window, imgui.get_io(), self.state)
         self.basis.precompute.wake_on_message(glfw.post_empty_event)
-        self.renderer = WarpRenderer(self.ctx)
-        self.scene = self.exporter.scene = Scene(self.renderer)
+        self.scene = self.exporter.scene = Scene(WarpRenderer(self.ctx))
         glfw.focus_window(window)
         self.state.screen.window_size = glfw.get_window_size(window)
         self.input.sizes = {
@@ -212,7 +217,7 @@ class Viewer:
             return
         self._save_settings(glfw)
         self.scene.release()
-        self.renderer.release()
+        self.scene.renderer.release()
         self.imgui_renderer.shutdown()
         imgui.destroy_context()
         self.ctx.release()
@@ -391,6 +396,7 @@ class Viewer:
         self.basis.update(state)
         self._widgets(imgui)
         self.basis.update(state)  # a kernel chosen in the panel starts computing this frame
+        self.checks.update(state)
         self._draw(imgui)
         self.script.write_frame(self.exporter.render_still)
         self.exporter.next_frame()
@@ -413,8 +419,10 @@ class Viewer:
         elif self.input.events or self.input.frames_to_draw > 0:
             glfw.poll_events()
             self.input.frames_to_draw -= 1
-        elif self.basis.precompute.pending is not None or self.script.playing:
-            glfw.wait_events_timeout(0.1)  # the progress bar
+        elif self.basis.precompute.pending is not None or self.script.playing or self.checks.pending:
+            glfw.wait_events_timeout(0.1)  # the progress bar, a check on its way
+        elif self.state.selection.drag is not None:
+            glfw.wait_events_timeout(0.1)  # a drag that pauses gets its check (`app.viewer.fold_free`)
         elif self.state.display.viewport_dirty or self.dialogs.waiting:
             glfw.wait_events_timeout(0.05)
         else:
@@ -451,6 +459,11 @@ class Viewer:
         ) or (time.perf_counter() - self.input.view_changed_at < VIEW_SETTLE)
         self.scene.sync(state)
         self.milestones.drawn(state, self.scene.previewing, shown)
+        if self.milestones.test_mode:
+            from app.viewer.gui import status_check
+
+            folded = state.compute.folded_count
+            self.milestones.checked(status_check(state), self.scene.fold_free_drawn, folded)
         width, height = self.input.sizes["pixels"]
         ratio = width / max(state.screen.window_size[0], 1)
         self.ctx.screen.use()
