@@ -44,7 +44,7 @@ from app.files import (
     session_output,
     session_parameterization,
 )
-from app.fill import FILLS, checked_fill, session_fill
+from app.fill import FILLS, chosen_fill, session_fill
 from app.frame_writers import WRITERS, interrupted_by_sigterm
 from app.framing import CANVASES, OUTSIDES, output_frame, output_region
 from app.images import has_alpha, output_format
@@ -239,7 +239,7 @@ def warp_job(args: argparse.Namespace) -> tuple[WarpJob, WarpInputs]:
     curve = checked_curve(inputs, image, args.samples_per_segment)
     canvas = args.canvas or inputs.canvas
     outside = args.outside or inputs.outside
-    fill = _checked_fill(args.fill, inputs.fill, outside)
+    fill = chosen_fill(args.fill, inputs.fill, outside)
     fold_free = args.fold_free or inputs.fold_free
     if fold_free and inputs.kernel != DEFAULT_KERNEL:
         raise InputError(
@@ -434,16 +434,6 @@ def _require_warp_arguments(args: argparse.Namespace) -> None:
             f"warp needs {' and '.join(missing)}, e.g. warp photo.png --cage cage.json --target target.json "
             "--output out.png (images and cages to try: python -m app demo --list)"
         )
-
-
-def _checked_fill(given: str | None, saved: str, outside: str) -> str:
-    """``--fill`` if given (checked; it needs ``outside = original``), else the session's fill."""
-    if given is None:
-        return saved
-    fill = checked_fill(given)
-    if outside != "original" and fill != "none":
-        raise InputError("--fill fills the original position behind the warp: give --outside original too")
-    return fill
 
 
 def _require_opaque_output(output: Path, outside: str, background) -> None:

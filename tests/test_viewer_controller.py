@@ -545,6 +545,7 @@ def test_every_command_of_the_keys_and_the_panel_is_registered():
         "export",
         "export_path",
         "open",
+        "open_session",
         "open_path",
         "play",
         "start_over",

@@ -35,17 +35,22 @@ def square_state() -> AppState:
 
 def test_the_status_line_gives_the_precompute_time_of_the_basis_drawn_and_the_stats_frame_times():
     state = square_state()
-    assert status_summary(state) == "poisson | no mesh yet | zoom 100 % | precompute - | frame - |"
+    assert (
+        status_summary(state)
+        == "poisson | no mesh yet | zoom 100 % | precompute - | frame - | fold-free: - |"
+    )
     mesh = SimpleNamespace(vertices=np.zeros((6332, 2)))
     state.compute.basis = SimpleNamespace(kernel="pgw", mesh=mesh, preview=None, seconds=1.15)
     state.document.live = state.document.live.replace(kernel="pgw")
     state.status.frame_figures = (64.9, 0.0)
-    assert "precompute 1.15 s | frame 64.9 ms |" in status_summary(state)
+    assert "precompute 1.15 s | frame 64.9 ms | no fold-free proof (poisson only) |" in status_summary(state)
     # Back to a basis remembered from before: its own time, not the last one computed.
     state.compute.basis = SimpleNamespace(kernel="poisson", mesh=mesh, preview=None, seconds=0.31)
     state.document.live = state.document.live.replace(kernel="poisson")
     state.status.frame_figures = (20.5, 64.9)
-    assert status_summary(state).endswith("| precompute 0.31 s | frame 20.5 ms, dragging 64.9 ms |")
+    assert status_summary(state).endswith(
+        "| precompute 0.31 s | frame 20.5 ms, dragging 64.9 ms | checking folds... |"
+    )
 
 
 def test_a_message_belongs_to_the_document_it_was_said_about():

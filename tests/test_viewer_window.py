@@ -348,6 +348,47 @@ def test_open_prompt_when_no_dialog_program_is_installed(display, environment):
             viewer.process.kill()
 
 
+def test_open_session_and_export_go_through_the_desktops_dialog_where_there_is_one(display, environment):
+    # A stand-in zenity on PATH: portable-file-dialogs runs it as it would the real one, and it
+    # answers with the path in its answer file (and notes how it was called).
+    env, folder = environment
+    programs = folder / "dialog-bin"
+    programs.mkdir(exist_ok=True)
+    answer, calls = programs / "answer", programs / "calls"
+    zenity = programs / "zenity"
+    zenity.write_text(f'#!/bin/sh\necho "$@" >> "{calls}"\ncat "{answer}"\n')
+    zenity.chmod(0o755)
+    state = folder / "state-dialogs"
+    env = {**env, "TRANSFINITE_STATE_DIR": str(state), "PATH": f"{programs}{os.pathsep}{env['PATH']}"}
+    viewer = ViewerProcess(["view", str(ASSETS / "starfish.png")], env, ROOT)
+    try:
+        window = viewer.wait_for("ready window=", 30).split("=")[1]
+        viewer.wait_for("basis ", 60)
+        xdotool(display, "windowfocus", "--sync", window)
+        exported = folder / "from-dialog.png"
+        answer.write_text(f"{exported}\n")
+        xdotool(display, "key", "ctrl+e")
+        assert viewer.wait_for("exported", 30) == f"exported {exported}"
+        assert read_image(exported).shape == (480, 640, 4)
+        session = folder / "pattern-copy.session.json"  # opened sessions are written: not the repository's
+        value = json.loads((ASSETS / "pattern.session.json").read_text())
+        session.write_text(json.dumps({**value, "image": str(ASSETS / "pattern.png")}))
+        answer.write_text(f"{session}\n")
+        xdotool(display, "key", "ctrl+shift+o")
+        opened = main_session(state, "starfish")
+        while opened == main_session(state, "starfish"):
+            opened = Path(viewer.wait_for("saved ", 20).split(" ", 1)[1])
+        assert opened == session  # a session opened is the one saved from then on
+        lines = calls.read_text().splitlines()
+        assert lines[0].startswith("--file-selection") and "--save" in calls.read_text()
+        assert any(line.startswith(f"--file-selection --filename={state / 'sessions'}") for line in lines)
+        xdotool(display, "key", "ctrl+q")
+        code, stderr = viewer.finish()
+        assert code == 0, stderr
+    finally:
+        viewer.kill()
+
+
 def press_and_move(display: str, window: str, start: np.ndarray, offset: np.ndarray) -> None:
     """Press on `start` (window pixels) and move by `offset` in ten steps, button still down."""
     xdotool(display, "mousemove", "--window", window, *(f"{v:.0f}" for v in start))

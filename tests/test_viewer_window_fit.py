@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 from viewer_harness import ViewerProcess, save_png, screenshot, start_xvfb, xdotool
 
+from app.viewer.controller import STATUS_HEIGHT
 from app.viewer.window_fit import monitor_work_area, opening_rectangle
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -97,6 +98,12 @@ def test_the_window_fits_the_screen_and_comes_back_at_the_size_it_was_left(scree
             assert x >= 0 and y >= 0 and x + width <= screen[0] and y + height <= screen[1], rectangle
             np.testing.assert_allclose([width, height], 0.9 * np.array(screen), atol=1)
             assert status_line_is_drawn(display, rectangle, tmp_path, "opened")
+            # The whole panel is on screen above the status line, nothing of it scrolled away (on
+            # the small screen its "Show" and "Animation" sections start folded).
+            # (The last layout before the basis arrived: with the progress bar, the tallest.)
+            line = [line for line in viewer.lines if line.startswith("spot panel=")][-1]
+            bottom, hidden = (float(v) for v in line.split("=")[1].split(","))
+            assert 0.5 * height < bottom <= height - STATUS_HEIGHT and hidden == 0, line
             # The user makes it smaller and moves it; the next viewer opens there.
             smaller = (40, 30, screen[0] // 2 + 100, screen[1] // 2 + 60)
             xdotool(display, "windowsize", window, str(smaller[2]), str(smaller[3]))

@@ -103,3 +103,42 @@ def test_prepare_uses_the_given_mesh_and_the_default_kernel():
     assert deformation.mesh is mesh and deformation.kernel == core.DEFAULT_KERNEL == "poisson"
     assert fractions[0] == 0.0 and fractions[-1] == 1.0
     np.testing.assert_allclose(deformation.positions(curve.control_points), mesh.vertices, atol=1e-7)
+
+
+def test_the_viewers_fold_free_export_is_warps_fold_free_session(tmp_path, capfd):
+    from test_viewer_fold_free import ASSETS, STARFISH, strong_target
+
+    from app.render import WarpRenderer, create_headless_context
+
+    target = strong_target()  # the plain map folds there
+    session = {
+        "image": str(ASSETS / "starfish.png"),
+        "cage": {"control_points": STARFISH.tolist()},
+        "target": {"control_points": target.tolist()},
+        "kernel": "poisson",
+        "view": {"scale": 1.0, "offset": [0, 0]},
+        "mesh": {"max_edge": 12.0},
+        "fold_free": True,
+    }
+    (tmp_path / "session.json").write_text(json.dumps(session))
+    argv = ["warp", "--session", tmp_path / "session.json", "--output", tmp_path / "warp.png"]
+    code, _, err = run_main(argv, capfd)
+    assert code == 0, err
+    warped = read_image(tmp_path / "warp.png")
+
+    snapshot = Snapshot(ASSETS / "starfish.png", STARFISH, target, fold_free=True)
+    request = make_request(snapshot, 12.0)
+    image = read_image(ASSETS / "starfish.png")
+    state = AppState(Document(History(snapshot), snapshot, image, tmp_path / "s.json"))
+    state.compute.basis = result_from_message(request.key, compute(request))
+    ctx = create_headless_context()  # as warp's: its own, made after warp released its own
+    try:
+        with WarpRenderer(ctx) as renderer:
+            scene = Scene(renderer)
+            exporter = Exporter(state, scene, lambda s: True, None, 30.0, print, None)
+            scene.sync(state)
+            np.testing.assert_array_equal(exporter.render_still(), warped)
+            state.document.live = snapshot.replace(fold_free=False)
+            assert not np.array_equal(exporter.render_still(), warped)  # the plain map's pixels differ
+    finally:
+        ctx.release()

@@ -34,6 +34,7 @@ from app.viewer.controller import (
     show_time,
     zoom,
 )
+from app.viewer.fold_free import HARMONIC_KERNEL
 from app.viewer.state import EDIT_MODES, MEASURES, PARAMETERIZATIONS, SHIFTS, AppState
 from app.viewer.view_modes import VIEW_MODE_NAMES
 
@@ -47,7 +48,7 @@ class WindowActions(Protocol):
 
     def ask_export_path(self, again: bool) -> None: ...
 
-    def ask_open_path(self) -> None: ...
+    def ask_open_path(self, what: str) -> None: ...
 
     def open_path(self, path) -> None: ...
 
@@ -243,7 +244,29 @@ def _kernel(state: AppState, value) -> None:
     if value not in kernel_names():
         state.say(f"unknown kernel {value!r}", error=True)
     else:
-        commit(state, state.document.live.replace(kernel=value), f"kernel: {value}")
+        commit(state, with_kernel(state.document.live, value), f"kernel: {value}")
+
+
+def with_kernel(live, kernel: str):
+    """The snapshot `live` deformed with `kernel`; fold-free is switched off for a kernel whose maps
+    are not harmonic (the fold-free map needs ``poisson``, and ``warp`` refuses it otherwise)."""
+    return live.replace(kernel=kernel, fold_free=live.fold_free and kernel == HARMONIC_KERNEL)
+
+
+@_command(
+    "fold_free",
+    "fold-free: the certified map that never folds (poisson only)",
+    undoable=True,
+    while_drawing=False,
+)
+def _fold_free(state: AppState, value) -> None:
+    live = state.document.live
+    if live.kernel != HARMONIC_KERNEL:
+        state.say(f"fold-free needs the {HARMONIC_KERNEL} kernel (its maps are harmonic)", error=True)
+        return
+    on = not live.fold_free if value is None else bool(value)
+    if on != live.fold_free:
+        commit(state, live.replace(fold_free=on), f"fold-free {'on' if on else 'off'}")
 
 
 @_command(
@@ -253,7 +276,7 @@ def _cycle_kernel(state: AppState, value) -> None:
     names = kernel_names()
     index = names.index(state.document.live.kernel) if state.document.live.kernel in names else -1
     kernel = names[(index + (-1 if value == "previous" else 1)) % len(names)]
-    commit(state, state.document.live.replace(kernel=kernel), f"kernel: {kernel}")
+    commit(state, with_kernel(state.document.live, kernel), f"kernel: {kernel}")
 
 
 @_command(
@@ -501,7 +524,12 @@ def _export_path(viewer: WindowActions, value) -> None:
 
 @_window_command("open", "open an image")
 def _open(viewer: WindowActions, value) -> None:
-    viewer.ask_open_path()
+    viewer.ask_open_path("image")
+
+
+@_window_command("open_session", "open a session file")
+def _open_session(viewer: WindowActions, value) -> None:
+    viewer.ask_open_path("session")
 
 
 @_window_command("open_path", "open the image at the path given")

@@ -1,11 +1,12 @@
 """The viewer's exports (Ctrl+E): the warped image at the image's full resolution, like
-``warp --session``, or the keyframed animation, like ``animate``, one frame written per frame the
-viewer draws (Esc stops it).  Both draw through `app.warping.render` on the window's renderer, so
-they are ``warp``'s and ``animate``'s pixels."""
+``warp --session``, or the keyframed animation, like ``animate``, as many frames as fit in
+`EXPORT_BUDGET` between two frames the viewer draws (Esc stops it).  Both draw through
+`app.warping.render` on the window's renderer, so they are ``warp``'s and ``animate``'s pixels."""
 
 from __future__ import annotations
 
 import os
+import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -14,13 +15,17 @@ import numpy as np
 
 from app.files import IMAGE_SUFFIXES, InputError, image_metadata, write_image
 from app.framing import output_frame, output_region
-from app.viewer.dialogs import FileDialogs
+from app.viewer.file_dialogs import FileRequests
 from app.viewer.state import AppState, Snapshot
+
+#: Seconds of an animation export's frames rendered between two window frames (the window's own
+#: frame costs as much as several exported ones on a software rasteriser).
+EXPORT_BUDGET = 0.25
 
 
 @dataclass
 class AnimationExport:
-    """An animation export in progress in the viewer: one frame written per drawn frame.
+    """An animation export in progress in the viewer: frames written between drawn frames.
 
     Attributes
     ----------
@@ -64,7 +69,7 @@ class Exporter:
         Frames per second of an animation export.
     announce : callable
         Called with one line per export (the window tests read them).
-    dialogs : FileDialogs
+    dialogs : FileRequests
     """
 
     def __init__(
@@ -75,7 +80,7 @@ class Exporter:
         path: Path | None,
         fps: float,
         announce: Callable[[str], None],
-        dialogs: FileDialogs,
+        dialogs: FileRequests,
     ):
         self.state, self.scene, self.ready = state, scene, ready
         self.path, self.fps = path, fps
@@ -99,8 +104,7 @@ class Exporter:
             self.export(self.path)
             return
         proposed = self.last or default_export_path(self.state.document.live.image)
-        if not self.dialogs.ask_save(proposed):
-            self.state.status.export_prompt = str(proposed)
+        self.dialogs.ask_export(self.state, proposed)
 
     def export(self, path: Path, typed: str | None = None) -> Path | None:
         """Write the warped image at the image's full resolution, like ``warp --session``.
@@ -186,13 +190,15 @@ class Exporter:
             state.say(str(error), error=True)
             return
         state.playback.playing = False
-        deformation = state.compute.basis.deformation()
+        deformation = state.compute.basis.deformation(fold_free=live.fold_free)
         self.animation = AnimationExport(writer, times, size, view, live, deformation, state.document.outside)
         self.last = str(path) + os.sep if kind == "png" else str(path)
         state.say(f"exporting {len(times)} frames to {path} (Esc stops)")
 
     def next_frame(self) -> None:
-        """Render and write the next frame of the animation being exported; finish after the last."""
+        """Render and write the next frames of the animation being exported, for `EXPORT_BUDGET`
+        seconds (a window frame between them keeps the progress shown and Esc heard); finish after
+        the last.  Each frame is what `animate` renders (`app.warping.render`)."""
         export, state = self.animation, self.state
         if export is None:
             return
@@ -200,14 +206,17 @@ class Exporter:
         from app.warping import render
 
         snapshot = export.snapshot
-        target = interpolate(snapshot.keyframes, float(export.times[export.written]), snapshot.interpolation)
         self.scene.invalidate_positions()
+        started = time.perf_counter()
         try:
-            pixels = render(
-                self.scene.renderer, export.deformation, target, export.size, export.view, export.outside
-            )
-            export.writer.add(pixels)
-            export.written += 1
+            while export.written < len(export.times) and time.perf_counter() - started < EXPORT_BUDGET:
+                moment = float(export.times[export.written])
+                target = interpolate(snapshot.keyframes, moment, snapshot.interpolation)
+                pixels = render(
+                    self.scene.renderer, export.deformation, target, export.size, export.view, export.outside
+                )
+                export.writer.add(pixels)
+                export.written += 1
             if export.written == len(export.times):
                 export.writer.finish()
         except (OSError, ValueError) as error:

@@ -16,6 +16,7 @@ from app.files import kernel_names
 from app.keyframes import MAX_TIME
 from app.viewer.controller import STATUS_HEIGHT
 from app.viewer.editing import to_window
+from app.viewer.fold_free import HARMONIC_KERNEL, current_check, status_text
 from app.viewer.scene import export_frame
 from app.viewer.state import PARAMETERIZATIONS, SHIFTS, AppState
 from app.viewer.view_modes import BY_NAME as VIEW_MODE
@@ -114,19 +115,36 @@ def _panel(state: AppState, commands: list, extras: dict, height: float, spots: 
     # As tall as its content: every pixel of panel costs a software rasteriser time.
     imgui.set_next_window_size_constraints((PANEL_WIDTH, 0), (PANEL_WIDTH, height - STATUS_HEIGHT))
     imgui.begin("Transfinite warp", None, _FIXED | imgui.WindowFlags_.always_auto_resize)
-
-    _edit_section(state, live, commands)
-    _kernel_section(state, live, commands, spots)
-    _show_section(state, commands)
-    _timeline(state, commands, extras)
-    _file_section(state, commands, extras)
+    # A window too short for the whole panel (a 1024x600 screen) opens with two sections folded.
+    tall = height >= FOLD_BELOW_HEIGHT
+    if _section("Edit"):
+        _edit_section(state, live, commands)
+    if _section("Kernel"):
+        _kernel_section(state, live, commands, spots)
+    if _section("Show", tall):
+        _show_section(state, commands)
+    if _section("Animation", tall):
+        _timeline(state, commands, extras)
+    if _section("File"):
+        _file_section(state, commands, extras)
     state.screen.canvas_left = PANEL_WIDTH
+    # Its bottom edge and the pixels of content scrolled out of sight (for the window tests).
+    spots["panel"] = (imgui.get_window_pos().y + imgui.get_window_size().y, imgui.get_scroll_max_y())
     imgui.end()
+
+
+#: Window height (pixels) below which the panel's "Show" and "Animation" sections open folded.
+FOLD_BELOW_HEIGHT = 900
+
+
+def _section(title: str, open_at_first: bool = True) -> bool:
+    """A heading that folds its section (a click); whether the section's widgets are shown."""
+    imgui.set_next_item_open(open_at_first, imgui.Cond_.once)
+    return imgui.collapsing_header(title)
 
 
 def _edit_section(state: AppState, live, commands: list) -> None:
     """What a click edits, undo, and the edits of the whole cage."""
-    imgui.separator_text("Edit")
     if imgui.radio_button("Deform (target, blue)", state.selection.edit_mode == "deform"):
         commands.append(("edit_mode", "deform"))
     if imgui.radio_button("Edit cage (source, green)", state.selection.edit_mode == "cage"):
@@ -154,15 +172,7 @@ def _edit_section(state: AppState, live, commands: list) -> None:
     if imgui.button("Delete selected"):
         commands.append(("delete", None))
     imgui.end_disabled()
-    _choice_row(
-        commands,
-        "clicks:",
-        "cage_drawing",
-        state.selection.cage_drawing,
-        (("curve", "on curve"), ("control", "control points")),
-        "New cage: the curve passes through the points clicked (as GIMP's and Krita's paths), or the\n"
-        "clicks are its control points; Ctrl+click or a double click makes a sharp corner either way",
-    )
+    _cage_drawing_choice(state, commands)
     if len(state.selection.group) > 1:
         selection = f", {len(state.selection.group)} selected"
     else:
@@ -174,7 +184,6 @@ def _edit_section(state: AppState, live, commands: list) -> None:
 
 def _kernel_section(state: AppState, live, commands: list, spots: dict) -> None:
     """The kernel, its parameters, and the precompute's progress or error."""
-    imgui.separator_text("Kernel")
     names = kernel_names()
     spots["kernel"] = tuple(imgui.get_cursor_screen_pos() + imgui.ImVec2(24, 8))
     if imgui.begin_combo("##kernel", live.kernel):
@@ -183,6 +192,7 @@ def _kernel_section(state: AppState, live, commands: list, spots: dict) -> None:
             if clicked and name != live.kernel:
                 commands.append(("kernel", name))
         imgui.end_combo()
+    _fold_free_toggle(live, commands)
     if live.kernel == "power":
         # The slider edits a draft; the kernel changes (one undo step, one precompute) on release.
         if state.display.power_draft is None or not imgui.is_any_item_active():
@@ -217,7 +227,6 @@ def _kernel_section(state: AppState, live, commands: list, spots: dict) -> None:
 
 def _show_section(state: AppState, commands: list) -> None:
     """What the canvas shows, and what exports frame."""
-    imgui.separator_text("Show")
     for mode in VIEW_MODES:
         if imgui.radio_button(mode.label, state.display.view_mode == mode.name):
             commands.append(("view_mode", mode.name))
@@ -272,15 +281,17 @@ def _show_section(state: AppState, commands: list) -> None:
 
 def _file_section(state: AppState, commands: list, extras: dict) -> None:
     """Open, save, export, start over, the demo script, help and quit."""
-    imgui.separator_text("File")
     if imgui.button("Open image..."):
         commands.append(("open", None))
     imgui.same_line()
+    if imgui.button("Open session..."):
+        commands.append(("open_session", None))
     if imgui.button("Save"):
         commands.append(("save", None))
     imgui.same_line()
     if imgui.button("Export..."):
         commands.append(("export", None))
+    imgui.same_line()
     if imgui.button("Start over"):
         commands.append(("start_over", None))
     if imgui.is_item_hovered():
@@ -315,7 +326,6 @@ def timeline_end(state: AppState) -> float:
 def _timeline(state: AppState, commands: list, extras: dict) -> None:
     """Keyframes on a strip of time: click or drag to scrub, click a mark to select its keyframe."""
     live = state.document.live
-    imgui.separator_text("Animation")
     if imgui.button("Pause" if state.playback.playing else "Play"):
         commands.append(("playback", None))
     imgui.same_line()
@@ -435,8 +445,36 @@ def status_summary(state: AppState) -> str:
         median, drag = state.status.frame_figures
         frame = f"frame {median:.1f} ms" + (f", dragging {drag:.1f} ms" if drag > 0 else "")
     return (
-        f"{kernel} | {vertices} | zoom {100 * state.display.viewport.scale:.0f} % | {precompute} | {frame} |"
+        f"{kernel} | {vertices} | zoom {100 * state.display.viewport.scale:.0f} % | {precompute} | {frame} | "
+        f"{status_check(state)} |"
     )
+
+
+def status_check(state: AppState) -> str:
+    """What is proven about the warp shown (`app.viewer.fold_free`): of the live target only."""
+    live = state.document.live
+    if live.kernel != HARMONIC_KERNEL:
+        return f"no fold-free proof ({HARMONIC_KERNEL} only)"
+    check = current_check(state)
+    if check is not None:
+        return status_text(check, state.compute.folded_count)
+    if state.compute.basis is None:
+        return "fold-free: -"
+    return "computing the fold-free map..." if live.fold_free else "checking folds..."
+
+
+def _fold_free_toggle(live, commands: list) -> None:
+    """The "Fold-free" switch (B), for the harmonic kernel only."""
+    imgui.begin_disabled(live.kernel != HARMONIC_KERNEL)
+    changed, _ = imgui.checkbox("Fold-free (proven)", live.fold_free)
+    if changed:
+        commands.append(("fold_free", None))
+    imgui.end_disabled()
+    if imgui.is_item_hovered(imgui.HoveredFlags_.allow_when_disabled):
+        imgui.set_tooltip(
+            "a warp that provably never folds and still meets the target curve (B); drawn once a drag\n"
+            f"pauses, saved in the session for warp and animate; needs the {HARMONIC_KERNEL} kernel"
+        )
 
 
 def _status(state: AppState, width: float, height: float) -> None:
@@ -555,3 +593,16 @@ def _fill_choice(state: AppState, commands: list) -> None:
         changed, picked = imgui.color_edit4("##fill colour", rgba[:4], imgui.ColorEditFlags_.no_inputs)
         if changed:
             commands.append(("fill", "#" + "".join(f"{round(255 * v):02x}" for v in picked)))
+
+
+def _cage_drawing_choice(state: AppState, commands: list) -> None:
+    """What a click places while a new cage is drawn (`app.viewer.drawing.STYLES`)."""
+    _choice_row(
+        commands,
+        "clicks:",
+        "cage_drawing",
+        state.selection.cage_drawing,
+        (("curve", "on curve"), ("control", "control points")),
+        "New cage: the curve passes through the points clicked (as GIMP's and Krita's paths), or the\n"
+        "clicks are its control points; Ctrl+click or a double click makes a sharp corner either way",
+    )

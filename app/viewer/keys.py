@@ -19,6 +19,7 @@ def key_table() -> list[tuple]:
         (glfw.KEY_Y, ctrl, "redo", None, None, None),
         (glfw.KEY_ESCAPE, 0, "cancel", None, "Esc", "cancel the drag in progress, close a list or the help"),
         (glfw.KEY_O, ctrl, "open", None, "Ctrl+O", "open an image (or drop a file on the window)"),
+        (glfw.KEY_O, ctrl | shift, "open_session", None, "Ctrl+Shift+O", "open a session file"),
         (glfw.KEY_S, ctrl, "save", None, "Ctrl+S", "save the session now (it also saves itself)"),
         (
             glfw.KEY_E,
@@ -53,6 +54,7 @@ def key_table() -> list[tuple]:
         (glfw.KEY_ENTER, 0, "confirm", None, "Enter", "close the new cage; use it"),
         (glfw.KEY_KP_ENTER, 0, "confirm", None, None, None),
         (glfw.KEY_R, 0, "reset_target", None, "R", "reset the target to the source cage"),
+        (glfw.KEY_B, 0, "fold_free", None, "B", "fold-free on or off: a warp proven never to fold (poisson)"),
         (
             glfw.KEY_F,
             0,

@@ -38,6 +38,9 @@ class Milestones:
         self.previewing = False  # the last frame drew the preview mesh
         self.popup_open = False  # an imgui popup (a list) is open: Esc closes it
         self.typing = False  # a text field has the keyboard
+        self.panel_spot = None  # the panel's bottom and hidden height last announced
+        self.check_status = ""  # the status line's fold-free words last announced
+        self.fold_free_drawn = False  # the last frame drew the fold-free map
         self.drag_first_frame: int | None = None
         #: Times (ms) of the frames drawn while a control point was dragged, for --stats.
         self.drag_frame_ms: list[float] = []
@@ -70,6 +73,20 @@ class Milestones:
         if typing != self.typing:
             self.announce(f"text input {'on' if typing else 'off'}")  # keys go to a text field
             self.typing = typing
+        panel = self.spots.get("panel")
+        if panel is not None and panel != self.panel_spot:  # its layout settles over the first frames
+            self.panel_spot = panel
+            self.announce(f"spot panel={panel[0]:.0f},{panel[1]:.0f}")
+
+    def checked(self, status: str, fold_free_drawn: bool, folded: int | None) -> None:
+        """The status line's fold-free words and whether the fold-free map is drawn (with the mesh's
+        folded triangles), announced when they change (`app.viewer.fold_free`)."""
+        if status != self.check_status:
+            self.check_status = status
+            self.announce(f"status check {status}")
+        if fold_free_drawn != self.fold_free_drawn:
+            self.fold_free_drawn = fold_free_drawn
+            self.announce(f"fold-free {'drawn' if fold_free_drawn else 'off'} folded={folded}")
 
     def drawn(self, state: AppState, previewing: bool, shown_distortion) -> None:
         """A frame was prepared: the preview mesh switched, or a new distortion summary."""

@@ -31,6 +31,7 @@ from app.render import WarpRenderer
 from app.viewer.controller import band_corners
 from app.viewer.drawing import clicked_points
 from app.viewer.editing import curve_points, to_image
+from app.viewer.fold_free import current_check
 from app.viewer.state import AppState
 from app.viewer.view_modes import BY_NAME as VIEW_MODES
 from app.viewport import View
@@ -51,8 +52,9 @@ def overlay_arrays(state: AppState) -> tuple[np.ndarray, np.ndarray]:
 
     The curve of the mode being edited is drawn wider and on top, with large
     handles; the other one thinner and fainter.  The selected handle is yellow, the
-    hovered one white.  While a new cage is drawn and still open, its points are
-    joined in order, a line runs on to the cursor, and the closed curve is a faint preview.
+    hovered one white.  While a new cage is drawn only it is shown, its handles at the
+    points clicked; while it is still open they are joined in order, a line runs on to the
+    cursor, and the closed curve is a faint preview.
     """
     live = state.document.live
     active = "source" if state.selection.edit_mode == "cage" else "target"
@@ -62,6 +64,8 @@ def overlay_arrays(state: AppState) -> tuple[np.ndarray, np.ndarray]:
         control = live.cage if kind == "source" else live.target
         colour = SOURCE_COLOUR if kind == "source" else TARGET_COLOUR
         is_active = kind == active
+        if state.selection.drawing is not None and not is_active:
+            continue  # the target of a cage being drawn is that cage: its control points would only confuse
         alpha = 1.0 if is_active else 0.55
         if len(control) >= 3:
             curve_alpha = 0.35 * alpha if drawing else alpha
@@ -105,6 +109,7 @@ def overlay_arrays(state: AppState) -> tuple[np.ndarray, np.ndarray]:
         (x0, y0), (x1, y1) = band
         corners = to_image(state.display.viewport, [[x0, y0], [x1, y0], [x1, y1], [x0, y1]])
         segments.append(_closed_segments(corners, SELECTED_COLOUR, 0.9, 1.0))
+    points.append(fold_marks(state))
     segments = np.concatenate(segments) if segments else np.zeros((0, 2, 7))
     return segments, np.concatenate(points)
 
@@ -200,6 +205,33 @@ class Layer:
     drawn: tuple | None = None
 
 
+def _fold_free_positions(state: AppState) -> np.ndarray | None:
+    """The fold-free map at the mesh's vertices (V, 2) for the live target, when the document asks
+    for it and the background check has made it for this very target (`current_check`)."""
+    check = current_check(state)
+    if check is None or not state.document.live.fold_free:
+        return None
+    return check.positions
+
+
+#: The marks of the points where the injectivity proof fails (`WarpCheck.where`): red dots.
+FOLD_MARK_COLOUR = (1.00, 0.25, 0.30)
+
+
+def fold_marks(state: AppState) -> np.ndarray:
+    """Handles (K, 7) at the points where the live warp's proof fails, none while it is proven or
+    not yet checked."""
+    check = current_check(state)
+    if check is None or check.injective or state.selection.edit_mode != "deform":
+        return np.zeros((0, 7))
+    marks = np.zeros((len(check.marks), 7))
+    marks[:, :2] = check.marks
+    marks[:, 2:5] = FOLD_MARK_COLOUR
+    marks[:, 5] = 0.9
+    marks[:, 6] = 9.0
+    return marks
+
+
 class Scene:
     """The renderer's side of the state, updated once per frame by `sync`.
 
@@ -213,7 +245,8 @@ class Scene:
         self._image = None
         self._fill_key: tuple | None = None  # what the renderer's backdrop was filled for
         self._basis = None
-        self._drawn_target: np.ndarray | None = None
+        # (the target drawn (n, 2), the fold-free positions (V, 2) drawn for it or None), None: none.
+        self._drawn: tuple[np.ndarray, np.ndarray | None] | None = None
         self._positions: np.ndarray | None = None  # float32, in the renderer's vertex order
         self._dense: Columns | None = None  # G of the drawn mesh, in the renderer's vertex order
         self._exact = False
@@ -235,6 +268,11 @@ class Scene:
     def layer_key(self) -> tuple | None:
         """What the backdrop-and-mesh layer's framebuffer holds (None: nothing kept)."""
         return self._layer.key
+
+    @property
+    def fold_free_drawn(self) -> bool:
+        """Whether the mesh drawn has the fold-free map's positions (`app.viewer.fold_free`)."""
+        return self._drawn is not None and self._drawn[1] is not None and not self.previewing
 
     @property
     def has_mesh(self) -> bool:
@@ -265,7 +303,7 @@ class Scene:
                 None if imaginary is None else np.asfortranarray(imaginary[order]),
                 order,
             )
-            self._drawn_target = None
+            self._drawn = None
             self._field = None
             self._preview = self._preview_target = None
             if basis.preview is not None:
@@ -323,23 +361,32 @@ class Scene:
             combined_columns(self._preview.columns, target, self._preview.imaginary)
         )
         self._preview_target = np.array(target)
-        # The dense mesh is left as it was (`_drawn_target` with it): once the motion stops it gets
+        # The dense mesh is left as it was (`_drawn` with it): once the motion stops it gets
         # the exact positions if the target changed meanwhile.
         self.update_ms = 1e3 * (time.perf_counter() - started)
 
     def _update_positions(self, state: AppState) -> None:
         basis, target = self._basis, state.document.live.target
         dragging = state.selection.drag is not None and state.selection.drag.kind == "target"
-        drawn = self._drawn_target
+        drawn, fold_free_drawn = self._drawn if self._drawn is not None else (None, None)
+        fold_free = None if state.playback.playing else _fold_free_positions(state)
         if (
             drawn is not None
             and np.array_equal(drawn, target)
             and (self._exact or dragging or state.playback.playing)
+            and fold_free is fold_free_drawn
         ):
             return
         started = time.perf_counter()
         changed = None if drawn is None else np.flatnonzero(np.any(drawn != target, axis=1))
-        if dragging and changed is not None and 0 < len(changed) <= 4 and self._positions is not None:
+        # The rank-one update adds to the plain map's positions only.
+        incremental = fold_free_drawn is None and changed is not None and 0 < len(changed) <= 4
+        if fold_free is not None:
+            # The certified fold-free map of this target (`app.viewer.fold_free`), once a drag pauses.
+            self._positions = fold_free[self._dense.order].astype(np.float32)
+            self._exact = True
+            self._count_folds(state, fold_free)
+        elif dragging and incremental and self._positions is not None:
             # The per-drag path: one column of G per moved point, O(V) work for any n.
             positions = self._positions.T  # (2, V) views of the two coordinates
             for i in changed:
@@ -360,7 +407,7 @@ class Scene:
             self._count_folds(state, deformed)
         self.renderer.set_ordered_positions(self._positions)
         self._fold_check = (self.renderer.revision, None)
-        self._drawn_target = np.array(target)
+        self._drawn = (np.array(target), fold_free)
         self.update_ms = 1e3 * (time.perf_counter() - started)
 
     def _may_fold(self) -> bool:
@@ -387,14 +434,14 @@ class Scene:
 
     def invalidate_positions(self) -> None:
         """Someone else wrote the position buffer: recompute it at the next `sync`."""
-        self._drawn_target = None
+        self._drawn = None
 
     def deformation(self, state: AppState):
-        """The `app.warping.Deformation` of the mesh drawn (what `warp` renders), or None without a
-        matching mesh."""
+        """The `app.warping.Deformation` of the mesh drawn (what `warp` renders: the fold-free map
+        when the document asks for it), or None without a matching mesh."""
         if not self.mesh_matches(state):
             return None
-        return self._basis.deformation()
+        return self._basis.deformation(fold_free=state.document.live.fold_free)
 
     def draw(self, state: AppState, framebuffer_size: tuple[int, int], pixel_ratio: float = 1.0) -> None:
         """Draw the canvas into the bound framebuffer: backdrop, mesh, overlays.

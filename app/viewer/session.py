@@ -37,6 +37,7 @@ from app.files import (
     read_image,
     read_session,
     reported_as_input,
+    session_fold_free,
     session_image,
     session_kernel_params,
     session_keyframes,
@@ -295,6 +296,7 @@ def restore(path: Path, max_edge: float | None = None) -> OpenedDocument:
         keyframes,
         interpolation,
         session_parameterization(session, path),
+        session_fold_free(session, path) and session.kernel == "poisson",
     )
     notices: list[str] = []
     try:
@@ -326,6 +328,7 @@ def _step(snapshot: Snapshot) -> dict:
         "keyframes": keyframes_json(snapshot.keyframes),
         "interpolation": snapshot.interpolation,
         "parameterization": snapshot.parameterization,
+        "fold_free": snapshot.fold_free,
     }
 
 
@@ -387,9 +390,19 @@ def history_of(value, image: Path) -> tuple[list[Snapshot], list[Snapshot]]:
             interpolation = step.get("interpolation", DEFAULT_INTERPOLATION)
             power, shift = float(step["power"]), step["shift"]
             parameterization = step.get("parameterization", "natural")  # absent in older sessions
+            fold_free = step.get("fold_free", False) is True and kernel == "poisson"
             result.append(
                 Snapshot(
-                    image, cage, target, kernel, power, shift, keyframes, interpolation, parameterization
+                    image,
+                    cage,
+                    target,
+                    kernel,
+                    power,
+                    shift,
+                    keyframes,
+                    interpolation,
+                    parameterization,
+                    fold_free,
                 )
             )
         return result
@@ -496,6 +509,8 @@ def session_of(state: AppState, max_edge: float | None) -> Session:
         state.document.fill != "none"
     ):  # files without the key read as "none" (and stay as older versions wrote them)
         extra["fill"] = state.document.fill
+    if snapshot.fold_free:  # read by warp and animate too; absent (false) as older versions wrote
+        extra["fold_free"] = True
     extra["keyframes"] = keyframes_json(snapshot.keyframes)
     extra["interpolation"] = snapshot.interpolation
     extra["parameterization"] = snapshot.parameterization

@@ -70,6 +70,9 @@ class Snapshot:
         adding, moving or deleting one is an edit like any other.
     interpolation : str
         One of `app.keyframes.INTERPOLATIONS`.
+    fold_free : bool
+        Deform by the certified fold-free map (`core.fold_free_deform`; ``poisson`` only), as
+        sessions' ``"fold_free": true`` asks of ``warp`` and ``animate``.
     """
 
     image: Path
@@ -81,6 +84,7 @@ class Snapshot:
     keyframes: tuple[Keyframe, ...] = ()
     interpolation: str = DEFAULT_INTERPOLATION
     parameterization: str = "natural"
+    fold_free: bool = False
 
     def __post_init__(self):
         cage = _frozen_points(self.cage, "cage")
@@ -150,6 +154,7 @@ class Snapshot:
             and self.keyframes == other.keyframes
             and self.interpolation == other.interpolation
             and self.parameterization == other.parameterization
+            and self.fold_free == other.fold_free
         )
 
     __hash__ = None  # mutable-looking arrays inside: compare, do not hash
@@ -335,11 +340,13 @@ class BasisResult:
     preview: PreviewMesh | None = None
     imaginary_columns: np.ndarray | None = None
 
-    def deformation(self):
-        """This basis as an `app.warping.Deformation`: what `warp` and the export render."""
+    def deformation(self, fold_free: bool = False):
+        """This basis as an `app.warping.Deformation`: what `warp` and the export render (with
+        `fold_free`, the certified fold-free map, as ``warp`` with a session's ``"fold_free"``)."""
+        import core
         from app.warping import Deformation
 
-        return Deformation(self.mesh, self.basis, self.kernel)
+        return Deformation(self.mesh, self.basis, self.kernel, core.ClosedBSpline(self.cage), fold_free)
 
 
 @dataclass(frozen=True)
@@ -455,6 +462,44 @@ class Compute:
     progress_label: str = ""
     basis_error: str = ""  # why the wanted basis functions could not be computed
     folded_count: int | None = None
+    check: WarpCheck | None = None  # the last injectivity check applied (`app.viewer.fold_free`)
+
+
+@dataclass(frozen=True, eq=False)
+class WarpCheck:
+    """What the background check proved about one target's warp (`app.viewer.fold_free`).
+
+    Attributes
+    ----------
+    key : str
+        `app.viewer.fold_free.check_key` of the cage, target, switch and mesh checked.
+    fold_free : bool
+        The fold-free map was computed (not the plain one).
+    injective : bool
+        Proven fold-free (`core.InjectivityCertificate.injective`).
+    sigma2_min : float
+        A proven lower bound of the Jacobian's smaller singular value; 0 when nothing is proven.
+    where : ndarray of shape (K, 2)
+        Points of the source domain, image pixels, where the proof fails.
+    marks : ndarray of shape (K, 2)
+        Their images under the map shown (where the canvas marks them), image pixels.
+    text : str
+        The certificate's one-line summary, or why the fold-free map could not be made.
+    positions : ndarray of shape (V, 2), optional
+        The fold-free map at the mesh's vertices (with `fold_free`).
+    seconds : float
+        Time the worker took.
+    """
+
+    key: str
+    fold_free: bool
+    injective: bool
+    sigma2_min: float
+    where: np.ndarray
+    marks: np.ndarray
+    text: str
+    positions: np.ndarray | None
+    seconds: float
 
 
 @dataclass

@@ -27,8 +27,9 @@ from pathlib import Path
 from app.files import InputError, read_json
 from app.viewer import commands, controller, editing
 from app.viewer.basis_updates import BasisUpdates
-from app.viewer.dialogs import FileDialogs
 from app.viewer.exports import Exporter
+from app.viewer.file_dialogs import FileRequests
+from app.viewer.fold_free import CheckUpdates, CheckWorker
 from app.viewer.milestones import Milestones
 from app.viewer.playback_clock import PlaybackClock
 from app.viewer.precompute import Precompute
@@ -85,19 +86,23 @@ class Viewer:
         # solver compiles in the background meanwhile (the default kernel needs none).
         precompute = Precompute(warm_up=not self.milestones.test_mode)
         self.basis = BasisUpdates(precompute, options.max_edge, options.vertices, announce)
+        # The injectivity check and fold-free map of the live target, in a process of their own.
+        self.checks = CheckUpdates(CheckWorker(), announce)
         self.state = AppState.opened(History(document.snapshot), document.image, document.session_path)
         self.state.screen.window_size = options.size or WINDOW_SIZE
         self.opened: OpenedDocument | None = None  # the session file's lock, view and start cage
         self._load(document)
         self.input = InputQueue()
-        self.dialogs = FileDialogs()
+        self.dialogs = FileRequests()
         self.script = ScriptReplay(options.script, options.frames, options.fps, announce)
         self.playback = PlaybackClock(announce)
         self.exporter = Exporter(
             self.state, None, self.basis.ready, options.export, options.fps, announce, self.dialogs
         )
         self.window = None
-        self.ctx = self.imgui_renderer = self.renderer = self.scene = None  # made with the window
+        self.ctx = self.imgui_renderer = self.scene = (
+            None  # made with the window (the scene holds the renderer)
+        )
 
     # -- lifetime -------------------------------------------------------------------
 
@@ -120,6 +125,7 @@ class Viewer:
         finally:
             signal.signal(signal.SIGTERM, previous)
             self.basis.precompute.close()
+            self.checks.worker.close()
         if self.options.stats:
             print(self.milestones.statistics(self.state), flush=True)
         return 0
@@ -162,8 +168,7 @@ class Viewer:
         self.imgui_renderer = GuiRenderer(window, self.ctx)
         self.input.chain_callbacks(glfw, window, imgui.get_io(), self.state)
         self.basis.precompute.wake_on_message(glfw.post_empty_event)
-        self.renderer = WarpRenderer(self.ctx)
-        self.scene = self.exporter.scene = Scene(self.renderer)
+        self.scene = self.exporter.scene = Scene(WarpRenderer(self.ctx))
         glfw.focus_window(window)
         self.state.screen.window_size = glfw.get_window_size(window)
         self.input.sizes = {
@@ -183,7 +188,7 @@ class Viewer:
             return
         save_settings(glfw, self.window, self.state)
         self.scene.release()
-        self.renderer.release()
+        self.scene.renderer.release()
         self.imgui_renderer.shutdown()
         imgui.destroy_context()
         self.ctx.release()
@@ -328,11 +333,12 @@ class Viewer:
     def ask_export_path(self, again: bool) -> None:
         self.exporter.ask_path(again)
 
-    def ask_open_path(self) -> None:
-        """Ctrl+O: a file dialog, or the in-window prompt without a dialog program."""
-        directory = Path(self.state.document.live.image).parent
-        if not self.dialogs.ask_open(directory):
-            self.state.status.open_prompt = str(directory) + os.sep
+    def ask_open_path(self, what: str) -> None:
+        """Ctrl+O (`what` "image") or Ctrl+Shift+O ("session"): a file dialog where one can open,
+        the in-window prompt otherwise (`app.viewer.file_dialogs`)."""
+        document = self.state.document
+        folder = Path(document.live.image if what == "image" else document.session_path).parent
+        self.dialogs.ask_open(self.state, what, folder)
 
     def toggle_script(self) -> None:
         self.script.toggle(self.state)
@@ -356,14 +362,12 @@ class Viewer:
         self._save_if_needed()
         self.milestones.drags(state)
         self.playback.tick(state, self.basis.ready(state) and self.scene.mesh_matches(state))
-        opened, saved = self.dialogs.poll()
-        if opened is not None:
-            self.open_path(opened)
-        if saved is not None:
-            self.export(saved)
+        for name, value in self.dialogs.poll():  # a file dialog answered (`app.viewer.file_dialogs`)
+            self.command(name, value)
         self.basis.update(state)
         self._widgets(imgui)
         self.basis.update(state)  # a kernel chosen in the panel starts computing this frame
+        self.checks.update(state)
         self._draw(imgui)
         self.script.write_frame(self.exporter.render_still)
         self.exporter.next_frame()
@@ -386,8 +390,10 @@ class Viewer:
         elif self.input.events or self.input.frames_to_draw > 0:
             glfw.poll_events()
             self.input.frames_to_draw -= 1
-        elif self.basis.precompute.pending is not None or self.script.playing:
-            glfw.wait_events_timeout(0.1)  # the progress bar
+        elif self.basis.precompute.pending is not None or self.script.playing or self.checks.pending:
+            glfw.wait_events_timeout(0.1)  # the progress bar, a check on its way
+        elif self.state.selection.drag is not None:
+            glfw.wait_events_timeout(0.1)  # a drag that pauses gets its check (`app.viewer.fold_free`)
         elif self.state.display.viewport_dirty or self.dialogs.waiting:
             glfw.wait_events_timeout(0.05)
         else:
@@ -424,6 +430,11 @@ class Viewer:
         ) or (time.perf_counter() - self.input.view_changed_at < VIEW_SETTLE)
         self.scene.sync(state)
         self.milestones.drawn(state, self.scene.previewing, shown)
+        if self.milestones.test_mode:
+            from app.viewer.gui import status_check
+
+            folded = state.compute.folded_count
+            self.milestones.checked(status_check(state), self.scene.fold_free_drawn, folded)
         width, height = self.input.sizes["pixels"]
         ratio = width / max(state.screen.window_size[0], 1)
         self.ctx.screen.use()

@@ -1,0 +1,286 @@
+"""The viewer's injectivity check and fold-free map, computed in a background process.
+
+For the live target of a ``poisson`` warp the worker computes either the certificate of the
+plain map (`core.certify_injective`, ~0.2 s on the starfish demo) or, with the document's
+"Fold-free" on, the certified fold-free map at the mesh's vertices (`core.fold_free_deform`,
+~0.4 s at the default mesh, with its certificate): neither may block a frame.  While a handle
+moves nothing is asked (the plain map is drawn); once the drag pauses (`PAUSE` seconds) or ends,
+the newest target is sent, a newer request supersedes an older one, and a result is applied only
+if its key is still the one the live document wants (`check_key`): a stale certificate is never
+shown for a newer target.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import multiprocessing
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from app.viewer.state import AppState, BasisResult, WarpCheck
+
+#: Seconds a dragged handle must rest before the check of its target is asked for.
+PAUSE = 0.3
+#: The kernel whose maps are harmonic: the only one the certificate and the fold-free map support.
+HARMONIC_KERNEL = "poisson"
+
+
+@dataclass(frozen=True)
+class CheckRequest:
+    """One check: the certificate of the map of `cage` onto `target`, and with `fold_free` the
+    fold-free map at the mesh's vertices.
+
+    Attributes
+    ----------
+    key : str
+        `check_key` of the inputs.
+    cage, target : ndarray of shape (n, 2)
+    fold_free : bool
+    vertices : ndarray of shape (V, 2)
+    triangles : ndarray of shape (T, 3)
+    boundary : ndarray of shape (B,), int
+    boundary_parameters : ndarray of shape (B,)
+    """
+
+    key: str
+    cage: np.ndarray
+    target: np.ndarray
+    fold_free: bool
+    vertices: np.ndarray
+    triangles: np.ndarray
+    boundary: np.ndarray
+    boundary_parameters: np.ndarray
+
+
+def check_key(cage: np.ndarray, target: np.ndarray, fold_free: bool, basis_key: str) -> str:
+    """Identity of a check: the cage (n, 2), the target (n, 2), the fold-free switch and the mesh
+    (the `BasisResult` key it was made with)."""
+    digest = hashlib.sha256()
+    for points in (cage, target):
+        digest.update(np.ascontiguousarray(points, dtype=np.float64).tobytes())
+    digest.update(f"{bool(fold_free)}:{basis_key}".encode())
+    return digest.hexdigest()[:24]
+
+
+def make_check_request(
+    cage: np.ndarray, target: np.ndarray, fold_free: bool, basis: BasisResult
+) -> CheckRequest:
+    """The `CheckRequest` of a target on the mesh of `basis`."""
+    mesh = basis.mesh
+    return CheckRequest(
+        check_key(cage, target, fold_free, basis.key),
+        np.array(cage),
+        np.array(target),
+        bool(fold_free),
+        mesh.vertices,
+        mesh.triangles,
+        mesh.boundary,
+        mesh.boundary_parameters,
+    )
+
+
+def compute_check(request: CheckRequest) -> WarpCheck:
+    """The certificate (and with `request.fold_free` the fold-free positions (V, 2)), in this
+    process: the worker's job, also used by tests.  A fold-free path that cannot be proven (a cage
+    on the straight path crosses itself) gives a failed check with the reason."""
+    import core
+
+    started = time.perf_counter()
+    curve = core.ClosedBSpline(request.cage)
+    positions = None
+    try:
+        if request.fold_free:
+            positions, certificate = core.fold_free_deform(
+                curve,
+                request.target,
+                request.vertices,
+                boundary=(request.boundary, request.boundary_parameters),
+                triangles=request.triangles,
+            )
+        else:
+            certificate = core.certify_injective(curve, request.target)
+    except ValueError as error:
+        nowhere = np.zeros((0, 2))
+        return WarpCheck(request.key, request.fold_free, False, 0.0, nowhere, nowhere, str(error), None, 0.0)
+    where = np.asarray(certificate.where, dtype=np.float64).reshape(-1, 2)
+    return WarpCheck(
+        request.key,
+        request.fold_free,
+        bool(certificate.injective),
+        float(certificate.sigma2_min),
+        where,
+        _images(curve, request.target, where) if not request.fold_free else where,
+        str(certificate),
+        positions,
+        time.perf_counter() - started,
+    )
+
+
+def _images(curve, target: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """The plain map's images (K, 2) of source points (K, 2): G(points) P'; a point the kernel
+    refuses (on or outside the curve, where a corner's proof fails) stays where it is."""
+    import core
+
+    try:
+        return core.deform(core.basis_functions(curve, points), target)
+    except ValueError:
+        pass
+    images = points.copy()
+    for index, point in enumerate(points):
+        try:
+            images[index] = core.deform(core.basis_functions(curve, point[None]), target)[0]
+        except ValueError:
+            continue
+    return images
+
+
+def status_text(check: WarpCheck, folded: int | None) -> str:
+    """The status line's words for a check: proven fold-free with its σ₂ bound, or where the proof
+    fails (`folded`: the mesh's folded triangles, to say whether it does fold there)."""
+    if check.injective:
+        return f"fold-free, proven (σ₂ ≥ {check.sigma2_min:.2g})"
+    if check.fold_free:
+        return f"fold-free map failed: {check.text}"
+    if not len(check.where):
+        return check.text
+    return "folds near the marked spots" if folded else "not proven fold-free near the marked spots"
+
+
+class CheckWorker:
+    """The process that computes checks, newest request first, and the main thread's pipes."""
+
+    def __init__(self, nice: int = 10):
+        context = multiprocessing.get_context("spawn")
+        request_reader, self._requests = context.Pipe(duplex=False)
+        self._results, result_writer = context.Pipe(duplex=False)
+        self._process = context.Process(
+            target=_serve, args=(request_reader, result_writer, nice), name="transfinite-check", daemon=True
+        )
+        self._process.start()
+        request_reader.close()
+        result_writer.close()
+
+    def submit(self, request: CheckRequest) -> None:
+        self._requests.send(request)
+
+    def poll(self) -> list[WarpCheck]:
+        """Checks that arrived, without waiting."""
+        checks = []
+        try:
+            while self._results.poll():
+                checks.append(self._results.recv())
+        except (EOFError, OSError):
+            pass
+        return checks
+
+    def close(self) -> None:
+        try:
+            self._requests.send(None)
+        except OSError:
+            pass
+        self._process.join(timeout=2.0)
+        if self._process.is_alive():
+            self._process.terminate()
+            self._process.join(timeout=2.0)
+        self._requests.close()
+        self._results.close()
+
+
+def _serve(requests, results, nice: int) -> None:
+    """The worker: answer the newest request, drop a result whose request was superseded meanwhile."""
+    import os
+
+    if nice and hasattr(os, "nice"):
+        try:
+            os.nice(nice)
+        except OSError:
+            pass
+    try:
+        request = requests.recv()
+        while request is not None:
+            while requests.poll():
+                request = requests.recv()
+            if request is None:
+                return
+            check = compute_check(request)
+            if requests.poll():
+                request = requests.recv()
+                continue
+            results.send(check)
+            request = requests.recv()
+    except (EOFError, BrokenPipeError, ConnectionResetError):
+        return
+
+
+class CheckUpdates:
+    """Keeps `AppState.compute.check` the check of the live document, asked of a worker.
+
+    Parameters
+    ----------
+    worker : CheckWorker (or anything with ``submit`` and ``poll``)
+    announce : callable
+        Called with one line per check applied (the window tests read them).
+    clock : callable
+        Seconds, for the drag's pause (`time.perf_counter`).
+    """
+
+    def __init__(
+        self, worker, announce: Callable[[str], None], clock: Callable[[], float] = time.perf_counter
+    ):
+        self.worker, self.announce, self.clock = worker, announce, clock
+        self.submitted: str | None = None
+        self._moved: tuple[bytes, float] | None = None  # (the dragged target, when it last changed)
+
+    def wanted(self, state: AppState) -> CheckRequest | None:
+        """The check the live document needs now, None when there is none to ask for (another
+        kernel, no basis for this cage yet, a handle moving)."""
+        live, basis = state.document.live, state.compute.basis
+        if live.kernel != HARMONIC_KERNEL or live.n < 3 or state.selection.drawing is not None:
+            return None
+        if basis is None or basis.kernel != HARMONIC_KERNEL or not np.array_equal(basis.cage, live.cage):
+            return None
+        if state.selection.drag is not None:
+            key, now = live.target.tobytes(), self.clock()
+            if self._moved is None or self._moved[0] != key:
+                self._moved = (key, now)
+            if state.selection.drag.kind != "target" or now - self._moved[1] < PAUSE:
+                return None
+        return make_check_request(live.cage, live.target, live.fold_free, basis)
+
+    def update(self, state: AppState) -> None:
+        """Apply the checks that arrived for the live document; ask for its check if not asked yet."""
+        request = self.wanted(state)
+        key = None if request is None else request.key
+        for check in self.worker.poll():
+            if check.key == key:
+                state.compute.check = check
+                self.announce(
+                    f"check fold_free={check.fold_free} injective={check.injective} "
+                    f"where={len(check.where)} seconds={check.seconds:.3f}"
+                )
+        check = state.compute.check
+        done = check is not None and check.key == key
+        if done or request is None:
+            self.submitted = None if done else self.submitted
+            return
+        if key != self.submitted:
+            self.worker.submit(request)
+            self.submitted = key
+
+    @property
+    def pending(self) -> bool:
+        """A check was asked for and has not been applied (the loop then wakes often)."""
+        return self.submitted is not None
+
+
+def current_check(state: AppState) -> WarpCheck | None:
+    """The check of the live document as it is (never one of an older target), or None."""
+    live, basis, check = state.document.live, state.compute.basis, state.compute.check
+    if check is None or basis is None or live.kernel != HARMONIC_KERNEL:
+        return None
+    if check.key != check_key(live.cage, live.target, live.fold_free, basis.key):
+        return None
+    return check

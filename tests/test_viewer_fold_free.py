@@ -1,0 +1,170 @@
+"""app.viewer.fold_free: the check of the live warp and its fold-free map, asked of a worker, never
+shown for an older target; the Fold-free switch, its session key and its status line."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import core
+from app.viewer import commands
+from app.viewer.fold_free import (
+    PAUSE,
+    CheckUpdates,
+    compute_check,
+    current_check,
+    make_check_request,
+    status_text,
+)
+from app.viewer.gui import status_check
+from app.viewer.precompute import compute, make_request, result_from_message
+from app.viewer.session import history_of, session_of
+from app.viewer.state import AppState, Drag, History, Snapshot
+
+ASSETS = Path(__file__).resolve().parent.parent / "assets"
+STARFISH = np.array(json.loads((ASSETS / "starfish.cage.json").read_text())["control_points"], dtype=float)
+#: A strong drag of the starfish demo: a point beside an arm pulled 60 px up and left, across the
+#: arm's root (the plain map folds: 15 triangles of this mesh, 249 at the viewer's default mesh).
+STRONG = (5, 60.0 * np.array([np.cos(np.radians(225.0)), np.sin(np.radians(225.0))]))
+
+
+def strong_target() -> np.ndarray:
+    target = STARFISH.copy()
+    target[STRONG[0]] += STRONG[1]
+    return target
+
+
+@pytest.fixture(autouse=True)
+def private_cache(tmp_path_factory, monkeypatch):
+    monkeypatch.setenv("TRANSFINITE_CACHE_DIR", str(tmp_path_factory.mktemp("cache")))
+
+
+@pytest.fixture(scope="module")
+def starfish_basis():
+    snapshot = Snapshot(ASSETS / "starfish.png", STARFISH, STARFISH)
+    request = make_request(snapshot, 12.0)
+    return result_from_message(request.key, compute(request))
+
+
+def opened(basis, target=None, kernel="poisson") -> AppState:
+    snapshot = Snapshot(ASSETS / "starfish.png", STARFISH, STARFISH if target is None else target, kernel)
+    state = AppState.opened(History(snapshot), np.zeros((480, 640, 4), np.uint8), Path("/tmp/s.json"))
+    state.compute.basis = basis
+    return state
+
+
+class StandInWorker:
+    """Records the requests; answers what the test hands it (`answer`)."""
+
+    def __init__(self):
+        self.requests, self.answers = [], []
+
+    def submit(self, request) -> None:
+        self.requests.append(request)
+
+    def poll(self):
+        answers, self.answers = self.answers, []
+        return answers
+
+    def answer(self, request) -> None:
+        self.answers.append(compute_check(request))
+
+
+def test_the_plain_map_of_a_strong_drag_is_not_proven_and_its_fold_free_map_is(starfish_basis):
+    target = strong_target()
+    mesh = starfish_basis.mesh
+    plain = compute_check(make_check_request(STARFISH, target, False, starfish_basis))
+    folded = np.count_nonzero(core.folded_triangles(mesh, core.deform(starfish_basis.basis, target)))
+    assert folded > 0 and not plain.injective and plain.positions is None
+    assert len(plain.where) > 0 and plain.marks.shape == plain.where.shape
+    assert status_text(plain, folded) == "folds near the marked spots"
+    check = compute_check(make_check_request(STARFISH, target, True, starfish_basis))
+    assert check.injective and check.sigma2_min > 0 and len(check.where) == 0
+    assert np.count_nonzero(core.folded_triangles(mesh, check.positions)) == 0
+    # The boundary vertices on the target curve at their parameters, exactly as warp's.
+    curve = core.ClosedBSpline(target)
+    np.testing.assert_allclose(check.positions[mesh.boundary], curve(mesh.boundary_parameters), atol=1e-9)
+    assert status_text(check, 0) == f"fold-free, proven (σ₂ ≥ {check.sigma2_min:.2g})"
+
+
+def test_a_check_of_an_older_target_is_never_applied(starfish_basis):
+    state = opened(starfish_basis)
+    worker = StandInWorker()
+    announced = []
+    updates = CheckUpdates(worker, announced.append)
+    updates.update(state)
+    (first,) = worker.requests
+    assert status_check(state) == "checking folds..."
+    commands.commit(state, state.document.live.replace(target=strong_target()), "moved")
+    worker.answer(first)  # the answer for the target before the edit arrives after it
+    updates.update(state)
+    assert current_check(state) is None and announced == []
+    assert len(worker.requests) == 2 and not np.array_equal(worker.requests[1].target, first.target)
+    worker.answer(worker.requests[1])
+    updates.update(state)
+    assert current_check(state) is state.compute.check and not updates.pending
+    assert announced[0].startswith("check fold_free=False injective=False")
+    updates.update(state)
+    assert len(worker.requests) == 2  # answered: not asked again
+    # Undo: the status line no longer shows the moved target's check.
+    commands.command(state, "undo")
+    assert current_check(state) is None and status_check(state) == "checking folds..."
+
+
+def test_a_drag_is_checked_once_its_handle_rests(starfish_basis):
+    state = opened(starfish_basis)
+    now = [0.0]
+    worker = StandInWorker()
+    updates = CheckUpdates(worker, print, clock=lambda: now[0])
+    state.selection.drag = Drag("target", 4, np.zeros(2), state.document.live)
+    updates.update(state)
+    now[0] = 0.5 * PAUSE
+    updates.update(state)
+    assert worker.requests == []  # still moving: the plain map, no check
+    now[0] = 1.5 * PAUSE
+    updates.update(state)
+    assert len(worker.requests) == 1
+    state.document.live = state.document.live.replace(target=strong_target())  # it moves again
+    now[0] = 1.6 * PAUSE
+    updates.update(state)
+    assert len(worker.requests) == 1
+    now[0] = 3.0 * PAUSE
+    updates.update(state)
+    assert len(worker.requests) == 2 and np.array_equal(worker.requests[1].target, strong_target())
+
+
+def test_fold_free_needs_poisson_is_undoable_and_another_kernel_turns_it_off(starfish_basis):
+    state = opened(starfish_basis)
+    assert commands.COMMANDS["fold_free"].undoable
+    commands.command(state, "fold_free")
+    assert state.document.live.fold_free
+    commands.command(state, "undo")
+    assert not state.document.live.fold_free
+    commands.command(state, "redo")
+    commands.command(state, "kernel", "mean-value")
+    assert state.document.live.kernel == "mean-value" and not state.document.live.fold_free
+    assert status_check(state) == "no fold-free proof (poisson only)"
+    commands.command(state, "fold_free")
+    assert not state.document.live.fold_free
+    assert "needs the poisson kernel" in state.status_message() and state.status.message_is_error
+    # Without a basis for the mean-value kernel, no check is asked for.
+    worker = StandInWorker()
+    CheckUpdates(worker, print).update(state)
+    assert worker.requests == []
+
+
+def test_the_session_keeps_fold_free_as_warp_reads_it(starfish_basis):
+    state = opened(starfish_basis)
+    assert "fold_free" not in session_of(state, 12.0).extra  # absent, as older versions wrote
+    commands.command(state, "fold_free")
+    session = session_of(state, 12.0)
+    assert session.extra["fold_free"] is True
+    undo, redo = history_of(session.extra["history"], ASSETS / "starfish.png")
+    assert [step.fold_free for step in undo] == [False] and redo == []
+    # Older sessions' steps (no key) read as before.
+    steps = session.extra["history"]["undo"]
+    del steps[0]["fold_free"]
+    assert history_of({"undo": steps}, ASSETS / "starfish.png")[0][0].fold_free is False
