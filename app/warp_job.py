@@ -328,10 +328,12 @@ def _render_frames(job: WarpJob, renderer, deformation: Deformation) -> None:
     from app.warping import render
 
     metadata = None if job.file is None else job.file.metadata
+    background = None if job.file is None else job.file.background
     with WRITERS[job.kind](job.output, job.size, job.fps, metadata) as writer, _frames_bar(job) as bar:
         for index, target in enumerate(job.targets):
             with reported_as_input(f"rendering frame {index}"):  # a fold-free path may cross itself
-                writer.add(render(renderer, deformation, target, job.size, job.view, job.outside))
+                pixels = render(renderer, deformation, target, job.size, job.view, job.outside, background)
+                writer.add(pixels)
             bar((index + 1) / len(job.targets))
         try:
             writer.finish()
