@@ -87,7 +87,9 @@ def animation_job(args: argparse.Namespace) -> WarpJob:
         outside=args.outside or inputs.outside,
         fill=inputs.fill,
         output=path,
-        file=OutputFile(path, photo.metadata, background=args.background),
+        file=OutputFile(
+            path, photo.metadata, background=inputs.background if args.background is None else args.background
+        ),
         kind=kind,
         fps=args.fps,
     )

@@ -193,7 +193,8 @@ def _output_file_arguments(warp: argparse.ArgumentParser) -> None:
         type=_colour,
         metavar="COLOR",
         help="fill what the warp leaves transparent with COLOR: a name (white, black, grey...), #rrggbb "
-        "or r,g,b (0-255); needed for a JPEG output unless --outside original covers everything",
+        "or r,g,b (0-255); needed for a JPEG output unless --outside original covers everything "
+        "(default: the session's background, else transparent)",
     )
 
 
@@ -478,8 +479,8 @@ def _animate_command(commands, run) -> None:
         "--background",
         type=_colour,
         metavar="COLOR",
-        help="as for warp: fill what the warp leaves transparent with COLOR (default: transparent PNG "
-        "frames; white in video and GIF)",
+        help="as for warp: fill what the warp leaves transparent with COLOR (default: the session's "
+        "background, else transparent PNG frames and white video and GIF)",
     )
     animate.set_defaults(run=run)
 
