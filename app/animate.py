@@ -33,7 +33,8 @@ MAX_GIF_BYTES = 4 << 30
 
 
 def animation_job(args: argparse.Namespace) -> WarpJob:
-    """``animate SESSION --output OUT [--fps N] [--size WxH] [--outside] [--canvas] [--max-edge PX]``
+    """``animate SESSION --output OUT [--fps N] [--size WxH] [--outside] [--canvas] [--max-edge PX]
+    [--background COLOR]``
     as a job of one frame per time of `app.keyframes.frame_times`.
 
     ``args.output`` is the text the user typed (a trailing slash asks for a folder of PNG frames).
@@ -86,7 +87,9 @@ def animation_job(args: argparse.Namespace) -> WarpJob:
         outside=args.outside or inputs.outside,
         fill=inputs.fill,
         output=path,
-        file=OutputFile(path, photo.metadata),
+        file=OutputFile(
+            path, photo.metadata, background=inputs.background if args.background is None else args.background
+        ),
         kind=kind,
         fps=args.fps,
     )

@@ -193,7 +193,8 @@ def _output_file_arguments(warp: argparse.ArgumentParser) -> None:
         type=_colour,
         metavar="COLOR",
         help="fill what the warp leaves transparent with COLOR: a name (white, black, grey...), #rrggbb "
-        "or r,g,b (0-255); needed for a JPEG output unless --outside original covers everything",
+        "or r,g,b (0-255); needed for a JPEG output unless --outside original covers everything "
+        "(default: the session's background, else transparent)",
     )
 
 
@@ -445,7 +446,8 @@ def _animate_command(commands, run) -> None:
         "time k / fps from the first keyframe to the last, both included.  The output's\n"
         "name chooses the format: .mp4 (MPEG-4 video), .gif, or a folder (a name ending\n"
         "in /) of RGBA frame_NNNNN.png.  Video and GIF have no alpha: transparent parts\n"
-        "are white.  The output appears only when complete (Ctrl+C leaves nothing).",
+        "are white, or --background's colour.  The output appears only when complete\n"
+        "(Ctrl+C leaves nothing).",
         ("%(prog)s walk.json --output walk.mp4", None),
         ("%(prog)s walk.json --output walk.gif --fps 15 --size 320x240", "a small GIF"),
         ("%(prog)s walk.json --output frames/ --outside original", "PNG frames over the untouched image"),
@@ -472,6 +474,13 @@ def _animate_command(commands, run) -> None:
     )
     animate.add_argument(
         "--max-edge", type=_positive(float), metavar="PX", help="longest mesh edge (default: the session's)"
+    )
+    animate.add_argument(
+        "--background",
+        type=_colour,
+        metavar="COLOR",
+        help="as for warp: fill what the warp leaves transparent with COLOR (default: the session's "
+        "background, else transparent PNG frames and white video and GIF)",
     )
     animate.set_defaults(run=run)
 

@@ -443,6 +443,23 @@ def session_output(session: Session, path: str | os.PathLike = "session") -> tup
     return settings[0], settings[1]
 
 
+def session_background(session: Session, path: str | os.PathLike = "session") -> tuple | None:
+    """The session's ``background``: straight RGBA in [0, 1] under the warp (``--background``), or
+    None (transparent) when absent or ``"none"``.  A colour as ``--background`` takes it
+    (`app.images.colours.parse_colour`); anything else is an `InputError`."""
+    from app.images.colours import parse_colour
+
+    value = session.extra.get("background", "none")
+    if value == "none":
+        return None
+    if not isinstance(value, str):
+        raise InputError(f'{path}: "background" must be a colour or "none", got {_shown(value)}')
+    try:
+        return parse_colour(value)
+    except ValueError as error:
+        raise InputError(f'{path}: "background": {error}') from None
+
+
 def session_parameterization(session: Session, path: str | os.PathLike = "session") -> str:
     """The session's ``parameterization`` of the boundary for the point kernels (Fig. 12):
     ``"natural"`` (also when absent, as in older sessions) or ``"arc-length"``."""

@@ -159,3 +159,31 @@ def _foot_point_parameters(control_points: np.ndarray, data: np.ndarray, t: np.n
     curvature = np.where(curvature > 0.1 * speed, curvature, speed)
     step = np.clip(gradient / np.maximum(curvature, 1e-300), -0.5, 0.5)
     return np.mod(t - step, control_points.shape[0])
+
+
+def rectangle_cage(rect, points: int = 16) -> np.ndarray:
+    """The rectangle (x, y, width, height), image pixels, as a cage of `points` control points.
+
+    With `points` >= 8 the curve is the rectangle itself: its corners doubled (sharp)
+    and the other points on its sides, spread in proportion to their lengths.  With
+    fewer, the four corners once each: a rounded rectangle inside it, through the
+    sides' midpoints.
+
+    Returns
+    -------
+    ndarray of shape (max(points, 8), 2) or (4, 2), float64
+    """
+    x, y, width, height = (float(v) for v in rect)
+    corners = np.array([[x, y], [x + width, y], [x + width, y + height], [x, y + height]])
+    if points < 8:
+        return corners
+    lengths = np.array([width, height, width, height])
+    extra = points - 8
+    shares = extra * lengths / lengths.sum()
+    counts = np.floor(shares).astype(int)
+    counts[np.argsort(counts - shares)[: extra - counts.sum()]] += 1  # largest remainders
+    result = []
+    for corner, following, count in zip(corners, np.roll(corners, -1, axis=0), counts, strict=True):
+        result += [corner, corner]
+        result += [corner + (following - corner) * k / (count + 1) for k in range(1, count + 1)]
+    return np.array(result)

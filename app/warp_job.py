@@ -37,6 +37,7 @@ from app.files import (
     refuse_overwriting_inputs,
     reported_as_input,
     same_file,
+    session_background,
     session_fold_free,
     session_image,
     session_kernel_params,
@@ -80,6 +81,8 @@ class WarpInputs:
         Deform by the certified fold-free map (`core.fold_free_deform`) instead of G P'.
     cage_source, target_source : str
         How messages name the cage and the target (a file, or ``SESSION: cage``).
+    background : tuple of float or None
+        Straight RGBA in [0, 1] under the warp (``--background``, or the session's); None: transparent.
     """
 
     image_path: Path
@@ -95,6 +98,7 @@ class WarpInputs:
     fold_free: bool
     cage_source: str
     target_source: str
+    background: tuple[float, float, float, float] | None = None
 
 
 @dataclass
@@ -180,6 +184,7 @@ def session_inputs(session: Session, path: Path, kernel: str | None = None) -> W
         fold_free=session_fold_free(session, path),
         cage_source=f"{path}: cage",
         target_source=f"{path}: target",
+        background=session_background(session, path),
     )
 
 
@@ -246,7 +251,8 @@ def warp_job(args: argparse.Namespace) -> tuple[WarpJob, WarpInputs]:
             f"--fold-free: fold-free warps are harmonic: use the {DEFAULT_KERNEL} kernel, "
             f"not {inputs.kernel!r}"
         )
-    _require_opaque_output(args.output, outside, args.background)
+    background = inputs.background if args.background is None else args.background
+    _require_opaque_output(args.output, outside, background)
     with reported_as_input("output size"):
         size, view = output_frame(
             output_region(width_height(image), inputs.target, canvas), args.scale, args.size
@@ -266,7 +272,7 @@ def warp_job(args: argparse.Namespace) -> tuple[WarpJob, WarpInputs]:
         outside=outside,
         fill=fill,
         output=args.output,
-        file=OutputFile(args.output, photo.metadata, args.quality, args.background),
+        file=OutputFile(args.output, photo.metadata, args.quality, background),
         kind="image",
     )
     return job, inputs
@@ -329,10 +335,12 @@ def _render_frames(job: WarpJob, renderer, deformation: Deformation) -> None:
     from app.warping import render
 
     metadata = None if job.file is None else job.file.metadata
+    background = None if job.file is None else job.file.background
     with WRITERS[job.kind](job.output, job.size, job.fps, metadata) as writer, _frames_bar(job) as bar:
         for index, target in enumerate(job.targets):
             with reported_as_input(f"rendering frame {index}"):  # a fold-free path may cross itself
-                writer.add(render(renderer, deformation, target, job.size, job.view, job.outside))
+                pixels = render(renderer, deformation, target, job.size, job.view, job.outside, background)
+                writer.add(pixels)
             bar((index + 1) / len(job.targets))
         try:
             writer.finish()

@@ -115,6 +115,43 @@ def test_mp4_and_gif_match_warp_after_compression(animation, capfd):
         assert not [p.name for p in animation.iterdir() if p.name.startswith(".")]  # no temporaries
 
 
+def test_background_fills_frames_as_warp_does(animation, capfd):
+    # PNG frames: exactly warp --background's output for the first and last targets, all opaque.
+    output = animation / "blue"
+    argv = [
+        "animate",
+        animation / "two.json",
+        "--output",
+        f"{output}/",
+        "--fps",
+        "2",
+        "--background",
+        "#0000ff",
+    ]
+    code, _, err = run_main(argv, capfd)
+    assert code == 0, err
+    frames = [read_image(path) for path in sorted(output.iterdir())]
+    assert len(frames) == 3 and all((frame[..., 3] == 255).all() for frame in frames)
+    for name, frame in (("first", frames[0]), ("last", frames[-1])):
+        warped = animation / f"{name}-blue.png"
+        main_ok(
+            ["warp", "--session", animation / f"{name}.json", "--output", warped, "--background", "#0000ff"]
+        )
+        np.testing.assert_array_equal(frame, read_image(warped))
+    # What the warp leaves transparent (outside the moved cage) is blue, and black in the GIF.
+    uncovered = read_image(animation / "last.png")[..., 3] == 0
+    assert uncovered.sum() > 100
+    assert (frames[-1][uncovered] == [0, 0, 255, 255]).all()
+    gif = animation / "black.gif"
+    argv = ["animate", animation / "two.json", "--output", gif, "--fps", "2", "--background", "black"]
+    assert run_main(argv, capfd)[0] == 0
+    from PIL import Image, ImageSequence
+
+    with Image.open(gif) as opened:
+        last = [np.asarray(frame.convert("RGB")) for frame in ImageSequence.Iterator(opened)][-1]
+    assert np.abs(last[uncovered].astype(int)).max() <= 8  # black, within the GIF's palette
+
+
 def test_size_and_a_grown_canvas_keep_one_frame_size(animation, capfd):
     output = animation / "grown"
     away = np.asarray(CAGE) + [60.0, 0.0]  # leaves the picture on the right

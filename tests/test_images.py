@@ -126,6 +126,56 @@ def test_exif_is_written_to_png_jpeg_and_webp(tmp_path):
         assert read_photo(tmp_path / f"out{extension}").metadata.exif == block
 
 
+def camera_exif() -> bytes:
+    """A big-endian EXIF block, without its prefix: first IFD, Exif and GPS sub-IFDs, maker's notes."""
+    exif = Image.Exif()
+    exif[0x010F], exif[0x0110], exif[0x0112] = "camera maker", "model X", 1
+    exif[0x0131] = "a program's name longer than four bytes"
+    sub = exif.get_ifd(0x8769)
+    sub[0x9003], sub[0x829A], sub[0x927C] = "2024:01:02 03:04:05", (1, 250), b"private" * 3
+    gps = exif.get_ifd(0x8825)
+    gps[1], gps[2] = "N", (52.0, 31.0, 12.5)
+    block = exif.tobytes().removeprefix(b"Exif\x00\x00")
+    assert block[:2] == b"MM"  # the TIFF that OpenCV writes is little-endian: every value is laid out anew
+    return block
+
+
+@pytest.mark.parametrize("dtype", [np.uint8, np.uint16])
+def test_exif_is_written_into_a_tiff_with_its_offsets_relocated(tmp_path, dtype):
+    image = gradient16(alpha=True) if dtype == np.uint16 else (gradient16(alpha=True) >> 8).astype(np.uint8)
+    profile = srgb_profile()
+    write_image(tmp_path / "out.tif", image, ImageMetadata(icc_profile=profile, exif=camera_exif()))
+    np.testing.assert_array_equal(read_photo(tmp_path / "out.tif").pixels, image)
+    with Image.open(tmp_path / "out.tif") as written:
+        exif = written.getexif()
+        assert written.info["icc_profile"] == profile and written.tag_v2[338] == (2,)
+        assert (exif[0x010F], exif[0x0110], exif[0x0112]) == ("camera maker", "model X", 1)
+        assert exif[0x0131] == "a program's name longer than four bytes"
+        # The maker's notes may hold offsets into the file they came from: dropped.
+        assert dict(exif.get_ifd(0x8769)) == {0x9003: "2024:01:02 03:04:05", 0x829A: (1, 250)}
+        assert dict(exif.get_ifd(0x8825)) == {1: "N", 2: (52.0, 31.0, 12.5)}
+        assert written.size == (WIDTH, HEIGHT) and written.tag_v2[256] == WIDTH  # its own sizes kept
+    # Read back, a TIFF's EXIF is its first IFD's tags but those laying out its pixels.
+    exif = Image.Exif()
+    exif.load(b"Exif\x00\x00" + read_photo(tmp_path / "out.tif").metadata.exif)
+    assert {tag: exif[tag] for tag in (0x010F, 0x0110, 0x0112)} == {
+        0x010F: "camera maker",
+        0x0110: "model X",
+        0x0112: 1,
+    }
+    assert not {256, 257, 258, 273, 279, 338, 34675} & set(exif)
+    assert dict(exif.get_ifd(0x8769)) == {0x9003: "2024:01:02 03:04:05", 0x829A: (1, 250)}
+    assert dict(exif.get_ifd(0x8825)) == {1: "N", 2: (52.0, 31.0, 12.5)}
+
+
+def test_a_malformed_exif_block_leaves_a_tiff_without_it(tmp_path):
+    image = gradient16()
+    write_image(tmp_path / "out.tif", image, ImageMetadata(exif=b"MM\x00*\x00\x00\xff\xff"))
+    np.testing.assert_array_equal(read_photo(tmp_path / "out.tif").pixels, image)
+    with Image.open(tmp_path / "out.tif") as written:
+        assert 0x010F not in written.getexif()
+
+
 @pytest.mark.parametrize("dtype", [np.uint8, np.uint16])
 def test_a_png_written_in_strips_reads_back_exactly_with_its_metadata(tmp_path, dtype):
     image = gradient16(alpha=True) if dtype == np.uint16 else (gradient16(alpha=True) >> 8).astype(np.uint8)

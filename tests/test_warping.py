@@ -142,3 +142,42 @@ def test_the_viewers_fold_free_export_is_warps_fold_free_session(tmp_path, capfd
             assert not np.array_equal(exporter.render_still(), warped)  # the plain map's pixels differ
     finally:
         ctx.release()
+
+
+def test_the_viewers_background_is_saved_and_drawn_as_warp_draws_it(tmp_path, capfd, ctx):
+    from app.files import read_session
+    from app.render import WarpRenderer
+    from app.viewer import commands
+    from app.viewer.session import restore, save
+
+    write_png(tmp_path / "picture.png", picture())
+    cage, moved = np.array(CAGE, dtype=float), transformed(CAGE)
+    snapshot = Snapshot(tmp_path / "picture.png", cage, moved)
+    request = make_request(snapshot, MAX_EDGE)
+    state = AppState(Document(History(snapshot), snapshot, picture(), tmp_path / "s.json"))
+    state.compute.basis = result_from_message(request.key, compute(request))
+    commands.command(state, "background", "mauve")
+    assert state.status.message_is_error and state.document.background == "none"
+    commands.command(state, "background", "#0000ff")
+    assert state.document.background == "#0000ff" and state.document.session_dirty
+    save(state, MAX_EDGE)
+    assert read_session(tmp_path / "s.json").extra["background"] == "#0000ff"
+    assert restore(tmp_path / "s.json").preferences["background"] == "#0000ff"
+    # An earlier test's warp made its own context current and released it: this one is made current.
+    with ctx, WarpRenderer(ctx) as renderer:
+        scene = Scene(renderer)
+        exporter = Exporter(
+            state, scene, lambda s: s.compute.basis.key == request.key, None, 30.0, print, None
+        )
+        scene.sync(state)
+        exported = exporter.render_still()
+    assert (exported[..., 3] == 255).all() and (exported == [0, 0, 255, 255]).all(axis=2).any()
+    # warp --session takes the session's background: the same pixels, and a JPEG needs no option.
+    argv = ["warp", "--session", tmp_path / "s.json", "--max-edge", str(MAX_EDGE)]
+    code, _, err = run_main([*argv, "--output", tmp_path / "warp.png"], capfd)
+    assert code == 0, err
+    np.testing.assert_array_equal(exported, read_image(tmp_path / "warp.png"))
+    assert run_main([*argv, "--output", tmp_path / "warp.jpg"], capfd)[0] == 0
+    code, _, err = run_main([*argv, "--output", tmp_path / "black.png", "--background", "black"], capfd)
+    assert code == 0, err
+    assert (read_image(tmp_path / "black.png") == [0, 0, 0, 255]).all(axis=2).any()

@@ -28,6 +28,15 @@ _BITS_PER_SAMPLE = 258
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 #: The marker that precedes the EXIF block in JPEG APP1 segments (and in Pillow's ``info["exif"]``).
 EXIF_PREFIX = b"Exif\x00\x00"
+#: Tags of a TIFF's first IFD that lay out its pixels (sizes, samples, strips and tiles,
+#: compression, a JPEG thumbnail) or carry its ICC profile: not EXIF, in either direction.
+TIFF_LAYOUT_TAGS = frozenset(
+    (256, 257, 258, 259, 262, 273, 277, 278, 279, 284, 317, 320, 322, 323, 324, 325, 338, 339, 513, 514)
+    + (530, 531, 532, 34675)
+)
+#: The sub-IFDs an EXIF block's first IFD points to (Exif, GPS), and the maker's notes in the
+#: Exif IFD: private bytes that may hold offsets into the file they came from.
+_SUB_IFDS, _MAKER_NOTE = (34665, 34853), 37500
 
 
 @dataclass(frozen=True)
@@ -96,6 +105,7 @@ def read_metadata(data: bytes) -> FileInfo:
             info, mode, kind = dict(image.info), image.mode, image.format
             frames = getattr(image, "n_frames", 1) if kind == "TIFF" else 1
             tiff_orientation = image.tag_v2.get(ORIENTATION_TAG) if kind == "TIFF" else None
+            tiff_exif = _tiff_exif(image) if kind == "TIFF" else None
             if kind == "TIFF" and mode == "RGBA" and image.tag_v2.get(_BITS_PER_SAMPLE) != (8, 8, 8, 8):
                 mode = "RGBA;16"  # Pillow calls 16-bit RGBA "RGBA" too (it would read 8 bits of it)
     except Exception:  # Pillow raises many kinds; OpenCV's decoder then says what is wrong
@@ -105,8 +115,9 @@ def read_metadata(data: bytes) -> FileInfo:
     icc = _icc_profile(info.get("icc_profile"), notes)
     exif, orientation = None, 1
     if kind == "TIFF":
-        # A TIFF's tags are its own first IFD (strips, sizes...): only the orientation is taken.
+        # A TIFF's EXIF is the tags of its first IFD that do not lay out its pixels.
         orientation = _checked_orientation(tiff_orientation, notes)
+        exif = _exif(tiff_exif, [])[0] if tiff_exif else None  # its orientation noted above
     elif info.get("exif"):
         exif, orientation = _exif(bytes(info["exif"]), notes)
     return FileInfo(ImageMetadata(icc, exif), orientation, mode, tuple(notes))
@@ -156,6 +167,43 @@ def _icc_profile(profile, notes: list[str]) -> bytes | None:
     if len(profile) < 128 or profile[36:40] != b"acsp":
         notes.append("its ICC profile is not a valid profile (no 'acsp' signature); carried over unchanged")
     return profile
+
+
+def laid_out_exif(exif, leave_out: frozenset[int] | set[int], head: bytes, at: int) -> tuple[bytes, int]:
+    """The first IFD of `exif` (a Pillow ``Image.Exif``) laid out anew at byte `at` of a TIFF whose
+    header is `head` (8 bytes; its byte order is used): (its bytes, of even length, its number of
+    entries).
+
+    Every value that does not fit in its entry, and the Exif and GPS sub-IFDs, follow the
+    entries, at offsets counted from the start of the TIFF: they are relocated.  The tags of
+    `leave_out` and the maker's notes (whose inner offsets cannot be relocated) are left out, and
+    so are the Interoperability sub-IFD and a thumbnail's IFD.  Pillow's exceptions on a
+    malformed block pass through.
+    """
+    from PIL import TiffImagePlugin
+
+    directory = TiffImagePlugin.ImageFileDirectory_v2(ifh=head)
+    for tag, value in exif.items():
+        if tag in _SUB_IFDS:
+            value = {key: item for key, item in exif.get_ifd(tag).items() if key not in (_MAKER_NOTE, 40965)}
+            if not value:
+                continue
+        elif tag in leave_out:
+            continue
+        directory[tag] = value
+    laid_out = directory.tobytes(at)
+    return laid_out + b"\x00" * (len(laid_out) % 2), len(directory)
+
+
+def _tiff_exif(image) -> bytes | None:
+    """The EXIF of a TIFF opened by Pillow as a block (little-endian, no prefix): the tags of its
+    first IFD but `TIFF_LAYOUT_TAGS`, with its Exif and GPS sub-IFDs; None if it has none."""
+    head = b"II*\x00" + struct.pack("<I", 8)
+    try:
+        laid_out, count = laid_out_exif(image.getexif(), TIFF_LAYOUT_TAGS, head, 8)
+    except Exception:  # Pillow raises many kinds on damaged tags: the EXIF is left behind
+        return None
+    return head + laid_out if count else None
 
 
 def _exif(block: bytes, notes: list[str]) -> tuple[bytes | None, int]:

@@ -4,7 +4,8 @@
 file: PNG (8/16-bit RGBA) and TIFF (8/16-bit RGBA, LZW) keep the depth, JPEG and WebP
 are 8-bit.  OpenCV encodes the pixels; the ICC profile and the EXIF block of
 `ImageMetadata` are then put into the file byte for byte (PNG ``iCCP``/``eXIf`` chunks,
-JPEG APP2/APP1 segments, a TIFF tag 34675; WebP through Pillow, which writes both).  A
+JPEG APP2/APP1 segments, TIFF tags of its first IFD with the EXIF's offsets relocated;
+WebP through Pillow, which writes both).  A
 PNG without metadata is exactly OpenCV's, as it always was.  JPEG has no alpha: a
 transparent output is refused, never flattened onto black.
 """
@@ -14,13 +15,14 @@ from __future__ import annotations
 import io
 import os
 import struct
+import warnings
 import zlib
 from pathlib import Path
 
 import cv2
 import numpy as np
 
-from app.images.metadata import EXIF_PREFIX, ImageMetadata
+from app.images.metadata import EXIF_PREFIX, TIFF_LAYOUT_TAGS, ImageMetadata, laid_out_exif
 
 #: Output file name extensions and the format each writes.
 OUTPUT_FORMATS = {
@@ -174,11 +176,10 @@ _STRAIGHT_ALPHA = 2
 
 
 def tiff_with_metadata(data: bytes, metadata: ImageMetadata) -> bytes:
-    """OpenCV's RGBA TIFF `data` with its first IFD rewritten at the end, two tags added: the fourth
+    """OpenCV's RGBA TIFF `data` with its first IFD rewritten at the end, tags added: the fourth
     sample is straight alpha (ExtraSamples; OpenCV leaves it unspecified, which other programs do
-    not show as transparency) and, if there is one, the ICC profile.
-
-    The EXIF block is not embedded in TIFF outputs (its offsets would need relocating).
+    not show as transparency), the ICC profile if there is one, and the EXIF block's tags
+    (`_tiff_exif`): a TIFF holds EXIF as tags of its first IFD and sub-IFDs it points to.
     """
     order = "<" if data[:2] == b"II" else ">"
     (first,) = struct.unpack(order + "I", data[4:8])
@@ -193,13 +194,41 @@ def tiff_with_metadata(data: bytes, metadata: ImageMetadata) -> bytes:
     if metadata.icc_profile is not None:
         profile = metadata.icc_profile + b"\x00" * (len(metadata.icc_profile) % 2)
         entries.append(struct.pack(order + "HHII", _ICC_TAG, 7, len(metadata.icc_profile), profile_at))
+    exif_at = profile_at + len(profile)
+    exif = b""
+    if metadata.exif is not None:
+        present = {struct.unpack(order + "H", entry[:2])[0] for entry in entries}
+        exif, exif_entries = _tiff_exif(metadata.exif, data[:8], exif_at, present)
+        entries += exif_entries
     entries.sort(key=lambda entry: struct.unpack(order + "H", entry[:2])[0])
-    directory_at = profile_at + len(profile)
+    directory_at = exif_at + len(exif)
     directory = (
         struct.pack(order + "H", len(entries)) + b"".join(entries) + struct.pack(order + "I", following)
     )
     header = data[:4] + struct.pack(order + "I", directory_at)
-    return header + padded[8:] + profile + directory
+    return header + padded[8:] + profile + exif + directory
+
+
+def _tiff_exif(block: bytes, head: bytes, at: int, present: set[int]) -> tuple[bytes, list[bytes]]:
+    """(bytes to place at offset `at` of a TIFF of header `head`, entries (12 bytes each) for its
+    first IFD) that carry the EXIF `block` (a TIFF structure, orientation already 1).
+
+    Pillow parses the block and `laid_out_exif` lays its tags out again at `at`, so that every
+    offset is relocated; the tags the TIFF already has (`present`) and those of
+    `TIFF_LAYOUT_TAGS` are left out.  The bytes start with the count and entries of that
+    directory, which nothing points to.  A block Pillow cannot parse gives nothing.
+    """
+    from PIL import Image
+
+    exif = Image.Exif()
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # Pillow warns of a corrupt block, then gives up on it
+            exif.load(EXIF_PREFIX + block)
+            laid_out, count = laid_out_exif(exif, TIFF_LAYOUT_TAGS | present, head, at)
+    except Exception:  # Pillow raises many kinds on a malformed block: the output goes without it
+        return b"", []
+    return laid_out, [laid_out[2 + 12 * index : 14 + 12 * index] for index in range(count)]
 
 
 def _webp(pixels: np.ndarray, metadata: ImageMetadata, quality: int) -> bytes:

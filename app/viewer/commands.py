@@ -308,6 +308,20 @@ def _outside(state: AppState, value) -> None:
         state.document.session_dirty = True
 
 
+@_command("background", "what exports show where the warp leaves them transparent: none, or a colour")
+def _background(state: AppState, value) -> None:
+    from app.images.colours import parse_colour
+
+    if value != "none":
+        try:
+            parse_colour(str(value))
+        except ValueError as error:
+            state.say(f"background: {error}", error=True)
+            return
+    state.document.background = str(value)
+    state.document.session_dirty = True
+
+
 @_command("fill", "what fills the original position behind the warp: none, transparent, #rrggbb, inpaint")
 def _fill(state: AppState, value) -> None:
     try:

@@ -39,6 +39,8 @@ class AnimationExport:
     deformation : app.warping.Deformation
         The mesh drawn and its G.
     outside : str
+    background : tuple of float or None
+        Straight RGBA in [0, 1] under the warp (the document's ``background``); None: transparent.
     written : int
         Frames written so far.
     """
@@ -50,6 +52,7 @@ class AnimationExport:
     snapshot: Snapshot
     deformation: object  # app.warping.Deformation
     outside: str
+    background: tuple[float, float, float, float] | None
     written: int = 0
 
 
@@ -152,7 +155,8 @@ class Exporter:
         height, width = state.document.image.shape[:2]
         target = state.document.live.target
         size, view = output_frame(output_region((width, height), target, state.document.canvas))
-        return render(self.scene.renderer, deformation, target, size, view, state.document.outside)
+        outside, background = state.document.outside, document_background(state)
+        return render(self.scene.renderer, deformation, target, size, view, outside, background)
 
     def cancel(self) -> bool:
         """Esc: stop the animation export, if one runs (nothing is written)."""
@@ -191,7 +195,9 @@ class Exporter:
             return
         state.playback.playing = False
         deformation = state.compute.basis.deformation(fold_free=live.fold_free)
-        self.animation = AnimationExport(writer, times, size, view, live, deformation, state.document.outside)
+        self.animation = AnimationExport(
+            writer, times, size, view, live, deformation, state.document.outside, document_background(state)
+        )
         self.last = str(path) + os.sep if kind == "png" else str(path)
         state.say(f"exporting {len(times)} frames to {path} (Esc stops)")
 
@@ -213,7 +219,13 @@ class Exporter:
                 moment = float(export.times[export.written])
                 target = interpolate(snapshot.keyframes, moment, snapshot.interpolation)
                 pixels = render(
-                    self.scene.renderer, export.deformation, target, export.size, export.view, export.outside
+                    self.scene.renderer,
+                    export.deformation,
+                    target,
+                    export.size,
+                    export.view,
+                    export.outside,
+                    export.background,
                 )
                 export.writer.add(pixels)
                 export.written += 1
@@ -228,6 +240,14 @@ class Exporter:
             self.animation = None
             state.say(f"exported {len(export.times)} frames to {export.writer.path}")
             self.announce(f"exported {export.writer.path}")
+
+
+def document_background(state: AppState) -> tuple[float, float, float, float] | None:
+    """The document's ``background`` as straight RGBA in [0, 1], None for ``"none"`` (transparent)."""
+    from app.images.colours import parse_colour
+
+    background = state.document.background
+    return None if background == "none" else parse_colour(background)
 
 
 def default_export_path(image: Path) -> Path:

@@ -266,6 +266,15 @@ def _show_section(state: AppState, commands: list) -> None:
         _fill_choice(state, commands)
     _choice_row(
         commands,
+        "Background:",
+        "background",
+        state.document.background,
+        (("none", "none"), ("white", "white"), ("black", "black")),
+        "what exports show where the warp leaves them transparent (needed for JPEG); another colour: "
+        'the session\'s "background" ("#rrggbb"); warp and animate --background do the same',
+    )
+    _choice_row(
+        commands,
         "Canvas: ",
         "canvas",
         state.document.canvas,

@@ -37,6 +37,7 @@ from app.files import (
     read_image,
     read_session,
     reported_as_input,
+    session_background,
     session_fold_free,
     session_image,
     session_kernel_params,
@@ -277,6 +278,8 @@ def restore(path: Path, max_edge: float | None = None) -> OpenedDocument:
         "canvas": canvas,
         "fill": session_fill(session.extra, path),
     }
+    if session_background(session, path) is not None:  # checked: a bad colour is one line
+        preferences["background"] = session.extra["background"]
     power = params.get("power", preferences.get("power", DEFAULT_POWER))
     shift = params.get("shift", preferences.get("shift", DEFAULT_SHIFT))
     power = finite_number(power)
@@ -472,6 +475,8 @@ def apply_preferences(state: AppState, preferences: dict | None) -> None:
         state.document.canvas = preferences["canvas"]
     if isinstance(preferences.get("fill"), str):
         state.document.fill = preferences["fill"]  # checked by `restore` (app.fill.session_fill)
+    if isinstance(preferences.get("background"), str):
+        state.document.background = preferences["background"]  # checked by `restore`
     if isinstance(preferences.get("loop"), bool):
         state.playback.loop = preferences["loop"]
     time = finite_number(preferences.get("time"))
@@ -505,6 +510,8 @@ def session_of(state: AppState, max_edge: float | None) -> Session:
     if max_edge is not None:
         extra["mesh"] = {"max_edge": float(max_edge)}
     extra["outside"], extra["canvas"] = state.document.outside, state.document.canvas
+    if state.document.background != "none":  # files without the key read as transparent
+        extra["background"] = state.document.background
     if (
         state.document.fill != "none"
     ):  # files without the key read as "none" (and stay as older versions wrote them)

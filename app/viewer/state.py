@@ -390,6 +390,9 @@ class Document:
         What exports frame: ``"source"``, or ``"grow"`` to hold the whole target.
     fill : str
         What fills the source cage's region behind the warp, with outside "original" (`app.fill`).
+    background : str
+        What exports show where the warp leaves them transparent: ``"none"`` (transparent) or a
+        colour as ``--background`` takes it (`app.images.colours.parse_colour`).
     max_edge : float or None
         A forced mesh edge length (None: from the cage's area).
     saved : Snapshot or None
@@ -405,6 +408,7 @@ class Document:
     outside: str = "transparent"
     canvas: str = "source"
     fill: str = "none"
+    background: str = "none"
     max_edge: float | None = None
     saved: Snapshot | None = None
 
