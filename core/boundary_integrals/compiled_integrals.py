@@ -344,7 +344,7 @@ def interpolation_rows(u, barycentric):
 
 @njit(cache=True, nogil=True, error_model="numpy")
 def panel_geometry(coefficients, bounds):
-    """`panels._panels`'s arrays for the panels `bounds` (P, 2) of the curve whose spans are
+    """`panels.panels_on_intervals`'s arrays for the panels `bounds` (P, 2) of the curve whose spans are
     `coefficients` (n, 3, 2) (`ClosedBSpline.piecewise_polynomial`), each panel on the span of
     its start: t, weights (P ORDER,), z, dz, d2z complex (P ORDER,), centres complex (P,),
     radii and lengths (P,).  One pass, where numpy took ~20 array operations a call (a solve
