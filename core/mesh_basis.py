@@ -124,31 +124,22 @@ def mesh_basis_functions(
         An unknown kernel or parameter, a mesh of another curve, or invalid
         arguments.
     """
-    per = _checked_arguments(curve, mesh, kernel, samples_per_segment, parameterization, gradients, params)
-    for name, callback in (("progress", progress), ("compiling", compiling)):
-        if callback is not None and not callable(callback):
-            raise ValueError(f"{name} must be a callable taking a fraction, got {callback!r}")
+    callbacks = {"progress": progress, "compiling": compiling}
+    per = _checked_arguments(
+        curve, mesh, kernel, (samples_per_segment, parameterization, gradients), callbacks, params
+    )
     if gradients:
         values = mesh_basis_functions(curve, mesh, kernel, per, progress, cache, compiling, **params)
         return values, _vertex_gradients(curve, mesh, kernel, per, cache, params)
-    shape = (mesh.vertices.shape[0], curve.n)
     if not cache or kernel in UNCACHED_KERNELS:
         if kernel in COMPILED_KERNELS:
             compile_solver(compiling)
         return _compute(curve, mesh, kernel, per, progress, parameterization, params)
     key = _cache_key(curve, mesh, kernel, per, params, parameterization=parameterization)
-    entry = disk_cache.load(key, shape)
+    entry = disk_cache.load(key, (mesh.vertices.shape[0], curve.n))
     problem = entry.problem
     if entry.values is not None:
-        problem = invariant_problem(curve, mesh, kernel, params, entry.values, entry.errors)
-        if problem is None and kernel != "harmonic":  # the finite-element basis has no pointwise values
-            if kernel in COMPILED_KERNELS:
-                compile_solver(compiling)  # shown as such (the first run only), not as reading the cache
-            problem = recomputed_rows_problem(
-                entry.values[mesh.interior],
-                mesh.vertices[mesh.interior],
-                lambda points: _point_values(curve, points, kernel, per, parameterization, params),
-            )
+        problem = _cached_problem(curve, mesh, kernel, per, parameterization, params, entry, compiling)
         if problem is None:
             if progress is not None:
                 progress(1.0)
@@ -167,9 +158,26 @@ def mesh_basis_functions(
     return values
 
 
-def _checked_arguments(curve, mesh, kernel, samples_per_segment, parameterization, gradients, params) -> int:
-    """The checks of `mesh_basis_functions` on its arguments, one ValueError each; returns the
-    checked samples per segment."""
+def _cached_problem(curve, mesh, kernel, per, parameterization, params, entry, compiling) -> str | None:
+    """Why the intact cache `entry` of G cannot be used (`invariant_problem`, then rows recomputed
+    by `recomputed_rows_problem`), or None."""
+    problem = invariant_problem(curve, mesh, kernel, params, entry.values, entry.errors)
+    if problem is None and kernel != "harmonic":  # the finite-element basis has no pointwise values
+        if kernel in COMPILED_KERNELS:
+            compile_solver(compiling)  # shown as such (the first run only), not as reading the cache
+        problem = recomputed_rows_problem(
+            entry.values[mesh.interior],
+            mesh.vertices[mesh.interior],
+            lambda points: _point_values(curve, points, kernel, per, parameterization, params),
+        )
+    return problem
+
+
+def _checked_arguments(curve, mesh, kernel, settings, callbacks, params) -> int:
+    """The checks of `mesh_basis_functions` on its arguments, one ValueError each; `settings` =
+    (samples_per_segment, parameterization, gradients), `callbacks` by name.  Returns the checked
+    samples per segment."""
+    samples_per_segment, parameterization, gradients = settings
     require_mesh_of(curve, mesh)
     valid = POINT_KERNELS + COMPLEX_KERNELS + MESH_ONLY_KERNELS
     if not isinstance(kernel, str) or kernel not in valid:
@@ -187,6 +195,9 @@ def _checked_arguments(curve, mesh, kernel, samples_per_segment, parameterizatio
             f"kernel {kernel!r} does not depend on the boundary's parameterization; "
             f"parameterization={parameterization!r} applies to {', '.join(PARAMETERIZED_KERNELS)}"
         )
+    for name, callback in callbacks.items():
+        if callback is not None and not callable(callback):
+            raise ValueError(f"{name} must be a callable taking a fraction, got {callback!r}")
     if gradients and kernel in MESH_ONLY_KERNELS:
         raise ValueError(
             f"kernel {kernel!r} has no pointwise gradients; use the per-triangle Jacobians "

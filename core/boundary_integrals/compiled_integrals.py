@@ -344,7 +344,7 @@ def interpolation_rows(u, barycentric):
 
 @njit(cache=True, nogil=True, error_model="numpy")
 def panel_geometry(coefficients, bounds):
-    """`panels._panels`'s arrays for the panels `bounds` (P, 2) of the curve whose spans are
+    """`panels.panels_on_intervals`'s arrays for the panels `bounds` (P, 2) of the curve whose spans are
     `coefficients` (n, 3, 2) (`ClosedBSpline.piecewise_polynomial`), each panel on the span of
     its start: t, weights (P ORDER,), z, dz, d2z complex (P ORDER,), centres complex (P,),
     radii and lengths (P,).  One pass, where numpy took ~20 array operations a call (a solve
@@ -385,12 +385,14 @@ def panel_geometry(coefficients, bounds):
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def panel_gaps(node_z, centres, radii, lengths, middle, total, corner_at, reach, turn):
+def panel_gaps(circles, middle, total, corner_at, reach, turn):
     """`panels.gaps` from its arrays: for each panel p, the least distance from a node of p to
     a node of another panel o within reach[p] and beyond p (farther along the curve than twice
     p's length, or than `turn` times the distance with no corner (corner_at, sorted arc
     positions) between them), float (P,), inf for none.  Panels whose circles are farther apart
-    than reach[p] are skipped, as there."""
+    than reach[p] are skipped, as there.  `circles` = (the nodes' z, the panels' centres, radii
+    and lengths)."""
+    node_z, centres, radii, lengths = circles
     count = centres.shape[0]
     nearest = np.full(count, np.inf)
     for p in range(count):
@@ -451,10 +453,24 @@ def close_pairs(targets, node_z, centres, reach, close_squared):
     return target, panel
 
 
+class LayerNodes(NamedTuple):
+    """The Nyström nodes of the double layer (`layer_matrix_rows`, `coarse_system`, `knot_blocks`)."""
+
+    z: np.ndarray  #: complex (N,): the nodes
+    factors: np.ndarray  #: complex (N,): `cauchy_integrals.layer_factors`
+    span: np.ndarray  #: int (N,): each node's span
+    u: np.ndarray  #: (N,): its parameter within the span
+    weights: np.ndarray  #: (N,): quadrature weights in t
+    spans: np.ndarray  #: (n, 5): each span's c1, c2 (real, imaginary) and kernel scale
+
+
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
-def _layer_entry(x, y, own, u, k, node_z, factors, node_span, node_u, weights, spans):
-    """The Re C-weight of node k at a target (x, y) on the curve, on span `own` at parameter u
-    within it: the same-span closed form, else the plain rule (`layer_matrix_rows`)."""
+def _layer_entry(x, y, own, u, k, nodes):
+    """The Re C-weight of node k of `nodes` (`LayerNodes`, or `KnotBlocks` by the same names) at a
+    target (x, y) on the curve, on span `own` at parameter u within it: the same-span closed
+    form, else the plain rule (`layer_matrix_rows`)."""
+    node_z, factors, node_span, node_u = nodes.z, nodes.factors, nodes.span, nodes.u
+    weights, spans = nodes.weights, nodes.spans
     if node_span[k] == own:
         s = u + node_u[k]
         real = spans[own, 0] + spans[own, 2] * s
@@ -466,35 +482,38 @@ def _layer_entry(x, y, own, u, k, node_z, factors, node_span, node_u, weights, s
 
 
 @njit(cache=True, parallel=True, error_model="numpy")
-def layer_matrix_rows(targets, target_span, target_u, node_z, factors, node_span, node_u, weights, spans):
+def layer_matrix_rows(targets, target_span, target_u, nodes):
     """The double layer's Re C-weights of `poisson.layer_matrix`, shape (M, N), for targets z
     complex (M,) on the curve and nodes τ complex (N,) with their quadrature weights (N,).
 
     A pair on different spans takes the plain rule, Re(factor_k / (τ_k - z_m)); a pair on one
     span j (spans int (M,) and (N,), parameters u within it (M,) and (N,)) the kernel's closed
     form s w_k / |c1 + c2 (u_k + u_m)|^2 of `cauchy_integrals.fill_same_span`, with `spans` (n, 5)
-    holding each span's c1 (real, imaginary), c2 (real, imaginary) and its scale s.
+    holding each span's c1 (real, imaginary), c2 (real, imaginary) and its scale s: the
+    fields of `nodes` (`LayerNodes`).
     """
+    node_z = nodes.z
     out = np.empty((targets.shape[0], node_z.shape[0]))
     for m in prange(targets.shape[0]):
         x, y, own, u = targets[m].real, targets[m].imag, target_span[m], target_u[m]
         for k in range(node_z.shape[0]):
-            out[m, k] = _layer_entry(x, y, own, u, k, node_z, factors, node_span, node_u, weights, spans)
+            out[m, k] = _layer_entry(x, y, own, u, k, nodes)
     return out
 
 
 class KnotBlocks(NamedTuple):
-    """The fine panels of `poisson`'s knot blocks and what `knot_blocks` needs of them."""
+    """The fine panels of `poisson`'s knot blocks and what `knot_blocks` needs of them: the fields
+    of `LayerNodes` (the fine nodes, N_f of them), then the panels' and the spans'."""
 
-    node_z: np.ndarray  #: complex (N_f,): the fine nodes
-    node_t: np.ndarray  #: (N_f,): their parameters
-    factors: np.ndarray  #: complex (N_f,): `core.boundary_integrals.cauchy_integrals.layer_factors`
-    node_span: np.ndarray  #: int (N_f,): each node's span
-    node_u: np.ndarray  #: (N_f,): its parameter within the span
+    z: np.ndarray  #: complex (N_f,): the fine nodes
+    factors: np.ndarray  #: complex (N_f,): `cauchy_integrals.layer_factors`
+    span: np.ndarray  #: int (N_f,): each node's span
+    u: np.ndarray  #: (N_f,): its parameter within the span
     weights: np.ndarray  #: (N_f,): quadrature weights in t
+    spans: np.ndarray  #: (n, 5): each span's c1, c2 (real, imaginary) and kernel scale
+    node_t: np.ndarray  #: (N_f,): the nodes' parameters
     bounds: np.ndarray  #: (P_f, 2): the panels' parameter intervals
     close_squared: np.ndarray  #: (P_f,): squared distance within which a node needs the adaptive rule
-    spans: np.ndarray  #: (n, 5): each span's c1, c2 (real, imaginary) and kernel scale (`layer_matrix_rows`)
     cross: np.ndarray  #: (n,): Im(c1 conj c2), 0 for a straight span (`cauchy_integrals.smooth_on_own_span`)
     coefficients: np.ndarray  #: (n, 3, 2): the spans (`ClosedBSpline.piecewise_polynomial`)
     orientation: float  #: +1 counter-clockwise, -1 clockwise
@@ -515,14 +534,8 @@ def knot_blocks(fine, panels, start, interpolation, offsets, row_weights, column
     (int (B,)): numba hands each thread an equal run of it, so `balanced_sequence` puts as much
     work in each run (the bench blob's 12 blocks: 3.2 -> 2.95 ms on two threads).
     """
-    node_z, factors, node_span, node_u, weights = (
-        fine.node_z,
-        fine.factors,
-        fine.node_span,
-        fine.node_u,
-        fine.weights,
-    )
-    spans = fine.spans
+    nodes = fine  # a `LayerNodes` by its first fields' names
+    node_z, node_span, node_u = nodes.z, nodes.span, nodes.u
     width = column_weights.shape[1]
     solution = np.zeros((interpolation.shape[0], width))
     reduced = np.zeros((start.shape[0] - 1, width, width))
@@ -539,9 +552,7 @@ def knot_blocks(fine, panels, start, interpolation, offsets, row_weights, column
             x, y, own, u = node_z[m].real, node_z[m].imag, node_span[m], node_u[m]
             for j in range(count):
                 k = panels[start[b] + j // ORDER] * ORDER + j % ORDER
-                matrix[i, j] = _layer_entry(
-                    x, y, own, u, k, node_z, factors, node_span, node_u, weights, spans
-                )
+                matrix[i, j] = _layer_entry(x, y, own, u, k, nodes)
         _adaptive_entries(fine, panels[start[b] : start[b + 1]], matrix)
         for i in range(count):
             for j in range(count):
@@ -581,14 +592,14 @@ def _adaptive_entries(fine, panels, matrix):
     for a in range(panels.shape[0]):
         for i in range(ORDER):
             m = panels[a] * ORDER + i
-            z = fine.node_z[m]
+            z = fine.z[m]
             for c in range(panels.shape[0]):
                 p = panels[c]
                 if c == a:
                     continue
                 near = False
                 for q in range(p * ORDER, (p + 1) * ORDER):
-                    d = fine.node_z[q] - z
+                    d = fine.z[q] - z
                     if d.real * d.real + d.imag * d.imag < fine.close_squared[p]:
                         near = True
                         break
@@ -619,8 +630,7 @@ def _smooth_on_own_span(fine, t, p):
 
 
 @njit(cache=True, parallel=True, error_model="numpy")
-def coarse_system(node_z, factors, node_span, node_u, weights, spans, node_block, block_columns,
-                  block_reduced, near_start, near_panel, out):  # fmt: skip
+def coarse_system(nodes, node_block, block_columns, block_reduced, near_start, near_panel, out):
     """2 K°_c R of `poisson`'s coarse equation into out (N, N): `layer_matrix_rows`'s entries
     at the coarse nodes (arguments as there, targets the nodes themselves) times 2, with 0 in
     the columns of a node's own knot block (node_block (N,), -1 for none; block_columns (B, W),
@@ -628,13 +638,14 @@ def coarse_system(node_z, factors, node_span, node_u, weights, spans, node_block
     one pass over each row (numpy took five over the matrix); then each block's columns times
     its R (block_reduced (B, W, W)), one matrix product a block, as no two blocks share a
     column (row by row, the bench blob's 12 blocks' 32 x 32 products took half of its 1.5 ms)."""
+    node_z, node_span, node_u = nodes.z, nodes.span, nodes.u
     count = node_z.shape[0]
     blocks, width = block_columns.shape
     for m in prange(count):
         row = out[m]
         x, y, own, u = node_z[m].real, node_z[m].imag, node_span[m], node_u[m]
         for k in range(count):
-            row[k] = 2.0 * _layer_entry(x, y, own, u, k, node_z, factors, node_span, node_u, weights, spans)
+            row[k] = 2.0 * _layer_entry(x, y, own, u, k, nodes)
         b = node_block[m]
         if b >= 0:
             for c in range(width):

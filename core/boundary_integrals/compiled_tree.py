@@ -185,10 +185,13 @@ def _box_side(p, centre, radius, node_z, centres, reach, close_squared):
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
-def _walk(z, tree, start, power, imaginary, row, row_imaginary, stack, moments, weights):
+def _walk(z, tree, start, power, imaginary, rows, work):
     """Add C[φ](z) over the panels `start` (int (K,)) and their descendants to row (m,) (and
     row_imaginary): a panel far from z takes its plain rule, a near one its children, on the
-    finest level `near_weights`.  Returns whether z is on the curve."""
+    finest level `near_weights`.  `rows` = (row, row_imaginary), `work` = (stack, moments,
+    weights) the walk's scratch.  Returns whether z is on the curve."""
+    row, row_imaginary = rows
+    stack, moments, weights = work
     node_z, factors, density, centres = tree.node_z, tree.factors, tree.density, tree.centres
     reach, close_squared = tree.reach, tree.close_squared
     children, child_start = tree.children, tree.child_start
@@ -381,7 +384,7 @@ def layer_rows(targets, tree, power, imaginary, out):
                 # Inlined (numba cannot inline a call with *args): a call passing the tree's arrays
                 # cost ~0.1 us a target (the bench's 10,000 mesh vertices: 5.3 -> 5.0 ms).
                 if _walk(
-                    targets[m], tree, start, power, imaginary, row, row_imaginary, stack, moments, weights
+                    targets[m], tree, start, power, imaginary, (row, row_imaginary), (stack, moments, weights)
                 ):
                     on_curve[m] = True
                 for c in range(columns):

@@ -427,7 +427,7 @@ def gaps(panels: Panels, corners: np.ndarray) -> np.ndarray:
     reach = panels.lengths / min(THIN_RATIO, REFINED_RATIO)
     circles = (panels.z, panels.centres, panels.radii, panels.lengths)
     found = compiled_integrals.run_compiled(
-        compiled_integrals.panel_gaps, lambda: (*circles, middle, float(total), corner_at, reach, float(TURN))
+        compiled_integrals.panel_gaps, lambda: (circles, middle, float(total), corner_at, reach, float(TURN))
     )
     if found is not None:
         return found

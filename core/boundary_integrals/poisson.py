@@ -218,10 +218,12 @@ def _coarse_system(curve: ClosedBSpline, coarse: Panels, blocks: dict, target, p
             block_reduced[b, : columns.size, : columns.size] = reduced
             node_block[columns] = b
         c1, c2, scale = same_span_coefficients(curve)
-        return (
+        nodes = compiled_integrals.LayerNodes(
             coarse.z, layer_factors(curve, coarse), *span_parameters(curve, coarse.t), coarse.weights,
             np.ascontiguousarray(np.stack([c1.real, c1.imag, c2.real, c2.imag, scale], axis=1)),
-            node_block, block_columns, block_reduced,
+        )  # fmt: skip
+        return (
+            nodes, node_block, block_columns, block_reduced,
             np.searchsorted(target, np.arange(coarse.size + 1)).astype(np.int64), np.ascontiguousarray(panel),
             scratch("coarse system", (coarse.size, coarse.size)),
         )  # fmt: skip
@@ -326,11 +328,10 @@ def _compiled_blocks(curve, fine: Panels, panels, start, interpolation, offsets,
         close_range = np.maximum(SAFE * fine.lengths, DIRECT * curve.diameter)
         node_span, node_u = span_parameters(curve, fine.t)
         blocks = compiled_integrals.KnotBlocks(
-            node_z=fine.z, node_t=fine.t, factors=layer_factors(curve, fine), node_span=node_span,
-            node_u=node_u, weights=fine.weights, bounds=np.ascontiguousarray(fine.bounds),
-            close_squared=close_range**2,
+            z=fine.z, factors=layer_factors(curve, fine), span=node_span, u=node_u, weights=fine.weights,
             spans=np.ascontiguousarray(np.stack([c1.real, c1.imag, c2.real, c2.imag, scale], axis=1)),
-            cross=span_coefficients(curve)[2],
+            node_t=fine.t, bounds=np.ascontiguousarray(fine.bounds),
+            close_squared=close_range**2, cross=span_coefficients(curve)[2],
             coefficients=np.ascontiguousarray(curve.piecewise_polynomial().coefficients, dtype=np.float64),
             orientation=1.0 if curve.area > 0 else -1.0,
         )  # fmt: skip
@@ -541,10 +542,10 @@ def layer_matrix(curve: ClosedBSpline, panels: Panels, z: np.ndarray, t: np.ndar
     def arguments():
         c1, c2, scale = same_span_coefficients(curve)
         spans = np.ascontiguousarray(np.stack([c1.real, c1.imag, c2.real, c2.imag, scale], axis=1))
-        return (
-            np.ascontiguousarray(z, dtype=np.complex128), *span_parameters(curve, t),
-            panels.z, factors, *span_parameters(curve, panels.t), panels.weights, spans,
-        )  # fmt: skip
+        nodes = compiled_integrals.LayerNodes(
+            panels.z, factors, *span_parameters(curve, panels.t), panels.weights, spans
+        )
+        return (np.ascontiguousarray(z, dtype=np.complex128), *span_parameters(curve, t), nodes)
 
     found = compiled_integrals.run_compiled(compiled_integrals.layer_matrix_rows, arguments)
     if found is not None:

@@ -2,8 +2,8 @@
 
 One point x is evaluated exactly as `core.newton.solver` evaluates it (the same nodes
 t_j and weights w_j: the trapezoid rule far from the boundary, the graded sinh
-rule near it; the same weights, Newton solve and normalisation, by calling the
-solver's own helpers), and then the x-derivative of every quadrature-weighted
+rule near it, both built by `core.newton.point_rule`; the same weights, Newton solve
+and normalisation, by the same functions), and then the x-derivative of every quadrature-weighted
 kernel value lambda_j = w_j lambda(x, t_j) is formed in closed form.  The
 derivation is in `core.gradients`; the notation here follows it:
 
@@ -26,9 +26,7 @@ import math
 import numpy as np
 from numba import njit
 
-from core.curves import closest_parameter
-from core.curves.crossing_slabs import inside_polygon
-from core.newton import codes, kernel_weights, minimisation, output_rows, quadrature_nodes, solver
+from core.newton import codes, kernel_weights, minimisation, output_rows, point_rule, quadrature_nodes, solver
 from core.newton.solver_state import Directions, Nodes, Scratch, Windows, Work
 
 
@@ -162,22 +160,14 @@ def _shift(settings, w, rays, r_min, count, omega):
     return 0.0, 0.0, 0.0
 
 
-@njit(cache=True, error_model="numpy", fastmath={"contract", "arcp", "reassoc", "nsz"})
-def _differentiate(settings, node_arrays, work, total, nodes, corners, point, r_min):
-    """grad lambda_j of the `total` nodes into grad_x, grad_y (each (total,) or longer).
-
-    On entry `a` holds lambda_j (normalised, as `minimisation.finish` leaves it), `s`
-    and `inv_s` hold s_j = 1 + phi . u_j and 1 / s_j for the maximum-likelihood
-    family; nodes >= `nodes` are corner point masses (three-point family).
-    `node_arrays` (`Nodes`) is the rule, `work` (`Work`) the minimisation's arrays, of which
-    `blend` is scratch here (`omega`: q_j^k of the power kernels, then a~_j) and `trial`,
-    `trial_inv` receive the gradients; `point` = (x, y).  See `core.gradients` for the formulas.
-    """
+@njit(cache=True, error_model="numpy", fastmath={"contract", "arcp", "reassoc", "nsz"}, inline="always")
+def _weight_gradients(settings, node_arrays, work, total, nodes, corners, point, r_min):
+    """Pass 1 of `_differentiate` (same arguments): a~_j into `work.blend` and grad a~_j into
+    `work.trial`, `work.trial_inv`, for the `nodes` nodes and the corner masses up to `total`."""
     kernel, power = settings.kernel, settings.power
     px, py, tx, ty, sx, sy, w = node_arrays
     ux, uy, inv_r, a, s, inv_s, grad_x, grad_y, omega = work
     x, y = point
-    newton = kernel <= codes.MODIFIED_MEAN_VALUE_SQUARED
     constant, shift_x, shift_y = _shift(settings, w, (ux, uy, inv_r), r_min, nodes, omega)
     # Pass 1: a~_j into `omega` and grad a~_j into grad_x, grad_y; the power kernels (the common
     # case) in a loop of their own without the kernel's branches, so that it vectorises.
@@ -199,6 +189,23 @@ def _differentiate(settings, node_arrays, work, total, nodes, corners, point, r_
             grad_y[j] = gy + w[j] * shift_y
     for j in range(nodes, total):
         omega[j], grad_x[j], grad_y[j] = _corner_derivative(kernel, corners, j - nodes, px[j], py[j], x, y)
+
+
+@njit(cache=True, error_model="numpy", fastmath={"contract", "arcp", "reassoc", "nsz"})
+def _differentiate(settings, node_arrays, work, total, nodes, corners, point, r_min):
+    """grad lambda_j of the `total` nodes into grad_x, grad_y (each (total,) or longer).
+
+    On entry `a` holds lambda_j (normalised, as `minimisation.finish` leaves it), `s`
+    and `inv_s` hold s_j = 1 + phi . u_j and 1 / s_j for the maximum-likelihood
+    family; nodes >= `nodes` are corner point masses (three-point family).
+    `node_arrays` (`Nodes`) is the rule, `work` (`Work`) the minimisation's arrays, of which
+    `blend` is scratch here (`omega`: q_j^k of the power kernels, then a~_j) and `trial`,
+    `trial_inv` receive the gradients; `point` = (x, y).  See `core.gradients` for the formulas.
+    """
+    kernel = settings.kernel
+    ux, uy, inv_r, a, s, inv_s, grad_x, grad_y, omega = work
+    newton = kernel <= codes.MODIFIED_MEAN_VALUE_SQUARED
+    _weight_gradients(settings, node_arrays, work, total, nodes, corners, point, r_min)
     sum_a = 0.0
     if not newton:
         # lambda_j = m_j / M: grad lambda_j = grad m_j / M - lambda_j sum_k grad m_k / M.
@@ -368,8 +375,8 @@ def _accumulate_samples(rows, a, gradient, count, samples, control_count):
 def _gradient_point(point, settings, samples, geometry, rows, scratch, windows):
     """Evaluate one point and its gradient; returns (iterations, status, residual).
 
-    The nodes are built exactly as in `solver.solve_point` (pass 1, the windows
-    and `quadrature_nodes.refined_nodes`), and so is the Newton start of the maximum-likelihood
+    The nodes are those of `solver.solve_point`, by the same `point_rule.point_rule`, and so
+    is the Newton start of the maximum-likelihood
     kernels (`minimisation.coarse_start`) and, for a far point, the bound that skips the peak
     scan; a point on the boundary gets its Lagrange-limit row and NaN gradients.  `rows` =
     (row, row_x, row_y) receive the values and their x- and y-derivatives; the other
@@ -392,75 +399,40 @@ def _gradient_point(point, settings, samples, geometry, rows, scratch, windows):
     count = sample_x.shape[0]
     out_count = int(round(count * step / out_step))
     period = count * step
-    # Pass 1 and the near stretches, as in `solver.solve_point`.
-    near = quadrature_nodes.sample_directions(sample_x, sample_y, spacing, x, y, ux, uy, inv_r)
-    nearest = 1.0 / quadrature_nodes.largest(inv_r, count) if near == 0 else 1e300
-    window_count, nearest_index, nearest = quadrature_nodes.near_stretches(
-        sample_x, sample_y, spacing, x, y, near, nearest, windows
+    rule, value, nodes, run_count = point_rule.point_rule(
+        (x, y), settings, samples, geometry, scratch, windows
     )
-    window_count = quadrature_nodes.merge_windows(
-        window_start, window_stop, min(window_count, quadrature_nodes.MAX_WINDOWS), count, nearest_index
-    )
-    three_point = kernel == codes.WACHSPRESS or kernel == codes.LAPLACE
-    corner_count = corners.shape[0] if three_point else 0
-    if window_count == 0:
-        if not inside_polygon(sample_x, sample_y, slabs, x, y):
-            return 0, codes.STATUS_OUTSIDE, nearest
-        if corner_count == 0:
-            # The trapezoid rule on the shared samples, as in the solver's common case.
-            plain = Nodes(sample_x, sample_y, tangent_x, tangent_y, second_x, second_y, uniform)
-            total = kernel_weights.kernel_weights(settings, plain, (x, y), count, corners, rays, nearest, a)
-            phix, phiy = 0.0, 0.0
-            if likelihood:
-                phix, phiy = minimisation.coarse_start(
-                    rays, a, count, max(nearest / largest_spacing, solver.FAR_START_SEPARATION),
-                    coarse, tolerance * diameter, (0.0, 0.0),
-                )  # fmt: skip
-            iterations, status, residual = minimisation.finish(
-                kernel, scratch.work, total, plain, step, (x, y),
-                (tolerance * diameter, largest_spacing / nearest), (phix, phiy),
+    if rule == point_rule.RULE_OUTSIDE:
+        return 0, codes.STATUS_OUTSIDE, value
+    if rule == point_rule.RULE_ON_BOUNDARY:
+        wrapped = quadrature_nodes.wrap(value, period)
+        output_rows.accumulate(row, mode, 1.0, wrapped, out_step, out_count, control_count)
+        for i in range(row.shape[0]):
+            row_x[i] = math.nan
+            row_y[i] = math.nan
+        return 0, codes.STATUS_CONVERGED, 0.0
+    if rule == point_rule.RULE_SAMPLES:
+        nearest = value
+        # The trapezoid rule on the shared samples, as in the solver's common case.
+        plain = Nodes(sample_x, sample_y, tangent_x, tangent_y, second_x, second_y, uniform)
+        total = kernel_weights.kernel_weights(settings, plain, (x, y), count, corners, rays, nearest, a)
+        phix, phiy = 0.0, 0.0
+        if likelihood:
+            phix, phiy = minimisation.coarse_start(
+                rays, a, count, max(nearest / largest_spacing, solver.FAR_START_SEPARATION),
+                coarse, tolerance * diameter, (0.0, 0.0),
             )  # fmt: skip
-            _differentiate(settings, plain, scratch.work, total, count, corners, (x, y), nearest)
-            if mode == codes.OUTPUT_BASIS:
-                _accumulate_samples(rows, a, (trial, trial_inv), count, samples, control_count)
-            else:
-                _accumulate_nodes(rows, settings, samples, a, (trial, trial_inv), sample_t, total)
-            return iterations, status, residual
-        nodes = 0
-        for k in range(count):
-            t[nodes] = sample_t[k]
-            w[nodes] = step
-            nodes += 1
-        runs[0, 0] = 0  # every sample, one run
-        runs[0, 1] = 0
-        runs[0, 2] = count
-        run_count = 1
-    else:
-        closest_t = nearest_index * step
-        closest_d = nearest
-        for i in range(window_count):
-            ti, di = closest_parameter.closest_parameter(
-                coefficients, piece_length, x, y, window_start[i] * step, window_stop[i] * step
-            )
-            window_t[i] = ti
-            window_d[i] = di
-            if di < closest_d:
-                closest_d = di
-                closest_t = ti
-        if closest_d <= solver.ON_BOUNDARY * diameter:
-            output_rows.accumulate(
-                row, mode, 1.0, quadrature_nodes.wrap(closest_t, period), out_step, out_count, control_count
-            )
-            for i in range(row.shape[0]):
-                row_x[i] = math.nan
-                row_y[i] = math.nan
-            return 0, codes.STATUS_CONVERGED, 0.0
-        if closest_parameter.side_of_curve(coefficients, piece_length, closest_t, x, y, orientation) < 0:
-            return 0, codes.STATUS_OUTSIDE, closest_d
-        nodes = quadrature_nodes.refined_nodes(windows, window_count, samples, geometry, t, w)
-        run_count = window_count
-    quadrature_nodes.node_geometry(t, scratch.nodes, nodes, runs, run_count, samples, geometry, corner_count)
-    r_min = quadrature_nodes.directions(px, py, x, y, nodes, ux, uy, inv_r)
+        iterations, status, residual = minimisation.finish(
+            kernel, scratch.work, total, plain, step, (x, y),
+            (tolerance * diameter, largest_spacing / nearest), (phix, phiy),
+        )  # fmt: skip
+        _differentiate(settings, plain, scratch.work, total, count, corners, (x, y), nearest)
+        if mode == codes.OUTPUT_BASIS:
+            _accumulate_samples(rows, a, (trial, trial_inv), count, samples, control_count)
+        else:
+            _accumulate_nodes(rows, settings, samples, a, (trial, trial_inv), sample_t, total)
+        return iterations, status, residual
+    r_min = value  # RULE_NODES
     total = kernel_weights.kernel_weights(settings, scratch.nodes, (x, y), nodes, corners, rays, r_min, a)
     phix, phiy = 0.0, 0.0
     if likelihood:

@@ -42,39 +42,7 @@ def kernel_weights(settings, nodes, point, count, corners, directions, r_min, a)
         for j in range(count):
             a[j] = w[j] * (r_min * inv_r[j])
     elif kernel == POWER or kernel == HARMONIC_LIKE:
-        k = 4.0 if kernel == HARMONIC_LIKE else power
-        integral = 0.0
-        length = 0.0
-        if k == 4.0:
-            for j in range(count):
-                q = r_min * inv_r[j]
-                q2 = q * q
-                a[j] = q2 * q2
-                integral += w[j] * a[j]
-                length += w[j]
-        elif k == 3.0:  # inverse-cube-mean: a libm pow per node cost more than the whole Newton solve
-            for j in range(count):
-                q = r_min * inv_r[j]
-                a[j] = q * q * q
-                integral += w[j] * a[j]
-                length += w[j]
-        else:
-            for j in range(count):
-                a[j] = (r_min * inv_r[j]) ** k
-                integral += w[j] * a[j]
-                length += w[j]
-        mode = SHIFT_INTEGRAL if kernel == HARMONIC_LIKE else shift
-        # Eq. 19-20: omega + int omega over the whole parameter interval (or its mean).
-        constant = 0.0
-        if mode == SHIFT_INTEGRAL:
-            constant = integral
-        elif mode == SHIFT_MEAN:
-            constant = integral / length
-        # The sum of w (omega + constant) is known: normalise in the same pass.
-        inverse = 1.0 / (integral + constant * length)
-        for j in range(count):
-            a[j] = w[j] * (a[j] + constant) * inverse
-        return count
+        return _power_weights(kernel, power, shift, w, inv_r, r_min, count, a)
     elif kernel == MODIFIED_MEAN_VALUE or kernel == MODIFIED_MEAN_VALUE_SQUARED:
         for j in range(count):
             # |d theta / dt| = |(p - x) x p'| / r^2 (Eq. 23).
@@ -127,4 +95,43 @@ def kernel_weights(settings, nodes, point, count, corners, directions, r_min, a)
     inverse = 1.0 / total
     for j in range(count):
         a[j] *= inverse
+    return count
+
+
+@njit(cache=True, error_model="numpy", fastmath={"contract", "arcp", "reassoc", "nsz"}, inline="always")
+def _power_weights(kernel, power, shift, w, inv_r, r_min, count, a):
+    """`kernel_weights` of the power kernels (Eq. 19-20): q_j^k shifted, times w_j, normalised in
+    the same pass (q = r_min / r); returns `count`."""
+    k = 4.0 if kernel == HARMONIC_LIKE else power
+    integral = 0.0
+    length = 0.0
+    if k == 4.0:
+        for j in range(count):
+            q = r_min * inv_r[j]
+            q2 = q * q
+            a[j] = q2 * q2
+            integral += w[j] * a[j]
+            length += w[j]
+    elif k == 3.0:  # inverse-cube-mean: a libm pow per node cost more than the whole Newton solve
+        for j in range(count):
+            q = r_min * inv_r[j]
+            a[j] = q * q * q
+            integral += w[j] * a[j]
+            length += w[j]
+    else:
+        for j in range(count):
+            a[j] = (r_min * inv_r[j]) ** k
+            integral += w[j] * a[j]
+            length += w[j]
+    mode = SHIFT_INTEGRAL if kernel == HARMONIC_LIKE else shift
+    # Eq. 19-20: omega + int omega over the whole parameter interval (or its mean).
+    constant = 0.0
+    if mode == SHIFT_INTEGRAL:
+        constant = integral
+    elif mode == SHIFT_MEAN:
+        constant = integral / length
+    # The sum of w (omega + constant) is known: normalise in the same pass.
+    inverse = 1.0 / (integral + constant * length)
+    for j in range(count):
+        a[j] = w[j] * (a[j] + constant) * inverse
     return count

@@ -130,35 +130,9 @@ def newton_steps(directions, a, buffers, count, tolerance, start):
         alpha = 1.0
         accepted = False
         for _ in range(MAX_BACKTRACKS):
-            infeasible = 0
-            linear = 0.0
-            quadratic = 0.0
-            ngx = 0.0
-            ngy = 0.0
-            nxx = 0.0
-            nxy = 0.0
-            nyy = 0.0
-            nd = 0.0
-            for j in range(count):
-                step_dot = alpha * (deltax * ux[j] + deltay * uy[j])
-                z = step_dot * inv_s[j]
-                sj = s[j] + step_dot
-                inv = 1.0 / sj
-                trial[j] = sj
-                trial_inv[j] = inv
-                infeasible += sj <= 0.0
-                aj = a[j]
-                linear += aj * z
-                ratio = s[j] * inv
-                quadratic += aj * z * z * (ratio if ratio > 1.0 else 1.0)
-                ia = aj * inv
-                ngx -= ia * ux[j]
-                ngy -= ia * uy[j]
-                ib = ia * inv
-                nxx += ib * ux[j] * ux[j]
-                nxy += ib * ux[j] * uy[j]
-                nyy += ib * uy[j] * uy[j]
-                nd += ia * inv_r[j]
+            infeasible, linear, quadratic, ngx, ngy, nxx, nxy, nyy, nd = _trial_terms(
+                directions, a, (s, inv_s, trial, trial_inv), count, alpha, (deltax, deltay)
+            )
             if infeasible == 0:
                 bound = -linear + 0.5 * quadratic
                 if (
@@ -184,6 +158,46 @@ def newton_steps(directions, a, buffers, count, tolerance, start):
             trial[j] = s[j]
             trial_inv[j] = inv_s[j]
     return iterations, status, residual, phix, phiy, d
+
+
+@njit(cache=True, error_model="numpy", fastmath={"contract", "arcp", "reassoc", "nsz"}, inline="always")
+def _trial_terms(directions, a, buffers, count, alpha, delta):
+    """The fused pass of `newton_steps` at the trial phi + alpha delta: s_j and 1 / s_j there
+    into `buffers`' trial arrays, and (the count of s_j <= 0, sum a_j z_j, sum a_j z_j^2 / m_j,
+    the gradient, the Hessian and D at the trial)."""
+    ux, uy, inv_r = directions
+    s, inv_s, trial, trial_inv = buffers
+    deltax, deltay = delta
+    infeasible = 0
+    linear = 0.0
+    quadratic = 0.0
+    ngx = 0.0
+    ngy = 0.0
+    nxx = 0.0
+    nxy = 0.0
+    nyy = 0.0
+    nd = 0.0
+    for j in range(count):
+        step_dot = alpha * (deltax * ux[j] + deltay * uy[j])
+        z = step_dot * inv_s[j]
+        sj = s[j] + step_dot
+        inv = 1.0 / sj
+        trial[j] = sj
+        trial_inv[j] = inv
+        infeasible += sj <= 0.0
+        aj = a[j]
+        linear += aj * z
+        ratio = s[j] * inv
+        quadratic += aj * z * z * (ratio if ratio > 1.0 else 1.0)
+        ia = aj * inv
+        ngx -= ia * ux[j]
+        ngy -= ia * uy[j]
+        ib = ia * inv
+        nxx += ib * ux[j] * ux[j]
+        nxy += ib * ux[j] * uy[j]
+        nyy += ib * uy[j] * uy[j]
+        nd += ia * inv_r[j]
+    return infeasible, linear, quadratic, ngx, ngy, nxx, nxy, nyy, nd
 
 
 @njit(cache=True, error_model="numpy", fastmath={"contract", "arcp", "reassoc", "nsz"})

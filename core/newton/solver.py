@@ -27,15 +27,11 @@ import math
 import numpy as np
 from numba import njit
 
-from core.curves.closest_parameter import closest_parameter, side_of_curve
-from core.curves.crossing_slabs import inside_polygon
 from core.newton.codes import (
-    LAPLACE,
     MODIFIED_MEAN_VALUE_SQUARED,
     OUTPUT_BASIS,
     STATUS_CONVERGED,
     STATUS_OUTSIDE,
-    WACHSPRESS,
 )
 from core.newton.kernel_weights import kernel_weights
 from core.newton.minimisation import (
@@ -46,23 +42,13 @@ from core.newton.minimisation import (
     predicted_start,
 )
 from core.newton.output_rows import accumulate, accumulate_nodes, fold_onto_basis, output_parameter
+from core.newton.point_rule import RULE_ON_BOUNDARY, RULE_OUTSIDE, RULE_SAMPLES, point_rule
 from core.newton.quadrature_nodes import (
     MAX_WINDOW_NODES,
     MAX_WINDOWS,
-    directions,
-    largest,
-    merge_windows,
-    near_stretches,
-    node_geometry,
-    refined_nodes,
-    sample_directions,
     wrap,
 )
 from core.newton.solver_state import Directions, Nodes, Scratch, Windows, Work
-
-# Points closer than this (relative to the diameter) are on the boundary: Lagrange limit.
-ON_BOUNDARY = 1e-12
-
 
 # A far point's Newton starts from the last minimisers of its block of BLOCK points (see
 # solve_points and predicted_start) when they are closer than WARM_REACH times its distance to
@@ -111,98 +97,59 @@ def solve_point(point, settings, samples, geometry, row, scratch, windows, start
     rays = Directions(ux, uy, inv_r)
     count = sample_x.shape[0]
     out_count = int(round(count * step / out_step))
-    # Pass 1: directions to the samples and, for a point near the boundary, the
-    # stretches closer than NEAR_SPACINGS (found in a second, sequential scan).
-    near = sample_directions(sample_x, sample_y, spacing, x, y, ux, uy, inv_r)
-    nearest = 1.0 / largest(inv_r, count) if near == 0 else 1e300
-    window_count, nearest_index, nearest = near_stretches(
-        sample_x, sample_y, spacing, x, y, near, nearest, windows
-    )
-    window_count = merge_windows(
-        window_start, window_stop, min(window_count, MAX_WINDOWS), count, nearest_index
-    )
-
-    three_point = kernel == WACHSPRESS or kernel == LAPLACE
-    corner_count = corners.shape[0] if three_point else 0
-    if window_count == 0:
-        if not inside_polygon(sample_x, sample_y, slabs, x, y):
-            return 0, STATUS_OUTSIDE, nearest, math.nan, math.nan
-        if corner_count == 0:
-            # The common case: the plain trapezoid rule on the shared samples.
-            total = kernel_weights(
-                settings, Nodes(sample_x, sample_y, tangent_x, tangent_y, second_x, second_y, uniform),
-                (x, y), count, corners, rays, nearest, a,
+    rule, value, nodes, run_count = point_rule((x, y), settings, samples, geometry, scratch, windows)
+    if rule == RULE_OUTSIDE:
+        return 0, STATUS_OUTSIDE, value, math.nan, math.nan
+    if rule == RULE_ON_BOUNDARY:
+        closest_t = output_parameter(coefficients, mode, wrap(value, count * step))
+        accumulate(row, mode, 1.0, closest_t, out_step, out_count, control_count)
+        return 0, STATUS_CONVERGED, 0.0, math.nan, math.nan
+    if rule == RULE_SAMPLES:
+        nearest = value
+        # The common case: the plain trapezoid rule on the shared samples.
+        total = kernel_weights(
+            settings, Nodes(sample_x, sample_y, tangent_x, tangent_y, second_x, second_y, uniform),
+            (x, y), count, corners, rays, nearest, a,
+        )  # fmt: skip
+        likelihood = kernel <= MODIFIED_MEAN_VALUE_SQUARED
+        if likelihood:
+            phix, phiy, predicted = predicted_start(x, y, start, WARM_REACH * nearest)
+            if not predicted:
+                phix, phiy = coarse_start(
+                    rays, a, count, max(nearest / largest_spacing, FAR_START_SEPARATION),
+                    coarse, tolerance * diameter, (phix, phiy),
+                )  # fmt: skip
+            # No sample is within NEAR_SPACINGS spacings: |u_(k+1) - u_k| <= chord / nearest
+            # (2 |p - q| / (|p| + |q|) bounds |p / |p| - q / |q||), so the peak scan is skipped.
+            iterations, status, residual, d, phix, phiy = maximum_likelihood(
+                scratch.work, uniform, step, count, (tolerance * diameter, largest_spacing / nearest),
+                (phix, phiy),
             )  # fmt: skip
-            likelihood = kernel <= MODIFIED_MEAN_VALUE_SQUARED
-            if likelihood:
-                phix, phiy, predicted = predicted_start(x, y, start, WARM_REACH * nearest)
-                if not predicted:
-                    phix, phiy = coarse_start(
-                        rays, a, count, max(nearest / largest_spacing, FAR_START_SEPARATION),
-                        coarse, tolerance * diameter, (phix, phiy),
-                    )  # fmt: skip
-                # No sample is within NEAR_SPACINGS spacings: |u_(k+1) - u_k| <= chord / nearest
-                # (2 |p - q| / (|p| + |q|) bounds |p / |p| - q / |q||), so the peak scan is skipped.
-                iterations, status, residual, d, phix, phiy = maximum_likelihood(
-                    scratch.work, uniform, step, count, (tolerance * diameter, largest_spacing / nearest),
-                    (phix, phiy),
-                )  # fmt: skip
-                if mode == OUTPUT_BASIS:
-                    # Eq. 17's normalisation folded into the basis sums: no pass of its own.
-                    fold_onto_basis(row, a, inv_r, inv_s, 1.0 / d, samples, control_count, coefficients)
-                    return iterations, status, residual, phix, phiy
-                inverse = 1.0 / d
-                for k in range(count):
-                    a[k] = a[k] * inv_r[k] * inv_s[k] * inverse
-            else:
-                iterations, status, residual = finish(
-                    kernel, scratch.work, total,
-                    Nodes(sample_x, sample_y, tangent_x, tangent_y, second_x, second_y, uniform), step,
-                    (x, y), (tolerance * diameter, math.inf), (0.0, 0.0),
-                )  # fmt: skip
             if mode == OUTPUT_BASIS:
-                fold_onto_basis(row, a, ones, ones, 1.0, samples, control_count, coefficients)
-            elif out_count == count:
-                for k in range(count):
-                    row[k] += a[k] / step
-            else:
-                for k in range(count):
-                    accumulate(row, mode, a[k], sample_t[k], out_step, out_count, control_count)
-            if likelihood:
+                # Eq. 17's normalisation folded into the basis sums: no pass of its own.
+                fold_onto_basis(row, a, inv_r, inv_s, 1.0 / d, samples, control_count, coefficients)
                 return iterations, status, residual, phix, phiy
-            return iterations, status, residual, math.nan, math.nan
-        nodes = 0
-        for k in range(count):
-            t[nodes] = sample_t[k]
-            w[nodes] = step
-            nodes += 1
-        runs[0, 0] = 0  # every sample, one run
-        runs[0, 1] = 0
-        runs[0, 2] = count
-        run_count = 1
-    else:
-        closest_t = nearest_index * step
-        closest_d = nearest
-        for i in range(window_count):
-            ti, di = closest_parameter(
-                coefficients, piece_length, x, y, window_start[i] * step, window_stop[i] * step
-            )
-            window_t[i] = ti
-            window_d[i] = di
-            if di < closest_d:
-                closest_d = di
-                closest_t = ti
-        if closest_d <= ON_BOUNDARY * diameter:
-            closest_t = output_parameter(coefficients, mode, wrap(closest_t, count * step))
-            accumulate(row, mode, 1.0, closest_t, out_step, out_count, control_count)
-            return 0, STATUS_CONVERGED, 0.0, math.nan, math.nan
-        if side_of_curve(coefficients, piece_length, closest_t, x, y, orientation) < 0:
-            return 0, STATUS_OUTSIDE, closest_d, math.nan, math.nan
-        nodes = refined_nodes(windows, window_count, samples, geometry, t, w)
-        run_count = window_count
-    # Pass 2 (near points, corners): the nodes' curve data and directions.
-    node_geometry(t, scratch.nodes, nodes, runs, run_count, samples, geometry, corner_count)
-    r_min = directions(px, py, x, y, nodes, ux, uy, inv_r)
+            inverse = 1.0 / d
+            for k in range(count):
+                a[k] = a[k] * inv_r[k] * inv_s[k] * inverse
+        else:
+            iterations, status, residual = finish(
+                kernel, scratch.work, total,
+                Nodes(sample_x, sample_y, tangent_x, tangent_y, second_x, second_y, uniform), step,
+                (x, y), (tolerance * diameter, math.inf), (0.0, 0.0),
+            )  # fmt: skip
+        if mode == OUTPUT_BASIS:
+            fold_onto_basis(row, a, ones, ones, 1.0, samples, control_count, coefficients)
+        elif out_count == count:
+            for k in range(count):
+                row[k] += a[k] / step
+        else:
+            for k in range(count):
+                accumulate(row, mode, a[k], sample_t[k], out_step, out_count, control_count)
+        if likelihood:
+            return iterations, status, residual, phix, phiy
+        return iterations, status, residual, math.nan, math.nan
+    r_min = value  # RULE_NODES
     total = kernel_weights(settings, scratch.nodes, (x, y), nodes, corners, rays, r_min, a)
     phix, phiy = 0.0, 0.0
     if kernel <= MODIFIED_MEAN_VALUE_SQUARED:
