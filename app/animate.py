@@ -16,7 +16,7 @@ from pathlib import Path
 
 from app.files import (
     InputError,
-    read_image,
+    read_photo,
     read_session,
     refuse_overwriting_inputs,
     reported_as_input,
@@ -26,7 +26,7 @@ from app.frame_writers import check_output, output_kind
 from app.framing import frame_region, output_frame
 from app.keyframes import frame_times, interpolate
 from app.warp_job import WarpJob, checked_curve, kernel_params, session_inputs, width_height
-from app.warping import WarpSettings
+from app.warping import OutputFile, WarpSettings
 
 #: Most bytes of frames a GIF export keeps in memory until it writes the file.
 MAX_GIF_BYTES = 4 << 30
@@ -59,7 +59,8 @@ def animation_job(args: argparse.Namespace) -> WarpJob:
     with reported_as_input(str(args.session)):
         times = frame_times(keyframes, args.fps)
     canvas = args.canvas or inputs.canvas
-    image = read_image(inputs.image_path)
+    photo = read_photo(inputs.image_path)
+    image = photo.pixels
     curve = checked_curve(inputs, image, None)
     with reported_as_input("output size"):
         size, view = output_frame(
@@ -85,7 +86,7 @@ def animation_job(args: argparse.Namespace) -> WarpJob:
         outside=args.outside or inputs.outside,
         fill=inputs.fill,
         output=path,
-        file=None,
+        file=OutputFile(path, photo.metadata),
         kind=kind,
         fps=args.fps,
     )

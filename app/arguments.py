@@ -64,11 +64,13 @@ def _warp_command(commands, run, kernels: tuple[str, ...]) -> None:
         commands,
         "warp",
         "deform an image from a source cage to a target cage",
-        "Deform IMAGE by moving CAGE's control points to TARGET's and write the result as\n"
-        "an RGBA PNG, transparent outside the deformed cage (or, with --outside original,\n"
-        "over the untouched picture).  Cage files are JSON\n"
-        '{"control_points": [[x, y], ...]} in image pixels, x right, y down, origin at the\n'
-        "image's top-left corner.  Images and cages to try it on come with the program:\n"
+        "Deform IMAGE by moving CAGE's control points to TARGET's and write the result:\n"
+        "PNG, TIFF, JPEG or WebP by the output's extension, at the input's bit depth where\n"
+        "the format allows, with its ICC profile and EXIF; transparent outside the deformed\n"
+        "cage (or, with --outside original, over the untouched picture).  Cage files are\n"
+        '{"control_points": [[x, y], ...]} JSON in image pixels, x right, y down, origin\n'
+        "at the top-left corner of the image as displayed (after its EXIF orientation).\n"
+        "Images and cages to try it on come with the program:\n"
         "python -m app demo --list prints where they are.",
         ("%(prog)s photo.png --cage cage.json --target target.json --output out.png", None),
         ("%(prog)s photo.png --cage c.json --target t.json --output out.png --kernel mean-value", None),
@@ -87,27 +89,7 @@ def _warp_command(commands, run, kernels: tuple[str, ...]) -> None:
         help="session JSON of the viewer: image, cage, target and kernel; its target, not its keyframes "
         "(animate plays those); the output is framed like the image, not like the viewer's window",
     )
-    warp.add_argument(
-        "--output",
-        type=Path,
-        help="output image, its format by its extension: .png (RGBA, 8 or 16 bits like the input), "
-        ".tif/.tiff (RGBA, 16 bits kept), .jpg/.jpeg (no transparency: give --outside original or "
-        "--background), .webp; the input's ICC profile and EXIF are carried over; required",
-    )
-    warp.add_argument(
-        "--quality",
-        type=_quality_value,
-        default=DEFAULT_QUALITY,
-        metavar="Q",
-        help=f"JPEG and WebP quality, 1-100 (default {DEFAULT_QUALITY})",
-    )
-    warp.add_argument(
-        "--background",
-        type=_colour,
-        metavar="COLOR",
-        help="fill what the warp leaves transparent with COLOR: a name (white, black, grey...), #rrggbb "
-        "or r,g,b (0-255); needed for a JPEG output unless --outside original covers everything",
-    )
+    _output_file_arguments(warp)
     _deformation_arguments(warp, kernels)
     size = warp.add_mutually_exclusive_group()
     size.add_argument("--scale", type=_positive(float), metavar="S", help="output size = input size x S")
@@ -145,6 +127,12 @@ def _warp_command(commands, run, kernels: tuple[str, ...]) -> None:
         action="store_true",
         help="allow --output to be the input image (otherwise refused)",
     )
+    _checking_arguments(warp)
+    warp.set_defaults(run=run)
+
+
+def _checking_arguments(warp: argparse.ArgumentParser) -> None:
+    """``warp``'s checks of the deformation: ``--fold-free`` and ``--report``."""
     warp.add_argument(
         "--fold-free",
         action="store_true",
@@ -163,7 +151,6 @@ def _warp_command(commands, run, kernels: tuple[str, ...]) -> None:
         "piecewise linear map at triangle centroids (exact for the finite-element harmonic basis); "
         "then the injectivity certificate of the map (core.certify_injective; poisson only)",
     )
-    warp.set_defaults(run=run)
 
 
 def _deformation_arguments(warp: argparse.ArgumentParser, kernels: tuple[str, ...]) -> None:
@@ -182,6 +169,31 @@ def _deformation_arguments(warp: argparse.ArgumentParser, kernels: tuple[str, ..
     )
     warp.add_argument(
         "--max-edge", type=_positive(float), metavar="PX", help="longest mesh edge in image pixels"
+    )
+
+
+def _output_file_arguments(warp: argparse.ArgumentParser) -> None:
+    """warp's output file and its format's options."""
+    warp.add_argument(
+        "--output",
+        type=Path,
+        help="output image, its format by its extension: .png (RGBA, 8 or 16 bits like the input), "
+        ".tif/.tiff (RGBA, 16 bits kept), .jpg/.jpeg (no transparency: give --outside original or "
+        "--background), .webp; the input's ICC profile and EXIF are carried over; required",
+    )
+    warp.add_argument(
+        "--quality",
+        type=_quality_value,
+        default=DEFAULT_QUALITY,
+        metavar="Q",
+        help=f"JPEG and WebP quality, 1-100 (default {DEFAULT_QUALITY})",
+    )
+    warp.add_argument(
+        "--background",
+        type=_colour,
+        metavar="COLOR",
+        help="fill what the warp leaves transparent with COLOR: a name (white, black, grey...), #rrggbb "
+        "or r,g,b (0-255); needed for a JPEG output unless --outside original covers everything",
     )
 
 

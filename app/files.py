@@ -39,6 +39,7 @@ from app.images import (
     output_format,
     read_metadata,
     rgba_pixels,
+    straight_rgba_tiff,
 )
 from app.images.tiles import PngStripWriter
 from app.keyframes import DEFAULT_INTERPOLATION, INTERPOLATIONS, Keyframe, sorted_keyframes
@@ -552,10 +553,13 @@ def read_photo(path: str | os.PathLike) -> Photo:
     if header is not None:
         check_image_size(header, path)
     info = read_metadata(data)
-    decoded = _decode(data, path)
-    del data  # the encoded file is no longer needed: less memory held with the pixels
     with reported_as_input(str(path)):
-        pixels = oriented(rgba_pixels(decoded), info.orientation)
+        # An 8-bit RGBA TIFF: OpenCV reads it through libtiff's RGBA interface, which premultiplies
+        # a straight alpha; Pillow does not.
+        tiff_rgba = header is not None and header.format == "TIFF" and info.mode == "RGBA"
+        decoded = straight_rgba_tiff(data) if tiff_rgba else _decode(data, path)
+        del data  # the encoded file is no longer needed: not held while the pixels are converted
+        pixels = oriented(decoded if tiff_rgba else rgba_pixels(decoded), info.orientation)
     for line in info.notes:
         note(f"{path}: {line}")
     return Photo(pixels, info.metadata, info.notes)

@@ -1,7 +1,6 @@
-"""Where warped frames go: one image file, a folder of PNG frames, an MP4 or a GIF, chosen by the
+"""Where the frames of an animation go: a folder of PNG frames, an MP4 or a GIF, chosen by the
 output's name (`output_kind`, `WRITERS`).
 
-- ``OUT.png``: one RGBA image with straight alpha, ``warp``'s output (`ImageFile`).
 - ``OUT.mp4``: OpenCV's video writer with the MPEG-4 Part 2 codec (``mp4v``, the
   one every opencv-python wheel has; H.264 is not in them).  Video has no alpha:
   transparent pixels are flattened over `BACKGROUND`, and an odd width or height
@@ -28,7 +27,8 @@ from pathlib import Path
 
 import numpy as np
 
-from app.files import InputError, check_name_length, check_writable, encode_png, write_png
+from app.files import InputError, check_name_length, check_writable, encode_png
+from app.images import ImageMetadata
 from app.images.writing import eight_bit
 from core.storage.atomic_write import temporary_path
 
@@ -98,14 +98,20 @@ def flatten(rgba: np.ndarray) -> np.ndarray:
 
 
 class FrameWriter:
-    """Writes frames (RGBA uint8, (H, W, 4), straight alpha) to a temporary place; `finish` renames it.
+    """Writes frames (RGBA, (H, W, 4), uint8 or uint16, straight alpha) to a temporary place; `finish`
+    renames it.
 
     Use as a context manager: leaving it by an exception calls `abort`, which
     removes what was written; `finish` must be called for the output to appear.
+    `metadata` (the image's ICC profile and EXIF) goes into the frames of formats
+    that hold it (PNG frames, an image file).
     """
 
-    def __init__(self, path: Path, size: tuple[int, int], fps: float):
+    def __init__(
+        self, path: Path, size: tuple[int, int], fps: float = 0.0, metadata: ImageMetadata | None = None
+    ):
         self.path, self.size, self.fps = Path(path), (int(size[0]), int(size[1])), float(fps)
+        self.metadata = metadata
         self.count = 0
 
     def add(self, rgba: np.ndarray) -> None:
@@ -131,13 +137,14 @@ class PngFrames(FrameWriter):
     An existing folder of frames is replaced as a whole (it holds only frames, `check_output`).
     """
 
-    def __init__(self, path: Path, size: tuple[int, int], fps: float):
-        super().__init__(path, size, fps)
+    def __init__(self, path: Path, size: tuple[int, int], fps: float, metadata: ImageMetadata | None = None):
+        super().__init__(path, size, fps, metadata)
         self.temporary = temporary_path(self.path)
         self.temporary.mkdir()
 
     def add(self, rgba: np.ndarray) -> None:
-        (self.temporary / f"frame_{self.count:05d}.png").write_bytes(encode_png(rgba))
+        # The image's depth (16-bit frames of a 16-bit image) and metadata, as warp writes them.
+        (self.temporary / f"frame_{self.count:05d}.png").write_bytes(encode_png(rgba, self.metadata))
         self.count += 1
 
     def finish(self) -> None:
@@ -156,10 +163,10 @@ class PngFrames(FrameWriter):
 class Mp4Writer(FrameWriter):
     """MPEG-4 Part 2 video (``mp4v``) through OpenCV, flattened over `BACKGROUND`, padded to even sizes."""
 
-    def __init__(self, path: Path, size: tuple[int, int], fps: float):
+    def __init__(self, path: Path, size: tuple[int, int], fps: float, metadata: ImageMetadata | None = None):
         import cv2
 
-        super().__init__(path, size, fps)
+        super().__init__(path, size, fps, metadata)
         self.padded = (size[0] + size[0] % 2, size[1] + size[1] % 2)
         # The container comes from the name's extension, so the temporary ends in .mp4 too.
         self.temporary = temporary_path(self.path, ".mp4")
@@ -196,8 +203,8 @@ class GifWriter(FrameWriter):
     palette from a few of them and writes the file.
     """
 
-    def __init__(self, path: Path, size: tuple[int, int], fps: float):
-        super().__init__(path, size, fps)
+    def __init__(self, path: Path, size: tuple[int, int], fps: float, metadata: ImageMetadata | None = None):
+        super().__init__(path, size, fps, metadata)
         self.frames: list[np.ndarray] = []
 
     def add(self, rgba: np.ndarray) -> None:
@@ -232,27 +239,6 @@ class GifWriter(FrameWriter):
         self.frames.clear()
 
 
-class ImageFile(FrameWriter):
-    """One image (``warp``'s output): the single frame added, written atomically by `finish`
-    (`app.files.write_png`)."""
-
-    def __init__(self, path: Path, size: tuple[int, int], fps: float = 0.0):
-        super().__init__(path, size, fps)
-        self.pixels: np.ndarray | None = None
-
-    def add(self, rgba: np.ndarray) -> None:
-        if self.pixels is not None:
-            raise ValueError(f"{self.path}: an image file holds one frame")
-        self.pixels = rgba
-        self.count += 1
-
-    def finish(self) -> None:
-        write_png(self.path, self.pixels)
-
-    def abort(self) -> None:
-        self.pixels = None
-
-
 def gif_delays(count: int, fps: float) -> list[int]:
     """Milliseconds each of `count` GIF frames is shown at `fps`: whole hundredths of a second
     (all GIF can hold) whose running sum is frame k's true time k / fps rounded, so that the
@@ -262,8 +248,8 @@ def gif_delays(count: int, fps: float) -> list[int]:
     return [10 * max(2, int(step)) for step in np.diff(ends)]
 
 
-#: The writer of each output kind: "image" a single PNG file (`warp`), the others `output_kind`'s.
-WRITERS = {"image": ImageFile, "mp4": Mp4Writer, "gif": GifWriter, "png": PngFrames}
+#: The writer of each kind of `output_kind`.
+WRITERS = {"mp4": Mp4Writer, "gif": GifWriter, "png": PngFrames}
 
 
 @contextlib.contextmanager

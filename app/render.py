@@ -38,8 +38,9 @@ from app.viewport import View
 
 #: Largest side of one offscreen drawing of `WarpRenderer.render`; larger outputs are drawn in tiles.
 TILE = 4096
-#: Rows of a strip of `WarpRenderer.render_strips`: a 12000-pixel-wide strip is 49 MB at 8 bits.
-STRIP_ROWS = 1024
+#: Rows of a strip of `WarpRenderer.render_strips` (drawn in tiles of as many columns): a
+#: 12000-pixel-wide strip is 25 MB at 8 bits; smaller tiles multisample less of the picture.
+STRIP_ROWS = 512
 
 
 class ContextUnavailableError(RuntimeError):

@@ -124,10 +124,11 @@ class WarpJob:
         What fills the source cage's region behind the warp (`app.fill`).
     output : Path
     file : app.warping.OutputFile or None
-        How a single image is written (format options, the input's ICC profile and EXIF);
-        None for an animation.
+        How the output is written: a single image's format options, and the input's ICC profile
+        and EXIF (also in an animation's PNG frames); None for no metadata.
     kind : str
-        The writer: a key of `app.frame_writers.WRITERS` (``"image"`` for one file).
+        The writer: a key of `app.frame_writers.WRITERS`, or ``"image"`` for one file
+        (``warp``'s, written by `app.warping.render_to_file`).
     fps : float
         Frames per second of an animation (0 for one image).
     """
@@ -310,7 +311,7 @@ def run_job(job: WarpJob, inspect: Callable[[Deformation, np.ndarray], None] | N
             set_fill(renderer, job.image, job.curve.control_points, job.fill, job.outside)
             job.image = None  # the texture holds it now
             renderer.set_mesh(deformation.mesh.vertices, deformation.mesh.triangles)
-            if job.file is not None:
+            if job.kind == "image":
                 with reported_as_input("rendering"):
                     render_to_file(
                         renderer, deformation, job.targets[0], (job.size, job.view), job.outside, job.file
@@ -327,7 +328,8 @@ def _render_frames(job: WarpJob, renderer, deformation: Deformation) -> None:
     """Every target of `job` drawn into the writer its output asks for."""
     from app.warping import render
 
-    with WRITERS[job.kind](job.output, job.size, job.fps) as writer, _frames_bar(job) as bar:
+    metadata = None if job.file is None else job.file.metadata
+    with WRITERS[job.kind](job.output, job.size, job.fps, metadata) as writer, _frames_bar(job) as bar:
         for index, target in enumerate(job.targets):
             with reported_as_input(f"rendering frame {index}"):  # a fold-free path may cross itself
                 writer.add(render(renderer, deformation, target, job.size, job.view, job.outside))

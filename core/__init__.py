@@ -20,9 +20,10 @@ from core.injectivity.certificate import InjectivityCertificate, certify_injecti
 from core.injectivity.composite import fold_free_deform
 from core.kernel_table import BOUNDARY_INTEGRAL_KERNELS, COMPLEX_KERNELS, DEFAULT_KERNEL, MESH_ONLY_KERNELS
 from core.kernels import KERNELS, ConvergenceWarning, SolveReport, kernel
-from core.meshes.mesh import Mesh, folded_triangles, triangulate
+from core.meshes.mesh import Mesh, folded_triangles
 from core.mesh_basis import CacheWarning, mesh_basis_functions
 from core.meshes.pgw import pgw_basis
+from core.meshes.triangulation import triangulate
 
 __all__ = [
     "BOUNDARY_INTEGRAL_KERNELS",

@@ -68,6 +68,7 @@ from core.curves.bspline import ClosedBSpline
 from core.kernel_table import DEFAULT_KERNEL
 from core.kernels import DEFAULT_TOLERANCE, REFINEMENTS, checked_report
 from core.newton import codes, gradient_solver
+from core.newton.solver_state import Geometry, Output, Settings
 from core.validation import as_points, positive_float, positive_int
 
 
@@ -180,7 +181,7 @@ def _evaluate(boundary, x, kernel, mode, columns, tolerance, params):
     status = np.zeros(count, dtype=np.int64)
     residual = np.zeros(count)
     orientation = 1.0 if boundary.area > 0 else -1.0
-    settings = (identifier, power, shift, mode, orientation, boundary.diameter, columns, tolerance)
+    settings = Settings(identifier, power, shift, mode, orientation, boundary.diameter, columns, tolerance)
     indices = np.arange(count)
     quadrature, factor = boundary, 1
     for refinement in (None, *REFINEMENTS):
@@ -192,7 +193,7 @@ def _evaluate(boundary, x, kernel, mode, columns, tolerance, params):
                 break
             quadrature, factor = boundary.refined(refinement), refinement
         curve = kernels.curve_arrays(quadrature, mode, columns, factor, boundary.step)
-        geometry = (quadrature.curve.coefficients, quadrature.curve.piece_length, quadrature.corners)
+        geometry = Geometry(quadrature.curve.coefficients, quadrature.curve.piece_length, quadrature.corners)
         for start in range(0, indices.size, kernels.CHUNK):
             chunk = indices[start : start + kernels.CHUNK]
             rows = np.zeros((chunk.size, columns))
@@ -212,7 +213,7 @@ def _evaluate(boundary, x, kernel, mode, columns, tolerance, params):
 def _in_threads(points, settings, curve, geometry, rows, derivatives, diagnostics) -> None:
     """`gradient_solver.gradient_points` on every point, one strided share per thread."""
     threads = min(numba.config.NUMBA_NUM_THREADS, points.shape[0])
-    arguments = (points, settings, curve, geometry, rows, derivatives, *diagnostics)
+    arguments = (points, settings, curve, geometry, Output(rows, *diagnostics), derivatives)
     if threads <= 1:
         gradient_solver.gradient_points(*arguments, 0, 1)
         return

@@ -59,6 +59,7 @@ from core.curves.boundary import Boundary
 from core.curves.crossing_slabs import crossing_slabs
 from core.kernel_table import BOUNDARY_INTEGRAL_KERNELS, CONVEX_ONLY, POINT_KERNELS
 from core.newton import codes, quadrature_nodes, solver
+from core.newton.solver_state import Geometry, Output, Samples, Settings
 from core.validation import as_points, positive_float
 
 #: The real point kernels: their coordinates G (M, n) satisfy G @ P == x (`core.kernel_table`).
@@ -306,11 +307,11 @@ class _Run:
         """Solve the points `indices` on `boundary` (the reference one or a refinement)."""
         curve = curve_arrays(boundary, self.mode, self.columns, factor, self.reference.step)
         orientation = 1.0 if self.reference.area > 0 else -1.0
-        settings = (
+        settings = Settings(
             self.identifier, self.power, self.shift, self.mode, orientation,
             self.reference.diameter, self.columns, self.tolerance,
         )  # fmt: skip
-        geometry = (boundary.curve.coefficients, boundary.curve.piece_length, boundary.corners)
+        geometry = Geometry(boundary.curve.coefficients, boundary.curve.piece_length, boundary.corners)
         for start in range(0, indices.size, CHUNK):
             chunk = indices[start : start + CHUNK]
             rows = np.zeros((chunk.size, self.columns))
@@ -334,11 +335,11 @@ def _solve_in_threads(points, settings, curve, geometry, rows, diagnostics) -> N
     """`solver.solve_points` on every point, one strided share per thread (it releases the GIL)."""
     threads = min(numba.config.NUMBA_NUM_THREADS, points.shape[0])
     if threads <= 1:
-        solver.solve_points(points, settings, curve, geometry, rows, *diagnostics, 0, 1)
+        solver.solve_points(points, settings, curve, geometry, Output(rows, *diagnostics), 0, 1)
         return
     shares = [
         solver_pool(threads).submit(
-            solver.solve_points, points, settings, curve, geometry, rows, *diagnostics, first, threads
+            solver.solve_points, points, settings, curve, geometry, Output(rows, *diagnostics), first, threads
         )
         for first in range(threads)
     ]
@@ -352,7 +353,7 @@ def solver_pool(threads: int) -> ThreadPoolExecutor:
     return ThreadPoolExecutor(threads, thread_name_prefix="transfinite-solver")
 
 
-def curve_arrays(boundary: Boundary, mode: int, columns: int, factor: int, out_step: float) -> tuple:
+def curve_arrays(boundary: Boundary, mode: int, columns: int, factor: int, out_step: float) -> Samples:
     """The per-sample arrays `core.newton.solver.solve_points` shares between points."""
     count = boundary.count
     if mode == codes.OUTPUT_BASIS:
@@ -361,14 +362,15 @@ def curve_arrays(boundary: Boundary, mode: int, columns: int, factor: int, out_s
     else:
         basis = (np.zeros(count),) * 3
     column = np.ascontiguousarray
-    return (
+    spacing = _sample_spacing(boundary.points)
+    return Samples(
         column(boundary.points[:, 0]),
         column(boundary.points[:, 1]),
         column(boundary.tangents[:, 0]),
         column(boundary.tangents[:, 1]),
         column(boundary.second_derivatives[:, 0]),
         column(boundary.second_derivatives[:, 1]),
-        _sample_spacing(boundary.points),
+        spacing,
         np.full(count, boundary.step),
         boundary.parameters,
         *basis,
@@ -376,6 +378,7 @@ def curve_arrays(boundary: Boundary, mode: int, columns: int, factor: int, out_s
         quadrature_nodes.SINH_STEP / factor,
         float(out_step),
         crossing_slabs(boundary.points[:, 1]),
+        float(spacing.max()),
     )
 
 

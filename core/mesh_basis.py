@@ -124,37 +124,11 @@ def mesh_basis_functions(
         An unknown kernel or parameter, a mesh of another curve, or invalid
         arguments.
     """
-    require_mesh_of(curve, mesh)
-    valid = POINT_KERNELS + COMPLEX_KERNELS + MESH_ONLY_KERNELS
-    if not isinstance(kernel, str) or kernel not in valid:
-        raise ValueError(f"unknown kernel {kernel!r}; choose one of: {', '.join(valid)}")
-    per = checked_samples_per_segment(samples_per_segment, curve.n)
-    if kernel in MESH_ONLY_KERNELS:
-        unknown = sorted(set(params) - set(BY_NAME[kernel].parameters))
-        if unknown:
-            allowed = ", ".join(BY_NAME[kernel].parameters) or "none"
-            raise ValueError(
-                f"kernel {kernel!r} does not take parameter(s) {', '.join(unknown)} (it takes: {allowed})"
-            )
-    if checked_parameterization(parameterization) != "natural" and kernel not in PARAMETERIZED_KERNELS:
-        raise ValueError(
-            f"kernel {kernel!r} does not depend on the boundary's parameterization; "
-            f"parameterization={parameterization!r} applies to {', '.join(PARAMETERIZED_KERNELS)}"
-        )
+    per = _checked_arguments(curve, mesh, kernel, samples_per_segment, parameterization, gradients, params)
     for name, callback in (("progress", progress), ("compiling", compiling)):
         if callback is not None and not callable(callback):
             raise ValueError(f"{name} must be a callable taking a fraction, got {callback!r}")
     if gradients:
-        if kernel in MESH_ONLY_KERNELS:
-            raise ValueError(
-                f"kernel {kernel!r} has no pointwise gradients; use the per-triangle Jacobians "
-                "(core.meshes.distortion.triangle_jacobians) or a kernel of core.KERNELS"
-            )
-        if parameterization != "natural":
-            raise ValueError(
-                "gradients are computed for the natural parameterization only, "
-                f"not for parameterization={parameterization!r}"
-            )
         values = mesh_basis_functions(curve, mesh, kernel, per, progress, cache, compiling, **params)
         return values, _vertex_gradients(curve, mesh, kernel, per, cache, params)
     shape = (mesh.vertices.shape[0], curve.n)
@@ -191,6 +165,39 @@ def mesh_basis_functions(
             stacklevel=2,
         )
     return values
+
+
+def _checked_arguments(curve, mesh, kernel, samples_per_segment, parameterization, gradients, params) -> int:
+    """The checks of `mesh_basis_functions` on its arguments, one ValueError each; returns the
+    checked samples per segment."""
+    require_mesh_of(curve, mesh)
+    valid = POINT_KERNELS + COMPLEX_KERNELS + MESH_ONLY_KERNELS
+    if not isinstance(kernel, str) or kernel not in valid:
+        raise ValueError(f"unknown kernel {kernel!r}; choose one of: {', '.join(valid)}")
+    per = checked_samples_per_segment(samples_per_segment, curve.n)
+    if kernel in MESH_ONLY_KERNELS:
+        unknown = sorted(set(params) - set(BY_NAME[kernel].parameters))
+        if unknown:
+            allowed = ", ".join(BY_NAME[kernel].parameters) or "none"
+            raise ValueError(
+                f"kernel {kernel!r} does not take parameter(s) {', '.join(unknown)} (it takes: {allowed})"
+            )
+    if checked_parameterization(parameterization) != "natural" and kernel not in PARAMETERIZED_KERNELS:
+        raise ValueError(
+            f"kernel {kernel!r} does not depend on the boundary's parameterization; "
+            f"parameterization={parameterization!r} applies to {', '.join(PARAMETERIZED_KERNELS)}"
+        )
+    if gradients and kernel in MESH_ONLY_KERNELS:
+        raise ValueError(
+            f"kernel {kernel!r} has no pointwise gradients; use the per-triangle Jacobians "
+            "(core.meshes.distortion.triangle_jacobians) or a kernel of core.KERNELS"
+        )
+    if gradients and parameterization != "natural":
+        raise ValueError(
+            "gradients are computed for the natural parameterization only, "
+            f"not for parameterization={parameterization!r}"
+        )
+    return per
 
 
 def invariant_errors(curve: ClosedBSpline, mesh: Mesh, values: np.ndarray) -> np.ndarray:

@@ -243,3 +243,30 @@ def test_a_gif_at_30_fps_lasts_as_long_as_its_frames(tmp_path):
     with Image.open(tmp_path / "out.gif") as gif:
         durations = [frame.info["duration"] for frame in ImageSequence.Iterator(gif)]
     assert len(durations) == 22 and sum(durations) == 730
+
+
+def test_a_fold_free_session_animates_fold_free_frames(tmp_path, capfd):
+    """``"fold_free": true`` in a session: animate draws each frame as `warp` does for it, fold-free."""
+    write_png(tmp_path / "picture.png", picture())
+    folding = np.array(CAGE, dtype=np.float64)
+    folding[1] = [80.0, 80.0]  # pulled down across the cage: the plain harmonic map folds
+    fold_free = {"kernel": "poisson", "fold_free": True}
+    (tmp_path / "two.json").write_text(json.dumps(session(CAGE, [(0.0, CAGE), (1.0, folding)], **fold_free)))
+    (tmp_path / "last.json").write_text(json.dumps(session(folding, **fold_free)))
+    (tmp_path / "plain.json").write_text(json.dumps(session(folding, kernel="poisson")))
+    for name in ("last", "plain"):
+        main_ok(["warp", "--session", tmp_path / f"{name}.json", "--output", tmp_path / f"{name}.png"])
+    code, _, err = run_main(
+        ["animate", tmp_path / "two.json", "--output", f"{tmp_path / 'frames'}/", "--fps", "2"], capfd
+    )
+    assert code == 0, err
+    last = read_image(tmp_path / "frames" / "frame_00002.png")
+    np.testing.assert_array_equal(last, read_image(tmp_path / "last.png"))
+    assert not np.array_equal(last, read_image(tmp_path / "plain.png"))
+
+
+def test_a_session_with_a_bad_fold_free_value_is_refused(tmp_path, capfd):
+    write_png(tmp_path / "picture.png", picture())
+    (tmp_path / "bad.json").write_text(json.dumps(session(CAGE, [(0.0, CAGE)], fold_free="yes")))
+    code, _, err = run_main(["animate", tmp_path / "bad.json", "--output", f"{tmp_path / 'frames'}/"], capfd)
+    assert code == 2 and err.count("\n") == 1 and '"fold_free" must be true or false' in err

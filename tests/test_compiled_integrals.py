@@ -15,7 +15,7 @@ from test_poisson import near_boundary_points
 
 import core
 from app.quality_suite import built_in_shapes
-from core.boundary_integrals import cauchy_integrals, compiled_integrals, poisson
+from core.boundary_integrals import cauchy_integrals, compiled_integrals, compiled_tree, poisson
 from core.boundary_integrals.panels import curve_panels
 
 SHAPES = built_in_shapes()
@@ -131,7 +131,7 @@ def test_a_box_s_decision_is_every_target_s_own():
     tree = cauchy_integrals._panel_tree(curve, poisson.densities(curve).levels)
     rng = np.random.default_rng(12)
     close = np.sqrt(tree.close_squared)
-    checked = {compiled_integrals.FAR: 0, compiled_integrals.NEAR: 0}
+    checked = {compiled_tree.FAR: 0, compiled_tree.NEAR: 0}
     for _ in range(3000):
         p = int(rng.integers(tree.centres.size))
         node = tree.node_z[p * 16 + int(rng.integers(16))]
@@ -141,18 +141,18 @@ def test_a_box_s_decision_is_every_target_s_own():
         z = edge + spread * (rng.normal(size=int(rng.integers(1, 51))) + 1j * rng.normal(size=1))
         centre = complex(0.5 * (z.real.min() + z.real.max()), 0.5 * (z.imag.min() + z.imag.max()))
         radius = np.abs(z - centre).max()
-        side = compiled_integrals._box_side(
+        side = compiled_tree._box_side(
             p, centre, radius, tree.node_z, tree.centres, tree.reach, tree.close_squared
         )
         nodes = tree.node_z[p * 16 : (p + 1) * 16]
         square = np.abs(nodes[None, :] - z[:, None]) ** 2
         near = (np.abs(z - tree.centres[p]) < tree.reach[p]) & (square.min(axis=1) < tree.close_squared[p])
-        if side == compiled_integrals.FAR:
+        if side == compiled_tree.FAR:
             assert not near.any()
-        elif side == compiled_integrals.NEAR:
+        elif side == compiled_tree.NEAR:
             assert near.all()
         checked[side] = checked.get(side, 0) + 1
-    assert checked[compiled_integrals.FAR] > 100 and checked[compiled_integrals.NEAR] > 100
+    assert checked[compiled_tree.FAR] > 100 and checked[compiled_tree.NEAR] > 100
 
 
 def test_boxes_take_any_targets():
@@ -163,7 +163,7 @@ def test_boxes_take_any_targets():
         np.array([0.5 + 0.5j, np.nan + 0.3j, complex(0.4, np.inf), complex(-np.inf, 0.2), 0.7 + 0.1j]),
         np.array([complex(np.nan, np.nan), complex(np.inf, -np.inf)]),
     ):  # fmt: skip
-        order, start = compiled_integrals._boxes(targets, compiled_integrals.BOX)
+        order, start = compiled_tree._boxes(targets, compiled_tree.BOX)
         assert np.array_equal(np.sort(order), np.arange(targets.size))
         assert start[0] == 0 and start[-1] == targets.size and np.all(np.diff(start) >= 0)
 
@@ -305,12 +305,12 @@ def test_without_numba_s_cache_the_default_kernel_runs_as_numpy_without_compilin
     # compiled, load_compiled says so, and the basis is still exact.
     script = (
         "import time, numpy as np, core\n"
-        "from core.boundary_integrals import compiled_integrals as c, poisson\n"
+        "from core.boundary_integrals import compiled_integrals as c, compiled_tree, poisson\n"
         "start = time.perf_counter(); found = poisson.load_compiled()\n"
         "square = core.ClosedBSpline(np.array([[0.0, 0], [2, 0], [2, 1], [0, 1]]))\n"
         "x = np.random.default_rng(2).uniform((0.7, 0.35), (1.3, 0.65), (c.LOAD_AFTER_POINTS + 10, 2))\n"
         "G = core.basis_functions(square, x)\n"
-        "print(found, len(c.adaptive_pairs.overloads), len(c.layer_rows.overloads),"
+        "print(found, len(c.adaptive_pairs.overloads), len(compiled_tree.layer_rows.overloads),"
         " np.abs(G @ square.control_points - x).max(), time.perf_counter() - start)\n"
     )
     environment = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path), PYTHONPATH=str(ROOT))

@@ -9,7 +9,8 @@ from scipy.sparse.linalg import cg
 
 import core
 from core.meshes.harmonic import harmonic_basis, stiffness_matrix
-from core.meshes.mesh import Mesh, triangulate
+from core.meshes.mesh import Mesh
+from core.meshes.triangulation import triangulate
 
 CAGES = {
     "starfish": starfish(),

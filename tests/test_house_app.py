@@ -15,6 +15,8 @@ ROOT = Path(__file__).resolve().parent.parent
 MAX_FILE_LINES = 900
 MAX_FUNCTION_LINES = 100
 MAX_CLASS_FIELDS = 15
+#: The window class only wires the viewer's parts (napari's Window over its ViewerModel).
+MAX_VIEWER_LINES = 400
 #: The viewer's model: the classes whose fields are the state `gui` and the controller share.
 MODEL_MODULE = "app/viewer/state.py"
 #: What only tests read (the window points of some widgets): kept by the GUI, not the model.
@@ -73,6 +75,14 @@ def class_fields(node: ast.ClassDef) -> set[str]:
     return fields
 
 
+def class_lines(source: str, name: str) -> int:
+    """Lines of the class `name` of `source`, decorators and docstring included (0 if absent)."""
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, ast.ClassDef) and node.name == name:
+            return node.end_lineno - min([node.lineno] + [d.lineno for d in node.decorator_list]) + 1
+    return 0
+
+
 def crowded_classes(source: str, limit: int = MAX_CLASS_FIELDS) -> list[tuple[str, int]]:
     """(name, fields) of every class of `source` with more than `limit` fields (`class_fields`)."""
     return [
@@ -124,6 +134,8 @@ def test_the_helpers_catch_a_bad_snippet():
     assert "field_3" in model_fields(bad) and "x_13" in model_fields(bad)
     good = bad_snippet(fields=15, assignments=13, body=98)
     assert crowded_classes(good) == [] and long_functions(good) == []
+    # @dataclass, the class line and 16 fields; the def line, 14 + 1 assignments.
+    assert class_lines(bad, "Wide") == 18 and class_lines(bad, "Busy") == 17 and class_lines(bad, "None") == 0
 
 
 def test_methods_are_measured_by_their_qualified_name():
@@ -168,3 +180,7 @@ def test_the_viewer_model_holds_no_test_hook():
     fields = model_fields((ROOT / MODEL_MODULE).read_text())
     assert "live" in fields or "history" in fields  # the model is where the test looks
     assert fields & TEST_HOOKS == set()
+
+
+def test_the_viewer_window_class_is_at_most_400_lines():
+    assert 0 < class_lines((ROOT / "app/viewer/window.py").read_text(), "Viewer") <= MAX_VIEWER_LINES

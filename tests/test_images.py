@@ -205,12 +205,13 @@ def test_identity_warp_of_16_bits_gives_the_input_back(tmp_path, extension):
     assert warp(tmp_path, f"in{extension}", f"out{extension}", "--outside", "original") == 0
     back = read_photo(tmp_path / f"out{extension}").pixels
     assert back.dtype == np.uint16
-    # Within 16/65535 (the bound); the texture sampled at texel centres leaves ~2 units
-    # along the cage's curve, where the mesh's interpolated coordinates meet the backdrop.
-    assert np.abs(back.astype(int) - image).max() <= 16
+    # The bound is 16/65535; the texture sampled at texel centres through the mesh's
+    # interpolated coordinates leaves a unit on a few pixels (3 of 6144 here).
+    difference = np.abs(back.astype(int) - image).max(axis=2)
+    assert difference.max() <= 1 and np.count_nonzero(difference) < 0.01 * difference.size
 
 
-def test_16_bit_alpha_is_unpremultiplied_within_one_unit(tmp_path):
+def test_16_bit_alpha_is_kept_and_colour_unpremultiplied_within_two_units(tmp_path):
     image = gradient16(alpha=True)
     write_image(tmp_path / "in.png", image)
     # A cage around the whole picture: every output pixel is the warp alone (no backdrop under it).
@@ -220,10 +221,10 @@ def test_16_bit_alpha_is_unpremultiplied_within_one_unit(tmp_path):
     assert warp(tmp_path, "in.png", "out.png", cage=around) == 0
     back = read_photo(tmp_path / "out.png").pixels
     np.testing.assert_array_equal(back[..., 3], image[..., 3])
-    # Premultiplied 16-bit colour loses what alpha < 1 cannot hold: c * a / 65535 rounded, then
-    # divided back; the error is at most 65535 / (2 a) + 1 units.
+    # Premultiplied 16-bit colour keeps c * a / 65535 rounded, then divided back: for the alphas
+    # here (>= 20000) that loses under a unit; the texture's filtering at texel centres adds one.
     error = np.abs(back[..., :3].astype(int) - image[..., :3]).max(axis=2)
-    assert (error <= 65535 / (2 * image[..., 3]) + 1 + 2).all()
+    assert error.max() <= 2 and np.mean(error <= 1) > 0.99
 
 
 def test_orientation_6_jpeg_warps_in_the_displayed_frame_with_profile_and_exif(tmp_path):
@@ -261,3 +262,69 @@ def test_transparent_to_jpeg_is_one_line_exit_2_and_background_fills(tmp_path, c
     assert warp(tmp_path, "in.png", "out.jpg", "--background", "#0000ff") == 0
     corner = np.asarray(Image.open(tmp_path / "out.jpg"))[1, 1]
     assert corner[2] > 240 and corner[:2].max() < 15
+
+
+@pytest.mark.parametrize("compression", [5, 8])  # LZW, deflate
+def test_16_bit_tiffs_compressed_either_way_are_read_at_16_bits(tmp_path, compression):
+    image = gradient16()
+    ok, data = cv2.imencode(
+        ".tif", cv2.cvtColor(image, cv2.COLOR_RGBA2BGRA), [cv2.IMWRITE_TIFF_COMPRESSION, compression]
+    )
+    (tmp_path / "in.tif").write_bytes(data.tobytes())
+    np.testing.assert_array_equal(read_photo(tmp_path / "in.tif").pixels, image)
+
+
+def test_an_8_bit_tiff_with_alpha_is_read_straight_and_others_see_its_alpha(tmp_path):
+    image = (gradient16(alpha=True) >> 8).astype(np.uint8)
+    write_image(tmp_path / "out.tif", image)
+    np.testing.assert_array_equal(read_photo(tmp_path / "out.tif").pixels, image)
+    np.testing.assert_array_equal(np.asarray(Image.open(tmp_path / "out.tif")), image)  # ExtraSamples
+
+
+def test_a_png_profile_over_pillows_1_mb_limit_is_carried_with_the_orientation(tmp_path):
+    profile = bytearray(np.random.default_rng(4).integers(0, 256, 3 << 20, dtype=np.uint8).tobytes())
+    profile[36:40] = b"acsp"
+    exif = exif_with_orientation(8).removeprefix(b"Exif\x00\x00")
+    (tmp_path / "in.png").write_bytes(encode_image(gradient16(), "PNG", ImageMetadata(bytes(profile), exif)))
+    photo = read_photo(tmp_path / "in.png")
+    assert photo.metadata.icc_profile == bytes(profile)
+    assert photo.pixels.shape == (WIDTH, HEIGHT, 4)  # orientation 8: turned a quarter
+
+
+def test_animates_png_frames_keep_the_depth_and_the_profile(tmp_path):
+    profile = srgb_profile()
+    write_image(tmp_path / "in.png", gradient16(), ImageMetadata(icc_profile=profile))
+    cage = {"control_points": CAGE}
+    session = {
+        "image": "in.png",
+        "cage": cage,
+        "target": cage,
+        "kernel": "poisson",
+        "view": {"scale": 1.0, "offset": [0, 0]},
+        "outside": "original",
+        "keyframes": [{"time": t, "target": cage} for t in (0.0, 1.0)],
+    }
+    (tmp_path / "session.json").write_text(json.dumps(session))
+    frames = tmp_path / "frames"
+    assert main(["animate", str(tmp_path / "session.json"), "--output", f"{frames}/", "--fps", "2"]) == 0
+    for frame in sorted(frames.iterdir()):
+        photo = read_photo(frame)
+        assert photo.pixels.dtype == np.uint16 and photo.metadata.icc_profile == profile
+        assert np.abs(photo.pixels.astype(int) - gradient16()).max() <= 1
+
+
+@pytest.mark.parametrize("sixteen", [False, True])
+def test_a_large_png_output_is_streamed_with_the_pixels_of_a_whole_one(tmp_path, monkeypatch, sixteen):
+    image = gradient16() if sixteen else (gradient16() >> 8).astype(np.uint8)
+    profile = srgb_profile()
+    write_image(tmp_path / "in.png", image, ImageMetadata(icc_profile=profile))
+    assert warp(tmp_path, "in.png", "whole.png", "--outside", "original") == 0
+    # Every output counts as large: drawn in strips, compressed while drawn (app.images.tiles).
+    monkeypatch.setattr("app.warping.STREAMED_PIXELS", 0)
+    monkeypatch.setattr("app.render.STRIP_ROWS", 16)
+    assert warp(tmp_path, "in.png", "streamed.png", "--outside", "original") == 0
+    whole, streamed = read_photo(tmp_path / "whole.png"), read_photo(tmp_path / "streamed.png")
+    assert streamed.pixels.dtype == image.dtype and streamed.metadata.icc_profile == profile
+    assert (tmp_path / "whole.png").read_bytes() != (tmp_path / "streamed.png").read_bytes()
+    # Tiles off the warp's edges are drawn without multisampling: a unit where triangles meet.
+    assert np.abs(streamed.pixels.astype(int) - whole.pixels).max() <= 1

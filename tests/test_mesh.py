@@ -1,4 +1,5 @@
-"""Tests of core.meshes.mesh: conforming quality triangulations of B-spline domains."""
+"""core.triangulate (core.meshes.triangulation): conforming quality triangulations of B-spline
+domains."""
 
 import numpy as np
 import pytest
@@ -8,7 +9,10 @@ from conftest import near_cusp, pixel_blob, wavy_star
 import core
 from core.curves import examples
 from core.curves.closest_point import distance_to_curve
-from core.meshes.mesh import Mesh, _Refinement, _Sizing, folded_triangles, triangulate
+from core.meshes.mesh import Mesh, folded_triangles
+from core.meshes.refinement import Refinement
+from core.meshes.sizing import Sizing
+from core.meshes.triangulation import triangulate
 
 
 def starfish(arms=5, n=20):
@@ -268,7 +272,7 @@ def test_dense_mesh_is_the_lattice_away_from_the_curve_with_the_expected_vertex_
 
 def refined(points):
     curve = core.ClosedBSpline(points)
-    mesher = _Refinement(curve, _Sizing(curve, curve.diameter / 50))
+    mesher = Refinement(curve, Sizing(curve, curve.diameter / 50))
     mesher.refine()
     return curve, mesher
 

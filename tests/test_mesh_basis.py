@@ -14,8 +14,8 @@ import core
 from core import mesh_basis
 from core.mesh_basis import MESH_ONLY_KERNELS, mesh_basis_functions
 from core.meshes.harmonic import harmonic_basis
-from core.meshes.mesh import triangulate
 from core.meshes.pgw import pgw_basis
+from core.meshes.triangulation import triangulate
 from core.storage import cache as disk_cache
 
 

@@ -13,6 +13,7 @@ import pytest
 from conftest import interior_points
 
 from core.newton import codes, minimisation, quadrature_nodes, solver
+from core.newton.solver_state import Geometry, Output, Settings, Work
 
 TOLERANCE = 1e-11  # of the diameter, as core.kernels.DEFAULT_TOLERANCE
 
@@ -29,7 +30,7 @@ def _problem(curve, x):
 
 def _newton(ux, uy, inv_r, a, tolerance, phi):
     work = [np.empty(ux.size) for _ in range(4)]
-    return minimisation.newton_steps(ux, uy, inv_r, a, *work, ux.size, tolerance, *phi)
+    return minimisation.newton_steps((ux, uy, inv_r), a, tuple(work), ux.size, tolerance, tuple(phi))
 
 
 def test_change_bound_is_an_upper_bound_close_to_the_exact_change():
@@ -73,7 +74,9 @@ def test_coarse_warm_start_reaches_the_full_minimiser_in_fewer_steps(blob):
         spacing = np.linalg.norm(np.diff(boundary.points, axis=0, append=boundary.points[:1]), axis=1).max()
         separation = (1.0 / inv_r.max()) / spacing
         coarse = tuple(np.empty(ux.size) for _ in range(8))
-        start = minimisation.coarse_start(ux, uy, inv_r, a, ux.size, separation, coarse, tolerance, 0.0, 0.0)
+        start = minimisation.coarse_start(
+            (ux, uy, inv_r), a, ux.size, separation, coarse, tolerance, (0.0, 0.0)
+        )
         assert start != (0.0, 0.0), "points this far from the boundary get a coarse start"
         assert (1.0 + start[0] * ux + start[1] * uy).min() > 0.0  # feasible for the full rule
         cold, status, residual, *phi, d = _newton(ux, uy, inv_r, a, tolerance, (0.0, 0.0))
@@ -171,7 +174,12 @@ def test_the_peak_scan_is_skipped_only_where_it_passes_for_sure(blob):
                 work = [np.empty(ux.size) for _ in range(5)]
                 results.append(
                     minimisation.maximum_likelihood(
-                        ux, uy, inv_r, a, *work, weights, boundary.step, ux.size, tolerance, 0.0, 0.0, bound
+                        Work(ux, uy, inv_r, a, *work),
+                        weights,
+                        boundary.step,
+                        ux.size,
+                        (tolerance, bound),
+                        (0.0, 0.0),
                     )
                 )
             np.testing.assert_array_equal(results[0], results[1])  # NaN phi after path-following
@@ -188,17 +196,19 @@ def _solve_points(curve, x, first=0, stride=1, out=None):
 
     boundary = curve.sample(100)
     arrays = kernels.curve_arrays(boundary, codes.OUTPUT_BASIS, curve.n, 1, boundary.step)
-    settings = (
+    settings = Settings(
         codes.HARMONIC_LIKE, 0.0, 0, codes.OUTPUT_BASIS, 1.0 if boundary.area > 0 else -1.0,
         boundary.diameter, curve.n, TOLERANCE,
     )  # fmt: skip
-    geometry = (boundary.curve.coefficients, boundary.curve.piece_length, boundary.corners)
+    geometry = Geometry(boundary.curve.coefficients, boundary.curve.piece_length, boundary.corners)
     count = x.shape[0]
     out = np.zeros((count, curve.n)) if out is None else out
     iterations = np.zeros(count, dtype=np.int64)
     status = np.zeros(count, dtype=np.int64)
     residual = np.zeros(count)
-    solver.solve_points(x, settings, arrays, geometry, out, iterations, status, residual, first, stride)
+    solver.solve_points(
+        x, settings, arrays, geometry, Output(out, iterations, status, residual), first, stride
+    )
     return out, iterations
 
 

@@ -6,7 +6,7 @@
 """
 
 from app.images.metadata import ImageMetadata, oriented, read_metadata
-from app.images.reading import Photo, rgba_pixels
+from app.images.reading import Photo, rgba_pixels, straight_rgba_tiff
 from app.images.writing import (
     DEFAULT_QUALITY,
     OUTPUT_FORMATS,
@@ -28,4 +28,5 @@ __all__ = [
     "output_format",
     "read_metadata",
     "rgba_pixels",
+    "straight_rgba_tiff",
 ]

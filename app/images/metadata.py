@@ -13,6 +13,7 @@ from __future__ import annotations
 import io
 import struct
 import warnings
+import zlib
 from dataclasses import dataclass
 
 import numpy as np
@@ -21,6 +22,10 @@ import numpy as np
 MAX_ICC_BYTES = 16 << 20
 #: The EXIF tag of the orientation (a SHORT in the first IFD).
 ORIENTATION_TAG = 0x0112
+#: The TIFF tag of the bits of each sample.
+_BITS_PER_SAMPLE = 258
+#: The first bytes of every PNG file.
+PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 #: The marker that precedes the EXIF block in JPEG APP1 segments (and in Pillow's ``info["exif"]``).
 EXIF_PREFIX = b"Exif\x00\x00"
 
@@ -53,8 +58,8 @@ class FileInfo:
     orientation : int
         EXIF orientation, 1 to 8 (1 when absent or unusable).
     mode : str or None
-        Pillow's pixel mode (``"RGB"``, ``"CMYK"``, ``"P"``, ``"I;16"``...); None if Pillow cannot
-        open the file.
+        Pillow's pixel mode (``"RGB"``, ``"CMYK"``, ``"P"``, ``"I;16"``...; ``"RGBA;16"`` for a
+        16-bit RGBA TIFF); None if Pillow cannot open the file.
     notes : tuple of str
         One line each about what was dropped or ignored (a damaged profile, a second TIFF page...).
     """
@@ -76,6 +81,11 @@ def read_metadata(data: bytes) -> FileInfo:
     from PIL import Image
 
     notes: list[str] = []
+    if data.startswith(PNG_SIGNATURE):
+        # Read here, not by Pillow: it refuses a profile over 1 MB and then the whole header.
+        icc, exif = png_metadata(data, notes)
+        exif, orientation = _exif(exif, notes) if exif else (None, 1)
+        return FileInfo(ImageMetadata(icc, exif), orientation, None, tuple(notes))
     try:
         with warnings.catch_warnings():
             # The size was checked against app.image_header.MAX_IMAGE_PIXELS before; Pillow's own
@@ -86,6 +96,8 @@ def read_metadata(data: bytes) -> FileInfo:
             info, mode, kind = dict(image.info), image.mode, image.format
             frames = getattr(image, "n_frames", 1) if kind == "TIFF" else 1
             tiff_orientation = image.tag_v2.get(ORIENTATION_TAG) if kind == "TIFF" else None
+            if kind == "TIFF" and mode == "RGBA" and image.tag_v2.get(_BITS_PER_SAMPLE) != (8, 8, 8, 8):
+                mode = "RGBA;16"  # Pillow calls 16-bit RGBA "RGBA" too (it would read 8 bits of it)
     except Exception:  # Pillow raises many kinds; OpenCV's decoder then says what is wrong
         return FileInfo(ImageMetadata())
     if frames > 1:
@@ -98,6 +110,36 @@ def read_metadata(data: bytes) -> FileInfo:
     elif info.get("exif"):
         exif, orientation = _exif(bytes(info["exif"]), notes)
     return FileInfo(ImageMetadata(icc, exif), orientation, mode, tuple(notes))
+
+
+def png_metadata(data: bytes, notes: list[str]) -> tuple[bytes | None, bytes | None]:
+    """The ICC profile (``iCCP``, decompressed) and EXIF block (``eXIf``) of the PNG `data`.
+
+    A profile of more than `MAX_ICC_BYTES` is not decompressed beyond that: dropped with a note.
+    """
+    icc = exif = None
+    position = len(PNG_SIGNATURE)
+    while position + 8 <= len(data):
+        (length,) = struct.unpack(">I", data[position : position + 4])
+        kind, payload = data[position + 4 : position + 8], data[position + 8 : position + 8 + length]
+        position += 12 + length
+        if kind == b"IDAT":  # the metadata chunks come before the pixels
+            break
+        if kind == b"eXIf":
+            exif = payload
+        elif kind == b"iCCP" and b"\x00" in payload[:80]:
+            compressed = payload[payload.index(b"\x00") + 2 :]
+            inflater = zlib.decompressobj()
+            try:
+                profile = inflater.decompress(compressed, MAX_ICC_BYTES + 1)
+            except zlib.error:
+                notes.append("its ICC profile cannot be decompressed; dropped")
+                continue
+            if len(profile) > MAX_ICC_BYTES:
+                notes.append(f"its ICC profile is more than {MAX_ICC_BYTES >> 20} MiB; dropped")
+                continue
+            icc = _icc_profile(profile, notes)
+    return icc, exif
 
 
 def _icc_profile(profile, notes: list[str]) -> bytes | None:

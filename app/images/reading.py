@@ -68,3 +68,22 @@ def rgba_pixels(decoded: np.ndarray) -> np.ndarray:
     if channels not in _CONVERSIONS:
         raise ValueError(f"unsupported image with {channels} channels")
     return cv2.cvtColor(decoded, _CONVERSIONS[channels])
+
+
+def straight_rgba_tiff(data: bytes) -> np.ndarray:
+    """The first page of an 8-bit RGBA TIFF file, decoded by Pillow: ndarray (H, W, 4) uint8, straight alpha.
+
+    Raises
+    ------
+    ValueError
+        The file cannot be decoded (cut short, damaged).
+    """
+    import io
+
+    from PIL import Image
+
+    try:
+        with Image.open(io.BytesIO(data)) as image:
+            return np.asarray(image.convert("RGBA")).copy()
+    except (OSError, ValueError, SyntaxError) as error:
+        raise ValueError(f"cannot decode the image ({error})") from None

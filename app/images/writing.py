@@ -106,11 +106,11 @@ def encode_image(
     if not ok:
         raise RuntimeError(f"OpenCV failed to encode a {kind}")
     data = buffer.tobytes()
+    if kind == "TIFF":
+        return tiff_with_metadata(data, metadata)
     if metadata.icc_profile is None and metadata.exif is None:
         return data
-    return {"PNG": png_with_metadata, "JPEG": jpeg_with_metadata, "TIFF": tiff_with_metadata}[kind](
-        data, metadata
-    )
+    return {"PNG": png_with_metadata, "JPEG": jpeg_with_metadata}[kind](data, metadata)
 
 
 def opaque(pixels: np.ndarray) -> bool:
@@ -167,17 +167,19 @@ def _segment(marker: int, payload: bytes) -> bytes:
     return bytes((0xFF, marker)) + struct.pack(">H", len(payload) + 2) + payload
 
 
-#: TIFF tags written: the ICC profile (UNDEFINED bytes).
-_ICC_TAG = 34675
+#: TIFF tags written: the ICC profile (UNDEFINED bytes), what the fourth sample is.
+_ICC_TAG, _EXTRA_SAMPLES_TAG = 34675, 338
+#: ExtraSamples value of straight (unassociated) alpha.
+_STRAIGHT_ALPHA = 2
 
 
 def tiff_with_metadata(data: bytes, metadata: ImageMetadata) -> bytes:
-    """The TIFF `data` with its first IFD rewritten at the end with the ICC profile's tag added.
+    """OpenCV's RGBA TIFF `data` with its first IFD rewritten at the end, two tags added: the fourth
+    sample is straight alpha (ExtraSamples; OpenCV leaves it unspecified, which other programs do
+    not show as transparency) and, if there is one, the ICC profile.
 
     The EXIF block is not embedded in TIFF outputs (its offsets would need relocating).
     """
-    if metadata.icc_profile is None:
-        return data
     order = "<" if data[:2] == b"II" else ">"
     (first,) = struct.unpack(order + "I", data[4:8])
     (count,) = struct.unpack(order + "H", data[first : first + 2])
@@ -185,8 +187,12 @@ def tiff_with_metadata(data: bytes, metadata: ImageMetadata) -> bytes:
     (following,) = struct.unpack(order + "I", data[first + 2 + 12 * count : first + 6 + 12 * count])
     padded = data + b"\x00" * (len(data) % 2)  # values start on a word boundary
     profile_at = len(padded)
-    profile = metadata.icc_profile + b"\x00" * (len(metadata.icc_profile) % 2)
-    entries.append(struct.pack(order + "HHII", _ICC_TAG, 7, len(metadata.icc_profile), profile_at))
+    profile = b""
+    entries = [entry for entry in entries if struct.unpack(order + "H", entry[:2])[0] != _EXTRA_SAMPLES_TAG]
+    entries.append(struct.pack(order + "HHIHH", _EXTRA_SAMPLES_TAG, 3, 1, _STRAIGHT_ALPHA, 0))
+    if metadata.icc_profile is not None:
+        profile = metadata.icc_profile + b"\x00" * (len(metadata.icc_profile) % 2)
+        entries.append(struct.pack(order + "HHII", _ICC_TAG, 7, len(metadata.icc_profile), profile_at))
     entries.sort(key=lambda entry: struct.unpack(order + "H", entry[:2])[0])
     directory_at = profile_at + len(profile)
     directory = (

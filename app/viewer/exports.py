@@ -185,7 +185,7 @@ class Exporter:
             size, view = output_frame(
                 frame_region((width, height), live.keyframes, live.interpolation, times, canvas)
             )
-            writer = WRITERS[kind](path, size, self.fps)
+            writer = WRITERS[kind](path, size, self.fps, image_metadata(live.image))
         except (InputError, ValueError, OSError) as error:
             state.say(str(error), error=True)
             return

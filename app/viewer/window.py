@@ -36,6 +36,7 @@ from app.viewer.precompute import Precompute
 from app.viewer.script_replay import ScriptReplay
 from app.viewer.session import OpenedDocument, apply_preferences, open_document, save, start_snapshot
 from app.viewer.state import AppState, History
+from app.viewer.window_fit import save_settings, screen_rectangle
 from app.viewer.window_input import InputQueue
 
 TEST_VARIABLE = "TRANSFINITE_VIEWER_TEST"
@@ -151,13 +152,7 @@ class Viewer:
         glfw.window_hint(glfw.STENCIL_BITS, 0)
         # Hidden until it is placed where it fits (`app.viewer.window_fit`).
         glfw.window_hint(glfw.VISIBLE, False)
-        from app.viewer.drawing import STYLES
-        from app.viewer.settings import read_settings
-
-        settings = read_settings()  # the last viewer's (`app.viewer.settings`)
-        if settings.get("cage_drawing") in STYLES:
-            self.state.selection.cage_drawing = settings["cage_drawing"]
-        x, y, width, height = self._opening_rectangle(glfw, settings)
+        x, y, width, height = screen_rectangle(glfw, self.state, self.options.size, WINDOW_SIZE)
         window = glfw.create_window(width, height, self._title(), None, None)
         if not window:
             glfw.terminate()
@@ -184,30 +179,6 @@ class Viewer:
         self._show_document_view()
         self.state.document.session_dirty = True  # the first save, so the session file exists at once
 
-    def _opening_rectangle(self, glfw, settings: dict) -> tuple[int, int, int, int]:
-        """(x, y, width, height) of the window: asked for, as last closed, or fitted to the screen."""
-        from app.viewer.settings import window_rectangle
-        from app.viewer.window_fit import monitor_work_area, opening_rectangle
-
-        saved = window_rectangle(settings)
-        monitors = [glfw.get_primary_monitor()] + [m for m in glfw.get_monitors() or [] if m]
-        areas = [tuple(glfw.get_monitor_workarea(m)) for m in monitors if m]
-        if not areas:  # no monitor reported: the size asked for, or the old default
-            return (0, 0, *(self.options.size or WINDOW_SIZE))
-        return opening_rectangle(monitor_work_area(areas, saved), saved, self.options.size)
-
-    def _save_settings(self, glfw) -> None:
-        """Remember the window's place and size, and how cages are drawn, for the next viewer."""
-        from app.viewer.settings import write_settings
-
-        x, y = glfw.get_window_pos(self.window)
-        width, height = glfw.get_window_size(self.window)
-        window = {"x": x, "y": y, "width": width, "height": height}
-        try:
-            write_settings({"window": window, "cage_drawing": self.state.selection.cage_drawing})
-        except (InputError, OSError) as error:
-            print(f"note: cannot save the viewer's settings: {error}", file=sys.stderr)
-
     def _close_window(self) -> None:
         import glfw
         from imgui_bundle import imgui
@@ -215,7 +186,7 @@ class Viewer:
         self._save_if_needed(force=True)
         if self.window is None:
             return
-        self._save_settings(glfw)
+        save_settings(glfw, self.window, self.state)
         self.scene.release()
         self.scene.renderer.release()
         self.imgui_renderer.shutdown()

@@ -1,10 +1,13 @@
-"""Where the viewer's window opens: a size that fits the monitor's work area, or the one it had last.
+"""Where the viewer's window opens: a size that fits the monitor's work area, or the one it had last
+(`screen_rectangle`, with `save_settings` when it closes).
 
 All rectangles are (x, y, width, height) in screen pixels, origin at the top-left
 of the virtual screen, as glfw reports them (``glfw.get_monitor_workarea``).
 """
 
 from __future__ import annotations
+
+import sys
 
 #: Fraction of the work area (the screen without panels and docks) a first window takes.
 WORK_AREA_FRACTION = 0.9
@@ -65,3 +68,40 @@ def monitor_work_area(
             if left <= centre[0] < left + area_width and top <= centre[1] < top + area_height:
                 return area
     return areas[0]
+
+
+def screen_rectangle(
+    glfw, state, asked: tuple[int, int] | None, default: tuple[int, int]
+) -> tuple[int, int, int, int]:
+    """(x, y, width, height) of the window: `asked` for, as last closed, or fitted to the screen.
+
+    The settings' way of drawing cages becomes `state.selection.cage_drawing` (an
+    `app.viewer.state.AppState`); `glfw` is the module (its monitors); `default` the size
+    without any monitor reported.
+    """
+    from app.viewer.drawing import STYLES
+    from app.viewer.settings import read_settings, window_rectangle
+
+    settings = read_settings()
+    if settings.get("cage_drawing") in STYLES:
+        state.selection.cage_drawing = settings["cage_drawing"]
+    saved = window_rectangle(settings)
+    monitors = [glfw.get_primary_monitor()] + [m for m in glfw.get_monitors() or [] if m]
+    areas = [tuple(glfw.get_monitor_workarea(m)) for m in monitors if m]
+    if not areas:  # no monitor reported: the size asked for, or the old default
+        return (0, 0, *(asked or default))
+    return opening_rectangle(monitor_work_area(areas, saved), saved, asked)
+
+
+def save_settings(glfw, window, state) -> None:
+    """Remember `window`'s place and size, and how cages are drawn, for the next viewer."""
+    from app.files import InputError
+    from app.viewer.settings import write_settings
+
+    x, y = glfw.get_window_pos(window)
+    width, height = glfw.get_window_size(window)
+    rectangle = {"x": x, "y": y, "width": width, "height": height}
+    try:
+        write_settings({"window": rectangle, "cage_drawing": state.selection.cage_drawing})
+    except (InputError, OSError) as error:
+        print(f"note: cannot save the viewer's settings: {error}", file=sys.stderr)

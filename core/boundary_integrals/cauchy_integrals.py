@@ -28,7 +28,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.spatial import cKDTree
 
-from core.boundary_integrals import compiled_integrals
+from core.boundary_integrals import compiled_integrals, compiled_tree
 from core.boundary_integrals.compiled_integrals import (
     BACKWARD_DIGITS,
     FORWARD_ELLIPSE,
@@ -267,7 +267,7 @@ def adaptive_weights(
     )
     if found is not None:
         return found
-    # `compiled_integrals._near_weights`, pair by pair there, for all pairs at once here.
+    # `compiled_integrals.near_weights`, pair by pair there, for all pairs at once here.
     bounds = panels.bounds[panel]
     span = np.floor(bounds[:, 0] + 1e-12)
     half = 0.5 * (bounds[:, 1] - bounds[:, 0])
@@ -294,7 +294,7 @@ def adaptive_weights(
     moments_far = np.where(straight[:, None], 0.0, _legendre_moments(far))
     if power == 1:
         totals = moments_near + moments_far
-    else:  # by parts: see `core.boundary_integrals.compiled_integrals._near_weights`
+    else:  # by parts: see `core.boundary_integrals.compiled_integrals.near_weights`
         linear, quadratic, constant = linear[away], quadratic[away], constant[away]
         with np.errstate(divide="ignore", invalid="ignore"):
             factor = np.where(straight, 1.0 / linear, 1.0 / (quadratic * (near - far)))
@@ -313,7 +313,7 @@ _DERIVATIVE_MOMENTS = np.array(
 
 def _legendre_moments(r: np.ndarray) -> np.ndarray:
     """I_k(r) = ∫_{-1}^{1} P_k(s) / (s - r) ds, shape (K, ORDER), for complex r (K,) off [-1, 1]:
-    `core.boundary_integrals.compiled_integrals._legendre_moments` for many r at once."""
+    `core.boundary_integrals.compiled_integrals.legendre_moments` for many r at once."""
     root = np.sqrt(r - 1.0) * np.sqrt(r + 1.0)
     rho = np.maximum(np.abs(r + root), np.abs(r - root))
     out = np.empty((r.size, ORDER), dtype=np.complex128)
@@ -534,7 +534,7 @@ def _compiled_rows(
     imaginary: bool,
     out: np.ndarray | None = None,
 ):
-    """`compiled_integrals.layer_rows` at targets z (M,) where its machine code is at hand
+    """`compiled_tree.layer_rows` at targets z (M,) where its machine code is at hand
     (`compiled_integrals.run_compiled`): (real (in `out` if given), imaginary, on-curve), else
     None."""
 
@@ -543,11 +543,11 @@ def _compiled_rows(
         rows = np.empty((z.size, tree.density.shape[1])) if out is None else out
         return z, tree, power, imaginary, rows
 
-    return compiled_integrals.run_compiled(compiled_integrals.layer_rows, arguments, z.size)
+    return compiled_integrals.run_compiled(compiled_tree.layer_rows, arguments, z.size)
 
 
-def _panel_tree(curve: ClosedBSpline, levels: Levels) -> compiled_integrals.PanelTree:
-    """`levels` concatenated for `compiled_integrals.layer_rows` (built once per `levels`, kept in
+def _panel_tree(curve: ClosedBSpline, levels: Levels) -> compiled_tree.PanelTree:
+    """`levels` concatenated for `compiled_tree.layer_rows` (built once per `levels`, kept in
     ``levels.compiled``)."""
     tree = levels.compiled.get("tree")
     if tree is not None:
@@ -568,7 +568,7 @@ def _panel_tree(curve: ClosedBSpline, levels: Levels) -> compiled_integrals.Pane
     child_start.extend([child_start[-1]] * (counts[-1]))  # the finest level has no children
     most = max([1] + [int(np.bincount(parent).max()) for parent in levels.parents])
     orientation = 1.0 if curve.area > 0 else -1.0
-    tree = compiled_integrals.PanelTree(
+    tree = compiled_tree.PanelTree(
         node_z=np.concatenate([p.z for p in panels]),
         factors=np.concatenate([layer_factors(curve, p) for p in panels]),
         density=np.ascontiguousarray(

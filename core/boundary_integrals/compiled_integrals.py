@@ -5,10 +5,10 @@ of (target, panel) pairs, and `core.boundary_integrals.poisson` assembles its de
 cost is the bookkeeping of those batches (sorting, grouping, one small product per panel).
 The same arithmetic as loops: here are
 
-- `adaptive_pairs`, the near-field rule of `cauchy_integrals.adaptive_weights` (`_near_weights`:
+- `adaptive_pairs`, the near-field rule of `cauchy_integrals.adaptive_weights` (`near_weights`:
   exact product integration of the density's interpolant over a quadratic span), for a
   list of pairs;
-- `layer_rows`, Re C[φ](z) for many targets: the coarsest level's panels by their plain
+- `compiled_tree.layer_rows`, Re C[φ](z) for many targets: the coarsest level's panels by their plain
   rule, near panels replaced by their children level by level, the finest level's near
   panels by the near-field rule, exactly the decisions of `cauchy_integrals.cauchy_integrals`
   (the same `near` test at every level, so the two agree to rounding), the walk shared
@@ -54,8 +54,14 @@ mode = "auto"
 #: compiled evaluation repays at ~3 µs a point: a one-shot `warp` of a 4K image (a few ten
 #: thousand points) measured 1.7 s with numpy and 2.0 s reading the cache first.
 LOAD_AFTER_POINTS = 60_000
+
+
 _points = 0
+
+
 _read = False
+
+
 #: Dispatchers whose cache entry failed to load (a damaged file): not tried again.
 _unreadable = set()
 
@@ -137,6 +143,8 @@ def loaded(dispatcher, *args) -> bool:
 #: numba's signature of the arguments, by (dispatcher, `_argument_key`): typing them costs ~40 µs
 #: a call, and a density solve asks ~50 times.
 _signatures = {}
+
+
 #: The (dispatcher, `_argument_key`) pairs found with machine code (trusted while the dispatcher
 #: has any): asking its overloads hashes numba's types, ~20 µs a call (0.3 ms of the bench blob's
 #: solve).
@@ -161,28 +169,34 @@ def _argument_key(value):
 
 #: The forward recurrence's coefficients (2k + 1) / (k + 1) and k / (k + 1), (ORDER, 2).
 _FORWARD = np.array([[(2 * k + 1) / (k + 1), k / (k + 1)] for k in range(ORDER)])
-#: `_legendre_moments` runs the recurrence forwards for roots whose Bernstein ellipse parameter
+
+
+#: `legendre_moments` runs the recurrence forwards for roots whose Bernstein ellipse parameter
 #: ρ is at most this (its error grows as ρ^k from the first moment's rounding), backwards from
 #: a higher degree above it, and takes the panel's Gauss–Legendre rule from `PLAIN_ELLIPSE` on:
 #: that rule integrates the interpolant over s - r with an error ~ρ^-16 (the best degree-16
 #: approximation of 1 / (s - r)), 1e-16 at 10.
 FORWARD_ELLIPSE = 1.5
+
+
 PLAIN_ELLIPSE = 10.0
+
+
 #: Miller's backward recurrence starts this many decimal digits of decay (ρ^-2k) above the last
 #: moment wanted.
 BACKWARD_DIGITS = 18.0
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
-def _ellipse(r):
+def ellipse(r):
     """ρ > 1 of the Bernstein ellipse through r, |r ± sqrt(r^2 - 1)|, the larger."""
     root = np.sqrt(r - 1.0) * np.sqrt(r + 1.0)
     return max(abs(r + root), abs(r - root))
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def _legendre_moments(r, rho, out):
-    """out[k] = ∫_{-1}^{1} P_k(s) / (s - r) ds, k < ORDER, for complex r off [-1, 1] (`_ellipse`'s ρ).
+def legendre_moments(r, rho, out):
+    """out[k] = ∫_{-1}^{1} P_k(s) / (s - r) ds, k < ORDER, for complex r off [-1, 1] (`ellipse`'s ρ).
 
     They obey the Legendre recurrence (k + 1) I_{k+1} = (2k + 1) r I_k - k I_{k-1} (k >= 1),
     with I_0 = log((r - 1) / (r + 1)) (principal branch: its cut is [-1, 1]) and
@@ -221,7 +235,7 @@ def _legendre_moments(r, rho, out):
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def _near_weights(coefficients, a, b, z, power, touch, weights, moments):
+def near_weights(coefficients, a, b, z, power, touch, weights, moments):
     """Weights (ORDER,) complex of ∫ φ(τ) / (τ - z)^power dτ on the panel [a, b] of the span of
     `coefficients` (3, 2) (p(u) = c0 + c1 u + c2 u^2, u the parameter within the span), exact
     for the interpolant of φ on the panel's nodes; returns True if z is within `touch` of the
@@ -230,7 +244,7 @@ def _near_weights(coefficients, a, b, z, power, touch, weights, moments):
     The span is a quadratic: with u = m + h s on the panel, p - z = A (s - r1)(s - r2), so
     p' du / (p - z) = ds / (s - r1) + ds / (s - r2) exactly, and the integral of φ's
     interpolant Σ_k a_k P_k(s) against it is Σ_k a_k (I_k(r1) + I_k(r2)) with the moments
-    I_k of `_legendre_moments` (a product integration rule in the manner of Helsing and
+    I_k of `legendre_moments` (a product integration rule in the manner of Helsing and
     Ojala, 2008, but exact: no polynomial stands in for the curve).  For power 2, by parts,
     ∫ φ p' / (p - z)^2 du = -[φ / (p - z)]_{-1}^{1} + ∫ φ'(s) / (p - z) ds, with
     1 / (p - z) = (1 / (s - r1) - 1 / (s - r2)) / (A (r1 - r2)) and P_k' = Σ (2l + 1) P_l over
@@ -270,14 +284,14 @@ def _near_weights(coefficients, a, b, z, power, touch, weights, moments):
         weights[j] = 0.0
     for which in range(roots):
         r = near if which == 0 else far
-        rho = _ellipse(r)
+        rho = ellipse(r)
         if power == 1 and rho >= PLAIN_ELLIPSE:  # Σ_k L[j, k] (the rule's I_k) = w_j / (s_j - r)
             for j in range(ORDER):
                 d = NODES[j] - r
                 scale = WEIGHTS[j] / (d.real * d.real + d.imag * d.imag)
                 weights[j] += complex(d.real * scale, -d.imag * scale)
             continue
-        _legendre_moments(r, rho, moments[0])
+        legendre_moments(r, rho, moments[0])
         if power == 1:
             for k in range(ORDER):
                 totals[k] += moments[0, k]
@@ -494,7 +508,7 @@ def knot_blocks(fine, panels, start, interpolation, offsets, row_weights, column
     rows those panels' nodes in order (R rows in all).  Its matrix I + 2 K*_b takes
     `layer_matrix_rows`'s entries, but where a node is within its close range of another of
     the block's panels and the kernel is not smooth there (`_smooth_on_own_span`) the adaptive
-    rule's (`_near_weights`), as `poisson._block_near_pairs` finds them.  P, (R, W), has
+    rule's (`near_weights`), as `poisson._block_near_pairs` finds them.  P, (R, W), has
     in row r the interpolation row (R, ORDER) at columns offsets[r]..offsets[r] + ORDER.
     Returns X = (I + 2 K*)^-1 P (R, W) and Q X, shape (B, W, W), with Q = W_c^-1 P^T W_f
     (row_weights (R,), column_weights (B, W)).  The blocks are taken in the order `sequence`
@@ -581,7 +595,7 @@ def _adaptive_entries(fine, panels, matrix):
                 if not near or _smooth_on_own_span(fine, fine.node_t[m], p):
                     continue
                 span = int(math.floor(fine.bounds[p, 0] + 1e-12)) % n
-                _near_weights(
+                near_weights(
                     fine.coefficients[span], fine.bounds[p, 0], fine.bounds[p, 1], z, 1, 0.0, weights, moments
                 )
                 for j in range(ORDER):
@@ -688,377 +702,7 @@ def adaptive_pairs(coefficients, bounds, targets, panel, power, touch):
         moments = np.empty((2, ORDER), dtype=np.complex128)
         p = panel[k]
         span = int(math.floor(bounds[p, 0] + 1e-12)) % n
-        touching[k] = _near_weights(
+        touching[k] = near_weights(
             coefficients[span], bounds[p, 0], bounds[p, 1], targets[k], power, touch, weights[k], moments
         )
     return weights, touching
-
-
-class PanelTree(NamedTuple):
-    """The levels of `cauchy_integrals.Levels` concatenated, coarsest first, for `layer_rows`.
-
-    Level k's panels are panel_start[k]..panel_start[k+1] - 1 (P in all), panel p's nodes
-    p ORDER..(p + 1) ORDER - 1 (N in all); children[child_start[p]..child_start[p+1] - 1]
-    are panel p's children (panel indices) on the next level.
-    """
-
-    node_z: np.ndarray  #: complex (N,)
-    factors: (
-        np.ndarray
-    )  #: complex (N,): s w τ' / 2πi (`core.boundary_integrals.cauchy_integrals.layer_factors`)
-    density: np.ndarray  #: (N, m): what each level's rule integrates
-    centres: np.ndarray  #: complex (P,)
-    reach: np.ndarray  #: (P,): the panel's radius plus its close range
-    close_squared: np.ndarray  #: (P,): the close range, squared
-    panel_start: np.ndarray  #: int (levels + 1,)
-    children: np.ndarray  #: int (P - P_0,)
-    child_start: np.ndarray  #: int (P + 1,)
-    bounds: np.ndarray  #: (P_f, 2): the finest level's parameter intervals
-    coefficients: np.ndarray  #: (n, 3, 2): the curve's spans (`ClosedBSpline.piecewise_polynomial`)
-    orientation: float  #: +1 counter-clockwise, -1 clockwise
-    touch: float  #: targets this close to the curve are on it
-    stack_size: int  #: enough for the walk of one target
-
-
-#: Targets per box of `layer_rows` at most: a box's far panels are one matrix product.  The
-#: bench's mesh of 10,000 vertices (100,000) took 6.25 ms (52.5 ms) with 48 and 4 splits, 5.9-6.0
-#: (47.4-47.9) with 128 and 5, 6.0 (46.8) with 96, 6.3 (52.0) with 256: bigger products, as long as
-#: the splits keep the boxes at the boundary small.
-BOX = 128
-#: A box of more targets than this, with panels mixed for it, is split in four (`layer_rows`).
-LEAF = 16
-#: Splits of a box at most (`layer_rows`).
-SPLITS = 5
-#: Box classifications of a panel (`_box_side`).
-FAR, NEAR, MIXED = 0, 1, 2
-
-
-@njit(cache=True, nogil=True, error_model="numpy")
-def _grid_index(position, count):
-    """int(position) clamped to 0..count - 1, compared before converted (int() of NaN or inf is
-    undefined in machine code); NaN gives 0."""
-    if not position >= 0.0:
-        return 0
-    if position >= count - 1:
-        return count - 1
-    return int(position)
-
-
-@njit(cache=True, nogil=True, error_model="numpy")
-def _boxes(targets, size):
-    """Targets grouped by a grid of cells holding ~`size` each: (order int (M,), start int (B + 1,)),
-    box b holding targets order[start[b]:start[b + 1]] (at most `size`, all in one cell).
-    Non-finite targets (the callers refuse them; here they would index outside the grid) go
-    to the first cell."""
-    count = targets.shape[0]
-    low_x, high_x, low_y, high_y = np.inf, -np.inf, np.inf, -np.inf
-    for m in range(count):
-        low_x, high_x = min(low_x, targets[m].real), max(high_x, targets[m].real)
-        low_y, high_y = min(low_y, targets[m].imag), max(high_y, targets[m].imag)
-    width, height = high_x - low_x, high_y - low_y
-    if not (math.isfinite(width) and math.isfinite(height)):  # no targets, or none finite
-        width = height = low_x = low_y = 0.0
-    side = max(math.sqrt(width * height * size / max(count, 1)), max(width, height) * size / max(count, 1))
-    if not side > 0.0:
-        side = 1.0
-    columns = int(width / side) + 1
-    rows = int(height / side) + 1
-    cell = np.empty(count, dtype=np.int64)
-    filled = np.zeros(columns * rows + 1, dtype=np.int64)
-    for m in range(count):
-        column = _grid_index((targets[m].real - low_x) / side, columns)
-        row = _grid_index((targets[m].imag - low_y) / side, rows)
-        cell[m] = row * columns + column
-        filled[cell[m] + 1] += 1
-    boxes = 0
-    for c in range(columns * rows):
-        boxes += (filled[c + 1] + size - 1) // size
-        filled[c + 1] += filled[c]
-    order = np.empty(count, dtype=np.int64)
-    at = filled[:-1].copy()
-    for m in range(count):
-        order[at[cell[m]]] = m
-        at[cell[m]] += 1
-    start = np.empty(boxes + 1, dtype=np.int64)
-    b = 0
-    for c in range(columns * rows):
-        for first in range(filled[c], filled[c + 1], size):
-            start[b] = first
-            b += 1
-    start[boxes] = count
-    return order, start
-
-
-@njit(cache=True, nogil=True, error_model="numpy")
-def _bounding_circle(targets, members):
-    """The centre of the bounding box of targets[members] and the radius of a circle there holding them."""
-    low_x, high_x, low_y, high_y = np.inf, -np.inf, np.inf, -np.inf
-    for k in range(members.shape[0]):
-        z = targets[members[k]]
-        low_x, high_x = min(low_x, z.real), max(high_x, z.real)
-        low_y, high_y = min(low_y, z.imag), max(high_y, z.imag)
-    centre = complex(0.5 * (low_x + high_x), 0.5 * (low_y + high_y))
-    square = 0.0  # the largest squared distance: one square root, not a hypot a target
-    for k in range(members.shape[0]):
-        d = targets[members[k]] - centre
-        square = max(square, d.real * d.real + d.imag * d.imag)
-    return centre, math.sqrt(square)
-
-
-@njit(cache=True, nogil=True, error_model="numpy")
-def _quadrants(targets, members, centre):
-    """Reorder `members` (int (K,), in place) by the quadrant of their targets about `centre`;
-    returns the non-empty quadrants' ranges [(first, last), ...] within it."""
-    quadrant = np.empty(members.shape[0], dtype=np.int64)
-    counts = np.zeros(5, dtype=np.int64)
-    for k in range(members.shape[0]):
-        z = targets[members[k]]
-        quadrant[k] = (2 if z.imag >= centre.imag else 0) + (1 if z.real >= centre.real else 0)
-        counts[quadrant[k] + 1] += 1
-    for i in range(4):
-        counts[i + 1] += counts[i]
-    at = counts[:4].copy()
-    sorted_members = np.empty_like(members)
-    for k in range(members.shape[0]):
-        sorted_members[at[quadrant[k]]] = members[k]
-        at[quadrant[k]] += 1
-    members[:] = sorted_members
-    return [(counts[i], counts[i + 1]) for i in range(4) if counts[i + 1] > counts[i]]
-
-
-@njit(cache=True, nogil=True, error_model="numpy", inline="always")
-def _box_side(p, centre, radius, node_z, centres, reach, close_squared):
-    """Whether panel p is `FAR` from every target within `radius` of `centre`, `NEAR` every one
-    (by `layer_rows`'s test: within `reach` of its centre and within its close range of a node),
-    or `MIXED`.  The margins keep a box's answer the one its targets would get one by one."""
-    # Square roots, not abs: a complex abs is a call of the C library's hypot (with the walk's,
-    # 0.4 ms of the bench mesh's 5.2 ms; no coordinate here comes near overflowing a square).
-    gap = centre - centres[p]
-    distance = math.sqrt(gap.real * gap.real + gap.imag * gap.imag)
-    margin = radius * (1.0 + 1e-9) + 1e-12 * (math.sqrt(centre.real**2 + centre.imag**2) + reach[p])
-    if distance - margin >= reach[p]:
-        return FAR
-    close = math.sqrt(close_squared[p])
-    far_squared = (close + margin) ** 2  # a node this far is far from every target
-    near_squared = (close - margin) ** 2 if close > margin else -1.0  # this near, near every one
-    every_far, one_near = True, False
-    for q in range(p * ORDER, (p + 1) * ORDER):
-        d = node_z[q] - centre
-        square = d.real * d.real + d.imag * d.imag
-        if square < far_squared:
-            every_far = False
-            if square < near_squared:
-                one_near = True
-                break
-    if every_far:
-        return FAR
-    if one_near and distance + margin < reach[p]:
-        return NEAR
-    return MIXED
-
-
-@njit(cache=True, nogil=True, error_model="numpy", inline="always")
-def _walk(z, tree, start, power, imaginary, row, row_imaginary, stack, moments, weights):
-    """Add C[φ](z) over the panels `start` (int (K,)) and their descendants to row (m,) (and
-    row_imaginary): a panel far from z takes its plain rule, a near one its children, on the
-    finest level `_near_weights`.  Returns whether z is on the curve."""
-    node_z, factors, density, centres = tree.node_z, tree.factors, tree.density, tree.centres
-    reach, close_squared = tree.reach, tree.close_squared
-    children, child_start = tree.children, tree.child_start
-    bounds, coefficients = tree.bounds, tree.coefficients
-    columns = density.shape[1]
-    finest = tree.panel_start[tree.panel_start.shape[0] - 2]
-    n = coefficients.shape[0]
-    on_curve = False
-    top = 0
-    for i in range(start.shape[0] - 1, -1, -1):
-        stack[top] = start[i]
-        top += 1
-    while top > 0:
-        top -= 1
-        p = stack[top]
-        first = p * ORDER
-        near = False
-        gap = z - centres[p]
-        if gap.real * gap.real + gap.imag * gap.imag < reach[p] * reach[p]:  # as `_box_side`, no hypot
-            for q in range(first, first + ORDER):
-                d = node_z[q] - z
-                if d.real * d.real + d.imag * d.imag < close_squared[p]:
-                    near = True
-                    break
-        if not near:
-            for q in range(first, first + ORDER):
-                dx = node_z[q].real - z.real
-                dy = node_z[q].imag - z.imag
-                square = dx * dx + dy * dy
-                if power == 1:  # f / d = f conj(d) / |d|^2
-                    wr = (factors[q].real * dx + factors[q].imag * dy) / square
-                    wi = (factors[q].imag * dx - factors[q].real * dy) / square
-                else:
-                    w = factors[q] / complex(dx, dy) ** 2
-                    wr, wi = w.real, w.imag
-                for c in range(columns):
-                    row[c] += wr * density[q, c]
-                if imaginary:
-                    for c in range(columns):
-                        row_imaginary[c] += wi * density[q, c]
-        elif p >= finest:
-            f = p - finest
-            span = int(math.floor(bounds[f, 0] + 1e-12)) % n
-            if _near_weights(
-                coefficients[span], bounds[f, 0], bounds[f, 1], z, power, tree.touch, weights, moments
-            ):
-                on_curve = True
-            for j in range(ORDER):
-                w = weights[j] * tree.orientation / (2j * np.pi)
-                for c in range(columns):
-                    row[c] += w.real * density[first + j, c]
-                if imaginary:
-                    for c in range(columns):
-                        row_imaginary[c] += w.imag * density[first + j, c]
-        else:
-            for child in range(child_start[p + 1] - 1, child_start[p] - 1, -1):
-                stack[top] = children[child]
-                top += 1
-    return on_curve
-
-
-@njit(cache=True, nogil=True, error_model="numpy")
-def _add_far(targets, members, tree, far, power, imaginary, out, out_imaginary):
-    """out[members] (and out_imaginary) += the plain rules of the panels `far` (int (F,)) at
-    targets[members], as one matrix (K, F ORDER) times the panels' densities (F ORDER, m)."""
-    node_z, factors, density = tree.node_z, tree.factors, tree.density
-    size, columns, nodes = members.shape[0], density.shape[1], far.shape[0] * ORDER
-    x, y = np.empty(nodes), np.empty(nodes)
-    fx, fy = np.empty(nodes), np.empty(nodes)
-    gathered = np.empty((nodes, columns))
-    for i in range(far.shape[0]):
-        for j in range(ORDER):
-            q, at = far[i] * ORDER + j, i * ORDER + j
-            x[at], y[at] = node_z[q].real, node_z[q].imag
-            fx[at], fy[at] = factors[q].real, factors[q].imag
-            gathered[at] = density[q]
-    rule = np.empty((size, nodes))
-    rule_imaginary = np.empty((size if imaginary else 0, nodes))
-    for k in range(size):
-        zx, zy = targets[members[k]].real, targets[members[k]].imag
-        if power == 1:  # f / d = f conj(d) / |d|^2
-            for j in range(nodes):
-                dx, dy = x[j] - zx, y[j] - zy
-                rule[k, j] = (fx[j] * dx + fy[j] * dy) / (dx * dx + dy * dy)
-            if imaginary:
-                for j in range(nodes):
-                    dx, dy = x[j] - zx, y[j] - zy
-                    rule_imaginary[k, j] = (fy[j] * dx - fx[j] * dy) / (dx * dx + dy * dy)
-        else:
-            for j in range(nodes):
-                w = complex(fx[j], fy[j]) / complex(x[j] - zx, y[j] - zy) ** 2
-                rule[k, j] = w.real
-                if imaginary:
-                    rule_imaginary[k, j] = w.imag
-    product = np.dot(rule, gathered)
-    for k in range(size):
-        for c in range(columns):
-            out[members[k], c] += product[k, c]
-    if imaginary:
-        product = np.dot(rule_imaginary, gathered)
-        for k in range(size):
-            for c in range(columns):
-                out_imaginary[members[k], c] += product[k, c]
-
-
-@njit(cache=True, parallel=True, error_model="numpy")
-def layer_rows(targets, tree, power, imaginary, out):
-    """C[φ](z) (power 1), or its z-derivative (power 2), at targets complex (M,), over the panels
-    of `tree` (a `PanelTree`).
-
-    Returns the real parts (M, m), written into `out` (M, m), the imaginary parts (M, m) if
-    `imaginary` (else (0, m)) and on-curve flags (M,).  Each target walks down from the
-    coarsest level: a panel is near it when one of its nodes is within the panel's close
-    range; a far panel takes its plain rule, a near one is replaced by its children, on the
-    finest level by `_near_weights` (a target it finds on the curve is flagged).
-
-    The walk is shared by up to `BOX` targets close together (`_boxes`): a panel far from
-    all of them (`_box_side`) is far for each, one near all of them is replaced by its
-    children for all.  The box's far panels' rules make one matrix, whose product with
-    their densities is one BLAS call (`_add_far`); a box with panels mixed for it is split
-    in four (`_quadrants`) down to `LEAF` targets, whose panels still mixed each target
-    walks on its own (`_walk`).  The decisions are each target's own, so the sums are the
-    same but for their order; at the bench's 10,000 mesh vertices the rows took ~5 ms
-    instead of 13.4 ms one target at a time.
-    """
-    node_z, centres, reach, close_squared = tree.node_z, tree.centres, tree.reach, tree.close_squared
-    children, child_start = tree.children, tree.child_start
-    count = targets.shape[0]
-    columns = tree.density.shape[1]
-    finest = tree.panel_start[tree.panel_start.shape[0] - 2]
-    total = node_z.shape[0] // ORDER
-    out[:] = 0.0
-    out_imaginary = np.zeros((count if imaginary else 0, columns))
-    on_curve = np.zeros(count, dtype=np.bool_)
-    order, box_start = _boxes(targets, BOX)
-    for b in prange(box_start.shape[0] - 1):
-        members = order[box_start[b] : box_start[b + 1]].copy()  # reordered as boxes split
-        stack = np.empty(total + tree.stack_size, dtype=np.int64)  # a list of panels, then descents
-        moments = np.empty((2, ORDER), dtype=np.complex128)
-        weights = np.empty(ORDER, dtype=np.complex128)
-        row = np.empty(columns)
-        row_imaginary = np.empty(columns)
-        far = np.empty(total, dtype=np.int64)
-        mixed = np.empty(total, dtype=np.int64)
-        # Boxes to do, depth first: members[first:last], their panels lists[start:start + count].
-        lists = np.empty(SPLITS * total, dtype=np.int64)
-        lists[: tree.panel_start[1]] = np.arange(tree.panel_start[1])
-        boxes = np.empty((4 * SPLITS + 1, 5), dtype=np.int64)  # first, last, start, count, depth
-        boxes[0] = (0, members.shape[0], 0, tree.panel_start[1], 0)
-        pending, used = 1, tree.panel_start[1]
-        while pending > 0:
-            pending -= 1
-            first, last, list_start, list_count, depth = boxes[pending]
-            box = members[first:last]
-            centre, radius = _bounding_circle(targets, box)
-            far_count, mixed_count, top = 0, 0, 0
-            for i in range(list_count - 1, -1, -1):
-                stack[top] = lists[list_start + i]
-                top += 1
-            while top > 0:
-                top -= 1
-                p = stack[top]
-                side = _box_side(p, centre, radius, node_z, centres, reach, close_squared)
-                if side == FAR:
-                    far[far_count] = p
-                    far_count += 1
-                elif side == NEAR and p < finest:
-                    for child in range(child_start[p + 1] - 1, child_start[p] - 1, -1):
-                        stack[top] = children[child]
-                        top += 1
-                else:
-                    mixed[mixed_count] = p
-                    mixed_count += 1
-            if far_count:
-                _add_far(targets, box, tree, far[:far_count], power, imaginary, out, out_imaginary)
-            if mixed_count == 0:
-                continue
-            if box.shape[0] > LEAF and depth < SPLITS - 1 and used + mixed_count <= lists.shape[0]:
-                lists[used : used + mixed_count] = mixed[:mixed_count]
-                for a, z in _quadrants(targets, box, centre):
-                    boxes[pending] = (first + a, first + z, used, mixed_count, depth + 1)
-                    pending += 1
-                used += mixed_count
-                continue
-            start = mixed[:mixed_count]
-            for k in range(box.shape[0]):
-                m = box[k]
-                row[:] = 0.0
-                row_imaginary[:] = 0.0
-                # Inlined (numba cannot inline a call with *args): a call passing the tree's arrays
-                # cost ~0.1 us a target (the bench's 10,000 mesh vertices: 5.3 -> 5.0 ms).
-                if _walk(
-                    targets[m], tree, start, power, imaginary, row, row_imaginary, stack, moments, weights
-                ):
-                    on_curve[m] = True
-                for c in range(columns):
-                    out[m, c] += row[c]
-                    if imaginary:
-                        out_imaginary[m, c] += row_imaginary[c]
-    return out, out_imaginary, on_curve

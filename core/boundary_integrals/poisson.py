@@ -36,7 +36,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from core.blas_threads import one_blas_thread
-from core.boundary_integrals import compiled_integrals, two_grid
+from core.boundary_integrals import compiled_integrals, compiled_tree, two_grid
 from core.boundary_integrals.cauchy_integrals import (
     CORNER_SAFE,
     DIRECT,
@@ -620,7 +620,7 @@ def load_compiled() -> bool:
     cauchy_integrals(square, solution.levels, np.array([[0.5, 0.5]]))
     exercise_near_field(square, solution.levels.panels[-1])
     compiled = (
-        compiled_integrals.adaptive_pairs, compiled_integrals.layer_rows,
+        compiled_integrals.adaptive_pairs, compiled_tree.layer_rows,
         compiled_integrals.layer_matrix_rows, compiled_integrals.knot_blocks,
         compiled_integrals.coarse_system, compiled_integrals.panel_geometry,
         compiled_integrals.panel_gaps, compiled_integrals.close_pairs,

@@ -14,13 +14,12 @@ f is locally injective and orientation-preserving where |g'| < |h'|, and
     simple closed curve of the same orientation is a bijection onto that curve's inside (a
     degree argument): the target must be proven simple (`core.injectivity.simple_curve`).
 
-Γ runs just inside the boundary (`core.injectivity.inner_curve`): the depth δ = 10⁻³ of the
-diameter keeps every sample where the boundary integrals are accurate (~10⁻⁸ of the diameter),
-while on the boundary itself h' has only log-Lipschitz behaviour at the knots.  What is left:
+Γ runs just inside the boundary (`core.injectivity.inner_curve`), at a depth δ = 10⁻³ of the
+diameter to start with (on the boundary itself h' has only log-Lipschitz behaviour at the knots,
+and gradients lose accuracy as the distance shrinks).  What is left:
 
-- the strip between Γ and the boundary: each sample has a companion 8δ deep, and the bounds
-  on the strip take |h'| lower and |g'| higher by the difference between the two (for smooth
-  behaviour across the strip this is 7 times the variation over [0, δ]);
+- the strip between Γ and the boundary: each sample has a companion 4δ deep, and σ₂ on the strip
+  is taken to drop by at most twice its mean rate between the two (A3 below);
 - a sharp corner P of the source (a doubled control point) must be a sharp corner of the target.
   Both sides at P are straight spans, the data on them linear in position, so
   f = P' + L(z - P) + E with L the real linear map of the source's sides onto the target's and
@@ -34,13 +33,19 @@ while on the boundary itself h' has only log-Lipschitz behaviour at the knots.  
   the certificate proves the rest of the domain and reports the reflex corners as unproven
   (`away_from_corners`).
 
-What is proven, and under which assumptions: the conclusion holds if (A1) the evaluated
-f_z, f_z̄ are within `EVALUATION` (relative to the target's scale) of the exact ones, (A2) the
-Lipschitz constants of h' and g' along each segment of Γ are at most `SAFETY` times the largest
-difference quotient of the segment and its neighbours (refinement continues until the margin
-holds), and (A3) across the strip the variation is at most that between the two depths.  A1 is
-the boundary integrals' stated accuracy; A2 and A3 are estimates.  When in doubt the answer is
-`injective=False`.
+What is proven, and under which assumptions (the constants are `boundary_samples`'): the
+conclusion holds if (A1) the evaluated f_z, f_z̄ at each sample are within its allowance of the
+exact ones: `ERROR_SAFETY` (10) times the error with which the same gradients reproduce the
+identity map there (their linear precision), plus `EVALUATION` relative to the target's scale
+(where that error is a good part of σ₂ the sample moves away from the curve); (A2) the
+Lipschitz constants of h' and g' along each segment of Γ are at most `SAFETY` (2) times the
+largest difference quotient of the segment and its neighbours (refinement halves segments until
+the margin holds); (A3) across the strip between Γ and the boundary σ₂ drops by at most
+`STRIP_SAFETY` (2) times its mean rate between Γ and the companion 4δ deep (samples move closer to
+the boundary where that bound is thin).  The argument principle, the maximum principle, the
+corner sectors' bound and the simple-target proof are exact; A1-A3 are estimates, checked against
+a dense evaluation of the exact Jacobian on 200 random deformations
+(tests/test_injectivity_certificate.py).  When in doubt the answer is `injective=False`.
 """
 
 from __future__ import annotations
@@ -56,7 +61,8 @@ from core.injectivity.boundary_samples import evaluate, first_parameters, merged
 from core.injectivity.harmonic_parts import linear_parts
 from core.injectivity.simple_curve import first_crossing
 
-#: Allowance for the evaluation error of f_z and f_z̄, relative to the target's diameter over the source's.
+#: Allowance for the evaluation error of f_z and f_z̄ besides the estimated one (A1), relative to the
+#: target's diameter over the source's.
 EVALUATION = 1e-6
 #: Refinement rounds and total samples before giving up.
 ROUNDS = 14

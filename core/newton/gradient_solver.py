@@ -29,17 +29,22 @@ from numba import njit
 from core.curves import closest_parameter
 from core.curves.crossing_slabs import inside_polygon
 from core.newton import codes, kernel_weights, minimisation, output_rows, quadrature_nodes, solver
+from core.newton.solver_state import Directions, Nodes, Scratch, Windows, Work
 
 
 @njit(cache=True, error_model="numpy", inline="always")
-def _weight_derivative(kernel, power, px, py, tx, ty, sx, sy, w, x, y, ux, uy, r_inv, r_min, omega, constant):
+def _weight_derivative(kernel, power, node, point, ray, r_min, omega, constant):
     """a~_j and grad a~_j of one node (a~ as in `kernel_weights`, up to one factor common to all j).
 
     Scalars only (no array arguments: a call per node must not touch reference
-    counts).  `omega` is q^k, q = r_min / r, for the power kernels, and `constant`
+    counts): `node` = (p, p', p'' and the weight w), `point` = (x, y), `ray` = (u, 1 / r).
+    `omega` is q^k, q = r_min / r, for the power kernels, and `constant`
     the shift of Eq. 19-20 in the same units (its gradient is added by the caller).
     Returns (a~, da~/dx, da~/dy).
     """
+    px, py, tx, ty, sx, sy, w = node
+    x, y = point
+    ux, uy, r_inv = ray
     if kernel == codes.MAXIMUM_LIKELIHOOD:
         return w, 0.0, 0.0
     if kernel == codes.PSEUDO_HARMONIC:
@@ -127,11 +132,13 @@ def _power(q, k):
 
 
 @njit(cache=True, error_model="numpy", fastmath={"contract", "arcp", "reassoc", "nsz"})
-def _shift(kernel, power, shift, w, inv_r, ux, uy, r_min, count, omega):
+def _shift(settings, w, rays, r_min, count, omega):
     """omega_j = q_j^k (into `omega`) and the shift of Eq. 19-20 with its gradient: (c, dc/dx, dc/dy).
 
     Only for the power kernels (Eq. 19-20), in the units of q = r_min / r.
     """
+    kernel, power, shift = settings.kernel, settings.power, settings.shift
+    ux, uy, inv_r = rays
     if not (kernel == codes.POWER or kernel == codes.HARMONIC_LIKE):
         return 0.0, 0.0, 0.0
     mode = codes.SHIFT_INTEGRAL if kernel == codes.HARMONIC_LIKE else shift
@@ -156,20 +163,22 @@ def _shift(kernel, power, shift, w, inv_r, ux, uy, r_min, count, omega):
 
 
 @njit(cache=True, error_model="numpy", fastmath={"contract", "arcp", "reassoc", "nsz"})
-def _differentiate(
-    kernel, power, shift, px, py, tx, ty, sx, sy, w, ux, uy, inv_r, a, s, inv_s, total, nodes, corners,
-    x, y, r_min, omega, grad_x, grad_y,
-):  # fmt: skip
+def _differentiate(settings, node_arrays, work, total, nodes, corners, point, r_min):
     """grad lambda_j of the `total` nodes into grad_x, grad_y (each (total,) or longer).
 
     On entry `a` holds lambda_j (normalised, as `minimisation.finish` leaves it), `s`
     and `inv_s` hold s_j = 1 + phi . u_j and 1 / s_j for the maximum-likelihood
     family; nodes >= `nodes` are corner point masses (three-point family).
-    `omega` is scratch: q_j^k of the power kernels, then a~_j.  See `core.gradients`
-    for the formulas.
+    `node_arrays` (`Nodes`) is the rule, `work` (`Work`) the minimisation's arrays, of which
+    `blend` is scratch here (`omega`: q_j^k of the power kernels, then a~_j) and `trial`,
+    `trial_inv` receive the gradients; `point` = (x, y).  See `core.gradients` for the formulas.
     """
+    kernel, power = settings.kernel, settings.power
+    px, py, tx, ty, sx, sy, w = node_arrays
+    ux, uy, inv_r, a, s, inv_s, grad_x, grad_y, omega = work
+    x, y = point
     newton = kernel <= codes.MODIFIED_MEAN_VALUE_SQUARED
-    constant, shift_x, shift_y = _shift(kernel, power, shift, w, inv_r, ux, uy, r_min, nodes, omega)
+    constant, shift_x, shift_y = _shift(settings, w, (ux, uy, inv_r), r_min, nodes, omega)
     # Pass 1: a~_j into `omega` and grad a~_j into grad_x, grad_y; the power kernels (the common
     # case) in a loop of their own without the kernel's branches, so that it vectorises.
     if kernel == codes.POWER or kernel == codes.HARMONIC_LIKE:
@@ -182,8 +191,8 @@ def _differentiate(
     else:
         for j in range(nodes):
             value, gx, gy = _weight_derivative(
-                kernel, power, px[j], py[j], tx[j], ty[j], sx[j], sy[j], w[j], x, y, ux[j], uy[j], inv_r[j],
-                r_min, omega[j], constant,
+                kernel, power, (px[j], py[j], tx[j], ty[j], sx[j], sy[j], w[j]), (x, y),
+                (ux[j], uy[j], inv_r[j]), r_min, omega[j], constant,
             )  # fmt: skip
             omega[j] = value
             grad_x[j] = gx + w[j] * shift_x
@@ -278,10 +287,15 @@ def _normalise(grad_x, grad_y, a, total, scale):
 
 
 @njit(cache=True, error_model="numpy")
-def _accumulate_nodes(
-    a, grad_x, grad_y, t, total, period, mode, out_step, out_count, control_count, row, row_x, row_y
-):
-    """Add lambda_j and grad lambda_j at the nodes' parameters t_j into the output rows."""
+def _accumulate_nodes(rows, settings, samples, a, gradient, t, total):
+    """Add lambda_j and grad lambda_j at the nodes' parameters t_j into the output `rows` =
+    (row, row_x, row_y); `gradient` = (grad_x, grad_y)."""
+    row, row_x, row_y = rows
+    grad_x, grad_y = gradient
+    mode, control_count = settings.mode, settings.control_count
+    count, step, out_step = samples.x.shape[0], samples.step, samples.out_step
+    period = count * step
+    out_count = int(round(count * step / out_step))
     for j in range(total):
         tj = t[j] - math.floor(t[j] / period) * period
         if mode == codes.OUTPUT_SAMPLES:
@@ -306,8 +320,12 @@ def _accumulate_nodes(
 
 
 @njit(cache=True, error_model="numpy", fastmath={"contract", "arcp", "reassoc", "nsz"})
-def _accumulate_samples(a, grad_x, grad_y, count, basis0, basis1, basis2, control_count, row, row_x, row_y):
-    """Fold lambda_k and grad lambda_k at the N uniform samples onto the B-spline basis, span by span."""
+def _accumulate_samples(rows, a, gradient, count, samples, control_count):
+    """Fold lambda_k and grad lambda_k at the N uniform samples onto the B-spline basis, span by span
+    (`rows` and `gradient` as in `_accumulate_nodes`)."""
+    row, row_x, row_y = rows
+    grad_x, grad_y = gradient
+    basis0, basis1, basis2 = samples.basis0, samples.basis1, samples.basis2
     per = count // control_count
     for i in range(control_count):
         before = i - 1 if i > 0 else control_count - 1
@@ -347,24 +365,29 @@ def _accumulate_samples(a, grad_x, grad_y, count, basis0, basis1, basis2, contro
 
 # Inlined into gradient_points, as solver.solve_point is into solve_points.
 @njit(cache=True, error_model="numpy", inline="always")
-def _gradient_point(x, y, settings, curve, geometry, largest_spacing, row, row_x, row_y, scratch, windows):
+def _gradient_point(point, settings, samples, geometry, rows, scratch, windows):
     """Evaluate one point and its gradient; returns (iterations, status, residual).
 
     The nodes are built exactly as in `solver.solve_point` (pass 1, the windows
     and `quadrature_nodes.refined_nodes`), and so is the Newton start of the maximum-likelihood
-    kernels (`minimisation.coarse_start`, the last 18 arrays of `scratch`) and, for a far
-    point, the bound that skips the peak scan; a point on the boundary gets its
-    Lagrange-limit row and NaN gradients.
+    kernels (`minimisation.coarse_start`) and, for a far point, the bound that skips the peak
+    scan; a point on the boundary gets its Lagrange-limit row and NaN gradients.  `rows` =
+    (row, row_x, row_y) receive the values and their x- and y-derivatives; the other
+    arguments are those of `solver.solve_point`.
     """
+    x, y = point
+    row, row_x, row_y = rows
     kernel, power, shift, mode, orientation, diameter, control_count, tolerance = settings
     coefficients, piece_length, corners = geometry
     window_start, window_stop, window_t, window_d, runs = windows
     (
         sample_x, sample_y, tangent_x, tangent_y, second_x, second_y, spacing, uniform, sample_t,
-        basis0, basis1, basis2, step, sinh_step, out_step, slabs,
-    ) = curve  # fmt: skip
-    (px, py, tx, ty, sx, sy, w, t, ux, uy, inv_r, a, s, inv_s, trial, trial_inv, blend) = scratch[:17]
-    coarse = scratch[17:]
+        basis0, basis1, basis2, step, sinh_step, out_step, slabs, largest_spacing,
+    ) = samples  # fmt: skip
+    px, py, tx, ty, sx, sy, w = scratch.nodes
+    ux, uy, inv_r, a, s, inv_s, trial, trial_inv, blend = scratch.work
+    t, coarse = scratch.t, scratch.coarse
+    rays = Directions(ux, uy, inv_r)
     likelihood = kernel <= codes.MODIFIED_MEAN_VALUE_SQUARED
     count = sample_x.shape[0]
     out_count = int(round(count * step / out_step))
@@ -385,34 +408,23 @@ def _gradient_point(x, y, settings, curve, geometry, largest_spacing, row, row_x
             return 0, codes.STATUS_OUTSIDE, nearest
         if corner_count == 0:
             # The trapezoid rule on the shared samples, as in the solver's common case.
-            total = kernel_weights.kernel_weights(
-                kernel, power, shift, sample_x, sample_y, tangent_x, tangent_y, second_x, second_y,
-                uniform, x, y, count, corners, ux, uy, inv_r, nearest, a,
-            )  # fmt: skip
+            plain = Nodes(sample_x, sample_y, tangent_x, tangent_y, second_x, second_y, uniform)
+            total = kernel_weights.kernel_weights(settings, plain, (x, y), count, corners, rays, nearest, a)
             phix, phiy = 0.0, 0.0
             if likelihood:
                 phix, phiy = minimisation.coarse_start(
-                    ux, uy, inv_r, a, count, max(nearest / largest_spacing, solver.FAR_START_SEPARATION),
-                    coarse, tolerance * diameter, 0.0, 0.0,
+                    rays, a, count, max(nearest / largest_spacing, solver.FAR_START_SEPARATION),
+                    coarse, tolerance * diameter, (0.0, 0.0),
                 )  # fmt: skip
             iterations, status, residual = minimisation.finish(
-                kernel, ux, uy, inv_r, a, s, inv_s, trial, trial_inv, blend, total, sample_x, sample_y,
-                uniform, step, x, y, tolerance * diameter, phix, phiy, largest_spacing / nearest,
+                kernel, scratch.work, total, plain, step, (x, y),
+                (tolerance * diameter, largest_spacing / nearest), (phix, phiy),
             )  # fmt: skip
-            _differentiate(
-                kernel, power, shift, sample_x, sample_y, tangent_x, tangent_y, second_x, second_y,
-                uniform, ux, uy, inv_r, a, s, inv_s, total, count, corners, x, y, nearest, blend, trial,
-                trial_inv,
-            )  # fmt: skip
+            _differentiate(settings, plain, scratch.work, total, count, corners, (x, y), nearest)
             if mode == codes.OUTPUT_BASIS:
-                _accumulate_samples(
-                    a, trial, trial_inv, count, basis0, basis1, basis2, control_count, row, row_x, row_y
-                )
+                _accumulate_samples(rows, a, (trial, trial_inv), count, samples, control_count)
             else:
-                _accumulate_nodes(
-                    a, trial, trial_inv, sample_t, total, period, mode, out_step, out_count, control_count,
-                    row, row_x, row_y,
-                )  # fmt: skip
+                _accumulate_nodes(rows, settings, samples, a, (trial, trial_inv), sample_t, total)
             return iterations, status, residual
         nodes = 0
         for k in range(count):
@@ -445,71 +457,65 @@ def _gradient_point(x, y, settings, curve, geometry, largest_spacing, row, row_x
             return 0, codes.STATUS_CONVERGED, 0.0
         if closest_parameter.side_of_curve(coefficients, piece_length, closest_t, x, y, orientation) < 0:
             return 0, codes.STATUS_OUTSIDE, closest_d
-        nodes = quadrature_nodes.refined_nodes(
-            window_start, window_stop, window_t, window_d, window_count, count, step, sinh_step,
-            coefficients, piece_length, t, w, runs,
-        )  # fmt: skip
+        nodes = quadrature_nodes.refined_nodes(windows, window_count, samples, geometry, t, w)
         run_count = window_count
-    quadrature_nodes.node_geometry(
-        t, w, nodes, runs, run_count, step, count, sample_x, sample_y, tangent_x, tangent_y, second_x,
-        second_y, coefficients, piece_length, corners, corner_count, px, py, tx, ty, sx, sy,
-    )  # fmt: skip
+    quadrature_nodes.node_geometry(t, scratch.nodes, nodes, runs, run_count, samples, geometry, corner_count)
     r_min = quadrature_nodes.directions(px, py, x, y, nodes, ux, uy, inv_r)
-    total = kernel_weights.kernel_weights(
-        kernel, power, shift, px, py, tx, ty, sx, sy, w, x, y, nodes, corners, ux, uy, inv_r, r_min, a
-    )
+    total = kernel_weights.kernel_weights(settings, scratch.nodes, (x, y), nodes, corners, rays, r_min, a)
     phix, phiy = 0.0, 0.0
     if likelihood:
         phix, phiy = minimisation.coarse_start(
-            ux, uy, inv_r, a, total, solver.NEAR_START_SEPARATION, coarse, tolerance * diameter, 0.0, 0.0
+            rays, a, total, solver.NEAR_START_SEPARATION, coarse, tolerance * diameter, (0.0, 0.0)
         )
+    limits = (tolerance * diameter, math.inf)
     iterations, status, residual = minimisation.finish(
-        kernel, ux, uy, inv_r, a, s, inv_s, trial, trial_inv, blend, total,
-        px, py, w, step, x, y, tolerance * diameter, phix, phiy, math.inf,
-    )  # fmt: skip
-    _differentiate(
-        kernel, power, shift, px, py, tx, ty, sx, sy, w, ux, uy, inv_r, a, s, inv_s, total, nodes, corners,
-        x, y, r_min, blend, trial, trial_inv,
-    )  # fmt: skip
-    _accumulate_nodes(
-        a, trial, trial_inv, t, total, period, mode, out_step, out_count, control_count, row, row_x, row_y
+        kernel, scratch.work, total, scratch.nodes, step, (x, y), limits, (phix, phiy)
     )
+    _differentiate(settings, scratch.nodes, scratch.work, total, nodes, corners, (x, y), r_min)
+    _accumulate_nodes(rows, settings, samples, a, (trial, trial_inv), t, total)
     return iterations, status, residual
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def gradient_points(
-    points, settings, curve, geometry, out, gradients, iterations, status, residual, first, stride
-):
+def gradient_points(points, settings, samples, geometry, output, gradients, first, stride):
     """Values (M, columns) and gradients (M, 2, columns) of the points first, first + stride, ...
 
     Arguments as in `solver.solve_points`; gradients[m, 0] and gradients[m, 1]
-    are the x- and y-derivatives of the row out[m].  Releases the GIL.
+    are the x- and y-derivatives of the row output.values[m].  Releases the GIL.
     """
-    count = curve[0].shape[0]
+    count = samples.x.shape[0]
     capacity = (
-        count + quadrature_nodes.MAX_WINDOWS * quadrature_nodes.MAX_WINDOW_NODES + geometry[2].shape[0] + 8
+        count
+        + quadrature_nodes.MAX_WINDOWS * quadrature_nodes.MAX_WINDOW_NODES
+        + geometry.corners.shape[0]
+        + 8
     )
-    scratch = (
-        np.empty(capacity), np.empty(capacity), np.empty(capacity), np.empty(capacity),
-        np.empty(capacity), np.empty(capacity), np.empty(capacity), np.empty(capacity),
-        np.empty(capacity), np.empty(capacity), np.empty(capacity), np.empty(capacity),
-        np.empty(capacity), np.empty(capacity), np.empty(capacity), np.empty(capacity),
+    scratch = Scratch(
+        Nodes(
+            np.empty(capacity), np.empty(capacity), np.empty(capacity), np.empty(capacity),
+            np.empty(capacity), np.empty(capacity), np.empty(capacity),
+        ),
         np.empty(capacity),
-        # `minimisation.coarse_start`'s eight
-        np.empty(capacity), np.empty(capacity), np.empty(capacity), np.empty(capacity),
-        np.empty(capacity), np.empty(capacity), np.empty(capacity), np.empty(capacity),
+        Work(
+            np.empty(capacity), np.empty(capacity), np.empty(capacity), np.empty(capacity),
+            np.empty(capacity), np.empty(capacity), np.empty(capacity), np.empty(capacity),
+            np.empty(capacity),
+        ),
+        np.ones(0),  # unused: the explicit kernels' rows are folded with their gradients
+        (
+            np.empty(capacity), np.empty(capacity), np.empty(capacity), np.empty(capacity),
+            np.empty(capacity), np.empty(capacity), np.empty(capacity), np.empty(capacity),
+        ),
     )  # fmt: skip
-    windows = (
+    windows = Windows(
         np.empty(quadrature_nodes.MAX_WINDOWS + 1, dtype=np.int64),
         np.empty(quadrature_nodes.MAX_WINDOWS + 1, dtype=np.int64),
         np.empty(quadrature_nodes.MAX_WINDOWS + 1),
         np.empty(quadrature_nodes.MAX_WINDOWS + 1),
         np.empty((quadrature_nodes.MAX_WINDOWS + 1, 3), dtype=np.int64),
     )
-    largest_spacing = quadrature_nodes.largest(curve[6], count)
     for m in range(first, points.shape[0], stride):
-        iterations[m], status[m], residual[m] = _gradient_point(
-            points[m, 0], points[m, 1], settings, curve, geometry, largest_spacing, out[m], gradients[m, 0],
-            gradients[m, 1], scratch, windows,
-        )  # fmt: skip
+        rows = (output.values[m], gradients[m, 0], gradients[m, 1])
+        output.iterations[m], output.status[m], output.residual[m] = _gradient_point(
+            (points[m, 0], points[m, 1]), settings, samples, geometry, rows, scratch, windows
+        )

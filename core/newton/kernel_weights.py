@@ -22,9 +22,7 @@ from core.newton.codes import (
 
 
 @njit(cache=True, error_model="numpy", fastmath={"contract", "arcp", "reassoc", "nsz"})
-def kernel_weights(
-    kernel, power, shift, px, py, tx, ty, sx, sy, w, x, y, count, corners, ux, uy, inv_r, r_min, a
-):
+def kernel_weights(settings, nodes, point, count, corners, directions, r_min, a):
     """Normalised weights a_j = w_j omega_j / sum (maximum-likelihood family), or
     normalised w_j mu_j for the explicit kernels (Eq. 5 and Sec. 1.1).
 
@@ -33,6 +31,10 @@ def kernel_weights(
     the point masses of sharp corners follow the `count` nodes (their px, py must be
     filled in); returns the total node count.
     """
+    kernel, power, shift = settings.kernel, settings.power, settings.shift
+    px, py, tx, ty, sx, sy, w = nodes
+    x, y = point
+    ux, uy, inv_r = directions
     if kernel == MAXIMUM_LIKELIHOOD:
         for j in range(count):
             a[j] = w[j]

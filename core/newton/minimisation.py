@@ -58,8 +58,11 @@ ROUNDING_SLACK = 1e-12
 
 
 @njit(cache=True, error_model="numpy", fastmath={"contract", "arcp", "reassoc", "nsz"})
-def newton_steps(ux, uy, inv_r, a, s, inv_s, trial, trial_inv, count, tolerance, phix, phiy):
+def newton_steps(directions, a, buffers, count, tolerance, start):
     """Minimise F(phi) = -sum a_j log(1 + phi . u_j) (Eq. 16 with phi_0 = 1).
+
+    `directions` = (u_x, u_y, 1 / r) and `a` of the `count` nodes; `buffers` = (s, 1 / s, and
+    both at a trial) receive s_j = 1 + phi . u_j; `start` = (phix, phiy).
 
     Newton's method with Armijo backtracking from (phix, phiy): phi = 0 in the
     paper (Sec. 4.1), or a warm start (`coarse_start`); a start outside the
@@ -84,12 +87,15 @@ def newton_steps(ux, uy, inv_r, a, s, inv_s, trial, trial_inv, count, tolerance,
     units: the linear-precision error of the discrete kernel; D = sum a_j / (r_j s_j)
     at the returned phi is the normaliser of Eq. 17.
     """
-    gx, gy, hxx, hxy, hyy, d, infeasible = _newton_terms(ux, uy, inv_r, a, s, inv_s, count, phix, phiy)
+    ux, uy, inv_r = directions
+    s, inv_s, trial, trial_inv = buffers
+    phix, phiy = start
+    gx, gy, hxx, hxy, hyy, d, infeasible = _newton_terms(directions, a, s, inv_s, count, (phix, phiy))
     if infeasible > 0:
         # A warm start outside the feasible set: start from phi = 0 (always feasible).
         phix = 0.0
         phiy = 0.0
-        gx, gy, hxx, hxy, hyy, d, infeasible = _newton_terms(ux, uy, inv_r, a, s, inv_s, count, phix, phiy)
+        gx, gy, hxx, hxy, hyy, d, infeasible = _newton_terms(directions, a, s, inv_s, count, (phix, phiy))
     residual = math.sqrt(gx * gx + gy * gy) / d
     status = STATUS_NOT_CONVERGED
     iterations = 0
@@ -118,7 +124,7 @@ def newton_steps(ux, uy, inv_r, a, s, inv_s, trial, trial_inv, count, tolerance,
             iterations += 1
             phix += deltax
             phiy += deltay
-            gx, gy, hxx, hxy, hyy, d, _ = _newton_terms(ux, uy, inv_r, a, s, inv_s, count, phix, phiy)
+            gx, gy, hxx, hxy, hyy, d, _ = _newton_terms(directions, a, s, inv_s, count, (phix, phiy))
             residual = math.sqrt(gx * gx + gy * gy) / d
             continue
         alpha = 1.0
@@ -181,12 +187,14 @@ def newton_steps(ux, uy, inv_r, a, s, inv_s, trial, trial_inv, count, tolerance,
 
 
 @njit(cache=True, error_model="numpy", fastmath={"contract", "arcp", "reassoc", "nsz"})
-def _newton_terms(ux, uy, inv_r, a, s, inv_s, count, phix, phiy):
+def _newton_terms(directions, a, s, inv_s, count, phi):
     """Gradient, Hessian and D of F (Eq. 16) at phi; fills s_j = 1 + phi . u_j and 1 / s_j.
 
     Returns (gx, gy, hxx, hxy, hyy, D, the number of s_j <= 0); the terms are
     meaningful only if that number is 0 (phi feasible).
     """
+    ux, uy, inv_r = directions
+    phix, phiy = phi
     gx = 0.0
     gy = 0.0
     hxx = 0.0
@@ -212,7 +220,7 @@ def _newton_terms(ux, uy, inv_r, a, s, inv_s, count, phix, phiy):
 
 
 @njit(cache=True, error_model="numpy")
-def _continuation(ux, uy, inv_r, a, w, blend, s, inv_s, trial, trial_inv, count, tolerance, iterations):
+def _continuation(work, w, count, tolerance, iterations):
     """Path-following for the points Newton from phi = 0 does not bring home.
 
     When omega spans many orders of magnitude (the unshifted powers of Sec. 3.3)
@@ -223,6 +231,7 @@ def _continuation(ux, uy, inv_r, a, w, blend, s, inv_s, trial, trial_inv, count,
     so the result is the same minimiser, only reached.  Returns (iterations,
     status, residual) of the whole path and D (see `newton_steps`) at its end.
     """
+    a, blend = work.a, work.blend
     length = 0.0
     for j in range(count):
         length += w[j]
@@ -236,8 +245,9 @@ def _continuation(ux, uy, inv_r, a, w, blend, s, inv_s, trial, trial_inv, count,
             blend[j] = (1.0 - mu) * a[j] + mu * w[j] / length
         stage_tolerance = tolerance if mu == 0.0 else 1e4 * tolerance
         taken, status, residual, phix, phiy, d = newton_steps(
-            ux, uy, inv_r, blend, s, inv_s, trial, trial_inv, count, stage_tolerance, phix, phiy
-        )
+            (work.ux, work.uy, work.inv_r), blend, (work.s, work.inv_s, work.trial, work.trial_inv),
+            count, stage_tolerance, (phix, phiy),
+        )  # fmt: skip
         iterations += taken
         if status != STATUS_CONVERGED:
             break
@@ -245,7 +255,7 @@ def _continuation(ux, uy, inv_r, a, w, blend, s, inv_s, trial, trial_inv, count,
 
 
 @njit(cache=True, error_model="numpy")
-def coarse_start(ux, uy, inv_r, a, count, separation, coarse, tolerance, phix, phiy):
+def coarse_start(directions, a, count, separation, coarse, tolerance, start):
     """Warm start of Newton for a far point: the minimiser of Eq. 16 on every stride-th node.
 
     The trapezoid rule on a subset of the uniform samples converges geometrically
@@ -259,7 +269,10 @@ def coarse_start(ux, uy, inv_r, a, count, separation, coarse, tolerance, phix, p
     four for Newton, which starts from (phix, phiy) (a neighbour's minimiser, or 0)
     and stops at COARSE_LOOSER times `tolerance`.  Returns the coarse minimiser;
     (phix, phiy) where no subset applies, (0, 0) if the coarse Newton did not converge.
+    `directions` = (u_x, u_y, 1 / r) of the `count` nodes, `start` = (phix, phiy).
     """
+    ux, uy, inv_r = directions
+    phix, phiy = start
     stride = 1
     while 2 * stride * COARSE_SPACINGS <= separation and count // (2 * stride) >= MIN_COARSE_NODES:
         stride *= 2
@@ -274,19 +287,9 @@ def coarse_start(ux, uy, inv_r, a, count, separation, coarse, tolerance, phix, p
         coarse_inv_r[j] = inv_r[k]
         coarse_a[j] = a[k]
     _, status, _, phix, phiy, _ = newton_steps(
-        coarse_ux,
-        coarse_uy,
-        coarse_inv_r,
-        coarse_a,
-        s,
-        inv_s,
-        trial,
-        trial_inv,
-        nodes,
-        COARSE_LOOSER * tolerance,
-        phix,
-        phiy,
-    )
+        (coarse_ux, coarse_uy, coarse_inv_r), coarse_a, (s, inv_s, trial, trial_inv), nodes,
+        COARSE_LOOSER * tolerance, (phix, phiy),
+    )  # fmt: skip
     if status != STATUS_CONVERGED:
         return 0.0, 0.0
     return phix, phiy
@@ -337,55 +340,21 @@ def change_bound(a, ux, uy, inv_s, deltax, deltay, alpha, count):
 
 
 @njit(cache=True, error_model="numpy", fastmath={"contract", "arcp", "reassoc", "nsz"})
-def finish(
-    kernel,
-    ux,
-    uy,
-    inv_r,
-    a,
-    s,
-    inv_s,
-    trial,
-    trial_inv,
-    blend,
-    total,
-    px,
-    py,
-    w,
-    step,
-    x,
-    y,
-    tolerance,
-    phix,
-    phiy,
-    spread,
-):
+def finish(kernel, work, total, nodes, step, point, limits, start):
     """Turn normalised weights `a` into the quadrature-weighted kernel w_j lambda_j (in `a`).
 
     Maximum-likelihood family: `maximum_likelihood` from (phix, phiy), with `spread`
     its bound on |u_(j+1) - u_j| (math.inf if unknown), then Eq. 14 and 17,
     c_j = a_j / (r_j s_j) normalised.  Explicit kernels: `a` already is it.
-    Returns (iterations, status, residual).
+    `work` holds the arrays (`Work`), `nodes` the rule (`Nodes`: p and the weights, h apart
+    on the samples), `point` = (x, y), `limits` = (Newton's tolerance, `spread`), `start` =
+    (phix, phiy).  Returns (iterations, status, residual).
     """
+    a, inv_r, inv_s = work.a, work.inv_r, work.inv_s
+    px, py, w = nodes.x, nodes.y, nodes.weight
+    x, y = point
     if kernel <= MODIFIED_MEAN_VALUE_SQUARED:
-        iterations, status, residual, d, _, _ = maximum_likelihood(
-            ux,
-            uy,
-            inv_r,
-            a,
-            s,
-            inv_s,
-            trial,
-            trial_inv,
-            blend,
-            w,
-            step,
-            total,
-            tolerance,
-            phix,
-            phiy,
-            spread,
-        )
+        iterations, status, residual, d, _, _ = maximum_likelihood(work, w, step, total, limits, start)
         inverse = 1.0 / d
         for j in range(total):
             a[j] = a[j] * inv_r[j] * inv_s[j] * inverse
@@ -400,9 +369,7 @@ def finish(
 
 
 @njit(cache=True, error_model="numpy")
-def maximum_likelihood(
-    ux, uy, inv_r, a, s, inv_s, trial, trial_inv, blend, w, step, total, tolerance, phix, phiy, spread
-):
+def maximum_likelihood(work, w, step, total, limits, start):
     """Minimise Eq. 16 for the normalised weights `a` and check that lambda-hat is resolved.
 
     Newton (`newton_steps`) from (phix, phiy), the path-following fallback
@@ -414,16 +381,18 @@ def maximum_likelihood(
     On return `s`, `inv_s` hold 1 + phi . u_j and its inverse at the minimiser.
     Returns (iterations, status, residual, D, phix, phiy), D = sum a_j / (r_j s_j), so
     that lambda_j w_j = a_j / (r_j s_j D) (Eq. 14 and 17); phi is NaN after the
-    path-following fallback.
+    path-following fallback.  `work` holds the arrays (`Work`), `w` the nodes' weights (step h
+    apart on the samples), `limits` = (Newton's tolerance, `spread`), `start` = (phix, phiy).
     """
+    ux, uy, inv_r, a, s, inv_s, trial, trial_inv, blend = work
+    tolerance, spread = limits
+    phix, phiy = start
     iterations, status, residual, phix, phiy, d = newton_steps(
-        ux, uy, inv_r, a, s, inv_s, trial, trial_inv, total, tolerance, phix, phiy
+        (ux, uy, inv_r), a, (s, inv_s, trial, trial_inv), total, tolerance, (phix, phiy)
     )
     reach = 1.0 - math.sqrt(phix * phix + phiy * phiy)
     if status != STATUS_CONVERGED:
-        iterations, status, residual, d = _continuation(
-            ux, uy, inv_r, a, w, blend, s, inv_s, trial, trial_inv, total, tolerance, iterations
-        )
+        iterations, status, residual, d = _continuation(work, w, total, tolerance, iterations)
         phix, phiy = math.nan, math.nan  # the path's phi is not returned
         reach = 0.0  # so scan
     resolved = (spread + ROUNDING_SLACK) ** 2 < 2.0 * (reach - ROUNDING_SLACK)

@@ -50,9 +50,7 @@ def accumulate(row, mode, value, t, step, count, control_count):
 
 
 @njit(cache=True, error_model="numpy")
-def accumulate_nodes(
-    row, mode, a, t, total, period, out_step, out_count, control_count, coefficients, runs, run_count, curve
-):  # fmt: skip
+def accumulate_nodes(row, settings, samples, coefficients, a, t, total, runs_used):
     """`accumulate` of a_j at the output parameter of every node t_j, j < total (each (total,)).
 
     For the B-spline basis (OUTPUT_BASIS) the `run_count` runs of uniform samples
@@ -61,8 +59,14 @@ def accumulate_nodes(
     span are summed in registers and added to the row when the span changes: the
     nodes come in increasing t but for the wrap and the appended corners, so this is
     a few additions per span instead of three read-modify-writes of the row per node.
-    `curve` is the tuple of `solve_points`.
+    `settings`, `samples` (`solver_state`) and the curve's `coefficients` as in
+    `core.newton.solver.solve_points`; `runs_used` = (runs, run_count).
     """
+    mode, control_count = settings.mode, settings.control_count
+    runs, run_count = runs_used
+    count, step, out_step = samples.x.shape[0], samples.step, samples.out_step
+    period = count * step
+    out_count = int(round(count * step / out_step))
     if mode != OUTPUT_BASIS:
         for j in range(total):
             accumulate(row, mode, a[j], wrap(t[j], period), out_step, out_count, control_count)
@@ -102,20 +106,20 @@ def accumulate_nodes(
             if current >= 0:
                 _add_span(row, current, control_count, s0, s1, s2)
             current = -1
-            _fold_run(row, a, runs[r, 0], runs[r, 1], runs[r, 2], control_count, coefficients, curve)
+            _fold_run(row, a, runs[r, 0], runs[r, 1], runs[r, 2], control_count, coefficients, samples)
             j = runs[r, 0] + runs[r, 2]
     if current >= 0:
         _add_span(row, current, control_count, s0, s1, s2)
 
 
 @njit(cache=True, error_model="numpy", fastmath={"contract", "arcp", "reassoc", "nsz"})
-def _fold_run(row, a, first, sample, length, control_count, coefficients, curve):
+def _fold_run(row, a, first, sample, length, control_count, coefficients, samples):
     """row_i += sum a_node N_i(t_k) over a run of uniform samples k = sample, sample + 1, ...
     (mod N) at nodes first, first + 1, ... (`length` of them), with the samples'
-    stored basis values (basis0..2 of `curve`, see `fold_onto_basis`).
+    stored basis values (basis0..2 of `samples`, see `fold_onto_basis`).
     """
-    count = curve[0].shape[0]
-    basis0, basis1, basis2, step = curve[9], curve[10], curve[11], curve[12]
+    count = samples.x.shape[0]
+    basis0, basis1, basis2, step = samples.basis0, samples.basis1, samples.basis2, samples.step
     sample = sample % count
     while length > 0:  # at most twice: the run may wrap past sample N - 1
         end = min(count, sample + length)
@@ -165,7 +169,7 @@ def _add_span(row, segment, control_count, s0, s1, s2):
 
 
 @njit(cache=True, error_model="numpy", fastmath={"contract", "arcp", "reassoc", "nsz"})
-def fold_onto_basis(row, a, inv_r, inv_s, factor, basis0, basis1, basis2, control_count, coefficients, step):
+def fold_onto_basis(row, a, inv_r, inv_s, factor, samples, control_count, coefficients):
     """row_i += sum_k c_k N_i(t_k) over the N uniform samples (Sec. 4.3), shape (n,).
 
     c_k = factor a_k inv_r_k inv_s_k: for the maximum-likelihood kernels 1 / r_k,
@@ -176,6 +180,7 @@ def fold_onto_basis(row, a, inv_r, inv_s, factor, basis0, basis1, basis2, contro
     its share of the length in arc length) touch only N_(j-1), N_j and N_(j+1),
     whose values at the samples are basis0, basis1 and basis2, each (N,).
     """
+    basis0, basis1, basis2, step = samples.basis0, samples.basis1, samples.basis2, samples.step
     count = basis0.shape[0]
     first = 0  # span 0 starts at sample 0 in either parameter
     for j in range(control_count):

@@ -184,10 +184,7 @@ def largest(values, count):
 
 
 @njit(cache=True, error_model="numpy")
-def node_geometry(
-    t, w, nodes, runs, run_count, step, count, sample_x, sample_y, tangent_x, tangent_y, second_x,
-    second_y, coefficients, piece_length, corners, corner_count, px, py, tx, ty, sx, sy,
-):  # fmt: skip
+def node_geometry(t, node_arrays, nodes, runs, run_count, samples, geometry, corner_count):
     """p, p', p'' (px, py, tx, ty, sx, sy) at the `nodes` parameters t of a refined rule, then
     the `corner_count` corner point masses appended (their t and weight 1 in t, w).
 
@@ -196,6 +193,10 @@ def node_geometry(
     also takes the sample's stored values, so that the refined rule agrees with the
     plain one there; others are evaluated on the curve.
     """
+    px, py, tx, ty, sx, sy, w = node_arrays  # `Nodes`, filled here
+    sample_x, sample_y, tangent_x, tangent_y = samples.x, samples.y, samples.tangent_x, samples.tangent_y
+    second_x, second_y, step, count = samples.second_x, samples.second_y, samples.step, samples.x.shape[0]
+    coefficients, piece_length, corners = geometry
     inverse = 1.0 / step
     j = 0
     for r in range(run_count + 1):
@@ -323,21 +324,7 @@ def merge_windows(window_start, window_stop, window_count, count, nearest_index)
 
 
 @njit(cache=True, error_model="numpy")
-def refined_nodes(
-    window_start,
-    window_stop,
-    window_t,
-    window_d,
-    window_count,
-    count,
-    step,
-    sinh_step,
-    coefficients,
-    piece_length,
-    t,
-    w,
-    runs,
-):
+def refined_nodes(windows, window_count, samples, geometry, t, w):
     """Quadrature nodes (t) and weights (w) of a near point; returns their number.
 
     Uniform samples outside the windows, a graded sinh rule inside each window
@@ -345,6 +332,9 @@ def refined_nodes(
     Row i of `runs` (int, (MAX_WINDOWS + 1, 3)) is the run of uniform samples after
     window i: (its first node, its first sample index, not wrapped, its length).
     """
+    window_start, window_stop, window_t, window_d, runs = windows
+    count, step, sinh_step = samples.x.shape[0], samples.step, samples.sinh_step
+    coefficients, piece_length = geometry.coefficients, geometry.piece_length
     # Reach at least step / sinh_step on both sides of the closest point, so that the
     # sigma step of the graded rule (about h / reach) is at most sinh_step; never
     # into the neighbouring window.

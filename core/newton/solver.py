@@ -58,6 +58,7 @@ from core.newton.quadrature_nodes import (
     sample_directions,
     wrap,
 )
+from core.newton.solver_state import Directions, Nodes, Scratch, Windows, Work
 
 # Points closer than this (relative to the diameter) are on the boundary: Lagrange limit.
 ON_BOUNDARY = 1e-12
@@ -86,39 +87,28 @@ FAR_START_SEPARATION = 2.0 * COARSE_SPACINGS
 # twice (once as this function, once linked into solve_points), and every point's call
 # copies the scratch and curve tuples (tens of arrays, reference counts included).
 @njit(cache=True, error_model="numpy", inline="always")
-def solve_point(x, y, settings, curve, geometry, largest_spacing, row, scratch, windows, start):
+def solve_point(point, settings, samples, geometry, row, scratch, windows, start):
     """Evaluate one point; writes its output row and returns (iterations, status, residual, phix, phiy).
 
-    `settings`, `curve` and `geometry` are the shared tuples of `solve_points`,
-    `largest_spacing` the largest of the sample spacings, `scratch` and `windows`
-    per-thread work arrays.  `start` holds the last two points of the block and their
-    minimisers, from which a far point's Newton starts (`predicted_start`).
+    `point` = (x, y); `settings`, `samples` and `geometry` are the shared tuples of
+    `solve_points`, `scratch` (`Scratch`) and `windows` (`Windows`) per-thread work arrays.
+    `start` holds the last two points of the block and their minimisers, from which a far
+    point's Newton starts (`predicted_start`).
     phix, phiy is this point's minimiser of Eq. 16 on the plain rule, NaN where
     there is none to pass on (explicit kernels, near points).
     """
+    x, y = point
     kernel, power, shift, mode, orientation, diameter, control_count, tolerance = settings
     coefficients, piece_length, corners = geometry
     window_start, window_stop, window_t, window_d, runs = windows
     (
-        sample_x,
-        sample_y,
-        tangent_x,
-        tangent_y,
-        second_x,
-        second_y,
-        spacing,
-        uniform,
-        sample_t,
-        basis0,
-        basis1,
-        basis2,
-        step,
-        sinh_step,
-        out_step,
-        slabs,
-    ) = curve
-    (px, py, tx, ty, sx, sy, w, t, ux, uy, inv_r, a, s, inv_s, trial, trial_inv, blend, ones) = scratch[:18]
-    coarse = scratch[18:]
+        sample_x, sample_y, tangent_x, tangent_y, second_x, second_y, spacing, uniform, sample_t,
+        basis0, basis1, basis2, step, sinh_step, out_step, slabs, largest_spacing,
+    ) = samples  # fmt: skip
+    px, py, tx, ty, sx, sy, w = scratch.nodes
+    ux, uy, inv_r, a, s, inv_s, trial, trial_inv, blend = scratch.work
+    t, ones, coarse = scratch.t, scratch.ones, scratch.coarse
+    rays = Directions(ux, uy, inv_r)
     count = sample_x.shape[0]
     out_count = int(round(count * step / out_step))
     # Pass 1: directions to the samples and, for a point near the boundary, the
@@ -140,68 +130,38 @@ def solve_point(x, y, settings, curve, geometry, largest_spacing, row, scratch, 
         if corner_count == 0:
             # The common case: the plain trapezoid rule on the shared samples.
             total = kernel_weights(
-                kernel,
-                power,
-                shift,
-                sample_x,
-                sample_y,
-                tangent_x,
-                tangent_y,
-                second_x,
-                second_y,
-                uniform,
-                x,
-                y,
-                count,
-                corners,
-                ux,
-                uy,
-                inv_r,
-                nearest,
-                a,
-            )
+                settings, Nodes(sample_x, sample_y, tangent_x, tangent_y, second_x, second_y, uniform),
+                (x, y), count, corners, rays, nearest, a,
+            )  # fmt: skip
             likelihood = kernel <= MODIFIED_MEAN_VALUE_SQUARED
             if likelihood:
                 phix, phiy, predicted = predicted_start(x, y, start, WARM_REACH * nearest)
                 if not predicted:
                     phix, phiy = coarse_start(
-                        ux,
-                        uy,
-                        inv_r,
-                        a,
-                        count,
-                        max(nearest / largest_spacing, FAR_START_SEPARATION),
-                        coarse,
-                        tolerance * diameter,
-                        phix,
-                        phiy,
-                    )
+                        rays, a, count, max(nearest / largest_spacing, FAR_START_SEPARATION),
+                        coarse, tolerance * diameter, (phix, phiy),
+                    )  # fmt: skip
                 # No sample is within NEAR_SPACINGS spacings: |u_(k+1) - u_k| <= chord / nearest
                 # (2 |p - q| / (|p| + |q|) bounds |p / |p| - q / |q||), so the peak scan is skipped.
                 iterations, status, residual, d, phix, phiy = maximum_likelihood(
-                    ux, uy, inv_r, a, s, inv_s, trial, trial_inv, blend, uniform, step, count,
-                    tolerance * diameter, phix, phiy, largest_spacing / nearest,
+                    scratch.work, uniform, step, count, (tolerance * diameter, largest_spacing / nearest),
+                    (phix, phiy),
                 )  # fmt: skip
                 if mode == OUTPUT_BASIS:
                     # Eq. 17's normalisation folded into the basis sums: no pass of its own.
-                    fold_onto_basis(
-                        row, a, inv_r, inv_s, 1.0 / d, basis0, basis1, basis2, control_count,
-                        coefficients, step,
-                    )  # fmt: skip
+                    fold_onto_basis(row, a, inv_r, inv_s, 1.0 / d, samples, control_count, coefficients)
                     return iterations, status, residual, phix, phiy
                 inverse = 1.0 / d
                 for k in range(count):
                     a[k] = a[k] * inv_r[k] * inv_s[k] * inverse
             else:
                 iterations, status, residual = finish(
-                    kernel, ux, uy, inv_r, a, s, inv_s, trial, trial_inv, blend, total, sample_x, sample_y,
-                    uniform, step, x, y, tolerance * diameter, 0.0, 0.0, math.inf,
+                    kernel, scratch.work, total,
+                    Nodes(sample_x, sample_y, tangent_x, tangent_y, second_x, second_y, uniform), step,
+                    (x, y), (tolerance * diameter, math.inf), (0.0, 0.0),
                 )  # fmt: skip
             if mode == OUTPUT_BASIS:
-                fold_onto_basis(
-                    row, a, ones, ones, 1.0, basis0, basis1, basis2, control_count,
-                    coefficients, step,
-                )  # fmt: skip
+                fold_onto_basis(row, a, ones, ones, 1.0, samples, control_count, coefficients)
             elif out_count == count:
                 for k in range(count):
                     row[k] += a[k] / step
@@ -238,130 +198,81 @@ def solve_point(x, y, settings, curve, geometry, largest_spacing, row, scratch, 
             return 0, STATUS_CONVERGED, 0.0, math.nan, math.nan
         if side_of_curve(coefficients, piece_length, closest_t, x, y, orientation) < 0:
             return 0, STATUS_OUTSIDE, closest_d, math.nan, math.nan
-        nodes = refined_nodes(
-            window_start,
-            window_stop,
-            window_t,
-            window_d,
-            window_count,
-            count,
-            step,
-            sinh_step,
-            coefficients,
-            piece_length,
-            t,
-            w,
-            runs,
-        )
+        nodes = refined_nodes(windows, window_count, samples, geometry, t, w)
         run_count = window_count
     # Pass 2 (near points, corners): the nodes' curve data and directions.
-    node_geometry(
-        t, w, nodes, runs, run_count, step, count, sample_x, sample_y, tangent_x, tangent_y, second_x,
-        second_y, coefficients, piece_length, corners, corner_count, px, py, tx, ty, sx, sy,
-    )  # fmt: skip
+    node_geometry(t, scratch.nodes, nodes, runs, run_count, samples, geometry, corner_count)
     r_min = directions(px, py, x, y, nodes, ux, uy, inv_r)
-    total = kernel_weights(
-        kernel, power, shift, px, py, tx, ty, sx, sy, w, x, y, nodes, corners, ux, uy, inv_r, r_min, a
-    )
+    total = kernel_weights(settings, scratch.nodes, (x, y), nodes, corners, rays, r_min, a)
     phix, phiy = 0.0, 0.0
     if kernel <= MODIFIED_MEAN_VALUE_SQUARED:
         phix, phiy = coarse_start(
-            ux, uy, inv_r, a, total, NEAR_START_SEPARATION, coarse, tolerance * diameter, 0.0, 0.0
+            rays, a, total, NEAR_START_SEPARATION, coarse, tolerance * diameter, (0.0, 0.0)
         )
     iterations, status, residual = finish(
         kernel,
-        ux,
-        uy,
-        inv_r,
-        a,
-        s,
-        inv_s,
-        trial,
-        trial_inv,
-        blend,
+        scratch.work,
         total,
-        px,
-        py,
-        w,
+        scratch.nodes,
         step,
-        x,
-        y,
-        tolerance * diameter,
-        phix,
-        phiy,
-        math.inf,
+        (x, y),
+        (tolerance * diameter, math.inf),
+        (phix, phiy),
     )
-    accumulate_nodes(
-        row, mode, a, t, total, count * step, out_step, out_count, control_count, coefficients, runs,
-        run_count, curve,
-    )  # fmt: skip
+    accumulate_nodes(row, settings, samples, coefficients, a, t, total, (runs, run_count))
     return iterations, status, residual, math.nan, math.nan
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def solve_points(points, settings, curve, geometry, out, iterations, status, residual, first, stride):
-    """Evaluate the points first, first + stride, ... of (M, 2) into out (M, columns).
+def solve_points(points, settings, samples, geometry, output, first, stride):
+    """Evaluate the points first, first + stride, ... of (M, 2) into output.values (M, columns).
 
-    Per-point diagnostics go to iterations, status and residual, each (M,).
-    The GIL is released, so that `core.kernels` runs one call per thread with
-    `stride` threads: cheaper to compile than numba's parallel loops, and as fast.
-    Points are dealt out round-robin in blocks of BLOCK, so that the costlier
+    Per-point diagnostics go to output.iterations, .status and .residual, each (M,)
+    (`solver_state.Output`).  The GIL is released, so that `core.kernels` runs one call per
+    thread with `stride` threads: cheaper to compile than numba's parallel loops, and as
+    fast.  Points are dealt out round-robin in blocks of BLOCK, so that the costlier
     near-boundary points spread evenly.  Within a block a far point's Newton starts
     from the last minimiser (`solve_point`): neighbours in a mesh's vertex order,
     their minimisers are close.  A block is solved in order by one thread, so the
     result depends on the points' order, never on the number of threads.
 
-    settings = (kernel, power, shift, output mode, orientation (+1 counter-clockwise),
-    diameter, n control points, Newton tolerance relative to the diameter).
-    curve = (sample_x, sample_y, tangent_x, tangent_y, second_x, second_y,
-    spacing, uniform weights, t_k, basis0, basis1, basis2, h, sinh_step, out_step, slabs):
-    twelve contiguous float64 arrays of shape (N,) (basis* are the three non-zero
-    B-spline basis values at t_k, used in OUTPUT_BASIS mode), the sample step, the
-    sinh step of the near-boundary rule, the step of the output samples
-    (OUTPUT_SAMPLES lumps onto that grid, which may be coarser than the samples), and
-    `core.curves.crossing_slabs.crossing_slabs(sample_y)` for the inside test of far points.
-    geometry = (piecewise-polynomial coefficients (P, D + 1, 2), piece length,
-    corners (C, 5)): the exact curve between samples.
+    `settings` (`solver_state.Settings`): the kernel, its parameters, the output mode,
+    the orientation, the diameter, n and Newton's tolerance.  `samples`
+    (`solver_state.Samples`): the N uniform boundary samples, their basis values (used in
+    OUTPUT_BASIS mode), the sample step, the sinh step of the near-boundary rule, the step
+    of the output samples (OUTPUT_SAMPLES lumps onto that grid, which may be coarser than
+    the samples) and `core.curves.crossing_slabs.crossing_slabs(sample_y)` for the inside
+    test of far points.  `geometry` (`solver_state.Geometry`): the exact curve between
+    samples.
     """
-    count = curve[0].shape[0]
-    capacity = count + MAX_WINDOWS * MAX_WINDOW_NODES + geometry[2].shape[0] + 8
+    count = samples.x.shape[0]
+    capacity = count + MAX_WINDOWS * MAX_WINDOW_NODES + geometry.corners.shape[0] + 8
     # Scratch arrays allocated once per call: fresh allocations per point fault in
     # new pages and serialise the threads.
-    scratch = (
+    scratch = Scratch(
+        Nodes(
+            np.empty(capacity), np.empty(capacity), np.empty(capacity), np.empty(capacity),
+            np.empty(capacity), np.empty(capacity), np.empty(capacity),
+        ),
         np.empty(capacity),
-        np.empty(capacity),
-        np.empty(capacity),
-        np.empty(capacity),
-        np.empty(capacity),
-        np.empty(capacity),
-        np.empty(capacity),
-        np.empty(capacity),
-        np.empty(capacity),
-        np.empty(capacity),
-        np.empty(capacity),
-        np.empty(capacity),
-        np.empty(capacity),
-        np.empty(capacity),
-        np.empty(capacity),
-        np.empty(capacity),
-        np.empty(capacity),
-        np.ones(capacity),  # c_k = a_k in `fold_onto_basis` for the explicit kernels
-        np.empty(capacity),
-        np.empty(capacity),
-        np.empty(capacity),
-        np.empty(capacity),
-        np.empty(capacity),
-        np.empty(capacity),
-        np.empty(capacity),
-        np.empty(capacity),
+        Work(
+            np.empty(capacity), np.empty(capacity), np.empty(capacity), np.empty(capacity),
+            np.empty(capacity), np.empty(capacity), np.empty(capacity), np.empty(capacity),
+            np.empty(capacity),
+        ),
+        np.ones(capacity),
+        (
+            np.empty(capacity), np.empty(capacity), np.empty(capacity), np.empty(capacity),
+            np.empty(capacity), np.empty(capacity), np.empty(capacity), np.empty(capacity),
+        ),
+    )  # fmt: skip
+    windows = Windows(
+        np.empty(MAX_WINDOWS + 1, dtype=np.int64),
+        np.empty(MAX_WINDOWS + 1, dtype=np.int64),
+        np.empty(MAX_WINDOWS + 1),
+        np.empty(MAX_WINDOWS + 1),
+        np.empty((MAX_WINDOWS + 1, 3), dtype=np.int64),
     )
-    window_start = np.empty(MAX_WINDOWS + 1, dtype=np.int64)
-    window_stop = np.empty(MAX_WINDOWS + 1, dtype=np.int64)
-    window_t = np.empty(MAX_WINDOWS + 1)
-    window_d = np.empty(MAX_WINDOWS + 1)
-    runs = np.empty((MAX_WINDOWS + 1, 3), dtype=np.int64)
-    windows = (window_start, window_stop, window_t, window_d, runs)
-    largest_spacing = largest(curve[6], count)  # not .max(): numpy's compiles three more functions
     count = points.shape[0]
     for block in range(first, (count + BLOCK - 1) // BLOCK, stride):
         nan = math.nan
@@ -369,8 +280,8 @@ def solve_points(points, settings, curve, geometry, out, iterations, status, res
         for m in range(block * BLOCK, min(count, (block + 1) * BLOCK)):
             x = points[m, 0]
             y = points[m, 1]
-            iterations[m], status[m], residual[m], phix, phiy = solve_point(
-                x, y, settings, curve, geometry, largest_spacing, out[m], scratch, windows, history
+            output.iterations[m], output.status[m], output.residual[m], phix, phiy = solve_point(
+                (x, y), settings, samples, geometry, output.values[m], scratch, windows, history
             )
             if not math.isnan(phix):
                 history = (x, y, phix, phiy, history[0], history[1], history[2], history[3])
