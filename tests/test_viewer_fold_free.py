@@ -168,3 +168,38 @@ def test_the_session_keeps_fold_free_as_warp_reads_it(starfish_basis):
     steps = session.extra["history"]["undo"]
     del steps[0]["fold_free"]
     assert history_of({"undo": steps}, ASSETS / "starfish.png")[0][0].fold_free is False
+
+
+def test_the_worker_process_answers_the_newest_request(starfish_basis):
+    import time
+
+    from app.viewer.fold_free import CheckWorker
+
+    older = make_check_request(STARFISH, STARFISH, False, starfish_basis)
+    newest = make_check_request(STARFISH, strong_target(), True, starfish_basis)
+    worker = CheckWorker()
+    try:
+        assert worker.poll() == []  # not started before the first request
+        worker.submit(older)
+        worker.submit(newest)
+        answers, deadline = [], time.monotonic() + 120
+        while newest.key not in [check.key for check in answers]:
+            assert time.monotonic() < deadline, "the worker did not answer within 120 s"
+            answers += worker.poll()
+            time.sleep(0.05)
+        assert {check.key for check in answers} <= {older.key, newest.key}
+        assert answers[-1].key == newest.key and answers[-1].injective
+        assert answers[-1].positions.shape == starfish_basis.mesh.vertices.shape
+    finally:
+        worker.close()
+
+
+def test_playing_keyframes_asks_for_no_check(starfish_basis):
+    state = opened(starfish_basis)
+    worker = StandInWorker()
+    state.playback.playing = True
+    CheckUpdates(worker, print).update(state)
+    assert worker.requests == []
+    state.playback.playing = False
+    CheckUpdates(worker, print).update(state)
+    assert len(worker.requests) == 1

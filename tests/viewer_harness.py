@@ -112,13 +112,13 @@ def screenshot(display: str) -> np.ndarray:
         content = image.contents
         if content.bits_per_pixel != 32:
             raise RuntimeError(f"expected 32 bits per pixel, got {content.bits_per_pixel}")
-        size = content.bytes_per_line * content.height
-        raw = np.ctypeslib.as_array(content.data, shape=(size,)).copy()
+        stride = content.bytes_per_line  # read before XFree: `content` is the freed struct after it
+        raw = np.ctypeslib.as_array(content.data, shape=(stride * content.height,)).copy()
         x11.XFree(ctypes.cast(content.data, ctypes.c_void_p))
         x11.XFree(ctypes.cast(image, ctypes.c_void_p))
     finally:
         x11.XCloseDisplay(handle)
-    pixels = raw.reshape(height, content.bytes_per_line // 4, 4)[:, :width]
+    pixels = raw.reshape(height, stride // 4, 4)[:, :width]
     return pixels[..., [2, 1, 0]].copy()  # BGRX (little endian) -> RGB
 
 

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import hashlib
 import multiprocessing
+import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -150,24 +151,61 @@ def status_text(check: WarpCheck, folded: int | None) -> str:
 
 
 class CheckWorker:
-    """The process that computes checks, newest request first, and the main thread's pipes."""
+    """The process that computes checks, newest request first, and the main thread's pipes.  It
+    starts with the first request (a viewer on another kernel never starts it), at lowered
+    priority (`nice`) so that the window's frames win the CPU.
+
+    A request holds the mesh (~200 kB at the default mesh), more than a pipe buffers: a thread
+    sends it, so that the window's frame never waits for the worker to finish the check it is on.
+    """
 
     def __init__(self, nice: int = 10):
+        self.nice = nice
+        self._process = self._requests = self._results = None
+        self._latest: CheckRequest | None = None  # the newest request not yet sent
+        self._wanted = threading.Condition()
+
+    def _start(self) -> None:
         context = multiprocessing.get_context("spawn")
         request_reader, self._requests = context.Pipe(duplex=False)
         self._results, result_writer = context.Pipe(duplex=False)
         self._process = context.Process(
-            target=_serve, args=(request_reader, result_writer, nice), name="transfinite-check", daemon=True
+            target=_serve,
+            args=(request_reader, result_writer, self.nice),
+            name="transfinite-check",
+            daemon=True,
         )
         self._process.start()
         request_reader.close()
         result_writer.close()
+        threading.Thread(target=self._send, name="check-sender", daemon=True).start()
+
+    def _send(self) -> None:
+        """The sender thread: the newest request to the worker, until `close` sends None."""
+        while True:
+            with self._wanted:
+                while self._latest is None:
+                    self._wanted.wait()
+                request, self._latest = self._latest, None
+            try:
+                self._requests.send(request)
+            except OSError:
+                return
+            if isinstance(request, _Stop):
+                return
 
     def submit(self, request: CheckRequest) -> None:
-        self._requests.send(request)
+        """Ask for `request`, superseding any request not sent yet; never waits for the worker."""
+        if self._process is None:
+            self._start()
+        with self._wanted:
+            self._latest = request
+            self._wanted.notify()
 
     def poll(self) -> list[WarpCheck]:
         """Checks that arrived, without waiting."""
+        if self._process is None:
+            return []
         checks = []
         try:
             while self._results.poll():
@@ -177,16 +215,21 @@ class CheckWorker:
         return checks
 
     def close(self) -> None:
-        try:
-            self._requests.send(None)
-        except OSError:
-            pass
+        if self._process is None:
+            return
+        with self._wanted:
+            self._latest = _Stop()
+            self._wanted.notify()
         self._process.join(timeout=2.0)
         if self._process.is_alive():
             self._process.terminate()
             self._process.join(timeout=2.0)
         self._requests.close()
         self._results.close()
+
+
+class _Stop:
+    """The last message to the worker: stop."""
 
 
 def _serve(requests, results, nice: int) -> None:
@@ -200,10 +243,10 @@ def _serve(requests, results, nice: int) -> None:
             pass
     try:
         request = requests.recv()
-        while request is not None:
+        while not isinstance(request, _Stop):
             while requests.poll():
                 request = requests.recv()
-            if request is None:
+            if isinstance(request, _Stop):
                 return
             check = compute_check(request)
             if requests.poll():
@@ -236,10 +279,12 @@ class CheckUpdates:
 
     def wanted(self, state: AppState) -> CheckRequest | None:
         """The check the live document needs now, None when there is none to ask for (another
-        kernel, no basis for this cage yet, a handle moving)."""
+        kernel, no basis for this cage yet, a handle moving, keyframes playing)."""
         live, basis = state.document.live, state.compute.basis
         if live.kernel != HARMONIC_KERNEL or live.n < 3 or state.selection.drawing is not None:
             return None
+        if state.playback.playing:
+            return None  # a new target every frame: checked once playback stops
         if basis is None or basis.kernel != HARMONIC_KERNEL or not np.array_equal(basis.cage, live.cage):
             return None
         if state.selection.drag is not None:
