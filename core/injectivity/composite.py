@@ -13,6 +13,7 @@ dilatation K = (1 + k) / (1 - k) at most the product of theirs.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -21,6 +22,7 @@ from core.basis import basis_functions
 from core.boundary_integrals.poisson import closest_point
 from core.curves.bspline import ClosedBSpline
 from core.injectivity.certificate import InjectivityCertificate, certify_injective
+from core.injectivity.mesh_unfolding import unfold_triangles
 from core.validation import as_points
 
 #: Steps at most (accepted ones), and the smallest step in s, before giving up.
@@ -55,9 +57,15 @@ def fold_free_deform(
         their images are set to the target curve at t exactly.  Other points on the curve go to
         the target curve at their closest parameter anyway.
     triangles : array_like of shape (T, 3), optional
-        Triangles over `points`, counter-clockwise (as in `core.Mesh`): a step is also halved while it
-        turns a triangle over (the continuous map is a bijection; its piecewise-linear interpolant on
-        coarse triangles may still fold where the map bends strongly), down to `SMALLEST_MESH_STEP`.
+        Triangles over `points`, counter-clockwise (as in `core.Mesh`).  The continuous map is proven
+        a bijection; its piecewise-linear interpolant on these triangles may still turn some over
+        where it compresses hard towards a curved part of the target (straight edges cut the curved
+        layer of images).  With triangles given, a step is halved while it turns a triangle over
+        (down to `SMALLEST_MESH_STEP`), and the triangles still turned over at the end are unfolded
+        by moving images of their interior vertices within their neighbours' (`core.injectivity.
+        mesh_unfolding`); boundary vertices never move.  Those images are then not the map's: how many
+        moved and the largest move (over the target's diameter) go in the certificate.  Check with
+        `core.folded_triangles`: a tangle the repair does not undo is left, not hidden.
     max_steps : int
         The most steps to take before giving up.
 
@@ -65,7 +73,8 @@ def fold_free_deform(
     -------
     images : ndarray of shape (M, 2)
     certificate : InjectivityCertificate
-        Of the composite: injective if every step is; σ₂ and k bounds composed from the steps'.
+        Of the composite map: injective if every step is; σ₂ and k bounds composed from the steps';
+        ``extra``: ``"steps"``, and with `triangles` ``"moved"`` and ``"largest_move"``.
 
     Raises
     ------
@@ -120,7 +129,18 @@ def fold_free_deform(
                 f"({len(steps)} steps taken): {certificate.reason}"
             )
     images[~on_curve] = _inside(final, images[~on_curve])
-    return images, composite_certificate(steps)
+    if triangles is None:
+        return images, composite_certificate(steps)
+    return _unfolded(as_points(points, "points"), images, triangles, ~on_curve, final, steps)
+
+
+def _unfolded(vertices, images, triangles, free, final, steps) -> tuple[np.ndarray, InjectivityCertificate]:
+    """The images (V, 2) with triangles (T, 3) that are still turned over unfolded by moving free
+    vertices (V,) (`unfold_triangles`), and the composite's certificate noting the moves."""
+    images, moves = unfold_triangles(vertices, images, triangles, free)
+    certificate = composite_certificate(steps)
+    moved = {"moved": int(np.count_nonzero(moves)), "largest_move": float(moves.max()) / final.diameter}
+    return images, dataclasses.replace(certificate, extra=certificate.extra | moved)
 
 
 def _turns_over(triangles: np.ndarray, before: np.ndarray, after: np.ndarray) -> bool:
