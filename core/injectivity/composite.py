@@ -28,6 +28,8 @@ from core.validation import as_points
 #: Steps at most (accepted ones), and the smallest step in s, before giving up.
 MAX_STEPS = 64
 SMALLEST_STEP = 1.0 / 1024
+#: Cages at s = 1/PATH_CHECKS, 2/PATH_CHECKS, ... are checked for crossings before any step.
+PATH_CHECKS = 16
 #: A step that turns a triangle over is halved down to this size, then taken anyway.
 SMALLEST_MESH_STEP = 1.0 / 64
 
@@ -94,12 +96,11 @@ def fold_free_deform(
     triangles = None if triangles is None else np.asarray(triangles, dtype=np.int64)
     on_curve = np.zeros(images.shape[0], dtype=bool)
     if boundary is not None:
-        indices, parameters = (
-            np.asarray(boundary[0], dtype=np.int64),
-            np.asarray(boundary[1], dtype=np.float64),
-        )
+        indices, parameters = np.asarray(boundary[0], dtype=np.int64), np.asarray(boundary[1], float)
         on_curve[indices] = True
     start = curve.control_points
+    for fraction in np.arange(1, PATH_CHECKS) / PATH_CHECKS:  # a crossing found early saves the proofs
+        _path_cage((1.0 - fraction) * start + fraction * goal, fraction)
     s, step, current, steps = 0.0, 1.0, curve, []
     while s < 1.0:
         following = min(1.0, s + step)
