@@ -7,6 +7,7 @@ import pytest
 
 import core
 from app.quality_suite import built_in_shapes, standard_suite
+from core.injectivity import composite
 
 #: A cage whose control point 1 pulled down to (80, 80) folds the plain harmonic map under it.
 CAGE = np.array([[30, 20], [80, 30], [130, 18], [140, 60], [128, 100], [80, 92], [28, 102], [20, 60]], float)
@@ -118,3 +119,15 @@ def test_the_quality_suites_hardest_drags_leave_no_triangle_turned_over(name, la
     final = core.ClosedBSpline(target)
     np.testing.assert_array_equal(images[mesh.boundary], final(mesh.boundary_parameters))
     assert final.contains(images[mesh.interior]).all()
+
+
+def test_a_step_that_no_size_proves_is_refused_as_a_limit_of_the_proof(monkeypatch):
+    """(The quality suite's starfish drag 3, whose spike gets thinner than the certificate resolves,
+    takes minutes to get there: a certificate that never proves stands in for it.)"""
+    unproven = core.InjectivityCertificate(False, 0.0, np.inf, np.array([[1.5, 2.5]]), "thin")
+    monkeypatch.setattr(composite, "certify_injective", lambda current, cage: unproven)
+    square = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
+    with pytest.raises(
+        ValueError, match=r"not even one of 0.000976562 .* near \(1.5, 2.5\) .* limit of the proof"
+    ):
+        core.fold_free_deform(core.ClosedBSpline(square), square * 1.1, [[0.5, 0.5]])

@@ -125,14 +125,28 @@ def fold_free_deform(
         else:
             step *= 0.5
         if step < SMALLEST_STEP or (len(steps) >= max_steps and s < 1.0):
-            raise ValueError(
-                f"no fold-free step is proven from s = {s:.4g} on the straight path to the target "
-                f"({len(steps)} steps taken): {certificate.reason}"
-            )
+            raise ValueError(_unproven(s, len(steps), certificate, step < SMALLEST_STEP))
     images[~on_curve] = _inside(final, images[~on_curve])
     if triangles is None:
         return images, composite_certificate(steps)
     return _unfolded(as_points(points, "points"), images, triangles, ~on_curve, final, steps)
+
+
+def _unproven(s: float, taken: int, certificate: InjectivityCertificate, smallest: bool) -> str:
+    """The sentence for a composite that stops at s: out of steps, or at a cage that the certificate
+    cannot resolve even for a step so small that the map is close to the identity."""
+    if not smallest:
+        return (
+            f"no fold-free step is proven from s = {s:.4g} on the straight path to the target "
+            f"({taken} steps taken, the most allowed): {certificate.reason}"
+        )
+    near = "" if len(certificate.where) == 0 else " near ({:.4g}, {:.4g})".format(*certificate.where[0])
+    return (
+        f"no step is proven from s = {s:.4g} on the straight path to the target, not even one of "
+        f"{SMALLEST_STEP:g} of the way (a map that close to the identity is not expected to fold): "
+        f"the certificate cannot resolve the cage there{near} (a part too thin for its samples), a "
+        f"limit of the proof ({certificate.reason})"
+    )
 
 
 def _unfolded(vertices, images, triangles, free, final, steps) -> tuple[np.ndarray, InjectivityCertificate]:
