@@ -8,7 +8,10 @@ each domain onto the next composes to a bijection of the source domain onto the 
 boundary point at parameter t goes to the target curve at t at every step.  The steps are adaptive:
 the first tries the whole way, a step whose certificate fails is halved, a step that succeeds lets
 the next one double.  σ₂ of the composite is at least the product of the steps' bounds, and its
-dilatation K = (1 + k) / (1 - k) at most the product of theirs.
+dilatation K = (1 + k) / (1 - k) at most the product of theirs.  Given a mesh, the triangles that
+its straight edges still turn over are unfolded at the end by moving a few interior vertices' images
+(`core.injectivity.mesh_unfolding`): the images change, by amounts the certificate reports, the
+certificate (of the continuous map) does not.
 """
 
 from __future__ import annotations
