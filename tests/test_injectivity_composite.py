@@ -116,6 +116,7 @@ def test_the_quality_suites_hardest_drags_leave_no_triangle_turned_over(name, la
     assert certificate.injective
     assert folds(mesh, images) == 0
     assert 0 < certificate.extra["moved"] <= 100 and certificate.extra["largest_move"] < 0.03
+    assert f"; {certificate.extra['moved']} mesh vertices moved, by at most " in str(certificate)
     final = core.ClosedBSpline(target)
     np.testing.assert_array_equal(images[mesh.boundary], final(mesh.boundary_parameters))
     assert final.contains(images[mesh.interior]).all()
