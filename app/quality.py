@@ -31,7 +31,10 @@ counted apart):
   the fold-free row, its composite maps).
 
 The fold-free row is ``poisson`` made fold-free by `core.fold_free_deform` (certified composite
-harmonic maps on the straight path of cages); where that path crosses itself it keeps the plain map.
+harmonic maps on the straight path of cages; the few triangles that the proven map's straight edges
+still turn over are unfolded by moving interior vertices, the moves reported by the certificate);
+where that path crosses itself, or no step near a very thin part can be proven, it keeps the plain
+map (not proven; its folds count).
 
 `weight_family` is the search over the weights of Eq. 19 (``--search``).
 """

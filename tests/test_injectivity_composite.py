@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 import core
-from app.quality_suite import built_in_shapes
+from app.quality_suite import built_in_shapes, standard_suite
+from core.injectivity import composite
 
 #: A cage whose control point 1 pulled down to (80, 80) folds the plain harmonic map under it.
 CAGE = np.array([[30, 20], [80, 30], [130, 18], [140, 60], [128, 100], [80, 92], [28, 102], [20, 60]], float)
@@ -93,3 +94,41 @@ def test_bad_input_raises_one_clear_error():
         core.fold_free_deform(curve, CAGE[:-1], [[80.0, 60.0]])
     with pytest.raises(ValueError, match="points must have shape"):
         core.fold_free_deform(curve, CAGE, [1.0, 2.0, 3.0])
+
+
+@pytest.mark.parametrize(("name", "label"), [("C-shape", "drag 12"), ("character", "drag 5")])
+def test_the_quality_suites_hardest_drags_leave_no_triangle_turned_over(name, label):
+    """Two of the quality suite's drags (app.quality_suite) where the composite's straight edges turn
+    triangles over: boundary triangles whose chord cuts off the third vertex (C-shape), and rows of
+    triangles squeezed against a bulge of the target (character).  The map is proven; the repair
+    moves a few interior vertices, by little; nothing turns over, nothing leaves the target."""
+    domain = next(domain for domain in standard_suite() if domain.name == name)
+    target = next(deformation.target for deformation in domain.deformations if deformation.label == label)
+    curve = core.ClosedBSpline(domain.control_points)
+    mesh = core.triangulate(curve)
+    images, certificate = core.fold_free_deform(
+        curve,
+        target,
+        mesh.vertices,
+        boundary=(mesh.boundary, mesh.boundary_parameters),
+        triangles=mesh.triangles,
+    )
+    assert certificate.injective
+    assert folds(mesh, images) == 0
+    assert 0 < certificate.extra["moved"] <= 100 and certificate.extra["largest_move"] < 0.03
+    assert f"; {certificate.extra['moved']} mesh vertices moved, by at most " in str(certificate)
+    final = core.ClosedBSpline(target)
+    np.testing.assert_array_equal(images[mesh.boundary], final(mesh.boundary_parameters))
+    assert final.contains(images[mesh.interior]).all()
+
+
+def test_a_step_that_no_size_proves_is_refused_as_a_limit_of_the_proof(monkeypatch):
+    """(The quality suite's starfish drag 3, whose spike gets thinner than the certificate resolves,
+    takes minutes to get there: a certificate that never proves stands in for it.)"""
+    unproven = core.InjectivityCertificate(False, 0.0, np.inf, np.array([[1.5, 2.5]]), "thin")
+    monkeypatch.setattr(composite, "certify_injective", lambda current, cage: unproven)
+    square = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
+    with pytest.raises(
+        ValueError, match=r"not even one of 0.000976562 .* near \(1.5, 2.5\) .* limit of the proof"
+    ):
+        core.fold_free_deform(core.ClosedBSpline(square), square * 1.1, [[0.5, 0.5]])

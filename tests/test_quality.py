@@ -200,9 +200,9 @@ def test_the_fold_free_row_unfolds_the_drag_and_says_what_is_proven():
     _, plain, fold_free = study.kernels
     assert plain.proven == [True, True, False] and plain.folded[2] > 0
     assert fold_free.proven == [True, True, True]
-    # The composite is proven a bijection; on this coarse mesh (1.5k vertices) a few triangles where it
-    # compresses hardest still turn over: far fewer than the plain map's.
-    assert fold_free.folded[:2] == [0.0, 0.0] and fold_free.folded[2] < 0.2 * plain.folded[2]
+    # The composite is proven a bijection, and the few triangles of this coarse mesh (1.5k vertices)
+    # that its straight edges turn over where it compresses hardest are unfolded.
+    assert fold_free.folded == [0.0, 0.0, 0.0]
     assert fold_free.outside == [0.0, 0.0, 0.0]
     assert max(fold_free.boundary_gap) < 1e-3
     assert fold_free.summary()["proven"] == 3

@@ -6,5 +6,7 @@
 - `inner_curve`, `boundary_samples`, `harmonic_parts`: the curve Γ, the samples and bounds on it,
   and the complex derivatives f_z, f_z̄ of the harmonic map;
 - `composite`: `fold_free_deform`, composite harmonic maps along a path of cages (Schneider,
-  Hormann & Floater 2013), each step certified.
+  Hormann & Floater 2013), each step certified;
+- `mesh_unfolding`: `unfold_triangles`, the repair of the few mesh triangles that a proven
+  bijection's straight-edged interpolant still turns over.
 """

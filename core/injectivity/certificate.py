@@ -112,13 +112,21 @@ class InjectivityCertificate:
     extra: dict = field(default_factory=dict, compare=False, repr=False)
 
     def __str__(self) -> str:
+        # `core.fold_free_deform` notes the mesh vertices it moved to unfold straight edges.
+        moved = self.extra.get("moved", 0)
+        repair = (
+            f"; {moved} mesh vertices moved, by at most {self.extra['largest_move']:.2g} of the "
+            "diameter, to unfold straight edges"
+            if moved
+            else ""
+        )
         if self.injective:
             bounds = f"σ₂ ≥ {self.sigma2_min:.3g}, k ≤ {self.k_max:.3g}"
-            return f"fold-free, proven ({bounds}; {self.samples} samples)"
+            return f"fold-free, proven ({bounds}; {self.samples} samples){repair}"
         if self.away_from_corners:
             return (
                 f"fold-free away from {len(self.where)} reflex corner(s), proven outside a radius of "
-                f"{self.corner_radius:.3g} (σ₂ ≥ {self.sigma2_min:.3g}; {self.samples} samples)"
+                f"{self.corner_radius:.3g} (σ₂ ≥ {self.sigma2_min:.3g}; {self.samples} samples){repair}"
             )
         return f"not proven fold-free: {self.reason}"
 

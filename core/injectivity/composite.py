@@ -8,11 +8,15 @@ each domain onto the next composes to a bijection of the source domain onto the 
 boundary point at parameter t goes to the target curve at t at every step.  The steps are adaptive:
 the first tries the whole way, a step whose certificate fails is halved, a step that succeeds lets
 the next one double.  σ₂ of the composite is at least the product of the steps' bounds, and its
-dilatation K = (1 + k) / (1 - k) at most the product of theirs.
+dilatation K = (1 + k) / (1 - k) at most the product of theirs.  Given a mesh, the triangles that
+its straight edges still turn over are unfolded at the end by moving a few interior vertices' images
+(`core.injectivity.mesh_unfolding`): the images change, by amounts the certificate reports, the
+certificate (of the continuous map) does not.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -21,11 +25,14 @@ from core.basis import basis_functions
 from core.boundary_integrals.poisson import closest_point
 from core.curves.bspline import ClosedBSpline
 from core.injectivity.certificate import InjectivityCertificate, certify_injective
+from core.injectivity.mesh_unfolding import unfold_triangles
 from core.validation import as_points
 
 #: Steps at most (accepted ones), and the smallest step in s, before giving up.
 MAX_STEPS = 64
 SMALLEST_STEP = 1.0 / 1024
+#: Cages at s = 1/PATH_CHECKS, 2/PATH_CHECKS, ... are checked for crossings before any step.
+PATH_CHECKS = 16
 #: A step that turns a triangle over is halved down to this size, then taken anyway.
 SMALLEST_MESH_STEP = 1.0 / 64
 
@@ -55,9 +62,15 @@ def fold_free_deform(
         their images are set to the target curve at t exactly.  Other points on the curve go to
         the target curve at their closest parameter anyway.
     triangles : array_like of shape (T, 3), optional
-        Triangles over `points`, counter-clockwise (as in `core.Mesh`): a step is also halved while it
-        turns a triangle over (the continuous map is a bijection; its piecewise-linear interpolant on
-        coarse triangles may still fold where the map bends strongly), down to `SMALLEST_MESH_STEP`.
+        Triangles over `points`, counter-clockwise (as in `core.Mesh`).  The continuous map is proven
+        a bijection; its piecewise-linear interpolant on these triangles may still turn some over
+        where it compresses hard towards a curved part of the target (straight edges cut the curved
+        layer of images).  With triangles given, a step is halved while it turns a triangle over
+        (down to `SMALLEST_MESH_STEP`), and the triangles still turned over at the end are unfolded
+        by moving images of their interior vertices within their neighbours' (`core.injectivity.
+        mesh_unfolding`); boundary vertices never move.  Those images are then not the map's: how many
+        moved and the largest move (over the target's diameter) go in the certificate.  Check with
+        `core.folded_triangles`: a tangle the repair does not undo is left, not hidden.
     max_steps : int
         The most steps to take before giving up.
 
@@ -65,7 +78,8 @@ def fold_free_deform(
     -------
     images : ndarray of shape (M, 2)
     certificate : InjectivityCertificate
-        Of the composite: injective if every step is; σ₂ and k bounds composed from the steps'.
+        Of the composite map: injective if every step is; σ₂ and k bounds composed from the steps';
+        ``extra``: ``"steps"``, and with `triangles` ``"moved"`` and ``"largest_move"``.
 
     Raises
     ------
@@ -85,12 +99,11 @@ def fold_free_deform(
     triangles = None if triangles is None else np.asarray(triangles, dtype=np.int64)
     on_curve = np.zeros(images.shape[0], dtype=bool)
     if boundary is not None:
-        indices, parameters = (
-            np.asarray(boundary[0], dtype=np.int64),
-            np.asarray(boundary[1], dtype=np.float64),
-        )
+        indices, parameters = np.asarray(boundary[0], dtype=np.int64), np.asarray(boundary[1], float)
         on_curve[indices] = True
     start = curve.control_points
+    for fraction in np.arange(1, PATH_CHECKS) / PATH_CHECKS:  # a crossing found early saves the proofs
+        _path_cage((1.0 - fraction) * start + fraction * goal, fraction)
     s, step, current, steps = 0.0, 1.0, curve, []
     while s < 1.0:
         following = min(1.0, s + step)
@@ -115,12 +128,37 @@ def fold_free_deform(
         else:
             step *= 0.5
         if step < SMALLEST_STEP or (len(steps) >= max_steps and s < 1.0):
-            raise ValueError(
-                f"no fold-free step is proven from s = {s:.4g} on the straight path to the target "
-                f"({len(steps)} steps taken): {certificate.reason}"
-            )
+            raise ValueError(_unproven(s, len(steps), certificate, step < SMALLEST_STEP))
     images[~on_curve] = _inside(final, images[~on_curve])
-    return images, composite_certificate(steps)
+    if triangles is None:
+        return images, composite_certificate(steps)
+    return _unfolded(as_points(points, "points"), images, triangles, ~on_curve, final, steps)
+
+
+def _unproven(s: float, taken: int, certificate: InjectivityCertificate, smallest: bool) -> str:
+    """The sentence for a composite that stops at s: out of steps, or at a cage that the certificate
+    cannot resolve even for a step so small that the map is close to the identity."""
+    if not smallest:
+        return (
+            f"no fold-free step is proven from s = {s:.4g} on the straight path to the target "
+            f"({taken} steps taken, the most allowed): {certificate.reason}"
+        )
+    near = "" if len(certificate.where) == 0 else " near ({:.4g}, {:.4g})".format(*certificate.where[0])
+    return (
+        f"no step is proven from s = {s:.4g} on the straight path to the target, not even one of "
+        f"{SMALLEST_STEP:g} of the way (a map that close to the identity is not expected to fold): "
+        f"the certificate cannot resolve the cage there{near} (a part too thin for its samples), a "
+        f"limit of the proof ({certificate.reason})"
+    )
+
+
+def _unfolded(vertices, images, triangles, free, final, steps) -> tuple[np.ndarray, InjectivityCertificate]:
+    """The images (V, 2) with triangles (T, 3) that are still turned over unfolded by moving free
+    vertices (V,) (`unfold_triangles`), and the composite's certificate noting the moves."""
+    images, moves = unfold_triangles(vertices, images, triangles, free)
+    certificate = composite_certificate(steps)
+    moved = {"moved": int(np.count_nonzero(moves)), "largest_move": float(moves.max()) / final.diameter}
+    return images, dataclasses.replace(certificate, extra=certificate.extra | moved)
 
 
 def _turns_over(triangles: np.ndarray, before: np.ndarray, after: np.ndarray) -> bool:
