@@ -360,6 +360,11 @@ def _bench_command(commands, run) -> None:
         "--skip-drag", action="store_true", help="no viewer drag frame at 6k and 400k vertices (Xvfb)"
     )
     bench.add_argument(
+        "--skip-export",
+        action="store_true",
+        help="no viewer GIF export of the starfish animation against animate (Xvfb, xdotool)",
+    )
+    bench.add_argument(
         "--skip-fold-free",
         action="store_true",
         help="no fold-free warp against libigl at 10k and 50k vertices",
@@ -535,9 +540,10 @@ def _add_viewer_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--export",
         type=Path,
-        metavar="PNG",
-        help="where Ctrl+E writes (default: asks, proposing STEM-warped.png beside the image, or in "
-        "the current folder for a bundled demo or a read-only folder)",
+        metavar="OUT",
+        help="where Ctrl+E writes: OUT.png, or OUT.gif or OUT.mp4 for the keyframed animation (default: "
+        "asks, proposing STEM-warped.png beside the image, or in the current folder for a bundled demo "
+        "or a read-only folder)",
     )
     parser.add_argument(
         "--window-size",

@@ -9,7 +9,9 @@ to measure their own peak memory and their whole time from process start.  The
 drag frame is measured in the real viewer: a child ``python -m app demo starfish``
 in a window on a private Xvfb server, replaying a scripted drag of one control
 point through the mouse's input path, and its ``--stats`` line
-(``median_drag_frame_ms``) read on exit.
+(``median_drag_frame_ms``) read on exit.  The GIF export row times the same demo's
+Ctrl+E to a .gif (sent with xdotool; its ``exported`` milestone) against ``animate``
+of the session the viewer saved, in turn.
 """
 
 from __future__ import annotations
@@ -18,6 +20,7 @@ import argparse
 import json
 import math
 import os
+import queue
 import re
 import shutil
 import signal
@@ -58,6 +61,10 @@ ROW_SECONDS = 1.5
 MAX_REPEATS = 15
 #: Seconds a viewer child may take, its precompute included (400k vertices: minutes).
 DRAG_TIMEOUT = 900
+#: Turns of the GIF export row: the viewer's export and ``animate``'s, in turn (`_export_gif`).
+EXPORT_REPEATS = 3
+#: Seconds the export row waits for one line of the viewer (its start and precompute included).
+EXPORT_TIMEOUT = 300
 
 
 def run_bench(args: argparse.Namespace) -> int:
@@ -96,6 +103,8 @@ def run_bench(args: argparse.Namespace) -> int:
         children.append(
             lambda: _drag_frames(DRAG_VERTICES[:1], 1.0) if args.quick else _drag_frames(DRAG_VERTICES)
         )
+    if not args.skip_export:
+        children.append(lambda: _export_gif(1 if args.quick else EXPORT_REPEATS))
     code = EXIT_OK
     for child in children:
         try:
@@ -505,3 +514,105 @@ def _drag_child(
         details = "\n".join(f"    {line}" for line in [*lines[-3:], *errors])
         raise StepFailed(f"{what} failed with exit code {child.returncode}:\n{details}")
     return vertices, preview, float(stats[-1].group(1))
+
+
+def _export_gif(repeats: int) -> None:
+    """The viewer's GIF export of the starfish demo's animation (Ctrl+E with ``--export``, under
+    Xvfb: key press to the ``exported`` milestone) against ``animate`` of the session it saved
+    (process start to exit, the basis read from the cache the viewer wrote), `repeats` turns each,
+    in turn; prints both medians, their ratio, and whether the two GIFs are the same bytes."""
+    if shutil.which("Xvfb") is None or shutil.which("xdotool") is None:
+        print("viewer GIF export: skipped: needs Xvfb and xdotool (apt-get install xvfb xdotool)")
+        return
+    with tempfile.TemporaryDirectory() as folder:
+        folder = Path(folder)
+        session, movie, animated = folder / "session.json", folder / "viewer.gif", folder / "animate.gif"
+        server, display = _start_xvfb(folder)
+        environment = dict(
+            os.environ,
+            DISPLAY=display,
+            TRANSFINITE_VIEWER_TEST="1",
+            TRANSFINITE_STATE_DIR=str(folder / "state"),
+            TRANSFINITE_CACHE_DIR=str(folder / "cache"),
+        )
+        # --play: the demo's keyframes (playing them until the export stops them).
+        command = [sys.executable, "-m", "app", "demo", "starfish", "--play", "--session", str(session)]
+        viewer = ViewerChild([*command, "--export", str(movie)], environment)
+        try:
+            window = viewer.wait_for("ready window=").split("=")[1]
+            viewer.wait_for("basis ")
+            key = ["xdotool", "mousemove", "--window", window, "20", "20", "key", "ctrl+e"]
+            animate = [sys.executable, "-m", "app", "animate", str(session), "--output", str(animated)]
+            viewer_times, animate_times = [], []
+            for _ in range(repeats):
+                movie.unlink(missing_ok=True)
+                start = time.perf_counter()
+                run_child(key, "xdotool", env=environment)
+                viewer.wait_for(f"exported {movie}")
+                viewer_times.append(time.perf_counter() - start)
+                animated.unlink(missing_ok=True)
+                start = time.perf_counter()
+                run_child(animate, "animate of the starfish session", env=environment)
+                animate_times.append(time.perf_counter() - start)
+            same = movie.read_bytes() == animated.read_bytes()
+        finally:
+            viewer.stop()
+            server.terminate()
+            server.wait(timeout=10)
+    ours, theirs = statistics.median(viewer_times), statistics.median(animate_times)
+    print(f"viewer GIF export of the starfish animation (Xvfb, median of {repeats}, in turn with animate)")
+    turns = [", ".join(f"{t:.2f}" for t in times) for times in (viewer_times, animate_times)]
+    print(f"  viewer Ctrl+E to 'exported':    {ours:6.2f} s (turns {turns[0]})")
+    print(f"  animate, process start to exit: {theirs:6.2f} s (turns {turns[1]})")
+    print(f"  ratio {ours / theirs:.2f}x; the two GIFs are {'the same bytes' if same else 'DIFFERENT'}\n")
+
+
+class ViewerChild:
+    """A viewer child process in test mode whose milestone lines are read on a thread.
+
+    Parameters
+    ----------
+    command : list of str
+    environment : dict
+    """
+
+    def __init__(self, command: list[str], environment: dict):
+        self.process = subprocess.Popen(
+            command, env=environment, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+        )
+        self.lines: queue.Queue = queue.Queue()
+        self.seen: list[str] = []
+        threading.Thread(target=self._read, daemon=True).start()
+
+    def _read(self) -> None:
+        for line in self.process.stdout:
+            self.lines.put(line.strip())
+        self.lines.put(None)  # the viewer closed its output: it ended
+
+    def wait_for(self, prefix: str, timeout: float = EXPORT_TIMEOUT) -> str:
+        """The next milestone line that starts with `prefix`; `StepFailed` if the viewer ends or
+        `timeout` seconds pass first."""
+        deadline = time.monotonic() + timeout
+        while True:
+            try:
+                line = self.lines.get(timeout=max(0.0, deadline - time.monotonic()))
+            except queue.Empty:
+                line = None
+            if line is None:
+                self.stop()
+                errors = self.process.stderr.read().strip().splitlines()[-CHILD_ERROR_LINES:]
+                details = "\n".join(f"    {line}" for line in [*self.seen[-3:], *errors])
+                raise StepFailed(f"the viewer GIF export: no '{prefix}' from the viewer:\n{details}")
+            self.seen.append(line)
+            if line.startswith(prefix):
+                return line
+
+    def stop(self) -> None:
+        """End the viewer (SIGTERM: it saves and quits), killing it if it does not within 30 s."""
+        if self.process.poll() is None:
+            self.process.send_signal(signal.SIGTERM)
+            try:
+                self.process.wait(timeout=30)
+            except subprocess.TimeoutExpired:
+                self.process.kill()
+                self.process.wait()

@@ -346,7 +346,7 @@ def _check_viewer_outputs(args: argparse.Namespace) -> None:
         check_writable(args.session, suffix=".json")
         refuse_overwriting_inputs(args.session, inputs)
     if args.export is not None:
-        check_writable(args.export, suffix=".png")
+        check_writable(args.export, suffix=(".png", ".gif", ".mp4"))  # a still, or the keyframed animation
         refuse_overwriting_inputs(args.export, {**inputs, "session file": args.session})
 
 

@@ -41,6 +41,7 @@ def test_a_failed_row_is_reported_and_the_others_still_run(monkeypatch, capsys):
         skip_warp=False,
         skip_photos=True,
         skip_drag=True,
+        skip_export=True,
         skip_fold_free=True,
     )
     assert bench.run_bench(args) == 1
@@ -55,6 +56,14 @@ def test_the_drag_frame_says_it_is_skipped_without_xvfb(monkeypatch, capsys):
     monkeypatch.setattr(bench.shutil, "which", lambda name: None)
     bench._drag_frames((6_000,))
     assert capsys.readouterr().out == "viewer drag frame: skipped: no Xvfb (apt-get install xvfb)\n"
+
+
+def test_the_gif_export_row_says_it_is_skipped_without_xdotool(monkeypatch, capsys):
+    monkeypatch.setattr(bench.shutil, "which", lambda name: None if name == "xdotool" else "/usr/bin/" + name)
+    bench._export_gif(1)
+    assert capsys.readouterr().out == (
+        "viewer GIF export: skipped: needs Xvfb and xdotool (apt-get install xvfb xdotool)\n"
+    )
 
 
 def test_the_fem_comparison_alternates_its_runs_after_a_pause(monkeypatch):
@@ -101,6 +110,7 @@ def test_quick_runs_every_row_once_at_tiny_sizes(monkeypatch):
     monkeypatch.setattr(bench, "_memory", lambda curve, count: calls.update(memory=count))
     monkeypatch.setattr(bench, "_warp_4k", lambda size: calls.update(warp=size))
     monkeypatch.setattr(bench, "_drag_frames", lambda *rest: calls.update(drag=rest))
+    monkeypatch.setattr(bench, "_export_gif", lambda repeats: calls.update(export=repeats))
     monkeypatch.setattr(bench, "photo_rows", lambda sizes, run: calls.update(photos=sizes))
     monkeypatch.setattr(
         bench_fold_free,
@@ -116,6 +126,7 @@ def test_quick_runs_every_row_once_at_tiny_sizes(monkeypatch):
         skip_warp=False,
         skip_photos=False,
         skip_drag=False,
+        skip_export=False,
         skip_fold_free=False,
     )
     assert bench.run_bench(args) == 0
@@ -126,6 +137,7 @@ def test_quick_runs_every_row_once_at_tiny_sizes(monkeypatch):
         "warp": (640, 360),
         "photos": ((1200, 800),),
         "drag": ((6_000,), 1.0),
+        "export": 1,
         "fold_free": (2_000,),
     }
 

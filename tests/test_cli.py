@@ -904,3 +904,9 @@ def test_a_broken_pipe_that_is_not_standard_output_is_not_silenced(monkeypatch, 
     monkeypatch.setattr(app.cli, "_list_demos", broken)
     with pytest.raises(BrokenPipeError):
         app.cli.main(["demo", "--list"])
+
+
+def test_the_viewer_exports_to_a_still_or_an_animation_only(files, capfd):
+    """``--export`` (where Ctrl+E writes) takes a PNG, or a GIF or MP4 of the keyframed animation."""
+    code, _, err = run_main(["demo", "starfish", "--export", str(files / "out.bmp")], capfd)
+    assert_one_line_error(code, err, r"out.bmp: the output file name must end in .png, .gif, .mp4")

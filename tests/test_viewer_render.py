@@ -14,7 +14,7 @@ import pytest
 import core
 from app.render_passes.fields import HEAT_NEGATIVE, HEAT_STOPS
 from app.render_passes.image import HIGHLIGHT_COLOUR
-from app.viewer.scene import Scene
+from app.viewer.scene import BACKGROUND, Scene
 from app.viewer.state import AppState, BasisResult, Compute, Document, Drag, History, Snapshot
 from app.viewport import View
 
@@ -504,3 +504,54 @@ def test_may_fold_keeps_the_pass_for_a_triangle_within_the_margin(renderer):
         squeezed[below, 1] = 25 * fraction  # every cell of the top row of cells becomes a sliver
         results.append(renderer.may_fold(squeezed.astype(np.float32)))
     assert results == [True, False]
+
+
+def test_frames_before_the_first_basis_show_what_the_settled_view_shows_outside_the_warp(renderer):
+    """A cold start computes the basis for seconds: until it arrives the deform view draws the
+    backdrop it will show (faded, or the original outside), not the whole source image that would
+    vanish around the warp once the basis came.  Pixels farther than a mesh edge from the warped
+    mesh are the same before and after; a basis that cannot come leaves the whole image."""
+    from scipy.spatial import cKDTree
+
+    from core.curves import examples
+
+    cage = examples.blob() * (240.0, 200.0) + (40.0, 15.0)
+    curve = core.ClosedBSpline(cage)
+    mesh = core.triangulate(curve, max_edge=8.0)
+    basis = core.harmonic_basis(curve, mesh)
+    result = BasisResult("k", cage, mesh, basis, np.asfortranarray(basis, np.float32), "harmonic", 1.0)
+    target = cage * 0.8 + (40.0, 20.0)  # a demo's session: the target is not the cage
+    y, x = np.mgrid[0:240, 0:320]
+    image = np.zeros((240, 320, 4), np.uint8)
+    image[..., 0], image[..., 1], image[..., 3] = 127 + 120 * np.sin(x / 9.0), 200, 255
+    snapshot = Snapshot(Path("x.png"), cage, target)
+    distance, _ = cKDTree(basis @ target).query(np.stack([x.ravel() + 0.5, y.ravel() + 0.5], axis=1))
+    outside = (distance > 10.0).reshape(240, 320)
+    screen = renderer.ctx.simple_framebuffer((320, 240))
+
+    def frame(state: AppState, scene: Scene) -> np.ndarray:
+        screen.use()
+        scene.sync(state)
+        scene.draw(state, (320, 240))
+        return np.frombuffer(screen.read(components=4), np.uint8).reshape(240, 320, 4)[::-1]
+
+    for outside_mode, opacity in (("transparent", 0.0), ("transparent", 0.4), ("original", 0.0)):
+        state = AppState(Document(History(snapshot), snapshot, image, Path("s.json")), compute=Compute())
+        state.selection.edit_mode, state.display.viewport = "deform", View(1.0, (0.0, 0.0))
+        state.document.outside, state.display.backdrop_opacity = outside_mode, opacity
+        state.display.show_overlay = False
+        scene = Scene(renderer)
+        cold = frame(state, scene)
+        state.compute.basis = result
+        settled = frame(state, scene)
+        assert outside.sum() > 20000 and (settled[outside] != cold[outside]).any(axis=1).sum() == 0
+        assert (settled[~outside] != cold[~outside]).any()  # the warp itself came with the basis
+        if outside_mode == "transparent" and opacity == 0.0:
+            assert (cold[..., :3] == np.round(255 * np.array(BACKGROUND))).all()  # no image at all
+        scene.release()
+    state.document.outside = "transparent"
+    state.compute.basis, state.compute.basis_error = None, "the cage crosses itself"
+    scene = Scene(renderer)
+    np.testing.assert_array_equal(frame(state, scene)[..., :3], image[..., :3])  # nothing to wait for
+    scene.release()
+    screen.release()

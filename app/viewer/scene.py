@@ -232,6 +232,14 @@ def fold_marks(state: AppState) -> np.ndarray:
     return marks
 
 
+def _mesh_pending(state: AppState, meshed: bool, warps: bool) -> bool:
+    """Whether the view will show a warp once the basis being computed arrives (a cold start takes
+    seconds): until then its frames draw the backdrop that view will show, at the same opacity, and
+    no mesh, so that nothing drawn meanwhile vanishes when the warp comes.  Not when the basis
+    cannot come (`Compute.basis_error`): then the whole image, as outside a warp."""
+    return warps and not meshed and not state.compute.basis_error
+
+
 class Scene:
     """The renderer's side of the state, updated once per frame by `sync`.
 
@@ -446,6 +454,8 @@ class Scene:
     def draw(self, state: AppState, framebuffer_size: tuple[int, int], pixel_ratio: float = 1.0) -> None:
         """Draw the canvas into the bound framebuffer: backdrop, mesh, overlays.
 
+        Before the basis of a warped view arrives, its backdrop alone (`_mesh_pending`).
+
         A frame that shows what the frame before showed (the same `WarpRenderer.revision`,
         view and settings: the pointer moved, a widget changed) draws the backdrop and
         the mesh into a layer of their own, and the frames after it copy that layer and
@@ -462,11 +472,12 @@ class Scene:
         )
         meshed = self.mesh_matches(state)
         content = VIEW_MODES[state.display.view_mode].drawn
-        warped = meshed and (state.selection.edit_mode == "deform" or content != "image")
+        warps = state.selection.edit_mode == "deform" or content != "image"
+        warped = meshed and warps
         # The faded source image costs a full textured pass of a software rasteriser: only on request.
         opacity = (
             (1.0 if state.document.outside == "original" else state.display.backdrop_opacity)
-            if warped
+            if warped or _mesh_pending(state, meshed, warps)
             else 1.0
         )
         wireframe = state.display.show_wireframe
