@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import os
 import queue
 import re
@@ -37,6 +36,7 @@ import numpy as np
 
 import core
 from app.bench_photos import PHOTO_SIZES, QUICK_SIZE, photo_rows
+from app.bench_timing import edge_for_vertices, median_time
 from app.console import EXIT_ENVIRONMENT, EXIT_OK, ProgressBar
 from core.boundary_integrals.poisson import load_compiled
 from core.curves import examples
@@ -174,15 +174,6 @@ def _points(curve: core.ClosedBSpline, count: int, seed: int) -> np.ndarray:
     return found[:count]
 
 
-def _median_time(function, repeats: int) -> tuple[float, object]:
-    times, result = [], None
-    for _ in range(repeats):
-        start = time.perf_counter()
-        result = function()
-        times.append(time.perf_counter() - start)
-    return statistics.median(times), result
-
-
 def _alternating_medians(functions, repeats: int, least_seconds: float = 0.0) -> list[float]:
     """The median seconds of each of `functions`, run in turn at least `repeats` times.
 
@@ -231,7 +222,7 @@ def _point_kernels(curve, sizes, repeats, quick) -> None:
 
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            seconds, (_, report) = _median_time(run, repeats)
+            seconds, (_, report) = median_time(run, repeats)
         iterations = report.iterations
         newton = f"{int(np.median(iterations))} / {iterations.max()}" if iterations.max() else "-"
         _row(name, count, samples, seconds, newton)
@@ -239,7 +230,7 @@ def _point_kernels(curve, sizes, repeats, quick) -> None:
             default_rate = seconds / count
     count = min(sizes[0], 2_000)
     x = _points(curve, count, seed=1)
-    seconds, _ = _median_time(lambda: core.pgw_basis(curve, x), repeats)
+    seconds, _ = median_time(lambda: core.pgw_basis(curve, x), repeats)
     _row("pgw (comparison, lines)", count, samples // 2, seconds, "-")
     pgw_rate = seconds / count
     count = min(sizes[0], 200 if quick else 1_000)
@@ -250,7 +241,7 @@ def _point_kernels(curve, sizes, repeats, quick) -> None:
 
     x = x[distance_to_curve(curve.piecewise_polynomial(), x) > 0.02 * curve.diameter]
     boundary = curve.sample(SAMPLES_PER_SEGMENT)
-    seconds, _ = _median_time(lambda: reference_kernel(boundary, x), repeats)
+    seconds, _ = median_time(lambda: reference_kernel(boundary, x), repeats)
     reference_rate = seconds / x.shape[0]
     _row("numpy reference (baseline)", x.shape[0], samples, seconds, "-")
     gradient_ratio = _gradients(curve, sizes[0], samples, repeats)
@@ -292,7 +283,7 @@ def _fem_comparison(curve, vertices, repeats: int, least_seconds: float = ROW_SE
     print(header)
     print("-" * len(header))
     for count in vertices:
-        max_edge = math.sqrt(2.0 * abs(curve.area) / (math.sqrt(3.0) * count))
+        max_edge = edge_for_vertices(curve.area, count)
         start = time.perf_counter()
         mesh = core.triangulate(curve, max_edge=max_edge)
         meshing = time.perf_counter() - start

@@ -11,13 +11,12 @@ libigl is imported here only (the ``bench`` extra); without it the rows say so a
 from __future__ import annotations
 
 import math
-import statistics
-import time
 from collections.abc import Callable
 
 import numpy as np
 
 import core
+from app.bench_timing import edge_for_vertices, median_time
 
 #: Vertices of the fold-free rows: the default mesh's size, and a large one.
 VERTICES = (10_000, 50_000)
@@ -57,7 +56,7 @@ def fold_free_rows(
     print(header)
     print("-" * len(header))
     for count in vertices:
-        max_edge = math.sqrt(2.0 * abs(curve.area) / (math.sqrt(3.0) * count))
+        max_edge = edge_for_vertices(curve.area, count)
         mesh = core.triangulate(curve, max_edge=max_edge)
         boundary = (mesh.boundary, mesh.boundary_parameters)
 
@@ -67,7 +66,7 @@ def fold_free_rows(
                 curve, target, mesh.vertices, boundary=boundary, triangles=mesh.triangles
             )
 
-        seconds, (images, certificate) = _median(ours, repeats)
+        seconds, (images, certificate) = median_time(ours, repeats)
         plain = core.deform(core.mesh_basis_functions(curve, mesh, "poisson", cache=False), target)
         row = f"{len(mesh.vertices):>11,} {seconds:>8.3f} {certificate.extra['steps']:>6} "
         proven = "yes" if certificate.injective else "no"
@@ -80,7 +79,7 @@ def fold_free_rows(
                     mesh.vertices, mesh.triangles, mesh.boundary, values
                 )
 
-            igl_seconds, mapped = _median(theirs, repeats)
+            igl_seconds, mapped = median_time(theirs, repeats)
             row += f" {igl_seconds:>9.3f} {_flips(mesh, mapped):>6} {seconds / igl_seconds:>14.2f}"
         print(row)
     print()
@@ -93,12 +92,3 @@ def target_curve_values(target: np.ndarray, mesh: core.Mesh) -> np.ndarray:
 
 def _flips(mesh: core.Mesh, images: np.ndarray) -> int:
     return int(np.count_nonzero(core.folded_triangles(mesh, images)))
-
-
-def _median(function, repeats: int):
-    times, result = [], None
-    for _ in range(repeats):
-        start = time.perf_counter()
-        result = function()
-        times.append(time.perf_counter() - start)
-    return statistics.median(times), result
