@@ -71,3 +71,11 @@ def test_a_message_belongs_to_the_document_it_was_said_about():
     assert state.status_message() == "nothing to undo"  # said about the document shown
     commands.command(state, "redo")
     assert state.status_message() == ""
+
+
+def test_the_status_line_spells_what_the_font_cannot_draw():
+    from app.viewer.gui import in_the_font
+
+    assert in_the_font("fold-free, proven (σ₂ ≥ 0.21)") == "fold-free, proven (sigma2 >= 0.21)"
+    assert in_the_font("k ≤ 0.9, σ₁/σ₂ × 2 …") == "k <= 0.9, sigma1/sigma2 x 2 ..."
+    assert in_the_font("plain text") == "plain text"

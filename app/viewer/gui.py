@@ -486,14 +486,35 @@ def _fold_free_toggle(live, commands: list) -> None:
         )
 
 
+#: What the status line writes for the symbols imgui's default font has no glyph for (it would
+#: draw "?"): the certificate's and the core's messages use them.
+FONT_SPELLINGS = {
+    "σ₁": "sigma1",
+    "σ₂": "sigma2",
+    "≥": ">=",
+    "≤": "<=",
+    "×": "x",
+    "…": "...",
+    "–": "-",
+    "—": "-",
+}
+
+
+def in_the_font(text: str) -> str:
+    """`text` with the symbols of `FONT_SPELLINGS` spelled in ASCII."""
+    for symbol, spelling in FONT_SPELLINGS.items():
+        text = text.replace(symbol, spelling)
+    return text
+
+
 def _status(state: AppState, width: float, height: float) -> None:
     """The status line: kernel, mesh, zoom, timings and the last message.
 
     A message too long for the line goes on lines of its own above it, wrapped,
     instead of being cut at the window's edge.
     """
-    summary = status_summary(state)
-    message = state.status_message()
+    summary = in_the_font(status_summary(state))
+    message = in_the_font(state.status_message())
     padding = imgui.get_style().window_padding.x
     room = width - 2 * padding
     spacing = imgui.get_style().item_spacing.x
