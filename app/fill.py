@@ -10,7 +10,7 @@ source cage in that backdrop (not in the texture the warp samples):
 - ``inpaint``: the surroundings continued inwards (OpenCV's ``cv2.inpaint``, Telea's method).
 
 `warp --fill`, `animate` and the viewer all call `set_fill` on their renderer, so they
-draw the same pixels.  Images are (H, W, 4) uint8 RGBA with straight alpha, row 0 at
+draw the same pixels.  Images are (H, W, 4) uint8 or uint16 RGBA with straight alpha, row 0 at
 the top; cages (n, 2) control points in image pixels, x right, y down.
 """
 
@@ -93,11 +93,11 @@ def cage_mask(cage: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
 
 
 def filled_image(image: np.ndarray, cage: np.ndarray, fill: str) -> np.ndarray | None:
-    """`image` with the inside of `cage`'s curve filled, ndarray (H, W, 4) uint8; None for ``none``.
+    """`image` with the inside of `cage`'s curve filled, ndarray (H, W, 4) of its type; None for ``none``.
 
     Parameters
     ----------
-    image : ndarray of shape (H, W, 4), uint8
+    image : ndarray of shape (H, W, 4), uint8 or uint16
     cage : ndarray of shape (n, 2)
         Source control points (a valid cage: `core.ClosedBSpline` raises ValueError otherwise).
     fill : str
@@ -112,8 +112,8 @@ def filled_image(image: np.ndarray, cage: np.ndarray, fill: str) -> np.ndarray |
         filled[mask] = 0
     elif fill == "inpaint":
         _inpaint(filled, mask)
-    else:
-        filled[mask] = colour_of(fill)
+    else:  # a colour's 0-255 values at the image's depth (65535 = 255 * 257)
+        filled[mask] = np.asarray(colour_of(fill), np.uint32) * (257 if image.dtype == np.uint16 else 1)
     return filled
 
 
@@ -148,14 +148,17 @@ def _inpaint(image: np.ndarray, mask: np.ndarray) -> None:
 
 
 def _inpaint_pixels(image: np.ndarray, mask: np.ndarray) -> None:
-    """`cv2.inpaint` (Telea) of the colour and the alpha of an (H, W, 4) uint8 image, in place."""
+    """`cv2.inpaint` (Telea) of the colour and the alpha of an (H, W, 4) uint8 or uint16 image, in
+    place: the colour of an 8-bit image as one 3-channel picture, a 16-bit image's channels one by
+    one (`cv2.inpaint` takes 16 bits in one channel only)."""
     import cv2
 
     inside = mask.astype(np.uint8)
-    colour = cv2.inpaint(np.ascontiguousarray(image[..., :3]), inside, INPAINT_RADIUS, cv2.INPAINT_TELEA)
-    alpha = cv2.inpaint(np.ascontiguousarray(image[..., 3]), inside, INPAINT_RADIUS, cv2.INPAINT_TELEA)
-    image[..., :3] = colour
-    image[..., 3] = alpha
+    groups = ([0, 1, 2], [3]) if image.dtype == np.uint8 else ([0], [1], [2], [3])
+    for channels in groups:
+        part = image[..., channels] if len(channels) > 1 else image[..., channels[0]]
+        filled = cv2.inpaint(np.ascontiguousarray(part), inside, INPAINT_RADIUS, cv2.INPAINT_TELEA)
+        image[..., channels] = filled.reshape(*filled.shape[:2], len(channels))
 
 
 def set_fill(renderer, image: np.ndarray, cage: np.ndarray, fill: str, outside: str) -> None:

@@ -71,6 +71,26 @@ def test_inpainting_continues_the_surroundings(scale):
     np.testing.assert_array_equal(filled[~mask], image[~mask])
 
 
+@pytest.mark.parametrize("scale", [1, 10])
+def test_a_16_bit_picture_is_filled_at_its_depth(scale):
+    """Colours scaled to 16 bits (255 -> 65535); inpainting channel by channel (cv2.inpaint takes
+    16 bits in one channel only), as close to the surroundings as the 8-bit test."""
+    grey = np.array((90, 120, 150, 255)) * 257
+    image = np.empty((100 * scale, 80 * scale, 4), np.uint16)
+    image[...] = grey
+    image[35 * scale : 65 * scale, 25 * scale : 55 * scale] = (65535, 0, 0, 65535)
+    mask = cage_mask(SQUARE * scale, image.shape[:2])
+    coloured = filled_image(image, SQUARE * scale, "#102030")
+    assert coloured.dtype == np.uint16 and (coloured[mask] == (16 * 257, 32 * 257, 48 * 257, 65535)).all()
+    filled = filled_image(image, SQUARE * scale, "inpaint")
+    assert filled.dtype == np.uint16
+    error = np.abs(filled[mask].astype(int) - grey)
+    assert error.max() <= 257 * (6 if scale == 1 else 16) and error.mean() <= 257 * (
+        1.5 if scale == 1 else 4.0
+    )
+    np.testing.assert_array_equal(filled[~mask], image[~mask])
+
+
 def viewer_state(tmp_path: Path, fill: str):
     """The viewer's state on the starfish with its top arm pulled far out, outside = original."""
     from app.viewer.state import AppState, Document, History, Snapshot
