@@ -306,7 +306,6 @@ def _file_section(state: AppState, commands: list, extras: dict) -> None:
     if imgui.is_item_hovered():
         imgui.set_tooltip("a new start from the opening cage (or a fitted one); Ctrl+Z goes back")
     if extras.get("script"):
-        imgui.same_line()
         if imgui.button("Stop script" if extras.get("playing") else "Play demo script"):
             commands.append(("play", None))
     imgui.push_text_wrap_pos(PANEL_WIDTH - 12)
