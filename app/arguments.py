@@ -209,10 +209,9 @@ def _fit_command(commands, run) -> None:
         "subject of the photograph (GrabCut, seeded by saliency, its outline then refined\n"
         "from the colours on either side; --rect says where it is).\n"
         "Around a photograph's subject the cage keeps a margin of 1.5% of its size.  When\n"
-        "the subject is uncertain (tiny, hardly told from the background by colour, or\n"
-        "what stands out runs on beyond the cage) a warning says so.  With --rect the\n"
-        "cage always lies inside the rectangle: it is the rectangle itself when nothing\n"
-        "stands out in it.",
+        "the subject is uncertain (tiny, or hardly told from the background by colour)\n"
+        "a warning says so.  With --rect the cage always lies inside the rectangle: it\n"
+        "is the rectangle itself when nothing stands out in it.",
         ("%(prog)s photo.jpg --output cage.json", None),
         ("%(prog)s photo.jpg --output cage.json --rect 120,40,300,420", "only what is inside the rectangle"),
         ("%(prog)s logo.png --output cage.json --points 24", None),

@@ -16,16 +16,17 @@ The subject (`subject_mask`) is, in this order of trust:
   Of what GrabCut keeps, the largest and most central region is taken, its holes
   filled and its outline smoothed; then the band along its outline is decided
   anew on a finer copy (`refined_subject`), from the colours of the subject's core
-  and of the background next to it, and holes and bays with a narrow mouth
-  (a dark collar between a face and a suit) are filled.  The cage goes `SUBJECT_MARGIN` outside the
-  result, because a segmentation is uncertain by a few pixels and a cage that cuts
-  into the subject tears it when deformed, while a thin band of background inside
+  and of the background next to it; the subject grows where its own colours nearby
+  explain a pixel better than the background's nearby (`locally_grown`: a rocket's
+  grey nose, which GrabCut gives to the sky because grey towers elsewhere share its
+  colours); and holes and bays with a narrow mouth (a dark collar between a face and
+  a suit) are filled.  The cage goes `SUBJECT_MARGIN` outside the result, because
+  a segmentation is uncertain by a few pixels and a cage that cuts into the subject
+  tears it when deformed, while a thin band of background inside
   the cage just moves along.
 
-A photograph's subject is uncertain when it is tiny, when colour hardly tells it
-from the background around it (`colour_separation`), or when what stands out from the
-border runs on beyond the cage (`salient_overflow`: a cage across a subject): `fit_cage`
-then warns.  With a
+A photograph's subject is uncertain when it is tiny or when colour hardly tells it
+from the background around it (`colour_separation`): `fit_cage` then warns.  With a
 rectangle from the user there is always a cage, inside it: the rectangle itself
 when nothing stands out there.
 
@@ -58,7 +59,8 @@ from app.fit_colours import (
     in_focus,
 )
 from app.fit_curve import fit_closed_bspline, rectangle_cage, snap_corners
-from app.fit_doubt import colour_separation, salient_overflow
+from app.fit_doubt import colour_separation
+from app.fit_growth import locally_grown
 from app.images.writing import eight_bit
 from core.curves.bspline import ClosedBSpline
 from core.mesh_basis import DEFAULT_SAMPLES_PER_SEGMENT
@@ -97,18 +99,13 @@ MIN_SUBJECT = 0.05
 #: A subject of less than `SMALL_SUBJECT` of the picture (or rectangle), or whose colours
 #: and those of the background around it tell them apart for less than `SEPARATION` of
 #: their pixels (`colour_separation`), is uncertain: `fit_cage` warns
-#: (`SubjectUncertainWarning`).  Measured on scikit-image's photographs: 0.79 to 0.99
-#: where the cage holds the subject (cameraman 0.79, chelsea 0.82, astronaut 0.88), 0.73
-#: and 0.74 on the motorcycle and the coins, whose cages miss much of them, 0.64 and 0.50
-#: on the Hubble deep field and the moon, which have no single subject.
+#: (`SubjectUncertainWarning`).  Measured on scikit-image's photographs: 0.80 to 0.995
+#: where the cage holds the subject (cameraman 0.80, astronaut and chelsea 0.85), 0.73
+#: and 0.66 on the motorcycle and the coins, whose cages miss much of them, 0.66 and 0.87
+#: on the Hubble deep field and the moon, which have no single subject (the moon's is
+#: 0.3 % of the picture).
 SMALL_SUBJECT = 0.01
 SEPARATION = 0.78
-#: The subject is uncertain, too, when the salient regions that its cage meets have more than
-#: this many times their area inside the cage outside it (`salient_overflow`).  Measured on
-#: scikit-image's photographs: 0 to 0.3 on six of the hits, 1.07 on the astronaut (the flag
-#: and the shuttle beside her stand out too), 2.3 on the rocket (its nose left out), 1.4 and 6.5
-#: on the Hubble deep field and the moon; at most 0.25 on the synthetic scenes.
-SALIENT_OVERFLOW = 1.5
 #: Other parts of GrabCut's result join the main one when at least this share of its
 #: area and closer than `MERGE_GAP` of the rectangle's diagonal (`_central_component`).
 MERGE_AREA = 0.1
@@ -210,9 +207,8 @@ def fit_cage(
         )
         return rectangle_cage(rect, points)
     if not exact:
-        grown = _grown(mask, SUBJECT_MARGIN)
-        _warn_if_uncertain(image, mask, grown, region)
-        mask = grown
+        _warn_if_uncertain(image, mask, region)
+        mask = _grown(mask, SUBJECT_MARGIN)
     contour = mask_outline(mask)
     if len(contour) < 3 * points:
         if region is not None:
@@ -440,8 +436,9 @@ def photo_subject(image: np.ndarray, rect=None) -> np.ndarray:
     scikit-image's chelsea the first run keeps an eye (3 % of the picture), the second
     the head and both ears.
     That result is scaled to a copy of about `REFINE_PIXELS` pixels, refined there
-    (`refined_subject`, nothing outside the rectangle), its holes and narrow-mouthed
-    bays filled (`_bays_filled`), and scaled back to (H, W), each time by bilinear
+    (`refined_subject`, nothing outside the rectangle), grown where only the background
+    next to it tells it apart (`locally_grown`), its holes and narrow-mouthed bays
+    filled (`_bays_filled`), and scaled back to (H, W), each time by bilinear
     interpolation of the 0/1 mask (`_refined_hypothesis`).  With a shallow depth of
     field a second hypothesis is made without the focus prior, in the salient
     rectangle; when it overlaps the first, the subject is their union: on
@@ -491,7 +488,8 @@ def _refined_hypothesis(
     to `sharp` (h, w) bool when given; with `whole`, the whole picture is considered, its
     frame background only where not probable.  A result below `MIN_SUBJECT` of the
     rectangle is retried from the rectangle alone.  The result is refined on the fine copy
-    within `limits` (left, top, right, bottom) and its narrow-mouthed bays filled.
+    within `limits` (left, top, right, bottom), grown there (`locally_grown`) and its
+    narrow-mouthed bays filled.
     """
     left, top, right, bottom = bounds
     seeds = np.full(bgr.shape[:2], cv2.GC_BGD, np.uint8)
@@ -514,7 +512,7 @@ def _refined_hypothesis(
         if larger.sum() > subject.sum() and (_stands_out(saliency, larger) or not subject.any()):
             subject = larger
     subject = refined_subject(fine_bgr, _resized(subject, fine_bgr.shape[:2]), limits)
-    return _bays_filled(subject, limits)
+    return _bays_filled(locally_grown(fine_bgr, subject, limits), limits)
 
 
 def _stands_out(saliency: np.ndarray, subject: np.ndarray) -> bool:
@@ -534,14 +532,11 @@ def _ring(subject: np.ndarray) -> np.ndarray:
     return (outside > 0) & (outside <= REFINE_RING * band)
 
 
-def _warn_if_uncertain(
-    image: np.ndarray, subject: np.ndarray, cage: np.ndarray, rect: np.ndarray | None
-) -> None:
-    """`SubjectUncertainWarning` when the photograph's `subject` (H, W) bool is small (`SMALL_SUBJECT`),
-    hardly told apart from the background by colour (`SEPARATION`), or when what stands out
-    runs on beyond the `cage` (H, W) bool (`SALIENT_OVERFLOW`).
+def _warn_if_uncertain(image: np.ndarray, subject: np.ndarray, rect: np.ndarray | None) -> None:
+    """`SubjectUncertainWarning` when the photograph's `subject` (H, W) bool is small (`SMALL_SUBJECT`)
+    or hardly told apart from the background by colour (`SEPARATION`).
 
-    Both measures are taken on a copy of about `SEGMENT_PIXELS` pixels, the background
+    The colours are compared on a copy of about `SEGMENT_PIXELS` pixels, the background
     around the subject being its `_ring`.
     """
     height, width = image.shape[:2]
@@ -550,22 +545,12 @@ def _warn_if_uncertain(
     reasons = []
     if share < SMALL_SUBJECT:
         reasons.append(f"what was found covers only {100 * share:.1f} % of {where}")
-    small, scale = downscaled(np.ascontiguousarray(image[..., :3]), SEGMENT_PIXELS)
+    small, _ = downscaled(np.ascontiguousarray(image[..., :3]), SEGMENT_PIXELS)
     inside = _resized(subject, small.shape[:2])
     separation = colour_separation(np.ascontiguousarray(small[..., ::-1]), inside > 0, _ring(inside))
     if separation < SEPARATION:
         reasons.append(
             f"colour tells it from the background around it for only {100 * separation:.0f} % of pixels"
-        )
-    allowed = np.ones(small.shape[:2], bool)
-    if rect is not None:
-        left, top, right, bottom = _pixel_bounds(rect / np.tile(scale, 2), small.shape[:2])
-        allowed[:] = False
-        allowed[top:bottom, left:right] = True
-    overflow = salient_overflow(small, _resized(cage, small.shape[:2]) > 0, allowed)
-    if overflow > SALIENT_OVERFLOW:
-        reasons.append(
-            f"what stands out there runs on beyond the cage ({overflow:.1f} times its area inside)"
         )
     if reasons:
         advice = "a tighter rectangle" if rect is not None else "a rectangle around the subject (fit --rect)"
