@@ -3,10 +3,12 @@
 GrabCut (`app.fit`) decides each pixel by colour models of the whole picture: a grey nose
 of a rocket against a dark blue sky is left out when the lighter sky near the horizon and
 the grey towers elsewhere share its colour.  Next to the nose, though, the sky is darker
-and bluer than it.  `locally_grown` compares each pixel just outside the subject with the
-mean colour of the subject near it and of the background near it, and adds it when it is
-closer to the subject's; it repeats until nothing is added.  Arrays are (h, w) images,
-row 0 at the top.
+and bluer than it, while the body's shades next to it are its own.  `locally_grown`
+weighs each pixel just outside the subject against the colours of the subject near it
+and of the background near it, and adds it when the subject's explain it better; it
+repeats until nothing is added.  A part in colours that the subject near it lacks
+(a dark logo on the nose) stops the growth there.  Arrays are (h, w) images, row 0 at
+the top.
 """
 
 from __future__ import annotations
@@ -19,11 +21,10 @@ import numpy as np
 GROWTH_STEP = 2.0
 #: The background near the subject is the ring from `GROWTH_STEP` to this many pixels outside it.
 GROWTH_RING = 8.0
-#: The subject's and the background's colours are averaged over a square of this half-width.
+#: The subject's and the background's local colours are taken over a square of this half-width.
 GROWTH_WINDOW = 8
 #: The local variance of a colour (CIELAB units squared) is at least this: the noise of 8-bit samples.
 GROWTH_VARIANCE = 4.0
-GROWTH_MARGIN = 4.6
 #: At most this many rounds: the subject grows by at most `GROWTH_STEP` x `GROWTH_ROUNDS` pixels.
 GROWTH_ROUNDS = 40
 
@@ -31,11 +32,13 @@ GROWTH_ROUNDS = 40
 def locally_grown(bgr: np.ndarray, subject: np.ndarray, bounds: tuple[int, int, int, int]) -> np.ndarray:
     """`subject` (h, w) uint8 grown where its nearby colours explain a pixel better than the background's.
 
-    In each round the pixels within `GROWTH_STEP` outside the subject (and within `bounds`)
-    are compared, in CIELAB, with two local means taken over a Gaussian window of
-    `GROWTH_WINDOW`: that of the subject's pixels more than a pixel inside its outline, and
-    that of the background's ring out to `GROWTH_RING`.  Those closer to the subject's mean
-    join it.  The rounds stop when none joins, or after `GROWTH_ROUNDS`.
+    In each round the pixels within `GROWTH_STEP` outside the subject (and within `bounds`),
+    and within `GROWTH_STEP` + 1 of a pixel that joined in the round before (the subject
+    itself before the first), are weighed in CIELAB against the colours within a square of
+    half-width `GROWTH_WINDOW` around them (`_local_cost`): the subject's pixels more than
+    a pixel inside its outline, and the background's ring from `GROWTH_STEP` to
+    `GROWTH_RING` outside it.  Those that the subject's colours explain better join it.
+    The rounds stop when none joins, or after `GROWTH_ROUNDS`.
 
     Parameters
     ----------
