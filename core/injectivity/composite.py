@@ -146,9 +146,8 @@ def _unproven(s: float, taken: int, certificate: InjectivityCertificate, smalles
     near = "" if len(certificate.where) == 0 else " near ({:.4g}, {:.4g})".format(*certificate.where[0])
     return (
         f"no step is proven from s = {s:.4g} on the straight path to the target, not even one of "
-        f"{SMALLEST_STEP:g} of the way (a map that close to the identity is not expected to fold): "
-        f"the certificate cannot resolve the cage there{near} (a part too thin for its samples), a "
-        f"limit of the proof ({certificate.reason})"
+        f"{SMALLEST_STEP:g} of the way (a map that close to the identity is not expected to fold), "
+        f"a limit of the proof at the cage there{near}: {certificate.reason}"
     )
 
 
