@@ -105,6 +105,7 @@ def fold_free_deform(
     for fraction in np.arange(1, PATH_CHECKS) / PATH_CHECKS:  # a crossing found early saves the proofs
         _path_cage((1.0 - fraction) * start + fraction * goal, fraction)
     s, step, current, steps, certificate = 0.0, 1.0, curve, [], None
+    basis = None  # G of the current cage at the images off the curve: the same for every step size tried
     while s < 1.0:
         following = min(1.0, s + step)
         cage = (
@@ -112,14 +113,17 @@ def fold_free_deform(
         )
         moved, accepted = None, True
         if triangles is not None and step > SMALLEST_MESH_STEP:  # the mesh first: it costs less than a proof
-            moved = _moved(current, cage, images, on_curve, boundary)
+            basis = _basis(current, images[~on_curve]) if basis is None else basis
+            moved = _moved(basis, cage, images, on_curve, boundary)
             accepted = not _turns_over(triangles, images, moved)
         if accepted:
             certificate = certify_injective(current, cage)
             accepted = certificate.injective or certificate.away_from_corners
         if accepted:
-            moved = _moved(current, cage, images, on_curve, boundary) if moved is None else moved
-            images = moved
+            if moved is None:
+                basis = _basis(current, images[~on_curve]) if basis is None else basis
+                moved = _moved(basis, cage, images, on_curve, boundary)
+            images, basis = moved, None
             steps.append(certificate)
             s, current = following, cage
             step *= 2.0
@@ -149,12 +153,12 @@ def _unproven(s: float, taken: int, certificate: InjectivityCertificate, smalles
     )
 
 
-def _moved(current: ClosedBSpline, cage: ClosedBSpline, images: np.ndarray, on_curve: np.ndarray, boundary):
-    """The images (M, 2) after the step from `current` to `cage`: the harmonic map's for the points off
-    the curve (`on_curve` (M,) False), the cage at their parameters for the rows of `boundary`
-    (indices (B,), parameters (B,)) or None."""
+def _moved(basis: np.ndarray, cage: ClosedBSpline, images: np.ndarray, on_curve: np.ndarray, boundary):
+    """The images (M, 2) after the step onto `cage`: the harmonic map's, basis (K, n) of the current
+    cage at the K points off the curve (`on_curve` (M,) False) times the cage's control points, and
+    the cage at their parameters for the rows of `boundary` (indices (B,), parameters (B,)) or None."""
     moved = images.copy()
-    moved[~on_curve] = _mapped(current, cage.control_points, images[~on_curve])
+    moved[~on_curve] = basis @ cage.control_points
     if boundary is not None:
         moved[boundary[0]] = cage(boundary[1])
     return moved
@@ -190,13 +194,14 @@ def _path_cage(points: np.ndarray, s: float) -> ClosedBSpline:
         ) from None
 
 
-def _mapped(current: ClosedBSpline, cage: np.ndarray, points: np.ndarray) -> np.ndarray:
-    """Images (M, 2) under the harmonic map of `current` onto the cage's control points (n, 2);
-    points a hair outside `current` (rounding of the previous step) go to its closest point first."""
+def _basis(current: ClosedBSpline, points: np.ndarray) -> np.ndarray:
+    """The harmonic basis (M, n) of `current` at points (M, 2), whose products with a cage's control
+    points (n, 2) are their images under the harmonic map onto it; points a hair outside `current`
+    (rounding of the previous step) go to its closest point first."""
     try:
-        return basis_functions(current, points, "poisson") @ cage
+        return basis_functions(current, points, "poisson")
     except ValueError:  # some points are outside: the test below costs, so only now
-        return basis_functions(current, _inside(current, points), "poisson") @ cage
+        return basis_functions(current, _inside(current, points), "poisson")
 
 
 def _inside(curve: ClosedBSpline, points: np.ndarray) -> np.ndarray:
