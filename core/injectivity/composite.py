@@ -99,29 +99,31 @@ def fold_free_deform(
     triangles = None if triangles is None else np.asarray(triangles, dtype=np.int64)
     on_curve = np.zeros(images.shape[0], dtype=bool)
     if boundary is not None:
-        indices, parameters = np.asarray(boundary[0], dtype=np.int64), np.asarray(boundary[1], float)
-        on_curve[indices] = True
+        boundary = np.asarray(boundary[0], dtype=np.int64), np.asarray(boundary[1], dtype=np.float64)
+        on_curve[boundary[0]] = True
     start = curve.control_points
     for fraction in np.arange(1, PATH_CHECKS) / PATH_CHECKS:  # a crossing found early saves the proofs
         _path_cage((1.0 - fraction) * start + fraction * goal, fraction)
-    s, step, current, steps = 0.0, 1.0, curve, []
+    s, step, current, steps, certificate = 0.0, 1.0, curve, [], None
+    basis = None  # G of the current cage at the images off the curve: the same for every step size tried
     while s < 1.0:
         following = min(1.0, s + step)
         cage = (
             final if following == 1.0 else _path_cage((1.0 - following) * start + following * goal, following)
         )
-        certificate = certify_injective(current, cage)
-        accepted = certificate.injective or certificate.away_from_corners
+        moved, accepted = None, True
+        if triangles is not None and step > SMALLEST_MESH_STEP:  # the mesh first: it costs less than a proof
+            basis = _basis(current, images[~on_curve]) if basis is None else basis
+            moved = _moved(basis, cage, images, on_curve, boundary)
+            accepted = not _turns_over(triangles, images, moved)
         if accepted:
-            moved = images.copy()
-            moved[~on_curve] = _mapped(current, cage.control_points, images[~on_curve])
-            if boundary is not None:
-                moved[indices] = cage(parameters)
-            accepted = (
-                step <= SMALLEST_MESH_STEP or triangles is None or not _turns_over(triangles, images, moved)
-            )
+            certificate = certify_injective(current, cage)
+            accepted = certificate.injective or certificate.away_from_corners
         if accepted:
-            images = moved
+            if moved is None:
+                basis = _basis(current, images[~on_curve]) if basis is None else basis
+                moved = _moved(basis, cage, images, on_curve, boundary)
+            images, basis = moved, None
             steps.append(certificate)
             s, current = following, cage
             step *= 2.0
@@ -140,16 +142,26 @@ def _unproven(s: float, taken: int, certificate: InjectivityCertificate, smalles
     cannot resolve even for a step so small that the map is close to the identity."""
     if not smallest:
         return (
-            f"no fold-free step is proven from s = {s:.4g} on the straight path to the target "
-            f"({taken} steps taken, the most allowed): {certificate.reason}"
+            f"the fold-free composite stops at s = {s:.4g} on the straight path to the target: "
+            f"{taken} steps taken, the most allowed"
         )
     near = "" if len(certificate.where) == 0 else " near ({:.4g}, {:.4g})".format(*certificate.where[0])
     return (
         f"no step is proven from s = {s:.4g} on the straight path to the target, not even one of "
-        f"{SMALLEST_STEP:g} of the way (a map that close to the identity is not expected to fold): "
-        f"the certificate cannot resolve the cage there{near} (a part too thin for its samples), a "
-        f"limit of the proof ({certificate.reason})"
+        f"{SMALLEST_STEP:g} of the way (a map that close to the identity is not expected to fold), "
+        f"a limit of the proof at the cage there{near}: {certificate.reason}"
     )
+
+
+def _moved(basis: np.ndarray, cage: ClosedBSpline, images: np.ndarray, on_curve: np.ndarray, boundary):
+    """The images (M, 2) after the step onto `cage`: the harmonic map's, basis (K, n) of the current
+    cage at the K points off the curve (`on_curve` (M,) False) times the cage's control points, and
+    the cage at their parameters for the rows of `boundary` (indices (B,), parameters (B,)) or None."""
+    moved = images.copy()
+    moved[~on_curve] = basis @ cage.control_points
+    if boundary is not None:
+        moved[boundary[0]] = cage(boundary[1])
+    return moved
 
 
 def _unfolded(vertices, images, triangles, free, final, steps) -> tuple[np.ndarray, InjectivityCertificate]:
@@ -182,13 +194,14 @@ def _path_cage(points: np.ndarray, s: float) -> ClosedBSpline:
         ) from None
 
 
-def _mapped(current: ClosedBSpline, cage: np.ndarray, points: np.ndarray) -> np.ndarray:
-    """Images (M, 2) under the harmonic map of `current` onto the cage's control points (n, 2);
-    points a hair outside `current` (rounding of the previous step) go to its closest point first."""
+def _basis(current: ClosedBSpline, points: np.ndarray) -> np.ndarray:
+    """The harmonic basis (M, n) of `current` at points (M, 2), whose products with a cage's control
+    points (n, 2) are their images under the harmonic map onto it; points a hair outside `current`
+    (rounding of the previous step) go to its closest point first."""
     try:
-        return basis_functions(current, points, "poisson") @ cage
+        return basis_functions(current, points, "poisson")
     except ValueError:  # some points are outside: the test below costs, so only now
-        return basis_functions(current, _inside(current, points), "poisson") @ cage
+        return basis_functions(current, _inside(current, points), "poisson")
 
 
 def _inside(curve: ClosedBSpline, points: np.ndarray) -> np.ndarray:
