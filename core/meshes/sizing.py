@@ -231,6 +231,13 @@ def _empty_disk_radii(points, normals, wedge, tree, largest) -> np.ndarray:
     active = np.arange(count)
     for _ in range(100):
         centres = points[active] + radius[active, None] * normals[active]
+        # Outside corner wedges a disk holds a sample iff its nearest one is inside (the sample it
+        # touches is on its circle): one neighbour decides most disks, the k nearest only the rest.
+        nearest = tree.query(centres, distance_upper_bound=radius[active].max())[0]
+        unsure = (wedge[active] >= 0) | (nearest < radius[active] * (1.0 - 1e-9))
+        active, centres = active[unsure], centres[unsure]
+        if not active.size:
+            break
         # Samples beyond the largest radius cannot shrink any disk: the tree skips them.
         distance, neighbours = tree.query(centres, k=k, distance_upper_bound=radius[active].max())
         neighbours = np.minimum(neighbours, count - 1)  # misses: index == count, distance inf
