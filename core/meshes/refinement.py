@@ -10,7 +10,7 @@ import math
 from collections.abc import Callable
 
 import numpy as np
-from scipy.sparse import coo_matrix
+from scipy.sparse import coo_matrix, csr_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import Delaunay, cKDTree
 
@@ -545,8 +545,9 @@ def _inside_triangles(
     is_chord = chord >= 0
     is_front = front_side >= 0
     join = ~is_chord & ~is_front & (neighbours >= 0)
-    rows = np.nonzero(join)[0]
-    graph = coo_matrix((np.ones(rows.shape[0]), (rows, neighbours[join])), shape=(count, count))
+    # Row t of the adjacency holds the neighbours that t joins, in order: built as CSR directly.
+    starts = np.concatenate([[0], np.cumsum(np.count_nonzero(join, axis=1))])
+    graph = csr_matrix((np.ones(starts[-1]), neighbours[join], starts), shape=(count, count))
     _, labels = connected_components(graph, directed=False)
     a = np.where(is_chord, chord, 0)
     b = (a + 1) % boundary_count
