@@ -369,6 +369,11 @@ def _bench_command(commands, run) -> None:
         action="store_true",
         help="no fold-free warp against libigl at 10k and 50k vertices",
     )
+    bench.add_argument(
+        "--skip-mesher",
+        action="store_true",
+        help="no mesher against Triangle at 10k, 100k and 300k vertices",
+    )
     bench.set_defaults(run=run)
 
 

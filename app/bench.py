@@ -92,6 +92,10 @@ def run_bench(args: argparse.Namespace) -> int:
         fold_free_rows(
             curve, 1 if args.quick else repeats, _forget_densities, (2_000,) if args.quick else None
         )
+    if not args.skip_mesher:
+        from app.bench_mesher import LEAST_REPEATS, mesher_rows
+
+        mesher_rows(curve, 1 if args.quick else max(repeats, LEAST_REPEATS), (2_000,) if args.quick else None)
     children = []
     if not args.skip_memory:
         children.append(lambda: _memory(curve, 20_000 if args.quick else 1_000_000))

@@ -5,7 +5,7 @@ import sys
 
 import pytest
 
-from app import bench, bench_fold_free
+from app import bench, bench_fold_free, bench_mesher
 from app.bench import StepFailed, run_child
 
 
@@ -43,6 +43,7 @@ def test_a_failed_row_is_reported_and_the_others_still_run(monkeypatch, capsys):
         skip_drag=True,
         skip_export=True,
         skip_fold_free=True,
+        skip_mesher=True,
     )
     assert bench.run_bench(args) == 1
     assert ran == ["memory", "warp"]
@@ -117,6 +118,9 @@ def test_quick_runs_every_row_once_at_tiny_sizes(monkeypatch):
         "fold_free_rows",
         lambda curve, repeats, forget, vertices: calls.update(fold_free=vertices),
     )
+    monkeypatch.setattr(
+        bench_mesher, "mesher_rows", lambda curve, repeats, vertices: calls.update(mesher=(repeats, vertices))
+    )
     args = argparse.Namespace(
         quick=True,
         repeats=3,
@@ -128,6 +132,7 @@ def test_quick_runs_every_row_once_at_tiny_sizes(monkeypatch):
         skip_drag=False,
         skip_export=False,
         skip_fold_free=False,
+        skip_mesher=False,
     )
     assert bench.run_bench(args) == 0
     assert calls == {
@@ -139,6 +144,7 @@ def test_quick_runs_every_row_once_at_tiny_sizes(monkeypatch):
         "drag": ((6_000,), 1.0),
         "export": 1,
         "fold_free": (2_000,),
+        "mesher": (1, (2_000,)),
     }
 
 
@@ -154,3 +160,31 @@ def test_the_fold_free_row_says_when_libigl_is_missing(monkeypatch, capsys):
     assert "libigl is not installed" in out
     row = out.strip().splitlines()[-1].split()
     assert row[2] != "0" and row[3] == "0" and row[4] == "yes"  # steps, flips, proven
+
+
+def test_the_mesher_row_says_when_triangle_is_missing(monkeypatch, capsys):
+    """Without the triangle package the row times ours alone and says so; it is never needed at run time."""
+    import core
+    from core.curves import examples
+
+    monkeypatch.setitem(sys.modules, "triangle", None)  # `import triangle` raises ImportError
+    curve = core.ClosedBSpline(examples.blob() * 1000.0)
+    bench_mesher.mesher_rows(curve, 1, (300,))
+    out = capsys.readouterr().out
+    assert "triangle is not installed" in out
+    target, vertices, seconds = out.strip().splitlines()[-1].split()
+    # a coarse mesh: its boundary vertices add to the estimate from the area
+    assert target == "300" and 300 <= int(vertices) < 600 and float(seconds) > 0
+
+
+def test_triangle_gets_the_closed_boundary_polygon_of_our_mesh():
+    import core
+    from core.curves import examples
+
+    mesh = core.triangulate(core.ClosedBSpline(examples.blob() * 1000.0), max_edge=100.0)
+    graph = bench_mesher.triangle_input(mesh)
+    count = mesh.boundary.size
+    assert graph["vertices"].shape == (count, 2)
+    assert (graph["vertices"] == mesh.vertices[mesh.boundary]).all()
+    assert sorted(graph["segments"][:, 0]) == list(range(count))
+    assert ((graph["segments"][:, 1] - graph["segments"][:, 0]) % count == 1).all()

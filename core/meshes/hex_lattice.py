@@ -126,7 +126,9 @@ class HexLattice:
         column = np.floor(local[:, 0] / self.spacing).astype(np.int64)
         # Only cells that a point falls in or next to: points closer than a spacing apart
         # mark the same window, so one point per cell is enough.
-        cells = np.unique(np.stack([row, column], axis=1), axis=0)
+        low, width = column.min(), column.max() - column.min() + 1
+        cell = np.unique(row * width + (column - low))  # one key per (row, column): faster than axis=0
+        cells = np.stack([np.floor_divide(cell, width), cell % width + low], axis=1)
         rows = int(math.ceil(radius / self.height)) + 1
         columns = int(math.ceil(radius / self.spacing)) + 1
         dr, dc = np.meshgrid(np.arange(-rows, rows + 1), np.arange(-columns, columns + 1), indexing="ij")

@@ -10,7 +10,7 @@ import math
 from collections.abc import Callable
 
 import numpy as np
-from scipy.sparse import coo_matrix
+from scipy.sparse import coo_matrix, csr_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import Delaunay, cKDTree
 
@@ -545,21 +545,24 @@ def _inside_triangles(
     is_chord = chord >= 0
     is_front = front_side >= 0
     join = ~is_chord & ~is_front & (neighbours >= 0)
-    rows = np.nonzero(join)[0]
-    graph = coo_matrix((np.ones(rows.shape[0]), (rows, neighbours[join])), shape=(count, count))
+    # Row t of the adjacency holds the neighbours that t joins, in order: built as CSR directly.
+    starts = np.concatenate([[0], np.cumsum(np.count_nonzero(join, axis=1))])
+    graph = csr_matrix((np.ones(starts[-1]), neighbours[join], starts), shape=(count, count))
     _, labels = connected_components(graph, directed=False)
-    a = np.where(is_chord, chord, 0)
+    # Only the sides on a chord or a front edge tell on which side their triangle lies.
+    t, k = np.nonzero(is_chord)
+    a = chord[t, k]
     b = (a + 1) % boundary_count
-    side = orientation * cross(points[b] - points[a], points[simplices] - points[a])
-    edge = np.zeros((*simplices.shape, 2), dtype=np.int64)
-    if front.shape[0]:
-        edge = front[np.where(is_front, front_side, 0)]
-    tail, head = points[edge[..., 0]], points[edge[..., 1]]
-    core_side = cross(head - tail, points[simplices] - tail) > 0
-    interior_side = (is_chord & (side > 0)).any(axis=1) | (is_front & ~core_side).any(axis=1)
-    exterior_side = (
-        (is_chord & (side < 0)) | (is_front & core_side) | (~is_chord & ~is_front & (neighbours < 0))
-    ).any(axis=1)
+    side = orientation * cross(points[b] - points[a], points[simplices[t, k]] - points[a])
+    f, j = np.nonzero(is_front)
+    tail, head = points[front[front_side[f, j], 0]], points[front[front_side[f, j], 1]]
+    core_side = cross(head - tail, points[simplices[f, j]] - tail) > 0
+    interior_side = np.zeros(count, dtype=bool)
+    interior_side[t[side > 0]] = True
+    interior_side[f[~core_side]] = True
+    exterior_side = (~is_chord & ~is_front & (neighbours < 0)).any(axis=1)
+    exterior_side[t[side < 0]] = True
+    exterior_side[f[core_side]] = True
     inside_label = np.zeros(labels.max() + 1, dtype=bool)
     inside_label[labels[interior_side]] = True
     outside_label = np.zeros(labels.max() + 1, dtype=bool)

@@ -73,6 +73,9 @@ class Sizing:
         self._fine_tree = cKDTree(self.fine_points) if fine.any() else None
         # Farther than this from every fine sample, h is max_edge.
         self.reach = (max_edge - self._fine_h.min(initial=max_edge)) / GRADATION
+        if self._fine_tree is not None:  # (2, 2): outside this box no fine sample is within reach
+            self._fine_box = np.stack([self.fine_points.min(axis=0), self.fine_points.max(axis=0)])
+            self._fine_box += [[-self.reach], [self.reach]]
 
     def _measure(self, curve: ClosedBSpline) -> None:
         """Samples, arc lengths and graded target lengths h at the parameters self.t."""
@@ -128,11 +131,13 @@ class Sizing:
         result = np.full(x.shape[0], self.max_edge)
         if self._fine_tree is None or x.shape[0] == 0:
             return result
+        near = np.flatnonzero(((x >= self._fine_box[0]) & (x <= self._fine_box[1])).all(axis=1))
         k = min(8, self._fine_h.size)
-        distance, index = self._fine_tree.query(x, k=k, distance_upper_bound=self.reach)
+        distance, index = self._fine_tree.query(x[near], k=k, distance_upper_bound=self.reach)
         distance = distance.reshape(-1, k)
         index = np.minimum(index.reshape(-1, k), self._fine_h.size - 1)  # misses: index == size
-        return np.minimum(result, (self._fine_h[index] + GRADATION * distance).min(axis=1))
+        result[near] = np.minimum(result[near], (self._fine_h[index] + GRADATION * distance).min(axis=1))
+        return result
 
     def distance_to_curve(self, x: np.ndarray, reach: float) -> np.ndarray:
         """Distance to the nearest dense curve sample (within half a sample spacing of exact),
@@ -231,6 +236,13 @@ def _empty_disk_radii(points, normals, wedge, tree, largest) -> np.ndarray:
     active = np.arange(count)
     for _ in range(100):
         centres = points[active] + radius[active, None] * normals[active]
+        # Outside corner wedges a disk holds a sample iff its nearest one is inside (the sample it
+        # touches is on its circle): one neighbour decides most disks, the k nearest only the rest.
+        nearest = tree.query(centres, distance_upper_bound=radius[active].max())[0]
+        unsure = (wedge[active] >= 0) | (nearest < radius[active] * (1.0 - 1e-9))
+        active, centres = active[unsure], centres[unsure]
+        if not active.size:
+            break
         # Samples beyond the largest radius cannot shrink any disk: the tree skips them.
         distance, neighbours = tree.query(centres, k=k, distance_upper_bound=radius[active].max())
         neighbours = np.minimum(neighbours, count - 1)  # misses: index == count, distance inf
