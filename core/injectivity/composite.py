@@ -217,9 +217,7 @@ def composite_certificate(steps: list[InjectivityCertificate]) -> InjectivityCer
     if injective:
         reason = f"composite of {len(steps)} proven harmonic step(s)"
     else:
-        reason = (
-            f"composite of {len(steps)} harmonic step(s), proven outside discs around reflex sharp corners"
-        )
+        reason = f"composite of {len(steps)} harmonic step(s), proven outside discs around sharp corners"
     radius = max((step.corner_radius for step in steps), default=0.0)
     return InjectivityCertificate(
         injective, sigma2, k_max, where, reason, samples, not injective, radius, {"steps": len(steps)}
