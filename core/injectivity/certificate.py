@@ -33,8 +33,9 @@ and gradients lose accuracy as the distance shrinks).  What is left:
   the certificate proves the rest of the domain and reports the reflex corners as unproven
   (`away_from_corners`).  So it does for a convex corner whose sector bound fails, among them one
   that turns past a straight angle between source and target (L reverses orientation: the map folds
-  in the disc around P where L outweighs E, r < ~ρ·(|L|/ε)^(α/(π-α)), vanishingly small near α = π): a composite
-  (`core.fold_free_deform`) whose corner opens from convex to reflex passes through such steps.
+  in the disc around P where L outweighs E, r < ~ρ·(|L|/ε)^(α/(π-α)), vanishingly small near
+  α = π): a composite (`core.fold_free_deform`) whose corner opens from convex to reflex passes
+  through such steps.
 
 What is proven, and under which assumptions (the constants are `boundary_samples`'): the
 conclusion holds if (A1) the evaluated f_z, f_z̄ at each sample are within its allowance of the

@@ -21,10 +21,10 @@ import math
 
 import numpy as np
 
-from core.basis import basis_functions
 from core.boundary_integrals.poisson import closest_point
 from core.curves.bspline import ClosedBSpline
 from core.injectivity.certificate import InjectivityCertificate, certify_injective
+from core.injectivity.corner_discs import disc_images, radial_discs
 from core.injectivity.mesh_unfolding import unfold_triangles
 from core.validation import as_points
 
@@ -111,10 +111,11 @@ def fold_free_deform(
             final if following == 1.0 else _path_cage((1.0 - following) * start + following * goal, following)
         )
         certificate = certify_injective(current, cage)
-        accepted = certificate.injective or certificate.away_from_corners
+        discs = radial_discs(current, cage.control_points, certificate)
+        accepted = (certificate.injective or certificate.away_from_corners) and discs is not None
         if accepted:
             moved = images.copy()
-            moved[~on_curve] = _mapped(current, cage.control_points, images[~on_curve])
+            moved[~on_curve] = _mapped(current, cage.control_points, images[~on_curve], discs)
             if boundary is not None:
                 moved[indices] = cage(parameters)
             accepted = (
@@ -182,13 +183,14 @@ def _path_cage(points: np.ndarray, s: float) -> ClosedBSpline:
         ) from None
 
 
-def _mapped(current: ClosedBSpline, cage: np.ndarray, points: np.ndarray) -> np.ndarray:
-    """Images (M, 2) under the harmonic map of `current` onto the cage's control points (n, 2);
-    points a hair outside `current` (rounding of the previous step) go to its closest point first."""
+def _mapped(current: ClosedBSpline, cage: np.ndarray, points: np.ndarray, discs) -> np.ndarray:
+    """Images (M, 2) under the step's map of `current` onto the cage's control points (n, 2): harmonic,
+    radial in the corner discs (`core.injectivity.corner_discs`); points a hair outside `current`
+    (rounding of the previous step) go to its closest point first."""
     try:
-        return basis_functions(current, points, "poisson") @ cage
+        return disc_images(current, cage, points, discs)
     except ValueError:  # some points are outside: the test below costs, so only now
-        return basis_functions(current, _inside(current, points), "poisson") @ cage
+        return disc_images(current, cage, _inside(current, points), discs)
 
 
 def _inside(curve: ClosedBSpline, points: np.ndarray) -> np.ndarray:
