@@ -7,7 +7,9 @@ map of the cage at s_k onto the cage at s_{k+1}.  Here each step is the harmonic
 each domain onto the next composes to a bijection of the source domain onto the target's, and a
 boundary point at parameter t goes to the target curve at t at every step.  The steps are adaptive:
 the first tries the whole way, a step whose certificate fails is halved, a step that succeeds lets
-the next one double.  σ₂ of the composite is at least the product of the steps' bounds, and its
+the next one double.  A step whose certificate leaves discs at sharp corners unproven maps them
+radially instead (`core.injectivity.corner_discs`), so that it is a bijection all the same.  σ₂ of
+the composite is at least the product of the steps' bounds, and its
 dilatation K = (1 + k) / (1 - k) at most the product of theirs.  Given a mesh, the triangles that
 its straight edges still turn over are unfolded at the end by moving a few interior vertices' images
 (`core.injectivity.mesh_unfolding`): the images change, by amounts the certificate reports, the
@@ -219,7 +221,10 @@ def composite_certificate(steps: list[InjectivityCertificate]) -> InjectivityCer
     if injective:
         reason = f"composite of {len(steps)} proven harmonic step(s)"
     else:
-        reason = f"composite of {len(steps)} harmonic step(s), proven outside discs around sharp corners"
+        reason = (
+            f"a bijection: composite of {len(steps)} step(s), harmonic and proven outside discs around "
+            "sharp corners, radial over the arc's image (checked star-shaped) inside them"
+        )
     radius = max((step.corner_radius for step in steps), default=0.0)
     return InjectivityCertificate(
         injective, sigma2, k_max, where, reason, samples, not injective, radius, {"steps": len(steps)}
