@@ -7,8 +7,9 @@ map of the cage at s_k onto the cage at s_{k+1}.  Here each step is the harmonic
 each domain onto the next composes to a bijection of the source domain onto the target's, and a
 boundary point at parameter t goes to the target curve at t at every step.  The steps are adaptive:
 the first tries the whole way, a step whose certificate fails is halved, a step that succeeds lets
-the next one double.  A step whose certificate leaves discs at sharp corners unproven maps them
-radially instead (`core.injectivity.corner_discs`), so that it is a bijection all the same.  σ₂ of
+the next one double.  Within a disc at each sharp corner a step maps radially instead
+(`core.injectivity.corner_discs`), also where the certificate leaves the harmonic map unproven, so
+that it is a bijection all the same.  σ₂ of
 the composite is at least the product of the steps' bounds, and its
 dilatation K = (1 + k) / (1 - k) at most the product of theirs.  Given a mesh, the triangles that
 its straight edges still turn over are unfolded at the end by moving a few interior vertices' images
@@ -125,7 +126,7 @@ def fold_free_deform(
             )
         if accepted:
             images = moved
-            steps.append(certificate)
+            steps.append(_with_discs(certificate, discs))
             s, current = following, cage
             step *= 2.0
         else:
@@ -136,6 +137,19 @@ def fold_free_deform(
     if triangles is None:
         return images, composite_certificate(steps)
     return _unfolded(as_points(points, "points"), images, triangles, ~on_curve, final, steps)
+
+
+def _with_discs(certificate: InjectivityCertificate, discs) -> InjectivityCertificate:
+    """A step's certificate: proven outside its radial corner discs (if any), not inside them."""
+    if not discs:
+        return certificate
+    return dataclasses.replace(
+        certificate,
+        injective=False,
+        away_from_corners=True,
+        where=np.array([disc.point for disc in discs]),
+        corner_radius=max(disc.radius for disc in discs),
+    )
 
 
 def _unproven(s: float, taken: int, certificate: InjectivityCertificate, smallest: bool) -> str:
@@ -157,8 +171,14 @@ def _unproven(s: float, taken: int, certificate: InjectivityCertificate, smalles
 
 def _unfolded(vertices, images, triangles, free, final, steps) -> tuple[np.ndarray, InjectivityCertificate]:
     """The images (V, 2) with triangles (T, 3) that are still turned over unfolded by moving free
-    vertices (V,) (`unfold_triangles`), and the composite's certificate noting the moves."""
-    images, moves = unfold_triangles(vertices, images, triangles, free)
+    vertices (V,) (`unfold_triangles`), and the composite's certificate noting the moves.  A move that
+    leaves the target is undone, and the whole repair if it leaves more triangles turned over."""
+    repaired, moves = unfold_triangles(vertices, images, triangles, free)
+    left = (moves > 0) & ~final.contains(repaired)
+    repaired[left], moves[left] = images[left], 0.0
+    if np.count_nonzero(_areas(triangles, repaired) <= 0) > np.count_nonzero(_areas(triangles, images) <= 0):
+        repaired, moves = images, np.zeros_like(moves)
+    images = repaired
     certificate = composite_certificate(steps)
     moved = {"moved": int(np.count_nonzero(moves)), "largest_move": float(moves.max()) / final.diameter}
     return images, dataclasses.replace(certificate, extra=certificate.extra | moved)
@@ -166,12 +186,13 @@ def _unfolded(vertices, images, triangles, free, final, steps) -> tuple[np.ndarr
 
 def _turns_over(triangles: np.ndarray, before: np.ndarray, after: np.ndarray) -> bool:
     """Whether a step turns over a triangle (T, 3) that was not turned over before it."""
+    return bool(np.any((_areas(triangles, after) <= 0) & (_areas(triangles, before) > 0)))
 
-    def areas(points):
-        a, b, c = points[triangles[:, 0]], points[triangles[:, 1]], points[triangles[:, 2]]
-        return (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
 
-    return bool(np.any((areas(after) <= 0) & (areas(before) > 0)))
+def _areas(triangles: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """Doubled signed areas (T,) of the triangles (T, 3) over points (V, 2)."""
+    a, b, c = points[triangles[:, 0]], points[triangles[:, 1]], points[triangles[:, 2]]
+    return (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
 
 
 def _path_cage(points: np.ndarray, s: float) -> ClosedBSpline:

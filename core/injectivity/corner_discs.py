@@ -7,7 +7,10 @@ same).  A composite step (`core.fold_free_deform`) maps such a disc radially ins
 
     F(P + r e^{iθ}) = P' + (r / ρ) c(θ),   c(θ) = f(P + ρ e^{iθ}) - P'   (0 <= r <= ρ, θ in [0, α]),
 
-the cone from the corner's image P' over the image of the arc |z - P| = ρ.  F equals f on the arc,
+the cone from the corner's image P' over the image of the arc |z - P| = ρ.  It does so at every
+sharp corner, proven or not: where a corner opens (its angle α grows to β) the harmonic map compresses
+like r^(β/α), and over many steps points near the corner crowd together closer than the evaluation
+resolves them (mesh triangles there turned over); the radial map is Lipschitz.  F equals f on the arc,
 and on the two straight sides (where f is the real linear map L of the source's sides onto the
 target's, `corner_linear_map`) F = f too, so F is continuous.  Its Jacobian determinant is
 (r / ρ²) c × c', positive where the argument of c increases with θ: if it does along the whole
@@ -62,16 +65,14 @@ class CornerDisc:
 def radial_discs(
     current: ClosedBSpline, cage: np.ndarray, certificate: InjectivityCertificate
 ) -> list[CornerDisc] | None:
-    """The discs of the corners that `certificate` (of `current` onto the control points `cage`
-    (n, 2)) leaves unproven, each checked star-shaped; None if one is not proven so."""
-    if not certificate.away_from_corners:
+    """The discs of all sharp corners of `current`, each checked star-shaped for the map onto the
+    control points `cage` (n, 2) (whose `certificate` proves it outside them at least); None if one
+    is not proven so, [] if the certificate proves nothing."""
+    if not (certificate.injective or certificate.away_from_corners):
         return []
-    scale = current.diameter
     turn = 1.0 if current.area > 0 else -1.0
     discs = []
     for corner in inner_curve.corners(current):
-        if np.min(np.linalg.norm(certificate.where - corner.point, axis=1)) > 1e-12 * scale:
-            continue
         j = int(round(corner.knot)) % current.n
         leave = np.array([math.cos(corner.leave_angle), math.sin(corner.leave_angle)])
         disc = CornerDisc(
