@@ -16,10 +16,13 @@ The subject (`subject_mask`) is, in this order of trust:
   Of what GrabCut keeps, the largest and most central region is taken, its holes
   filled and its outline smoothed; then the band along its outline is decided
   anew on a finer copy (`refined_subject`), from the colours of the subject's core
-  and of the background next to it, and holes and bays with a narrow mouth
-  (a dark collar between a face and a suit) are filled.  The cage goes `SUBJECT_MARGIN` outside the
-  result, because a segmentation is uncertain by a few pixels and a cage that cuts
-  into the subject tears it when deformed, while a thin band of background inside
+  and of the background next to it; the subject grows where its own colours nearby
+  explain a pixel better than the background's nearby (`locally_grown`: a rocket's
+  grey nose, which GrabCut gives to the sky because grey towers elsewhere share its
+  colours); and holes and bays with a narrow mouth (a dark collar between a face and
+  a suit) are filled.  The cage goes `SUBJECT_MARGIN` outside the result, because
+  a segmentation is uncertain by a few pixels and a cage that cuts into the subject
+  tears it when deformed, while a thin band of background inside
   the cage just moves along.
 
 A photograph's subject is uncertain when it is tiny or when colour hardly tells it
@@ -49,14 +52,15 @@ from scipy.ndimage import gaussian_filter1d, minimum
 
 from app.fit_colours import (
     DEFAULT_INSET,
+    MIN_SAMPLES,
     border_contrast,
     boundary_saliency,
-    colour_model,
     frame_mask,
     in_focus,
-    log_likelihood,
 )
 from app.fit_curve import fit_closed_bspline, rectangle_cage, snap_corners
+from app.fit_doubt import colour_separation
+from app.fit_growth import locally_grown
 from app.images.writing import eight_bit
 from core.curves.bspline import ClosedBSpline
 from core.mesh_basis import DEFAULT_SAMPLES_PER_SEGMENT
@@ -95,10 +99,11 @@ MIN_SUBJECT = 0.05
 #: A subject of less than `SMALL_SUBJECT` of the picture (or rectangle), or whose colours
 #: and those of the background around it tell them apart for less than `SEPARATION` of
 #: their pixels (`colour_separation`), is uncertain: `fit_cage` warns
-#: (`SubjectUncertainWarning`).  Measured on scikit-image's photographs: 0.79 to 0.99
-#: where the cage holds the subject (cameraman 0.79, chelsea 0.82, astronaut 0.88), 0.73
-#: and 0.74 on the motorcycle and the coins, whose cages miss much of them, 0.64 and 0.50
-#: on the Hubble deep field and the moon, which have no single subject.
+#: (`SubjectUncertainWarning`).  Measured on scikit-image's photographs: 0.80 to 0.995
+#: where the cage holds the subject (cameraman 0.80, astronaut and chelsea 0.85), 0.73
+#: and 0.66 on the motorcycle and the coins, whose cages miss much of them, 0.66 and 0.87
+#: on the Hubble deep field and the moon, which have no single subject (the moon's is
+#: 0.3 % of the picture).
 SMALL_SUBJECT = 0.01
 SEPARATION = 0.78
 #: Other parts of GrabCut's result join the main one when at least this share of its
@@ -120,9 +125,6 @@ REFINE_BAND = 0.1
 REFINE_RING = 3
 #: Rounds of the refinement: each can move the outline by one band width.
 REFINE_ROUNDS = 2
-#: The refinement needs this many pixels of the core and of the ring to learn its models
-#: (GrabCut's mixtures have five components).
-MIN_SAMPLES = 50
 #: Holes and bays of the subject whose mouth is narrower than twice this fraction of the
 #: square root of its area are filled (`_bays_filled`): a portrait's dark collar ring,
 #: left out by its colour, is part of the subject; an L's open corner stays open.
@@ -434,8 +436,9 @@ def photo_subject(image: np.ndarray, rect=None) -> np.ndarray:
     scikit-image's chelsea the first run keeps an eye (3 % of the picture), the second
     the head and both ears.
     That result is scaled to a copy of about `REFINE_PIXELS` pixels, refined there
-    (`refined_subject`, nothing outside the rectangle), its holes and narrow-mouthed
-    bays filled (`_bays_filled`), and scaled back to (H, W), each time by bilinear
+    (`refined_subject`, nothing outside the rectangle), grown where only the background
+    next to it tells it apart (`locally_grown`), its holes and narrow-mouthed bays
+    filled (`_bays_filled`), and scaled back to (H, W), each time by bilinear
     interpolation of the 0/1 mask (`_refined_hypothesis`).  With a shallow depth of
     field a second hypothesis is made without the focus prior, in the salient
     rectangle; when it overlaps the first, the subject is their union: on
@@ -485,7 +488,8 @@ def _refined_hypothesis(
     to `sharp` (h, w) bool when given; with `whole`, the whole picture is considered, its
     frame background only where not probable.  A result below `MIN_SUBJECT` of the
     rectangle is retried from the rectangle alone.  The result is refined on the fine copy
-    within `limits` (left, top, right, bottom) and its narrow-mouthed bays filled.
+    within `limits` (left, top, right, bottom), grown there (`locally_grown`) and its
+    narrow-mouthed bays filled.
     """
     left, top, right, bottom = bounds
     seeds = np.full(bgr.shape[:2], cv2.GC_BGD, np.uint8)
@@ -508,7 +512,7 @@ def _refined_hypothesis(
         if larger.sum() > subject.sum() and (_stands_out(saliency, larger) or not subject.any()):
             subject = larger
     subject = refined_subject(fine_bgr, _resized(subject, fine_bgr.shape[:2]), limits)
-    return _bays_filled(subject, limits)
+    return _bays_filled(locally_grown(fine_bgr, subject, limits), limits)
 
 
 def _stands_out(saliency: np.ndarray, subject: np.ndarray) -> bool:
@@ -528,46 +532,22 @@ def _ring(subject: np.ndarray) -> np.ndarray:
     return (outside > 0) & (outside <= REFINE_RING * band)
 
 
-def colour_separation(image: np.ndarray, subject: np.ndarray) -> float:
-    """How well colour tells the subject from the background around it, in [0, 1] (0.5: not at all).
-
-    GrabCut's Gaussian mixtures (`colour_model`) are learned from the subject's
-    pixels and from the ring of background around it (`_ring`); the result is the
-    mean of the share of subject pixels more likely under the subject's model and
-    the share of ring pixels more likely under the background's.  Computed on a
-    copy of about `SEGMENT_PIXELS` pixels.
-
-    Parameters
-    ----------
-    image : ndarray of shape (H, W, C), uint8, C >= 3
-        RGB(A), row 0 at the top.
-    subject : ndarray of shape (H, W), bool
-    """
-    small, _ = downscaled(np.ascontiguousarray(image[..., :3]), SEGMENT_PIXELS)
-    inside = _resized(subject, small.shape[:2])
-    ring = _ring(inside)
-    inside = inside > 0
-    if inside.sum() < MIN_SAMPLES or ring.sum() < MIN_SAMPLES:
-        return 0.5
-    bgr = np.ascontiguousarray(small[..., ::-1])
-    subject_model, background_model = (
-        colour_model(bgr[inside], bgr[ring]),
-        colour_model(bgr[ring], bgr[inside]),
-    )
-    closer = log_likelihood(subject_model, bgr) > log_likelihood(background_model, bgr)
-    return float(0.5 * (closer[inside].mean() + (~closer[ring]).mean()))
-
-
 def _warn_if_uncertain(image: np.ndarray, subject: np.ndarray, rect: np.ndarray | None) -> None:
     """`SubjectUncertainWarning` when the photograph's `subject` (H, W) bool is small (`SMALL_SUBJECT`)
-    or hardly told apart from the background by colour (`SEPARATION`)."""
+    or hardly told apart from the background by colour (`SEPARATION`).
+
+    The colours are compared on a copy of about `SEGMENT_PIXELS` pixels, the background
+    around the subject being its `_ring`.
+    """
     height, width = image.shape[:2]
     where = "the picture" if rect is None else "the rectangle"
     share = subject.sum() / (height * width if rect is None else rect[2] * rect[3])
     reasons = []
     if share < SMALL_SUBJECT:
         reasons.append(f"what was found covers only {100 * share:.1f} % of {where}")
-    separation = colour_separation(image, subject)
+    small, _ = downscaled(np.ascontiguousarray(image[..., :3]), SEGMENT_PIXELS)
+    inside = _resized(subject, small.shape[:2])
+    separation = colour_separation(np.ascontiguousarray(small[..., ::-1]), inside > 0, _ring(inside))
     if separation < SEPARATION:
         reasons.append(
             f"colour tells it from the background around it for only {100 * separation:.0f} % of pixels"

@@ -4,7 +4,7 @@
 explains it; `in_focus` finds the sharp part of a picture with a shallow depth of
 field; `boundary_saliency` is the geodesic distance of each pixel to the border
 through colour changes (Wei et al. 2012).  `colour_model` and `log_likelihood` are
-the small Gaussian mixtures these and `app.fit.colour_separation` share.  Arrays are
+the small Gaussian mixtures these and `app.fit_doubt.colour_separation` share.  Arrays are
 (H, W) images, row 0 at the top.
 """
 
@@ -23,6 +23,11 @@ DEFAULT_INSET = 0.03
 #: this much less likely (natural logarithm: 400 times) than the least likely 5 % of the
 #: frame's own pixels.
 BORDER_CONTRAST = 6.0
+
+
+#: A colour model is learned from at least this many pixels of each side (GrabCut's
+#: mixtures have five components): fewer, and the refinement and `colour_separation` give up.
+MIN_SAMPLES = 50
 
 
 #: The border's colour model is learned from at most about this many pixels of the rest.

@@ -773,7 +773,7 @@ FIT_HITS = {
     "clock": (True, False),
     "cell": (True, False),
     "retina": (True, False),
-    "rocket": (False, False),
+    "rocket": (True, False),
     "stereo_motorcycle": (False, True),
     "coins": (True, True),
     "hubble_deep_field": (True, True),

@@ -10,9 +10,10 @@ import pytest
 from conftest import interior_points
 
 import core
-from app.quality_suite import built_in_shapes
+from app.quality_suite import built_in_shapes, standard_suite
 from core.boundary_integrals.panels import coarse_panels, graded_panels
-from core.boundary_integrals.poisson import closest_point, densities
+from core.boundary_integrals.poisson import closest_point, densities, poisson_gradients
+from core.injectivity.inner_curve import offset_points
 from core.meshes.distortion import vertex_jacobians
 
 SHAPES = built_in_shapes()
@@ -544,6 +545,24 @@ def test_nystrom_interpolation_gives_a_finer_solve_s_densities_beside_a_gap(monk
     rows = interpolation_matrix(2.0 * (t - low) / (high - low) - 1.0)
     reference = np.einsum("kq,kqm->km", rows, finer.reshape(-1, ORDER, finer.shape[1])[owner])
     np.testing.assert_allclose(corrected[beside], reference, rtol=0, atol=1e-12)
+
+
+def test_a_refined_panel_round_a_spike_tip_keeps_the_solve_s_density(layer_path):
+    # The starfish with handle 3 dragged (the quality suite's "drag 3") 47/64 of the way: the arm
+    # pinched to 6.5 px, the 17-px fine panel at t = 4.25 faces the far side 8.7 away and takes its
+    # halves' densities by Nyström interpolation, but its own span turns round the tip, so its last
+    # nodes' pairs with it took the adaptive rule, a one-sided limit off by half the density: G · P
+    # missed x by up to 16 px and the identity's Jacobian was off by 10, 1e-3 of the diameter deep
+    # (the fold-free composite stalled at this cage: no step from it could be certified).
+    domain = standard_suite(demos=("starfish",))[0]
+    target = next(d.target for d in domain.deformations if d.label == "drag 3")
+    curve = core.ClosedBSpline(domain.control_points + 47 / 64 * (target - domain.control_points))
+    assert curve.area > 0
+    x, _ = offset_points(curve, np.linspace(4.0, 5.0, 101), 1e-3 * curve.diameter)
+    G = core.basis_functions(curve, x)
+    assert np.abs(G @ curve.control_points - x).max() <= 1e-11 * curve.diameter
+    jacobian = np.einsum("mni,nj->mji", poisson_gradients(curve, x), curve.control_points)
+    assert np.abs(jacobian - np.eye(2)).max() <= 1e-7
 
 
 def test_an_outside_point_beyond_the_first_chunk_is_named_by_its_own_index():

@@ -387,7 +387,11 @@ def nystrom_halves(curve: ClosedBSpline, fine: Panels, mu: np.ndarray, refine: n
     differs from μ by the fine equation's residual (2.3e-13 beside gaps, up to 2.5e-8 on a
     knot's graded panels).  That residual, interpolated, is taken off, so that the halves
     agree with μ at its nodes and only the variation between them is the formula's.  Panels
-    where the integral meets the curve (a near-cusp span) keep the interpolant.
+    where the integral meets the curve keep the interpolant: a near-cusp span, and a panel whose
+    own span turns so tightly that its kernel is not smooth there (`smooth_on_own_span`, beside a
+    spike's tip), where the adaptive rule at the panel's own points gives a one-sided limit of the
+    layer, not the equation's value on the curve: off by half the density (beside a starfish arm
+    pinched to 6.5 px the halves' densities were off by 0.2, G · P - x by pixels near the curve).
     """
     count = refine.size
     low, high = fine.bounds[refine, 0], fine.bounds[refine, 1]
@@ -400,6 +404,8 @@ def nystrom_halves(curve: ClosedBSpline, fine: Panels, mu: np.ndarray, refine: n
     matrix = layer_matrix(curve, fine, z, t)
     target, panel = near_pairs(fine, z, curve.diameter)
     target, panel, values, touching = _adaptive_entries(curve, fine, z, t, target, panel)
+    owner = np.concatenate([np.repeat(refine, 2 * ORDER), np.repeat(refine, ORDER)])  # each z's panel
+    touching |= panel == owner[target]
     matrix[target[:, None], panel[:, None] * ORDER + np.arange(ORDER)] = values
     formula = _data(curve, t) - 2.0 * (matrix @ mu)
     split = 2 * count * ORDER

@@ -280,8 +280,16 @@ def _proof(source: ClosedBSpline, target: np.ndarray, found, depth: float) -> In
         if not (refinable.any() or (factor != 1).any()) or flat["count"] > MAX_SAMPLES:
             break
         samples = _refined(source, target, pieces, samples, flat, refinable, factor)
-    where = flat["points"][np.flatnonzero(failing)]
-    return _failure("the bounds between samples stay too thin near the marked points", where, flat["count"])
+    failing_samples = np.flatnonzero(failing)
+    where = flat["points"][failing_samples]
+    if np.any(inaccurate[failing_samples] | inaccurate[(failing_samples + 1) % inaccurate.size]):
+        reason = (
+            "the map's derivatives are not evaluated accurately enough near the marked points "
+            "(their error estimate is a good part of σ₂ there)"
+        )
+    else:
+        reason = "the bounds between samples stay too thin near the marked points"
+    return _failure(reason, where, flat["count"])
 
 
 def _concatenated(samples) -> dict:

@@ -24,8 +24,10 @@ import math
 
 import numpy as np
 
+from core.basis import basis_functions
 from core.boundary_integrals.poisson import closest_point
 from core.curves.bspline import ClosedBSpline
+from core.injectivity import inner_curve
 from core.injectivity.certificate import InjectivityCertificate, certify_injective
 from core.injectivity.corner_discs import disc_images, radial_discs
 from core.injectivity.mesh_unfolding import unfold_triangles
@@ -102,30 +104,33 @@ def fold_free_deform(
     triangles = None if triangles is None else np.asarray(triangles, dtype=np.int64)
     on_curve = np.zeros(images.shape[0], dtype=bool)
     if boundary is not None:
-        indices, parameters = np.asarray(boundary[0], dtype=np.int64), np.asarray(boundary[1], float)
-        on_curve[indices] = True
+        boundary = np.asarray(boundary[0], dtype=np.int64), np.asarray(boundary[1], dtype=np.float64)
+        on_curve[boundary[0]] = True
     start = curve.control_points
     for fraction in np.arange(1, PATH_CHECKS) / PATH_CHECKS:  # a crossing found early saves the proofs
         _path_cage((1.0 - fraction) * start + fraction * goal, fraction)
-    s, step, current, steps = 0.0, 1.0, curve, []
+    s, step, current, steps, certificate = 0.0, 1.0, curve, [], None
+    basis = None  # G of the current cage at the images off the curve: the same for every step size tried
     while s < 1.0:
         following = min(1.0, s + step)
         cage = (
             final if following == 1.0 else _path_cage((1.0 - following) * start + following * goal, following)
         )
-        certificate = certify_injective(current, cage)
-        discs = radial_discs(current, cage.control_points, certificate)
-        accepted = (certificate.injective or certificate.away_from_corners) and discs is not None
+        moved, accepted, discs = None, True, []
+        check_mesh = triangles is not None and step > SMALLEST_MESH_STEP
+        if check_mesh:  # the mesh first (outside the corner discs, radial there): it costs less than a proof
+            basis = _basis(current, images[~on_curve]) if basis is None else basis
+            moved = _moved(basis, cage, images, on_curve, boundary)
+            accepted = not _turns_over(triangles, images, moved, _in_corner_discs(current, images))
         if accepted:
-            moved = images.copy()
-            moved[~on_curve] = _mapped(current, cage.control_points, images[~on_curve], discs)
-            if boundary is not None:
-                moved[indices] = cage(parameters)
-            accepted = (
-                step <= SMALLEST_MESH_STEP or triangles is None or not _turns_over(triangles, images, moved)
-            )
+            certificate = certify_injective(current, cage)
+            discs = radial_discs(current, cage.control_points, certificate)
+            accepted = (certificate.injective or certificate.away_from_corners) and discs is not None
         if accepted:
-            images = moved
+            moved, basis = _step_images(current, cage, images, on_curve, boundary, basis, moved, discs)
+            accepted = not (discs and check_mesh and _turns_over(triangles, images, moved))
+        if accepted:
+            images, basis = moved, None
             steps.append(_with_discs(certificate, discs))
             s, current = following, cage
             step *= 2.0
@@ -137,6 +142,21 @@ def fold_free_deform(
     if triangles is None:
         return images, composite_certificate(steps)
     return _unfolded(as_points(points, "points"), images, triangles, ~on_curve, final, steps)
+
+
+def _step_images(
+    current, cage, images, on_curve, boundary, basis, moved, discs
+) -> tuple[np.ndarray, np.ndarray]:
+    """The images (M, 2) after an accepted step of `current` onto `cage` (the harmonic ones `moved`
+    if already computed, else from `basis`, computed if None), radial in the corner `discs`
+    (`core.injectivity.corner_discs`); and the basis."""
+    basis = _basis(current, images[~on_curve]) if basis is None else basis
+    moved = _moved(basis, cage, images, on_curve, boundary) if moved is None else moved
+    if discs:
+        moved[~on_curve] = disc_images(
+            current, cage.control_points, images[~on_curve], discs, moved[~on_curve]
+        )
+    return moved, basis
 
 
 def _with_discs(certificate: InjectivityCertificate, discs) -> InjectivityCertificate:
@@ -157,16 +177,26 @@ def _unproven(s: float, taken: int, certificate: InjectivityCertificate, smalles
     cannot resolve even for a step so small that the map is close to the identity."""
     if not smallest:
         return (
-            f"no fold-free step is proven from s = {s:.4g} on the straight path to the target "
-            f"({taken} steps taken, the most allowed): {certificate.reason}"
+            f"the fold-free composite stops at s = {s:.4g} on the straight path to the target: "
+            f"{taken} steps taken, the most allowed"
         )
     near = "" if len(certificate.where) == 0 else " near ({:.4g}, {:.4g})".format(*certificate.where[0])
     return (
         f"no step is proven from s = {s:.4g} on the straight path to the target, not even one of "
-        f"{SMALLEST_STEP:g} of the way (a map that close to the identity is not expected to fold): "
-        f"the certificate cannot resolve the cage there{near} (a part too thin for its samples), a "
-        f"limit of the proof ({certificate.reason})"
+        f"{SMALLEST_STEP:g} of the way (a map that close to the identity is not expected to fold), "
+        f"a limit of the proof at the cage there{near}: {certificate.reason}"
     )
+
+
+def _moved(basis: np.ndarray, cage: ClosedBSpline, images: np.ndarray, on_curve: np.ndarray, boundary):
+    """The images (M, 2) after the step onto `cage`: the harmonic map's, basis (K, n) of the current
+    cage at the K points off the curve (`on_curve` (M,) False) times the cage's control points, and
+    the cage at their parameters for the rows of `boundary` (indices (B,), parameters (B,)) or None."""
+    moved = images.copy()
+    moved[~on_curve] = basis @ cage.control_points
+    if boundary is not None:
+        moved[boundary[0]] = cage(boundary[1])
+    return moved
 
 
 def _unfolded(vertices, images, triangles, free, final, steps) -> tuple[np.ndarray, InjectivityCertificate]:
@@ -184,8 +214,11 @@ def _unfolded(vertices, images, triangles, free, final, steps) -> tuple[np.ndarr
     return images, dataclasses.replace(certificate, extra=certificate.extra | moved)
 
 
-def _turns_over(triangles: np.ndarray, before: np.ndarray, after: np.ndarray) -> bool:
-    """Whether a step turns over a triangle (T, 3) that was not turned over before it."""
+def _turns_over(triangles: np.ndarray, before: np.ndarray, after: np.ndarray, skipped=None) -> bool:
+    """Whether a step turns over a triangle (T, 3) that was not turned over before it (not counting
+    triangles with a vertex where `skipped` (V,) is True)."""
+    if skipped is not None:
+        triangles = triangles[~np.any(skipped[triangles], axis=1)]
     return bool(np.any((_areas(triangles, after) <= 0) & (_areas(triangles, before) > 0)))
 
 
@@ -206,14 +239,22 @@ def _path_cage(points: np.ndarray, s: float) -> ClosedBSpline:
         ) from None
 
 
-def _mapped(current: ClosedBSpline, cage: np.ndarray, points: np.ndarray, discs) -> np.ndarray:
-    """Images (M, 2) under the step's map of `current` onto the cage's control points (n, 2): harmonic,
-    radial in the corner discs (`core.injectivity.corner_discs`); points a hair outside `current`
+def _basis(current: ClosedBSpline, points: np.ndarray) -> np.ndarray:
+    """The harmonic basis (M, n) of `current` at points (M, 2), whose products with a cage's control
+    points (n, 2) are their images under the harmonic map onto it; points a hair outside `current`
     (rounding of the previous step) go to its closest point first."""
     try:
-        return disc_images(current, cage, points, discs)
+        return basis_functions(current, points, "poisson")
     except ValueError:  # some points are outside: the test below costs, so only now
-        return disc_images(current, cage, _inside(current, points), discs)
+        return basis_functions(current, _inside(current, points), "poisson")
+
+
+def _in_corner_discs(current: ClosedBSpline, points: np.ndarray) -> np.ndarray:
+    """Whether each of the points (M, 2) lies in the disc of a sharp corner of `current` (M,)."""
+    inside = np.zeros(len(points), dtype=bool)
+    for corner in inner_curve.corners(current):
+        inside |= np.linalg.norm(points - corner.point, axis=1) < corner.radius
+    return inside
 
 
 def _inside(curve: ClosedBSpline, points: np.ndarray) -> np.ndarray:

@@ -86,11 +86,12 @@ def radial_discs(
 
 
 def disc_images(
-    current: ClosedBSpline, cage: np.ndarray, points: np.ndarray, discs: list[CornerDisc]
+    current: ClosedBSpline, cage: np.ndarray, points: np.ndarray, discs: list[CornerDisc], harmonic=None
 ) -> np.ndarray:
     """Images (M, 2) of points (M, 2) of `current`'s closed domain: the harmonic map onto the
-    control points `cage` (n, 2), and within a disc of `discs` its radial map (the module's F)."""
-    images = np.empty_like(points)
+    control points `cage` (n, 2) (or the given `harmonic` images (M, 2)), and within a disc of
+    `discs` its radial map (the module's F)."""
+    images = np.empty_like(points) if harmonic is None else harmonic.copy()
     rest = np.ones(len(points), dtype=bool)
     for disc in discs:
         offsets = points - disc.point
@@ -103,7 +104,7 @@ def disc_images(
         images[inside] = disc.image + (distances[inside] / disc.radius)[:, None] * _arc_images(
             current, cage, disc, angles
         )
-    if rest.any():
+    if harmonic is None and rest.any():
         images[rest] = basis_functions(current, points[rest], "poisson") @ cage
     return images
 
