@@ -7,6 +7,7 @@
   and the complex derivatives f_z, f_z̄ of the harmonic map;
 - `composite`: `fold_free_deform`, composite harmonic maps along a path of cages (Schneider,
   Hormann & Floater 2013), each step certified;
+- `corner_discs`: the radial map a step uses in the corner discs its certificate leaves unproven;
 - `mesh_unfolding`: `unfold_triangles`, the repair of the few mesh triangles that a proven
   bijection's straight-edged interpolant still turns over.
 """

@@ -31,7 +31,11 @@ and gradients lose accuracy as the distance shrinks).  What is left:
   towards P, the leading term of E (r^(π/α) sin(πθ/α)) makes |ω| tend to 1 and, unless its
   coefficient is aligned with L, the map folds in a disc around P of radius ~|E|^(α/(α-π));
   the certificate proves the rest of the domain and reports the reflex corners as unproven
-  (`away_from_corners`).
+  (`away_from_corners`).  So it does for a convex corner whose sector bound fails, among them one
+  that turns past a straight angle between source and target (L reverses orientation: the map folds
+  in the disc around P where L outweighs E, r < ~ρ·(|L|/ε)^(α/(π-α)), vanishingly small near
+  α = π): a composite (`core.fold_free_deform`) whose corner opens from convex to reflex passes
+  through such steps.
 
 What is proven, and under which assumptions (the constants are `boundary_samples`'): the
 conclusion holds if (A1) the evaluated f_z, f_z̄ at each sample are within its allowance of the
@@ -86,7 +90,7 @@ class InjectivityCertificate:
         onto the target's inside.
     sigma2_min : float
         A proven lower bound of the smaller singular value σ₂ of the Jacobian over the domain
-        (over the domain outside the reflex corners' discs when only `away_from_corners`); 0 when
+        (over the domain outside the unproven corners' discs when only `away_from_corners`); 0 when
         nothing is proven.
     k_max : float
         A proven upper bound of |f_z̄| / |f_z| over the same region; inf when nothing is proven.
@@ -98,7 +102,7 @@ class InjectivityCertificate:
         Points at which the derivatives were evaluated.
     away_from_corners : bool
         Proven everywhere except within `corner_radius` of the points in `where`, which are
-        reflex sharp corners (`injective` is then False).
+        sharp corners, reflex or not proven in their sector (`injective` is then False).
     """
 
     injective: bool
@@ -125,7 +129,7 @@ class InjectivityCertificate:
             return f"fold-free, proven ({bounds}; {self.samples} samples){repair}"
         if self.away_from_corners:
             return (
-                f"fold-free away from {len(self.where)} reflex corner(s), proven outside a radius of "
+                f"fold-free away from {len(self.where)} sharp corner(s), proven outside a radius of "
                 f"{self.corner_radius:.3g} (σ₂ ≥ {self.sigma2_min:.3g}; {self.samples} samples){repair}"
             )
         return f"not proven fold-free: {self.reason}"
@@ -216,8 +220,8 @@ def _refused_target(curve: ClosedBSpline, points: np.ndarray, given) -> Injectiv
 
 
 def _refused_corners(source: ClosedBSpline, target: np.ndarray, found) -> InjectivityCertificate | None:
-    """A failed certificate if the sharp corners of source and target differ, or the linear map of a
-    corner's sides reverses orientation (then f folds at the corner)."""
+    """A failed certificate if the sharp corners of source and target differ.  (A corner whose sides'
+    linear map reverses orientation is left to `_combined`: unproven in a disc, like a reflex one.)"""
     doubled = np.all(target == np.roll(target, 1, axis=0), axis=1)
     source_doubled = np.all(source.control_points == np.roll(source.control_points, 1, axis=0), axis=1)
     differ = np.flatnonzero(doubled != source_doubled)
@@ -228,10 +232,6 @@ def _refused_corners(source: ClosedBSpline, target: np.ndarray, found) -> Inject
             "and not in the other",
             source.control_points[j],
         )
-    for corner in found:
-        matrix = corner_linear_map(source.control_points, target, corner)
-        if np.linalg.det(matrix) <= 0:
-            return _failure(f"the map folds at the sharp corner at t = {corner.knot:g}", corner.point)
     return None
 
 
@@ -343,21 +343,22 @@ def _combined(source, target, found, samples, flat, bounds, tolerance) -> Inject
     interior = float(bounds.h_low.min()) * (1.0 - k_gamma)
     strip = float(bounds.sigma_strip.min())
     sigma2, k_max = min(interior, strip), max(k_gamma, float(np.max(1.0 - bounds.sigma_strip / bounds.h_low)))
-    reflex = []
+    unproven = []
     for index, corner in enumerate(found):
-        if corner.angle > math.pi:
-            reflex.append(corner)
+        sector = None
+        if corner.angle <= math.pi:
+            sector = _sector_bound(source, target, corner, samples[2 * index], bounds, flat, 2 * index)
+        if sector is None or sector[0] <= tolerance:
+            unproven.append(corner)
             continue
-        sector = _sector_bound(source, target, corner, samples[2 * index], bounds, flat, 2 * index)
-        if sector[0] <= tolerance:
-            return _failure(
-                f"the sector at the sharp corner at t = {corner.knot:g} is not proven", corner.point, count
-            )
         sigma2, k_max = min(sigma2, sector[0]), max(k_max, sector[1])
-    if reflex:
-        where = np.array([corner.point for corner in reflex])
-        radius = max(corner.radius for corner in reflex)
-        reason = f"{len(reflex)} reflex sharp corner(s): proven outside a radius of {radius:.3g} around them"
+    if unproven:
+        where = np.array([corner.point for corner in unproven])
+        radius = max(corner.radius for corner in unproven)
+        reason = (
+            f"{len(unproven)} sharp corner(s) not proven (reflex, or turning past a straight angle): "
+            f"proven outside a radius of {radius:.3g} around them"
+        )
         return InjectivityCertificate(False, sigma2, k_max, where, reason, count, True, radius)
     return InjectivityCertificate(True, sigma2, k_max, np.zeros((0, 2)), "proven", count)
 

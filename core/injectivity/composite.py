@@ -7,7 +7,10 @@ map of the cage at s_k onto the cage at s_{k+1}.  Here each step is the harmonic
 each domain onto the next composes to a bijection of the source domain onto the target's, and a
 boundary point at parameter t goes to the target curve at t at every step.  The steps are adaptive:
 the first tries the whole way, a step whose certificate fails is halved, a step that succeeds lets
-the next one double.  σ₂ of the composite is at least the product of the steps' bounds, and its
+the next one double.  Within a disc at each sharp corner a step maps radially instead
+(`core.injectivity.corner_discs`), also where the certificate leaves the harmonic map unproven, so
+that it is a bijection all the same.  σ₂ of
+the composite is at least the product of the steps' bounds, and its
 dilatation K = (1 + k) / (1 - k) at most the product of theirs.  Given a mesh, the triangles that
 its straight edges still turn over are unfolded at the end by moving a few interior vertices' images
 (`core.injectivity.mesh_unfolding`): the images change, by amounts the certificate reports, the
@@ -24,7 +27,9 @@ import numpy as np
 from core.basis import basis_functions
 from core.boundary_integrals.poisson import closest_point
 from core.curves.bspline import ClosedBSpline
+from core.injectivity import inner_curve
 from core.injectivity.certificate import InjectivityCertificate, certify_injective
+from core.injectivity.corner_discs import disc_images, radial_discs
 from core.injectivity.mesh_unfolding import unfold_triangles
 from core.validation import as_points
 
@@ -111,20 +116,22 @@ def fold_free_deform(
         cage = (
             final if following == 1.0 else _path_cage((1.0 - following) * start + following * goal, following)
         )
-        moved, accepted = None, True
-        if triangles is not None and step > SMALLEST_MESH_STEP:  # the mesh first: it costs less than a proof
+        moved, accepted, discs = None, True, []
+        check_mesh = triangles is not None and step > SMALLEST_MESH_STEP
+        if check_mesh:  # the mesh first (outside the corner discs, radial there): it costs less than a proof
             basis = _basis(current, images[~on_curve]) if basis is None else basis
             moved = _moved(basis, cage, images, on_curve, boundary)
-            accepted = not _turns_over(triangles, images, moved)
+            accepted = not _turns_over(triangles, images, moved, _in_corner_discs(current, images))
         if accepted:
             certificate = certify_injective(current, cage)
-            accepted = certificate.injective or certificate.away_from_corners
+            discs = radial_discs(current, cage.control_points, certificate)
+            accepted = (certificate.injective or certificate.away_from_corners) and discs is not None
         if accepted:
-            if moved is None:
-                basis = _basis(current, images[~on_curve]) if basis is None else basis
-                moved = _moved(basis, cage, images, on_curve, boundary)
+            moved, basis = _step_images(current, cage, images, on_curve, boundary, basis, moved, discs)
+            accepted = not (discs and check_mesh and _turns_over(triangles, images, moved))
+        if accepted:
             images, basis = moved, None
-            steps.append(certificate)
+            steps.append(_with_discs(certificate, discs))
             s, current = following, cage
             step *= 2.0
         else:
@@ -135,6 +142,34 @@ def fold_free_deform(
     if triangles is None:
         return images, composite_certificate(steps)
     return _unfolded(as_points(points, "points"), images, triangles, ~on_curve, final, steps)
+
+
+def _step_images(
+    current, cage, images, on_curve, boundary, basis, moved, discs
+) -> tuple[np.ndarray, np.ndarray]:
+    """The images (M, 2) after an accepted step of `current` onto `cage` (the harmonic ones `moved`
+    if already computed, else from `basis`, computed if None), radial in the corner `discs`
+    (`core.injectivity.corner_discs`); and the basis."""
+    basis = _basis(current, images[~on_curve]) if basis is None else basis
+    moved = _moved(basis, cage, images, on_curve, boundary) if moved is None else moved
+    if discs:
+        moved[~on_curve] = disc_images(
+            current, cage.control_points, images[~on_curve], discs, moved[~on_curve]
+        )
+    return moved, basis
+
+
+def _with_discs(certificate: InjectivityCertificate, discs) -> InjectivityCertificate:
+    """A step's certificate: proven outside its radial corner discs (if any), not inside them."""
+    if not discs:
+        return certificate
+    return dataclasses.replace(
+        certificate,
+        injective=False,
+        away_from_corners=True,
+        where=np.array([disc.point for disc in discs]),
+        corner_radius=max(disc.radius for disc in discs),
+    )
 
 
 def _unproven(s: float, taken: int, certificate: InjectivityCertificate, smallest: bool) -> str:
@@ -166,21 +201,31 @@ def _moved(basis: np.ndarray, cage: ClosedBSpline, images: np.ndarray, on_curve:
 
 def _unfolded(vertices, images, triangles, free, final, steps) -> tuple[np.ndarray, InjectivityCertificate]:
     """The images (V, 2) with triangles (T, 3) that are still turned over unfolded by moving free
-    vertices (V,) (`unfold_triangles`), and the composite's certificate noting the moves."""
-    images, moves = unfold_triangles(vertices, images, triangles, free)
+    vertices (V,) (`unfold_triangles`), and the composite's certificate noting the moves.  A move that
+    leaves the target is undone, and the whole repair if it leaves more triangles turned over."""
+    repaired, moves = unfold_triangles(vertices, images, triangles, free)
+    left = (moves > 0) & ~final.contains(repaired)
+    repaired[left], moves[left] = images[left], 0.0
+    if np.count_nonzero(_areas(triangles, repaired) <= 0) > np.count_nonzero(_areas(triangles, images) <= 0):
+        repaired, moves = images, np.zeros_like(moves)
+    images = repaired
     certificate = composite_certificate(steps)
     moved = {"moved": int(np.count_nonzero(moves)), "largest_move": float(moves.max()) / final.diameter}
     return images, dataclasses.replace(certificate, extra=certificate.extra | moved)
 
 
-def _turns_over(triangles: np.ndarray, before: np.ndarray, after: np.ndarray) -> bool:
-    """Whether a step turns over a triangle (T, 3) that was not turned over before it."""
+def _turns_over(triangles: np.ndarray, before: np.ndarray, after: np.ndarray, skipped=None) -> bool:
+    """Whether a step turns over a triangle (T, 3) that was not turned over before it (not counting
+    triangles with a vertex where `skipped` (V,) is True)."""
+    if skipped is not None:
+        triangles = triangles[~np.any(skipped[triangles], axis=1)]
+    return bool(np.any((_areas(triangles, after) <= 0) & (_areas(triangles, before) > 0)))
 
-    def areas(points):
-        a, b, c = points[triangles[:, 0]], points[triangles[:, 1]], points[triangles[:, 2]]
-        return (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
 
-    return bool(np.any((areas(after) <= 0) & (areas(before) > 0)))
+def _areas(triangles: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """Doubled signed areas (T,) of the triangles (T, 3) over points (V, 2)."""
+    a, b, c = points[triangles[:, 0]], points[triangles[:, 1]], points[triangles[:, 2]]
+    return (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
 
 
 def _path_cage(points: np.ndarray, s: float) -> ClosedBSpline:
@@ -202,6 +247,14 @@ def _basis(current: ClosedBSpline, points: np.ndarray) -> np.ndarray:
         return basis_functions(current, points, "poisson")
     except ValueError:  # some points are outside: the test below costs, so only now
         return basis_functions(current, _inside(current, points), "poisson")
+
+
+def _in_corner_discs(current: ClosedBSpline, points: np.ndarray) -> np.ndarray:
+    """Whether each of the points (M, 2) lies in the disc of a sharp corner of `current` (M,)."""
+    inside = np.zeros(len(points), dtype=bool)
+    for corner in inner_curve.corners(current):
+        inside |= np.linalg.norm(points - corner.point, axis=1) < corner.radius
+    return inside
 
 
 def _inside(curve: ClosedBSpline, points: np.ndarray) -> np.ndarray:
@@ -231,7 +284,8 @@ def composite_certificate(steps: list[InjectivityCertificate]) -> InjectivityCer
         reason = f"composite of {len(steps)} proven harmonic step(s)"
     else:
         reason = (
-            f"composite of {len(steps)} harmonic step(s), proven outside discs around reflex sharp corners"
+            f"a bijection: composite of {len(steps)} step(s), harmonic and proven outside discs around "
+            "sharp corners, radial over the arc's image (checked star-shaped) inside them"
         )
     radius = max((step.corner_radius for step in steps), default=0.0)
     return InjectivityCertificate(

@@ -12,8 +12,8 @@
   `SIDE_GAP` of the diameter from the two straight sides.  ρ is `CORNER_FRACTION` of the shorter
   straight side (both spans at a doubled point are straight: the span leaving P is
   P + u² (P_next - P) / 2), at most `CORNER_CAP` of the diameter and at most half the distance
-  from P to the rest of the curve, so the sector |z - P| < ρ lies in the domain and both its
-  sides are straight.
+  from P to the rest of the curve (a lower bound of it from samples), so the sector |z - P| < ρ
+  lies in the domain and both its sides are straight.
 
 Consecutive pieces are joined by straight connectors (a few δ long).  Γ is the closed polygon
 through all samples in order.
@@ -38,6 +38,10 @@ DEEPER = 4.0
 CORNER_FRACTION = 0.5
 #: ... and at most this fraction of the diameter.
 CORNER_CAP = 0.05
+#: Points per span at which the distance from a corner to the rest of the curve is bounded, and
+#: how many times more where that bound is not conclusive.
+CLEARANCE_SAMPLES = 64
+CLEARANCE_REFINE = 64
 #: Corner arcs stop this fraction of the diameter away from the straight sides.
 SIDE_GAP = 1e-5
 
@@ -72,15 +76,12 @@ def corners(curve: ClosedBSpline) -> list[Corner]:
     points = curve.control_points
     n = curve.n
     result = []
-    dense = curve(np.arange(n * 16) / 16.0)
     for (knot, *directions), angle in zip(curve.corners(), curve.corner_angles(), strict=True):
         j = int(round(knot)) % n  # paper P_j = P_{j+1}: array rows j - 1 and j
         point = points[j]
         side_after = 0.5 * np.linalg.norm(points[(j + 1) % n] - point)
         side_before = 0.5 * np.linalg.norm(point - points[(j - 2) % n])
-        spans = (np.arange(n * 16) // 16 - j) % n
-        rest = dense[(spans != n - 1) & (spans != 0)]
-        clearance = np.linalg.norm(rest - point, axis=1).min() if rest.size else np.inf
+        clearance = _clearance(curve, point, (j + np.arange(1, n - 1)) % n)
         radius = min(CORNER_FRACTION * min(side_after, side_before), CORNER_CAP * curve.diameter)
         radius = min(radius, 0.5 * clearance)
         leave = math.atan2(directions[3], directions[2])
@@ -96,6 +97,24 @@ def corners(curve: ClosedBSpline) -> list[Corner]:
             )
         )
     return result
+
+
+def _clearance(curve: ClosedBSpline, point: np.ndarray, spans: np.ndarray) -> float:
+    """A lower bound (>= 0) of the distance from `point` (2,) to the curve's spans t in [i, i + 1] for
+    i in `spans` (S,): per span, the distance to samples u/m less half the arc between samples, at most
+    the span's largest speed (|p'| is convex on a span, largest at an end) over 2m; the spans whose
+    bound is below the nearest sample's distance are sampled again `CLEARANCE_REFINE` times finer."""
+    _, first, _ = curve.evaluate(np.arange(curve.n + 1, dtype=np.float64))
+    speeds = np.linalg.norm(first, axis=1)
+    largest = np.maximum(speeds[:-1], speeds[1:])
+    bounds = np.full(spans.size, np.inf)
+    chosen, count = np.arange(spans.size), CLEARANCE_SAMPLES
+    for _ in range(2):
+        t = (spans[chosen][:, None] + np.arange(count) / count).ravel()
+        distances = np.linalg.norm(curve(t) - point, axis=1).reshape(chosen.size, count)
+        bounds[chosen] = distances.min(axis=1) - largest[spans[chosen]] / (2.0 * count)
+        chosen, count = chosen[bounds[chosen] < distances.min()], count * CLEARANCE_REFINE
+    return max(float(bounds.min(initial=np.inf)), 0.0)
 
 
 def pieces(curve: ClosedBSpline, found: list[Corner]) -> list[Piece]:

@@ -31,6 +31,9 @@ on `scipy.spatial.Delaunay`):
    circumradius exceeds sqrt(2) times its shortest edge (all angles >= 20.7
    degrees), or split the boundary edge that the circumcentre encroaches.
 5. Laplacian smoothing of the band's free vertices, then step 4 again.
+6. No triangle is an ear at a sharp corner (the corner and its two boundary neighbours): its
+   inner edge is flipped (`core.meshes.corner_ears`), so that a warp may open the corner past a
+   straight angle without turning a triangle over.
 
 Coordinates are (x, y); "counter-clockwise" means in a y-up frame (positive
 ``cross(b - a, c - a)``), which is clockwise on screen when y points down.
@@ -44,6 +47,7 @@ from collections.abc import Callable
 import numpy as np
 
 from core.curves.bspline import ClosedBSpline
+from core.meshes.corner_ears import opened_corner_ears
 from core.meshes.mesh import Mesh
 from core.meshes.refinement import Progress, Refinement
 from core.meshes.sizing import Sizing
@@ -124,7 +128,7 @@ def triangulate(
         mesher.refine(lambda bad: report.rounds(bad, 0.3, 0.65))
         mesher.smooth(SMOOTHING_PASSES, lambda done: report.phase(0.65 + 0.07 * done))
         mesher.refine(lambda bad: report.rounds(bad, 0.72, 0.92))
-        mesh = mesher.mesh()
+        mesh = opened_corner_ears(curve, mesher.mesh())
         report.phase(1.0)
         return mesh
     except RuntimeError as error:
