@@ -140,8 +140,8 @@ def fold_free_deform(
             raise ValueError(_unproven(s, len(steps), certificate, step < SMALLEST_STEP))
     images[~on_curve] = _inside(final, images[~on_curve])
     if triangles is None:
-        return images, composite_certificate(steps)
-    return _unfolded(as_points(points, "points"), images, triangles, ~on_curve, final, steps)
+        return images, composite_certificate(steps, curve)
+    return _unfolded(as_points(points, "points"), images, triangles, ~on_curve, final, steps, curve)
 
 
 def _step_images(
@@ -199,9 +199,12 @@ def _moved(basis: np.ndarray, cage: ClosedBSpline, images: np.ndarray, on_curve:
     return moved
 
 
-def _unfolded(vertices, images, triangles, free, final, steps) -> tuple[np.ndarray, InjectivityCertificate]:
+def _unfolded(
+    vertices, images, triangles, free, final, steps, source
+) -> tuple[np.ndarray, InjectivityCertificate]:
     """The images (V, 2) with triangles (T, 3) that are still turned over unfolded by moving free
-    vertices (V,) (`unfold_triangles`), and the composite's certificate noting the moves.  A move that
+    vertices (V,) (`unfold_triangles`), and the composite's certificate (of `source`'s map) noting
+    the moves.  A move that
     leaves the target is undone, and the whole repair if it leaves more triangles turned over."""
     repaired, moves = unfold_triangles(vertices, images, triangles, free)
     left = (moves > 0) & ~final.contains(repaired)
@@ -209,7 +212,7 @@ def _unfolded(vertices, images, triangles, free, final, steps) -> tuple[np.ndarr
     if np.count_nonzero(_areas(triangles, repaired) <= 0) > np.count_nonzero(_areas(triangles, images) <= 0):
         repaired, moves = images, np.zeros_like(moves)
     images = repaired
-    certificate = composite_certificate(steps)
+    certificate = composite_certificate(steps, source)
     moved = {"moved": int(np.count_nonzero(moves)), "largest_move": float(moves.max()) / final.diameter}
     return images, dataclasses.replace(certificate, extra=certificate.extra | moved)
 
@@ -268,9 +271,13 @@ def _inside(curve: ClosedBSpline, points: np.ndarray) -> np.ndarray:
     return points
 
 
-def composite_certificate(steps: list[InjectivityCertificate]) -> InjectivityCertificate:
+def composite_certificate(
+    steps: list[InjectivityCertificate], source: ClosedBSpline | None = None
+) -> InjectivityCertificate:
     """The certificate of a composite of certified steps: σ₂ >= Π σ₂_k, and K <= Π K_k for the
-    dilatations K = (1 + k) / (1 - k)."""
+    dilatations K = (1 + k) / (1 - k).  Its ``where``: the sharp corners of the `source` cage
+    when a step was proven only away from corners (each step's own are points of its cage, which
+    the steps before take to the same corners); the steps' points when `source` is None."""
     sigma2 = math.prod(step.sigma2_min for step in steps)
     dilatation = math.prod(
         (1.0 + step.k_max) / (1.0 - step.k_max) if step.k_max < 1.0 else math.inf for step in steps
@@ -279,6 +286,8 @@ def composite_certificate(steps: list[InjectivityCertificate]) -> InjectivityCer
     injective = all(step.injective for step in steps)
     corners = [step.where for step in steps if step.away_from_corners]
     where = np.unique(np.concatenate(corners), axis=0) if corners else np.zeros((0, 2))
+    if corners and source is not None:
+        where = source(source.corners()[:, 0])
     samples = sum(step.samples for step in steps)
     if injective:
         reason = f"composite of {len(steps)} proven harmonic step(s)"
