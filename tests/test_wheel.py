@@ -59,7 +59,9 @@ def venv(tmp_path_factory) -> Path:
     run([sys.executable, "-m", "pip", "wheel", "--quiet", "--no-deps", "-w", work / "dist", sdist], 600)
     (wheel,) = (work / "dist").glob("transfinite_warp-*.whl")
     run([sys.executable, "-m", "venv", work / "venv"], 300)
-    run([work / "venv" / "bin" / "python", "-m", "pip", "install", "--quiet", wheel], 1200)
+    # --no-compile: byte-compiling the ~5000 modules of the dependencies (OpenGL, scipy, ...) is CPU
+    # the suite beside this check needs; the commands below compile what they import, as usual.
+    run([work / "venv" / "bin" / "python", "-m", "pip", "install", "--quiet", "--no-compile", wheel], 1200)
     return work / "venv"
 
 
