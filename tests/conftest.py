@@ -11,27 +11,31 @@ import pytest
 import core
 from core.curves import examples
 
-#: The test files that take longest, longest first (CPU seconds of a cold-cache `.ci/run`,
-#: from 116 s down to 10 s). `.ci/run` hands whole files to its two workers in collection order
-#: (``--dist loadfile --no-loadscope-reorder``): started first, the long files end with the short
-#: ones instead of one worker finishing a long file alone. Files not named follow, in path order.
+#: The test files that take longest, longest first (their wall time in one `.ci/run` on a shared
+#: machine, with core compiled beforehand: 431 s down to 22 s, 16 min for all). `.ci/run` hands
+#: whole files to its two workers in collection order (``--dist loadfile --no-loadscope-reorder``):
+#: started first, the long files end with the short ones instead of one worker finishing a long
+#: file alone. Files not named follow, in path order.
 LONGEST_FIRST = (
     "test_viewer_window.py",
-    "test_poisson.py",
-    "test_layout.py",
-    "test_viewer_window_fit.py",
-    "test_cli.py",
-    "test_injectivity_certificate.py",
-    "test_fit.py",
-    "test_injectivity_composite.py",
     "test_compilation.py",
-    "test_mesh_basis.py",
+    "test_layout.py",
+    "test_fit.py",
+    "test_poisson.py",
+    "test_injectivity_certificate.py",
+    "test_viewer_window_fit.py",
+    "test_injectivity_composite.py",
+    "test_cli.py",
+    "test_viewer_fold_free.py",
+    "test_viewer_precompute.py",
+    "test_viewer_window_fold_free.py",
     "test_quality.py",
     "test_compiled_integrals.py",
-    "test_animate.py",
     "test_bad_inputs.py",
-    "test_fill.py",
+    "test_animate.py",
     "test_parameterization_app.py",
+    "test_bspline.py",
+    "test_fill.py",
 )
 
 
