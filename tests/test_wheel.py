@@ -23,6 +23,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 import pytest
+import tomllib
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -45,6 +46,36 @@ def run(command: list, timeout: float, **kwargs) -> subprocess.CompletedProcess:
 def venv(tmp_path_factory) -> Path:
     """A fresh venv with the wheel and its dependencies installed; the wheel's source is gone."""
     work = tmp_path_factory.mktemp("wheel")
+    run([sys.executable, "-m", "venv", work / "venv"], 300)
+    python = work / "venv" / "bin" / "python"
+    # The dependencies (pyproject.toml's list, which the wheel's metadata repeats) download and
+    # install from the package index while the wheel builds; the wheel's own install below then
+    # resolves them again from its metadata. --no-compile: byte-compiling the ~5000 modules of the
+    # dependencies (OpenGL, scipy, ...) is CPU that the suite beside this check needs; the commands
+    # below compile what they import, as usual.
+    dependencies = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["dependencies"]
+    install = [python, "-m", "pip", "install", "--quiet", "--no-compile"]
+    log = work / "dependencies.log"
+    with open(log, "w") as stream:
+        installing = subprocess.Popen(
+            [str(part) for part in (*install, *dependencies)], stdout=stream, stderr=stream
+        )
+    try:
+        wheel = build_wheel(work)
+        assert installing.wait(timeout=1200) == 0, (
+            f"installing the dependencies failed:\n{log.read_text()[-3000:]}"
+        )
+    finally:
+        if installing.poll() is None:
+            installing.kill()
+            installing.wait()
+    run([*install, wheel], 1200)
+    return work / "venv"
+
+
+def build_wheel(work: Path) -> Path:
+    """The wheel built from the source distribution of a copy of the repository's tracked files,
+    in work/dist; the copy is deleted before the build."""
     source = work / "source"
     tracked = run(["git", "ls-files", "-z"], 60, cwd=ROOT).stdout.split("\0")
     for name in filter(None, tracked):
@@ -58,9 +89,7 @@ def venv(tmp_path_factory) -> Path:
     shutil.rmtree(source)
     run([sys.executable, "-m", "pip", "wheel", "--quiet", "--no-deps", "-w", work / "dist", sdist], 600)
     (wheel,) = (work / "dist").glob("transfinite_warp-*.whl")
-    run([sys.executable, "-m", "venv", work / "venv"], 300)
-    run([work / "venv" / "bin" / "python", "-m", "pip", "install", "--quiet", wheel], 1200)
-    return work / "venv"
+    return wheel
 
 
 @pytest.fixture
