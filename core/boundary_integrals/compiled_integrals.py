@@ -534,49 +534,37 @@ def knot_blocks(fine, panels, start, interpolation, offsets, row_weights, column
     (int (B,)): numba hands each thread an equal run of it, so `balanced_sequence` puts as much
     work in each run (the bench blob's 12 blocks: 3.2 -> 2.95 ms on two threads).
     """
+    nodes = fine  # a `LayerNodes` by its first fields' names
+    node_z, node_span, node_u = nodes.z, nodes.span, nodes.u
     width = column_weights.shape[1]
     solution = np.zeros((interpolation.shape[0], width))
     reduced = np.zeros((start.shape[0] - 1, width, width))
     for position in prange(start.shape[0] - 1):
         b = sequence[position]
-        weights = (row_weights, column_weights)
-        _knot_block(fine, panels, start, b, interpolation, offsets, weights, (solution, reduced))
+        first, count = start[b] * ORDER, (start[b + 1] - start[b]) * ORDER
+        prolongation = np.zeros((count, width))
+        for i in range(count):
+            for j in range(ORDER):
+                prolongation[i, offsets[first + i] + j] = interpolation[first + i, j]
+        matrix = np.empty((count, count))
+        for i in range(count):
+            m = panels[start[b] + i // ORDER] * ORDER + i % ORDER
+            x, y, own, u = node_z[m].real, node_z[m].imag, node_span[m], node_u[m]
+            for j in range(count):
+                k = panels[start[b] + j // ORDER] * ORDER + j % ORDER
+                matrix[i, j] = _layer_entry(x, y, own, u, k, nodes)
+        _adaptive_entries(fine, panels[start[b] : start[b + 1]], matrix)
+        for i in range(count):
+            for j in range(count):
+                matrix[i, j] *= 2.0
+            matrix[i, i] += 1.0
+        block = np.linalg.solve(matrix, prolongation)
+        solution[first : first + count] = block
+        for i in range(count):
+            for c in range(width):
+                prolongation[i, c] *= row_weights[first + i] / column_weights[b, c]
+        reduced[b] = np.dot(prolongation.T.copy(), block)
     return solution, reduced
-
-
-@njit(cache=True, nogil=True, error_model="numpy")
-def _knot_block(fine, panels, start, b, interpolation, offsets, weights, out):
-    """Block b of `knot_blocks` (arguments as there, `weights` = (row_weights, column_weights))
-    into out = (solution, reduced): its rows of X and its Q X.  One call a block from
-    `knot_blocks`'s parallel loop, as `compiled_tree.layer_rows` calls one a box."""
-    row_weights, column_weights = weights
-    solution, reduced = out
-    nodes = fine  # a `LayerNodes` by its first fields' names
-    node_z, node_span, node_u = nodes.z, nodes.span, nodes.u
-    width = column_weights.shape[1]
-    first, count = start[b] * ORDER, (start[b + 1] - start[b]) * ORDER
-    prolongation = np.zeros((count, width))
-    for i in range(count):
-        for j in range(ORDER):
-            prolongation[i, offsets[first + i] + j] = interpolation[first + i, j]
-    matrix = np.empty((count, count))
-    for i in range(count):
-        m = panels[start[b] + i // ORDER] * ORDER + i % ORDER
-        x, y, own, u = node_z[m].real, node_z[m].imag, node_span[m], node_u[m]
-        for j in range(count):
-            k = panels[start[b] + j // ORDER] * ORDER + j % ORDER
-            matrix[i, j] = _layer_entry(x, y, own, u, k, nodes)
-    _adaptive_entries(fine, panels[start[b] : start[b + 1]], matrix)
-    for i in range(count):
-        for j in range(count):
-            matrix[i, j] *= 2.0
-        matrix[i, i] += 1.0
-    block = np.linalg.solve(matrix, prolongation)
-    solution[first : first + count] = block
-    for i in range(count):
-        for c in range(width):
-            prolongation[i, c] *= row_weights[first + i] / column_weights[b, c]
-    reduced[b] = np.dot(prolongation.T.copy(), block)
 
 
 def balanced_sequence(costs: np.ndarray) -> np.ndarray:

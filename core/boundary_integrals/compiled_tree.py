@@ -297,82 +297,6 @@ def _add_far(targets, members, tree, far, power, imaginary, out, out_imaginary):
                 out_imaginary[members[k], c] += product[k, c]
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
-def _box_rows(targets, members, tree, power, imaginary, out, out_imaginary, on_curve):
-    """`layer_rows` for the box of targets[members] (int (K,), reordered in place as the box
-    splits): adds its rows to out (M, m) and out_imaginary and flags its targets on the curve
-    in on_curve (M,).  One call a box from `layer_rows`'s parallel loop: numba analyses a
-    parallel loop's body and compiles it once more for its threads, so the loop holds only
-    this call (`layer_rows` with its callees: ~17 s of CPU to compile instead of ~19.5 s)."""
-    node_z, centres, reach, close_squared = tree.node_z, tree.centres, tree.reach, tree.close_squared
-    children, child_start = tree.children, tree.child_start
-    columns = tree.density.shape[1]
-    finest = tree.panel_start[tree.panel_start.shape[0] - 2]
-    total = node_z.shape[0] // ORDER
-    stack = np.empty(total + tree.stack_size, dtype=np.int64)  # a list of panels, then descents
-    moments = np.empty((2, ORDER), dtype=np.complex128)
-    weights = np.empty(ORDER, dtype=np.complex128)
-    row = np.empty(columns)
-    row_imaginary = np.empty(columns)
-    far = np.empty(total, dtype=np.int64)
-    mixed = np.empty(total, dtype=np.int64)
-    # Boxes to do, depth first: members[first:last], their panels lists[start:start + count].
-    lists = np.empty(SPLITS * total, dtype=np.int64)
-    lists[: tree.panel_start[1]] = np.arange(tree.panel_start[1])
-    boxes = np.empty((4 * SPLITS + 1, 5), dtype=np.int64)  # first, last, start, count, depth
-    boxes[0] = (0, members.shape[0], 0, tree.panel_start[1], 0)
-    pending, used = 1, tree.panel_start[1]
-    while pending > 0:
-        pending -= 1
-        first, last, list_start, list_count, depth = boxes[pending]
-        box = members[first:last]
-        centre, radius = _bounding_circle(targets, box)
-        far_count, mixed_count, top = 0, 0, 0
-        for i in range(list_count - 1, -1, -1):
-            stack[top] = lists[list_start + i]
-            top += 1
-        while top > 0:
-            top -= 1
-            p = stack[top]
-            side = _box_side(p, centre, radius, node_z, centres, reach, close_squared)
-            if side == FAR:
-                far[far_count] = p
-                far_count += 1
-            elif side == NEAR and p < finest:
-                for child in range(child_start[p + 1] - 1, child_start[p] - 1, -1):
-                    stack[top] = children[child]
-                    top += 1
-            else:
-                mixed[mixed_count] = p
-                mixed_count += 1
-        if far_count:
-            _add_far(targets, box, tree, far[:far_count], power, imaginary, out, out_imaginary)
-        if mixed_count == 0:
-            continue
-        if box.shape[0] > LEAF and depth < SPLITS - 1 and used + mixed_count <= lists.shape[0]:
-            lists[used : used + mixed_count] = mixed[:mixed_count]
-            for a, z in _quadrants(targets, box, centre):
-                boxes[pending] = (first + a, first + z, used, mixed_count, depth + 1)
-                pending += 1
-            used += mixed_count
-            continue
-        start = mixed[:mixed_count]
-        for k in range(box.shape[0]):
-            m = box[k]
-            row[:] = 0.0
-            row_imaginary[:] = 0.0
-            # Inlined (numba cannot inline a call with *args): a call passing the tree's arrays
-            # cost ~0.1 us a target (the bench's 10,000 mesh vertices: 5.3 -> 5.0 ms).
-            if _walk(
-                targets[m], tree, start, power, imaginary, (row, row_imaginary), (stack, moments, weights)
-            ):
-                on_curve[m] = True
-            for c in range(columns):
-                out[m, c] += row[c]
-                if imaginary:
-                    out_imaginary[m, c] += row_imaginary[c]
-
-
 @njit(cache=True, parallel=True, error_model="numpy")
 def layer_rows(targets, tree, power, imaginary, out):
     """C[φ](z) (power 1), or its z-derivative (power 2), at targets complex (M,), over the panels
@@ -393,13 +317,78 @@ def layer_rows(targets, tree, power, imaginary, out):
     same but for their order; at the bench's 10,000 mesh vertices the rows took ~5 ms
     instead of 13.4 ms one target at a time.
     """
+    node_z, centres, reach, close_squared = tree.node_z, tree.centres, tree.reach, tree.close_squared
+    children, child_start = tree.children, tree.child_start
     count = targets.shape[0]
     columns = tree.density.shape[1]
+    finest = tree.panel_start[tree.panel_start.shape[0] - 2]
+    total = node_z.shape[0] // ORDER
     out[:] = 0.0
     out_imaginary = np.zeros((count if imaginary else 0, columns))
     on_curve = np.zeros(count, dtype=np.bool_)
     order, box_start = _boxes(targets, BOX)
     for b in prange(box_start.shape[0] - 1):
         members = order[box_start[b] : box_start[b + 1]].copy()  # reordered as boxes split
-        _box_rows(targets, members, tree, power, imaginary, out, out_imaginary, on_curve)
+        stack = np.empty(total + tree.stack_size, dtype=np.int64)  # a list of panels, then descents
+        moments = np.empty((2, ORDER), dtype=np.complex128)
+        weights = np.empty(ORDER, dtype=np.complex128)
+        row = np.empty(columns)
+        row_imaginary = np.empty(columns)
+        far = np.empty(total, dtype=np.int64)
+        mixed = np.empty(total, dtype=np.int64)
+        # Boxes to do, depth first: members[first:last], their panels lists[start:start + count].
+        lists = np.empty(SPLITS * total, dtype=np.int64)
+        lists[: tree.panel_start[1]] = np.arange(tree.panel_start[1])
+        boxes = np.empty((4 * SPLITS + 1, 5), dtype=np.int64)  # first, last, start, count, depth
+        boxes[0] = (0, members.shape[0], 0, tree.panel_start[1], 0)
+        pending, used = 1, tree.panel_start[1]
+        while pending > 0:
+            pending -= 1
+            first, last, list_start, list_count, depth = boxes[pending]
+            box = members[first:last]
+            centre, radius = _bounding_circle(targets, box)
+            far_count, mixed_count, top = 0, 0, 0
+            for i in range(list_count - 1, -1, -1):
+                stack[top] = lists[list_start + i]
+                top += 1
+            while top > 0:
+                top -= 1
+                p = stack[top]
+                side = _box_side(p, centre, radius, node_z, centres, reach, close_squared)
+                if side == FAR:
+                    far[far_count] = p
+                    far_count += 1
+                elif side == NEAR and p < finest:
+                    for child in range(child_start[p + 1] - 1, child_start[p] - 1, -1):
+                        stack[top] = children[child]
+                        top += 1
+                else:
+                    mixed[mixed_count] = p
+                    mixed_count += 1
+            if far_count:
+                _add_far(targets, box, tree, far[:far_count], power, imaginary, out, out_imaginary)
+            if mixed_count == 0:
+                continue
+            if box.shape[0] > LEAF and depth < SPLITS - 1 and used + mixed_count <= lists.shape[0]:
+                lists[used : used + mixed_count] = mixed[:mixed_count]
+                for a, z in _quadrants(targets, box, centre):
+                    boxes[pending] = (first + a, first + z, used, mixed_count, depth + 1)
+                    pending += 1
+                used += mixed_count
+                continue
+            start = mixed[:mixed_count]
+            for k in range(box.shape[0]):
+                m = box[k]
+                row[:] = 0.0
+                row_imaginary[:] = 0.0
+                # Inlined (numba cannot inline a call with *args): a call passing the tree's arrays
+                # cost ~0.1 us a target (the bench's 10,000 mesh vertices: 5.3 -> 5.0 ms).
+                if _walk(
+                    targets[m], tree, start, power, imaginary, (row, row_imaginary), (stack, moments, weights)
+                ):
+                    on_curve[m] = True
+                for c in range(columns):
+                    out[m, c] += row[c]
+                    if imaginary:
+                        out_imaginary[m, c] += row_imaginary[c]
     return out, out_imaginary, on_curve
