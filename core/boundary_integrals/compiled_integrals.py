@@ -587,6 +587,9 @@ def _adaptive_entries(fine, panels, matrix):
     adaptive rule: a node within `close_squared` of another panel's node, unless the kernel is
     smooth there (`_smooth_on_own_span`); Re of the rule's weights, oriented, over 2πi."""
     n = fine.coefficients.shape[0]
+    # An int64 variable, not the constant 1: numba would compile `near_weights` once more for
+    # the literal (its other callers pass a variable).
+    power = np.int64(1)
     moments = np.empty((2, ORDER), dtype=np.complex128)
     weights = np.empty(ORDER, dtype=np.complex128)
     for a in range(panels.shape[0]):
@@ -607,7 +610,14 @@ def _adaptive_entries(fine, panels, matrix):
                     continue
                 span = int(math.floor(fine.bounds[p, 0] + 1e-12)) % n
                 near_weights(
-                    fine.coefficients[span], fine.bounds[p, 0], fine.bounds[p, 1], z, 1, 0.0, weights, moments
+                    fine.coefficients[span],
+                    fine.bounds[p, 0],
+                    fine.bounds[p, 1],
+                    z,
+                    power,
+                    0.0,
+                    weights,
+                    moments,
                 )
                 for j in range(ORDER):
                     matrix[a * ORDER + i, c * ORDER + j] = (weights[j] * fine.orientation / (2j * np.pi)).real

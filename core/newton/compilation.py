@@ -25,12 +25,20 @@ from numba.core import event
 from numba.core.registry import CPUDispatcher
 
 from core.curves import arc_length_compiled, closest_parameter, crossing_slabs
-from core.newton import gradient_solver, kernel_weights, minimisation, output_rows, quadrature_nodes, solver
+from core.newton import (
+    gradient_solver,
+    kernel_weights,
+    minimisation,
+    output_rows,
+    quadrature_nodes,
+    solver,
+    solver_state,
+)
 
 #: The modules compiled on first use, with progress: the solver, the parts it calls, and its
 #: inside test.
 SOLVER_MODULES = (
-    solver, quadrature_nodes, kernel_weights, minimisation, output_rows,
+    solver, solver_state, quadrature_nodes, kernel_weights, minimisation, output_rows,
     arc_length_compiled, closest_parameter, crossing_slabs,
 )  # fmt: skip
 #: Compiled on the first use of gradients (`core.basis_gradients`), after the solver.

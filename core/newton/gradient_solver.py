@@ -23,11 +23,10 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
 from numba import njit
 
 from core.newton import codes, kernel_weights, minimisation, output_rows, point_rule, quadrature_nodes, solver
-from core.newton.solver_state import Directions, Nodes, Scratch, Windows, Work
+from core.newton.solver_state import Directions, Nodes, thread_arrays
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -455,37 +454,7 @@ def gradient_points(points, settings, samples, geometry, output, gradients, firs
     Arguments as in `solver.solve_points`; gradients[m, 0] and gradients[m, 1]
     are the x- and y-derivatives of the row output.values[m].  Releases the GIL.
     """
-    count = samples.x.shape[0]
-    capacity = (
-        count
-        + quadrature_nodes.MAX_WINDOWS * quadrature_nodes.MAX_WINDOW_NODES
-        + geometry.corners.shape[0]
-        + 8
-    )
-    scratch = Scratch(
-        Nodes(
-            np.empty(capacity), np.empty(capacity), np.empty(capacity), np.empty(capacity),
-            np.empty(capacity), np.empty(capacity), np.empty(capacity),
-        ),
-        np.empty(capacity),
-        Work(
-            np.empty(capacity), np.empty(capacity), np.empty(capacity), np.empty(capacity),
-            np.empty(capacity), np.empty(capacity), np.empty(capacity), np.empty(capacity),
-            np.empty(capacity),
-        ),
-        np.ones(0),  # unused: the explicit kernels' rows are folded with their gradients
-        (
-            np.empty(capacity), np.empty(capacity), np.empty(capacity), np.empty(capacity),
-            np.empty(capacity), np.empty(capacity), np.empty(capacity), np.empty(capacity),
-        ),
-    )  # fmt: skip
-    windows = Windows(
-        np.empty(quadrature_nodes.MAX_WINDOWS + 1, dtype=np.int64),
-        np.empty(quadrature_nodes.MAX_WINDOWS + 1, dtype=np.int64),
-        np.empty(quadrature_nodes.MAX_WINDOWS + 1),
-        np.empty(quadrature_nodes.MAX_WINDOWS + 1),
-        np.empty((quadrature_nodes.MAX_WINDOWS + 1, 3), dtype=np.int64),
-    )
+    scratch, windows = thread_arrays(samples.x.shape[0], geometry.corners.shape[0])
     for m in range(first, points.shape[0], stride):
         rows = (output.values[m], gradients[m, 0], gradients[m, 1])
         output.iterations[m], output.status[m], output.residual[m] = _gradient_point(

@@ -24,7 +24,6 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
 from numba import njit
 
 from core.newton.codes import (
@@ -43,12 +42,8 @@ from core.newton.minimisation import (
 )
 from core.newton.output_rows import accumulate, accumulate_nodes, fold_onto_basis, output_parameter
 from core.newton.point_rule import RULE_ON_BOUNDARY, RULE_OUTSIDE, RULE_SAMPLES, point_rule
-from core.newton.quadrature_nodes import (
-    MAX_WINDOW_NODES,
-    MAX_WINDOWS,
-    wrap,
-)
-from core.newton.solver_state import Directions, Nodes, Scratch, Windows, Work
+from core.newton.quadrature_nodes import wrap
+from core.newton.solver_state import Directions, Nodes, thread_arrays
 
 # A far point's Newton starts from the last minimisers of its block of BLOCK points (see
 # solve_points and predicted_start) when they are closer than WARM_REACH times its distance to
@@ -192,34 +187,7 @@ def solve_points(points, settings, samples, geometry, output, first, stride):
     test of far points.  `geometry` (`solver_state.Geometry`): the exact curve between
     samples.
     """
-    count = samples.x.shape[0]
-    capacity = count + MAX_WINDOWS * MAX_WINDOW_NODES + geometry.corners.shape[0] + 8
-    # Scratch arrays allocated once per call: fresh allocations per point fault in
-    # new pages and serialise the threads.
-    scratch = Scratch(
-        Nodes(
-            np.empty(capacity), np.empty(capacity), np.empty(capacity), np.empty(capacity),
-            np.empty(capacity), np.empty(capacity), np.empty(capacity),
-        ),
-        np.empty(capacity),
-        Work(
-            np.empty(capacity), np.empty(capacity), np.empty(capacity), np.empty(capacity),
-            np.empty(capacity), np.empty(capacity), np.empty(capacity), np.empty(capacity),
-            np.empty(capacity),
-        ),
-        np.ones(capacity),
-        (
-            np.empty(capacity), np.empty(capacity), np.empty(capacity), np.empty(capacity),
-            np.empty(capacity), np.empty(capacity), np.empty(capacity), np.empty(capacity),
-        ),
-    )  # fmt: skip
-    windows = Windows(
-        np.empty(MAX_WINDOWS + 1, dtype=np.int64),
-        np.empty(MAX_WINDOWS + 1, dtype=np.int64),
-        np.empty(MAX_WINDOWS + 1),
-        np.empty(MAX_WINDOWS + 1),
-        np.empty((MAX_WINDOWS + 1, 3), dtype=np.int64),
-    )
+    scratch, windows = thread_arrays(samples.x.shape[0], geometry.corners.shape[0])
     count = points.shape[0]
     for block in range(first, (count + BLOCK - 1) // BLOCK, stride):
         nan = math.nan

@@ -1,6 +1,7 @@
 """The state the compiled solver passes between its parts, as named tuples (numba compiles a
 named tuple as a struct: no cost over a bare tuple, and a field is read by name, never by
-position).  Built in Python by `core.kernels` and `core.gradients`, or inside the compiled loops.
+position).  Built in Python by `core.kernels` and `core.gradients`, or inside the compiled loops
+(`thread_arrays`, the work arrays of the value and the gradient solver).
 """
 
 from __future__ import annotations
@@ -8,6 +9,9 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
+from numba import njit
+
+from core.newton.quadrature_nodes import MAX_WINDOW_NODES, MAX_WINDOWS
 
 
 class Settings(NamedTuple):
@@ -117,3 +121,38 @@ class Output(NamedTuple):
     iterations: np.ndarray  #: int (M,)
     status: np.ndarray  #: int (M,): a status code of `core.newton.codes`
     residual: np.ndarray  #: (M,)
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def thread_arrays(count, corner_count):
+    """One thread's work arrays for N = `count` samples and C = `corner_count` sharp corners:
+    (`Scratch`, `Windows`), each array of `Scratch` of the largest rule's size, N plus the
+    near-boundary nodes plus C plus 8 (`core.newton.solver.solve_points` and
+    `core.newton.gradient_solver.gradient_points` allocate them once per call: fresh arrays per
+    point fault in new pages and serialise the threads).  Compiled once for both solvers."""
+    capacity = count + MAX_WINDOWS * MAX_WINDOW_NODES + corner_count + 8
+    scratch = Scratch(
+        Nodes(
+            np.empty(capacity), np.empty(capacity), np.empty(capacity), np.empty(capacity),
+            np.empty(capacity), np.empty(capacity), np.empty(capacity),
+        ),
+        np.empty(capacity),
+        Work(
+            np.empty(capacity), np.empty(capacity), np.empty(capacity), np.empty(capacity),
+            np.empty(capacity), np.empty(capacity), np.empty(capacity), np.empty(capacity),
+            np.empty(capacity),
+        ),
+        np.ones(capacity),
+        (
+            np.empty(capacity), np.empty(capacity), np.empty(capacity), np.empty(capacity),
+            np.empty(capacity), np.empty(capacity), np.empty(capacity), np.empty(capacity),
+        ),
+    )  # fmt: skip
+    windows = Windows(
+        np.empty(MAX_WINDOWS + 1, dtype=np.int64),
+        np.empty(MAX_WINDOWS + 1, dtype=np.int64),
+        np.empty(MAX_WINDOWS + 1),
+        np.empty(MAX_WINDOWS + 1),
+        np.empty((MAX_WINDOWS + 1, 3), dtype=np.int64),
+    )
+    return scratch, windows
