@@ -1,0 +1,25 @@
+"""What every fold-free warp on a mesh must give (`core.fold_free_deform` with its boundary and triangles)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+import core
+
+
+def unfolded(curve: core.ClosedBSpline, target: np.ndarray, mesh: core.Mesh):
+    """`core.fold_free_deform` of the mesh's vertices onto `target` (n, 2), checked: no triangle turned
+    over, the boundary vertices exactly on the target curve at their parameters, every interior vertex
+    inside it.  Returns (images (V, 2), certificate)."""
+    images, certificate = core.fold_free_deform(
+        curve,
+        target,
+        mesh.vertices,
+        boundary=(mesh.boundary, mesh.boundary_parameters),
+        triangles=mesh.triangles,
+    )
+    assert np.count_nonzero(core.folded_triangles(mesh, images)) == 0
+    final = core.ClosedBSpline(target)
+    np.testing.assert_array_equal(images[mesh.boundary], final(mesh.boundary_parameters))
+    assert final.contains(images[mesh.interior]).all()
+    return images, certificate
