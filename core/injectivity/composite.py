@@ -31,6 +31,7 @@ from core.injectivity import inner_curve
 from core.injectivity.certificate import InjectivityCertificate, certify_injective
 from core.injectivity.corner_discs import disc_images, radial_discs
 from core.injectivity.mesh_unfolding import unfold_triangles
+from core.meshes.mesh import triangle_signed_areas
 from core.validation import as_points
 
 #: Steps at most (accepted ones), and the smallest step in s, before giving up.
@@ -209,7 +210,8 @@ def _unfolded(
     repaired, moves = unfold_triangles(vertices, images, triangles, free)
     left = (moves > 0) & ~final.contains(repaired)
     repaired[left], moves[left] = images[left], 0.0
-    if np.count_nonzero(_areas(triangles, repaired) <= 0) > np.count_nonzero(_areas(triangles, images) <= 0):
+    after, before = (np.count_nonzero(triangle_signed_areas(p, triangles) <= 0) for p in (repaired, images))
+    if after > before:
         repaired, moves = images, np.zeros_like(moves)
     images = repaired
     certificate = composite_certificate(steps, source)
@@ -222,13 +224,8 @@ def _turns_over(triangles: np.ndarray, before: np.ndarray, after: np.ndarray, sk
     triangles with a vertex where `skipped` (V,) is True)."""
     if skipped is not None:
         triangles = triangles[~np.any(skipped[triangles], axis=1)]
-    return bool(np.any((_areas(triangles, after) <= 0) & (_areas(triangles, before) > 0)))
-
-
-def _areas(triangles: np.ndarray, points: np.ndarray) -> np.ndarray:
-    """Doubled signed areas (T,) of the triangles (T, 3) over points (V, 2)."""
-    a, b, c = points[triangles[:, 0]], points[triangles[:, 1]], points[triangles[:, 2]]
-    return (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
+    newly = (triangle_signed_areas(after, triangles) <= 0) & (triangle_signed_areas(before, triangles) > 0)
+    return bool(np.any(newly))
 
 
 def _path_cage(points: np.ndarray, s: float) -> ClosedBSpline:

@@ -28,6 +28,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import linprog
 
+from core.meshes.mesh import triangle_signed_areas
+
 #: In the first sweep a moved vertex's triangles get a Jacobian determinant of at least this share
 #: of the best that it can give them all; the share doubles with every sweep, up to 1.
 MARGIN = 0.1
@@ -83,8 +85,8 @@ def unfold_triangles(
 
 
 def _doubled_areas(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
-    a, b, c = points[triangles[:, 0]], points[triangles[:, 1]], points[triangles[:, 2]]
-    return (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
+    """Doubled signed areas (T,) (the determinants the programs below are written in)."""
+    return 2.0 * triangle_signed_areas(points, triangles)
 
 
 def _unfolded_position(vertex, images, around, source_areas, margin) -> np.ndarray | None:

@@ -16,9 +16,9 @@ import dataclasses
 import numpy as np
 
 from core.curves.bspline import ClosedBSpline
-from core.meshes.mesh import Mesh
+from core.meshes.mesh import Mesh, triangle_signed_areas
 
-#: A flip is made only when both new triangles' doubled areas exceed this share of the ear's.
+#: A flip is made only when both new triangles' areas exceed this share of the ear's.
 MIN_SHARE = 0.05
 
 
@@ -52,13 +52,9 @@ def _flip_ear(vertices: np.ndarray, triangles: np.ndarray, corner: int, a: int, 
         return
     y = int(triangles[across[0]][~np.isin(triangles[across[0]], [a, b])][0])
     new = np.array([[corner, a, y], [corner, y, b]])
-    if np.all(_doubled_areas(vertices, new) > MIN_SHARE * _doubled_areas(vertices, row[None])[0]):
+    ear_area = triangle_signed_areas(vertices, row[None])[0]
+    if np.all(triangle_signed_areas(vertices, new) > MIN_SHARE * ear_area):
         triangles[ear[0]], triangles[across[0]] = new
-
-
-def _doubled_areas(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
-    a, b, c = points[triangles[:, 0]], points[triangles[:, 1]], points[triangles[:, 2]]
-    return (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
 
 
 __all__ = ["opened_corner_ears"]
