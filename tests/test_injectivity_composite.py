@@ -78,6 +78,10 @@ def test_a_path_through_a_crossing_cage_is_refused():
 
 def test_bad_input_raises_one_clear_error():
     curve = core.ClosedBSpline(CAGE)
+    crossing = CAGE.copy()
+    crossing[1] = [80.0, 120.0]  # the bottom's middle pulled up through the top
+    with pytest.raises(ValueError, match="^the target cannot be reached without folding: the curve crosses"):
+        core.fold_free_deform(curve, crossing, [[80.0, 60.0]])
     with pytest.raises(ValueError, match="target must have shape"):
         core.fold_free_deform(curve, CAGE[:-1], [[80.0, 60.0]])
     with pytest.raises(ValueError, match="points must have shape"):

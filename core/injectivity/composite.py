@@ -100,7 +100,10 @@ def fold_free_deform(
         raise ValueError(
             f"target must have shape {curve.control_points.shape} like the cage, got {goal.shape}"
         )
-    final = ClosedBSpline(goal)
+    try:
+        final = ClosedBSpline(goal)
+    except ValueError as error:
+        raise ValueError(f"the target cannot be reached without folding: {error}") from None
     images = as_points(points, "points").copy()
     triangles = None if triangles is None else np.asarray(triangles, dtype=np.int64)
     on_curve = np.zeros(images.shape[0], dtype=bool)
