@@ -100,10 +100,7 @@ def fold_free_deform(
         raise ValueError(
             f"target must have shape {curve.control_points.shape} like the cage, got {goal.shape}"
         )
-    try:
-        final = ClosedBSpline(goal)
-    except ValueError as error:
-        raise ValueError(f"the target cannot be reached without folding: {error}") from None
+    final = _target_curve(goal)
     images = as_points(points, "points").copy()
     triangles = None if triangles is None else np.asarray(triangles, dtype=np.int64)
     on_curve = np.zeros(images.shape[0], dtype=bool)
@@ -229,6 +226,14 @@ def _turns_over(triangles: np.ndarray, before: np.ndarray, after: np.ndarray, sk
         triangles = triangles[~np.any(skipped[triangles], axis=1)]
     newly = (triangle_signed_areas(after, triangles) <= 0) & (triangle_signed_areas(before, triangles) > 0)
     return bool(np.any(newly))
+
+
+def _target_curve(points: np.ndarray) -> ClosedBSpline:
+    """The target cage's curve; ValueError, said of the target, if it crosses itself."""
+    try:
+        return ClosedBSpline(points)
+    except ValueError as error:
+        raise ValueError(f"the target cannot be reached without folding: {error}") from None
 
 
 def _path_cage(points: np.ndarray, s: float) -> ClosedBSpline:
