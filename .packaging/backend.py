@@ -16,9 +16,18 @@ numba uses a cached function only where the numba version, the Python version, t
 model and the function's source all match the build's (the build environment gets
 the same newest numba as the installed package, `pyproject.toml` lists it); anywhere
 else the code is compiled on first use, as without this backend.  The compilation runs
-in a child process with the build environment's packages (`pyproject.toml`'s
-``[build-system] requires``); if it fails, the build goes on without the cache and
-says why.  ``TRANSFINITE_PRECOMPILE=0`` skips it.
+in a child process with the build environment's packages (`COMPILE_REQUIRES`, which the
+backend adds to `pyproject.toml`'s ``[build-system] requires`` only for a build that
+compiles); if it fails, the build goes on without the cache and says why.
+
+- ``TRANSFINITE_PRECOMPILE=0`` skips it (and the build environment then holds setuptools
+  alone: an editable install takes seconds instead of half a minute of unpacking scipy and numba).
+- ``TRANSFINITE_PRECOMPILED=<folder>`` ships the cache already compiled in ``<folder>``, laid
+  out as `core` (``<folder>/newton/__pycache__/...``), instead of compiling: for a build of the
+  same sources as a checkout whose cache `compile_all` has just filled (``.ci/run`` builds the
+  wheel that way).  numba stamps each function with the content of `core`'s compiled modules
+  (`core.jit_cache`): where the sources differ, the shipped files are stale and the installed
+  package compiles on first use, which ``tests/test_wheel.py`` would catch.
 """
 
 from __future__ import annotations
@@ -33,9 +42,7 @@ from pathlib import Path
 
 from setuptools import build_meta as _setuptools
 from setuptools.build_meta import (  # noqa: F401  (the hooks this backend does not change)
-    get_requires_for_build_editable,
     get_requires_for_build_sdist,
-    get_requires_for_build_wheel,
     prepare_metadata_for_build_editable,
     prepare_metadata_for_build_wheel,
 )
@@ -43,6 +50,24 @@ from setuptools.build_meta import (  # noqa: F401  (the hooks this backend does 
 ROOT = Path(__file__).resolve().parent.parent
 #: The package whose `__pycache__` folders (its own and its subpackages') hold numba's cache.
 CORE = ROOT / "core"
+#: What the compilation imports (`import core`), at the versions of `pyproject.toml`'s dependencies.
+COMPILE_REQUIRES = ["numpy>=1.24", "scipy>=1.10", "numba>=0.59", "threadpoolctl>=3.1"]
+
+
+def _compiles() -> bool:
+    """Whether this build runs the compilation (in a build environment that needs `COMPILE_REQUIRES`)."""
+    skipped = os.environ.get("TRANSFINITE_PRECOMPILE", "1") == "0"
+    return not skipped and not os.environ.get("TRANSFINITE_PRECOMPILED")
+
+
+def get_requires_for_build_wheel(config_settings=None):
+    required = _setuptools.get_requires_for_build_wheel(config_settings)
+    return required + (COMPILE_REQUIRES if _compiles() else [])
+
+
+def get_requires_for_build_editable(config_settings=None):
+    required = _setuptools.get_requires_for_build_editable(config_settings)
+    return required + (COMPILE_REQUIRES if _compiles() else [])
 
 
 def _precompile(fresh: bool) -> None:
@@ -55,8 +80,12 @@ def _precompile(fresh: bool) -> None:
         print("transfinite-warp: TRANSFINITE_PRECOMPILE=0: the solver compiles on first use", file=sys.stderr)
         return
     if fresh:
-        for path in [*CORE.rglob("__pycache__/*.nbi"), *CORE.rglob("__pycache__/*.nbc")]:
+        for path in _numba_files(CORE):
             path.unlink()
+    compiled = os.environ.get("TRANSFINITE_PRECOMPILED")
+    if compiled:
+        _copy_compiled(Path(compiled))
+        return
     environment = {key: value for key, value in os.environ.items() if key != "NUMBA_CACHE_DIR"}
     environment["PYTHONPATH"] = os.pathsep.join(filter(None, [str(ROOT), environment.get("PYTHONPATH")]))
     print("transfinite-warp: compiling the solver into the package (~30 s)", file=sys.stderr, flush=True)
@@ -77,6 +106,23 @@ def _precompile(fresh: bool) -> None:
         )
         return
     print(f"transfinite-warp: compiled in {time.perf_counter() - start:.0f} s", file=sys.stderr)
+
+
+def _numba_files(folder: Path) -> list[Path]:
+    """numba's cache files under `folder` (``*/__pycache__/*.nbi``, ``*.nbc``)."""
+    return [*folder.rglob("__pycache__/*.nbi"), *folder.rglob("__pycache__/*.nbc")]
+
+
+def _copy_compiled(folder: Path) -> None:
+    """Copy numba's files of a compiled copy of `core` (`folder`, laid out as `core`) into `CORE`."""
+    files = _numba_files(folder)
+    if not files:
+        raise RuntimeError(f"TRANSFINITE_PRECOMPILED={folder}: no compiled files (*/__pycache__/*.nbi) there")
+    for path in files:
+        target = CORE / path.relative_to(folder)
+        target.parent.mkdir(parents=True, exist_ok=True)
+        target.write_bytes(path.read_bytes())
+    print(f"transfinite-warp: the solver's cache copied from {folder} ({len(files)} files)", file=sys.stderr)
 
 
 def build_wheel(wheel_directory, config_settings=None, metadata_directory=None):

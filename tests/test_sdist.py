@@ -11,6 +11,8 @@ import sys
 import tarfile
 from pathlib import Path
 
+import tomllib
+
 ROOT = Path(__file__).resolve().parent.parent
 
 
@@ -45,3 +47,23 @@ def test_the_source_distribution_carries_the_build_backend(tmp_path):
     for needed in needed_files:
         assert f"{root}/{needed}" in names, needed
     assert any(n.startswith(f"{root}/assets/") and n.endswith(".session.json") for n in names)
+
+
+def test_a_build_that_compiles_asks_for_what_core_imports_at_the_package_s_versions(monkeypatch):
+    sys.path.insert(0, str(ROOT / ".packaging"))
+    try:
+        import backend
+    finally:
+        sys.path.remove(str(ROOT / ".packaging"))
+    dependencies = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["dependencies"]
+    assert set(backend.COMPILE_REQUIRES) <= set(dependencies)
+    monkeypatch.chdir(ROOT)  # setuptools' hooks read the pyproject.toml of the working folder
+    monkeypatch.delenv("TRANSFINITE_PRECOMPILED", raising=False)
+    monkeypatch.setenv("TRANSFINITE_PRECOMPILE", "1")
+    assert set(backend.COMPILE_REQUIRES) <= set(backend.get_requires_for_build_wheel())
+    # Without the compilation (an editable install for the tests, a wheel of a compiled cache),
+    # the build environment needs setuptools alone.
+    for name, value in (("TRANSFINITE_PRECOMPILE", "0"), ("TRANSFINITE_PRECOMPILED", "/compiled")):
+        monkeypatch.setenv(name, value)
+        assert not set(backend.COMPILE_REQUIRES) & set(backend.get_requires_for_build_editable())
+        assert not set(backend.COMPILE_REQUIRES) & set(backend.get_requires_for_build_wheel())

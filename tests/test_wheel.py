@@ -9,6 +9,9 @@ package, the shaders and the demo assets, and that nothing reads the source tree
 
 It takes one to three minutes (the build compiling the solver into the wheel, the venv's
 dependencies), so it runs only with ``TRANSFINITE_WHEEL_CHECK=1``, as ``.ci/run`` sets it.
+``.ci/run`` also sets ``TRANSFINITE_PRECOMPILED`` (`.packaging/backend.py`): the build then
+ships the cache that the run has just compiled in the source tree instead of compiling it again;
+either way the installed wheel must load every compiled function without compiling.
 """
 
 from __future__ import annotations
