@@ -12,9 +12,10 @@ from collections.abc import Callable
 import numpy as np
 from scipy.sparse import coo_matrix, csr_matrix
 from scipy.sparse.csgraph import connected_components
-from scipy.spatial import Delaunay, cKDTree
+from scipy.spatial import cKDTree
 
 from core.curves.bspline import ClosedBSpline
+from core.meshes.delaunay import Triangulation, delaunay
 from core.meshes.hex_lattice import HexLattice
 from core.meshes.mesh import Mesh, cross, triangle_signed_areas, unique_edges
 from core.meshes.sizing import GRADATION, Sizing
@@ -68,14 +69,15 @@ class Refinement:
         self.nodes = self.lattice.node_points(nodes)  # (K, 2); smoothing moves the free ones
         self.alive = np.ones(nodes.size, dtype=bool)
         self.steiner = np.zeros((0, 2))
-        # A ring of far points keeps the curve off the convex hull, where qhull would make
-        # flat triangles out of collinear boundary vertices (the straight spans at corners).
+        # A ring of far points keeps the curve off the convex hull, where the triangulation would
+        # make flat triangles out of collinear boundary vertices (the straight spans at corners)
+        # or leave out slivers (core.meshes.delaunay).
         low, high = self.boundary_points.min(axis=0), self.boundary_points.max(axis=0)
         angles = 2.0 * np.pi * np.arange(16) / 16
         self.frame = 0.5 * (low + high) + (np.linalg.norm(high - low) + sizing.max_edge) * np.stack(
             [np.cos(angles), np.sin(angles)], axis=1
         )
-        self.tri: Delaunay | None = None
+        self.tri: Triangulation | None = None
         self.inside: np.ndarray | None = None
         self.band: np.ndarray | None = None  # indices into self.nodes of the band's nodes
         self.conformed = False  # self.tri is the triangulation of the current points
@@ -151,9 +153,9 @@ class Refinement:
             if entered.size:
                 self._demote(np.searchsorted(self.core_ids, entered))
                 continue
-            tri = Delaunay(np.vstack([self.boundary_points, self.nodes[band], self.steiner, self.frame]))
-            if tri.coplanar.size:
-                dropped = tri.coplanar[:, 0] - count
+            tri = delaunay(np.vstack([self.boundary_points, self.nodes[band], self.steiner, self.frame]))
+            if tri.duplicates.size:
+                dropped = tri.duplicates - count
                 if (dropped < 0).any() or (dropped >= band.size + self.steiner.shape[0]).any():
                     raise RuntimeError("boundary vertices coincide; the curve is degenerate")
                 nodes = band[dropped[dropped < band.size]]
@@ -514,7 +516,7 @@ def _front_sides(simplices: np.ndarray, front: np.ndarray) -> np.ndarray:
 
 
 def _inside_triangles(
-    tri: Delaunay,
+    tri: Triangulation,
     chord: np.ndarray,
     boundary_count: int,
     orientation: float,

@@ -7,7 +7,7 @@ curve points p(t) at known parameters t, so their basis rows are exactly the
 B-spline basis; interior vertices lie strictly inside the curve.
 
 Method (a conforming Delaunay refinement in the spirit of Ruppert and Chew, built
-on `scipy.spatial.Delaunay`):
+on the compiled Bowyer-Watson triangulation `core.meshes.delaunay`):
 
 1. A target edge length h(x): at most ``max_edge``, smaller where the curve turns
    (at most `TURNING_ANGLE` between the tangents at the ends of an edge) or where
