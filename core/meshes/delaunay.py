@@ -178,7 +178,7 @@ def _triangulate(points, order):  # pragma: no cover - compiled
         angle = 2.0 * np.pi * k / 3.0 + 0.5 * np.pi
         xy[count + k, 0] = centre_x + reach * np.cos(angle)
         xy[count + k, 1] = centre_y + reach * np.sin(angle)
-    capacity = 2 * count + 8
+    capacity = 2 * count + 8  # a triangulation of count + 3 points, 3 on its hull, has 2 count + 1
     corners = np.empty((capacity, 3), dtype=np.int64)
     neighbors = np.full((capacity, 3), -1, dtype=np.int64)
     corners[0, 0], corners[0, 1], corners[0, 2] = count, count + 1, count + 2
@@ -218,16 +218,6 @@ def _triangulate(points, order):  # pragma: no cover - compiled
                     border[edges, 1] = corners[t, (k + 2) % 3]
                     border[edges, 2] = u
                     edges += 1
-        if triangles + edges - size > capacity:
-            capacity = 2 * capacity
-            corners = _grown(corners, capacity)
-            neighbors = _grown(neighbors, capacity)
-            grown_mark = np.zeros(capacity, dtype=np.int64)
-            for t in range(mark.size):
-                grown_mark[t] = mark[t]
-            mark = grown_mark
-            cavity = np.empty(capacity, dtype=np.int64)
-            border = _grown(border, capacity)
         for e in range(edges):  # the fan reuses the cavity's slots first
             t = cavity[e] if e < size else triangles + e - size
             a, b, outside = border[e, 0], border[e, 1], border[e, 2]
@@ -279,14 +269,3 @@ def _holds(xy, corners, qx, qy):  # pragma: no cover - compiled
         if _orientation(qx, qy, xy[a, 0], xy[a, 1], xy[b, 0], xy[b, 1]) < 0.0:
             return False
     return True
-
-
-@njit(cache=True)
-def _grown(rows, capacity):  # pragma: no cover - compiled
-    """`rows` (M, 3) int64 copied into the first rows of a (capacity, 3) array of -1."""
-    result = np.empty((capacity, 3), dtype=np.int64)
-    result[:] = -1
-    for i in range(rows.shape[0]):  # a loop: numba's broadcasting slice copy costs seconds to compile
-        for k in range(3):
-            result[i, k] = rows[i, k]
-    return result

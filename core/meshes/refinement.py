@@ -10,11 +10,11 @@ import math
 from collections.abc import Callable
 
 import numpy as np
-from scipy.sparse import coo_matrix, csr_matrix
-from scipy.sparse.csgraph import connected_components
+from scipy.sparse import coo_matrix
 from scipy.spatial import cKDTree
 
 from core.curves.bspline import ClosedBSpline
+from core.meshes.band_regions import band_sides, band_triangles
 from core.meshes.delaunay import Triangulation, delaunay
 from core.meshes.hex_lattice import HexLattice
 from core.meshes.mesh import Mesh, cross, triangle_signed_areas, unique_edges
@@ -163,15 +163,14 @@ class Refinement:
                 self._demote_at(nodes[fixed[nodes]])
                 self.steiner = np.delete(self.steiner, dropped[dropped >= band.size] - band.size, axis=0)
                 continue
-            chord = _chord_sides(tri.simplices, count)
+            local = np.full(self.nodes.shape[0], -1, dtype=np.int64)
+            local[band] = count + np.arange(band.size)
+            chord, front_side = band_sides(tri.simplices, count, local[front])
             found = np.zeros(count, dtype=bool)
             found[chord[chord >= 0]] = True
             if not found.all():
                 self._split(np.flatnonzero(~found))
                 continue
-            local = np.full(self.nodes.shape[0], -1, dtype=np.int64)
-            local[band] = count + np.arange(band.size)
-            front_side = _front_sides(tri.simplices, local[front])
             found = np.zeros(front.shape[0], dtype=bool)
             found[front_side[front_side >= 0]] = True
             if not found.all():  # only if a point sits on a core circumcircle: rare
@@ -179,7 +178,9 @@ class Refinement:
                 continue
             self.tri = tri
             self.band = band
-            self.inside = _inside_triangles(tri, chord, count, self.orientation, local[front], front_side)
+            self.inside = band_triangles(
+                tri.points, tri.simplices, tri.neighbors, chord, local[front], front_side, self.orientation
+            )
             self.conformed = True
             return
         raise RuntimeError("boundary refinement did not converge")
@@ -472,103 +473,3 @@ def _spread(candidates: np.ndarray, radii: np.ndarray) -> np.ndarray:
         taken[i] = True
         blocked[group] = True
     return candidates[taken]
-
-
-def _chord_sides(simplices: np.ndarray, boundary_count: int) -> np.ndarray:
-    """Which boundary chord each triangle side is, int64 (T, 3) with -1 for none.
-
-    Side k of a triangle is opposite its vertex k; chord j joins boundary vertices
-    j and j + 1 (mod B), which are the first B points.
-    """
-    result = np.full(simplices.shape, -1, dtype=np.int64)
-    for k in range(3):
-        u = simplices[:, (k + 1) % 3]
-        v = simplices[:, (k + 2) % 3]
-        on_boundary = (u < boundary_count) & (v < boundary_count)
-        forward = on_boundary & ((v - u) % boundary_count == 1)
-        backward = on_boundary & ((u - v) % boundary_count == 1)
-        result[forward, k] = u[forward]
-        result[backward, k] = v[backward]
-    return result
-
-
-def _front_sides(simplices: np.ndarray, front: np.ndarray) -> np.ndarray:
-    """Which front edge each triangle side is, int64 (T, 3) with -1 for none.
-
-    Side k of a triangle is opposite its vertex k; `front` (F, 2) holds the
-    front edges as pairs of point indices (either direction matches).
-    """
-    result = np.full(simplices.shape, -1, dtype=np.int64)
-    if front.shape[0] == 0:
-        return result
-    size = simplices.max() + 1
-    front_keys = np.minimum(front[:, 0], front[:, 1]) * size + np.maximum(front[:, 0], front[:, 1])
-    order = np.argsort(front_keys)
-    sorted_keys = front_keys[order]
-    for k in range(3):
-        u = simplices[:, (k + 1) % 3]
-        v = simplices[:, (k + 2) % 3]
-        keys = np.minimum(u, v) * size + np.maximum(u, v)
-        position = np.minimum(np.searchsorted(sorted_keys, keys), sorted_keys.size - 1)
-        match = sorted_keys[position] == keys
-        result[match, k] = order[position[match]]
-    return result
-
-
-def _inside_triangles(
-    tri: Triangulation,
-    chord: np.ndarray,
-    boundary_count: int,
-    orientation: float,
-    front: np.ndarray,
-    front_side: np.ndarray,
-) -> np.ndarray:
-    """Indices of the Delaunay triangles of the band: inside the boundary polygon, outside the core.
-
-    Triangles are grouped into connected regions that no boundary chord or front
-    edge separates; a region is inside when it lies to the interior side of a
-    chord or to the right of a front edge (the core is on its left), outside when
-    it lies on the other side of one or on the convex hull.  A region on both
-    sides means the polygon is not simple (a refinement bug).
-
-    Parameters
-    ----------
-    chord : ndarray of shape (T, 3)
-        `_chord_sides` of the triangles.
-    front : ndarray of shape (F, 2)
-        Front edges (tail, head) as point indices, the core on their left.
-    front_side : ndarray of shape (T, 3)
-        `_front_sides` of the triangles.
-    """
-    simplices = tri.simplices
-    neighbours = tri.neighbors
-    points = tri.points
-    count = simplices.shape[0]
-    is_chord = chord >= 0
-    is_front = front_side >= 0
-    join = ~is_chord & ~is_front & (neighbours >= 0)
-    # Row t of the adjacency holds the neighbours that t joins, in order: built as CSR directly.
-    starts = np.concatenate([[0], np.cumsum(np.count_nonzero(join, axis=1))])
-    graph = csr_matrix((np.ones(starts[-1]), neighbours[join], starts), shape=(count, count))
-    _, labels = connected_components(graph, directed=False)
-    # Only the sides on a chord or a front edge tell on which side their triangle lies.
-    t, k = np.nonzero(is_chord)
-    a = chord[t, k]
-    b = (a + 1) % boundary_count
-    side = orientation * cross(points[b] - points[a], points[simplices[t, k]] - points[a])
-    f, j = np.nonzero(is_front)
-    tail, head = points[front[front_side[f, j], 0]], points[front[front_side[f, j], 1]]
-    core_side = cross(head - tail, points[simplices[f, j]] - tail) > 0
-    interior_side = np.zeros(count, dtype=bool)
-    interior_side[t[side > 0]] = True
-    interior_side[f[~core_side]] = True
-    exterior_side = (~is_chord & ~is_front & (neighbours < 0)).any(axis=1)
-    exterior_side[t[side < 0]] = True
-    exterior_side[f[core_side]] = True
-    inside_label = np.zeros(labels.max() + 1, dtype=bool)
-    inside_label[labels[interior_side]] = True
-    outside_label = np.zeros(labels.max() + 1, dtype=bool)
-    outside_label[labels[exterior_side]] = True
-    if (inside_label & outside_label).any():
-        raise RuntimeError("the boundary polygon is not simple; mesh refinement failed")
-    return np.flatnonzero(inside_label[labels])

@@ -116,7 +116,8 @@ def compile_all() -> None:
     its gradients (`compile_solver`), the positive Gordon-Wixom rows (`core.meshes.pgw`), the
     closest-point and winding-number tests (`core.curves.closest_point`), the boundary
     integrals of the default kernel (`core.boundary_integrals.compiled_integrals`) and the
-    mesher's Delaunay triangulation (`core.meshes.delaunay`).
+    mesher's compiled parts (`core.meshes.delaunay`, `core.meshes.band_regions`: one
+    `core.triangulate`).
 
     The package's build runs it (``.packaging/backend.py``), so that an installed
     package starts every kernel from the cache.
@@ -126,15 +127,15 @@ def compile_all() -> None:
     from core.boundary_integrals.poisson import exercise_near_field, poisson_basis, solved_densities
     from core.curves.bspline import ClosedBSpline
     from core.curves.closest_point import distance_to_curve
-    from core.meshes.delaunay import delaunay
     from core.meshes.pgw import pgw_basis
+    from core.meshes.triangulation import triangulate
 
     square = ClosedBSpline(np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]))
     x = np.array([[0.5, 0.5]])
     square.contains(x)
     distance_to_curve(square.piecewise_polynomial(), x)
     pgw_basis(square, x)
-    delaunay(square.control_points)
+    triangulate(square)
     mode, compiled_integrals.mode = compiled_integrals.mode, "compiled"
     try:
         solved_densities.cache_clear()  # the density solve runs the knot blocks: not from the cache
