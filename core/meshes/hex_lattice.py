@@ -3,7 +3,8 @@
 `core.triangulate` covers the part of the domain away from the curve with this
 lattice (its triangles are known, no Delaunay triangulation needed) and refines
 only the band between the lattice and the curve.  Everything here is index
-arithmetic on (row, column) pairs, vectorised over arrays.
+arithmetic on (row, column) pairs, vectorised over arrays (the circumdisk test,
+run in every round of the refinement, is compiled).
 
 Node (r, c) is at ``origin + ((c + (r % 2) / 2) s, r s sqrt(3) / 2)`` for the
 spacing s; its id is ``r * columns + c``.  Cell (r, c), for ``r < rows - 1`` and
@@ -16,6 +17,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numba import njit
 
 SQRT3 = math.sqrt(3.0)
 
@@ -152,21 +154,35 @@ class HexLattice:
         """
         if points.shape[0] == 0 or self.triangle_count == 0:
             return np.zeros(0, dtype=np.int64)
-        local = points - self.origin
-        r0 = np.floor(local[:, 1] / self.height).astype(np.int64)
-        c0 = np.floor(local[:, 0] / self.spacing).astype(np.int64)
+        local = np.ascontiguousarray(points - self.origin, dtype=np.float64)
+        hit = _circumdisk_hits(
+            local, np.asarray(selected, dtype=np.bool_), self.spacing, self.rows, self.columns
+        )
+        return np.flatnonzero(hit)
+
+
+@njit(cache=True)
+def _circumdisk_hits(local, selected, spacing, rows, columns):  # pragma: no cover - compiled
+    """`HexLattice.circumdisk_hits` of points `local` (M, 2) relative to the origin, as a bool
+    array (triangle_count,)."""
+    hit = np.zeros(selected.size, dtype=np.bool_)
+    height = 0.5 * SQRT3 * spacing
+    radius = spacing / SQRT3 * (1.0 - 1e-9)
+    for i in range(local.shape[0]):
+        r0 = int(np.floor(local[i, 1] / height))
+        c0 = int(np.floor(local[i, 0] / spacing))
         # A disk of radius s / sqrt(3) around a point reaches the centres of triangles
         # in the rows r0 - 1 .. r0 + 1 and the columns c0 - 2 .. c0 + 1 only.
-        dr, dc, kind = np.meshgrid(np.arange(-1, 2), np.arange(-2, 2), np.arange(2), indexing="ij")
-        r = r0[:, None] + dr.ravel()[None, :]
-        c = c0[:, None] + dc.ravel()[None, :]
-        kind = np.broadcast_to(kind.ravel()[None, :], r.shape)
-        valid = (r >= 0) & (r < self.rows - 1) & (c >= 0) & (c < self.columns - 1)
-        p = r % 2
-        centre_x = np.where(kind == 0, c + 0.5 + 0.5 * p, c + 1.0 - 0.5 * p) * self.spacing
-        centre_y = (r + np.where(kind == 0, 1.0 / 3.0, 2.0 / 3.0)) * self.height
-        squared = (local[:, None, 0] - centre_x) ** 2 + (local[:, None, 1] - centre_y) ** 2
-        ids = 2 * (r * (self.columns - 1) + c) + kind
-        hit = valid & (squared < (self.circumradius * (1.0 - 1e-9)) ** 2)
-        hit[hit] = selected[ids[hit]]
-        return np.unique(ids[hit])
+        for r in range(max(r0 - 1, 0), min(r0 + 2, rows - 1)):
+            p = r % 2
+            for c in range(max(c0 - 2, 0), min(c0 + 2, columns - 1)):
+                for kind in range(2):
+                    if kind == 0:
+                        centre_x, centre_y = (c + 0.5 + 0.5 * p) * spacing, (r + 1.0 / 3.0) * height
+                    else:
+                        centre_x, centre_y = (c + 1.0 - 0.5 * p) * spacing, (r + 2.0 / 3.0) * height
+                    dx, dy = local[i, 0] - centre_x, local[i, 1] - centre_y
+                    triangle = 2 * (r * (columns - 1) + c) + kind
+                    if dx * dx + dy * dy < radius * radius and selected[triangle]:
+                        hit[triangle] = True
+    return hit

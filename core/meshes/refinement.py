@@ -15,6 +15,7 @@ from scipy.spatial import cKDTree
 
 from core.curves.bspline import ClosedBSpline
 from core.meshes.band_regions import band_sides, band_triangles
+from core.meshes.chord_crossing import first_chords_crossed
 from core.meshes.delaunay import Triangulation, delaunay
 from core.meshes.hex_lattice import HexLattice
 from core.meshes.mesh import Mesh, cross, triangle_signed_areas, unique_edges
@@ -78,6 +79,7 @@ class Refinement:
             [np.cos(angles), np.sin(angles)], axis=1
         )
         self.tri: Triangulation | None = None
+        self.chord: np.ndarray | None = None  # (T, 3) the boundary chord each side of self.tri is, or -1
         self.inside: np.ndarray | None = None
         self.band: np.ndarray | None = None  # indices into self.nodes of the band's nodes
         self.conformed = False  # self.tri is the triangulation of the current points
@@ -177,6 +179,7 @@ class Refinement:
                 self._demote_at(front[~found].ravel())
                 continue
             self.tri = tri
+            self.chord = chord
             self.band = band
             self.inside = band_triangles(
                 tri.points, tri.simplices, tri.neighbors, chord, local[front], front_side, self.orientation
@@ -230,16 +233,18 @@ class Refinement:
         hit = encroached >= 0
         splits = [encroached[hit]]
         free = np.flatnonzero(~hit)
-        outside = ~_inside_polygon(centres[free], self.boundary_points)
-        if outside.any():
-            # Ruppert: a circumcentre outside the domain is cut off by a boundary edge; split it.
-            splits.append(
-                _first_crossing(
-                    corners[priority[free[outside]]].mean(axis=1),
-                    centres[free[outside]],
-                    self.boundary_points,
-                )
-            )
+        # Ruppert: a circumcentre that a boundary chord hides from its triangle (outside the
+        # domain, or behind a concave stretch of it) is not inserted; the chord is split.
+        crossed = first_chords_crossed(
+            np.vstack([points, self.frame]),  # the points of self.tri, smoothed
+            self.tri.simplices,
+            self.tri.neighbors,
+            self.chord,
+            self.inside[priority[free]],
+            centres[free],
+        )
+        outside = crossed >= 0
+        splits.append(crossed[outside])
         accepted = _spread(centres[free[~outside]], radius[priority][free[~outside]])
         splits = np.concatenate(splits)
         # Splitting a boundary edge for quality alone stops at the floor (sharp corners).
@@ -412,38 +417,6 @@ def _encroached_chords(points: np.ndarray, centres: np.ndarray, radii: np.ndarra
         inside = np.fromiter(itertools.chain.from_iterable(hits), dtype=np.int64, count=total)
         chord[inside] = np.repeat(np.arange(len(hits)), lengths)
     return chord
-
-
-def _inside_polygon(points: np.ndarray, polygon: np.ndarray) -> np.ndarray:
-    """bool (M,): crossing-number test of points against a closed polygon (B, 2)."""
-    following = np.roll(polygon, -1, axis=0)
-    inside = np.zeros(points.shape[0], dtype=bool)
-    chunk = max(1, 4_000_000 // polygon.shape[0])
-    for start in range(0, points.shape[0], chunk):
-        x = points[start : start + chunk, None, 0]
-        y = points[start : start + chunk, None, 1]
-        straddle = (polygon[None, :, 1] > y) != (following[None, :, 1] > y)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            crossing_x = polygon[None, :, 0] + (y - polygon[None, :, 1]) * (
-                following[None, :, 0] - polygon[None, :, 0]
-            ) / (following[None, :, 1] - polygon[None, :, 1])
-        inside[start : start + chunk] = (straddle & (crossing_x > x)).sum(axis=1) % 2 == 1
-    return inside
-
-
-def _first_crossing(starts: np.ndarray, stops: np.ndarray, polygon: np.ndarray) -> np.ndarray:
-    """For each segment start -> stop (M, 2), the polygon edge k -> k+1 it crosses first (M,)."""
-    a = polygon
-    edge = np.roll(polygon, -1, axis=0) - a
-    direction = stops - starts
-    offset = a[None, :, :] - starts[:, None, :]
-    denominator = cross(direction[:, None, :], edge[None, :, :])
-    with np.errstate(divide="ignore", invalid="ignore"):
-        along = cross(offset, edge[None, :, :]) / denominator
-        across = cross(offset, direction[:, None, :]) / denominator
-    hits = (along >= 0) & (along <= 1) & (across >= 0) & (across <= 1)
-    along = np.where(hits, along, np.inf)
-    return np.argmin(along, axis=1)
 
 
 def _circumcentres(corners: np.ndarray) -> np.ndarray:
