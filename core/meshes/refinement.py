@@ -5,7 +5,6 @@ band between them refined until every triangle is small enough and well shaped.
 
 from __future__ import annotations
 
-import itertools
 import math
 from collections.abc import Callable
 
@@ -17,6 +16,7 @@ from core.curves.bspline import ClosedBSpline
 from core.meshes.band_regions import band_sides, band_triangles
 from core.meshes.chord_crossing import first_chords_crossed
 from core.meshes.delaunay import Triangulation, delaunay
+from core.meshes.encroachment import encroached_chords
 from core.meshes.hex_lattice import HexLattice
 from core.meshes.mesh import Mesh, cross, triangle_signed_areas, unique_edges
 from core.meshes.sizing import GRADATION, Sizing
@@ -145,8 +145,8 @@ class Refinement:
                 raise RuntimeError("boundary refinement did not converge (boundary edges collapsed)")
             band, fixed, front = self._front()
             middle, half = _chord_circles(self.boundary_points)
-            self.steiner = self.steiner[_encroached_chords(self.steiner, middle, half) < 0]
-            encroaching = band[_encroached_chords(self.nodes[band], middle, half) >= 0]
+            self.steiner = self.steiner[encroached_chords(self.steiner, middle, half) < 0]
+            encroaching = band[encroached_chords(self.nodes[band], middle, half) >= 0]
             if encroaching.size:
                 self.alive[encroaching[~fixed[encroaching]]] = False
                 self._demote_at(encroaching[fixed[encroaching]])
@@ -229,7 +229,7 @@ class Refinement:
         priority = bad[np.argsort(-(radius[bad] / shortest[bad]))]
         centres = _circumcentres(corners[priority])
         middle, half = _chord_circles(self.boundary_points)
-        encroached = _encroached_chords(centres, middle, half)
+        encroached = encroached_chords(centres, middle, half)
         hit = encroached >= 0
         splits = [encroached[hit]]
         free = np.flatnonzero(~hit)
@@ -403,20 +403,6 @@ def _chord_circles(boundary_points: np.ndarray) -> tuple[np.ndarray, np.ndarray]
     """Centres (B, 2) and radii (B,) of the diametral circles of the boundary chords k -> k+1."""
     following = np.roll(boundary_points, -1, axis=0)
     return 0.5 * (boundary_points + following), 0.5 * np.linalg.norm(following - boundary_points, axis=1)
-
-
-def _encroached_chords(points: np.ndarray, centres: np.ndarray, radii: np.ndarray) -> np.ndarray:
-    """For each point (M, 2), a chord whose diametral circle holds it strictly inside, or -1."""
-    chord = np.full(points.shape[0], -1, dtype=np.int64)
-    if points.shape[0] == 0:
-        return chord
-    hits = cKDTree(points).query_ball_point(centres, radii * (1.0 - 1e-12), return_sorted=False)
-    lengths = np.fromiter(map(len, hits), dtype=np.int64, count=len(hits))
-    total = int(lengths.sum())
-    if total:
-        inside = np.fromiter(itertools.chain.from_iterable(hits), dtype=np.int64, count=total)
-        chord[inside] = np.repeat(np.arange(len(hits)), lengths)
-    return chord
 
 
 def _circumcentres(corners: np.ndarray) -> np.ndarray:
