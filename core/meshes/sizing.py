@@ -11,6 +11,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from core.curves.bspline import ClosedBSpline
+from core.meshes.empty_disks import empty_disk_radii
 from core.meshes.mesh import cross
 
 # Largest angle (radians) between the curve tangents at the two ends of a boundary edge.
@@ -96,8 +97,8 @@ class Sizing:
         outside_wedge, inside_wedge = _corner_wedges(curve, self.t)
         largest = 1.01 * self.max_edge / NECK_FRACTION  # larger disks do not limit h
         radius = np.minimum(
-            _empty_disk_radii(self.points, inward, inside_wedge, self.tree, largest),
-            _empty_disk_radii(self.points, -inward, outside_wedge, self.tree, largest),
+            empty_disk_radii(self.points, inward, inside_wedge, largest),
+            empty_disk_radii(self.points, -inward, outside_wedge, largest),
         )
         with np.errstate(divide="ignore"):
             h = np.minimum(TURNING_ANGLE / curvature, NECK_FRACTION * radius)
@@ -220,46 +221,3 @@ def _corner_wedges(curve: ClosedBSpline, t: np.ndarray) -> tuple[np.ndarray, np.
         if angles[index] >= WIDE_CORNER:
             inside[in_wedge] = index
     return outside, inside
-
-
-def _empty_disk_radii(points, normals, wedge, tree, largest) -> np.ndarray:
-    """Radius (at most `largest`) of the largest disk touching each sample on the side of `normals`
-    and empty of samples.
-
-    The shrinking-ball iteration: start from radius `largest`, and while the disk holds a
-    sample q, replace it by the disk tangent at p through q (radius
-    |q - p|^2 / (2 (q - p) . n)).  Samples in the same corner wedge are ignored.
-    """
-    count = points.shape[0]
-    k = min(32, count)
-    radius = np.full(count, largest)
-    active = np.arange(count)
-    for _ in range(100):
-        centres = points[active] + radius[active, None] * normals[active]
-        # Outside corner wedges a disk holds a sample iff its nearest one is inside (the sample it
-        # touches is on its circle): one neighbour decides most disks, the k nearest only the rest.
-        nearest = tree.query(centres, distance_upper_bound=radius[active].max())[0]
-        unsure = (wedge[active] >= 0) | (nearest < radius[active] * (1.0 - 1e-9))
-        active, centres = active[unsure], centres[unsure]
-        if not active.size:
-            break
-        # Samples beyond the largest radius cannot shrink any disk: the tree skips them.
-        distance, neighbours = tree.query(centres, k=k, distance_upper_bound=radius[active].max())
-        neighbours = np.minimum(neighbours, count - 1)  # misses: index == count, distance inf
-        valid = (
-            (neighbours != active[:, None])
-            & ((wedge[active, None] < 0) | (wedge[neighbours] != wedge[active, None]))
-            & (distance < radius[active, None] * (1.0 - 1e-9))
-        )
-        found = valid.any(axis=1)
-        if not found.any():
-            break
-        active, valid, neighbours = active[found], valid[found], neighbours[found]
-        nearest = neighbours[np.arange(active.size), np.argmax(valid, axis=1)]
-        offset = points[nearest] - points[active]
-        height = 2.0 * np.einsum("md,md->m", offset, normals[active])
-        with np.errstate(divide="ignore"):
-            shrunk = np.where(height > 0, np.einsum("md,md->m", offset, offset) / height, np.inf)
-        radius[active] = np.minimum(radius[active], shrunk)
-        active = active[shrunk < radius[active] * (1.0 + 1e-12)]
-    return radius
