@@ -9,7 +9,6 @@ import math
 from collections.abc import Callable
 
 import numpy as np
-from scipy.sparse import coo_matrix
 from scipy.spatial import cKDTree
 
 from core.curves.bspline import ClosedBSpline
@@ -18,8 +17,9 @@ from core.meshes.chord_crossing import first_chords_crossed
 from core.meshes.delaunay import Triangulation, delaunay
 from core.meshes.encroachment import encroached_chords
 from core.meshes.hex_lattice import HexLattice
-from core.meshes.mesh import Mesh, cross, triangle_signed_areas, unique_edges
+from core.meshes.mesh import Mesh, cross, triangle_signed_areas
 from core.meshes.sizing import GRADATION, Sizing
+from core.meshes.smoothing import smoothing_pass
 
 # Triangles whose circumradius / shortest edge exceeds this are refined (min angle 20.7 deg).
 RADIUS_EDGE_RATIO = math.sqrt(2.0)
@@ -273,28 +273,12 @@ class Refinement:
         count = self.parameters.shape[0]
         _, fixed, _ = self._front()
         simplices = _counter_clockwise(points, self.tri.simplices[self.inside])
-        edges = unique_edges(simplices)
-        total = points.shape[0]
-        adjacency = coo_matrix(
-            (np.ones(2 * edges.shape[0]), (np.r_[edges[:, 0], edges[:, 1]], np.r_[edges[:, 1], edges[:, 0]])),
-            shape=(total, total),
-        ).tocsr()
-        degree = np.asarray(adjacency.sum(axis=1)).ravel()
-        movable = np.ones(total, dtype=bool)
+        # Boundary vertices and core corners stay; the rest are inside the band (off its border).
+        movable = np.ones(points.shape[0], dtype=bool)
         movable[:count] = False
         movable[count : count + self.band.size] = ~fixed[self.band]
-        movable = np.flatnonzero(movable & (degree > 0))
         for done in range(passes):
-            moved = points.copy()
-            moved[movable] = (adjacency @ points)[movable] / degree[movable, None]
-            minimum_area = 0.1 * triangle_signed_areas(points, simplices)
-            for _ in range(20):
-                collapsed = triangle_signed_areas(moved, simplices) < minimum_area
-                if not collapsed.any():
-                    break
-                undo = np.unique(simplices[collapsed])
-                moved[undo] = points[undo]
-            points = moved
+            points = smoothing_pass(points, simplices, movable)
             if pass_done is not None:
                 pass_done((done + 1) / passes)
         self.nodes[self.band] = points[count : count + self.band.size]
