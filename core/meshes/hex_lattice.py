@@ -120,25 +120,14 @@ class HexLattice:
     def nodes_near(self, points: np.ndarray, radius: float) -> np.ndarray:
         """bool (node_count,): True for every node within `radius` of one of `points` (M, 2), and
         for some nodes a little farther (whole rows and columns of a window around each point)."""
-        near = np.zeros((self.rows, self.columns), dtype=bool)
+        near = np.zeros(self.node_count, dtype=np.bool_)
         if points.shape[0] == 0:
-            return near.ravel()
-        local = points - self.origin
-        row = np.floor(local[:, 1] / self.height).astype(np.int64)
-        column = np.floor(local[:, 0] / self.spacing).astype(np.int64)
-        # Only cells that a point falls in or next to: points closer than a spacing apart
-        # mark the same window, so one point per cell is enough.
-        low, width = column.min(), column.max() - column.min() + 1
-        cell = np.unique(row * width + (column - low))  # one key per (row, column): faster than axis=0
-        cells = np.stack([np.floor_divide(cell, width), cell % width + low], axis=1)
+            return near
+        local = np.ascontiguousarray(points - self.origin, dtype=np.float64)
         rows = int(math.ceil(radius / self.height)) + 1
         columns = int(math.ceil(radius / self.spacing)) + 1
-        dr, dc = np.meshgrid(np.arange(-rows, rows + 1), np.arange(-columns, columns + 1), indexing="ij")
-        r = (cells[:, 0, None] + dr.ravel()).ravel()
-        c = (cells[:, 1, None] + dc.ravel()).ravel()
-        valid = (r >= 0) & (r < self.rows) & (c >= 0) & (c < self.columns)
-        near[r[valid], c[valid]] = True
-        return near.ravel()
+        _mark_windows(local, self.spacing, self.height, self.rows, self.columns, rows, columns, near)
+        return near
 
     def circumdisk_hits(self, points: np.ndarray, selected: np.ndarray) -> np.ndarray:
         """Ids of the `selected` triangles whose open circumdisk holds one of `points` (M, 2).
@@ -186,3 +175,15 @@ def _circumdisk_hits(local, selected, spacing, rows, columns):  # pragma: no cov
                     if dx * dx + dy * dy < radius * radius and selected[triangle]:
                         hit[triangle] = True
     return hit
+
+
+@njit(cache=True)
+def _mark_windows(local, spacing, height, rows, columns, reach_rows, reach_columns, near):  # pragma: no cover
+    """Mark in `near` (rows * columns,) the nodes in rows r0 -/+ reach_rows and columns c0 -/+
+    reach_columns around the cell (r0, c0) of each point of `local` (M, 2) (relative to the origin)."""
+    for i in range(local.shape[0]):
+        r0 = int(np.floor(local[i, 1] / height))
+        c0 = int(np.floor(local[i, 0] / spacing))
+        for r in range(max(r0 - reach_rows, 0), min(r0 + reach_rows + 1, rows)):
+            for c in range(max(c0 - reach_columns, 0), min(c0 + reach_columns + 1, columns)):
+                near[r * columns + c] = True
