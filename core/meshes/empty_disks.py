@@ -4,8 +4,8 @@ feature size of `core.meshes.sizing`.
 The shrinking-ball iteration: a disk touching the curve at sample p on the side of the normal n
 starts at the largest radius wanted; while it holds another sample q, it is replaced by the disk
 tangent at p through q, of radius |q - p|^2 / (2 (q - p) . n), q the sample nearest its centre.
-The samples are sorted into a grid of square cells, so each disk is checked against the samples
-of the cells it overlaps only.
+The samples are sorted into a grid of square cells (`core.meshes.point_grid`), so each disk is
+checked against the samples of the cells it overlaps only.
 """
 
 from __future__ import annotations
@@ -14,6 +14,8 @@ import math
 
 import numpy as np
 from numba import njit
+
+from core.meshes.point_grid import grid_buckets, grid_layout
 
 #: At most this many shrinking steps per disk.
 MAX_STEPS = 100
@@ -41,12 +43,7 @@ def empty_disk_radii(
     ndarray of shape (S,)
     """
     points = np.ascontiguousarray(points, dtype=np.float64)
-    low = points.min(axis=0)
-    extent = np.ptp(points, axis=0)
-    # Cells of about half the largest disk, or wider where that would make over 4 per sample.
-    cell = max(0.5 * largest, math.sqrt(extent[0] * extent[1] / (4 * points.shape[0])))
-    cell = max(cell, float(extent.max()) / (1 << 16), 1e-300)
-    columns, rows = (np.floor(extent / cell).astype(np.int64) + 1).tolist()
+    low, cell, columns, rows = grid_layout(points, 0.5 * largest)  # cells of half the largest disk
     return _radii(
         points, np.ascontiguousarray(normals, dtype=np.float64), np.ascontiguousarray(wedge, dtype=np.int64),
         float(largest), low, cell, columns, rows,
@@ -57,20 +54,7 @@ def empty_disk_radii(
 def _radii(points, normals, wedge, largest, low, cell, columns, rows):  # pragma: no cover - compiled
     """`empty_disk_radii`, the samples in a grid of `rows` x `columns` cells of side `cell` from `low`."""
     count = points.shape[0]
-    cell_of = np.empty(count, dtype=np.int64)
-    start = np.zeros(rows * columns + 1, dtype=np.int64)
-    for i in range(count):
-        column = min(int((points[i, 0] - low[0]) / cell), columns - 1)
-        row = min(int((points[i, 1] - low[1]) / cell), rows - 1)
-        cell_of[i] = row * columns + column
-        start[cell_of[i] + 1] += 1
-    for c in range(rows * columns):
-        start[c + 1] += start[c]
-    filled = start[:-1].copy()
-    members = np.empty(count, dtype=np.int64)
-    for i in range(count):
-        members[filled[cell_of[i]]] = i
-        filled[cell_of[i]] += 1
+    start, members = grid_buckets(points, low, cell, columns, rows)
     radius = np.full(count, largest)
     for i in range(count):
         px, py, nx, ny = points[i, 0], points[i, 1], normals[i, 0], normals[i, 1]

@@ -9,7 +9,6 @@ import math
 from collections.abc import Callable
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from core.curves.bspline import ClosedBSpline
 from core.meshes.band_regions import band_sides, band_triangles
@@ -17,9 +16,11 @@ from core.meshes.chord_crossing import first_chords_crossed
 from core.meshes.delaunay import Triangulation, delaunay
 from core.meshes.encroachment import encroached_chords
 from core.meshes.hex_lattice import HexLattice
-from core.meshes.mesh import Mesh, cross, triangle_signed_areas
+from core.meshes.mesh import Mesh, triangle_signed_areas
 from core.meshes.sizing import GRADATION, Sizing
 from core.meshes.smoothing import smoothing_pass
+from core.meshes.spread_points import spread_points
+from core.meshes.triangle_shapes import circumcentres, triangle_shapes
 
 # Triangles whose circumradius / shortest edge exceeds this are refined (min angle 20.7 deg).
 RADIUS_EDGE_RATIO = math.sqrt(2.0)
@@ -212,14 +213,8 @@ class Refinement:
         """One batch of Ruppert insertions; returns the number of bad triangles (0: none left)."""
         points = self.band_points
         simplices = self.tri.simplices[self.inside]
-        corners = points[simplices]
-        a = np.linalg.norm(corners[:, 1] - corners[:, 2], axis=1)
-        b = np.linalg.norm(corners[:, 2] - corners[:, 0], axis=1)
-        c = np.linalg.norm(corners[:, 0] - corners[:, 1], axis=1)
-        area = 0.5 * np.abs(cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]))
-        radius = a * b * c / (4.0 * area)
-        shortest = np.minimum(np.minimum(a, b), c)
-        h = self.sizing(corners.mean(axis=1))
+        radius, shortest, centroids = triangle_shapes(points, simplices)
+        h = self.sizing(centroids)
         bad = (radius > SIZE_FACTOR * h) | (
             (radius > RADIUS_EDGE_RATIO * shortest) & (shortest > QUALITY_FLOOR * h)
         )
@@ -227,7 +222,7 @@ class Refinement:
             return 0
         bad = np.flatnonzero(bad)
         priority = bad[np.argsort(-(radius[bad] / shortest[bad]))]
-        centres = _circumcentres(corners[priority])
+        centres = circumcentres(points, simplices[priority])
         middle, half = _chord_circles(self.boundary_points)
         encroached = encroached_chords(centres, middle, half)
         hit = encroached >= 0
@@ -245,7 +240,7 @@ class Refinement:
         )
         outside = crossed >= 0
         splits.append(crossed[outside])
-        accepted = _spread(centres[free[~outside]], radius[priority][free[~outside]])
+        accepted = spread_points(centres[free[~outside]], radius[priority][free[~outside]])
         splits = np.concatenate(splits)
         # Splitting a boundary edge for quality alone stops at the floor (sharp corners).
         if splits.size:
@@ -387,32 +382,3 @@ def _chord_circles(boundary_points: np.ndarray) -> tuple[np.ndarray, np.ndarray]
     """Centres (B, 2) and radii (B,) of the diametral circles of the boundary chords k -> k+1."""
     following = np.roll(boundary_points, -1, axis=0)
     return 0.5 * (boundary_points + following), 0.5 * np.linalg.norm(following - boundary_points, axis=1)
-
-
-def _circumcentres(corners: np.ndarray) -> np.ndarray:
-    """Circumcentres (T, 2) of triangles given as corners (T, 3, 2)."""
-    a = corners[:, 0]
-    b = corners[:, 1] - a
-    c = corners[:, 2] - a
-    d = 2.0 * cross(b, c)
-    bb = np.einsum("td,td->t", b, b)
-    cc = np.einsum("td,td->t", c, c)
-    ux = (c[:, 1] * bb - b[:, 1] * cc) / d
-    uy = (b[:, 0] * cc - c[:, 0] * bb) / d
-    return a + np.stack([ux, uy], axis=1)
-
-
-def _spread(candidates: np.ndarray, radii: np.ndarray) -> np.ndarray:
-    """Greedy subset of candidates (in priority order) no two closer than half their radius."""
-    if candidates.shape[0] == 0:
-        return candidates
-    tree = cKDTree(candidates)
-    neighbours = tree.query_ball_point(candidates, 0.5 * radii, return_sorted=False)
-    taken = np.zeros(candidates.shape[0], dtype=bool)
-    blocked = np.zeros(candidates.shape[0], dtype=bool)
-    for i, group in enumerate(neighbours):
-        if blocked[i]:
-            continue
-        taken[i] = True
-        blocked[group] = True
-    return candidates[taken]

@@ -1,0 +1,25 @@
+"""core.meshes.point_grid: points sorted into square cells."""
+
+import numpy as np
+
+from core.meshes.point_grid import CELLS_PER_POINT, grid_buckets, grid_layout
+
+
+def test_every_point_is_in_the_cell_that_holds_it():
+    rng = np.random.default_rng(1)
+    points = rng.uniform([-3.0, 1.0], [5.0, 2.0], (500, 2))
+    low, cell, columns, rows = grid_layout(points, 0.3)
+    assert cell == 0.3
+    start, members = grid_buckets(points, low, cell, columns, rows)
+    assert sorted(members.tolist()) == list(range(500))
+    cell_of = np.repeat(np.arange(rows * columns), np.diff(start))
+    column, row = cell_of % columns, cell_of // columns
+    local = points[members] - low
+    assert (local[:, 0] >= column * cell).all() and (local[:, 0] <= (column + 1) * cell).all()
+    assert (local[:, 1] >= row * cell).all() and (local[:, 1] <= (row + 1) * cell).all()
+
+
+def test_tiny_cells_are_widened_to_a_few_per_point():
+    points = np.random.default_rng(2).uniform(0.0, 1.0, (100, 2))
+    _, cell, columns, rows = grid_layout(points, 1e-9)
+    assert cell > 1e-9 and columns * rows <= 2 * CELLS_PER_POINT * 100
