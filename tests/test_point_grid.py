@@ -2,7 +2,7 @@
 
 import numpy as np
 
-from core.meshes.point_grid import CELLS_PER_POINT, grid_buckets, grid_layout
+from core.meshes.point_grid import CELLS_PER_POINT, grid_buckets, grid_layout, nearest_distances
 
 
 def test_every_point_is_in_the_cell_that_holds_it():
@@ -23,3 +23,15 @@ def test_tiny_cells_are_widened_to_a_few_per_point():
     points = np.random.default_rng(2).uniform(0.0, 1.0, (100, 2))
     _, cell, columns, rows = grid_layout(points, 1e-9)
     assert cell > 1e-9 and columns * rows <= 2 * CELLS_PER_POINT * 100
+
+
+def test_nearest_distances_match_a_search_of_all_points():
+    rng = np.random.default_rng(3)
+    points = rng.uniform(0.0, 1.0, (400, 2))
+    x = rng.uniform(-0.3, 1.3, (700, 2))
+    reach = 0.05
+    distance = np.linalg.norm(x[:, None] - points[None], axis=2).min(axis=1)
+    expected = np.where(distance <= reach, distance, np.inf)
+    found = nearest_distances(points, x, reach)
+    assert 100 < np.isfinite(expected).sum() < 650
+    np.testing.assert_allclose(found, expected, rtol=1e-15)

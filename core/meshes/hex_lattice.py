@@ -90,17 +90,7 @@ class HexLattice:
 
     def triangle_corners(self, triangles: np.ndarray) -> np.ndarray:
         """Node ids (M, 3) of the corners of triangles `triangles` (M,), counter-clockwise (y up)."""
-        cell, kind = np.divmod(np.asarray(triangles, dtype=np.int64), 2)
-        r, c = np.divmod(cell, self.columns - 1)
-        p = r & 1  # odd rows are shifted half a spacing to the right
-        below = r * self.columns + c
-        above = below + self.columns
-        up = kind == 0
-        result = np.empty((up.size, 3), dtype=np.int64)
-        result[:, 0] = np.where(up, below, below + 1 - p)
-        result[:, 1] = np.where(up, below + 1, above + 1)
-        result[:, 2] = np.where(up, above + p, above)
-        return result
+        return _triangle_corners(np.ascontiguousarray(triangles, dtype=np.int64).reshape(-1), self.columns)
 
     def triangles_within(self, nodes: np.ndarray) -> np.ndarray:
         """bool (triangle_count,): the triangles whose three corners are all in `nodes`.
@@ -187,3 +177,20 @@ def _mark_windows(local, spacing, height, rows, columns, reach_rows, reach_colum
         for r in range(max(r0 - reach_rows, 0), min(r0 + reach_rows + 1, rows)):
             for c in range(max(c0 - reach_columns, 0), min(c0 + reach_columns + 1, columns)):
                 near[r * columns + c] = True
+
+
+@njit(cache=True)
+def _triangle_corners(triangles, columns):  # pragma: no cover - compiled
+    """`HexLattice.triangle_corners` of a lattice with `columns` columns."""
+    result = np.empty((triangles.size, 3), dtype=np.int64)
+    for i in range(triangles.size):
+        cell, kind = triangles[i] // 2, triangles[i] % 2
+        r, c = cell // (columns - 1), cell % (columns - 1)
+        p = r & 1  # odd rows are shifted half a spacing to the right
+        below = r * columns + c
+        above = below + columns
+        if kind == 0:  # apex up
+            result[i, 0], result[i, 1], result[i, 2] = below, below + 1, above + p
+        else:
+            result[i, 0], result[i, 1], result[i, 2] = below + 1 - p, above + 1, above
+    return result

@@ -1,6 +1,6 @@
 """Points sorted into a grid of square cells, compiled (`grid_layout`, `grid_buckets`): the
-neighbour searches of `core.meshes.encroachment`, `core.meshes.empty_disks` and
-`core.meshes.spread_points` look only at the cells near a query.
+neighbour searches of `core.meshes.encroachment`, `core.meshes.empty_disks`,
+`core.meshes.spread_points` and `nearest_distances` look only at the cells near a query.
 """
 
 from __future__ import annotations
@@ -60,3 +60,34 @@ def grid_buckets(points, low, cell, columns, rows):  # pragma: no cover - compil
         members[filled[cell_of[i]]] = i
         filled[cell_of[i]] += 1
     return start, members
+
+
+def nearest_distances(points: np.ndarray, x: np.ndarray, reach: float) -> np.ndarray:
+    """Distance from each of x (M, 2) to the nearest of `points` (N, 2), N >= 1, or inf where none
+    is within `reach` (on it counts): ndarray of shape (M,)."""
+    points = np.ascontiguousarray(points, dtype=np.float64)
+    low, cell, columns, rows = grid_layout(points, reach)
+    x = np.ascontiguousarray(x, dtype=np.float64).reshape(-1, 2)
+    return _nearest(points, x, reach, low, cell, columns, rows)
+
+
+@njit(cache=True)
+def _nearest(points, x, reach, low, cell, columns, rows):  # pragma: no cover - compiled
+    """`nearest_distances`, with a grid of cells at least `reach` wide."""
+    start, members = grid_buckets(points, low, cell, columns, rows)
+    result = np.full(x.shape[0], np.inf)
+    for i in range(x.shape[0]):
+        column = int(np.floor((x[i, 0] - low[0]) / cell))
+        row = int(np.floor((x[i, 1] - low[1]) / cell))
+        best = reach * reach
+        found = False
+        for r in range(max(row - 1, 0), min(row + 2, rows)):
+            for c in range(max(column - 1, 0), min(column + 2, columns)):
+                for m in range(start[r * columns + c], start[r * columns + c + 1]):
+                    j = members[m]
+                    squared = (points[j, 0] - x[i, 0]) ** 2 + (points[j, 1] - x[i, 1]) ** 2
+                    if squared <= best:
+                        best, found = squared, True
+        if found:
+            result[i] = np.sqrt(best)
+    return result

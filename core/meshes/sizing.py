@@ -13,6 +13,7 @@ from scipy.spatial import cKDTree
 from core.curves.bspline import ClosedBSpline
 from core.meshes.empty_disks import empty_disk_radii
 from core.meshes.mesh import cross
+from core.meshes.point_grid import nearest_distances
 
 # Largest angle (radians) between the curve tangents at the two ends of a boundary edge.
 TURNING_ANGLE = 0.3
@@ -142,8 +143,8 @@ class Sizing:
 
     def distance_to_curve(self, x: np.ndarray, reach: float) -> np.ndarray:
         """Distance to the nearest dense curve sample (within half a sample spacing of exact),
-        or inf beyond `reach`."""
-        return self.tree.query(x, distance_upper_bound=reach)[0]
+        or inf beyond `reach`, at points x (M, 2): ndarray of shape (M,)."""
+        return nearest_distances(self.points, x, reach)
 
     def arc_length(self, t: np.ndarray) -> np.ndarray:
         """Arc length from t = 0 along the dense polyline, for t in [0, 2 n)."""
