@@ -1,8 +1,16 @@
 """core.meshes.point_grid: points sorted into square cells."""
 
 import numpy as np
+import pytest
+from scipy.spatial import cKDTree
 
-from core.meshes.point_grid import CELLS_PER_POINT, grid_buckets, grid_layout, nearest_distances
+from core.meshes.point_grid import (
+    CELLS_PER_POINT,
+    grid_buckets,
+    grid_layout,
+    nearest_distances,
+    nearest_neighbours,
+)
 
 
 def test_every_point_is_in_the_cell_that_holds_it():
@@ -35,3 +43,17 @@ def test_nearest_distances_match_a_search_of_all_points():
     found = nearest_distances(points, x, reach)
     assert 100 < np.isfinite(expected).sum() < 650
     np.testing.assert_allclose(found, expected, rtol=1e-15)
+
+
+@pytest.mark.parametrize("bound", [np.inf, 0.08])
+def test_nearest_neighbours_match_a_k_d_tree(bound):
+    rng = np.random.default_rng(4)
+    angle = np.sort(rng.uniform(0.0, 2 * np.pi, 600))  # samples along a curve, as in the sizing
+    points = np.stack([np.cos(angle) * (1 + 0.3 * np.cos(5 * angle)), np.sin(angle)], axis=1)
+    x = np.vstack([points[::7], rng.uniform(-1.5, 1.5, (300, 2))])
+    distance, index = nearest_neighbours(points, x, 12, bound)
+    expected_distance, expected_index = cKDTree(points).query(x, k=12, distance_upper_bound=bound)
+    np.testing.assert_allclose(distance, expected_distance, rtol=1e-15)
+    np.testing.assert_array_equal(index, expected_index)
+    if np.isfinite(bound):
+        assert np.isinf(distance).any() and np.isfinite(distance).any()

@@ -1,6 +1,7 @@
 """Points sorted into a grid of square cells, compiled (`grid_layout`, `grid_buckets`): the
 neighbour searches of `core.meshes.encroachment`, `core.meshes.empty_disks`,
-`core.meshes.spread_points` and `nearest_distances` look only at the cells near a query.
+`core.meshes.spread_points`, `nearest_distances` and `nearest_neighbours` look only at the cells
+near a query.
 """
 
 from __future__ import annotations
@@ -91,3 +92,58 @@ def _nearest(points, x, reach, low, cell, columns, rows):  # pragma: no cover - 
         if found:
             result[i] = np.sqrt(best)
     return result
+
+
+def nearest_neighbours(
+    points: np.ndarray, x: np.ndarray, k: int, bound: float = np.inf
+) -> tuple[np.ndarray, np.ndarray]:
+    """The `k` nearest of `points` (N, 2), N >= 1, within `bound` of each of x (M, 2), nearest
+    first, in the layout of ``scipy.spatial.cKDTree(points).query(x, k, distance_upper_bound=bound)``.
+
+    Returns
+    -------
+    distance : ndarray of shape (M, k)
+        Distances, inf where fewer than k points are within `bound`.
+    index : ndarray of shape (M, k), int64
+        Indices into `points`, N where the distance is inf.
+    """
+    points = np.ascontiguousarray(points, dtype=np.float64)
+    low, cell, columns, rows = grid_layout(points, 0.0)
+    x = np.ascontiguousarray(x, dtype=np.float64).reshape(-1, 2)
+    return _neighbours(points, x, k, float(bound), low, cell, columns, rows)
+
+
+@njit(cache=True)
+def _neighbours(points, x, k, bound, low, cell, columns, rows):  # pragma: no cover - compiled
+    """`nearest_neighbours`: rings of cells around each query's cell, until no nearer point can
+    be in the next ring (whose points are at least (ring - 1) cells away)."""
+    start, members = grid_buckets(points, low, cell, columns, rows)
+    distance = np.full((x.shape[0], k), np.inf)
+    index = np.full((x.shape[0], k), points.shape[0], dtype=np.int64)
+    for i in range(x.shape[0]):
+        row0 = int(np.floor((x[i, 1] - low[1]) / cell))
+        column0 = int(np.floor((x[i, 0] - low[0]) / cell))
+        # The rings that can hold points: from the query's cell to the grid's far side.
+        last = max(abs(row0), abs(row0 - rows + 1), abs(column0), abs(column0 - columns + 1))
+        for ring in range(last + 1):
+            gap = (ring - 1) * cell
+            if gap > bound or gap >= distance[i, k - 1]:
+                break
+            for r in range(max(row0 - ring, 0), min(row0 + ring + 1, rows)):
+                step = 1 if abs(r - row0) == ring else 2 * ring  # inner rows: the two ends only
+                for c in range(column0 - ring, column0 + ring + 1, max(step, 1)):
+                    if c < 0 or c >= columns:
+                        continue
+                    for m in range(start[r * columns + c], start[r * columns + c + 1]):
+                        j = members[m]
+                        d = np.sqrt((points[j, 0] - x[i, 0]) ** 2 + (points[j, 1] - x[i, 1]) ** 2)
+                        if d > bound or d >= distance[i, k - 1]:
+                            continue
+                        slot = k - 1
+                        while slot > 0 and distance[i, slot - 1] > d:
+                            distance[i, slot] = distance[i, slot - 1]
+                            index[i, slot] = index[i, slot - 1]
+                            slot -= 1
+                        distance[i, slot] = d
+                        index[i, slot] = j
+    return distance, index

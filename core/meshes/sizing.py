@@ -8,12 +8,11 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from core.curves.bspline import ClosedBSpline
 from core.meshes.empty_disks import empty_disk_radii
 from core.meshes.mesh import cross
-from core.meshes.point_grid import nearest_distances
+from core.meshes.point_grid import nearest_distances, nearest_neighbours
 
 # Largest angle (radians) between the curve tangents at the two ends of a boundary edge.
 TURNING_ANGLE = 0.3
@@ -72,10 +71,9 @@ class Sizing:
         fine = self.h < max_edge
         self.fine_points = self.points[fine]  # (F, 2), where h < max_edge
         self._fine_h = self.h[fine]
-        self._fine_tree = cKDTree(self.fine_points) if fine.any() else None
         # Farther than this from every fine sample, h is max_edge.
         self.reach = (max_edge - self._fine_h.min(initial=max_edge)) / GRADATION
-        if self._fine_tree is not None:  # (2, 2): outside this box no fine sample is within reach
+        if fine.any():  # (2, 2): outside this box no fine sample is within reach
             self._fine_box = np.stack([self.fine_points.min(axis=0), self.fine_points.max(axis=0)])
             self._fine_box += [[-self.reach], [self.reach]]
 
@@ -94,7 +92,6 @@ class Sizing:
         inward = orientation * np.stack([-tangents[:, 1], tangents[:, 0]], axis=1)
         steps = np.linalg.norm(np.roll(self.points, -1, axis=0) - self.points, axis=1)
         self.arc = np.concatenate([[0.0], np.cumsum(steps)])  # (S + 1,), closes the loop
-        self.tree = cKDTree(self.points)
         outside_wedge, inside_wedge = _corner_wedges(curve, self.t)
         largest = 1.01 * self.max_edge / NECK_FRACTION  # larger disks do not limit h
         radius = np.minimum(
@@ -115,11 +112,9 @@ class Sizing:
         if not fine.any():
             return h
         reach = (self.max_edge - h.min()) / GRADATION
-        near = np.flatnonzero(
-            cKDTree(self.points[fine]).query(self.points, distance_upper_bound=reach)[0] <= reach
-        )
+        near = np.flatnonzero(nearest_distances(self.points[fine], self.points, reach) <= reach)
         k = min(32, h.shape[0])
-        distance, index = self.tree.query(self.points[near], k=k)
+        distance, index = nearest_neighbours(self.points, self.points[near], k)
         for _ in range(h.shape[0]):  # each pass carries the bound at least one sample on
             graded = np.minimum(h[near], (h[index] + GRADATION * distance).min(axis=1))
             if np.array_equal(graded, h[near]):
@@ -131,13 +126,12 @@ class Sizing:
     def __call__(self, x: np.ndarray) -> np.ndarray:
         """Target edge length at points x (M, 2), ndarray of shape (M,)."""
         result = np.full(x.shape[0], self.max_edge)
-        if self._fine_tree is None or x.shape[0] == 0:
+        if self.fine_points.shape[0] == 0 or x.shape[0] == 0:
             return result
         near = np.flatnonzero(((x >= self._fine_box[0]) & (x <= self._fine_box[1])).all(axis=1))
         k = min(8, self._fine_h.size)
-        distance, index = self._fine_tree.query(x[near], k=k, distance_upper_bound=self.reach)
-        distance = distance.reshape(-1, k)
-        index = np.minimum(index.reshape(-1, k), self._fine_h.size - 1)  # misses: index == size
+        distance, index = nearest_neighbours(self.fine_points, x[near], k, self.reach)
+        index = np.minimum(index, self._fine_h.size - 1)  # misses: index == size, distance inf
         result[near] = np.minimum(result[near], (self._fine_h[index] + GRADATION * distance).min(axis=1))
         return result
 
