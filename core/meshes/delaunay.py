@@ -62,20 +62,25 @@ def delaunay(points: np.ndarray) -> Triangulation:
 
 def _hilbert_order(points: np.ndarray) -> np.ndarray:
     """Permutation (N,) of the points along a Hilbert curve over their bounding box."""
-    low = points.min(axis=0)
-    extent = max(float(np.ptp(points, axis=0).max()), 1e-300)
-    side = (1 << HILBERT_ORDER) - 1
-    cells = np.minimum(((points - low) * (side / extent)).astype(np.int64), side)
-    return np.argsort(_hilbert_keys(cells[:, 0], cells[:, 1], HILBERT_ORDER), kind="stable")
+    return np.argsort(_hilbert_keys(points, HILBERT_ORDER), kind="stable")
 
 
 @njit(cache=True)
-def _hilbert_keys(x, y, order):  # pragma: no cover - compiled
-    """Distance along the Hilbert curve of cells (x, y) (N,) of a 2 ** order grid."""
-    keys = np.empty(x.size, dtype=np.int64)
+def _hilbert_keys(points, order):  # pragma: no cover - compiled
+    """Distance along the Hilbert curve of a 2 ** order grid over the points' (N, 2) bounding box
+    of the cell of each point."""
+    low_x, low_y, high_x, high_y = np.inf, np.inf, -np.inf, -np.inf
+    for i in range(points.shape[0]):
+        low_x, high_x = min(low_x, points[i, 0]), max(high_x, points[i, 0])
+        low_y, high_y = min(low_y, points[i, 1]), max(high_y, points[i, 1])
+    side = (1 << order) - 1
+    scale = side / max(high_x - low_x, high_y - low_y, 1e-300)
+    keys = np.empty(points.shape[0], dtype=np.int64)
     n = 1 << order
-    for i in range(x.size):
-        cx, cy, key = x[i], y[i], 0
+    for i in range(points.shape[0]):
+        cx = min(int((points[i, 0] - low_x) * scale), side)
+        cy = min(int((points[i, 1] - low_y) * scale), side)
+        key = 0
         s = n >> 1
         while s > 0:
             rx = 1 if (cx & s) > 0 else 0

@@ -13,10 +13,11 @@ import numpy as np
 from core.curves.bspline import ClosedBSpline
 from core.meshes.band_regions import band_sides, band_triangles
 from core.meshes.chord_crossing import first_chords_crossed
+from core.meshes.core_front import core_front
 from core.meshes.delaunay import Triangulation, delaunay
 from core.meshes.encroachment import encroached_chords
 from core.meshes.hex_lattice import HexLattice
-from core.meshes.mesh import Mesh, triangle_signed_areas
+from core.meshes.mesh import Mesh
 from core.meshes.sizing import GRADATION, Sizing
 from core.meshes.smoothing import smoothing_pass
 from core.meshes.spread_points import spread_points
@@ -89,22 +90,11 @@ class Refinement:
         """The band's nodes (Nb,), which nodes are core corners (K,) bool, and the front.
 
         The front is the directed edges (F, 2) of core triangles that no other core
-        triangle shares, with the core on their left.  A node with six core
-        triangles is inside the core and not in the band.
+        triangle shares, with the core on their left (`core.meshes.core_front`).  A node
+        with six core triangles is inside the core and not in the band.
         """
         if self._front_cache is None:
-            corners = self.core_corners[self.core_kept]
-            count = np.bincount(corners.ravel(), minlength=self.nodes.shape[0])
-            # A front edge has an end with fewer than six core triangles: look only there.
-            near = corners[(count[corners] < 6).any(axis=1)]
-            edges = near[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
-            low, high = np.sort(edges, axis=1).T
-            _, inverse, counts = np.unique(
-                low * self.nodes.shape[0] + high, return_inverse=True, return_counts=True
-            )
-            # Both triangles of an edge with such an end are in `near`; other edges are inside.
-            front = (counts[inverse] == 1) & (count[edges] < 6).any(axis=1)
-            self._front_cache = count, edges[front]
+            self._front_cache = core_front(self.core_corners[self.core_kept], self.nodes.shape[0])
         count, front = self._front_cache
         return np.flatnonzero(self.alive & (count < 6)), count > 0, front
 
@@ -267,7 +257,7 @@ class Refinement:
         points = self.band_points
         count = self.parameters.shape[0]
         _, fixed, _ = self._front()
-        simplices = _counter_clockwise(points, self.tri.simplices[self.inside])
+        simplices = self.tri.simplices[self.inside]  # counter-clockwise
         # Boundary vertices and core corners stay; the rest are inside the band (off its border).
         movable = np.ones(points.shape[0], dtype=bool)
         movable[:count] = False
@@ -287,7 +277,7 @@ class Refinement:
         index = np.concatenate(
             [np.arange(count), count + self.band, count + nodes + np.arange(self.steiner.shape[0])]
         )
-        band = _counter_clockwise(self.band_points, self.tri.simplices[self.inside])
+        band = self.tri.simplices[self.inside]  # counter-clockwise (smoothing keeps them so)
         simplices = np.vstack([count + self.core_corners[self.core_kept], index[band]])
         used = np.zeros(points.shape[0], dtype=bool)
         used[simplices] = True
@@ -369,13 +359,6 @@ def _lattice(sizing: Sizing, polygon: np.ndarray) -> tuple[HexLattice, np.ndarra
     large_enough = h >= lattice.circumradius * (1.0 / SIZE_FACTOR + GRADATION)
     clear[nodes] = keep & large_enough & (distance >= CORE_CLEARANCE * h)
     return lattice, nodes[keep], lattice.triangles_within(clear)
-
-
-def _counter_clockwise(points: np.ndarray, simplices: np.ndarray) -> np.ndarray:
-    simplices = simplices.copy()
-    negative = triangle_signed_areas(points, simplices) < 0
-    simplices[negative] = simplices[negative][:, [0, 2, 1]]
-    return simplices
 
 
 def _chord_circles(boundary_points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
