@@ -27,12 +27,23 @@ def grid_layout(points: np.ndarray, least_cell: float) -> tuple[np.ndarray, floa
         `CELLS_PER_POINT` cells per point.
     columns, rows : int
     """
-    low = points.min(axis=0)
-    extent = points.max(axis=0) - low
+    low, extent = _bounds(points)
     cell = max(least_cell, math.sqrt(extent[0] * extent[1] / (CELLS_PER_POINT * points.shape[0])))
     cell = max(cell, float(extent.max()) / (1 << 16), 1e-300)
-    columns, rows = (np.floor(extent / cell).astype(np.int64) + 1).tolist()
-    return low, cell, columns, rows
+    return low, cell, int(extent[0] // cell) + 1, int(extent[1] // cell) + 1
+
+
+@njit(cache=True)
+def _bounds(points):  # pragma: no cover - compiled
+    """Lowest corner (2,) and extent (2,) of the points' (M, 2) bounding box (a loop: numpy's
+    reductions along the short axis cost more than the grid searches)."""
+    low = points[0].copy()
+    high = points[0].copy()
+    for i in range(points.shape[0]):
+        for d in range(2):
+            low[d] = min(low[d], points[i, d])
+            high[d] = max(high[d], points[i, d])
+    return low, high - low
 
 
 @njit(cache=True)

@@ -47,6 +47,10 @@ MAX_RESAMPLING = 12
 SMALLEST_FRACTION = 1000.0
 
 
+# Five-point Gauss-Legendre rule on [-1, 1] for the spans' lengths.
+_GAUSS_NODES, _GAUSS_WEIGHTS = np.polynomial.legendre.leggauss(5)
+
+
 class Sizing:
     """Target edge length h at dense curve samples and, graded, anywhere in the plane."""
 
@@ -188,7 +192,7 @@ class Sizing:
 
 def _dense_parameters(curve: ClosedBSpline, max_edge: float) -> np.ndarray:
     """Parameters of the first dense samples: every knot, at least 32 per span, ~max_edge / 8 apart."""
-    nodes, weights = np.polynomial.legendre.leggauss(5)
+    nodes, weights = _GAUSS_NODES, _GAUSS_WEIGHTS
     u = 0.5 * (nodes + 1.0)
     spans = np.arange(curve.n)
     first = curve.derivative((spans[:, None] + u[None, :]).ravel()).reshape(curve.n, 5, 2)
