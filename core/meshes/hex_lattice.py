@@ -51,11 +51,8 @@ class HexLattice:
 
     def node_points(self, nodes: np.ndarray) -> np.ndarray:
         """Positions (M, 2) of the nodes with ids `nodes` (M,)."""
-        r, c = np.divmod(np.asarray(nodes, dtype=np.int64), self.columns)
-        result = np.empty((r.size, 2))
-        result[:, 0] = self.origin[0] + (c + 0.5 * (r & 1)) * self.spacing
-        result[:, 1] = self.origin[1] + r * self.height
-        return result
+        nodes = np.ascontiguousarray(nodes, dtype=np.int64).reshape(-1)
+        return _node_points(nodes, self.columns, self.origin, self.spacing, self.height)
 
     def inside(self, polygon: np.ndarray) -> np.ndarray:
         """bool (rows * columns,): the nodes inside the closed polygon (B, 2), by crossing parity.
@@ -193,4 +190,15 @@ def _triangle_corners(triangles, columns):  # pragma: no cover - compiled
             result[i, 0], result[i, 1], result[i, 2] = below, below + 1, above + p
         else:
             result[i, 0], result[i, 1], result[i, 2] = below + 1 - p, above + 1, above
+    return result
+
+
+@njit(cache=True)
+def _node_points(nodes, columns, origin, spacing, height):  # pragma: no cover - compiled
+    """`HexLattice.node_points` of a lattice with `columns` columns."""
+    result = np.empty((nodes.size, 2))
+    for i in range(nodes.size):
+        r, c = nodes[i] // columns, nodes[i] % columns
+        result[i, 0] = origin[0] + (c + 0.5 * (r & 1)) * spacing
+        result[i, 1] = origin[1] + r * height
     return result
