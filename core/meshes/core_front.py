@@ -50,19 +50,26 @@ def _front(corners, node_count):  # pragma: no cover - compiled
             for k in range(3):
                 edges[size, 0], edges[size, 1] = corners[t, k], corners[t, (k + 1) % 3]
                 size += 1
-    keys = np.empty(size, dtype=np.int64)
+    # Each edge appears once or twice; group the edges by their lower end to find the twins.
+    start = np.zeros(node_count + 1, dtype=np.int64)
     for e in range(size):
-        keys[e] = min(edges[e, 0], edges[e, 1]) * node_count + max(edges[e, 0], edges[e, 1])
-    order = np.argsort(keys)
-    single = np.zeros(size, dtype=np.bool_)
-    run = 0
-    while run < size:
-        end = run + 1
-        while end < size and keys[order[end]] == keys[order[run]]:
-            end += 1
-        if end == run + 1:
-            single[order[run]] = True
-        run = end
+        start[min(edges[e, 0], edges[e, 1]) + 1] += 1
+    for v in range(node_count):
+        start[v + 1] += start[v]
+    filled = np.zeros(node_count, dtype=np.int64)
+    grouped = np.empty(size, dtype=np.int64)
+    for e in range(size):
+        low = min(edges[e, 0], edges[e, 1])
+        grouped[start[low] + filled[low]] = e
+        filled[low] += 1
+    single = np.ones(size, dtype=np.bool_)
+    for v in range(node_count):
+        for i in range(start[v], start[v + 1]):
+            for j in range(i + 1, start[v + 1]):
+                e, f = grouped[i], grouped[j]
+                if max(edges[e, 0], edges[e, 1]) == max(edges[f, 0], edges[f, 1]):
+                    single[e] = False
+                    single[f] = False
     total = 0
     for e in range(size):
         single[e] = single[e] and (count[edges[e, 0]] < FULL_DEGREE or count[edges[e, 1]] < FULL_DEGREE)

@@ -27,23 +27,22 @@ def grid_layout(points: np.ndarray, least_cell: float) -> tuple[np.ndarray, floa
         `CELLS_PER_POINT` cells per point.
     columns, rows : int
     """
-    low, extent = _bounds(points)
-    cell = max(least_cell, math.sqrt(extent[0] * extent[1] / (CELLS_PER_POINT * points.shape[0])))
-    cell = max(cell, float(extent.max()) / (1 << 16), 1e-300)
-    return low, cell, int(extent[0] // cell) + 1, int(extent[1] // cell) + 1
+    low_x, low_y, high_x, high_y = _bounds(points)
+    width, height = high_x - low_x, high_y - low_y
+    cell = max(least_cell, math.sqrt(width * height / (CELLS_PER_POINT * points.shape[0])))
+    cell = max(cell, max(width, height) / (1 << 16), 1e-300)
+    return np.array([low_x, low_y]), cell, int(width // cell) + 1, int(height // cell) + 1
 
 
 @njit(cache=True)
 def _bounds(points):  # pragma: no cover - compiled
-    """Lowest corner (2,) and extent (2,) of the points' (M, 2) bounding box (a loop: numpy's
-    reductions along the short axis cost more than the grid searches)."""
-    low = points[0].copy()
-    high = points[0].copy()
+    """Lowest x and y, highest x and y of the points (M, 2) (a loop: numpy's reductions along
+    the short axis cost more than the grid searches)."""
+    low_x, low_y, high_x, high_y = points[0, 0], points[0, 1], points[0, 0], points[0, 1]
     for i in range(points.shape[0]):
-        for d in range(2):
-            low[d] = min(low[d], points[i, d])
-            high[d] = max(high[d], points[i, d])
-    return low, high - low
+        low_x, high_x = min(low_x, points[i, 0]), max(high_x, points[i, 0])
+        low_y, high_y = min(low_y, points[i, 1]), max(high_y, points[i, 1])
+    return low_x, low_y, high_x, high_y
 
 
 @njit(cache=True)
@@ -66,7 +65,9 @@ def grid_buckets(points, low, cell, columns, rows):  # pragma: no cover - compil
         start[cell_of[i] + 1] += 1
     for c in range(rows * columns):
         start[c + 1] += start[c]
-    filled = start[:-1].copy()
+    filled = np.empty(rows * columns, dtype=np.int64)
+    for c in range(rows * columns):
+        filled[c] = start[c]
     members = np.empty(count, dtype=np.int64)
     for i in range(count):
         members[filled[cell_of[i]]] = i
