@@ -18,6 +18,7 @@ from core.meshes.delaunay import Triangulation, delaunay
 from core.meshes.encroachment import encroached_chords
 from core.meshes.hex_lattice import HexLattice
 from core.meshes.mesh import Mesh
+from core.meshes.mesh_assembly import assembled_triangles
 from core.meshes.sizing import GRADATION, Sizing
 from core.meshes.smoothing import smoothing_pass
 from core.meshes.spread_points import spread_points
@@ -278,15 +279,14 @@ class Refinement:
             [np.arange(count), count + self.band, count + nodes + np.arange(self.steiner.shape[0])]
         )
         band = self.tri.simplices[self.inside]  # counter-clockwise (smoothing keeps them so)
-        simplices = np.vstack([count + self.core_corners[self.core_kept], index[band]])
-        used = np.zeros(points.shape[0], dtype=bool)
-        used[simplices] = True
-        if not used[:count].all():
+        vertices, triangles, used = assembled_triangles(
+            points, count + self.core_corners[self.core_kept], index, band
+        )
+        if not used[:count].all():  # then the boundary vertices are the first, in order
             raise RuntimeError("a boundary vertex is in no triangle")
-        renumber = np.cumsum(used) - 1
         return Mesh(
-            vertices=points[used],
-            triangles=renumber[simplices],
+            vertices=vertices,
+            triangles=triangles,
             boundary=np.arange(count, dtype=np.int64),
             boundary_parameters=self.parameters.copy(),
         )
