@@ -116,8 +116,8 @@ def compile_all() -> None:
     its gradients (`compile_solver`), the positive Gordon-Wixom rows (`core.meshes.pgw`), the
     closest-point and winding-number tests (`core.curves.closest_point`), the boundary
     integrals of the default kernel (`core.boundary_integrals.compiled_integrals`) and the
-    mesher's compiled parts (`core.meshes.delaunay`, `core.meshes.band_regions`: one
-    `core.triangulate`).
+    mesher's compiled parts (`core.meshes.delaunay`, `band_regions`, `point_grid` and the
+    rest: one `core.triangulate` of the starfish, whose arms make every part run).
 
     The package's build runs it (``.packaging/backend.py``), so that an installed
     package starts every kernel from the cache.
@@ -125,6 +125,7 @@ def compile_all() -> None:
     from core.boundary_integrals import compiled_integrals
     from core.boundary_integrals.panels import curve_panels
     from core.boundary_integrals.poisson import exercise_near_field, poisson_basis, solved_densities
+    from core.curves import examples
     from core.curves.bspline import ClosedBSpline
     from core.curves.closest_point import distance_to_curve
     from core.meshes.pgw import pgw_basis
@@ -135,7 +136,7 @@ def compile_all() -> None:
     square.contains(x)
     distance_to_curve(square.piecewise_polynomial(), x)
     pgw_basis(square, x)
-    triangulate(square)
+    triangulate(ClosedBSpline(examples.starfish()))
     mode, compiled_integrals.mode = compiled_integrals.mode, "compiled"
     try:
         solved_densities.cache_clear()  # the density solve runs the knot blocks: not from the cache
