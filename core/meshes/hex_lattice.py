@@ -60,30 +60,8 @@ class HexLattice:
         Each polygon edge crosses the rows between its ends' heights; a node is
         inside when an odd number of crossings of its row lie to its right.
         """
-        polygon = np.asarray(polygon, dtype=np.float64)
-        following = np.roll(polygon, -1, axis=0)
-        low_y = np.minimum(polygon[:, 1], following[:, 1])
-        high_y = np.maximum(polygon[:, 1], following[:, 1])
-        first = np.clip(np.floor((low_y - self.origin[1]) / self.height).astype(np.int64), 0, self.rows)
-        last = np.clip(np.ceil((high_y - self.origin[1]) / self.height).astype(np.int64) + 1, 0, self.rows)
-        spans = last - first
-        edge = np.repeat(np.arange(polygon.shape[0]), spans)
-        row = np.repeat(first - np.cumsum(spans) + spans, spans) + np.arange(spans.sum())
-        y = self.origin[1] + row * self.height
-        a, b = polygon[edge], following[edge]
-        crossing = (a[:, 1] > y) != (b[:, 1] > y)
-        edge, row, y, a, b = edge[crossing], row[crossing], y[crossing], a[crossing], b[crossing]
-        x = a[:, 0] + (y - a[:, 1]) * (b[:, 0] - a[:, 0]) / (b[:, 1] - a[:, 1])
-        # One sorted key per crossing: its row first, then x.
-        width = (self.columns + 2) * self.spacing + np.ptp(np.append(x, self.origin[0]))
-        offset = min(self.origin[0], x.min(initial=self.origin[0])) - self.spacing
-        keys = np.sort(row * width + (x - offset))
-        row_end = np.searchsorted(keys, (np.arange(self.rows) + 1) * width)
-        nodes = np.arange(self.node_count)
-        node_row = nodes // self.columns
-        node_x = self.node_points(nodes)[:, 0]
-        right = row_end[node_row] - np.searchsorted(keys, node_row * width + (node_x - offset), side="right")
-        return right % 2 == 1
+        polygon = np.ascontiguousarray(polygon, dtype=np.float64)
+        return _inside(polygon, self.origin, self.spacing, self.height, self.rows, self.columns)
 
     def triangle_corners(self, triangles: np.ndarray) -> np.ndarray:
         """Node ids (M, 3) of the corners of triangles `triangles` (M,), counter-clockwise (y up)."""
@@ -202,3 +180,27 @@ def _node_points(nodes, columns, origin, spacing, height):  # pragma: no cover -
         result[i, 0] = origin[0] + (c + 0.5 * (r & 1)) * spacing
         result[i, 1] = origin[1] + r * height
     return result
+
+
+@njit(cache=True)
+def _inside(polygon, origin, spacing, height, rows, columns):  # pragma: no cover - compiled
+    """`HexLattice.inside`: each polygon edge flips the parity of the nodes to the left of where
+    it crosses a row."""
+    inside = np.zeros(rows * columns, dtype=np.bool_)
+    count = polygon.shape[0]
+    for e in range(count):
+        ax, ay = polygon[e, 0], polygon[e, 1]
+        bx, by = polygon[(e + 1) % count, 0], polygon[(e + 1) % count, 1]
+        first = min(max(int(np.floor((min(ay, by) - origin[1]) / height)), 0), rows)
+        last = min(max(int(np.ceil((max(ay, by) - origin[1]) / height)) + 1, 0), rows)
+        for row in range(first, last):
+            y = origin[1] + row * height
+            if (ay > y) == (by > y):
+                continue
+            x = ax + (y - ay) * (bx - ax) / (by - ay)
+            shift = 0.5 * (row & 1)
+            for column in range(columns):
+                if origin[0] + (column + shift) * spacing >= x:
+                    break
+                inside[row * columns + column] = not inside[row * columns + column]
+    return inside
