@@ -57,3 +57,15 @@ def test_nearest_neighbours_match_a_k_d_tree(bound):
     np.testing.assert_array_equal(index, expected_index)
     if np.isfinite(bound):
         assert np.isinf(distance).any() and np.isfinite(distance).any()
+
+
+def test_a_point_that_is_not_finite_is_refused_before_the_compiled_searches():
+    points = np.array([[0.0, 0.0], [1.0, np.nan], [2.0, 1.0]])
+    with pytest.raises(RuntimeError, match="not finite"):
+        grid_layout(points, 0.5)
+    with pytest.raises(RuntimeError, match="not finite"):
+        grid_layout(np.array([[np.inf, 0.0], [1.0, 1.0]]), 0.5)
+    x = np.array([[np.nan, 0.0], [0.1, 0.0]])
+    np.testing.assert_array_equal(nearest_distances(points[[0, 2]], x, 1.0), [np.inf, 0.1])
+    distance, index = nearest_neighbours(points[[0, 2]], x, 1)
+    assert distance[0, 0] == np.inf and index[0, 0] == 2 and index[1, 0] == 0

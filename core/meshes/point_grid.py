@@ -16,7 +16,8 @@ CELLS_PER_POINT = 4
 
 
 def grid_layout(points: np.ndarray, least_cell: float) -> tuple[np.ndarray, float, int, int]:
-    """The grid of `points` (M, 2), M >= 1, with cells at least `least_cell` wide.
+    """The grid of `points` (M, 2), M >= 1, with cells at least `least_cell` wide; RuntimeError
+    if a point is not finite.
 
     Returns
     -------
@@ -29,6 +30,8 @@ def grid_layout(points: np.ndarray, least_cell: float) -> tuple[np.ndarray, floa
     """
     low_x, low_y, high_x, high_y = _bounds(points)
     width, height = high_x - low_x, high_y - low_y
+    if not (math.isfinite(width) and math.isfinite(height)):  # the compiled searches index by them
+        raise RuntimeError("a point of the refinement is not finite (a flat triangle)")
     cell = max(least_cell, math.sqrt(width * height / (CELLS_PER_POINT * points.shape[0])))
     cell = max(cell, max(width, height) / (1 << 16), 1e-300)
     return np.array([low_x, low_y]), cell, int(width // cell) + 1, int(height // cell) + 1
@@ -36,12 +39,15 @@ def grid_layout(points: np.ndarray, least_cell: float) -> tuple[np.ndarray, floa
 
 @njit(cache=True)
 def _bounds(points):  # pragma: no cover - compiled
-    """Lowest x and y, highest x and y of the points (M, 2) (a loop: numpy's reductions along
-    the short axis cost more than the grid searches)."""
-    low_x, low_y, high_x, high_y = points[0, 0], points[0, 1], points[0, 0], points[0, 1]
+    """Lowest x and y, highest x and y of the points (M, 2), NaN if one is not finite (a loop:
+    numpy's reductions along the short axis cost more than the grid searches)."""
+    low_x, low_y, high_x, high_y = np.inf, np.inf, -np.inf, -np.inf
     for i in range(points.shape[0]):
-        low_x, high_x = min(low_x, points[i, 0]), max(high_x, points[i, 0])
-        low_y, high_y = min(low_y, points[i, 1]), max(high_y, points[i, 1])
+        x, y = points[i, 0], points[i, 1]
+        if not (np.isfinite(x) and np.isfinite(y)):
+            return np.nan, np.nan, np.nan, np.nan
+        low_x, high_x = min(low_x, x), max(high_x, x)
+        low_y, high_y = min(low_y, y), max(high_y, y)
     return low_x, low_y, high_x, high_y
 
 
@@ -77,7 +83,7 @@ def grid_buckets(points, low, cell, columns, rows):  # pragma: no cover - compil
 
 def nearest_distances(points: np.ndarray, x: np.ndarray, reach: float) -> np.ndarray:
     """Distance from each of x (M, 2) to the nearest of `points` (N, 2), N >= 1, or inf where none
-    is within `reach` (on it counts): ndarray of shape (M,)."""
+    is within `reach` (on it counts) or x is not finite: ndarray of shape (M,)."""
     points = np.ascontiguousarray(points, dtype=np.float64)
     low, cell, columns, rows = grid_layout(points, reach)
     x = np.ascontiguousarray(x, dtype=np.float64).reshape(-1, 2)
@@ -90,6 +96,8 @@ def _nearest(points, x, reach, low, cell, columns, rows):  # pragma: no cover - 
     start, members = grid_buckets(points, low, cell, columns, rows)
     result = np.full(x.shape[0], np.inf)
     for i in range(x.shape[0]):
+        if not (np.isfinite(x[i, 0]) and np.isfinite(x[i, 1])):
+            continue
         column = int(np.floor((x[i, 0] - low[0]) / cell))
         row = int(np.floor((x[i, 1] - low[1]) / cell))
         best = reach * reach
@@ -133,6 +141,8 @@ def _neighbours(points, x, k, bound, low, cell, columns, rows):  # pragma: no co
     distance = np.full((x.shape[0], k), np.inf)
     index = np.full((x.shape[0], k), points.shape[0], dtype=np.int64)
     for i in range(x.shape[0]):
+        if not (np.isfinite(x[i, 0]) and np.isfinite(x[i, 1])):
+            continue
         row0 = int(np.floor((x[i, 1] - low[1]) / cell))
         column0 = int(np.floor((x[i, 0] - low[0]) / cell))
         # The rings that can hold points: from the query's cell to the grid's far side.

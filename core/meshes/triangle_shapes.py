@@ -34,7 +34,7 @@ def circumcentres(points: np.ndarray, simplices: np.ndarray) -> np.ndarray:
     )
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")  # a flat triangle: an infinite radius, not an exception
 def _shapes(points, simplices):  # pragma: no cover - compiled
     """`triangle_shapes`."""
     count = simplices.shape[0]
@@ -56,7 +56,7 @@ def _shapes(points, simplices):  # pragma: no cover - compiled
     return radius, shortest, centroids
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _centres(points, simplices):  # pragma: no cover - compiled
     """`circumcentres`."""
     result = np.empty((simplices.shape[0], 2))
