@@ -180,7 +180,7 @@ def _inside(
     return result, simple
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _cross(ax, ay, bx, by, px, py):  # pragma: no cover - compiled
     """cross(b - a, p - a): > 0 when p is to the left of a -> b."""
     return (bx - ax) * (py - ay) - (by - ay) * (px - ax)

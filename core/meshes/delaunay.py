@@ -96,7 +96,7 @@ def _hilbert_keys(points, order):  # pragma: no cover - compiled
     return keys
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _orientation(px, py, ax, ay, bx, by):  # pragma: no cover - compiled
     """Twice the signed area of (p, a, b): > 0 when counter-clockwise."""
     return (ax - px) * (by - py) - (ay - py) * (bx - px)

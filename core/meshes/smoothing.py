@@ -42,7 +42,7 @@ def smoothing_pass(points: np.ndarray, simplices: np.ndarray, movable: np.ndarra
     )
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _doubled_area(points, simplices, t):  # pragma: no cover - compiled
     a, b, c = simplices[t, 0], simplices[t, 1], simplices[t, 2]
     return (points[b, 0] - points[a, 0]) * (points[c, 1] - points[a, 1]) - (points[b, 1] - points[a, 1]) * (
