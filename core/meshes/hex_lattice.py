@@ -3,7 +3,8 @@
 `core.triangulate` covers the part of the domain away from the curve with this
 lattice (its triangles are known, no Delaunay triangulation needed) and refines
 only the band between the lattice and the curve.  Everything here is index
-arithmetic on (row, column) pairs, vectorised over arrays.
+arithmetic on (row, column) pairs, vectorised over arrays (the circumdisk test,
+run in every round of the refinement, is compiled).
 
 Node (r, c) is at ``origin + ((c + (r % 2) / 2) s, r s sqrt(3) / 2)`` for the
 spacing s; its id is ``r * columns + c``.  Cell (r, c), for ``r < rows - 1`` and
@@ -16,6 +17,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numba import njit
 
 SQRT3 = math.sqrt(3.0)
 
@@ -49,11 +51,8 @@ class HexLattice:
 
     def node_points(self, nodes: np.ndarray) -> np.ndarray:
         """Positions (M, 2) of the nodes with ids `nodes` (M,)."""
-        r, c = np.divmod(np.asarray(nodes, dtype=np.int64), self.columns)
-        result = np.empty((r.size, 2))
-        result[:, 0] = self.origin[0] + (c + 0.5 * (r & 1)) * self.spacing
-        result[:, 1] = self.origin[1] + r * self.height
-        return result
+        nodes = np.ascontiguousarray(nodes, dtype=np.int64).reshape(-1)
+        return _node_points(nodes, self.columns, self.origin, self.spacing, self.height)
 
     def inside(self, polygon: np.ndarray) -> np.ndarray:
         """bool (rows * columns,): the nodes inside the closed polygon (B, 2), by crossing parity.
@@ -61,44 +60,12 @@ class HexLattice:
         Each polygon edge crosses the rows between its ends' heights; a node is
         inside when an odd number of crossings of its row lie to its right.
         """
-        polygon = np.asarray(polygon, dtype=np.float64)
-        following = np.roll(polygon, -1, axis=0)
-        low_y = np.minimum(polygon[:, 1], following[:, 1])
-        high_y = np.maximum(polygon[:, 1], following[:, 1])
-        first = np.clip(np.floor((low_y - self.origin[1]) / self.height).astype(np.int64), 0, self.rows)
-        last = np.clip(np.ceil((high_y - self.origin[1]) / self.height).astype(np.int64) + 1, 0, self.rows)
-        spans = last - first
-        edge = np.repeat(np.arange(polygon.shape[0]), spans)
-        row = np.repeat(first - np.cumsum(spans) + spans, spans) + np.arange(spans.sum())
-        y = self.origin[1] + row * self.height
-        a, b = polygon[edge], following[edge]
-        crossing = (a[:, 1] > y) != (b[:, 1] > y)
-        edge, row, y, a, b = edge[crossing], row[crossing], y[crossing], a[crossing], b[crossing]
-        x = a[:, 0] + (y - a[:, 1]) * (b[:, 0] - a[:, 0]) / (b[:, 1] - a[:, 1])
-        # One sorted key per crossing: its row first, then x.
-        width = (self.columns + 2) * self.spacing + np.ptp(np.append(x, self.origin[0]))
-        offset = min(self.origin[0], x.min(initial=self.origin[0])) - self.spacing
-        keys = np.sort(row * width + (x - offset))
-        row_end = np.searchsorted(keys, (np.arange(self.rows) + 1) * width)
-        nodes = np.arange(self.node_count)
-        node_row = nodes // self.columns
-        node_x = self.node_points(nodes)[:, 0]
-        right = row_end[node_row] - np.searchsorted(keys, node_row * width + (node_x - offset), side="right")
-        return right % 2 == 1
+        polygon = np.ascontiguousarray(polygon, dtype=np.float64)
+        return _inside(polygon, self.origin, self.spacing, self.height, self.rows, self.columns)
 
     def triangle_corners(self, triangles: np.ndarray) -> np.ndarray:
         """Node ids (M, 3) of the corners of triangles `triangles` (M,), counter-clockwise (y up)."""
-        cell, kind = np.divmod(np.asarray(triangles, dtype=np.int64), 2)
-        r, c = np.divmod(cell, self.columns - 1)
-        p = r & 1  # odd rows are shifted half a spacing to the right
-        below = r * self.columns + c
-        above = below + self.columns
-        up = kind == 0
-        result = np.empty((up.size, 3), dtype=np.int64)
-        result[:, 0] = np.where(up, below, below + 1 - p)
-        result[:, 1] = np.where(up, below + 1, above + 1)
-        result[:, 2] = np.where(up, above + p, above)
-        return result
+        return _triangle_corners(np.ascontiguousarray(triangles, dtype=np.int64).reshape(-1), self.columns)
 
     def triangles_within(self, nodes: np.ndarray) -> np.ndarray:
         """bool (triangle_count,): the triangles whose three corners are all in `nodes`.
@@ -118,25 +85,14 @@ class HexLattice:
     def nodes_near(self, points: np.ndarray, radius: float) -> np.ndarray:
         """bool (node_count,): True for every node within `radius` of one of `points` (M, 2), and
         for some nodes a little farther (whole rows and columns of a window around each point)."""
-        near = np.zeros((self.rows, self.columns), dtype=bool)
+        near = np.zeros(self.node_count, dtype=np.bool_)
         if points.shape[0] == 0:
-            return near.ravel()
-        local = points - self.origin
-        row = np.floor(local[:, 1] / self.height).astype(np.int64)
-        column = np.floor(local[:, 0] / self.spacing).astype(np.int64)
-        # Only cells that a point falls in or next to: points closer than a spacing apart
-        # mark the same window, so one point per cell is enough.
-        low, width = column.min(), column.max() - column.min() + 1
-        cell = np.unique(row * width + (column - low))  # one key per (row, column): faster than axis=0
-        cells = np.stack([np.floor_divide(cell, width), cell % width + low], axis=1)
+            return near
+        local = np.ascontiguousarray(points - self.origin, dtype=np.float64)
         rows = int(math.ceil(radius / self.height)) + 1
         columns = int(math.ceil(radius / self.spacing)) + 1
-        dr, dc = np.meshgrid(np.arange(-rows, rows + 1), np.arange(-columns, columns + 1), indexing="ij")
-        r = (cells[:, 0, None] + dr.ravel()).ravel()
-        c = (cells[:, 1, None] + dc.ravel()).ravel()
-        valid = (r >= 0) & (r < self.rows) & (c >= 0) & (c < self.columns)
-        near[r[valid], c[valid]] = True
-        return near.ravel()
+        _mark_windows(local, self.spacing, self.height, self.rows, self.columns, rows, columns, near)
+        return near
 
     def circumdisk_hits(self, points: np.ndarray, selected: np.ndarray) -> np.ndarray:
         """Ids of the `selected` triangles whose open circumdisk holds one of `points` (M, 2).
@@ -152,21 +108,99 @@ class HexLattice:
         """
         if points.shape[0] == 0 or self.triangle_count == 0:
             return np.zeros(0, dtype=np.int64)
-        local = points - self.origin
-        r0 = np.floor(local[:, 1] / self.height).astype(np.int64)
-        c0 = np.floor(local[:, 0] / self.spacing).astype(np.int64)
+        local = np.ascontiguousarray(points - self.origin, dtype=np.float64)
+        hit = _circumdisk_hits(
+            local, np.asarray(selected, dtype=np.bool_), self.spacing, self.rows, self.columns
+        )
+        return np.flatnonzero(hit)
+
+
+@njit(cache=True)
+def _circumdisk_hits(local, selected, spacing, rows, columns):  # pragma: no cover - compiled
+    """`HexLattice.circumdisk_hits` of points `local` (M, 2) relative to the origin, as a bool
+    array (triangle_count,)."""
+    hit = np.zeros(selected.size, dtype=np.bool_)
+    height = 0.5 * SQRT3 * spacing
+    radius = spacing / SQRT3 * (1.0 - 1e-9)
+    for i in range(local.shape[0]):
+        r0 = int(np.floor(local[i, 1] / height))
+        c0 = int(np.floor(local[i, 0] / spacing))
         # A disk of radius s / sqrt(3) around a point reaches the centres of triangles
         # in the rows r0 - 1 .. r0 + 1 and the columns c0 - 2 .. c0 + 1 only.
-        dr, dc, kind = np.meshgrid(np.arange(-1, 2), np.arange(-2, 2), np.arange(2), indexing="ij")
-        r = r0[:, None] + dr.ravel()[None, :]
-        c = c0[:, None] + dc.ravel()[None, :]
-        kind = np.broadcast_to(kind.ravel()[None, :], r.shape)
-        valid = (r >= 0) & (r < self.rows - 1) & (c >= 0) & (c < self.columns - 1)
-        p = r % 2
-        centre_x = np.where(kind == 0, c + 0.5 + 0.5 * p, c + 1.0 - 0.5 * p) * self.spacing
-        centre_y = (r + np.where(kind == 0, 1.0 / 3.0, 2.0 / 3.0)) * self.height
-        squared = (local[:, None, 0] - centre_x) ** 2 + (local[:, None, 1] - centre_y) ** 2
-        ids = 2 * (r * (self.columns - 1) + c) + kind
-        hit = valid & (squared < (self.circumradius * (1.0 - 1e-9)) ** 2)
-        hit[hit] = selected[ids[hit]]
-        return np.unique(ids[hit])
+        for r in range(max(r0 - 1, 0), min(r0 + 2, rows - 1)):
+            p = r % 2
+            for c in range(max(c0 - 2, 0), min(c0 + 2, columns - 1)):
+                for kind in range(2):
+                    if kind == 0:
+                        centre_x, centre_y = (c + 0.5 + 0.5 * p) * spacing, (r + 1.0 / 3.0) * height
+                    else:
+                        centre_x, centre_y = (c + 1.0 - 0.5 * p) * spacing, (r + 2.0 / 3.0) * height
+                    dx, dy = local[i, 0] - centre_x, local[i, 1] - centre_y
+                    triangle = 2 * (r * (columns - 1) + c) + kind
+                    if dx * dx + dy * dy < radius * radius and selected[triangle]:
+                        hit[triangle] = True
+    return hit
+
+
+@njit(cache=True)
+def _mark_windows(local, spacing, height, rows, columns, reach_rows, reach_columns, near):  # pragma: no cover
+    """Mark in `near` (rows * columns,) the nodes in rows r0 -/+ reach_rows and columns c0 -/+
+    reach_columns around the cell (r0, c0) of each point of `local` (M, 2) (relative to the origin)."""
+    for i in range(local.shape[0]):
+        r0 = int(np.floor(local[i, 1] / height))
+        c0 = int(np.floor(local[i, 0] / spacing))
+        for r in range(max(r0 - reach_rows, 0), min(r0 + reach_rows + 1, rows)):
+            for c in range(max(c0 - reach_columns, 0), min(c0 + reach_columns + 1, columns)):
+                near[r * columns + c] = True
+
+
+@njit(cache=True)
+def _triangle_corners(triangles, columns):  # pragma: no cover - compiled
+    """`HexLattice.triangle_corners` of a lattice with `columns` columns."""
+    result = np.empty((triangles.size, 3), dtype=np.int64)
+    for i in range(triangles.size):
+        cell, kind = triangles[i] // 2, triangles[i] % 2
+        r, c = cell // (columns - 1), cell % (columns - 1)
+        p = r & 1  # odd rows are shifted half a spacing to the right
+        below = r * columns + c
+        above = below + columns
+        if kind == 0:  # apex up
+            result[i, 0], result[i, 1], result[i, 2] = below, below + 1, above + p
+        else:
+            result[i, 0], result[i, 1], result[i, 2] = below + 1 - p, above + 1, above
+    return result
+
+
+@njit(cache=True)
+def _node_points(nodes, columns, origin, spacing, height):  # pragma: no cover - compiled
+    """`HexLattice.node_points` of a lattice with `columns` columns."""
+    result = np.empty((nodes.size, 2))
+    for i in range(nodes.size):
+        r, c = nodes[i] // columns, nodes[i] % columns
+        result[i, 0] = origin[0] + (c + 0.5 * (r & 1)) * spacing
+        result[i, 1] = origin[1] + r * height
+    return result
+
+
+@njit(cache=True)
+def _inside(polygon, origin, spacing, height, rows, columns):  # pragma: no cover - compiled
+    """`HexLattice.inside`: each polygon edge flips the parity of the nodes to the left of where
+    it crosses a row."""
+    inside = np.zeros(rows * columns, dtype=np.bool_)
+    count = polygon.shape[0]
+    for e in range(count):
+        ax, ay = polygon[e, 0], polygon[e, 1]
+        bx, by = polygon[(e + 1) % count, 0], polygon[(e + 1) % count, 1]
+        first = min(max(int(np.floor((min(ay, by) - origin[1]) / height)), 0), rows)
+        last = min(max(int(np.ceil((max(ay, by) - origin[1]) / height)) + 1, 0), rows)
+        for row in range(first, last):
+            y = origin[1] + row * height
+            if (ay > y) == (by > y):
+                continue
+            x = ax + (y - ay) * (bx - ax) / (by - ay)
+            shift = 0.5 * (row & 1)
+            for column in range(columns):
+                if origin[0] + (column + shift) * spacing >= x:
+                    break
+                inside[row * columns + column] = not inside[row * columns + column]
+    return inside

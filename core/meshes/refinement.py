@@ -5,19 +5,24 @@ band between them refined until every triangle is small enough and well shaped.
 
 from __future__ import annotations
 
-import itertools
 import math
 from collections.abc import Callable
 
 import numpy as np
-from scipy.sparse import coo_matrix, csr_matrix
-from scipy.sparse.csgraph import connected_components
-from scipy.spatial import Delaunay, cKDTree
 
 from core.curves.bspline import ClosedBSpline
+from core.meshes.band_regions import band_sides, band_triangles
+from core.meshes.chord_crossing import first_chords_crossed
+from core.meshes.core_front import core_front
+from core.meshes.delaunay import Triangulation, delaunay
+from core.meshes.encroachment import encroached_chords
 from core.meshes.hex_lattice import HexLattice
-from core.meshes.mesh import Mesh, cross, triangle_signed_areas, unique_edges
+from core.meshes.mesh import Mesh
+from core.meshes.mesh_assembly import assembled_triangles
 from core.meshes.sizing import GRADATION, Sizing
+from core.meshes.smoothing import smoothing_pass
+from core.meshes.spread_points import spread_points
+from core.meshes.triangle_shapes import circumcentres, triangle_shapes
 
 # Triangles whose circumradius / shortest edge exceeds this are refined (min angle 20.7 deg).
 RADIUS_EDGE_RATIO = math.sqrt(2.0)
@@ -68,14 +73,16 @@ class Refinement:
         self.nodes = self.lattice.node_points(nodes)  # (K, 2); smoothing moves the free ones
         self.alive = np.ones(nodes.size, dtype=bool)
         self.steiner = np.zeros((0, 2))
-        # A ring of far points keeps the curve off the convex hull, where qhull would make
-        # flat triangles out of collinear boundary vertices (the straight spans at corners).
+        # A ring of far points keeps the curve off the convex hull, where the triangulation would
+        # make flat triangles out of collinear boundary vertices (the straight spans at corners)
+        # or leave out slivers (core.meshes.delaunay).
         low, high = self.boundary_points.min(axis=0), self.boundary_points.max(axis=0)
         angles = 2.0 * np.pi * np.arange(16) / 16
         self.frame = 0.5 * (low + high) + (np.linalg.norm(high - low) + sizing.max_edge) * np.stack(
             [np.cos(angles), np.sin(angles)], axis=1
         )
-        self.tri: Delaunay | None = None
+        self.tri: Triangulation | None = None
+        self.chord: np.ndarray | None = None  # (T, 3) the boundary chord each side of self.tri is, or -1
         self.inside: np.ndarray | None = None
         self.band: np.ndarray | None = None  # indices into self.nodes of the band's nodes
         self.conformed = False  # self.tri is the triangulation of the current points
@@ -84,22 +91,11 @@ class Refinement:
         """The band's nodes (Nb,), which nodes are core corners (K,) bool, and the front.
 
         The front is the directed edges (F, 2) of core triangles that no other core
-        triangle shares, with the core on their left.  A node with six core
-        triangles is inside the core and not in the band.
+        triangle shares, with the core on their left (`core.meshes.core_front`).  A node
+        with six core triangles is inside the core and not in the band.
         """
         if self._front_cache is None:
-            corners = self.core_corners[self.core_kept]
-            count = np.bincount(corners.ravel(), minlength=self.nodes.shape[0])
-            # A front edge has an end with fewer than six core triangles: look only there.
-            near = corners[(count[corners] < 6).any(axis=1)]
-            edges = near[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
-            low, high = np.sort(edges, axis=1).T
-            _, inverse, counts = np.unique(
-                low * self.nodes.shape[0] + high, return_inverse=True, return_counts=True
-            )
-            # Both triangles of an edge with such an end are in `near`; other edges are inside.
-            front = (counts[inverse] == 1) & (count[edges] < 6).any(axis=1)
-            self._front_cache = count, edges[front]
+            self._front_cache = core_front(self.core_corners[self.core_kept], self.nodes.shape[0])
         count, front = self._front_cache
         return np.flatnonzero(self.alive & (count < 6)), count > 0, front
 
@@ -141,8 +137,8 @@ class Refinement:
                 raise RuntimeError("boundary refinement did not converge (boundary edges collapsed)")
             band, fixed, front = self._front()
             middle, half = _chord_circles(self.boundary_points)
-            self.steiner = self.steiner[_encroached_chords(self.steiner, middle, half) < 0]
-            encroaching = band[_encroached_chords(self.nodes[band], middle, half) >= 0]
+            self.steiner = self.steiner[encroached_chords(self.steiner, middle, half) < 0]
+            encroaching = band[encroached_chords(self.nodes[band], middle, half) >= 0]
             if encroaching.size:
                 self.alive[encroaching[~fixed[encroaching]]] = False
                 self._demote_at(encroaching[fixed[encroaching]])
@@ -151,9 +147,9 @@ class Refinement:
             if entered.size:
                 self._demote(np.searchsorted(self.core_ids, entered))
                 continue
-            tri = Delaunay(np.vstack([self.boundary_points, self.nodes[band], self.steiner, self.frame]))
-            if tri.coplanar.size:
-                dropped = tri.coplanar[:, 0] - count
+            tri = delaunay(np.vstack([self.boundary_points, self.nodes[band], self.steiner, self.frame]))
+            if tri.duplicates.size:
+                dropped = tri.duplicates - count
                 if (dropped < 0).any() or (dropped >= band.size + self.steiner.shape[0]).any():
                     raise RuntimeError("boundary vertices coincide; the curve is degenerate")
                 nodes = band[dropped[dropped < band.size]]
@@ -161,23 +157,25 @@ class Refinement:
                 self._demote_at(nodes[fixed[nodes]])
                 self.steiner = np.delete(self.steiner, dropped[dropped >= band.size] - band.size, axis=0)
                 continue
-            chord = _chord_sides(tri.simplices, count)
+            local = np.full(self.nodes.shape[0], -1, dtype=np.int64)
+            local[band] = count + np.arange(band.size)
+            chord, front_side = band_sides(tri.simplices, count, local[front])
             found = np.zeros(count, dtype=bool)
             found[chord[chord >= 0]] = True
             if not found.all():
                 self._split(np.flatnonzero(~found))
                 continue
-            local = np.full(self.nodes.shape[0], -1, dtype=np.int64)
-            local[band] = count + np.arange(band.size)
-            front_side = _front_sides(tri.simplices, local[front])
             found = np.zeros(front.shape[0], dtype=bool)
             found[front_side[front_side >= 0]] = True
             if not found.all():  # only if a point sits on a core circumcircle: rare
                 self._demote_at(front[~found].ravel())
                 continue
             self.tri = tri
+            self.chord = chord
             self.band = band
-            self.inside = _inside_triangles(tri, chord, count, self.orientation, local[front], front_side)
+            self.inside = band_triangles(
+                tri.points, tri.simplices, tri.neighbors, chord, local[front], front_side, self.orientation
+            )
             self.conformed = True
             return
         raise RuntimeError("boundary refinement did not converge")
@@ -206,14 +204,8 @@ class Refinement:
         """One batch of Ruppert insertions; returns the number of bad triangles (0: none left)."""
         points = self.band_points
         simplices = self.tri.simplices[self.inside]
-        corners = points[simplices]
-        a = np.linalg.norm(corners[:, 1] - corners[:, 2], axis=1)
-        b = np.linalg.norm(corners[:, 2] - corners[:, 0], axis=1)
-        c = np.linalg.norm(corners[:, 0] - corners[:, 1], axis=1)
-        area = 0.5 * np.abs(cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]))
-        radius = a * b * c / (4.0 * area)
-        shortest = np.minimum(np.minimum(a, b), c)
-        h = self.sizing(corners.mean(axis=1))
+        radius, shortest, centroids = triangle_shapes(points, simplices)
+        h = self.sizing(centroids)
         bad = (radius > SIZE_FACTOR * h) | (
             (radius > RADIUS_EDGE_RATIO * shortest) & (shortest > QUALITY_FLOOR * h)
         )
@@ -221,23 +213,25 @@ class Refinement:
             return 0
         bad = np.flatnonzero(bad)
         priority = bad[np.argsort(-(radius[bad] / shortest[bad]))]
-        centres = _circumcentres(corners[priority])
+        centres = circumcentres(points, simplices[priority])
         middle, half = _chord_circles(self.boundary_points)
-        encroached = _encroached_chords(centres, middle, half)
+        encroached = encroached_chords(centres, middle, half)
         hit = encroached >= 0
         splits = [encroached[hit]]
         free = np.flatnonzero(~hit)
-        outside = ~_inside_polygon(centres[free], self.boundary_points)
-        if outside.any():
-            # Ruppert: a circumcentre outside the domain is cut off by a boundary edge; split it.
-            splits.append(
-                _first_crossing(
-                    corners[priority[free[outside]]].mean(axis=1),
-                    centres[free[outside]],
-                    self.boundary_points,
-                )
-            )
-        accepted = _spread(centres[free[~outside]], radius[priority][free[~outside]])
+        # Ruppert: a circumcentre that a boundary chord hides from its triangle (outside the
+        # domain, or behind a concave stretch of it) is not inserted; the chord is split.
+        crossed = first_chords_crossed(
+            np.vstack([points, self.frame]),  # the points of self.tri, smoothed
+            self.tri.simplices,
+            self.tri.neighbors,
+            self.chord,
+            self.inside[priority[free]],
+            centres[free],
+        )
+        outside = crossed >= 0
+        splits.append(crossed[outside])
+        accepted = spread_points(centres[free[~outside]], radius[priority][free[~outside]])
         splits = np.concatenate(splits)
         # Splitting a boundary edge for quality alone stops at the floor (sharp corners).
         if splits.size:
@@ -264,29 +258,13 @@ class Refinement:
         points = self.band_points
         count = self.parameters.shape[0]
         _, fixed, _ = self._front()
-        simplices = _counter_clockwise(points, self.tri.simplices[self.inside])
-        edges = unique_edges(simplices)
-        total = points.shape[0]
-        adjacency = coo_matrix(
-            (np.ones(2 * edges.shape[0]), (np.r_[edges[:, 0], edges[:, 1]], np.r_[edges[:, 1], edges[:, 0]])),
-            shape=(total, total),
-        ).tocsr()
-        degree = np.asarray(adjacency.sum(axis=1)).ravel()
-        movable = np.ones(total, dtype=bool)
+        simplices = self.tri.simplices[self.inside]  # counter-clockwise
+        # Boundary vertices and core corners stay; the rest are inside the band (off its border).
+        movable = np.ones(points.shape[0], dtype=bool)
         movable[:count] = False
         movable[count : count + self.band.size] = ~fixed[self.band]
-        movable = np.flatnonzero(movable & (degree > 0))
         for done in range(passes):
-            moved = points.copy()
-            moved[movable] = (adjacency @ points)[movable] / degree[movable, None]
-            minimum_area = 0.1 * triangle_signed_areas(points, simplices)
-            for _ in range(20):
-                collapsed = triangle_signed_areas(moved, simplices) < minimum_area
-                if not collapsed.any():
-                    break
-                undo = np.unique(simplices[collapsed])
-                moved[undo] = points[undo]
-            points = moved
+            points = smoothing_pass(points, simplices, movable)
             if pass_done is not None:
                 pass_done((done + 1) / passes)
         self.nodes[self.band] = points[count : count + self.band.size]
@@ -300,16 +278,15 @@ class Refinement:
         index = np.concatenate(
             [np.arange(count), count + self.band, count + nodes + np.arange(self.steiner.shape[0])]
         )
-        band = _counter_clockwise(self.band_points, self.tri.simplices[self.inside])
-        simplices = np.vstack([count + self.core_corners[self.core_kept], index[band]])
-        used = np.zeros(points.shape[0], dtype=bool)
-        used[simplices] = True
-        if not used[:count].all():
+        band = self.tri.simplices[self.inside]  # counter-clockwise (smoothing keeps them so)
+        vertices, triangles, used = assembled_triangles(
+            points, count + self.core_corners[self.core_kept], index, band
+        )
+        if not used[:count].all():  # then the boundary vertices are the first, in order
             raise RuntimeError("a boundary vertex is in no triangle")
-        renumber = np.cumsum(used) - 1
         return Mesh(
-            vertices=points[used],
-            triangles=renumber[simplices],
+            vertices=vertices,
+            triangles=triangles,
             boundary=np.arange(count, dtype=np.int64),
             boundary_parameters=self.parameters.copy(),
         )
@@ -384,189 +361,7 @@ def _lattice(sizing: Sizing, polygon: np.ndarray) -> tuple[HexLattice, np.ndarra
     return lattice, nodes[keep], lattice.triangles_within(clear)
 
 
-def _counter_clockwise(points: np.ndarray, simplices: np.ndarray) -> np.ndarray:
-    simplices = simplices.copy()
-    negative = triangle_signed_areas(points, simplices) < 0
-    simplices[negative] = simplices[negative][:, [0, 2, 1]]
-    return simplices
-
-
 def _chord_circles(boundary_points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Centres (B, 2) and radii (B,) of the diametral circles of the boundary chords k -> k+1."""
     following = np.roll(boundary_points, -1, axis=0)
     return 0.5 * (boundary_points + following), 0.5 * np.linalg.norm(following - boundary_points, axis=1)
-
-
-def _encroached_chords(points: np.ndarray, centres: np.ndarray, radii: np.ndarray) -> np.ndarray:
-    """For each point (M, 2), a chord whose diametral circle holds it strictly inside, or -1."""
-    chord = np.full(points.shape[0], -1, dtype=np.int64)
-    if points.shape[0] == 0:
-        return chord
-    hits = cKDTree(points).query_ball_point(centres, radii * (1.0 - 1e-12), return_sorted=False)
-    lengths = np.fromiter(map(len, hits), dtype=np.int64, count=len(hits))
-    total = int(lengths.sum())
-    if total:
-        inside = np.fromiter(itertools.chain.from_iterable(hits), dtype=np.int64, count=total)
-        chord[inside] = np.repeat(np.arange(len(hits)), lengths)
-    return chord
-
-
-def _inside_polygon(points: np.ndarray, polygon: np.ndarray) -> np.ndarray:
-    """bool (M,): crossing-number test of points against a closed polygon (B, 2)."""
-    following = np.roll(polygon, -1, axis=0)
-    inside = np.zeros(points.shape[0], dtype=bool)
-    chunk = max(1, 4_000_000 // polygon.shape[0])
-    for start in range(0, points.shape[0], chunk):
-        x = points[start : start + chunk, None, 0]
-        y = points[start : start + chunk, None, 1]
-        straddle = (polygon[None, :, 1] > y) != (following[None, :, 1] > y)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            crossing_x = polygon[None, :, 0] + (y - polygon[None, :, 1]) * (
-                following[None, :, 0] - polygon[None, :, 0]
-            ) / (following[None, :, 1] - polygon[None, :, 1])
-        inside[start : start + chunk] = (straddle & (crossing_x > x)).sum(axis=1) % 2 == 1
-    return inside
-
-
-def _first_crossing(starts: np.ndarray, stops: np.ndarray, polygon: np.ndarray) -> np.ndarray:
-    """For each segment start -> stop (M, 2), the polygon edge k -> k+1 it crosses first (M,)."""
-    a = polygon
-    edge = np.roll(polygon, -1, axis=0) - a
-    direction = stops - starts
-    offset = a[None, :, :] - starts[:, None, :]
-    denominator = cross(direction[:, None, :], edge[None, :, :])
-    with np.errstate(divide="ignore", invalid="ignore"):
-        along = cross(offset, edge[None, :, :]) / denominator
-        across = cross(offset, direction[:, None, :]) / denominator
-    hits = (along >= 0) & (along <= 1) & (across >= 0) & (across <= 1)
-    along = np.where(hits, along, np.inf)
-    return np.argmin(along, axis=1)
-
-
-def _circumcentres(corners: np.ndarray) -> np.ndarray:
-    """Circumcentres (T, 2) of triangles given as corners (T, 3, 2)."""
-    a = corners[:, 0]
-    b = corners[:, 1] - a
-    c = corners[:, 2] - a
-    d = 2.0 * cross(b, c)
-    bb = np.einsum("td,td->t", b, b)
-    cc = np.einsum("td,td->t", c, c)
-    ux = (c[:, 1] * bb - b[:, 1] * cc) / d
-    uy = (b[:, 0] * cc - c[:, 0] * bb) / d
-    return a + np.stack([ux, uy], axis=1)
-
-
-def _spread(candidates: np.ndarray, radii: np.ndarray) -> np.ndarray:
-    """Greedy subset of candidates (in priority order) no two closer than half their radius."""
-    if candidates.shape[0] == 0:
-        return candidates
-    tree = cKDTree(candidates)
-    neighbours = tree.query_ball_point(candidates, 0.5 * radii, return_sorted=False)
-    taken = np.zeros(candidates.shape[0], dtype=bool)
-    blocked = np.zeros(candidates.shape[0], dtype=bool)
-    for i, group in enumerate(neighbours):
-        if blocked[i]:
-            continue
-        taken[i] = True
-        blocked[group] = True
-    return candidates[taken]
-
-
-def _chord_sides(simplices: np.ndarray, boundary_count: int) -> np.ndarray:
-    """Which boundary chord each triangle side is, int64 (T, 3) with -1 for none.
-
-    Side k of a triangle is opposite its vertex k; chord j joins boundary vertices
-    j and j + 1 (mod B), which are the first B points.
-    """
-    result = np.full(simplices.shape, -1, dtype=np.int64)
-    for k in range(3):
-        u = simplices[:, (k + 1) % 3]
-        v = simplices[:, (k + 2) % 3]
-        on_boundary = (u < boundary_count) & (v < boundary_count)
-        forward = on_boundary & ((v - u) % boundary_count == 1)
-        backward = on_boundary & ((u - v) % boundary_count == 1)
-        result[forward, k] = u[forward]
-        result[backward, k] = v[backward]
-    return result
-
-
-def _front_sides(simplices: np.ndarray, front: np.ndarray) -> np.ndarray:
-    """Which front edge each triangle side is, int64 (T, 3) with -1 for none.
-
-    Side k of a triangle is opposite its vertex k; `front` (F, 2) holds the
-    front edges as pairs of point indices (either direction matches).
-    """
-    result = np.full(simplices.shape, -1, dtype=np.int64)
-    if front.shape[0] == 0:
-        return result
-    size = simplices.max() + 1
-    front_keys = np.minimum(front[:, 0], front[:, 1]) * size + np.maximum(front[:, 0], front[:, 1])
-    order = np.argsort(front_keys)
-    sorted_keys = front_keys[order]
-    for k in range(3):
-        u = simplices[:, (k + 1) % 3]
-        v = simplices[:, (k + 2) % 3]
-        keys = np.minimum(u, v) * size + np.maximum(u, v)
-        position = np.minimum(np.searchsorted(sorted_keys, keys), sorted_keys.size - 1)
-        match = sorted_keys[position] == keys
-        result[match, k] = order[position[match]]
-    return result
-
-
-def _inside_triangles(
-    tri: Delaunay,
-    chord: np.ndarray,
-    boundary_count: int,
-    orientation: float,
-    front: np.ndarray,
-    front_side: np.ndarray,
-) -> np.ndarray:
-    """Indices of the Delaunay triangles of the band: inside the boundary polygon, outside the core.
-
-    Triangles are grouped into connected regions that no boundary chord or front
-    edge separates; a region is inside when it lies to the interior side of a
-    chord or to the right of a front edge (the core is on its left), outside when
-    it lies on the other side of one or on the convex hull.  A region on both
-    sides means the polygon is not simple (a refinement bug).
-
-    Parameters
-    ----------
-    chord : ndarray of shape (T, 3)
-        `_chord_sides` of the triangles.
-    front : ndarray of shape (F, 2)
-        Front edges (tail, head) as point indices, the core on their left.
-    front_side : ndarray of shape (T, 3)
-        `_front_sides` of the triangles.
-    """
-    simplices = tri.simplices
-    neighbours = tri.neighbors
-    points = tri.points
-    count = simplices.shape[0]
-    is_chord = chord >= 0
-    is_front = front_side >= 0
-    join = ~is_chord & ~is_front & (neighbours >= 0)
-    # Row t of the adjacency holds the neighbours that t joins, in order: built as CSR directly.
-    starts = np.concatenate([[0], np.cumsum(np.count_nonzero(join, axis=1))])
-    graph = csr_matrix((np.ones(starts[-1]), neighbours[join], starts), shape=(count, count))
-    _, labels = connected_components(graph, directed=False)
-    # Only the sides on a chord or a front edge tell on which side their triangle lies.
-    t, k = np.nonzero(is_chord)
-    a = chord[t, k]
-    b = (a + 1) % boundary_count
-    side = orientation * cross(points[b] - points[a], points[simplices[t, k]] - points[a])
-    f, j = np.nonzero(is_front)
-    tail, head = points[front[front_side[f, j], 0]], points[front[front_side[f, j], 1]]
-    core_side = cross(head - tail, points[simplices[f, j]] - tail) > 0
-    interior_side = np.zeros(count, dtype=bool)
-    interior_side[t[side > 0]] = True
-    interior_side[f[~core_side]] = True
-    exterior_side = (~is_chord & ~is_front & (neighbours < 0)).any(axis=1)
-    exterior_side[t[side < 0]] = True
-    exterior_side[f[core_side]] = True
-    inside_label = np.zeros(labels.max() + 1, dtype=bool)
-    inside_label[labels[interior_side]] = True
-    outside_label = np.zeros(labels.max() + 1, dtype=bool)
-    outside_label[labels[exterior_side]] = True
-    if (inside_label & outside_label).any():
-        raise RuntimeError("the boundary polygon is not simple; mesh refinement failed")
-    return np.flatnonzero(inside_label[labels])

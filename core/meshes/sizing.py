@@ -8,10 +8,11 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from core.curves.bspline import ClosedBSpline
+from core.meshes.empty_disks import empty_disk_radii
 from core.meshes.mesh import cross
+from core.meshes.point_grid import nearest_distances, nearest_neighbours
 
 # Largest angle (radians) between the curve tangents at the two ends of a boundary edge.
 TURNING_ANGLE = 0.3
@@ -46,6 +47,10 @@ MAX_RESAMPLING = 12
 SMALLEST_FRACTION = 1000.0
 
 
+# Five-point Gauss-Legendre rule on [-1, 1] for the spans' lengths.
+_GAUSS_NODES, _GAUSS_WEIGHTS = np.polynomial.legendre.leggauss(5)
+
+
 class Sizing:
     """Target edge length h at dense curve samples and, graded, anywhere in the plane."""
 
@@ -70,10 +75,9 @@ class Sizing:
         fine = self.h < max_edge
         self.fine_points = self.points[fine]  # (F, 2), where h < max_edge
         self._fine_h = self.h[fine]
-        self._fine_tree = cKDTree(self.fine_points) if fine.any() else None
         # Farther than this from every fine sample, h is max_edge.
         self.reach = (max_edge - self._fine_h.min(initial=max_edge)) / GRADATION
-        if self._fine_tree is not None:  # (2, 2): outside this box no fine sample is within reach
+        if fine.any():  # (2, 2): outside this box no fine sample is within reach
             self._fine_box = np.stack([self.fine_points.min(axis=0), self.fine_points.max(axis=0)])
             self._fine_box += [[-self.reach], [self.reach]]
 
@@ -92,12 +96,11 @@ class Sizing:
         inward = orientation * np.stack([-tangents[:, 1], tangents[:, 0]], axis=1)
         steps = np.linalg.norm(np.roll(self.points, -1, axis=0) - self.points, axis=1)
         self.arc = np.concatenate([[0.0], np.cumsum(steps)])  # (S + 1,), closes the loop
-        self.tree = cKDTree(self.points)
         outside_wedge, inside_wedge = _corner_wedges(curve, self.t)
         largest = 1.01 * self.max_edge / NECK_FRACTION  # larger disks do not limit h
         radius = np.minimum(
-            _empty_disk_radii(self.points, inward, inside_wedge, self.tree, largest),
-            _empty_disk_radii(self.points, -inward, outside_wedge, self.tree, largest),
+            empty_disk_radii(self.points, inward, inside_wedge, largest),
+            empty_disk_radii(self.points, -inward, outside_wedge, largest),
         )
         with np.errstate(divide="ignore"):
             h = np.minimum(TURNING_ANGLE / curvature, NECK_FRACTION * radius)
@@ -113,11 +116,9 @@ class Sizing:
         if not fine.any():
             return h
         reach = (self.max_edge - h.min()) / GRADATION
-        near = np.flatnonzero(
-            cKDTree(self.points[fine]).query(self.points, distance_upper_bound=reach)[0] <= reach
-        )
+        near = np.flatnonzero(nearest_distances(self.points[fine], self.points, reach) <= reach)
         k = min(32, h.shape[0])
-        distance, index = self.tree.query(self.points[near], k=k)
+        distance, index = nearest_neighbours(self.points, self.points[near], k)
         for _ in range(h.shape[0]):  # each pass carries the bound at least one sample on
             graded = np.minimum(h[near], (h[index] + GRADATION * distance).min(axis=1))
             if np.array_equal(graded, h[near]):
@@ -129,20 +130,19 @@ class Sizing:
     def __call__(self, x: np.ndarray) -> np.ndarray:
         """Target edge length at points x (M, 2), ndarray of shape (M,)."""
         result = np.full(x.shape[0], self.max_edge)
-        if self._fine_tree is None or x.shape[0] == 0:
+        if self.fine_points.shape[0] == 0 or x.shape[0] == 0:
             return result
         near = np.flatnonzero(((x >= self._fine_box[0]) & (x <= self._fine_box[1])).all(axis=1))
         k = min(8, self._fine_h.size)
-        distance, index = self._fine_tree.query(x[near], k=k, distance_upper_bound=self.reach)
-        distance = distance.reshape(-1, k)
-        index = np.minimum(index.reshape(-1, k), self._fine_h.size - 1)  # misses: index == size
+        distance, index = nearest_neighbours(self.fine_points, x[near], k, self.reach)
+        index = np.minimum(index, self._fine_h.size - 1)  # misses: index == size, distance inf
         result[near] = np.minimum(result[near], (self._fine_h[index] + GRADATION * distance).min(axis=1))
         return result
 
     def distance_to_curve(self, x: np.ndarray, reach: float) -> np.ndarray:
         """Distance to the nearest dense curve sample (within half a sample spacing of exact),
-        or inf beyond `reach`."""
-        return self.tree.query(x, distance_upper_bound=reach)[0]
+        or inf beyond `reach`, at points x (M, 2): ndarray of shape (M,)."""
+        return nearest_distances(self.points, x, reach)
 
     def arc_length(self, t: np.ndarray) -> np.ndarray:
         """Arc length from t = 0 along the dense polyline, for t in [0, 2 n)."""
@@ -192,7 +192,7 @@ class Sizing:
 
 def _dense_parameters(curve: ClosedBSpline, max_edge: float) -> np.ndarray:
     """Parameters of the first dense samples: every knot, at least 32 per span, ~max_edge / 8 apart."""
-    nodes, weights = np.polynomial.legendre.leggauss(5)
+    nodes, weights = _GAUSS_NODES, _GAUSS_WEIGHTS
     u = 0.5 * (nodes + 1.0)
     spans = np.arange(curve.n)
     first = curve.derivative((spans[:, None] + u[None, :]).ravel()).reshape(curve.n, 5, 2)
@@ -220,46 +220,3 @@ def _corner_wedges(curve: ClosedBSpline, t: np.ndarray) -> tuple[np.ndarray, np.
         if angles[index] >= WIDE_CORNER:
             inside[in_wedge] = index
     return outside, inside
-
-
-def _empty_disk_radii(points, normals, wedge, tree, largest) -> np.ndarray:
-    """Radius (at most `largest`) of the largest disk touching each sample on the side of `normals`
-    and empty of samples.
-
-    The shrinking-ball iteration: start from radius `largest`, and while the disk holds a
-    sample q, replace it by the disk tangent at p through q (radius
-    |q - p|^2 / (2 (q - p) . n)).  Samples in the same corner wedge are ignored.
-    """
-    count = points.shape[0]
-    k = min(32, count)
-    radius = np.full(count, largest)
-    active = np.arange(count)
-    for _ in range(100):
-        centres = points[active] + radius[active, None] * normals[active]
-        # Outside corner wedges a disk holds a sample iff its nearest one is inside (the sample it
-        # touches is on its circle): one neighbour decides most disks, the k nearest only the rest.
-        nearest = tree.query(centres, distance_upper_bound=radius[active].max())[0]
-        unsure = (wedge[active] >= 0) | (nearest < radius[active] * (1.0 - 1e-9))
-        active, centres = active[unsure], centres[unsure]
-        if not active.size:
-            break
-        # Samples beyond the largest radius cannot shrink any disk: the tree skips them.
-        distance, neighbours = tree.query(centres, k=k, distance_upper_bound=radius[active].max())
-        neighbours = np.minimum(neighbours, count - 1)  # misses: index == count, distance inf
-        valid = (
-            (neighbours != active[:, None])
-            & ((wedge[active, None] < 0) | (wedge[neighbours] != wedge[active, None]))
-            & (distance < radius[active, None] * (1.0 - 1e-9))
-        )
-        found = valid.any(axis=1)
-        if not found.any():
-            break
-        active, valid, neighbours = active[found], valid[found], neighbours[found]
-        nearest = neighbours[np.arange(active.size), np.argmax(valid, axis=1)]
-        offset = points[nearest] - points[active]
-        height = 2.0 * np.einsum("md,md->m", offset, normals[active])
-        with np.errstate(divide="ignore"):
-            shrunk = np.where(height > 0, np.einsum("md,md->m", offset, offset) / height, np.inf)
-        radius[active] = np.minimum(radius[active], shrunk)
-        active = active[shrunk < radius[active] * (1.0 + 1e-12)]
-    return radius

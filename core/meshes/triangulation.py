@@ -7,7 +7,7 @@ curve points p(t) at known parameters t, so their basis rows are exactly the
 B-spline basis; interior vertices lie strictly inside the curve.
 
 Method (a conforming Delaunay refinement in the spirit of Ruppert and Chew, built
-on `scipy.spatial.Delaunay`):
+on the compiled Bowyer-Watson triangulation `core.meshes.delaunay`):
 
 1. A target edge length h(x): at most ``max_edge``, smaller where the curve turns
    (at most `TURNING_ANGLE` between the tangents at the ends of an edge) or where
@@ -29,8 +29,14 @@ on `scipy.spatial.Delaunay`):
    triangle whose circumcircle a band vertex enters joins the band); then insert
    the circumcentre of every band triangle that is too large or whose
    circumradius exceeds sqrt(2) times its shortest edge (all angles >= 20.7
-   degrees), or split the boundary edge that the circumcentre encroaches.
+   degrees), or split the boundary edge that the circumcentre encroaches or that
+   hides it from its triangle (the first one crossed on the way to it).
 5. Laplacian smoothing of the band's free vertices, then step 4 again.
+
+The loops of steps 1 and 4-5 are compiled with numba (`core.meshes.delaunay`,
+`band_regions`, `chord_crossing`, `encroachment`, `empty_disks`, `point_grid`,
+`smoothing`, `spread_points`, `triangle_shapes`, `core_front`); numpy and Python only
+glue them, once per round.
 6. No triangle is an ear at a sharp corner (the corner and its two boundary neighbours): its
    inner edge is flipped (`core.meshes.corner_ears`), so that a warp may open the corner past a
    straight angle without turning a triangle over.

@@ -148,20 +148,25 @@ def compile_all() -> None:
 def compile_integrals() -> None:
     """Compile (or load) the compiled functions of `core` outside the Newton solver: the positive
     Gordon-Wixom rows (`core.meshes.pgw`), the closest-point and winding-number tests
-    (`core.curves.closest_point`) and the boundary integrals of the default kernel
-    (`core.boundary_integrals.compiled_integrals`)."""
+    (`core.curves.closest_point`), the boundary integrals of the default kernel
+    (`core.boundary_integrals.compiled_integrals`) and the mesher's compiled parts
+    (`core.meshes.delaunay`, `band_regions`, `point_grid` and the rest: one `core.triangulate` of
+    the starfish, whose arms make every part run)."""
     from core.boundary_integrals import compiled_integrals
     from core.boundary_integrals.panels import curve_panels
     from core.boundary_integrals.poisson import exercise_near_field, poisson_basis, solved_densities
+    from core.curves import examples
     from core.curves.bspline import ClosedBSpline
     from core.curves.closest_point import distance_to_curve
     from core.meshes.pgw import pgw_basis
+    from core.meshes.triangulation import triangulate
 
     square = ClosedBSpline(np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]))
     x = np.array([[0.5, 0.5]])
     square.contains(x)
     distance_to_curve(square.piecewise_polynomial(), x)
     pgw_basis(square, x)
+    triangulate(ClosedBSpline(examples.starfish()))
     mode, compiled_integrals.mode = compiled_integrals.mode, "compiled"
     try:
         solved_densities.cache_clear()  # the density solve runs the knot blocks: not from the cache
