@@ -85,7 +85,8 @@ def fold_free_deform(
     images : ndarray of shape (M, 2)
     certificate : InjectivityCertificate
         Of the composite map: injective if every step is; σ₂ and k bounds composed from the steps';
-        ``extra``: ``"steps"``, and with `triangles` ``"moved"`` and ``"largest_move"``.
+        ``extra``: ``"steps"``, and with `triangles` ``"moved"``, ``"largest_move"`` and
+        ``"turned_over"`` (the triangles left turned over: too coarse to follow the map).
 
     Raises
     ------
@@ -215,7 +216,11 @@ def _unfolded(
         repaired, moves = images, np.zeros_like(moves)
     images = repaired
     certificate = composite_certificate(steps, source)
-    moved = {"moved": int(np.count_nonzero(moves)), "largest_move": float(moves.max()) / final.diameter}
+    moved = {
+        "moved": int(np.count_nonzero(moves)),
+        "largest_move": float(moves.max()) / final.diameter,
+        "turned_over": int(min(after, before)),
+    }
     return images, dataclasses.replace(certificate, extra=certificate.extra | moved)
 
 
