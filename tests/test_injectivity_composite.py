@@ -43,6 +43,29 @@ def test_a_folding_drag_becomes_a_certified_bijection(mesh):
     assert certificate.injective and certificate.extra["steps"] > 1 and certificate.sigma2_min > 0
 
 
+def test_triangles_left_turned_over_are_counted_and_said(mesh, monkeypatch):
+    """Steps taken whole (no halving for the mesh) and no unfolding: the drag leaves triangles turned
+    over; the certificate (of the map, still proven) counts them and says that the mesh is too coarse."""
+    monkeypatch.setattr(composite, "SMALLEST_MESH_STEP", 1.0)
+    monkeypatch.setattr(composite, "unfold_triangles", lambda v, images, t, free: (images, np.zeros(len(v))))
+    curve = core.ClosedBSpline(CAGE)
+    target = CAGE.copy()
+    target[1] = [120.0, 90.0]
+    images, certificate = core.fold_free_deform(
+        curve,
+        target,
+        mesh.vertices,
+        boundary=(mesh.boundary, mesh.boundary_parameters),
+        triangles=mesh.triangles,
+    )
+    turned = certificate.extra["turned_over"]
+    assert certificate.injective and turned == folds(mesh, images) > 0
+    assert str(certificate).endswith(
+        f"; {turned} mesh triangles still turned over (their straight edges are too coarse "
+        "to follow the map there)"
+    )
+
+
 def test_boundary_points_without_parameters_stay_on_the_target_curve(mesh):
     curve = core.ClosedBSpline(CAGE)
     target = CAGE.copy()

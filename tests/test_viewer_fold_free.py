@@ -22,7 +22,7 @@ from app.viewer.fold_free import (
 from app.viewer.gui import status_check
 from app.viewer.precompute import compute, make_request, result_from_message
 from app.viewer.session import history_of, session_of
-from app.viewer.state import AppState, Drag, History, Snapshot
+from app.viewer.state import AppState, Drag, History, Snapshot, WarpCheck
 
 ASSETS = Path(__file__).resolve().parent.parent / "assets"
 STARFISH = np.array(json.loads((ASSETS / "starfish.cage.json").read_text())["control_points"], dtype=float)
@@ -88,6 +88,28 @@ def test_the_plain_map_of_a_strong_drag_is_not_proven_and_its_fold_free_map_is(s
     curve = core.ClosedBSpline(target)
     np.testing.assert_allclose(check.positions[mesh.boundary], curve(mesh.boundary_parameters), atol=1e-9)
     assert status_text(check, 0) == f"fold-free, proven (σ₂ ≥ {check.sigma2_min:.2g})"
+
+
+def test_the_status_of_a_fold_free_map_on_a_cornered_cage_says_it_is_proven_and_where_the_mesh_is_coarse():
+    """A fold-free map with radial corner discs is a bijection (`core.fold_free_deform`): not "failed";
+    triangles of its mesh still turned over are the mesh's, said as such; a path that cannot be
+    made is "failed" with the reason."""
+    corners = np.array([[0.0, 0.0], [2.0, 1.0], [3.0, 3.0]])
+    positions = np.zeros((4, 2))
+    cornered = WarpCheck("k", True, False, 0.0123, corners, corners, "proven outside", positions, 0.1)
+    assert status_text(cornered, 0) == "fold-free, proven (σ₂ ≥ 0.012 outside 3 corner discs)"
+    assert status_text(cornered, 7) == (
+        "fold-free, proven (σ₂ ≥ 0.012 outside 3 corner discs); the mesh is too coarse for it in 7 triangles"
+    )
+    smooth = WarpCheck("k", True, True, 0.21, np.zeros((0, 2)), np.zeros((0, 2)), "proven", positions, 0.1)
+    assert (
+        status_text(smooth, 2)
+        == "fold-free, proven (σ₂ ≥ 0.21); the mesh is too coarse for it in 2 triangles"
+    )
+    failed = WarpCheck(
+        "k", True, False, 0.0, np.zeros((0, 2)), np.zeros((0, 2)), "the path crosses", None, 0.1
+    )
+    assert status_text(failed, 5) == "fold-free map failed: the path crosses"
 
 
 def test_a_check_of_an_older_target_is_never_applied(starfish_basis):

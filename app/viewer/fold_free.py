@@ -139,12 +139,21 @@ def _images(curve, target: np.ndarray, points: np.ndarray) -> np.ndarray:
 
 
 def status_text(check: WarpCheck, folded: int | None) -> str:
-    """The status line's words for a check: proven fold-free with its σ₂ bound, or where the proof
-    fails (`folded`: the mesh's folded triangles, to say whether it does fold there)."""
-    if check.injective:
-        return f"fold-free, proven (σ₂ ≥ {check.sigma2_min:.2g})"
-    if check.fold_free:
+    """The status line's words for a check: proven fold-free with its σ₂ bound (the fold-free map:
+    harmonic and proven outside the discs of its sharp corners, radial inside them, if it has
+    some), or where the proof fails (`folded`: the mesh's folded triangles, to say whether it does
+    fold there).  A fold-free map whose mesh still shows `folded` triangles says so: the map is a
+    bijection, the mesh's straight edges are too coarse to follow it there."""
+    if check.fold_free and check.positions is None:
         return f"fold-free map failed: {check.text}"
+    if check.fold_free or check.injective:
+        text = f"fold-free, proven (σ₂ ≥ {check.sigma2_min:.2g})"
+        if not check.injective:  # a composite proven outside its corners' discs, radial inside
+            text = f"fold-free, proven (σ₂ ≥ {check.sigma2_min:.2g} outside {len(check.where)} corner discs)"
+        coarse = (
+            f"; the mesh is too coarse for it in {folded} triangles" if check.fold_free and folded else ""
+        )
+        return text + coarse
     if not len(check.where):
         return check.text
     return "folds near the marked spots" if folded else "not proven fold-free near the marked spots"

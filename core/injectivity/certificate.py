@@ -116,7 +116,8 @@ class InjectivityCertificate:
     extra: dict = field(default_factory=dict, compare=False, repr=False)
 
     def __str__(self) -> str:
-        # `core.fold_free_deform` notes the mesh vertices it moved to unfold straight edges.
+        # `core.fold_free_deform` notes the mesh vertices it moved to unfold straight edges, and
+        # the triangles that stay turned over.
         moved = self.extra.get("moved", 0)
         repair = (
             f"; {moved} mesh vertices moved, by at most {self.extra['largest_move']:.2g} of the "
@@ -124,6 +125,12 @@ class InjectivityCertificate:
             if moved
             else ""
         )
+        turned = self.extra.get("turned_over", 0)
+        if turned:
+            repair += (
+                f"; {turned} mesh triangles still turned over (their straight edges are too coarse "
+                "to follow the map there)"
+            )
         if self.injective:
             bounds = f"σ₂ ≥ {self.sigma2_min:.3g}, k ≤ {self.k_max:.3g}"
             return f"fold-free, proven ({bounds}; {self.samples} samples){repair}"

@@ -75,8 +75,8 @@ def fold_free_deform(
         (down to `SMALLEST_MESH_STEP`), and the triangles still turned over at the end are unfolded
         by moving images of their interior vertices within their neighbours' (`core.injectivity.
         mesh_unfolding`); boundary vertices never move.  Those images are then not the map's: how many
-        moved and the largest move (over the target's diameter) go in the certificate.  Check with
-        `core.folded_triangles`: a tangle the repair does not undo is left, not hidden.
+        moved, the largest move (over the target's diameter) and how many triangles stay turned over
+        (a map too anisotropic for the mesh, or a tangle: left, not hidden) go in the certificate.
     max_steps : int
         The most steps to take before giving up.
 
@@ -85,7 +85,7 @@ def fold_free_deform(
     images : ndarray of shape (M, 2)
     certificate : InjectivityCertificate
         Of the composite map: injective if every step is; σ₂ and k bounds composed from the steps';
-        ``extra``: ``"steps"``, and with `triangles` ``"moved"`` and ``"largest_move"``.
+        ``extra``: ``"steps"``, with `triangles` ``"moved"``, ``"largest_move"``, ``"turned_over"``.
 
     Raises
     ------
@@ -215,7 +215,11 @@ def _unfolded(
         repaired, moves = images, np.zeros_like(moves)
     images = repaired
     certificate = composite_certificate(steps, source)
-    moved = {"moved": int(np.count_nonzero(moves)), "largest_move": float(moves.max()) / final.diameter}
+    moved = {
+        "moved": int(np.count_nonzero(moves)),
+        "largest_move": float(moves.max()) / final.diameter,
+        "turned_over": int(min(after, before)),
+    }
     return images, dataclasses.replace(certificate, extra=certificate.extra | moved)
 
 
