@@ -19,12 +19,14 @@ hold compiled functions (`_PackageLocator`), so any edit of one recompiles them 
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import hashlib
 import re
 import sys
 from pathlib import Path
 
+from numba.core import event
 from numba.core.caching import CacheImpl, NullCache, _CacheLocator
 from numba.core.dispatcher import Dispatcher
 
@@ -135,6 +137,36 @@ class _PackageLocator(_CacheLocator):
                 if inner is not None:
                     return cls(inner)
         return None
+
+
+class _CompileNote(event.Listener):
+    """Prints `note` on stderr at the first compilation of a function of a module under `prefix`."""
+
+    def __init__(self, prefix: str, note: str):
+        self.prefix, self.note = prefix, note
+
+    def on_start(self, data: event.Event) -> None:
+        dispatcher = data.data.get("dispatcher") if isinstance(data.data, dict) else None
+        module = getattr(getattr(dispatcher, "py_func", None), "__module__", "") or ""
+        if module.startswith(self.prefix) and self.note not in _noted:
+            _noted.add(self.note)
+            print(self.note, file=sys.stderr, flush=True)
+
+    def on_end(self, data: event.Event) -> None:
+        pass
+
+
+#: The notes already printed in this process (each at most once).
+_noted: set[str] = set()
+
+
+@contextlib.contextmanager
+def compile_note(prefix: str, note: str):
+    """Within the block, the first time numba compiles a function of a module whose name starts
+    with `prefix` (a compilation, not a load from the cache: where the cache does not apply),
+    `note` goes to stderr, once per process, so that a wait of seconds is said."""
+    with event.install_listener("numba:compile", _CompileNote(prefix, note)):
+        yield
 
 
 def install() -> None:

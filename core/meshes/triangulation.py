@@ -53,6 +53,7 @@ from collections.abc import Callable
 import numpy as np
 
 from core.curves.bspline import ClosedBSpline
+from core.jit_cache import compile_note
 from core.meshes.corner_ears import opened_corner_ears
 from core.meshes.mesh import Mesh
 from core.meshes.refinement import Progress, Refinement
@@ -66,6 +67,10 @@ MAX_VERTICES = 5_000_000
 
 
 DEFAULT_EDGES_PER_DIAMETER = 50
+
+#: Said once a process when the mesher's loops compile (their first use where the install's cache
+#: does not apply: another CPU model or numba, ``NUMBA_CACHE_DIR``, ``TRANSFINITE_PRECOMPILE=0``).
+COMPILING_NOTE = "note: compiling the mesher (first use, ~12 s of one core; numba caches it)"
 
 
 def triangulate(
@@ -126,19 +131,25 @@ def triangulate(
         )
     report = Progress(progress)
     try:
-        # The fractions are the phases' shares of the time on dense meshes (300k vertices).
-        sizing = Sizing(curve, max_edge)
-        report.phase(0.05)
-        mesher = Refinement(curve, sizing)
-        report.phase(0.3)
-        mesher.refine(lambda bad: report.rounds(bad, 0.3, 0.65))
-        mesher.smooth(SMOOTHING_PASSES, lambda done: report.phase(0.65 + 0.07 * done))
-        mesher.refine(lambda bad: report.rounds(bad, 0.72, 0.92))
-        mesh = opened_corner_ears(curve, mesher.mesh())
-        report.phase(1.0)
-        return mesh
+        with compile_note("core.meshes.", COMPILING_NOTE):
+            return _mesh(curve, max_edge, report)
     except RuntimeError as error:
         raise ValueError(_unmeshable(curve, str(error))) from None
+
+
+def _mesh(curve: ClosedBSpline, max_edge: float, report: Progress) -> Mesh:
+    """The steps of `triangulate` (its docstring), reporting to `report`."""
+    # The fractions are the phases' shares of the time on dense meshes (300k vertices).
+    sizing = Sizing(curve, max_edge)
+    report.phase(0.05)
+    mesher = Refinement(curve, sizing)
+    report.phase(0.3)
+    mesher.refine(lambda bad: report.rounds(bad, 0.3, 0.65))
+    mesher.smooth(SMOOTHING_PASSES, lambda done: report.phase(0.65 + 0.07 * done))
+    mesher.refine(lambda bad: report.rounds(bad, 0.72, 0.92))
+    mesh = opened_corner_ears(curve, mesher.mesh())
+    report.phase(1.0)
+    return mesh
 
 
 def _unmeshable(curve: ClosedBSpline, reason: str) -> str:

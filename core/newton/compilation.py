@@ -117,13 +117,13 @@ def compile_solver(progress: Callable[[float], None] | None = None, gradients: b
 
 def compile_all() -> None:
     """Compile every compiled function of `core` into numba's disk cache: the boundary integrals
-    and the other kernels (`compile_integrals`) in a child process, and meanwhile the solver and
-    its gradients (`compile_solver`) in this one.
+    and the curve tests (`compile_integrals`) in a child process, and meanwhile the meshes' loops
+    (`compile_meshes`) and the solver with its gradients (`compile_solver`) in this one.
 
     The package's build runs it (``.packaging/backend.py``), so that an installed
     package starts every kernel from the cache.  The two halves share no compiled function's
-    work that matters (a few small curve tests, which either writes to the cache whole), so on
-    two cores they take half the time (~55 s instead of ~105 s of one core).
+    work that matters (a few small curve tests, which either writes to the cache whole) and cost
+    about the same (~50 s of one core each), so on two cores they take half the time.
 
     Raises
     ------
@@ -138,6 +138,7 @@ def compile_all() -> None:
         env=environment,
     )
     try:
+        compile_meshes()
         compile_solver(gradients=True)
     finally:
         returned = child.wait()
@@ -146,27 +147,17 @@ def compile_all() -> None:
 
 
 def compile_integrals() -> None:
-    """Compile (or load) the compiled functions of `core` outside the Newton solver: the positive
-    Gordon-Wixom rows (`core.meshes.pgw`), the closest-point and winding-number tests
-    (`core.curves.closest_point`), the boundary integrals of the default kernel
-    (`core.boundary_integrals.compiled_integrals`) and the mesher's compiled parts
-    (`core.meshes.delaunay`, `band_regions`, `point_grid` and the rest: one `core.triangulate` of
-    the starfish, whose arms make every part run)."""
+    """Compile (or load) the closest-point and winding-number tests (`core.curves.closest_point`)
+    and the boundary integrals of the default kernel (`core.boundary_integrals.compiled_integrals`)."""
     from core.boundary_integrals import compiled_integrals
     from core.boundary_integrals.panels import curve_panels
     from core.boundary_integrals.poisson import exercise_near_field, poisson_basis, solved_densities
-    from core.curves import examples
-    from core.curves.bspline import ClosedBSpline
     from core.curves.closest_point import distance_to_curve
-    from core.meshes.pgw import pgw_basis
-    from core.meshes.triangulation import triangulate
 
-    square = ClosedBSpline(np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]))
+    square = _square()
     x = np.array([[0.5, 0.5]])
     square.contains(x)
     distance_to_curve(square.piecewise_polynomial(), x)
-    pgw_basis(square, x)
-    triangulate(ClosedBSpline(examples.starfish()))
     mode, compiled_integrals.mode = compiled_integrals.mode, "compiled"
     try:
         solved_densities.cache_clear()  # the density solve runs the knot blocks: not from the cache
@@ -174,6 +165,27 @@ def compile_integrals() -> None:
         exercise_near_field(square, curve_panels(square))
     finally:
         compiled_integrals.mode = mode
+
+
+def compile_meshes() -> None:
+    """Compile (or load) the loops of `core.meshes`: the positive Gordon-Wixom rows
+    (`core.meshes.pgw`) and the mesher's parts (`core.meshes.delaunay`, `band_regions`,
+    `point_grid` and the rest: one `core.triangulate` of the starfish, whose arms make every
+    part run)."""
+    from core.curves import examples
+    from core.curves.bspline import ClosedBSpline
+    from core.meshes.pgw import pgw_basis
+    from core.meshes.triangulation import triangulate
+
+    pgw_basis(_square(), np.array([[0.5, 0.5]]))
+    triangulate(ClosedBSpline(examples.starfish()))
+
+
+def _square():
+    """The unit square as a cage of 4 control points (a ClosedBSpline)."""
+    from core.curves.bspline import ClosedBSpline
+
+    return ClosedBSpline(np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]))
 
 
 def solver_weights(modules: tuple = SOLVER_MODULES, qualified: bool = False) -> dict[str, int]:
