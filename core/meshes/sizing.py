@@ -12,7 +12,7 @@ import numpy as np
 from core.curves.bspline import ClosedBSpline
 from core.meshes.empty_disks import empty_disk_radii
 from core.meshes.mesh import cross
-from core.meshes.point_grid import nearest_distances, nearest_neighbours
+from core.meshes.point_grid import nearest_distances, nearest_neighbours, within_reach
 
 # Largest angle (radians) between the curve tangents at the two ends of a boundary edge.
 TURNING_ANGLE = 0.3
@@ -117,7 +117,7 @@ class Sizing:
         if not fine.any():
             return h
         reach = (self.max_edge - h.min()) / GRADATION
-        near = np.flatnonzero(nearest_distances(self.points[fine], self.points, reach) <= reach)
+        near = np.flatnonzero(within_reach(self.points[fine], self.points, reach))
         k = min(32, h.shape[0])
         distance, index = nearest_neighbours(self.points, self.points[near], k)
         for _ in range(h.shape[0]):  # each pass carries the bound at least one sample on
