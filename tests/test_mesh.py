@@ -451,3 +451,17 @@ def test_progress_rises_to_one_and_can_abandon_the_meshing():
 
     with pytest.raises(Stop):
         triangulate(curve, max_edge=curve.diameter / 120, progress=stop_halfway)
+
+
+def test_sizing_that_stops_resampling_keeps_its_samples_measured(monkeypatch):
+    # The crowded circle needs 3 resampling rounds; allowed 1, the sizing must still measure the
+    # samples it ends with (a 400-point star at max_edge = diameter / 20 needs more than 12
+    # rounds: triangulate raised numpy's "fp and xp are not of the same length").
+    monkeypatch.setattr("core.meshes.sizing.MAX_RESAMPLING", 1)
+    curve = core.ClosedBSpline(examples.crowded(12, 4, 0.1))
+    sizing = Sizing(curve, curve.diameter / 50)
+    assert sizing.points.shape == (sizing.t.size, 2)
+    assert sizing.h.shape == (sizing.t.size,) and sizing.arc.shape == (sizing.t.size + 1,)
+    np.testing.assert_array_equal(sizing.points, curve(sizing.t))
+    mesh = triangulate(curve)
+    np.testing.assert_array_equal(mesh.vertices[mesh.boundary], curve(mesh.boundary_parameters))

@@ -10,6 +10,7 @@ from core.meshes.point_grid import (
     grid_layout,
     nearest_distances,
     nearest_neighbours,
+    within_reach,
 )
 
 
@@ -43,6 +44,16 @@ def test_nearest_distances_match_a_search_of_all_points():
     found = nearest_distances(points, x, reach)
     assert 100 < np.isfinite(expected).sum() < 650
     np.testing.assert_allclose(found, expected, rtol=1e-15)
+
+
+def test_within_reach_is_a_nearest_distance_within_reach():
+    rng = np.random.default_rng(4)
+    points = rng.uniform(0.0, 1.0, (400, 2))
+    x = np.vstack([rng.uniform(-0.3, 1.3, (700, 2)), points[:5], [[np.nan, 0.5]]])
+    reach = 0.05
+    expected = nearest_distances(points, x, reach) <= reach
+    assert 100 < expected.sum() < 650 and not expected[-1]
+    np.testing.assert_array_equal(within_reach(points, x, reach), expected)
 
 
 @pytest.mark.parametrize("bound", [np.inf, 0.08])

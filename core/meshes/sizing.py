@@ -12,7 +12,7 @@ import numpy as np
 from core.curves.bspline import ClosedBSpline
 from core.meshes.empty_disks import empty_disk_radii
 from core.meshes.mesh import cross
-from core.meshes.point_grid import nearest_distances, nearest_neighbours
+from core.meshes.point_grid import nearest_distances, nearest_neighbours, within_reach
 
 # Largest angle (radians) between the curve tangents at the two ends of a boundary edge.
 TURNING_ANGLE = 0.3
@@ -60,8 +60,8 @@ class Sizing:
         self.t = _dense_parameters(curve, max_edge)
         # Disks between samples farther apart than the feature are missed: sample more
         # densely where h is small until every sample step is below h / SAMPLES_PER_EDGE.
-        for _ in range(MAX_RESAMPLING):
-            self._measure(curve)
+        self._measure(curve)
+        for _ in range(MAX_RESAMPLING):  # each round ends measured, the last one too
             target = np.minimum(self.h, np.roll(self.h, -1)) / SAMPLES_PER_EDGE
             extra = np.ceil(np.diff(self.arc) / target).astype(np.int64) - 1
             if extra.max() <= 0 or self.t.size + extra.sum() > MAX_SAMPLES:
@@ -72,6 +72,7 @@ class Sizing:
                 for i, count in zip(np.flatnonzero(extra > 0), extra[extra > 0], strict=True)
             ]
             self.t = np.sort(np.concatenate([self.t, *inserted]))
+            self._measure(curve)
         fine = self.h < max_edge
         self.fine_points = self.points[fine]  # (F, 2), where h < max_edge
         self._fine_h = self.h[fine]
@@ -116,7 +117,7 @@ class Sizing:
         if not fine.any():
             return h
         reach = (self.max_edge - h.min()) / GRADATION
-        near = np.flatnonzero(nearest_distances(self.points[fine], self.points, reach) <= reach)
+        near = np.flatnonzero(within_reach(self.points[fine], self.points, reach))
         k = min(32, h.shape[0])
         distance, index = nearest_neighbours(self.points, self.points[near], k)
         for _ in range(h.shape[0]):  # each pass carries the bound at least one sample on
