@@ -7,17 +7,22 @@ import numpy as np
 import core
 
 
-def unfolded(curve: core.ClosedBSpline, target: np.ndarray, mesh: core.Mesh):
-    """`core.fold_free_deform` of the mesh's vertices onto `target` (n, 2), checked: no triangle turned
-    over, the boundary vertices exactly on the target curve at their parameters, every interior vertex
-    inside it.  Returns (images (V, 2), certificate)."""
-    images, certificate = core.fold_free_deform(
+def mesh_deformed(curve: core.ClosedBSpline, target: np.ndarray, mesh: core.Mesh):
+    """`core.fold_free_deform` of the mesh's vertices onto `target` (n, 2), given the mesh's boundary
+    and triangles.  Returns (images (V, 2), certificate), unchecked."""
+    return core.fold_free_deform(
         curve,
         target,
         mesh.vertices,
         boundary=(mesh.boundary, mesh.boundary_parameters),
         triangles=mesh.triangles,
     )
+
+
+def unfolded(curve: core.ClosedBSpline, target: np.ndarray, mesh: core.Mesh):
+    """`mesh_deformed`, checked: no triangle turned over, the boundary vertices exactly on the target
+    curve at their parameters, every interior vertex inside it.  Returns (images (V, 2), certificate)."""
+    images, certificate = mesh_deformed(curve, target, mesh)
     assert np.count_nonzero(core.folded_triangles(mesh, images)) == 0 == certificate.extra["turned_over"]
     final = core.ClosedBSpline(target)
     np.testing.assert_array_equal(images[mesh.boundary], final(mesh.boundary_parameters))
