@@ -454,7 +454,7 @@ def status_summary(state: AppState) -> str:
         frame = f"frame {median:.1f} ms" + (f", dragging {drag:.1f} ms" if drag > 0 else "")
     return (
         f"{kernel} | {vertices} | zoom {100 * state.display.viewport.scale:.0f} % | {precompute} | {frame} | "
-        f"{status_check(state)} |"
+        f"{status_check(state)}"
     )
 
 
@@ -517,7 +517,7 @@ def _status(state: AppState, width: float, height: float) -> None:
     padding = imgui.get_style().window_padding.x
     room = width - 2 * padding
     spacing = imgui.get_style().item_spacing.x
-    inline = imgui.calc_text_size(f"{summary}{message}").x + spacing <= room
+    inline = imgui.calc_text_size(f"{summary} | {message}").x + spacing <= room
     extra = 0.0 if inline or not message else imgui.calc_text_size(message, wrap_width=room).y
     imgui.set_next_window_pos((0, height - STATUS_HEIGHT - extra))
     imgui.set_next_window_size((width, STATUS_HEIGHT + extra))
@@ -530,7 +530,7 @@ def _status(state: AppState, width: float, height: float) -> None:
     imgui.text(summary)
     if message and inline:
         imgui.same_line()
-        imgui.text_colored(colour, message)
+        imgui.text_colored(colour, f"| {message}")
     imgui.end()
 
 
