@@ -361,7 +361,7 @@ class Viewer:
         # meanwhile lost the drag.
         self._save_if_needed()
         self.milestones.drags(state)
-        self.playback.tick(state, self.basis.ready(state) and self.scene.mesh_matches(state))
+        self.playback.tick(state, self._playback_ready())
         for name, value in self.dialogs.poll():  # a file dialog answered (`app.viewer.file_dialogs`)
             self.command(name, value)
         self.basis.update(state)
@@ -382,22 +382,33 @@ class Viewer:
     def _wait_for_input(self, glfw, imgui) -> None:
         """Input wakes the loop at once; without input, draw only as often as something changes on
         its own, so that an idle or waiting viewer leaves the CPU to the precompute (the worker
-        runs at lower priority and gets what the UI leaves)."""
-        if self.script.moving or self.state.playback.playing or self.exporter.animation:
+        runs at lower priority and gets what the UI leaves).  Playback held until its basis is
+        drawn (`PlaybackClock.tick`) waits too: drawing the same frame again and again on a
+        software renderer took the cores the precompute needed (the starfish demo's --play:
+        basis 12.5 s instead of 1.6 s)."""
+        playing = self.state.playback.playing and self._playback_ready()
+        if self.script.moving or playing or self.exporter.animation:
             glfw.poll_events()  # a replay, playback or an export animates every frame
         elif not imgui.get_current_context().input_events_queue.empty():
             glfw.poll_events()  # imgui takes queued input a few events a frame (typed text)
         elif self.input.events or self.input.frames_to_draw > 0:
             glfw.poll_events()
             self.input.frames_to_draw -= 1
-        elif self.basis.precompute.pending is not None or self.script.playing or self.checks.pending:
-            glfw.wait_events_timeout(0.1)  # the progress bar, a check on its way
+        elif self.state.playback.playing or self.basis.precompute.pending is not None:
+            glfw.wait_events_timeout(0.1)  # the progress bar; playback waiting for its basis
+        elif self.script.playing or self.checks.pending:
+            glfw.wait_events_timeout(0.1)  # a check on its way
         elif self.state.selection.drag is not None:
             glfw.wait_events_timeout(0.1)  # a drag that pauses gets its check (`app.viewer.fold_free`)
         elif self.state.display.viewport_dirty or self.dialogs.waiting:
             glfw.wait_events_timeout(0.05)
         else:
             glfw.wait_events_timeout(IDLE_WAIT)
+
+    def _playback_ready(self) -> bool:
+        """Whether the basis drawn is the live snapshot's, on the mesh the renderer holds: playback
+        moves on only then (`app.viewer.playback_clock`)."""
+        return self.basis.ready(self.state) and self.scene.mesh_matches(self.state)
 
     def _widgets(self, imgui) -> None:
         """Draw the widgets (`app.viewer.gui`) and run the commands they give."""
