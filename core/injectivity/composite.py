@@ -74,13 +74,10 @@ def fold_free_deform(
         a bijection; its piecewise-linear interpolant on these triangles may still turn some over
         where it compresses hard towards a curved part of the target (straight edges cut the curved
         layer of images).  With triangles given, a step is halved while it turns a triangle over
-        (down to `SMALLEST_MESH_STEP`), and the triangles still turned over at the end are unfolded
-        by moving images of their interior vertices within their neighbours' (`core.injectivity.
-        mesh_unfolding`), or else of all interior vertices of a region around them at once
-        (`core.injectivity.mesh_untangling`); boundary vertices never move.  Those images are then
-        not the map's: how many moved, the largest move (over the target's diameter) and how many
-        triangles stay turned over (a tangle that neither repair undoes: left, not hidden) go in the
-        certificate.
+        (down to `SMALLEST_MESH_STEP`); triangles still turned over at the end are unfolded by
+        moving interior vertices' images (`core.injectivity.mesh_unfolding`, else `mesh_untangling`);
+        boundary vertices never move.  How many moved, the largest move (over the target's diameter)
+        and how many triangles stay turned over (left, not hidden) go in the certificate.
     max_steps : int
         The most steps to take before giving up.
 

@@ -23,7 +23,7 @@ source triangles, scaled so that their total area is the images'.
 
 The region: the free vertices within `RINGS` rings of triangles around the turned-over ones; a
 region that does not untangle (the turned-over count stops falling for `STALL_ROUNDS` rounds, or
-`MAX_ROUNDS` pass) is doubled in rings, and the last try frees every free vertex.
+`MAX_ROUNDS` pass) is doubled in rings, until it holds every free vertex or `REGION_TRIES` failed.
 
 Why it is sound: if every triangle ends positively oriented and the boundary vertices, which never
 move, form a simple polygon, the piecewise-linear map is a bijection onto that polygon (a degree
@@ -51,9 +51,10 @@ SMALLEST_DECREASE = 0.1
 #: The ε once the smallest determinant is above μ (Garanzha et al.'s "tiny"), relative to det J = 1.
 TINY_EPSILON = 1e-10
 #: Rings of triangles around the turned-over ones in the first region; each failure doubles them,
-#: and the last try frees every free vertex.
+#: up to `REGION_TRIES` regions (the last of 96 rings: most meshes' whole interior, while the cost
+#: stays bounded on a fine mesh with a small tangle).
 RINGS = 3
-REGION_TRIES = 3
+REGION_TRIES = 6
 #: A triangle counts as turned over when its image's signed area is at most this share of its own
 #: (as `core.folded_triangles`).
 TOLERANCE = 1e-9
@@ -90,13 +91,14 @@ def untangle_triangles(
     images = np.asarray(images, dtype=np.float64)
     source_areas = triangle_signed_areas(vertices, triangles)
     turned = triangle_signed_areas(images, triangles) <= TOLERANCE * source_areas
-    if np.any(turned):
-        for attempt in range(REGION_TRIES + 1):
-            region = _rings_around(triangles, turned, len(images), RINGS * 2**attempt)
-            movable = free if attempt == REGION_TRIES else free & region
-            untangled = _untangled(vertices, images, triangles, movable)
-            if np.all(triangle_signed_areas(untangled, triangles) > TOLERANCE * source_areas):
-                return untangled, np.linalg.norm(untangled - images, axis=1)
+    tried = np.zeros(len(images), dtype=bool)
+    for attempt in range(REGION_TRIES if np.any(turned) else 0):
+        movable = free & _rings_around(triangles, turned, len(images), RINGS * 2**attempt)
+        if np.array_equal(movable, tried):  # the region has grown to every free vertex
+            break
+        untangled, tried = _untangled(vertices, images, triangles, movable), movable
+        if np.all(triangle_signed_areas(untangled, triangles) > TOLERANCE * source_areas):
+            return untangled, np.linalg.norm(untangled - images, axis=1)
     return images.copy(), np.zeros(len(images))
 
 
@@ -113,6 +115,9 @@ def _untangled(vertices, images, triangles, movable) -> np.ndarray:
     """Images (V, 2) with the `movable` (V,) ones moved by the barrier continuation on the triangles
     that have a movable vertex; the last positions tried, whether or not they untangle."""
     active = triangles[np.any(movable[triangles], axis=1)]
+    if triangle_signed_areas(images, active).sum() <= 0.0:
+        # The region's boundary image does not enclose a positive area: positive triangles cannot tile it.
+        return images.copy()
     problem = _Problem(images, active, movable, *_reference(vertices, images, active))
     positions = images[movable].ravel()
     determinants = problem.determinants(positions)
@@ -152,7 +157,7 @@ def _reference(vertices, images, active) -> tuple[np.ndarray, np.ndarray]:
     reference areas (K,); J = Xᵀ G for the images X (3, 2) of a triangle's corners."""
     corners = vertices[active]
     areas = triangle_signed_areas(vertices, active)
-    scale = np.sqrt(abs(triangle_signed_areas(images, active).sum()) / areas.sum())
+    scale = np.sqrt(triangle_signed_areas(images, active).sum() / areas.sum())
     edges = np.stack([corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]], axis=2) * scale
     inverse = np.linalg.inv(edges)  # rows: gradients of the 2nd and 3rd barycentric coordinates
     gradients = np.concatenate([-inverse.sum(axis=1, keepdims=True), inverse], axis=1)
