@@ -136,3 +136,19 @@ def test_one_vertex_pushed_across_moves_only_vertices_near_it():
     assert np.all(triangle_signed_areas(untangled, triangles) > 1e-9 * source_areas)
     assert moves[pushed] > 0 and np.all(moves[~(near & free)] == 0.0)
     assert np.count_nonzero(~near & free) > 50  # the region is a part of the mesh, not all of it
+
+
+def test_collapsed_triangles_are_opened_too():
+    """Interior vertices' images put on the midpoints of neighbours' edges (signed area exactly 0,
+    counted as turned over as by `core.folded_triangles`): afterwards every area is positive."""
+    vertices, triangles, free = l_shaped_mesh()
+    images = vertices.copy()
+    for corner in ([0.5, 0.5], [1.5, 0.25], [0.25, 1.5]):
+        vertex = np.flatnonzero(np.all(np.isclose(vertices, corner), axis=1))[0]
+        images[vertex] = vertices[vertex] + [SPACING / 2, SPACING / 2]  # onto its diagonal neighbours' edge
+    assert np.any(triangle_signed_areas(images, triangles) == 0.0)
+
+    untangled, _ = untangle_triangles(vertices, images, triangles, free)
+
+    assert turned_over(vertices, untangled, triangles) == 0
+    np.testing.assert_array_equal(untangled[~free], images[~free])
