@@ -20,15 +20,17 @@ one Newton step on E_ε (each triangle's 4 × 4 Hessian in J projected onto the 
 matrices, so that the step descends, and a backtracking line search) rather than a full
 minimisation: ε shrinks by ~5 % a round while the smallest determinant is negative, whatever the
 inner iterations (with all 1535 interior vertices of a cornered drag free, 1 Newton step a round
-untangled in 2.9 s, 2 in 3.8 s, 8 had not after 60 rounds, 15 s).  The reference triangles are the
-images themselves where they are not turned over (the energy then holds the proven map's shape
-there, and moves vertices less than with the source triangles as references: on three cornered
-drags the largest move fell from 4.6-8.2 % of the diameter to 1.3-6.2 %), the source triangles
-where they are, all scaled so that their total area is the images'.
+untangled in 2.9 s, 2 in 3.8 s, 8 had not after 60 rounds, 15 s).
 
-The region: the free vertices within `RINGS` rings of triangles around the turned-over ones; a
-region that does not untangle (the turned-over count stops falling for `STALL_ROUNDS` rounds, or
-`MAX_ROUNDS` pass) is doubled in rings, until it holds every free vertex or `REGION_TRIES` failed.
+The reference triangles, all scaled so that their total area is the images' (invariant under moves
+of free vertices), are tried in two ways on each region: first the images themselves where they are
+not turned over (the energy then holds the proven map's shape there) and the source triangles where
+they are; then the source triangles throughout.  The first moves vertices less (on three cornered
+drags the largest move fell from 4.6-8.2 % of the diameter to 1.3-6.2 %); the second untangles some
+regions that the first does not, where the images are slivers a million times thinner than their
+source triangles (a radial corner map's fan).  A region that neither untangles (the turned-over
+count stops falling for `STALL_ROUNDS` rounds, or `MAX_ROUNDS` pass) is doubled in rings, from
+`RINGS` around the turned-over triangles, until it holds every free vertex or `REGION_TRIES` failed.
 
 Why it is sound: if every triangle ends positively oriented and the boundary vertices, which never
 move, form a simple polygon, the piecewise-linear map is a bijection onto that polygon (a degree
@@ -101,9 +103,11 @@ def untangle_triangles(
         movable = free & _rings_around(triangles, turned, len(images), RINGS * 2**attempt)
         if np.array_equal(movable, tried):  # no new vertex: the region holds every free one (or none)
             break
-        untangled, tried = _untangled(vertices, images, triangles, movable), movable
-        if np.all(triangle_signed_areas(untangled, triangles) > TOLERANCE * source_areas):
-            return untangled, np.linalg.norm(untangled - images, axis=1)
+        for own_shapes in (True, False):
+            untangled = _untangled(vertices, images, triangles, movable, own_shapes)
+            if np.all(triangle_signed_areas(untangled, triangles) > TOLERANCE * source_areas):
+                return untangled, np.linalg.norm(untangled - images, axis=1)
+        tried = movable
     return images.copy(), np.zeros(len(images))
 
 
@@ -116,14 +120,15 @@ def _rings_around(triangles: np.ndarray, turned: np.ndarray, count: int, rings: 
     return region
 
 
-def _untangled(vertices, images, triangles, movable) -> np.ndarray:
+def _untangled(vertices, images, triangles, movable, own_shapes: bool) -> np.ndarray:
     """Images (V, 2) with the `movable` (V,) ones moved by the barrier continuation on the triangles
-    that have a movable vertex; the last positions tried, whether or not they untangle."""
+    that have a movable vertex, against references of their `own_shapes` or not (`_reference`); the
+    last positions tried, whether or not they untangle."""
     active = triangles[np.any(movable[triangles], axis=1)]
     if triangle_signed_areas(images, active).sum() <= 0.0:
         # The region's boundary image does not enclose a positive area: positive triangles cannot tile it.
         return images.copy()
-    gradients, areas = _reference(vertices, images, active)
+    gradients, areas = _reference(vertices, images, active, own_shapes)
     problem = _Problem(images, active, movable, gradients, areas)
     # det J at which a triangle counts as turned over: TOLERANCE of its source area, in its image.
     floors = TOLERANCE * triangle_signed_areas(vertices, active) / areas
@@ -158,16 +163,15 @@ def _chi(determinant, epsilon):
     )
 
 
-def _reference(vertices, images, active) -> tuple[np.ndarray, np.ndarray]:
+def _reference(vertices, images, active, own_shapes: bool) -> tuple[np.ndarray, np.ndarray]:
     """Per active triangle (K, 3) the gradients (K, 3, 2) of its barycentric coordinates on its
     reference triangle (J = Xᵀ G for the images X (3, 2) of its corners) and the reference areas
-    (K,).  The reference is the triangle's own image where that is not turned over (so that the
-    energy keeps the map's shape there), its source triangle where it is; all scaled together so
-    that their areas add up to the images' signed area (invariant under moves of free vertices, so
-    that det J = 1 on average is reachable)."""
+    (K,).  The reference is the triangle's own image where that is not turned over and `own_shapes`,
+    its source triangle otherwise; all scaled together so that their areas add up to the images'
+    signed area (so that det J = 1 on average is reachable)."""
     source_areas = triangle_signed_areas(vertices, active)
     image_areas = triangle_signed_areas(images, active)
-    kept = image_areas > 0.0
+    kept = image_areas > 0.0 if own_shapes else np.zeros(len(active), dtype=bool)
     image_scale = np.sqrt(image_areas.sum() / source_areas.sum())  # of the source triangles
     corners = np.where(kept[:, None, None], images[active], image_scale * vertices[active])
     areas = np.where(kept, image_areas, image_scale**2 * source_areas)
