@@ -152,3 +152,23 @@ def test_collapsed_triangles_are_opened_too():
 
     assert turned_over(vertices, untangled, triangles) == 0
     np.testing.assert_array_equal(untangled[~free], images[~free])
+
+
+def test_a_vertex_whose_fixed_ring_has_no_kernel_is_left_turned_over():
+    """One free vertex in a fan of 8 triangles whose fixed ring maps onto a C (two arms' edges face
+    each other: no point sees the whole ring, so some triangle turns over wherever the vertex goes):
+    the barrier method fails and says so, the images coming back unchanged."""
+    angles = np.arange(8) * np.pi / 4
+    vertices = np.vstack([[0.0, 0.0], np.column_stack([np.cos(angles), np.sin(angles)])])
+    triangles = np.array([[0, 1 + k, 1 + (k + 1) % 8] for k in range(8)])
+    images = np.vstack([[0.5, 1.5], [[0, 0], [3, 0], [3, 1], [1, 1], [1, 2], [3, 2], [3, 3], [0, 3]]]).astype(
+        float
+    )
+    free = np.array([True] + [False] * 8)
+    before = turned_over(vertices, images, triangles)
+    assert before > 0
+
+    untangled, moves = untangle_triangles(vertices, images, triangles, free)
+
+    np.testing.assert_array_equal(untangled, images)
+    assert np.all(moves == 0.0) and turned_over(vertices, untangled, triangles) == before

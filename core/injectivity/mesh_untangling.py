@@ -89,15 +89,17 @@ def untangle_triangles(
     Returns
     -------
     images : ndarray of shape (V, 2)
-        A copy: with no triangle turned over, or unchanged if no region tried untangles them (then
-        they are left for the caller to see, with `core.folded_triangles`).  Vertices that are not
-        free never move.
+        A copy: with no triangle turned over, or unchanged if no region tried untangles them or a
+        turned-over triangle has no free vertex (then they are left for the caller to see, with
+        `core.folded_triangles`).  Vertices that are not free never move.
     moves : ndarray of shape (V,)
         How far each vertex moved.
     """
     images = np.asarray(images, dtype=np.float64)
     source_areas = triangle_signed_areas(vertices, triangles)
     turned = triangle_signed_areas(images, triangles) <= TOLERANCE * source_areas
+    if np.any(turned & ~np.any(free[triangles], axis=1)):  # no move can unfold these
+        return images.copy(), np.zeros(len(images))
     tried = np.zeros(len(images), dtype=bool)
     for attempt in range(REGION_TRIES if np.any(turned) else 0):
         movable = free & _rings_around(triangles, turned, len(images), RINGS * 2**attempt)
