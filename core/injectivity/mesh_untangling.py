@@ -30,7 +30,8 @@ drags the largest move fell from 4.6-8.2 % of the diameter to 1.3-6.2 %); the se
 regions that the first does not, where the images are slivers a million times thinner than their
 source triangles (a radial corner map's fan).  A region that neither untangles (the turned-over
 count stops falling for `STALL_ROUNDS` rounds, or `MAX_ROUNDS` pass) is doubled in rings, from
-`RINGS` around the turned-over triangles, until it holds every free vertex or `REGION_TRIES` failed.
+`RINGS` around the turned-over triangles, until it holds every free vertex, `REGION_TRIES` failed
+or the `WORK` is spent.
 
 Why it is sound: if every triangle ends positively oriented and the boundary vertices, which never
 move, form a simple polygon, the piecewise-linear map is a bijection onto that polygon (a degree
@@ -53,6 +54,11 @@ THETA = 0.5
 #: fewer turned-over triangles after which a region is given up.
 MAX_ROUNDS = 400
 STALL_ROUNDS = 100
+#: Newton steps times vertices moved, over all regions and references tried, before giving up on
+#: growing the region (the first region is always tried): a bound on the cost of a tangle that
+#: cannot be undone (~7 s on a busy 2-core machine; the three cornered drags that needed
+#: untangling used 13,000 to 76,000).
+WORK = 500_000
 #: σ's floor in the ε update (Garanzha et al.'s 0.1).
 SMALLEST_DECREASE = 0.1
 #: The ε once the smallest determinant is above μ (Garanzha et al.'s "tiny"), relative to det J = 1.
@@ -100,15 +106,19 @@ def untangle_triangles(
     turned = triangle_signed_areas(images, triangles) <= TOLERANCE * source_areas
     if np.any(turned & ~np.any(free[triangles], axis=1)):  # no move can unfold these
         return images.copy(), np.zeros(len(images))
-    tried = np.zeros(len(images), dtype=bool)
+    tried, budget = np.zeros(len(images), dtype=bool), WORK
     for attempt in range(REGION_TRIES if np.any(turned) else 0):
         movable = free & _rings_around(triangles, turned, len(images), RINGS * 2**attempt)
         if np.array_equal(movable, tried):  # no new vertex: the region holds every free one (or none)
             break
-        for own_shapes in (True, False):
-            untangled = _untangled(vertices, images, triangles, movable, own_shapes)
+        for own_shapes in (True, False):  # the first region is always tried in full
+            rounds = MAX_ROUNDS if attempt == 0 else min(MAX_ROUNDS, budget // np.count_nonzero(movable))
+            if rounds <= STALL_ROUNDS:  # too little work left to tell
+                return images.copy(), np.zeros(len(images))
+            untangled, taken = _untangled(vertices, images, triangles, movable, own_shapes, rounds)
             if np.all(triangle_signed_areas(untangled, triangles) > TOLERANCE * source_areas):
                 return untangled, np.linalg.norm(untangled - images, axis=1)
+            budget -= taken * np.count_nonzero(movable)
         tried = movable
     return images.copy(), np.zeros(len(images))
 
@@ -122,14 +132,15 @@ def _rings_around(triangles: np.ndarray, turned: np.ndarray, count: int, rings: 
     return region
 
 
-def _untangled(vertices, images, triangles, movable, own_shapes: bool) -> np.ndarray:
-    """Images (V, 2) with the `movable` (V,) ones moved by the barrier continuation on the triangles
-    that have a movable vertex, against references of their `own_shapes` or not (`_reference`); the
-    last positions tried, whether or not they untangle."""
+def _untangled(vertices, images, triangles, movable, own_shapes: bool, rounds: int) -> tuple[np.ndarray, int]:
+    """Images (V, 2) with the `movable` (V,) ones moved by the barrier continuation (at most `rounds`
+    rounds) on the triangles that have a movable vertex, against references of their `own_shapes`
+    or not (`_reference`): the last positions tried, whether or not they untangle; and the rounds
+    taken."""
     active = triangles[np.any(movable[triangles], axis=1)]
     if triangle_signed_areas(images, active).sum() <= 0.0:
         # The region's boundary image does not enclose a positive area: positive triangles cannot tile it.
-        return images.copy()
+        return images.copy(), 0
     gradients, areas = _reference(vertices, images, active, own_shapes)
     problem = _Problem(images, active, movable, gradients, areas)
     # det J at which a triangle counts as turned over: TOLERANCE of its source area, in its image.
@@ -138,8 +149,9 @@ def _untangled(vertices, images, triangles, movable, own_shapes: bool) -> np.nda
     determinants = problem.determinants(positions)
     epsilon = max(np.sqrt(1e-12 + 0.04 * min(determinants.min(), 0.0) ** 2), TINY_EPSILON)
     previous = problem.energy(positions, epsilon)
-    fewest, since = len(active) + 1, 0
-    for _ in range(MAX_ROUNDS):
+    fewest, since, taken = len(active) + 1, 0, 0
+    while taken < rounds:
+        taken += 1
         positions = problem.newton_step(positions, epsilon)
         energy, determinants = problem.energy(positions, epsilon), problem.determinants(positions)
         smallest, turned = determinants.min(), np.count_nonzero(determinants <= floors)
@@ -152,7 +164,7 @@ def _untangled(vertices, images, triangles, movable, own_shapes: bool) -> np.nda
         previous = energy
     untangled = images.copy()
     untangled[movable] = positions.reshape(-1, 2)
-    return untangled
+    return untangled, taken
 
 
 def _chi(determinant, epsilon):
