@@ -13,9 +13,9 @@ a_t onto triangle t's image, the energy
 
 is finite for every ε > 0, and as ε → 0 it tends to +∞ wherever det J_t ≤ 0, so that (when some
 placement of the free vertices turns nothing over) its minimisers' smallest determinant turns
-positive as ε shrinks.  ε follows their continuation: after a round with
-energy E (E_prev before it) and smallest determinant D_min, σ = max(1 - E / E_prev, 0.1),
-μ = (1 - σ) χ(D_min, ε), and ε = 2 √(μ (μ - D_min)) if D_min < μ, else a tiny one.  A round here is
+positive as ε shrinks.  ε follows their continuation: after a round with energy E (E_prev before
+it) and smallest determinant D_min, σ = max(1 - E / E_prev, 0.1), μ = (1 - σ) χ(D_min, ε), and
+ε = 2 √(μ (μ - D_min)) if D_min < μ, else a tiny one (`TINY_EPSILON`).  A round here is
 one Newton step on E_ε (each triangle's 4 × 4 Hessian in J projected onto the positive semi-definite
 matrices, so that the step descends, and a backtracking line search) rather than a full
 minimisation: ε shrinks by ~5 % a round while the smallest determinant is negative, whatever the
@@ -25,10 +25,11 @@ untangled in 2.9 s, 2 in 3.8 s, 8 had not after 60 rounds, 15 s).
 The reference triangles, all scaled so that their total area is the images' (invariant under moves
 of free vertices), are tried in two ways on each region: first the images themselves where they are
 not turned over (the energy then holds the proven map's shape there) and the source triangles where
-they are; then the source triangles throughout.  The first moves vertices less (on three cornered
-drags the largest move fell from 4.6-8.2 % of the diameter to 1.3-6.2 %); the second untangles some
-regions that the first does not, where the images are slivers a million times thinner than their
-source triangles (a radial corner map's fan).  A region that neither untangles (the turned-over
+they are; then the source triangles throughout.  The first moves vertices less (on the images of
+three cornered drags that both untangle, the largest move fell from 4.6-8.2 % of the diameter to
+1.3-6.2 %); the second untangles some regions that the first does not, where the images are
+slivers a million times thinner than their source triangles (a radial corner map's fan).  A region
+that neither untangles (the turned-over
 count stops falling for `STALL_ROUNDS` rounds, or `MAX_ROUNDS` pass) is doubled in rings, from
 `RINGS` around the turned-over triangles, until it holds every free vertex, `REGION_TRIES` failed
 or the `WORK` is spent.
