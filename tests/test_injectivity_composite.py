@@ -44,10 +44,12 @@ def test_a_folding_drag_becomes_a_certified_bijection(mesh):
 
 
 def test_triangles_left_turned_over_are_counted_and_said(mesh, monkeypatch):
-    """Steps taken whole (no halving for the mesh) and no unfolding: the drag leaves triangles turned
+    """Steps taken whole (no halving for the mesh) and no repair: the drag leaves triangles turned
     over; the certificate (of the map, still proven) counts them and says that the mesh is too coarse."""
     monkeypatch.setattr(composite, "SMALLEST_MESH_STEP", 1.0)
-    monkeypatch.setattr(composite, "unfold_triangles", lambda v, images, t, free: (images, np.zeros(len(v))))
+    unmoved = lambda v, images, t, free: (images, np.zeros(len(v)))  # noqa: E731
+    monkeypatch.setattr(composite, "unfold_triangles", unmoved)
+    monkeypatch.setattr(composite, "untangle_triangles", unmoved)
     curve = core.ClosedBSpline(CAGE)
     target = CAGE.copy()
     target[1] = [120.0, 90.0]
@@ -58,6 +60,19 @@ def test_triangles_left_turned_over_are_counted_and_said(mesh, monkeypatch):
         f"; {turned} mesh triangles still turned over (their straight edges are too coarse "
         "to follow the map there)"
     )
+
+
+def test_triangles_the_local_repair_leaves_are_untangled_globally(mesh, monkeypatch):
+    """The same drag with the local repair doing nothing: the global untangling (`core.injectivity.
+    mesh_untangling`) unfolds every triangle, moving interior vertices only, all inside the target."""
+    monkeypatch.setattr(composite, "SMALLEST_MESH_STEP", 1.0)
+    monkeypatch.setattr(composite, "unfold_triangles", lambda v, images, t, free: (images, np.zeros(len(v))))
+    curve = core.ClosedBSpline(CAGE)
+    target = CAGE.copy()
+    target[1] = [120.0, 90.0]
+    _, certificate = unfolded(curve, target, mesh)
+    assert certificate.injective and certificate.extra["moved"] > 0
+    assert f"; {certificate.extra['moved']} mesh vertices moved, by at most " in str(certificate)
 
 
 def test_boundary_points_without_parameters_stay_on_the_target_curve(mesh):

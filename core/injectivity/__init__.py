@@ -9,5 +9,7 @@
   Hormann & Floater 2013), each step certified;
 - `corner_discs`: the radial map a step uses in the corner discs its certificate leaves unproven;
 - `mesh_unfolding`: `unfold_triangles`, the repair of the few mesh triangles that a proven
-  bijection's straight-edged interpolant still turns over.
+  bijection's straight-edged interpolant still turns over, one vertex at a time;
+- `mesh_untangling`: `untangle_triangles`, the global fallback where rows of them turn over
+  together (Garanzha et al. 2021's barrier method on a region around them).
 """

@@ -13,8 +13,9 @@ that it is a bijection all the same.  σ₂ of
 the composite is at least the product of the steps' bounds, and its
 dilatation K = (1 + k) / (1 - k) at most the product of theirs.  Given a mesh, the triangles that
 its straight edges still turn over are unfolded at the end by moving a few interior vertices' images
-(`core.injectivity.mesh_unfolding`): the images change, by amounts the certificate reports, the
-certificate (of the continuous map) does not.
+(`core.injectivity.mesh_unfolding`), and where rows of them turn over together, by moving all interior
+vertices of a region at once (`core.injectivity.mesh_untangling`): the images change, by amounts the
+certificate reports, the certificate (of the continuous map) does not.
 """
 
 from __future__ import annotations
@@ -31,6 +32,7 @@ from core.injectivity import inner_curve
 from core.injectivity.certificate import InjectivityCertificate, certify_injective
 from core.injectivity.corner_discs import disc_images, radial_discs
 from core.injectivity.mesh_unfolding import unfold_triangles
+from core.injectivity.mesh_untangling import untangle_triangles
 from core.meshes.mesh import triangle_signed_areas
 from core.validation import as_points
 
@@ -72,11 +74,10 @@ def fold_free_deform(
         a bijection; its piecewise-linear interpolant on these triangles may still turn some over
         where it compresses hard towards a curved part of the target (straight edges cut the curved
         layer of images).  With triangles given, a step is halved while it turns a triangle over
-        (down to `SMALLEST_MESH_STEP`), and the triangles still turned over at the end are unfolded
-        by moving images of their interior vertices within their neighbours' (`core.injectivity.
-        mesh_unfolding`); boundary vertices never move.  Those images are then not the map's: how many
-        moved, the largest move (over the target's diameter) and how many triangles stay turned over
-        (a map too anisotropic for the mesh, or a tangle: left, not hidden) go in the certificate.
+        (down to `SMALLEST_MESH_STEP`); triangles still turned over at the end are unfolded by
+        moving interior vertices' images (`core.injectivity.mesh_unfolding`, else `mesh_untangling`);
+        boundary vertices never move.  How many moved, the largest move (over the target's diameter)
+        and how many triangles stay turned over (left, not hidden) go in the certificate.
     max_steps : int
         The most steps to take before giving up.
 
@@ -204,23 +205,34 @@ def _unfolded(
     vertices, images, triangles, free, final, steps, source
 ) -> tuple[np.ndarray, InjectivityCertificate]:
     """The images (V, 2) with triangles (T, 3) that are still turned over unfolded by moving free
-    vertices (V,) (`unfold_triangles`), and the composite's certificate (of `source`'s map) noting
-    the moves.  A move that
-    leaves the target is undone, and the whole repair if it leaves more triangles turned over."""
+    vertices (V,), and the composite's certificate (of `source`'s map) noting the moves.  First the
+    local repair (`unfold_triangles`): a move that leaves the target is undone, and the whole repair
+    if it leaves more triangles turned over.  Where triangles stay turned over, the global untangling
+    (`untangle_triangles`), kept only if it leaves none and every vertex it moved inside the target."""
     repaired, moves = unfold_triangles(vertices, images, triangles, free)
     left = (moves > 0) & ~final.contains(repaired)
-    repaired[left], moves[left] = images[left], 0.0
-    after, before = (np.count_nonzero(triangle_signed_areas(p, triangles) <= 0) for p in (repaired, images))
+    repaired[left] = images[left]
+    after, before = (_turned_over_count(p, triangles) for p in (repaired, images))
     if after > before:
-        repaired, moves = images, np.zeros_like(moves)
-    images = repaired
+        repaired, after = images, before
+    if after:
+        untangled, _ = untangle_triangles(vertices, repaired, triangles, free)
+        moved = np.any(untangled != repaired, axis=1)
+        if _turned_over_count(untangled, triangles) == 0 and final.contains(untangled[moved]).all():
+            repaired, after = untangled, 0
+    moves = np.linalg.norm(repaired - images, axis=1)
     certificate = composite_certificate(steps, source)
     moved = {
         "moved": int(np.count_nonzero(moves)),
         "largest_move": float(moves.max()) / final.diameter,
-        "turned_over": int(min(after, before)),
+        "turned_over": after,
     }
-    return images, dataclasses.replace(certificate, extra=certificate.extra | moved)
+    return repaired, dataclasses.replace(certificate, extra=certificate.extra | moved)
+
+
+def _turned_over_count(images: np.ndarray, triangles: np.ndarray) -> int:
+    """How many triangles (T, 3) the images (V, 2) turn over (signed area at most 0)."""
+    return int(np.count_nonzero(triangle_signed_areas(images, triangles) <= 0))
 
 
 def _turns_over(triangles: np.ndarray, before: np.ndarray, after: np.ndarray, skipped=None) -> bool:
