@@ -28,7 +28,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import linprog
 
-from core.meshes.mesh import triangle_signed_areas
+from core.meshes.mesh import FOLDED_AREA_SHARE, triangle_signed_areas
 
 #: In the first sweep a moved vertex's triangles get a Jacobian determinant of at least this share
 #: of the best that it can give them all; the share doubles with every sweep, up to 1.
@@ -37,7 +37,7 @@ MARGIN = 0.1
 MAX_SWEEPS = 40
 #: A triangle counts as turned over when its image's signed area is at most this share of its own
 #: (as `core.folded_triangles`).
-TOLERANCE = 1e-9
+TOLERANCE = FOLDED_AREA_SHARE
 
 
 def unfold_triangles(

@@ -47,7 +47,7 @@ import numpy as np
 import scipy.sparse
 import scipy.sparse.linalg
 
-from core.meshes.mesh import triangle_signed_areas
+from core.meshes.mesh import FOLDED_AREA_SHARE, triangle_signed_areas
 
 #: The weight of the area term (det² + 1) / χ against the shape term tr(JᵀJ) / χ.
 THETA = 0.5
@@ -71,7 +71,7 @@ RINGS = 3
 REGION_TRIES = 6
 #: A triangle counts as turned over when its image's signed area is at most this share of its own
 #: (as `core.folded_triangles`).
-TOLERANCE = 1e-9
+TOLERANCE = FOLDED_AREA_SHARE
 
 
 def untangle_triangles(

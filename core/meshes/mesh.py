@@ -107,7 +107,12 @@ class Mesh:
         return result
 
 
-def folded_triangles(mesh: Mesh, deformed_vertices, tolerance: float = 1e-9) -> np.ndarray:
+#: A deformed triangle counts as folded (turned over or collapsed) when its signed area is at most
+#: this share of its own (`folded_triangles`, and the fold-free repairs of `core.injectivity`).
+FOLDED_AREA_SHARE = 1e-9
+
+
+def folded_triangles(mesh: Mesh, deformed_vertices, tolerance: float = FOLDED_AREA_SHARE) -> np.ndarray:
     """Triangles that the deformation folds over or collapses.
 
     Parameters
