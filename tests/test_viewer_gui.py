@@ -36,14 +36,14 @@ def square_state() -> AppState:
 def test_the_status_line_gives_the_precompute_time_of_the_basis_drawn_and_the_stats_frame_times():
     state = square_state()
     assert (
-        status_summary(state)
-        == "poisson | no mesh yet | zoom 100 % | precompute - | frame - | fold-free: -"
+        status_summary(state) == "poisson | no mesh yet | zoom 100 % | precompute - | frame - | fold-free: -"
     )
     mesh = SimpleNamespace(vertices=np.zeros((6332, 2)))
     state.compute.basis = SimpleNamespace(kernel="pgw", mesh=mesh, preview=None, seconds=1.15)
     state.document.live = state.document.live.replace(kernel="pgw")
     state.status.frame_figures = (64.9, 0.0)
-    assert status_summary(state).endswith("precompute 1.15 s | frame 64.9 ms | no fold-free proof (poisson only)")
+    summary = status_summary(state)
+    assert summary.endswith("precompute 1.15 s | frame 64.9 ms | no fold-free proof (poisson only)")
     # Back to a basis remembered from before: its own time, not the last one computed.
     state.compute.basis = SimpleNamespace(kernel="poisson", mesh=mesh, preview=None, seconds=0.31)
     state.document.live = state.document.live.replace(kernel="poisson")
