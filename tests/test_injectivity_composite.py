@@ -43,6 +43,25 @@ def test_a_folding_drag_becomes_a_certified_bijection(mesh):
     assert certificate.injective and certificate.extra["steps"] > 1 and certificate.sigma2_min > 0
 
 
+def test_progress_is_the_share_of_the_path_proven_and_an_exception_in_it_abandons(mesh):
+    curve = core.ClosedBSpline(CAGE)
+    target = CAGE.copy()
+    target[1] = [80.0, 80.0]
+    shares = []
+    _, certificate = core.fold_free_deform(curve, target, mesh.vertices, progress=shares.append)
+    assert len(shares) >= certificate.extra["steps"] > 1  # a call for every step tried
+    assert shares == sorted(shares) and 0.0 <= shares[0] and shares[-1] == 1.0
+
+    class Abandoned(Exception):
+        pass
+
+    def abandon(share):
+        raise Abandoned
+
+    with pytest.raises(Abandoned):
+        core.fold_free_deform(curve, target, mesh.vertices, progress=abandon)
+
+
 def test_triangles_left_turned_over_are_counted_and_said(mesh, monkeypatch):
     """Steps taken whole (no halving for the mesh) and no repair: the drag leaves triangles turned
     over; the certificate (of the map, still proven) counts them and says that the mesh is too coarse."""

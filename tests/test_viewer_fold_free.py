@@ -216,6 +216,45 @@ def test_the_worker_process_answers_the_newest_request(starfish_basis):
         worker.close()
 
 
+def test_a_fold_free_map_is_abandoned_for_a_newer_request(starfish_basis, monkeypatch):
+    """The worker drops a fold-free map (a strong drag's can take a minute) at its first step once
+    the viewer has asked for a newer target, and answers that one instead."""
+    import multiprocessing
+    import threading
+
+    from app.viewer import fold_free as module
+
+    slow = make_check_request(STARFISH, strong_target(), True, starfish_basis)
+    newer = make_check_request(STARFISH, STARFISH, False, starfish_basis)
+    request_reader, request_writer = multiprocessing.Pipe(duplex=False)
+    result_reader, result_writer = multiprocessing.Pipe(duplex=False)
+    shares = []
+    real = module.compute_check
+
+    def compute_check(request, progress=None):
+        def noted(share):
+            shares.append((request.key, share))
+            if len(shares) == 1:
+                request_writer.send(newer)  # the viewer asks again while the map is being made
+            progress(share)
+
+        return real(request, noted)
+
+    monkeypatch.setattr(module, "compute_check", compute_check)
+    request_writer.send(slow)
+    worker = threading.Thread(target=module._serve, args=(request_reader, result_writer, 0))
+    worker.start()
+    try:
+        assert result_reader.poll(120), "no answer within 120 s"
+        answer = result_reader.recv()
+    finally:
+        request_writer.send(module._Stop())
+        worker.join(30)
+    assert answer.key == newer.key and answer.injective
+    assert [key for key, _ in shares] == [slow.key]  # abandoned at its first step
+    assert not result_reader.poll(0.1)  # and nothing sent for it
+
+
 def test_playing_keyframes_asks_for_no_check(starfish_basis):
     state = opened(starfish_basis)
     worker = StandInWorker()

@@ -83,10 +83,11 @@ def make_check_request(
     )
 
 
-def compute_check(request: CheckRequest) -> WarpCheck:
+def compute_check(request: CheckRequest, progress: Callable[[float], None] | None = None) -> WarpCheck:
     """The certificate (and with `request.fold_free` the fold-free positions (V, 2)), in this
     process: the worker's job, also used by tests.  A fold-free path that cannot be proven (a cage
-    on the straight path crosses itself) gives a failed check with the reason."""
+    on the straight path crosses itself) gives a failed check with the reason.  `progress` goes to
+    `core.fold_free_deform` (an exception it raises abandons the check)."""
     import core
 
     started = time.perf_counter()
@@ -100,6 +101,7 @@ def compute_check(request: CheckRequest) -> WarpCheck:
                 request.vertices,
                 boundary=(request.boundary, request.boundary_parameters),
                 triangles=request.triangles,
+                progress=progress,
             )
         else:
             certificate = core.certify_injective(curve, request.target)
@@ -241,8 +243,13 @@ class _Stop:
     """The last message to the worker: stop."""
 
 
+class _Superseded(Exception):
+    """A newer request arrived while a fold-free map was being made."""
+
+
 def _serve(requests, results, nice: int) -> None:
-    """The worker: answer the newest request, drop a result whose request was superseded meanwhile."""
+    """The worker: answer the newest request, drop a result whose request was superseded meanwhile;
+    a fold-free map is abandoned at its next step once a newer request waits."""
     import os
 
     if nice and hasattr(os, "nice"):
@@ -250,6 +257,11 @@ def _serve(requests, results, nice: int) -> None:
             os.nice(nice)
         except OSError:
             pass
+
+    def abandon_if_superseded(_share: float) -> None:
+        if requests.poll():  # a fold-free map of a strong drag can take a minute: not for a stale target
+            raise _Superseded
+
     try:
         request = requests.recv()
         while not isinstance(request, _Stop):
@@ -257,7 +269,11 @@ def _serve(requests, results, nice: int) -> None:
                 request = requests.recv()
             if isinstance(request, _Stop):
                 return
-            check = compute_check(request)
+            try:
+                check = compute_check(request, abandon_if_superseded)
+            except _Superseded:
+                request = requests.recv()  # the newer request that abandoned it
+                continue
             if requests.poll():
                 request = requests.recv()
                 continue

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Callable
 
 import numpy as np
 
@@ -53,6 +54,7 @@ def fold_free_deform(
     boundary: tuple | None = None,
     triangles=None,
     max_steps: int = MAX_STEPS,
+    progress: Callable[[float], None] | None = None,
 ) -> tuple[np.ndarray, InjectivityCertificate]:
     """Images of points of the source domain under a certified bijection onto the target's domain.
 
@@ -67,19 +69,18 @@ def fold_free_deform(
         Points of the closed source domain.
     boundary : (indices, parameters), optional
         Rows of `points` on the curve, int (B,), and their parameters t (B,) (as in `core.Mesh`):
-        their images are set to the target curve at t exactly.  Other points on the curve go to
-        the target curve at their closest parameter anyway.
+        their images are the target curve at t exactly (others on it: at their closest t).
     triangles : array_like of shape (T, 3), optional
-        Triangles over `points`, counter-clockwise (as in `core.Mesh`).  The continuous map is proven
-        a bijection; its piecewise-linear interpolant on these triangles may still turn some over
-        where it compresses hard towards a curved part of the target (straight edges cut the curved
-        layer of images).  With triangles given, a step is halved while it turns a triangle over
-        (down to `SMALLEST_MESH_STEP`); triangles still turned over at the end are unfolded by
-        moving interior vertices' images (`core.injectivity.mesh_unfolding`, else `mesh_untangling`);
-        boundary vertices never move.  How many moved, the largest move (over the target's diameter)
-        and how many triangles stay turned over (left, not hidden) go in the certificate.
+        Triangles over `points`, counter-clockwise (as in `core.Mesh`): the map's piecewise-linear
+        interpolant may turn some over where it compresses hard (straight edges cannot follow it).
+        A step is then halved while it turns one over (down to `SMALLEST_MESH_STEP`), and those
+        left at the end are unfolded by moving interior vertices (`_unfolded`); boundary vertices
+        never move.  The certificate says how many moved, how far, and how many stay turned over.
     max_steps : int
         The most steps to take before giving up.
+    progress : callable, optional
+        Called after every step tried with the share of the path proven so far (0 to 1); an
+        exception it raises abandons the map (a caller's newer request).
 
     Returns
     -------
@@ -92,15 +93,13 @@ def fold_free_deform(
     ------
     ValueError
         The target is not a valid cage, a cage on the straight path crosses itself, or no step
-        size down to `SMALLEST_STEP` is proven within `max_steps` steps.
+        down to `SMALLEST_STEP` is proven within `max_steps` steps.
     """
     if not isinstance(curve, ClosedBSpline):
         raise ValueError(f"curve must be a core.ClosedBSpline, got {type(curve).__name__}")
     goal = as_points(target, "target")
-    if goal.shape != curve.control_points.shape:
-        raise ValueError(
-            f"target must have shape {curve.control_points.shape} like the cage, got {goal.shape}"
-        )
+    if goal.shape != (shape := curve.control_points.shape):
+        raise ValueError(f"target must have shape {shape} like the cage, got {goal.shape}")
     final = _target_curve(goal)
     images = as_points(points, "points").copy()
     triangles = None if triangles is None else np.asarray(triangles, dtype=np.int64)
@@ -140,6 +139,8 @@ def fold_free_deform(
             step *= 0.5
         if step < SMALLEST_STEP or (len(steps) >= max_steps and s < 1.0):
             raise ValueError(_unproven(s, len(steps), certificate, step < SMALLEST_STEP))
+        if progress is not None:
+            progress(s)
     images[~on_curve] = _inside(final, images[~on_curve])
     if triangles is None:
         return images, composite_certificate(steps, curve)
