@@ -367,6 +367,12 @@ def _prepare(job: WarpJob) -> Deformation:
         deformation = prepare(job.curve, job.settings, mesh, progress=bar, compiling=compiling)
     if compiling.seconds is not None:
         note(f"compiled the solver in {compiling.seconds:.1f} s (first run only; numba caches it)")
+    if job.kind == "image" and job.settings.fold_free:  # a strong cornered drag's takes up to a minute
+        with (
+            ProgressBar("fold-free map (share of the path proven)") as bar,
+            reported_as_input(f"{job.source}: fold-free"),  # a fold-free path may cross itself
+        ):
+            deformation.fold_free_map(job.targets[0], bar)
     return deformation
 
 

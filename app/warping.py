@@ -110,24 +110,34 @@ class Deformation:
         certified fold-free map (ValueError where the straight path of cages crosses itself)."""
         if not self.fold_free:
             return deform(self.basis, target)
-        return self._fold_free(target)[0]
+        return self.fold_free_map(target)[0]
 
     def certificate(self, target: np.ndarray) -> core.InjectivityCertificate | None:
         """What is proven about the map to `target` (`core.certify_injective`; of the composite when
         `fold_free`); None for kernels whose maps are not harmonic."""
         if self.fold_free:
-            return self._fold_free(target)[1]
+            return self.fold_free_map(target)[1]
         if self.kernel != core.DEFAULT_KERNEL or self.curve is None:
             return None
         return core.certify_injective(self.curve, target)
 
-    def _fold_free(self, target: np.ndarray):
+    def fold_free_map(
+        self, target: np.ndarray, progress: Callable[[float], None] | None = None
+    ) -> tuple[np.ndarray, core.InjectivityCertificate]:
+        """`core.fold_free_deform` of the mesh's vertices onto `target` (n, 2): positions (V, 2) and
+        certificate, kept for the last target (`warp` asks for the positions, the report and the
+        render); `progress` gets the share of the path proven."""
         key = np.asarray(target, dtype=np.float64).tobytes()
-        if key not in self._last:  # `warp` asks for the positions, the report and the render
+        if key not in self._last:
             self._last.clear()
             boundary = (self.mesh.boundary, self.mesh.boundary_parameters)
             self._last[key] = core.fold_free_deform(
-                self.curve, target, self.mesh.vertices, boundary=boundary, triangles=self.mesh.triangles
+                self.curve,
+                target,
+                self.mesh.vertices,
+                boundary=boundary,
+                triangles=self.mesh.triangles,
+                progress=progress,
             )
         return self._last[key]
 

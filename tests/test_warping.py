@@ -105,6 +105,19 @@ def test_prepare_uses_the_given_mesh_and_the_default_kernel():
     np.testing.assert_allclose(deformation.positions(curve.control_points), mesh.vertices, atol=1e-7)
 
 
+def test_a_fold_free_map_reports_the_share_of_the_path_proven_and_is_kept_for_its_target():
+    from test_viewer_fold_free import STARFISH, strong_target
+
+    curve = core.ClosedBSpline(STARFISH)
+    mesh = core.triangulate(curve, max_edge=12.0)
+    deformation = app.warping.prepare(curve, app.warping.WarpSettings(cache=False, fold_free=True), mesh)
+    shares = []
+    positions, certificate = deformation.fold_free_map(strong_target(), shares.append)
+    assert len(shares) >= certificate.extra["steps"] > 1
+    assert shares == sorted(shares) and shares[-1] == 1.0
+    assert deformation.positions(strong_target()) is positions  # kept: the report and the render ask again
+
+
 def test_the_viewers_fold_free_export_is_warps_fold_free_session(tmp_path, capfd):
     from test_viewer_fold_free import ASSETS, STARFISH, strong_target
 
