@@ -13,6 +13,7 @@ import core
 from app.viewer import commands
 from app.viewer.fold_free import (
     PAUSE,
+    CheckProgress,
     CheckUpdates,
     compute_check,
     current_check,
@@ -204,14 +205,18 @@ def test_the_worker_process_answers_the_newest_request(starfish_basis):
         assert worker.poll() == []  # not started before the first request
         worker.submit(older)
         worker.submit(newest)
-        answers, deadline = [], time.monotonic() + 120
-        while newest.key not in [check.key for check in answers]:
+        messages, deadline = [], time.monotonic() + 120
+        while newest.key not in [m.key for m in messages if isinstance(m, WarpCheck)]:
             assert time.monotonic() < deadline, "the worker did not answer within 120 s"
-            answers += worker.poll()
+            messages += worker.poll()
             time.sleep(0.05)
-        assert {check.key for check in answers} <= {older.key, newest.key}
+        assert {m.key for m in messages} <= {older.key, newest.key}
+        answers = [m for m in messages if isinstance(m, WarpCheck)]
         assert answers[-1].key == newest.key and answers[-1].injective
         assert answers[-1].positions.shape == starfish_basis.mesh.vertices.shape
+        # On its way, the fold-free map said how much of the path it had proven.
+        shares = [m.share for m in messages if isinstance(m, CheckProgress) and m.key == newest.key]
+        assert shares and shares == sorted(shares) and shares[-1] == 1.0
     finally:
         worker.close()
 
@@ -253,6 +258,22 @@ def test_a_fold_free_map_is_abandoned_for_a_newer_request(starfish_basis, monkey
     assert answer.key == newer.key and answer.injective
     assert [key for key, _ in shares] == [slow.key]  # abandoned at its first step
     assert not result_reader.poll(0.1)  # and nothing sent for it
+
+
+def test_the_status_line_says_how_far_the_fold_free_map_has_come(starfish_basis):
+    state = opened(starfish_basis, strong_target())
+    state.document.live = state.document.live.replace(fold_free=True)
+    worker = StandInWorker()
+    updates = CheckUpdates(worker, print)
+    updates.update(state)
+    request = worker.requests[-1]
+    assert status_check(state) == "computing the fold-free map..."
+    worker.answers += [CheckProgress(request.key, 0.4), CheckProgress("an older target", 0.9)]
+    updates.update(state)
+    assert status_check(state) == "fold-free map: 40 % of the way"
+    worker.answer(request)
+    updates.update(state)
+    assert state.compute.check_progress is None and status_check(state).startswith("fold-free, proven")
 
 
 def test_playing_keyframes_asks_for_no_check(starfish_basis):

@@ -56,6 +56,14 @@ class CheckRequest:
     boundary_parameters: np.ndarray
 
 
+@dataclass(frozen=True)
+class CheckProgress:
+    """The worker's word on a fold-free map being made: the share of the path proven so far."""
+
+    key: str
+    share: float
+
+
 def check_key(cage: np.ndarray, target: np.ndarray, fold_free: bool, basis_key: str) -> str:
     """Identity of a check: the cage (n, 2), the target (n, 2), the fold-free switch and the mesh
     (the `BasisResult` key it was made with)."""
@@ -213,8 +221,8 @@ class CheckWorker:
             self._latest = request
             self._wanted.notify()
 
-    def poll(self) -> list[WarpCheck]:
-        """Checks that arrived, without waiting."""
+    def poll(self) -> list[WarpCheck | CheckProgress]:
+        """Checks and progress that arrived, without waiting."""
         if self._process is None:
             return []
         checks = []
@@ -258,9 +266,10 @@ def _serve(requests, results, nice: int) -> None:
         except OSError:
             pass
 
-    def abandon_if_superseded(_share: float) -> None:
+    def abandon_if_superseded(share: float) -> None:
         if requests.poll():  # a fold-free map of a strong drag can take a minute: not for a stale target
             raise _Superseded
+        results.send(CheckProgress(request.key, share))
 
     try:
         request = requests.recv()
@@ -325,8 +334,11 @@ class CheckUpdates:
         request = self.wanted(state)
         key = None if request is None else request.key
         for check in self.worker.poll():
-            if check.key == key:
-                state.compute.check = check
+            if isinstance(check, CheckProgress):
+                if check.key == key:  # of an older target: dropped, as its check would be
+                    state.compute.check_progress = check.share
+            elif check.key == key:
+                state.compute.check, state.compute.check_progress = check, None
                 self.announce(
                     f"check fold_free={check.fold_free} injective={check.injective} "
                     f"where={len(check.where)} seconds={check.seconds:.3f}"
@@ -338,7 +350,7 @@ class CheckUpdates:
             return
         if key != self.submitted:
             self.worker.submit(request)
-            self.submitted = key
+            self.submitted, state.compute.check_progress = key, None
 
     @property
     def pending(self) -> bool:

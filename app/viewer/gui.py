@@ -468,7 +468,14 @@ def status_check(state: AppState) -> str:
         return status_text(check, state.compute.folded_count)
     if state.compute.basis is None:
         return "fold-free: -"
-    return "computing the fold-free map..." if live.fold_free else "checking folds..."
+    if not live.fold_free:
+        return "checking folds..."
+    share = state.compute.check_progress
+    return (
+        "computing the fold-free map..."
+        if share is None
+        else f"fold-free map: {100 * share:.0f} % of the way"
+    )
 
 
 def _fold_free_toggle(live, commands: list) -> None:

@@ -467,6 +467,7 @@ class Compute:
     basis_error: str = ""  # why the wanted basis functions could not be computed
     folded_count: int | None = None
     check: WarpCheck | None = None  # the last injectivity check applied (`app.viewer.fold_free`)
+    check_progress: float | None = None  # share of the path proven of the fold-free map being made
 
 
 @dataclass(frozen=True, eq=False)
