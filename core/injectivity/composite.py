@@ -34,7 +34,7 @@ from core.injectivity.certificate import InjectivityCertificate, certify_injecti
 from core.injectivity.corner_discs import disc_images, radial_discs
 from core.injectivity.mesh_unfolding import unfold_triangles
 from core.injectivity.mesh_untangling import untangle_triangles
-from core.meshes.mesh import triangle_signed_areas
+from core.meshes.mesh import FOLDED_AREA_SHARE, triangle_signed_areas
 from core.validation import as_points
 
 #: Steps at most (accepted ones), and the smallest step in s, before giving up.
@@ -214,7 +214,7 @@ def _unfolded(
     repaired, moves = unfold_triangles(vertices, images, triangles, free)
     left = (moves > 0) & ~final.contains(repaired)
     repaired[left] = images[left]
-    after, before = (_turned_over_count(p, triangles) for p in (repaired, images))
+    after, before = (_turned_over_count(vertices, p, triangles) for p in (repaired, images))
     if after > before:
         repaired, after = images, before
     # The composite's own images first: a local repair that stopped short (its moves out of the
@@ -224,7 +224,7 @@ def _unfolded(
     for start in starts:
         untangled, _ = untangle_triangles(vertices, start, triangles, free)
         moved = np.any(untangled != start, axis=1)
-        if _turned_over_count(untangled, triangles) == 0 and final.contains(untangled[moved]).all():
+        if _turned_over_count(vertices, untangled, triangles) == 0 and final.contains(untangled[moved]).all():
             repaired, after = untangled, 0
             break
     moves = np.linalg.norm(repaired - images, axis=1)
@@ -237,9 +237,11 @@ def _unfolded(
     return repaired, dataclasses.replace(certificate, extra=certificate.extra | moved)
 
 
-def _turned_over_count(images: np.ndarray, triangles: np.ndarray) -> int:
-    """How many triangles (T, 3) the images (V, 2) turn over (signed area at most 0)."""
-    return int(np.count_nonzero(triangle_signed_areas(images, triangles) <= 0))
+def _turned_over_count(vertices: np.ndarray, images: np.ndarray, triangles: np.ndarray) -> int:
+    """How many triangles (T, 3) the images (V, 2) of the vertices (V, 2) fold: turned over or
+    collapsed, as `core.folded_triangles` counts them (and both repairs aim for)."""
+    areas = triangle_signed_areas(images, triangles)
+    return int(np.count_nonzero(areas <= FOLDED_AREA_SHARE * triangle_signed_areas(vertices, triangles)))
 
 
 def _turns_over(triangles: np.ndarray, before: np.ndarray, after: np.ndarray, skipped=None) -> bool:
