@@ -63,6 +63,9 @@ MAX_REPEATS = 15
 DRAG_TIMEOUT = 900
 #: Turns of the GIF export row: the viewer's export and ``animate``'s, in turn (`_export_gif`).
 EXPORT_REPEATS = 3
+#: Frames per second of the GIF export row: the viewer's and ``animate``'s default (220 frames), and
+#: the quick smoke test's (22 frames: the same commands, a tenth of the frames to draw and encode).
+EXPORT_FPS, QUICK_EXPORT_FPS = 30.0, 3.0
 #: Seconds the export row waits for one line of the viewer (its start and precompute included).
 EXPORT_TIMEOUT = 300
 
@@ -108,7 +111,11 @@ def run_bench(args: argparse.Namespace) -> int:
             lambda: _drag_frames(DRAG_VERTICES[:1], 1.0) if args.quick else _drag_frames(DRAG_VERTICES)
         )
     if not args.skip_export:
-        children.append(lambda: _export_gif(1 if args.quick else EXPORT_REPEATS))
+        children.append(
+            lambda: (
+                _export_gif(1, QUICK_EXPORT_FPS) if args.quick else _export_gif(EXPORT_REPEATS, EXPORT_FPS)
+            )
+        )
     code = EXIT_OK
     for child in children:
         try:
@@ -511,11 +518,12 @@ def _drag_child(
     return vertices, preview, float(stats[-1].group(1))
 
 
-def _export_gif(repeats: int) -> None:
-    """The viewer's GIF export of the starfish demo's animation (Ctrl+E with ``--export``, under
-    Xvfb: key press to the ``exported`` milestone) against ``animate`` of the session it saved
-    (process start to exit, the basis read from the cache the viewer wrote), `repeats` turns each,
-    in turn; prints both medians, their ratio, and whether the two GIFs are the same bytes."""
+def _export_gif(repeats: int, fps: float) -> None:
+    """The viewer's GIF export of the starfish demo's animation at `fps` frames per second (Ctrl+E
+    with ``--export``, under Xvfb: key press to the ``exported`` milestone) against ``animate`` of
+    the session it saved (process start to exit, the basis read from the cache the viewer wrote),
+    `repeats` turns each, in turn; prints both medians, their ratio, and whether the two GIFs are
+    the same bytes."""
     if shutil.which("Xvfb") is None or shutil.which("xdotool") is None:
         print("viewer GIF export: skipped: needs Xvfb and xdotool (apt-get install xvfb xdotool)")
         return
@@ -532,12 +540,14 @@ def _export_gif(repeats: int) -> None:
         )
         # --play: the demo's keyframes (playing them until the export stops them).
         command = [sys.executable, "-m", "app", "demo", "starfish", "--play", "--session", str(session)]
+        command += ["--fps", f"{fps:g}"]
         viewer = ViewerChild([*command, "--export", str(movie)], environment)
         try:
             window = viewer.wait_for("ready window=").split("=")[1]
             viewer.wait_for("basis ")
             key = ["xdotool", "mousemove", "--window", window, "20", "20", "key", "ctrl+e"]
             animate = [sys.executable, "-m", "app", "animate", str(session), "--output", str(animated)]
+            animate += ["--fps", f"{fps:g}"]
             viewer_times, animate_times = [], []
             for _ in range(repeats):
                 movie.unlink(missing_ok=True)
@@ -555,7 +565,10 @@ def _export_gif(repeats: int) -> None:
             server.terminate()
             server.wait(timeout=10)
     ours, theirs = statistics.median(viewer_times), statistics.median(animate_times)
-    print(f"viewer GIF export of the starfish animation (Xvfb, median of {repeats}, in turn with animate)")
+    print(
+        f"viewer GIF export of the starfish animation ({fps:g} fps, Xvfb, median of {repeats}, "
+        "in turn with animate)"
+    )
     turns = [", ".join(f"{t:.2f}" for t in times) for times in (viewer_times, animate_times)]
     print(f"  viewer Ctrl+E to 'exported':    {ours:6.2f} s (turns {turns[0]})")
     print(f"  animate, process start to exit: {theirs:6.2f} s (turns {turns[1]})")

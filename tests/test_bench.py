@@ -61,7 +61,7 @@ def test_the_drag_frame_says_it_is_skipped_without_xvfb(monkeypatch, capsys):
 
 def test_the_gif_export_row_says_it_is_skipped_without_xdotool(monkeypatch, capsys):
     monkeypatch.setattr(bench.shutil, "which", lambda name: None if name == "xdotool" else "/usr/bin/" + name)
-    bench._export_gif(1)
+    bench._export_gif(1, bench.QUICK_EXPORT_FPS)
     assert capsys.readouterr().out == (
         "viewer GIF export: skipped: needs Xvfb and xdotool (apt-get install xvfb xdotool)\n"
     )
@@ -111,7 +111,7 @@ def test_quick_runs_every_row_once_at_tiny_sizes(monkeypatch):
     monkeypatch.setattr(bench, "_memory", lambda curve, count: calls.update(memory=count))
     monkeypatch.setattr(bench, "_warp_4k", lambda size: calls.update(warp=size))
     monkeypatch.setattr(bench, "_drag_frames", lambda *rest: calls.update(drag=rest))
-    monkeypatch.setattr(bench, "_export_gif", lambda repeats: calls.update(export=repeats))
+    monkeypatch.setattr(bench, "_export_gif", lambda *rest: calls.update(export=rest))
     monkeypatch.setattr(bench, "photo_rows", lambda sizes, run: calls.update(photos=sizes))
     monkeypatch.setattr(
         bench_fold_free,
@@ -142,7 +142,7 @@ def test_quick_runs_every_row_once_at_tiny_sizes(monkeypatch):
         "warp": (640, 360),
         "photos": ((1200, 800),),
         "drag": ((6_000,), 1.0),
-        "export": 1,
+        "export": (1, 3.0),  # a tenth of the frames of the default 30 fps
         "fold_free": (2_000,),
         "mesher": (1, (2_000,)),
     }
