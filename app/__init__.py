@@ -15,5 +15,5 @@ from app.image_header import MAX_IMAGE_PIXELS
 # after this: formats whose header app.image_header does not read are then limited too.
 os.environ.setdefault("OPENCV_IO_MAX_IMAGE_PIXELS", str(MAX_IMAGE_PIXELS))
 # OpenBLAS reads its idle threads' busy wait once, when numpy loads it, which app.cli does
-# before it imports core: the value of core.blas_threads.IDLE_SPIN (see there).
+# before it imports core: the value of core.library_threads.IDLE_SPIN (see there).
 os.environ.setdefault("OPENBLAS_THREAD_TIMEOUT", "20")

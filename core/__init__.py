@@ -4,8 +4,9 @@ Pure numerics (numpy, scipy, numba): never imports `app`, moderngl, glfw or imgu
 See .docs/architecture.md in the repository for the data flow and the paper's equation numbers.
 """
 
-# First, before numpy loads OpenBLAS: its idle threads spin briefly (`core.blas_threads`).
-import core.blas_threads  # noqa: F401, I001
+# First, before numpy loads OpenBLAS and before numba starts its OpenMP pool: their idle threads
+# spin briefly or not at all (`core.library_threads`).
+import core.library_threads  # noqa: F401, I001
 
 # Then: the compiled functions of the package compile uncached where numba cannot cache.
 import core.jit_cache  # noqa: F401, I001

@@ -24,11 +24,11 @@ import functools
 
 import numpy as np
 
-from core.blas_threads import one_blas_thread
 from core.boundary_integrals.cauchy_integrals import Levels, bisected, cauchy_derivatives, cauchy_integrals
 from core.boundary_integrals.panels import coarse_panels, span_panels
 from core.boundary_integrals.poisson import CHUNK, boundary_limit_rows, centred, refuse_far_outside
 from core.curves.bspline import ClosedBSpline
+from core.library_threads import one_blas_thread
 
 
 @functools.lru_cache(maxsize=4)

@@ -35,7 +35,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from core.blas_threads import one_blas_thread
 from core.boundary_integrals import compiled_integrals, compiled_tree, two_grid
 from core.boundary_integrals.cauchy_integrals import (
     CORNER_SAFE,
@@ -70,6 +69,7 @@ from core.boundary_integrals.panels import (
 )
 from core.boundary_integrals.scratch_arrays import scratch
 from core.curves.bspline import ClosedBSpline
+from core.library_threads import one_blas_thread
 
 #: Coarse boundary nodes at most (the dense solve's memory, 8 MAX_NODES^2 bytes, and time).
 MAX_NODES = 10_000

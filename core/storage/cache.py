@@ -46,7 +46,7 @@ CORE_FOLDER = Path(__file__).resolve().parent.parent
 #: corrected `poisson` still read the bases its old code had cached.)
 NON_NUMERICAL_MODULES = frozenset(
     {
-        "blas_threads.py", "curves/examples.py", "jit_cache.py", "newton/compilation.py",
+        "library_threads.py", "curves/examples.py", "jit_cache.py", "newton/compilation.py",
         "newton/reference.py", "storage/atomic_write.py", "storage/cache.py",
         "storage/cache_secret.py", "storage/state_directory.py",
     }

@@ -1,4 +1,5 @@
-"""One BLAS thread for the boundary-integral kernels' many small matrix products.
+"""The threads of the libraries core calls: one BLAS thread for the boundary-integral kernels'
+many small matrix products; idle BLAS and OpenMP threads that sleep soon.
 
 `poisson` and `cauchy_green` spend their time in thousands of products of a
 few hundred rows each.  OpenBLAS threads those, and on a machine whose cores are busy
@@ -17,6 +18,17 @@ spin 2^`IDLE_SPIN` cycles (~0.4 ms) instead: the finite-element solve keeps its 
 (0.057 s at 10,000 vertices, 1.27 s at 100,000, 6.4 s at 300,000, as before), the next
 call its own.  Importing this module sets it, unless the user did; `core` imports it first,
 before numpy, and it has no effect once numpy has loaded OpenBLAS.
+
+numba runs the ``prange`` loops of `core` on its OpenMP thread pool (GNU libgomp, numba's
+threading layer where TBB is not installed).  After each parallel loop libgomp's threads
+busy-wait for the next one (~300,000 spins by default) before they sleep, the same theft as
+OpenBLAS's, and the viewer runs its drawing, its precompute worker and its fold-free check
+worker side by side.  A caller idling 2 ms after each of 100 small parallel loops kept 0.49-0.66
+of a core busy with the pool's spinning; with ``OMP_WAIT_POLICY=passive`` (sleep at once) 0.02.
+On the 2-core development machine under load, the tests of the kernels (`tests/test_poisson.py`,
+`test_kernels.py`, `test_gradients.py`) took 35-37 CPU-seconds instead of 44-52.  Importing this
+module sets `WAIT_POLICY`, unless the user set a policy; numba starts its pool at the first
+parallel loop, after `core` is imported, and libgomp reads the variable then.
 """
 
 from __future__ import annotations
@@ -30,6 +42,11 @@ from threadpoolctl import ThreadpoolController
 IDLE_SPIN = 20
 
 os.environ.setdefault("OPENBLAS_THREAD_TIMEOUT", str(IDLE_SPIN))
+
+#: libgomp's policy for the idle threads of numba's pool (its default: spin, then sleep).
+WAIT_POLICY = "passive"
+
+os.environ.setdefault("OMP_WAIT_POLICY", WAIT_POLICY)
 
 
 def one_blas_thread(function):

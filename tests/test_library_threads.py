@@ -1,0 +1,73 @@
+"""core.library_threads: OpenBLAS's idle threads spin briefly, set before numpy loads OpenBLAS;
+the OpenMP pool of numba's parallel loops sleeps when idle."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from core.library_threads import IDLE_SPIN, WAIT_POLICY
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+@pytest.mark.parametrize("first", ["core", "app.cli"])
+def test_the_idle_spin_is_set_before_numpy_loads(first):
+    # app.cli loads numpy before core, so app sets the same value itself; a user's own setting stays.
+    script = f"import sys, os, {first}; print(os.environ['OPENBLAS_THREAD_TIMEOUT'])"
+    environment = {k: v for k, v in os.environ.items() if k != "OPENBLAS_THREAD_TIMEOUT"}
+    result = subprocess.run(
+        [sys.executable, "-c", script], capture_output=True, text=True, env=environment, cwd=ROOT
+    )
+    assert result.stdout.split() == [str(IDLE_SPIN)], result.stderr
+    environment["OPENBLAS_THREAD_TIMEOUT"] = "7"
+    result = subprocess.run(
+        [sys.executable, "-c", script], capture_output=True, text=True, env=environment, cwd=ROOT
+    )
+    assert result.stdout.split() == ["7"], result.stderr
+
+
+# A caller that idles 2 ms after each of 100 small parallel loops: the CPU time of the process
+# over its wall time, printed with the wait policy libgomp read.
+IDLE_CALLER = """
+import os, time, core, numba, numpy as np
+
+@numba.njit(parallel=True, cache=False)
+def total(values):
+    s = 0.0
+    for i in numba.prange(values.size):
+        s += values[i]
+    return s
+
+values = np.ones(1000)
+total(values)
+start, cpu = time.perf_counter(), time.process_time()
+for _ in range(100):
+    total(values)
+    time.sleep(0.002)
+print(os.environ.get("OMP_WAIT_POLICY", "unset"), (time.process_time() - cpu) / (time.perf_counter() - start))
+"""
+
+
+def idle_share(environment: dict) -> tuple[str, float]:
+    """(the wait policy, the process's CPU time over its wall time) of `IDLE_CALLER`."""
+    result = subprocess.run(
+        [sys.executable, "-c", IDLE_CALLER], capture_output=True, text=True, env=environment, cwd=ROOT
+    )
+    assert result.returncode == 0, result.stderr
+    policy, share = result.stdout.split()
+    return policy, float(share)
+
+
+def test_the_pools_threads_sleep_between_loops_unless_the_user_says_otherwise():
+    environment = {k: v for k, v in os.environ.items() if k not in ("OMP_WAIT_POLICY", "GOMP_SPINCOUNT")}
+    environment["NUMBA_NUM_THREADS"] = "2"
+    policy, sleeping = idle_share(environment)
+    # The user's own policy stays: "active" spins for ever, a core's worth while the caller sleeps.
+    user_policy, spinning = idle_share({**environment, "OMP_WAIT_POLICY": "active"})
+    assert sleeping < 0.2 and sleeping < spinning / 3, (sleeping, spinning)
+    assert (policy, user_policy) == (WAIT_POLICY, "active") == ("passive", "active")
