@@ -1,6 +1,7 @@
 """Tests of app.fit: silhouettes with known outlines, synthetic photographs with known masks,
 scikit-image's photographs, and the --rect option."""
 
+import functools
 import re
 import tracemalloc
 import warnings
@@ -473,13 +474,43 @@ PHOTOGRAPHS = {
 }
 
 
-@pytest.mark.parametrize("name", sorted(PHOTOGRAPHS))
-def test_photograph_cage_covers_the_subject(name):
+def skimage_photograph(name) -> np.ndarray:
+    """scikit-image's photograph `name` as (H, W, 3) uint8 (the first of a pair, grey made RGB)."""
     from skimage import data
 
     image = getattr(data, name)()
+    image = image[0] if isinstance(image, tuple) else image
+    return np.repeat(image[..., None], 3, axis=2) if image.ndim == 2 else image
+
+
+@functools.cache
+def photograph_fit(name) -> tuple[np.ndarray | None, bool, ValueError | None]:
+    """`fit_cage` of scikit-image's `name` with 16 points, fitted once for the tests that check it
+    (it seeds OpenCV's generator: the same cage every time): (control points (16, 2), or None if it
+    refused; whether it said the subject is uncertain; the refusal)."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        try:
+            control_points, error = fit_cage(skimage_photograph(name), 16), None
+        except ValueError as refused:
+            control_points, error = None, refused
+    uncertain = any(issubclass(warning.category, SubjectUncertainWarning) for warning in caught)
+    return control_points, uncertain, error
+
+
+def photograph_cage(name) -> np.ndarray:
+    """The control points (16, 2) of `photograph_fit`; its ValueError if the fit refused."""
+    control_points, _, error = photograph_fit(name)
+    if error is not None:
+        raise error
+    return control_points
+
+
+@pytest.mark.parametrize("name", sorted(PHOTOGRAPHS))
+def test_photograph_cage_covers_the_subject(name):
+    image = skimage_photograph(name)
     covered, left_out, most_area = PHOTOGRAPHS[name]
-    region = cage_region(fit_cage(image, 16), image.shape[:2])
+    region = cage_region(photograph_cage(name), image.shape[:2])
     for part, ((x0, y0, x1, y1), least) in covered.items():
         assert region[y0:y1, x0:x1].mean() >= least, part
     for part, ((x0, y0, x1, y1), most) in left_out.items():
@@ -518,10 +549,8 @@ PHOTOGRAPH_POINTS = {
 
 @pytest.mark.parametrize("name", sorted(PHOTOGRAPH_POINTS))
 def test_photograph_cage_covers_the_subject_as_a_user_sees_it(name):
-    from skimage import data
-
-    image = getattr(data, name)()
-    region = cage_region(fit_cage(image, 16), image.shape[:2])
+    image = skimage_photograph(name)
+    region = cage_region(photograph_cage(name), image.shape[:2])
     inside, outside = PHOTOGRAPH_POINTS[name]
     for part, points in inside.items():
         assert all(region[y, x] for x, y in points), f"{part}: {[region[y, x] for x, y in points]}"
@@ -784,19 +813,11 @@ FIT_HITS = {
 
 def fit_outcome(name):
     """(hit, said uncertain, IoU of the boxes or None) of `fit_cage` on scikit-image's `name`."""
-    from skimage import data
-
-    image = getattr(data, name)()
-    image = image[0] if isinstance(image, tuple) else image
-    image = np.repeat(image[..., None], 3, axis=2) if image.ndim == 2 else image
+    image = skimage_photograph(name)
     kind, box, points = FIT_PHOTOGRAPHS[name]
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        try:
-            control_points = fit_cage(image, 16)
-        except ValueError:
-            return box is None, True, None
-    uncertain = any(issubclass(warning.category, SubjectUncertainWarning) for warning in caught)
+    control_points, uncertain, error = photograph_fit(name)
+    if error is not None:
+        return box is None, True, None
     if box is None:
         return uncertain, uncertain, None
     region = cage_region(control_points, image.shape[:2])
