@@ -31,25 +31,25 @@ def test_the_idle_spin_is_set_before_numpy_loads(first):
     assert result.stdout.split() == ["7"], result.stderr
 
 
-# A caller that idles 2 ms after each of 100 small parallel loops: the CPU time of the process
-# over its wall time, printed with the wait policy libgomp read.
+# A caller that idles 2 ms after each of 100 small parallel loops (core's own: the winding numbers
+# of `ClosedBSpline.contains`, read from numba's cache): the CPU time of the process over its wall
+# time, printed with the wait policy libgomp read.  It then ends at once: an "active" pool spins on
+# through the interpreter's shutdown.
 IDLE_CALLER = """
-import os, time, core, numba, numpy as np
+import os, time, core, numpy as np
+from core.curves import examples
+from core.curves.closest_point import winding_numbers
 
-@numba.njit(parallel=True, cache=False)
-def total(values):
-    s = 0.0
-    for i in numba.prange(values.size):
-        s += values[i]
-    return s
-
-values = np.ones(1000)
-total(values)
+pieces = core.ClosedBSpline(examples.blob()).piecewise_polynomial()
+points = np.zeros((16, 2))
+winding_numbers(pieces, points)
 start, cpu = time.perf_counter(), time.process_time()
 for _ in range(100):
-    total(values)
+    winding_numbers(pieces, points)
     time.sleep(0.002)
-print(os.environ.get("OMP_WAIT_POLICY", "unset"), (time.process_time() - cpu) / (time.perf_counter() - start))
+share = (time.process_time() - cpu) / (time.perf_counter() - start)
+print(os.environ.get("OMP_WAIT_POLICY", "unset"), share, flush=True)
+os._exit(0)
 """
 
 
