@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from app.__main__ import main
 from app.files import InputError, read_cage, read_image, read_session
 from app.fill import INPAINT_PIXELS, MARGIN, cage_mask, checked_fill, colour_of, filled_image, session_fill
 
@@ -166,7 +167,8 @@ def test_the_viewers_export_and_warp_fill_write_the_same_pixels(renderer, tmp_pa
         assert (viewer_pixels[mask] == colour_of(fill)).all()
 
 
-def test_warp_fill_needs_outside_original_and_a_valid_value(tmp_path):
+def test_warp_fill_needs_outside_original_and_a_valid_value(tmp_path, capfd):
+    # In-process: the exit code and the one line are main's (test_cli runs a bad input end to end).
     for extra, message in (
         (
             ["--fill", "inpaint"],
@@ -174,10 +176,14 @@ def test_warp_fill_needs_outside_original_and_a_valid_value(tmp_path):
         ),
         (["--outside", "original", "--fill", "mauve"], "--fill: must be none, transparent, inpaint"),
     ):
-        result = subprocess.run(
-            [sys.executable, "-m", "app", "warp", "--session", str(ASSETS / "starfish.session.json"),
-             "--output", str(tmp_path / "out.png"), *extra],
-            cwd=ROOT, capture_output=True, text=True, timeout=120,
-        )  # fmt: skip
-        assert result.returncode == 2 and message in result.stderr and result.stderr.count("\n") == 1
+        argv = [
+            "warp",
+            "--session",
+            str(ASSETS / "starfish.session.json"),
+            "--output",
+            str(tmp_path / "out.png"),
+        ]
+        code = main([*argv, *extra])
+        _, err = capfd.readouterr()
+        assert code == 2 and message in err and err.count("\n") == 1
         assert not (tmp_path / "out.png").exists()
