@@ -502,8 +502,9 @@ def test_the_renderers_need_is_checked_before_the_gl_context(folder, capfd, monk
 
 
 def test_a_cage_of_a_million_points_is_refused_before_its_points_are_checked(folder, capfd):
-    points = np.column_stack([np.arange(1_000_000.0), np.zeros(1_000_000)]).tolist()
-    (folder / "million.json").write_text(json.dumps({"control_points": points}))
+    # The text json.dumps writes for the points (i, 0), i < 1,000,000, put together 5x faster.
+    points = ", ".join(f"[{i}.0, 0.0]" for i in range(1_000_000))
+    (folder / "million.json").write_text(f'{{"control_points": [{points}]}}')
     started = time.perf_counter()
     code = main([str(a) for a in warp(folder, **{"--cage": folder / "million.json"})])
     assert time.perf_counter() - started < 10  # it was 100 s and 8 GB
