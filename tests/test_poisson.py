@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import math
 import warnings
 
@@ -55,6 +56,15 @@ def near_boundary_points(curve: core.ClosedBSpline, count: int, seed: int) -> tu
     return x[far_enough], exact[far_enough]
 
 
+@functools.cache
+def shape_points(name: str, inner: int, near: int) -> np.ndarray:
+    """300 interior points of the shape `name` (seed `inner`) and 300 near its boundary (seed `near`),
+    shape (K, 2): made once for both paths of the boundary integrals (callers take a copy)."""
+    curve = core.ClosedBSpline(SHAPES[name])
+    x = np.vstack([interior_points(curve, 300, seed=inner), near_boundary_points(curve, 300, seed=near)[0]])
+    return x
+
+
 @pytest.mark.parametrize("seeds", [(31, 32), (7, 8)])
 @pytest.mark.parametrize("name", ["C-shape", "U-shape", "star", "hook", "F polygon"])
 def test_partition_of_unity_and_linear_precision_down_to_the_boundary(name, seeds, layer_path):
@@ -62,8 +72,7 @@ def test_partition_of_unity_and_linear_precision_down_to_the_boundary(name, seed
     # 1e-6 of the diameter from the boundary, next to sharp corners and in thin arms.  The seeds
     # (7, 8) found the points of `test_points_that_missed_the_non_negativity_bound`.
     curve = core.ClosedBSpline(SHAPES[name])
-    inner, near = seeds
-    x = np.vstack([interior_points(curve, 300, seed=inner), near_boundary_points(curve, 300, seed=near)[0]])
+    x = shape_points(name, *seeds).copy()
     G = core.basis_functions(curve, x)  # the default kernel
     np.testing.assert_allclose(G.sum(axis=1), 1.0, rtol=0, atol=1e-12)
     assert np.linalg.norm(G @ curve.control_points - x, axis=1).max() <= 1e-8 * curve.diameter
@@ -103,6 +112,21 @@ def random_polygon_cage(seed: int) -> core.ClosedBSpline:
     return core.ClosedBSpline(np.repeat(corners, np.where(doubled, 2, 1), axis=0))
 
 
+@functools.cache
+def random_polygon_points(seed: int) -> np.ndarray:
+    """300 interior points of `random_polygon_cage(seed)` and twice 300 near its boundary, shape (K, 2),
+    made once for both paths of the boundary integrals (callers take a copy)."""
+    curve = random_polygon_cage(seed)
+    x = np.vstack(
+        [
+            interior_points(curve, 300, seed=seed),
+            near_boundary_points(curve, 300, seed=seed)[0],
+            near_boundary_points(curve, 300, seed=seed + 1000)[0],
+        ]
+    )
+    return x
+
+
 @pytest.mark.parametrize("seed", [0, 5, 6, 8, 12, 13, 17, 29, 45, 88, 93, 147, 369, 496, 559, 636, 645, 760])
 def test_random_polygons_with_sharp_corners(seed, layer_path):
     # Each sharp corner's compressed block holds its two panels and one more on each side
@@ -124,13 +148,7 @@ def test_random_polygons_with_sharp_corners(seed, layer_path):
     # (panels.knots_across_wedges).  Seed 760 has a point 0.033 in t from a 7.7° wedge: with the
     # wedge's panels 1/16 wide in t (panels.WEDGE_WIDTH) its G reached -2.8e-9.
     curve = random_polygon_cage(seed)
-    x = np.vstack(
-        [
-            interior_points(curve, 300, seed=seed),
-            near_boundary_points(curve, 300, seed=seed)[0],
-            near_boundary_points(curve, 300, seed=seed + 1000)[0],
-        ]
-    )
+    x = random_polygon_points(seed).copy()
     G = core.basis_functions(curve, x)
     np.testing.assert_allclose(G.sum(axis=1), 1.0, rtol=0, atol=1e-12)
     assert np.linalg.norm(G @ curve.control_points - x, axis=1).max() <= 1e-8 * curve.diameter
