@@ -26,7 +26,6 @@ inside the target: check both (`core.folded_triangles`, the target's `contains`)
 from __future__ import annotations
 
 import numpy as np
-from scipy.optimize import linprog
 
 from core.meshes.mesh import FOLDED_AREA_SHARE, triangle_signed_areas
 
@@ -93,6 +92,8 @@ def _unfolded_position(vertex, images, around, source_areas, margin) -> np.ndarr
     """The vertex's new image (2,): the closest (max-norm) at which each triangle of `around` (K, 3)
     has a determinant of at least `margin` times the best smallest one t*; the best position if t*
     is not positive or `margin` is 1; None if the programs fail."""
+    from scipy.optimize import linprog  # here: at the top it cost every process importing core 0.05 CPU-s
+
     # Roll each triangle so that the vertex comes first: the doubled area of (x, a, b) is
     # a × b + x · (a_y - b_y, b_x - a_x), linear in the vertex's image x.
     first = np.argmax(around == vertex, axis=1)
