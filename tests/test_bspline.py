@@ -213,22 +213,27 @@ def test_the_span_sweep_finds_the_same_first_crossing_as_all_pairs():
 
 
 def all_pairs_first_crossing(points):
-    """The oracle: every pair of spans at once, no pruning, the lexicographically first hit."""
+    """The oracle: every pair of spans, no pruning, the lexicographically first hit (the pairs of
+    span 0 first, then those of span 1, ...: the first span with a hit ends the search)."""
     n = len(points)
-    i, j = np.triu_indices(n, k=1)
     u = np.linspace(0.0, 1.0, bspline._CHORDS + 1)
     b0 = 0.5 * (np.roll(points, 1, axis=0) + points)
     b2 = 0.5 * (points + np.roll(points, -1, axis=0))
-    valid = np.ones((len(i), bspline._CHORDS, bspline._CHORDS), dtype=bool)
-    follows = j == i + 1
-    wraps = ~follows & (i == 0) & (j == n - 1)
-    valid[follows, -1, :] = valid[follows, :, 0] = False
-    valid[wraps, 0, :] = valid[wraps, :, -1] = False
-    a = bspline._polyline(b0[i], points[i], b2[i], u)
-    b = bspline._polyline(b0[j], points[j], b2[j], u)
     pad = 1e-9 * float(np.ptp(points, axis=0).max())
-    hits = np.flatnonzero(bspline._chords_meet(a, b, valid, pad))
-    return (int(i[hits[0]]), int(j[hits[0]])) if hits.size else None
+    for i in range(n - 1):
+        j = np.arange(i + 1, n)
+        valid = np.ones((len(j), bspline._CHORDS, bspline._CHORDS), dtype=bool)
+        follows = j == i + 1
+        wraps = ~follows & (i == 0) & (j == n - 1)
+        valid[follows, -1, :] = valid[follows, :, 0] = False
+        valid[wraps, 0, :] = valid[wraps, :, -1] = False
+        rows = np.full(len(j), i)
+        a = bspline._polyline(b0[rows], points[rows], b2[rows], u)
+        b = bspline._polyline(b0[j], points[j], b2[j], u)
+        hits = np.flatnonzero(bspline._chords_meet(a, b, valid, pad))
+        if hits.size:
+            return i, int(j[hits[0]])
+    return None
 
 
 def test_a_translated_curve_is_the_curve_of_the_moved_points(starfish):
