@@ -21,6 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from app.viewer.message_waker import MessageWaker
 from app.viewer.state import AppState, BasisResult, WarpCheck
 
 #: Seconds a dragged handle must rest before the check of its target is asked for.
@@ -183,6 +184,15 @@ class CheckWorker:
         self._process = self._requests = self._results = None
         self._latest: CheckRequest | None = None  # the newest request not yet sent
         self._wanted = threading.Condition()
+        self._wake: Callable[[], None] | None = None
+        self._waker: MessageWaker | None = None
+
+    def wake_on_message(self, wake: Callable[[], None]) -> None:
+        """Call `wake` from a thread whenever a check or its progress is waiting, once the worker
+        runs, so that a sleeping UI loop draws it (`app.viewer.message_waker.MessageWaker`)."""
+        self._wake = wake
+        if self._process is not None:
+            self._waker = MessageWaker(self._results, wake, "check-waker")
 
     def _start(self) -> None:
         context = multiprocessing.get_context("spawn")
@@ -198,6 +208,8 @@ class CheckWorker:
         request_reader.close()
         result_writer.close()
         threading.Thread(target=self._send, name="check-sender", daemon=True).start()
+        if self._wake is not None:
+            self._waker = MessageWaker(self._results, self._wake, "check-waker")
 
     def _send(self) -> None:
         """The sender thread: the newest request to the worker, until `close` sends None."""
@@ -225,6 +237,8 @@ class CheckWorker:
         """Checks and progress that arrived, without waiting."""
         if self._process is None:
             return []
+        if self._waker is not None:
+            self._waker.read()
         checks = []
         try:
             while self._results.poll():
@@ -236,6 +250,8 @@ class CheckWorker:
     def close(self) -> None:
         if self._process is None:
             return
+        if self._waker is not None:
+            self._waker.close()
         with self._wanted:
             self._latest = _Stop()
             self._wanted.notify()
@@ -260,11 +276,14 @@ def _serve(requests, results, nice: int) -> None:
     a fold-free map is abandoned at its next step once a newer request waits."""
     import os
 
+    from app.viewer.precompute import freeze_after_loading
+
     if nice and hasattr(os, "nice"):
         try:
             os.nice(nice)
         except OSError:
             pass
+    freeze_after_loading("core")
 
     def abandon_if_superseded(share: float) -> None:
         if requests.poll():  # a fold-free map of a strong drag can take a minute: not for a stale target
@@ -354,7 +373,8 @@ class CheckUpdates:
 
     @property
     def pending(self) -> bool:
-        """A check was asked for and has not been applied (the loop then wakes often)."""
+        """A check was asked for and has not been applied (its result wakes the loop:
+        `CheckWorker.wake_on_message`)."""
         return self.submitted is not None
 
 
