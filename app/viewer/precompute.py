@@ -4,7 +4,9 @@ Meshing the cage and computing G (V x n) take seconds, and on the very first run
 numba compiles the solver first (tens of seconds, its own progress phase, see
 `core.newton.compilation`).  Compiling holds the GIL, so in a thread it would stall the
 viewer's frames; a separate process (started with ``spawn``, at lowered priority)
-keeps the UI responsive and still gets the otherwise idle cores.  The protocol is two pipes:
+keeps the UI responsive and still gets the otherwise idle cores.  Once it has loaded `core` it
+forks the fold-free check's worker (`app.viewer.fold_free`), which so loads nothing itself.
+The protocol is two pipes:
 
 - requests go to the worker; a newer request supersedes (cancels) the one running,
   checked whenever the kernel reports progress;
@@ -23,8 +25,12 @@ from __future__ import annotations
 import hashlib
 import json
 import multiprocessing
+import multiprocessing.connection
 import os
+import signal
+import sys
 import time
+import traceback
 from collections import OrderedDict
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -246,9 +252,14 @@ class Precompute:
         default kernel (poisson, not compiled) is on screen: the first switch to a
         Newton kernel then loads it instead of compiling for ~15 s.  Once cached,
         it only loads and ends.
+    companion : (callable, tuple), optional
+        A process the worker forks once it has loaded `core` (target and arguments:
+        `app.viewer.fold_free.CheckWorker.hosted`), so that it does not load `core` again; the
+        worker ends it as it ends.  The arguments' pipe ends are closed here once the worker has
+        its own.
     """
 
-    def __init__(self, nice: int = 10, warm_up: bool = False):
+    def __init__(self, nice: int = 10, warm_up: bool = False, companion: tuple | None = None):
         context = multiprocessing.get_context("spawn")
         self._warm_up = None
         if warm_up:
@@ -261,13 +272,16 @@ class Precompute:
         self._results, result_writer = context.Pipe(duplex=False)
         self._process = context.Process(
             target=_serve,
-            args=(request_reader, result_writer, nice),
+            args=(request_reader, result_writer, nice, companion),
             name="transfinite-precompute",
             daemon=True,
         )
         self._process.start()
         request_reader.close()
         result_writer.close()
+        for argument in () if companion is None else companion[1]:
+            if isinstance(argument, multiprocessing.connection.Connection):
+                argument.close()
         self.pending: str | None = None  # key of the request running or queued
         self._memory: OrderedDict[str, BasisResult] = OrderedDict()
         self._waker: MessageWaker | None = None
@@ -376,15 +390,43 @@ def _compile_in_background(nice: int) -> None:
         pass
 
 
-def _serve(requests, results, nice: int) -> None:
-    """The worker process: compute requests one at a time, newest first, until told to stop or
-    until the viewer is gone (closed, or killed: its ends of the pipes are closed)."""
+def _serve(requests, results, nice: int, companion: tuple | None = None) -> None:
+    """The worker process: fork the `companion` once `core` is loaded, then compute requests one
+    at a time, newest first, until told to stop or until the viewer is gone (closed, or killed:
+    its ends of the pipes are closed); then end the companion."""
     _lower_priority(nice)
     freeze_after_loading("core", "app.warping")
+    # Forked here, not in the window's process: this one holds no GL context, X connection,
+    # session lock or thread of its own.
+    companion_pid = None if companion is None else _fork(*companion)
     try:
         _serve_requests(requests, results)
     except (EOFError, BrokenPipeError, ConnectionResetError):
         return  # nobody left to answer: end quietly, not with a traceback
+    finally:
+        if companion_pid is not None:
+            os.kill(companion_pid, signal.SIGTERM)
+            os.waitpid(companion_pid, 0)
+
+
+def _fork(target: Callable, arguments: tuple) -> int:
+    """Run ``target(*arguments)`` in a child forked from this process; returns its pid.  This
+    process's copies of the pipe ends among `arguments` are closed."""
+    pid = os.fork()
+    if pid == 0:
+        code = 1
+        try:
+            target(*arguments)
+            code = 0
+        except BaseException:  # noqa: BLE001 - shown, as multiprocessing shows a worker's
+            traceback.print_exc()
+        finally:
+            sys.stderr.flush()
+            os._exit(code)
+    for argument in arguments:
+        if isinstance(argument, multiprocessing.connection.Connection):
+            argument.close()
+    return pid
 
 
 def _serve_requests(requests, results) -> None:

@@ -84,12 +84,13 @@ class Viewer:
         self.options = options
         self.milestones = Milestones(os.environ.get(TEST_VARIABLE) == "1")
         announce = self.milestones.announce
-        # The worker starts first: its imports overlap with the window's creation.  The Newton
-        # solver compiles in the background meanwhile (the default kernel needs none).
-        precompute = Precompute(warm_up=not self.milestones.test_mode)
-        self.basis = BasisUpdates(precompute, options.max_edge, options.vertices, announce)
-        # The injectivity check and fold-free map of the live target, in a process of their own.
+        # The workers start first: their imports overlap with the window's creation.  The
+        # injectivity check and fold-free map of the live target run in a process of their own
+        # that the precompute worker forks once it has loaded core.  The Newton solver compiles
+        # in the background meanwhile (the default kernel needs none).
         self.checks = CheckUpdates(CheckWorker(), announce)
+        precompute = Precompute(warm_up=not self.milestones.test_mode, companion=self.checks.worker.hosted())
+        self.basis = BasisUpdates(precompute, options.max_edge, options.vertices, announce)
         self.state = AppState.opened(History(document.snapshot), document.image, document.session_path)
         self.state.screen.window_size = options.size or WINDOW_SIZE
         self.opened: OpenedDocument | None = None  # the session file's lock, view and start cage
@@ -131,8 +132,8 @@ class Viewer:
                 self._close_window()
         finally:
             signal.signal(signal.SIGTERM, previous)
+            self.checks.worker.close()  # first: the precompute worker ends it as it ends itself
             self.basis.precompute.close()
-            self.checks.worker.close()
         if self.options.stats:
             print(self.milestones.statistics(self.state), flush=True)
         return 0
