@@ -398,7 +398,7 @@ def _serve(requests, results, nice: int, companion: tuple | None = None) -> None
     freeze_after_loading("core", "app.warping")
     # Forked here, not in the window's process: this one holds no GL context, X connection,
     # session lock or thread of its own.
-    companion_pid = None if companion is None else _fork(*companion)
+    companion_pid = None if companion is None else _fork(*companion, unneeded=(requests, results))
     try:
         _serve_requests(requests, results)
     except (EOFError, BrokenPipeError, ConnectionResetError):
@@ -409,13 +409,17 @@ def _serve(requests, results, nice: int, companion: tuple | None = None) -> None
             os.waitpid(companion_pid, 0)
 
 
-def _fork(target: Callable, arguments: tuple) -> int:
+def _fork(target: Callable, arguments: tuple, unneeded: tuple = ()) -> int:
     """Run ``target(*arguments)`` in a child forked from this process; returns its pid.  This
-    process's copies of the pipe ends among `arguments` are closed."""
+    process's copies of the pipe ends among `arguments` are closed, and the child's of the
+    connections `unneeded` (this process's own: their other ends see them closed when this
+    process ends, whatever the child does)."""
     pid = os.fork()
     if pid == 0:
         code = 1
         try:
+            for connection in unneeded:
+                connection.close()
             target(*arguments)
             code = 0
         except BaseException:  # noqa: BLE001 - shown, as multiprocessing shows a worker's
