@@ -221,6 +221,36 @@ def test_the_worker_process_answers_the_newest_request(starfish_basis):
         worker.close()
 
 
+def test_the_precompute_worker_forks_the_check_worker_and_ends_it(starfish_basis):
+    """In the viewer the check worker is forked by the precompute worker (it loads nothing
+    itself): it answers through its pipes, and it ends with the precompute worker, never left
+    running without it."""
+    import multiprocessing
+    import time
+
+    from app.viewer.fold_free import CheckWorker
+    from app.viewer.precompute import Precompute
+
+    worker = CheckWorker()
+    precompute = Precompute(companion=worker.hosted())
+    try:
+        request = make_check_request(STARFISH, STARFISH, False, starfish_basis)
+        worker.submit(request)
+        answers, deadline = [], time.monotonic() + 120
+        while not answers:
+            assert time.monotonic() < deadline, "the hosted worker did not answer within 120 s"
+            answers = [m for m in worker.poll() if isinstance(m, WarpCheck) and m.key == request.key]
+            time.sleep(0.05)
+        assert answers[0].injective
+        (host,) = (p for p in multiprocessing.active_children() if p.name == "transfinite-precompute")
+        children = Path(f"/proc/{host.pid}/task/{host.pid}/children").read_text().split()
+        assert len(children) == 1  # the check worker, the precompute worker's child
+    finally:
+        worker.close()
+        precompute.close()
+    assert not precompute.alive and not Path(f"/proc/{children[0]}").exists()
+
+
 def test_a_fold_free_map_is_abandoned_for_a_newer_request(starfish_basis, monkeypatch):
     """The worker drops a fold-free map (a strong drag's can take a minute) at its first step once
     the viewer has asked for a newer target, and answers that one instead."""

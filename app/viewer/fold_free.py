@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import hashlib
 import multiprocessing
+import sys
 import threading
 import time
 from collections.abc import Callable
@@ -21,6 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from app.viewer.message_waker import MessageWaker
 from app.viewer.state import AppState, BasisResult, WarpCheck
 
 #: Seconds a dragged handle must rest before the check of its target is asked for.
@@ -170,9 +172,12 @@ def status_text(check: WarpCheck, folded: int | None) -> str:
 
 
 class CheckWorker:
-    """The process that computes checks, newest request first, and the main thread's pipes.  It
-    starts with the first request (a viewer on another kernel never starts it), at lowered
-    priority (`nice`) so that the window's frames win the CPU.
+    """The process that computes checks, newest request first, and the main thread's pipes, at
+    lowered priority (`nice`) so that the window's frames win the CPU.
+
+    In the viewer the precompute worker forks it once it has loaded `core` (`hosted`,
+    `app.viewer.precompute.Precompute`'s companion): ready in milliseconds, where a process of its
+    own loads `core` again (~0.8 s of CPU).  Otherwise it starts with the first request.
 
     A request holds the mesh (~200 kB at the default mesh), more than a pipe buffers: a thread
     sends it, so that the window's frame never waits for the worker to finish the check it is on.
@@ -183,12 +188,30 @@ class CheckWorker:
         self._process = self._requests = self._results = None
         self._latest: CheckRequest | None = None  # the newest request not yet sent
         self._wanted = threading.Condition()
+        self._wake: Callable[[], None] | None = None
+        self._waker: MessageWaker | None = None
+        self._sender: threading.Thread | None = None
+
+    def wake_on_message(self, wake: Callable[[], None]) -> None:
+        """Call `wake` from a thread whenever a check or its progress is waiting, once the worker
+        runs, so that a sleeping UI loop draws it (`app.viewer.message_waker.MessageWaker`)."""
+        self._wake = wake
+        if self._results is not None:
+            self._waker = MessageWaker(self._results, wake, "check-waker")
+
+    def hosted(self) -> tuple | None:
+        """(target, arguments) of this worker's process, for another process to fork (the
+        precompute worker, which closes this process's copies of the ends it is given once it has
+        started): its priority is the forking process's.  None off Linux (Windows does not fork,
+        macOS not safely): the worker then starts with the first request."""
+        if not sys.platform.startswith("linux"):
+            return None
+        request_reader, result_writer = self._pipes()
+        return _serve, (request_reader, result_writer, 0)
 
     def _start(self) -> None:
-        context = multiprocessing.get_context("spawn")
-        request_reader, self._requests = context.Pipe(duplex=False)
-        self._results, result_writer = context.Pipe(duplex=False)
-        self._process = context.Process(
+        request_reader, result_writer = self._pipes()
+        self._process = multiprocessing.get_context("spawn").Process(
             target=_serve,
             args=(request_reader, result_writer, self.nice),
             name="transfinite-check",
@@ -197,7 +220,16 @@ class CheckWorker:
         self._process.start()
         request_reader.close()
         result_writer.close()
-        threading.Thread(target=self._send, name="check-sender", daemon=True).start()
+
+    def _pipes(self) -> tuple:
+        """Make the pipes and start the sender (and the waker); the worker's ends."""
+        request_reader, self._requests = multiprocessing.Pipe(duplex=False)
+        self._results, result_writer = multiprocessing.Pipe(duplex=False)
+        self._sender = threading.Thread(target=self._send, name="check-sender", daemon=True)
+        self._sender.start()
+        if self._wake is not None:
+            self._waker = MessageWaker(self._results, self._wake, "check-waker")
+        return request_reader, result_writer
 
     def _send(self) -> None:
         """The sender thread: the newest request to the worker, until `close` sends None."""
@@ -215,7 +247,7 @@ class CheckWorker:
 
     def submit(self, request: CheckRequest) -> None:
         """Ask for `request`, superseding any request not sent yet; never waits for the worker."""
-        if self._process is None:
+        if self._requests is None:
             self._start()
         with self._wanted:
             self._latest = request
@@ -223,8 +255,10 @@ class CheckWorker:
 
     def poll(self) -> list[WarpCheck | CheckProgress]:
         """Checks and progress that arrived, without waiting."""
-        if self._process is None:
+        if self._results is None:
             return []
+        if self._waker is not None:
+            self._waker.read()
         checks = []
         try:
             while self._results.poll():
@@ -234,16 +268,23 @@ class CheckWorker:
         return checks
 
     def close(self) -> None:
-        if self._process is None:
+        """Stop the worker: it reads `_Stop`, or the end of its pipe (a hosted worker's host also
+        ends it as it ends)."""
+        if self._requests is None:
             return
+        if self._waker is not None:
+            self._waker.close()
         with self._wanted:
             self._latest = _Stop()
             self._wanted.notify()
-        self._process.join(timeout=2.0)
-        if self._process.is_alive():
-            self._process.terminate()
+        if self._process is not None:
             self._process.join(timeout=2.0)
-        self._requests.close()
+            if self._process.is_alive():
+                self._process.terminate()
+                self._process.join(timeout=2.0)
+        self._sender.join(timeout=2.0)
+        if not self._sender.is_alive():  # closed under a send, its descriptor could be reused
+            self._requests.close()
         self._results.close()
 
 
@@ -260,11 +301,14 @@ def _serve(requests, results, nice: int) -> None:
     a fold-free map is abandoned at its next step once a newer request waits."""
     import os
 
+    from app.viewer.precompute import freeze_after_loading
+
     if nice and hasattr(os, "nice"):
         try:
             os.nice(nice)
         except OSError:
             pass
+    freeze_after_loading("core")
 
     def abandon_if_superseded(share: float) -> None:
         if requests.poll():  # a fold-free map of a strong drag can take a minute: not for a stale target
@@ -354,7 +398,8 @@ class CheckUpdates:
 
     @property
     def pending(self) -> bool:
-        """A check was asked for and has not been applied (the loop then wakes often)."""
+        """A check was asked for and has not been applied (its result wakes the loop:
+        `CheckWorker.wake_on_message`)."""
         return self.submitted is not None
 
 

@@ -4,7 +4,9 @@ Meshing the cage and computing G (V x n) take seconds, and on the very first run
 numba compiles the solver first (tens of seconds, its own progress phase, see
 `core.newton.compilation`).  Compiling holds the GIL, so in a thread it would stall the
 viewer's frames; a separate process (started with ``spawn``, at lowered priority)
-keeps the UI responsive and still gets the otherwise idle cores.  The protocol is two pipes:
+keeps the UI responsive and still gets the otherwise idle cores.  Once it has loaded `core` it
+forks the fold-free check's worker (`app.viewer.fold_free`), which so loads nothing itself.
+The protocol is two pipes:
 
 - requests go to the worker; a newer request supersedes (cancels) the one running,
   checked whenever the kernel reports progress;
@@ -25,14 +27,17 @@ import json
 import multiprocessing
 import multiprocessing.connection
 import os
-import threading
+import signal
+import sys
 import time
+import traceback
 from collections import OrderedDict
 from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 
+from app.viewer.message_waker import MessageWaker
 from app.viewer.state import BasisResult, PreviewMesh, Snapshot
 
 #: Results kept in memory for undo and redo.
@@ -247,9 +252,14 @@ class Precompute:
         default kernel (poisson, not compiled) is on screen: the first switch to a
         Newton kernel then loads it instead of compiling for ~15 s.  Once cached,
         it only loads and ends.
+    companion : (callable, tuple), optional
+        A process the worker forks once it has loaded `core` (target and arguments:
+        `app.viewer.fold_free.CheckWorker.hosted`), so that it does not load `core` again; the
+        worker ends it as it ends.  The arguments' pipe ends are closed here once the worker has
+        its own.
     """
 
-    def __init__(self, nice: int = 10, warm_up: bool = False):
+    def __init__(self, nice: int = 10, warm_up: bool = False, companion: tuple | None = None):
         context = multiprocessing.get_context("spawn")
         self._warm_up = None
         if warm_up:
@@ -262,37 +272,24 @@ class Precompute:
         self._results, result_writer = context.Pipe(duplex=False)
         self._process = context.Process(
             target=_serve,
-            args=(request_reader, result_writer, nice),
+            args=(request_reader, result_writer, nice, companion),
             name="transfinite-precompute",
             daemon=True,
         )
         self._process.start()
         request_reader.close()
         result_writer.close()
+        for argument in () if companion is None else companion[1]:
+            if isinstance(argument, multiprocessing.connection.Connection):
+                argument.close()
         self.pending: str | None = None  # key of the request running or queued
         self._memory: OrderedDict[str, BasisResult] = OrderedDict()
-        self._read = threading.Event()  # set by `poll`: the waker may wait for the next message
-        self._closing = threading.Event()
+        self._waker: MessageWaker | None = None
 
     def wake_on_message(self, wake: Callable[[], None]) -> None:
-        """Call `wake` from a thread whenever a message is waiting, so that a sleeping UI loop redraws.
-
-        After one call it waits until `poll` has read the messages, so a message
-        not yet read does not wake the loop again and again.
-        """
-
-        def watch() -> None:
-            while not self._closing.is_set():
-                try:
-                    ready = multiprocessing.connection.wait([self._results], timeout=0.5)
-                except (OSError, ValueError):
-                    return  # the pipe is closed
-                if ready and not self._closing.is_set():
-                    self._read.clear()
-                    wake()
-                    self._read.wait(0.5)
-
-        threading.Thread(target=watch, name="precompute-waker", daemon=True).start()
+        """Call `wake` from a thread whenever a message is waiting, so that a sleeping UI loop
+        redraws (`app.viewer.message_waker.MessageWaker`; `poll` reads the messages)."""
+        self._waker = MessageWaker(self._results, wake, "precompute-waker")
 
     def submit(self, request: Request) -> None:
         """Start computing `request`, superseding whatever runs."""
@@ -315,7 +312,8 @@ class Precompute:
     def poll(self) -> list[tuple]:
         """Messages that arrived, without waiting: progress, done (as `BasisResult`) and error."""
         messages = []
-        self._read.set()
+        if self._waker is not None:
+            self._waker.read()
         try:
             while self._results.poll():
                 message = self._results.recv()
@@ -339,7 +337,8 @@ class Precompute:
 
     def close(self) -> None:
         """Stop the worker (it abandons a running request at its next progress report)."""
-        self._closing.set()
+        if self._waker is not None:
+            self._waker.close()
         try:
             self._requests.send(None)
         except OSError:
@@ -368,6 +367,18 @@ def _lower_priority(nice: int) -> None:
             pass
 
 
+def freeze_after_loading(*modules: str) -> None:
+    """Load `modules` (what a worker computes with), then keep everything loaded out of the
+    garbage collector's full passes for good (`gc.freeze`): it lives as long as the process, and
+    the collections at its exit no longer walk it (~0.2-0.3 s of CPU a worker)."""
+    import gc
+    import importlib
+
+    for name in modules:
+        importlib.import_module(name)
+    gc.freeze()
+
+
 def _compile_in_background(nice: int) -> None:
     """The warm-up process: compile (or load) the solver and its gradients, then end."""
     _lower_priority(nice)
@@ -379,14 +390,47 @@ def _compile_in_background(nice: int) -> None:
         pass
 
 
-def _serve(requests, results, nice: int) -> None:
-    """The worker process: compute requests one at a time, newest first, until told to stop or
-    until the viewer is gone (closed, or killed: its ends of the pipes are closed)."""
+def _serve(requests, results, nice: int, companion: tuple | None = None) -> None:
+    """The worker process: fork the `companion` once `core` is loaded, then compute requests one
+    at a time, newest first, until told to stop or until the viewer is gone (closed, or killed:
+    its ends of the pipes are closed); then end the companion."""
     _lower_priority(nice)
+    freeze_after_loading("core", "app.warping")
+    # Forked here, not in the window's process: this one holds no GL context, X connection,
+    # session lock or thread of its own.
+    companion_pid = None if companion is None else _fork(*companion, unneeded=(requests, results))
     try:
         _serve_requests(requests, results)
     except (EOFError, BrokenPipeError, ConnectionResetError):
         return  # nobody left to answer: end quietly, not with a traceback
+    finally:
+        if companion_pid is not None:
+            os.kill(companion_pid, signal.SIGTERM)
+            os.waitpid(companion_pid, 0)
+
+
+def _fork(target: Callable, arguments: tuple, unneeded: tuple = ()) -> int:
+    """Run ``target(*arguments)`` in a child forked from this process; returns its pid.  This
+    process's copies of the pipe ends among `arguments` are closed, and the child's of the
+    connections `unneeded` (this process's own: their other ends see them closed when this
+    process ends, whatever the child does)."""
+    pid = os.fork()
+    if pid == 0:
+        code = 1
+        try:
+            for connection in unneeded:
+                connection.close()
+            target(*arguments)
+            code = 0
+        except BaseException:  # noqa: BLE001 - shown, as multiprocessing shows a worker's
+            traceback.print_exc()
+        finally:
+            sys.stderr.flush()
+            os._exit(code)
+    for argument in arguments:
+        if isinstance(argument, multiprocessing.connection.Connection):
+            argument.close()
+    return pid
 
 
 def _serve_requests(requests, results) -> None:
@@ -400,6 +444,16 @@ def _serve_requests(requests, results) -> None:
             request = requests.recv()
         if request is None:
             return
+        if request.gradients and not compiled_layer:
+            # grad G takes the default kernel's compiled loops (numba's cache read once, ~0.25 s of
+            # CPU, never compiling): 0.17 s instead of 0.23 s at the default mesh.  A basis alone
+            # gains nothing measurable there, and core reads the cache by itself once a process
+            # has evaluated enough points (`core.boundary_integrals.compiled_integrals`).
+            compiled_layer = True
+            try:
+                load_compiled()
+            except Exception:  # noqa: BLE001 - only a speed-up: the numpy path stays correct
+                pass
         last = [0.0]
 
         def progress(fraction: float, phase: str, request=request, last=last) -> None:
@@ -425,11 +479,3 @@ def _serve_requests(requests, results) -> None:
             waiting.append(requests.recv())
             continue
         results.send(("done", request.key, payload))
-        if not compiled_layer and not requests.poll():
-            # Idle after the first result: read the default kernel's compiled loops now (~0.3 s,
-            # never compiling), so that every later basis and its gradients take them.
-            compiled_layer = True
-            try:
-                load_compiled()
-            except Exception:  # noqa: BLE001 - only a speed-up: the numpy path stays correct
-                pass

@@ -17,6 +17,7 @@ that drive the real window, and does not wait for vertical sync.
 
 from __future__ import annotations
 
+import gc
 import os
 import signal
 import sys
@@ -47,7 +48,8 @@ VIEW_SAVE_DELAY = 0.5
 #: (a dense mesh is drawn through its preview mesh meanwhile); below VIEW_SAVE_DELAY, so the
 #: frames drawn while the zoom or pan waits to be saved show the dense mesh again.
 VIEW_SETTLE = 0.25
-#: Seconds an idle viewer sleeps between frames (input, and the precompute's messages, wake it).
+#: Seconds an idle viewer sleeps between frames (input, and the workers' messages, wake it:
+#: `app.viewer.message_waker`).
 IDLE_WAIT = 2.0
 
 
@@ -82,12 +84,13 @@ class Viewer:
         self.options = options
         self.milestones = Milestones(os.environ.get(TEST_VARIABLE) == "1")
         announce = self.milestones.announce
-        # The worker starts first: its imports overlap with the window's creation.  The Newton
-        # solver compiles in the background meanwhile (the default kernel needs none).
-        precompute = Precompute(warm_up=not self.milestones.test_mode)
-        self.basis = BasisUpdates(precompute, options.max_edge, options.vertices, announce)
-        # The injectivity check and fold-free map of the live target, in a process of their own.
+        # The workers start first: their imports overlap with the window's creation.  The
+        # injectivity check and fold-free map of the live target run in a process of their own
+        # that the precompute worker forks once it has loaded core.  The Newton solver compiles
+        # in the background meanwhile (the default kernel needs none).
         self.checks = CheckUpdates(CheckWorker(), announce)
+        precompute = Precompute(warm_up=not self.milestones.test_mode, companion=self.checks.worker.hosted())
+        self.basis = BasisUpdates(precompute, options.max_edge, options.vertices, announce)
         self.state = AppState.opened(History(document.snapshot), document.image, document.session_path)
         self.state.screen.window_size = options.size or WINDOW_SIZE
         self.opened: OpenedDocument | None = None  # the session file's lock, view and start cage
@@ -118,20 +121,25 @@ class Viewer:
                     self.state.playback.loop = True
                     self.state.playback.time = 0.0
                     self.command("playback")
+                self._frame()  # the first frame loads the last of the modules the frames use
+                # What is loaded now lives as long as the program: kept out of the garbage
+                # collector's full passes, the frames' collections and the exit skip it (the
+                # collections at exit took ~0.3 s of CPU).
+                gc.freeze()
                 while not self.state.status.quit:
                     self._frame()
             finally:
                 self._close_window()
         finally:
             signal.signal(signal.SIGTERM, previous)
+            self.checks.worker.close()  # first: the precompute worker ends it as it ends itself
             self.basis.precompute.close()
-            self.checks.worker.close()
         if self.options.stats:
             print(self.milestones.statistics(self.state), flush=True)
         return 0
 
     def _open_window(self) -> None:
-        import glfw  # before imgui_bundle, so that the standard glfw module is the one used
+        glfw = _initialised_glfw()  # before imgui_bundle, so that the standard glfw module is the one used
         import moderngl
         from imgui_bundle import imgui
 
@@ -139,10 +147,6 @@ class Viewer:
         from app.viewer.gui_renderer import GuiRenderer
         from app.viewer.scene import Scene
 
-        if not glfw.init():
-            raise _environment_error(
-                f"cannot initialise glfw (is there a display? DISPLAY is {os.environ.get('DISPLAY')!r})"
-            )
         glfw.window_hint(glfw.CONTEXT_VERSION_MAJOR, 3)
         glfw.window_hint(glfw.CONTEXT_VERSION_MINOR, 3)
         glfw.window_hint(glfw.OPENGL_PROFILE, glfw.OPENGL_CORE_PROFILE)
@@ -168,6 +172,7 @@ class Viewer:
         self.imgui_renderer = GuiRenderer(window, self.ctx)
         self.input.chain_callbacks(glfw, window, imgui.get_io(), self.state)
         self.basis.precompute.wake_on_message(glfw.post_empty_event)
+        self.checks.worker.wake_on_message(glfw.post_empty_event)
         self.scene = self.exporter.scene = Scene(WarpRenderer(self.ctx))
         glfw.focus_window(window)
         self.state.screen.window_size = glfw.get_window_size(window)
@@ -380,12 +385,13 @@ class Viewer:
             state.status.quit = True
 
     def _wait_for_input(self, glfw, imgui) -> None:
-        """Input wakes the loop at once; without input, draw only as often as something changes on
-        its own, so that an idle or waiting viewer leaves the CPU to the precompute (the worker
-        runs at lower priority and gets what the UI leaves).  Playback held until its basis is
-        drawn (`PlaybackClock.tick`) waits too: drawing the same frame again and again on a
-        software renderer took the cores the precompute needed (the starfish demo's --play:
-        basis 12.5 s instead of 1.6 s)."""
+        """Input wakes the loop at once, and so do the workers' messages (the precompute's progress
+        and basis, a check's progress and result: `app.viewer.message_waker`); otherwise, draw
+        only as often as something changes on its own, so that an idle or waiting viewer leaves
+        the CPU to the workers (they run at lower priority and get what the UI leaves).  Playback
+        held until its basis is drawn (`PlaybackClock.tick`) waits too: drawing the same frame
+        again and again on a software renderer took the cores the precompute needed (the
+        starfish demo's --play: basis 12.5 s instead of 1.6 s)."""
         playing = self.state.playback.playing and self._playback_ready()
         if self.script.moving or playing or self.exporter.animation:
             glfw.poll_events()  # a replay, playback or an export animates every frame
@@ -394,10 +400,10 @@ class Viewer:
         elif self.input.events or self.input.frames_to_draw > 0:
             glfw.poll_events()
             self.input.frames_to_draw -= 1
-        elif self.state.playback.playing or self.basis.precompute.pending is not None:
-            glfw.wait_events_timeout(0.1)  # the progress bar; playback waiting for its basis
-        elif self.script.playing or self.checks.pending:
-            glfw.wait_events_timeout(0.1)  # a check on its way
+        elif self.state.playback.playing:
+            glfw.wait_events_timeout(0.1)  # playback waiting for its basis
+        elif self.script.playing:
+            glfw.wait_events_timeout(0.1)  # a script waiting for its basis
         elif self.state.selection.drag is not None:
             glfw.wait_events_timeout(0.1)  # a drag that pauses gets its check (`app.viewer.fold_free`)
         elif self.state.display.viewport_dirty or self.dialogs.waiting:
@@ -461,6 +467,18 @@ class Viewer:
         return f"Transfinite warp - {Path(self.state.document.live.image).name}"
 
 
+def _initialised_glfw():
+    """The glfw module, initialised (a second call returns at once); an environment error
+    without a display."""
+    import glfw
+
+    if not glfw.init():
+        raise _environment_error(
+            f"cannot initialise glfw (is there a display? DISPLAY is {os.environ.get('DISPLAY')!r})"
+        )
+    return glfw
+
+
 def _environment_error(message: str) -> Exception:
     from app.render import ContextUnavailableError
 
@@ -469,4 +487,5 @@ def _environment_error(message: str) -> Exception:
 
 def run(document: OpenedDocument, options: Options) -> int:
     """Open the viewer on `document`; returns the exit code when it is closed."""
+    _initialised_glfw()  # without a display, say so before the workers start (~1.5 s of CPU)
     return Viewer(document, options).run()
