@@ -49,7 +49,8 @@ def run(command: list, timeout: float, **kwargs) -> subprocess.CompletedProcess:
 def venv(tmp_path_factory) -> Path:
     """A fresh venv with the wheel and its dependencies installed; the wheel's source is gone."""
     work = tmp_path_factory.mktemp("wheel")
-    run([sys.executable, "-m", "venv", work / "venv"], 300)
+    # Without a pip of its own (ensurepip: ~4 CPU-s): this environment's pip installs into it.
+    run([sys.executable, "-m", "venv", "--without-pip", work / "venv"], 300)
     python = work / "venv" / "bin" / "python"
     # The dependencies (pyproject.toml's list, which the wheel's metadata repeats) download and
     # install from the package index while the wheel builds; the wheel's own install below then
@@ -57,7 +58,7 @@ def venv(tmp_path_factory) -> Path:
     # dependencies (OpenGL, scipy, ...) is CPU that the suite beside this check needs; the commands
     # below compile what they import, as usual.
     dependencies = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["dependencies"]
-    install = [python, "-m", "pip", "install", "--quiet", "--no-compile"]
+    install = [sys.executable, "-m", "pip", "--python", python, "install", "--quiet", "--no-compile"]
     log = work / "dependencies.log"
     with open(log, "w") as stream:
         installing = subprocess.Popen(
