@@ -156,6 +156,14 @@ def _quadrants(targets, members, centre):
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _set_row(table, at, values):
+    """table[at] = values (a tuple) element by element: numba compiles a tuple assigned to an
+    array's row as an array, with a shape check and its formatted message (~3 CPU-s)."""
+    for i in range(len(values)):
+        table[at, i] = values[i]
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
 def _box_side(p, centre, radius, node_z, centres, reach, close_squared):
     """Whether panel p is `FAR` from every target within `radius` of `centre`, `NEAR` every one
     (by `layer_rows`'s test: within `reach` of its centre and within its close range of a node),
@@ -344,7 +352,7 @@ def layer_rows(targets, tree, power, imaginary, out):
         for i in range(tree.panel_start[1]):
             lists[i] = i
         boxes = np.empty((4 * SPLITS + 1, 5), dtype=np.int64)  # first, last, start, count, depth
-        boxes[0] = (0, members.shape[0], 0, tree.panel_start[1], 0)
+        _set_row(boxes, 0, (0, members.shape[0], 0, tree.panel_start[1], 0))
         pending, used = 1, tree.panel_start[1]
         while pending > 0:
             pending -= 1
@@ -377,7 +385,7 @@ def layer_rows(targets, tree, power, imaginary, out):
                 for i in range(mixed_count):
                     lists[used + i] = mixed[i]
                 for a, z in _quadrants(targets, box, centre):
-                    boxes[pending] = (first + a, first + z, used, mixed_count, depth + 1)
+                    _set_row(boxes, pending, (first + a, first + z, used, mixed_count, depth + 1))
                     pending += 1
                 used += mixed_count
                 continue
