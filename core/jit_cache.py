@@ -138,6 +138,8 @@ class _PackageLocator(_CacheLocator):
 
     def __init__(self, inner: _CacheLocator):
         self._inner = inner
+        # numba's warning that a function cannot be cached (it uses dynamic globals) names the file.
+        self._py_file = inner._py_file
 
     def ensure_cache_path(self):
         self._inner.ensure_cache_path()

@@ -8,6 +8,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -171,3 +172,22 @@ def test_the_cache_stamp_covers_the_modules_compiled_code_reads_constants_from(t
         changed[name] = jit_cache.package_stamp() != before
     jit_cache.package_stamp.cache_clear()
     assert changed == {name: name in stamped for name in changed}
+
+
+def test_a_function_that_cannot_be_cached_gets_numbas_warning_not_an_error():
+    # numba warns "Cannot cache compiled function ... as it uses dynamic globals" (ctypes
+    # pointers, large global arrays: at NUMBA_OPT=0 a compile of the boundary integrals met one)
+    # with the file its cache locator names: without it, the compilation failed.
+    from types import SimpleNamespace
+
+    from numba.core.errors import NumbaWarning
+
+    from core.curves.crossing_slabs import inside_polygon
+
+    result = SimpleNamespace(
+        lifted=(),
+        library=SimpleNamespace(has_dynamic_globals=True),
+        fndesc=SimpleNamespace(qualname="inside_polygon"),
+    )
+    with pytest.warns(NumbaWarning, match="Cannot cache compiled function .inside_polygon."):
+        assert inside_polygon._cache._impl.check_cachable(result) is False
