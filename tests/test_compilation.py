@@ -8,6 +8,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -107,32 +108,41 @@ def test_without_a_writable_cache_folder_the_solver_compiles_uncached_with_one_n
     assert len(lines) == 1 and lines[0].startswith("note: numba cannot write its cache"), result.stderr
 
 
+# Two compiled functions in two modules of a copy of `core`, the caller's machine code carrying the
+# callee's: the same cache locator and stamp (`core.jit_cache`) as every compiled function of the
+# package (`core.curves.closest_point._distances` calling `closest_parameter`, say), compiled in a
+# fraction of a second instead of the seconds those take.
+_CALLEE = "from numba import njit\n\n\n@njit(cache=True)\ndef step(x):\n    return x + 1.0\n"
+_CALLER = (
+    "from numba import njit\n\nfrom core.probe_callee import step\n\n\n"
+    "@njit(cache=True)\ndef twice(x):\n    return step(step(x))\n"
+)
+
+
 def test_an_edit_of_a_callee_module_recompiles_its_callers_in_other_modules(tmp_path):
-    # closest_point._distances calls closest_parameter.closest_parameter and carries its machine code:
-    # numba alone would check only closest_point.py and keep running the old callee.
+    # probe_caller.twice calls probe_callee.step and carries its machine code: numba alone would
+    # check only probe_caller.py and keep running the old callee.
     shutil.copytree(ROOT / "core", tmp_path / "core", ignore=shutil.ignore_patterns("__pycache__"))
+    (tmp_path / "core" / "probe_callee.py").write_text(_CALLEE)
+    (tmp_path / "core" / "probe_caller.py").write_text(_CALLER)
     environment = dict(os.environ, PYTHONPATH=str(tmp_path), NUMBA_CACHE_DIR=str(tmp_path / "cache"))
     child = (
-        "import numpy as np, core\n"
-        "from core.curves import closest_point\n"
-        "curve = core.ClosedBSpline([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])\n"
-        "closest_point.distance_to_curve(curve.piecewise_polynomial(), np.array([[0.5, 0.5]]))\n"
-        "print(closest_point._distances.stats.cache_hits.total(), "
-        "closest_point._distances.stats.cache_misses.total())\n"
+        "from core.probe_caller import twice\n"
+        "print(twice(0.0), twice.stats.cache_hits.total(), twice.stats.cache_misses.total())\n"
     )
 
-    def hits_and_misses() -> list[int]:
+    def value_hits_and_misses() -> list[float]:
         result = subprocess.run(
             [sys.executable, "-c", child], capture_output=True, text=True, env=environment, cwd=tmp_path
         )
         assert result.returncode == 0, result.stderr
-        return [int(word) for word in result.stdout.split()]
+        return [float(word) for word in result.stdout.split()]
 
-    assert hits_and_misses() == [0, 1]  # compiled
-    assert hits_and_misses() == [1, 0]  # loaded
-    with open(tmp_path / "core" / "curves" / "closest_parameter.py", "a") as solver_source:
-        solver_source.write("\n# an edit of the callee's module\n")
-    assert hits_and_misses() == [0, 1]  # compiled again, although closest_point.py is unchanged
+    assert value_hits_and_misses() == [2.0, 0, 1]  # compiled
+    assert value_hits_and_misses() == [2.0, 1, 0]  # loaded
+    callee = tmp_path / "core" / "probe_callee.py"
+    callee.write_text(callee.read_text().replace("x + 1.0", "x + 2.0"))
+    assert value_hits_and_misses() == [4.0, 0, 1]  # compiled again, although probe_caller.py is unchanged
 
 
 def test_the_cache_stamp_covers_the_modules_compiled_code_reads_constants_from(tmp_path, monkeypatch):
@@ -162,3 +172,22 @@ def test_the_cache_stamp_covers_the_modules_compiled_code_reads_constants_from(t
         changed[name] = jit_cache.package_stamp() != before
     jit_cache.package_stamp.cache_clear()
     assert changed == {name: name in stamped for name in changed}
+
+
+def test_a_function_that_cannot_be_cached_gets_numbas_warning_not_an_error():
+    # numba warns "Cannot cache compiled function ... as it uses dynamic globals" (ctypes
+    # pointers, large global arrays: at NUMBA_OPT=0 a compile of the boundary integrals met one)
+    # with the file its cache locator names: without it, the compilation failed.
+    from types import SimpleNamespace
+
+    from numba.core.errors import NumbaWarning
+
+    from core.curves.crossing_slabs import inside_polygon
+
+    result = SimpleNamespace(
+        lifted=(),
+        library=SimpleNamespace(has_dynamic_globals=True),
+        fndesc=SimpleNamespace(qualname="inside_polygon"),
+    )
+    with pytest.warns(NumbaWarning, match="Cannot cache compiled function .inside_polygon."):
+        assert inside_polygon._cache._impl.check_cachable(result) is False

@@ -29,7 +29,9 @@ They are compiled by numba, which the package's build does at install
 where their machine code is in memory or in numba's cache (`loaded`), and their numpy path
 otherwise, so that the
 default kernel never waits for a compiler; and it reads the cache only once the work
-repays the reading.
+repays the reading. Arrays are copied into slices by loops, not by slice assignment, here and
+in `compiled_tree`: numba compiles a shape check with a formatted message into every slice
+assignment from an array (~0.3-0.7 CPU-s of compiling each, ~4 for the first of a process).
 """
 
 from __future__ import annotations
@@ -42,7 +44,9 @@ import numpy as np
 from numba import njit, prange
 from numba.core.compiler_lock import global_compiler_lock
 
+from core.boundary_integrals.dense_solve import solve
 from core.boundary_integrals.gauss_legendre import LEGENDRE_VALUES, LEGENDRE_WEIGHTS, NODES, ORDER, WEIGHTS
+from core.jit_cache import PRANGE_ONLY
 
 #: How `cauchy_integrals` chooses: "auto" (compiled where loaded, `loaded`), "numpy", or "compiled"
 #: (compile on first use if need be: tests and `core.newton.compilation.compile_all`).
@@ -481,7 +485,7 @@ def _layer_entry(x, y, own, u, k, nodes):
     return (factors[k].real * dx + factors[k].imag * dy) / (dx * dx + dy * dy)
 
 
-@njit(cache=True, parallel=True, error_model="numpy")
+@njit(cache=True, parallel=PRANGE_ONLY, error_model="numpy")
 def layer_matrix_rows(targets, target_span, target_u, nodes):
     """The double layer's Re C-weights of `poisson.layer_matrix`, shape (M, N), for targets z
     complex (M,) on the curve and nodes τ complex (N,) with their quadrature weights (N,).
@@ -519,7 +523,7 @@ class KnotBlocks(NamedTuple):
     orientation: float  #: +1 counter-clockwise, -1 clockwise
 
 
-@njit(cache=True, parallel=True, error_model="numpy")
+@njit(cache=True, parallel=PRANGE_ONLY, error_model="numpy")
 def knot_blocks(fine, panels, start, interpolation, offsets, row_weights, column_weights, sequence):
     """The compressed knot blocks of `core.boundary_integrals.poisson`, a block a thread at a time.
 
@@ -558,12 +562,17 @@ def knot_blocks(fine, panels, start, interpolation, offsets, row_weights, column
             for j in range(count):
                 matrix[i, j] *= 2.0
             matrix[i, i] += 1.0
-        block = np.linalg.solve(matrix, prolongation)
-        solution[first : first + count] = block
+        block = solve(matrix, prolongation)  # np.linalg.solve's LAPACK routine, cheaper to compile
+        for i in range(count):
+            for c in range(width):
+                solution[first + i, c] = block[i, c]
         for i in range(count):
             for c in range(width):
                 prolongation[i, c] *= row_weights[first + i] / column_weights[b, c]
-        reduced[b] = np.dot(prolongation.T.copy(), block)
+        product = np.dot(prolongation.T.copy(), block)
+        for i in range(width):
+            for c in range(width):
+                reduced[b, i, c] = product[i, c]
     return solution, reduced
 
 
@@ -639,7 +648,7 @@ def _smooth_on_own_span(fine, t, p):
     return abs(pole - min(max(pole.real, low), high)) >= high - low
 
 
-@njit(cache=True, parallel=True, error_model="numpy")
+@njit(cache=True, parallel=PRANGE_ONLY, error_model="numpy")
 def coarse_system(nodes, node_block, block_columns, block_reduced, near_start, near_panel, out):
     """2 K°_c R of `poisson`'s coarse equation into out (N, N): `layer_matrix_rows`'s entries
     at the coarse nodes (arguments as there, targets the nodes themselves) times 2, with 0 in
@@ -680,7 +689,7 @@ def coarse_system(nodes, node_block, block_columns, block_reduced, near_start, n
     return out
 
 
-@njit(cache=True, parallel=True, error_model="numpy")
+@njit(cache=True, parallel=PRANGE_ONLY, error_model="numpy")
 def rows_product(matrix, x, runs, out):
     """out = matrix @ x, (K, m) for matrix (K, L) and x (L, m), C-ordered: in `runs` runs of rows
     (one a numba thread; its count an argument, as a function asking numba for it cannot be
@@ -690,11 +699,14 @@ def rows_product(matrix, x, runs, out):
     step = max(1, -(-rows // max(1, runs)))
     for first in prange(-(-rows // step)):
         low, high = first * step, min(rows, (first + 1) * step)
-        out[low:high] = np.dot(matrix[low:high], x)
+        product = np.dot(matrix[low:high], x)
+        for k in range(high - low):
+            for c in range(x.shape[1]):
+                out[low + k, c] = product[k, c]
     return out
 
 
-@njit(cache=True, parallel=True, error_model="numpy")
+@njit(cache=True, parallel=PRANGE_ONLY, error_model="numpy")
 def galerkin_matrix(matrix, restrict, prolong, out):
     """Ρ A Π of `two_grid` into out (P c, P c): for A (P ORDER, P ORDER) on P panels, Ρ
     (c, ORDER) on each panel's rows, then Π (ORDER, c) on each panel's columns; a row panel a
@@ -703,12 +715,14 @@ def galerkin_matrix(matrix, restrict, prolong, out):
     coarse = restrict.shape[0]
     for i in prange(panels):
         restricted = np.dot(restrict, matrix[i * ORDER : (i + 1) * ORDER])  # (c, P ORDER)
-        product = np.dot(restricted.reshape(coarse * panels, ORDER), prolong)  # (c P, c)
-        out[i * coarse : (i + 1) * coarse] = product.reshape(coarse, panels * coarse)
+        product = np.dot(restricted.reshape(coarse * panels, ORDER), prolong).reshape(coarse, panels * coarse)
+        for r in range(coarse):
+            for c in range(panels * coarse):
+                out[i * coarse + r, c] = product[r, c]
     return out
 
 
-@njit(cache=True, parallel=True, error_model="numpy")
+@njit(cache=True, parallel=PRANGE_ONLY, error_model="numpy")
 def adaptive_pairs(coefficients, bounds, targets, panel, power, touch):
     """`cauchy_integrals.adaptive_weights` for K pairs: weights complex (K, ORDER) and touching bool (K,).
 

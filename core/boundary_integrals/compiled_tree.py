@@ -13,6 +13,7 @@ from numba import njit, prange
 
 from core.boundary_integrals.compiled_integrals import near_weights
 from core.boundary_integrals.gauss_legendre import ORDER
+from core.jit_cache import PRANGE_ONLY
 
 
 class PanelTree(NamedTuple):
@@ -149,8 +150,17 @@ def _quadrants(targets, members, centre):
     for k in range(members.shape[0]):
         sorted_members[at[quadrant[k]]] = members[k]
         at[quadrant[k]] += 1
-    members[:] = sorted_members
+    for k in range(members.shape[0]):
+        members[k] = sorted_members[k]
     return [(counts[i], counts[i + 1]) for i in range(4) if counts[i + 1] > counts[i]]
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _set_row(table, at, values):
+    """table[at] = values (a tuple) element by element: numba compiles a tuple assigned to an
+    array's row as an array, with a shape check and its formatted message (~3 CPU-s)."""
+    for i in range(len(values)):
+        table[at, i] = values[i]
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
@@ -267,7 +277,8 @@ def _add_far(targets, members, tree, far, power, imaginary, out, out_imaginary):
             q, at = far[i] * ORDER + j, i * ORDER + j
             x[at], y[at] = node_z[q].real, node_z[q].imag
             fx[at], fy[at] = factors[q].real, factors[q].imag
-            gathered[at] = density[q]
+            for c in range(columns):
+                gathered[at, c] = density[q, c]
     rule = np.empty((size, nodes))
     rule_imaginary = np.empty((size if imaginary else 0, nodes))
     for k in range(size):
@@ -297,7 +308,7 @@ def _add_far(targets, members, tree, far, power, imaginary, out, out_imaginary):
                 out_imaginary[members[k], c] += product[k, c]
 
 
-@njit(cache=True, parallel=True, error_model="numpy")
+@njit(cache=True, parallel=PRANGE_ONLY, error_model="numpy")
 def layer_rows(targets, tree, power, imaginary, out):
     """C[φ](z) (power 1), or its z-derivative (power 2), at targets complex (M,), over the panels
     of `tree` (a `PanelTree`).
@@ -338,9 +349,10 @@ def layer_rows(targets, tree, power, imaginary, out):
         mixed = np.empty(total, dtype=np.int64)
         # Boxes to do, depth first: members[first:last], their panels lists[start:start + count].
         lists = np.empty(SPLITS * total, dtype=np.int64)
-        lists[: tree.panel_start[1]] = np.arange(tree.panel_start[1])
+        for i in range(tree.panel_start[1]):
+            lists[i] = i
         boxes = np.empty((4 * SPLITS + 1, 5), dtype=np.int64)  # first, last, start, count, depth
-        boxes[0] = (0, members.shape[0], 0, tree.panel_start[1], 0)
+        _set_row(boxes, 0, (0, members.shape[0], 0, tree.panel_start[1], 0))
         pending, used = 1, tree.panel_start[1]
         while pending > 0:
             pending -= 1
@@ -370,9 +382,10 @@ def layer_rows(targets, tree, power, imaginary, out):
             if mixed_count == 0:
                 continue
             if box.shape[0] > LEAF and depth < SPLITS - 1 and used + mixed_count <= lists.shape[0]:
-                lists[used : used + mixed_count] = mixed[:mixed_count]
+                for i in range(mixed_count):
+                    lists[used + i] = mixed[i]
                 for a, z in _quadrants(targets, box, centre):
-                    boxes[pending] = (first + a, first + z, used, mixed_count, depth + 1)
+                    _set_row(boxes, pending, (first + a, first + z, used, mixed_count, depth + 1))
                     pending += 1
                 used += mixed_count
                 continue

@@ -14,12 +14,13 @@ from numba import njit, prange
 
 from core.curves.boundary import PiecewisePolynomial
 from core.curves.closest_parameter import closest_parameter
+from core.jit_cache import PRANGE_ONLY
 
 # Direction (radians) of the rays of the crossing test, deliberately not a round angle.
 RAY_ANGLE = 0.6180339887498949
 
 
-@njit(cache=True, parallel=True, error_model="numpy")
+@njit(cache=True, parallel=PRANGE_ONLY, error_model="numpy")
 def _winding(coefficients, points, out):
     pieces = coefficients.shape[0]
     for m in prange(points.shape[0]):
@@ -83,7 +84,7 @@ def winding_numbers(curve: PiecewisePolynomial, points: np.ndarray) -> np.ndarra
     return out
 
 
-@njit(cache=True, parallel=True, error_model="numpy")
+@njit(cache=True, parallel=PRANGE_ONLY, error_model="numpy")
 def _distances(coefficients, piece_length, points, out_t, out_d):
     pieces = coefficients.shape[0]
     for m in prange(points.shape[0]):

@@ -42,6 +42,7 @@ import numpy as np
 from numba import njit, prange
 
 from core.curves.bspline import ClosedBSpline
+from core.jit_cache import PRANGE_ONLY
 from core.validation import as_points, positive_int
 
 # Points per compiled call: paces the progress callback.
@@ -174,7 +175,7 @@ def _span_roots(s0, s1, s2, roots):
     return 2
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=True, parallel=PRANGE_ONLY)
 def _pgw_rows(control, points, directions, snap, out, outside):
     """Fill out (M, n) with PGW basis rows; flag points outside the curve."""
     n = control.shape[0]

@@ -117,13 +117,14 @@ def compile_solver(progress: Callable[[float], None] | None = None, gradients: b
 
 def compile_all() -> None:
     """Compile every compiled function of `core` into numba's disk cache: the boundary integrals
-    and the curve tests (`compile_integrals`) in a child process, and meanwhile the meshes' loops
-    (`compile_meshes`) and the solver with its gradients (`compile_solver`) in this one.
+    and the curve tests (`compile_integrals`) and the positive Gordon-Wixom rows (`compile_pgw`)
+    in a child process, and meanwhile the mesher (`compile_mesher`) and the solver with its
+    gradients (`compile_solver`) in this one.
 
     The package's build runs it (``.packaging/backend.py``), so that an installed
     package starts every kernel from the cache.  The two halves share no compiled function's
     work that matters (a few small curve tests, which either writes to the cache whole) and cost
-    about the same (~50 s of one core each), so on two cores they take half the time.
+    ~45 and ~50 s of one core, so on two cores they take about half the time.
 
     Raises
     ------
@@ -134,16 +135,22 @@ def compile_all() -> None:
     environment = dict(os.environ)
     environment["PYTHONPATH"] = os.pathsep.join(filter(None, [package_root, environment.get("PYTHONPATH")]))
     child = subprocess.Popen(
-        [sys.executable, "-c", "from core.newton.compilation import compile_integrals; compile_integrals()"],
+        [
+            sys.executable,
+            "-c",
+            "from core.newton import compilation; compilation.compile_integrals(); compilation.compile_pgw()",
+        ],
         env=environment,
     )
     try:
-        compile_meshes()
+        compile_mesher()
         compile_solver(gradients=True)
     finally:
         returned = child.wait()
     if returned != 0:
-        raise RuntimeError(f"compiling the boundary integrals failed (exit status {returned})")
+        raise RuntimeError(
+            f"compiling the boundary integrals and the Gordon-Wixom rows failed (exit status {returned})"
+        )
 
 
 def compile_integrals() -> None:
@@ -167,17 +174,20 @@ def compile_integrals() -> None:
         compiled_integrals.mode = mode
 
 
-def compile_meshes() -> None:
-    """Compile (or load) the loops of `core.meshes`: the positive Gordon-Wixom rows
-    (`core.meshes.pgw`) and the mesher's parts (`core.meshes.delaunay`, `band_regions`,
-    `point_grid` and the rest: one `core.triangulate` of the starfish, whose arms make every
-    part run)."""
-    from core.curves import examples
-    from core.curves.bspline import ClosedBSpline
+def compile_pgw() -> None:
+    """Compile (or load) the positive Gordon-Wixom rows (`core.meshes.pgw`)."""
     from core.meshes.pgw import pgw_basis
-    from core.meshes.triangulation import triangulate
 
     pgw_basis(_square(), np.array([[0.5, 0.5]]))
+
+
+def compile_mesher() -> None:
+    """Compile (or load) the mesher's loops (`core.meshes.delaunay`, `band_regions`, `point_grid`
+    and the rest: one `core.triangulate` of the starfish, whose arms make every part run)."""
+    from core.curves import examples
+    from core.curves.bspline import ClosedBSpline
+    from core.meshes.triangulation import triangulate
+
     triangulate(ClosedBSpline(examples.starfish()))
 
 
