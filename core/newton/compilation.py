@@ -124,7 +124,7 @@ def compile_all() -> None:
     The package's build runs it (``.packaging/backend.py``), so that an installed
     package starts every kernel from the cache.  The two halves share no compiled function's
     work that matters (a few small curve tests, which either writes to the cache whole) and cost
-    ~45 and ~50 s of one core, so on two cores they take about half the time.
+    ~40 and ~43 s of one core, so on two cores they take about half the time.
 
     Raises
     ------
