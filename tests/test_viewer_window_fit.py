@@ -72,7 +72,10 @@ def open_viewer(display: str, state: Path, folder: Path) -> tuple[ViewerProcess,
 
 
 def quit_viewer(viewer: ViewerProcess, display: str, window: str) -> None:
-    xdotool(display, "key", "--window", window, "ctrl+q")
+    # Presses only: the viewer quits on the press of q, and a release sent to the window it has
+    # just destroyed fails in xdotool with BadWindow (a race the idle viewer, woken at once by the
+    # event, lost more often than not).
+    xdotool(display, "keydown", "--window", window, "ctrl+q")
     code, stderr = viewer.finish()
     assert code == 0, stderr
 
