@@ -655,3 +655,17 @@ def test_bad_photographs_are_one_line(folder, capfd, case):
     lines = [line for line in capfd.readouterr().err.strip().splitlines() if f"{folder / 'photo'}:" in line]
     assert len(lines) == 1 and re.search(pattern, lines[0]), lines
     assert (folder / "out.png").exists() == (code == 0)
+
+
+def test_the_viewer_without_a_display_is_one_line_and_leaves_no_worker(tmp_path):
+    # The viewer's workers start before the window (app.viewer.precompute.start_method): without a
+    # display they are ended before the error.  `run` collects the output until every process
+    # holding its pipes has ended, a worker left behind included.
+    environment = {k: v for k, v in os.environ.items() if k not in ("DISPLAY", "WAYLAND_DISPLAY")}
+    environment.update(TRANSFINITE_STATE_DIR=str(tmp_path / "state"), TRANSFINITE_CACHE_DIR=str(tmp_path))
+    command = ["view", str(ROOT / "assets/starfish.png"), "--cage", str(ROOT / "assets/starfish.cage.json")]
+    result = subprocess.run(
+        [sys.executable, "-m", "app", *command], capture_output=True, text=True, env=environment, timeout=60
+    )
+    assert result.returncode == 1, result.stderr
+    assert result.stderr.strip().count("\n") == 0 and "is there a display?" in result.stderr

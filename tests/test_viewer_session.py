@@ -443,6 +443,38 @@ def test_a_second_viewer_of_the_same_image_is_refused_until_the_first_is_gone(tm
     assert reopened.restored and reopened.lock is not None
 
 
+def test_a_process_forked_from_the_viewer_does_not_keep_its_session_locked(tmp_path):
+    # The precompute worker is forked from the viewer (app.viewer.precompute.start_method): its
+    # copy of the lock file must not keep the session locked once the viewer is gone.
+    import fcntl
+    import os
+    import time
+
+    from app.viewer.session_lock import lock_file_for
+
+    files = demo_files("starfish")
+    document = sessions.open_document(files.image, files.cage)
+    started, started_writer = os.pipe()
+    child = os.fork()
+    if child == 0:  # the fork handlers have run: say so, then live on as a worker would
+        os.write(started_writer, b"1")
+        time.sleep(30)
+        os._exit(0)
+    try:
+        assert os.read(started, 1) == b"1"
+        document.lock.release()
+        descriptor = os.open(lock_file_for(document.session_path), os.O_RDWR)
+        try:
+            fcntl.flock(descriptor, fcntl.LOCK_EX | fcntl.LOCK_NB)  # BlockingIOError if the child held it
+        finally:
+            os.close(descriptor)
+    finally:
+        os.kill(child, 9)
+        os.waitpid(child, 0)
+        os.close(started)
+        os.close(started_writer)
+
+
 def _dead_pid() -> int:
     import subprocess
     import sys

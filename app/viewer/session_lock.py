@@ -7,7 +7,9 @@ second viewer (another process) asking for the same session is refused with
 one line that names the first one's process and the way out (``--session FILE``
 for a separate copy).  The operating system drops the lock when the holder
 exits for any reason, ``kill -9`` included, so a crashed viewer never locks a
-session out.
+session out.  A process forked from the viewer (its precompute worker,
+`app.viewer.precompute`) closes its copies of the lock files at once: a copy would keep the lock
+held after the viewer itself is gone.
 
 Lock files live in the state directory (``locks/DIGEST.lock``, DIGEST from the
 session file's absolute path), never beside a user's own ``--session`` file.
@@ -44,6 +46,7 @@ class SessionLock:
 
     def __init__(self, session: Path, descriptor: int):
         self.session = session
+        self.descriptor = descriptor
         self._close = weakref.finalize(self, os.close, descriptor)
 
     def release(self) -> None:
@@ -54,6 +57,21 @@ class SessionLock:
 
 #: The locks this process holds, by the session file's absolute path.
 _held: weakref.WeakValueDictionary[str, SessionLock] = weakref.WeakValueDictionary()
+
+
+def _close_inherited() -> None:
+    """In a child just forked: close this process's copies of the lock files, without unlocking
+    (``flock`` belongs to the open file, which the parent still holds: an unlock here would
+    unlock the parent's too), and forget the locks, which are the parent's."""
+    for lock in list(_held.values()):
+        lock._close.detach()
+        with contextlib.suppress(OSError):
+            os.close(lock.descriptor)
+    _held.clear()
+
+
+if hasattr(os, "register_at_fork"):
+    os.register_at_fork(after_in_child=_close_inherited)
 
 
 def lock_file_for(session: Path) -> Path:

@@ -84,10 +84,10 @@ class Viewer:
         self.options = options
         self.milestones = Milestones(os.environ.get(TEST_VARIABLE) == "1")
         announce = self.milestones.announce
-        # The workers start first: their imports overlap with the window's creation.  The
-        # injectivity check and fold-free map of the live target run in a process of their own
-        # that the precompute worker forks once it has loaded core.  The Newton solver compiles
-        # in the background meanwhile (the default kernel needs none).
+        # The workers start first, before the window's X connection and GL context exist (see
+        # `app.viewer.precompute.start_method`).  The injectivity check and fold-free map of the
+        # live target run in a process that the precompute worker forks once it has loaded core.
+        # The Newton solver compiles in the background meanwhile (the default kernel needs none).
         self.checks = CheckUpdates(CheckWorker(), announce)
         precompute = Precompute(warm_up=not self.milestones.test_mode, companion=self.checks.worker.hosted())
         self.basis = BasisUpdates(precompute, options.max_edge, options.vertices, announce)
@@ -132,11 +132,15 @@ class Viewer:
                 self._close_window()
         finally:
             signal.signal(signal.SIGTERM, previous)
-            self.checks.worker.close()  # first: the precompute worker ends it as it ends itself
-            self.basis.precompute.close()
+            self.close_workers()
         if self.options.stats:
             print(self.milestones.statistics(self.state), flush=True)
         return 0
+
+    def close_workers(self) -> None:
+        """End the check worker and the precompute worker."""
+        self.checks.worker.close()  # first: the precompute worker ends it as it ends itself
+        self.basis.precompute.close()
 
     def _open_window(self) -> None:
         glfw = _initialised_glfw()  # before imgui_bundle, so that the standard glfw module is the one used
@@ -487,5 +491,10 @@ def _environment_error(message: str) -> Exception:
 
 def run(document: OpenedDocument, options: Options) -> int:
     """Open the viewer on `document`; returns the exit code when it is closed."""
-    _initialised_glfw()  # without a display, say so before the workers start (~1.5 s of CPU)
-    return Viewer(document, options).run()
+    viewer = Viewer(document, options)  # its workers start (forked: in milliseconds)
+    try:
+        _initialised_glfw()  # without a display, say so now
+    except Exception:
+        viewer.close_workers()
+        raise
+    return viewer.run()
