@@ -24,7 +24,15 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from viewer_harness import ViewerProcess, close_window, save_png, screenshot, start_xvfb, xdotool
+from viewer_harness import (
+    ViewerProcess,
+    close_window,
+    save_png,
+    screenshot,
+    start_xvfb,
+    wait_until_ended,
+    xdotool,
+)
 
 from app.files import read_image
 from app.viewer.editing import SAMPLES_PER_SPAN, curve_matrix
@@ -515,8 +523,14 @@ def test_a_drag_during_the_first_computation_survives_kill_9(display, environmen
         _, dragged, value = session_points(session)
         assert np.flatnonzero(np.any(dragged != target, axis=1)).tolist() == [0]
         assert value["kernel"] == kernel
+        deadline = time.monotonic() + 10  # the precompute worker, and the check worker it forks
+        while len(workers := viewer.descendants()) < 2 and time.monotonic() < deadline:
+            time.sleep(0.1)
+        assert len(workers) == 2, workers
     finally:
         viewer.kill()
+    # The workers see the viewer gone (their request pipes closed) and end, mid-computation too.
+    assert wait_until_ended(workers, 10) == []
 
     again = ViewerProcess(command, env, ROOT)
     try:

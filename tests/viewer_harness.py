@@ -244,7 +244,39 @@ class ViewerProcess:
             self.lines.append(line)
         return code, self.process.stderr.read()
 
+    def descendants(self) -> list[int]:
+        """The process ids of the viewer's workers and their children (Linux: /proc)."""
+        found, waiting = [], [self.process.pid]
+        while waiting:
+            pid = waiting.pop()
+            for task in Path(f"/proc/{pid}/task").glob("*"):
+                try:
+                    children = [int(child) for child in (task / "children").read_text().split()]
+                except OSError:
+                    continue
+                found += children
+                waiting += children
+        return found
+
     def kill(self) -> None:
         if self.process.poll() is None:
             self.process.kill()
             self.process.wait()
+
+
+def wait_until_ended(pids: list[int], timeout: float) -> list[int]:
+    """Wait up to `timeout` seconds for the processes `pids` (not this process's children) to end;
+    those still running then (zombies count as ended)."""
+    deadline = time.monotonic() + timeout
+    while True:
+        running = []
+        for pid in pids:
+            try:
+                state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+            except OSError:
+                continue
+            if state != "Z":
+                running.append(pid)
+        if not running or time.monotonic() > deadline:
+            return running
+        time.sleep(0.1)

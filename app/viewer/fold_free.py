@@ -23,6 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from app.viewer.message_waker import MessageWaker
+from app.viewer.parent_ends import keep_from_forks
 from app.viewer.state import AppState, BasisResult, WarpCheck
 
 #: Seconds a dragged handle must rest before the check of its target is asked for.
@@ -225,6 +226,7 @@ class CheckWorker:
         """Make the pipes and start the sender (and the waker); the worker's ends."""
         request_reader, self._requests = multiprocessing.Pipe(duplex=False)
         self._results, result_writer = multiprocessing.Pipe(duplex=False)
+        keep_from_forks(self._requests, self._results)
         self._sender = threading.Thread(target=self._send, name="check-sender", daemon=True)
         self._sender.start()
         if self._wake is not None:

@@ -41,6 +41,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from app.viewer.message_waker import MessageWaker
+from app.viewer.parent_ends import keep_from_forks
 from app.viewer.state import BasisResult, PreviewMesh, Snapshot
 
 #: Results kept in memory for undo and redo.
@@ -273,6 +274,7 @@ class Precompute:
         # Pipe(duplex=False) returns (receiving end, sending end).
         request_reader, self._requests = context.Pipe(duplex=False)
         self._results, result_writer = context.Pipe(duplex=False)
+        keep_from_forks(self._requests, self._results)
         self._process = context.Process(
             target=_serve,
             args=(request_reader, result_writer, nice, companion),
