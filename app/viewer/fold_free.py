@@ -223,12 +223,10 @@ class CheckWorker:
         result_writer.close()
 
     def _pipes(self) -> tuple:
-        """Make the pipes and start the sender (and the waker); the worker's ends."""
+        """Make the pipes (and start the waker); the worker's ends."""
         request_reader, self._requests = multiprocessing.Pipe(duplex=False)
         self._results, result_writer = multiprocessing.Pipe(duplex=False)
         keep_from_forks(self._requests, self._results)
-        self._sender = threading.Thread(target=self._send, name="check-sender", daemon=True)
-        self._sender.start()
         if self._wake is not None:
             self._waker = MessageWaker(self._results, self._wake, "check-waker")
         return request_reader, result_writer
@@ -251,8 +249,16 @@ class CheckWorker:
         """Ask for `request`, superseding any request not sent yet; never waits for the worker."""
         if self._requests is None:
             self._start()
+        self._hand_over(request)
+
+    def _hand_over(self, message) -> None:
+        """Make `message` the next the sender thread sends.  The thread starts with the first
+        message: the viewer forks its precompute worker before, from a process of one thread."""
+        if self._sender is None:
+            self._sender = threading.Thread(target=self._send, name="check-sender", daemon=True)
+            self._sender.start()
         with self._wanted:
-            self._latest = request
+            self._latest = message
             self._wanted.notify()
 
     def poll(self) -> list[WarpCheck | CheckProgress]:
@@ -276,9 +282,7 @@ class CheckWorker:
             return
         if self._waker is not None:
             self._waker.close()
-        with self._wanted:
-            self._latest = _Stop()
-            self._wanted.notify()
+        self._hand_over(_Stop())
         if self._process is not None:
             self._process.join(timeout=2.0)
             if self._process.is_alive():
