@@ -131,17 +131,20 @@ def test_the_installed_wheel_runs_its_commands_from_anywhere(venv, elsewhere):
     def command(*arguments, timeout=600):
         return run(arguments, timeout, cwd=folder, env=environment)
 
-    located = command(
-        "python", "-c", "import app, app.viewer, core; print(app.__file__); print(core.__file__)"
-    )
-    site_packages = next((venv / "lib").glob("python3*/site-packages"))
-    for path in located.stdout.split():
-        assert Path(path).is_relative_to(site_packages), f"imported {path}, not the installed wheel"
-    assert command("transfinite-warp", "--help").stdout.startswith("usage: transfinite-warp ")
     # The build compiled core into the wheel (.packaging/backend.py): the first use of the Newton
     # solver and its gradients loads them, with numba's user-wide cache empty (XDG_CACHE_HOME).
-    first_use = command("python", "-c", "import core; print(core.compile_solver(gradients=True))")
-    assert first_use.stdout.split() == ["False"], f"the installed wheel compiled:\n{first_use.stderr}"
+    first_use = command(
+        "python", "-c",
+        "import app, app.viewer, core; print(app.__file__); print(core.__file__); "
+        "print(core.compile_solver(gradients=True))",
+    )  # fmt: skip
+    *located, compiled = first_use.stdout.splitlines()
+    assert len(located) == 2, first_use.stdout
+    site_packages = next((venv / "lib").glob("python3*/site-packages"))
+    for path in located:
+        assert Path(path).is_relative_to(site_packages), f"imported {path}, not the installed wheel"
+    assert compiled == "False", f"the installed wheel compiled:\n{first_use.stderr}"
+    assert command("transfinite-warp", "--help").stdout.startswith("usage: transfinite-warp ")
     # The default kernel reads its compiled boundary integrals from numba's cache once a process
     # has evaluated LOAD_AFTER_POINTS points (compiled_integrals.loaded), never compiling them:
     # from the wheel they must be there, for the evaluation, the next density solve and what a
