@@ -171,3 +171,23 @@ def test_a_dense_mesh_gets_a_preview_mesh_that_draws_its_interpolant(cache, monk
     target = STAR + np.random.default_rng(4).normal(0.0, 5.0, STAR.shape)
     expected = interpolation_matrix(result.mesh, coarse.vertices[interior]) @ (result.basis @ target)
     np.testing.assert_allclose((preview.basis @ target)[interior], expected, atol=1e-9)
+
+
+def test_a_forked_child_closes_the_ends_kept_from_forks():
+    # A worker forked from the viewer must not hold the viewer's end of its request pipe, or it
+    # never sees the viewer gone (app.viewer.parent_ends).
+    import multiprocessing
+    import os
+
+    from app.viewer.parent_ends import keep_from_forks
+
+    reader, writer = multiprocessing.Pipe(duplex=False)
+    keep_from_forks(writer)
+    child = os.fork()
+    if child == 0:
+        os._exit(0 if writer.closed else 1)
+    _, status = os.waitpid(child, 0)
+    assert os.waitstatus_to_exitcode(status) == 0
+    assert not writer.closed  # this process's own stays open
+    writer.send("still here")
+    assert reader.recv() == "still here"

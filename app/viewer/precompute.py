@@ -32,6 +32,7 @@ import multiprocessing.connection
 import os
 import signal
 import sys
+import threading
 import time
 import traceback
 from collections import OrderedDict
@@ -360,17 +361,18 @@ class Precompute:
 
 
 def start_method() -> str:
-    """How the workers start: ``fork`` on Linux while numba's thread pool has not started in this
-    process, else ``spawn``.
+    """How the workers start: ``fork`` on Linux while this process runs one thread and numba's
+    thread pool has not started, else ``spawn``.
 
     A forked worker has what this process loaded (`core`, numpy, numba: ~0.6 s of CPU to load).
-    It must be forked before the window opens (it would hold the X connection) and before any
-    parallel loop: the pool's threads are not forked, and GNU OpenMP, numba's threading layer
-    where TBB is not installed, would wait for them at the child's first parallel loop.  Session
-    locks are closed in the child (`app.viewer.session_lock`).  macOS does not fork safely,
-    Windows not at all.
+    It must be forked before the window opens (it would hold the X connection), from one thread
+    and before any parallel loop: other threads are not forked, and whatever waits for them in the
+    child waits for ever (an idle thread pool's queue, as `core.kernels` solves in; GNU OpenMP,
+    numba's threading layer where TBB is not installed, at the child's first parallel loop).
+    Session locks are closed in the child (`app.viewer.session_lock`).  macOS does not fork
+    safely, Windows not at all.
     """
-    if not sys.platform.startswith("linux"):
+    if not sys.platform.startswith("linux") or threading.active_count() > 1:
         return "spawn"
     parallel = sys.modules.get("numba.np.ufunc.parallel")
     if parallel is not None and getattr(parallel, "_is_initialized", True):
