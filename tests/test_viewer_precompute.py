@@ -191,3 +191,23 @@ def test_a_forked_child_closes_the_ends_kept_from_forks():
     assert not writer.closed  # this process's own stays open
     writer.send("still here")
     assert reader.recv() == "still here"
+
+
+def test_workers_are_forked_only_from_a_process_of_one_thread():
+    # A thread pool's idle threads are not forked: a task queued to it in the child never runs.
+    import sys
+    import threading
+
+    from app.viewer.precompute import start_method
+
+    release = threading.Event()
+    waiting = threading.Thread(target=release.wait)
+    waiting.start()
+    try:
+        assert start_method() == "spawn"
+    finally:
+        release.set()
+        waiting.join()
+    if threading.active_count() == 1 and sys.platform.startswith("linux"):  # not under xdist's threads
+        parallel = sys.modules.get("numba.np.ufunc.parallel")
+        assert start_method() == ("spawn" if parallel and parallel._is_initialized else "fork")
