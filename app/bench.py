@@ -441,7 +441,7 @@ def _drag_frames(vertex_counts, seconds: float = DRAG_SECONDS) -> None:
             {"at": seconds / 2, "duration": seconds / 2, "point": 0, "to": cage[0].tolist()},
         ]
         script.write_text(json.dumps({"moves": moves}))
-        server, display = _start_xvfb(folder)
+        server, display = _started_xvfb("the viewer drag frame")
         try:
             print(
                 "viewer drag frame (Xvfb 1280x1024, scripted drag through the mouse path, median over frames)"
@@ -457,23 +457,14 @@ def _drag_frames(vertex_counts, seconds: float = DRAG_SECONDS) -> None:
     print()
 
 
-def _start_xvfb(folder: Path) -> tuple[subprocess.Popen, str]:
-    """A private Xvfb server, 1280x1024, on a display number it chose itself; (process, ":N")."""
-    read, write = os.pipe()
-    server = subprocess.Popen(
-        ["Xvfb", "-displayfd", str(write), "-screen", "0", "1280x1024x24", "-nolisten", "tcp"],
-        pass_fds=(write,),
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.DEVNULL,
-    )
-    os.close(write)
-    with os.fdopen(read) as pipe:
-        number = pipe.readline().strip()
-    if not number:
-        server.kill()
-        server.wait()
-        raise StepFailed("the viewer drag frame failed: Xvfb did not start")
-    return server, f":{number}"
+def _started_xvfb(what: str) -> tuple[subprocess.Popen, str]:
+    """`app.xvfb.start_xvfb` at 1280x1024, or `StepFailed` naming `what`."""
+    from app.xvfb import start_xvfb
+
+    try:
+        return start_xvfb((1280, 1024))
+    except RuntimeError as error:
+        raise StepFailed(f"{what} failed: {error}") from None
 
 
 def _drag_child(
@@ -531,7 +522,7 @@ def _export_gif(repeats: int, fps: float) -> None:
     with tempfile.TemporaryDirectory() as folder:
         folder = Path(folder)
         session, movie, animated = folder / "session.json", folder / "viewer.gif", folder / "animate.gif"
-        server, display = _start_xvfb(folder)
+        server, display = _started_xvfb("the viewer GIF export")
         environment = dict(
             os.environ,
             DISPLAY=display,

@@ -19,45 +19,16 @@ import numpy as np
 
 
 def start_xvfb(size=(1280, 1024)) -> tuple[subprocess.Popen, str]:
-    """Start Xvfb on a display number it chooses itself; returns (process, ":N").
+    """Start a private Xvfb server (`app.xvfb.start_xvfb`); returns (process, ":N").
 
-    Xvfb takes the first free number and writes it to a pipe once it accepts connections
-    (``-displayfd``): two test workers starting servers at once never share one (picking a free
-    number here and starting Xvfb on it raced, and two workers' viewers could end up on one
-    screen, each test's input reaching the other's window).
-
-    Raises RuntimeError (so the test fails, never skips) if Xvfb is missing or does not start.
+    Raises RuntimeError (so the test fails, never skips) if Xvfb or xdotool is missing or Xvfb
+    does not start.
     """
-    import select
+    from app.xvfb import start_xvfb as started
 
-    if shutil.which("Xvfb") is None:
-        raise RuntimeError("Xvfb is not installed (apt-get install xvfb)")
     if shutil.which("xdotool") is None:
         raise RuntimeError("xdotool is not installed (apt-get install xdotool)")
-    read, write = os.pipe()
-    process = subprocess.Popen(
-        ["Xvfb", "-displayfd", str(write), "-screen", "0", f"{size[0]}x{size[1]}x24", "-nolisten", "tcp"],
-        pass_fds=(write,),
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.DEVNULL,
-    )
-    os.close(write)
-    number = b""
-    deadline = time.monotonic() + 30
-    try:
-        while not number.endswith(b"\n") and time.monotonic() < deadline:
-            ready, _, _ = select.select([read], [], [], max(0.0, deadline - time.monotonic()))
-            chunk = os.read(read, 16) if ready else b""
-            if not chunk:
-                break
-            number += chunk
-    finally:
-        os.close(read)
-    if not number.strip().isdigit():
-        process.kill()
-        process.wait()
-        raise RuntimeError("Xvfb did not start (no display number from -displayfd within 30 s)")
-    return process, f":{int(number)}"
+    return started(size)
 
 
 def xdotool(display: str, *args: str) -> str:
