@@ -58,7 +58,7 @@ def first_crossing(control_points: np.ndarray) -> tuple[int, int] | None:
         elif j == 0 and k == n - 1:
             apart = _adjacent_apart(spans[k], spans[j], MAX_DEPTH)
         else:
-            apart = _disjoint(spans[j], spans[k], MAX_DEPTH)
+            apart = _disjoint(_flat(spans[j]), _flat(spans[k]), MAX_DEPTH)
         if not apart:
             return int(j), int(k)
     return None
@@ -85,9 +85,15 @@ def _boxes_apart(a: tuple, b: tuple) -> bool:
     )
 
 
-def _disjoint(a: np.ndarray, b: np.ndarray, depth: int) -> bool:
-    """Whether arcs a and b (3, 2) are proven disjoint within `depth` halvings."""
-    pending = [(tuple(a.ravel().tolist()), tuple(b.ravel().tolist()), depth)]
+def _flat(arc: np.ndarray) -> tuple:
+    """Arc (3, 2) as the six numbers of `_halves`."""
+    return tuple(arc.ravel().tolist())
+
+
+def _disjoint(a: tuple, b: tuple, depth: int) -> bool:
+    """Whether arcs a and b (six numbers each, `_halves`) are proven disjoint within `depth`
+    halvings."""
+    pending = [(a, b, depth)]
     while pending:
         a, b, left = pending.pop()
         if _boxes_apart(a, b):
@@ -104,7 +110,7 @@ def _adjacent_apart(a: np.ndarray, b: np.ndarray, depth: int) -> bool:
     """Whether arc a (3, 2), ending at the knot K = a[2] = b[0], and arc b (3, 2) meet only at K."""
     knot = a[2]
     if not np.array_equal(knot, b[0]):
-        return _disjoint(a, b, depth)
+        return _disjoint(_flat(a), _flat(b), depth)
     back, ahead = a[:2] - knot, b[1:] - knot
     far_back, far_ahead = back[np.any(back != 0, axis=1)], ahead[np.any(ahead != 0, axis=1)]
     direction = far_ahead[-1] / np.linalg.norm(far_ahead[-1]) - far_back[0] / np.linalg.norm(far_back[0])
@@ -112,12 +118,13 @@ def _adjacent_apart(a: np.ndarray, b: np.ndarray, depth: int) -> bool:
         return True
     if depth == 0:
         return False
-    a_far, a_near = (np.reshape(half, (3, 2)) for half in _halves(tuple(a.ravel().tolist())))
-    b_near, b_far = (np.reshape(half, (3, 2)) for half in _halves(tuple(b.ravel().tolist())))
+    flat_b = _flat(b)
+    a_far, a_near = _halves(_flat(a))
+    b_near, b_far = _halves(flat_b)
     return (
-        _disjoint(a_far, b, depth - 1)
+        _disjoint(a_far, flat_b, depth - 1)
         and _disjoint(a_near, b_far, depth - 1)
-        and _adjacent_apart(a_near, b_near, depth - 1)
+        and _adjacent_apart(np.reshape(a_near, (3, 2)), np.reshape(b_near, (3, 2)), depth - 1)
     )
 
 
