@@ -616,7 +616,7 @@ def _decode(data: bytes, path: Path) -> np.ndarray:
                 ) from None
             image, messages = None, [*messages, error.err]
     if image is None:
-        reason = _decoder_reason(messages)
+        reason = "the file is cut short" if _cut_short(data) else _decoder_reason(messages)
         raise InputError(f"{path}: cannot decode the image{f' ({reason})' if reason else ''}")
     return image
 
@@ -746,6 +746,16 @@ def _file_kind(mode: int) -> str:
         if test(mode):
             return kind
     return "a special file"
+
+
+def _cut_short(data: bytes) -> bool:
+    """Whether `data` is a PNG or JPEG file that ends before its format's end marker (PNG's IEND
+    chunk, JPEG's EOI), as a file cut short by a failed copy or download does."""
+    if data.startswith(b"\x89PNG\r\n\x1a\n"):
+        return b"IEND" not in data[-12:]
+    if data.startswith(b"\xff\xd8"):
+        return not data.rstrip(b"\x00").endswith(b"\xff\xd9")
+    return False
 
 
 def _decoder_reason(messages: list[str]) -> str:

@@ -170,8 +170,12 @@ def test_bad_images(tmp_path, capfd):
     (tmp_path / "garbage.png").write_bytes(b"this is not an image at all")
     (tmp_path / "empty.png").write_bytes(b"")
     capfd.readouterr()
-    with pytest.raises(InputError, match=r"truncated.png: cannot decode the image \(.*incomplete.*\)"):
+    with pytest.raises(InputError, match=r"truncated.png: cannot decode the image \(the file is cut short\)"):
         read_image(tmp_path / "truncated.png")
+    jpeg = cv2.imencode(".jpg", np.zeros((40, 40, 3), dtype=np.uint8))[1].tobytes()
+    (tmp_path / "truncated.jpg").write_bytes(jpeg[: len(jpeg) // 3])
+    with pytest.raises(InputError, match=r"truncated.jpg: cannot decode the image \(the file is cut short\)"):
+        read_image(tmp_path / "truncated.jpg")
     with pytest.raises(InputError, match=r"garbage.png: cannot decode the image"):
         read_image(tmp_path / "garbage.png")
     with pytest.raises(InputError, match=r"empty.png: the file is empty"):
