@@ -527,7 +527,10 @@ def _add_viewer_options(parser: argparse.ArgumentParser) -> None:
         "--stats",
         action="store_true",
         help="on exit, print frames=N median_frame_ms=X p95_frame_ms=Y median_drag_frame_ms=Z (Z: the frames "
-        "drawn while a control point is dragged; 0 without any)",
+        "drawn while a control point is dragged; 0 without any) fold_free_drag_frames=N max_folded_drawn=K "
+        "median_fold_free_drag_frame_ms=X proven_after_release_ms=Y (the drag frames drawn with fold-free "
+        "on, the most turned-over triangles one drew, their median time, and the time from the last release "
+        "to a proof on the status line, or none)",
     )
     parser.add_argument(
         "--max-edge",

@@ -11,6 +11,9 @@ from app.viewer.state import AppState
 
 #: Seconds between two updates of the status line's frame times (a median of every frame so far).
 FIGURES_INTERVAL = 0.5
+#: How the status line's fold-free words begin once something is proven: the mesh map's bijection
+#: (`app.viewer.gui.MESH_PROVEN`) or the continuous map's certificate (`app.viewer.fold_free.status_text`).
+PROVEN = ("fold-free on the mesh, proven", "fold-free, proven")
 
 
 def frame_statistics(frame_ms: list[float]) -> tuple[int, float, float]:
@@ -44,6 +47,14 @@ class Milestones:
         self.drag_first_frame: int | None = None
         #: Times (ms) of the frames drawn while a control point was dragged, for --stats.
         self.drag_frame_ms: list[float] = []
+        #: Of those drawn with fold-free on (`app.viewer.fold_free_frames`): their times (ms), the
+        #: most turned-over triangles one drew, and ms from the last release to a proof on the status
+        #: line (None: not proven since).
+        self.fold_free_drag_ms: list[float] = []
+        self.max_folded_drawn = 0
+        self.proven_after_release_ms: float | None = None
+        self._released_at: float | None = None
+        self._target_dragged = False
         #: Window points of some widgets (`app.viewer.gui.gui` fills it), announced for the tests.
         self.spots: dict = {}
         self.figures_at = -FIGURES_INTERVAL  # when the status line's frame times were last computed
@@ -80,7 +91,8 @@ class Milestones:
 
     def checked(self, status: str, fold_free_drawn: bool, folded: int | None) -> None:
         """The status line's fold-free words and whether the fold-free map is drawn (with the mesh's
-        folded triangles), announced when they change (`app.viewer.fold_free`)."""
+        folded triangles), announced when they change (`app.viewer.fold_free`); kept for the time
+        from a release to a proof (`frame_done`)."""
         if status != self.check_status:
             self.check_status = status
             self.announce(f"status check {status}")
@@ -106,6 +118,7 @@ class Milestones:
         drag = state.selection.drag
         if drag is not None and drag.kind in ("target", "source"):
             self.drag_frame_ms.append(state.status.frame_ms[-1])
+        self._fold_free_frame(state)
         self._update_figures(state)
         if not self.announced_ready:
             self.announced_ready = True
@@ -113,6 +126,23 @@ class Milestones:
             for name in ("kernel", "arc-length"):
                 x, y = self.spots.get(name, (0, 0))
                 self.announce(f"spot {name}={x:.0f},{y:.0f}")
+
+    def _fold_free_frame(self, state: AppState) -> None:
+        """A frame with fold-free on: a drag frame's time and turned-over triangles; a release starts
+        the clock that the status line's proof (`checked`) stops."""
+        dragged = state.selection.drag is not None and state.selection.drag.kind == "target"
+        fold_free = state.document.live.fold_free
+        if dragged and fold_free:
+            self.fold_free_drag_ms.append(state.status.frame_ms[-1])
+            self.max_folded_drawn = max(self.max_folded_drawn, state.compute.folded_count or 0)
+        if self._target_dragged and not dragged and fold_free:
+            self._released_at = time.perf_counter() - 1e-3 * state.status.frame_ms[-1]
+            self.proven_after_release_ms = None
+        self._target_dragged = dragged
+        if self._released_at is not None and self.check_status.startswith(PROVEN):
+            self.proven_after_release_ms = 1e3 * (time.perf_counter() - self._released_at)
+            self._released_at = None
+            self.announce(f"proven after release ms={self.proven_after_release_ms:.0f}")
 
     def _update_figures(self, state: AppState) -> None:
         """The status line's frame times: what ``--stats`` would report now, twice a second."""
@@ -125,10 +155,16 @@ class Milestones:
         state.status.frame_figures = (median, drag_median)
 
     def statistics(self, state: AppState) -> str:
-        """``--stats``: frames=N median_frame_ms=X p95_frame_ms=Y median_drag_frame_ms=Z."""
+        """``--stats``: frames=N median_frame_ms=X p95_frame_ms=Y median_drag_frame_ms=Z
+        fold_free_drag_frames=N max_folded_drawn=K median_fold_free_drag_frame_ms=X
+        proven_after_release_ms=Y (``none``: no release with fold-free on was proven since)."""
         count, median, p95 = frame_statistics(state.status.frame_ms)
         _, drag_median, _ = frame_statistics(self.drag_frame_ms)
+        fold_free_count, fold_free_median, _ = frame_statistics(self.fold_free_drag_ms)
+        proven = self.proven_after_release_ms
         return (
             f"frames={count} median_frame_ms={median:.2f} p95_frame_ms={p95:.2f} "
-            f"median_drag_frame_ms={drag_median:.2f}"
+            f"median_drag_frame_ms={drag_median:.2f} fold_free_drag_frames={fold_free_count} "
+            f"max_folded_drawn={self.max_folded_drawn} median_fold_free_drag_frame_ms={fold_free_median:.2f} "
+            f"proven_after_release_ms={'none' if proven is None else f'{proven:.0f}'}"
         )

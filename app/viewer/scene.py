@@ -30,7 +30,8 @@ from app.render.viewport import View
 from app.viewer.controller import band_corners
 from app.viewer.drawing import clicked_points
 from app.viewer.editing import curve_points, to_image
-from app.viewer.fold_free import current_check
+from app.viewer.fold_free import HARMONIC_KERNEL, current_check
+from app.viewer.fold_free_frames import DRAG_BUDGET, REST_BUDGET, FoldFreeFrames
 from app.viewer.state import AppState
 from app.viewer.view_modes import BY_NAME as VIEW_MODES
 from app.warp.fill import set_fill
@@ -271,6 +272,9 @@ class Scene:
         # (the renderer's revision at which `_positions` were written, whether they may fold there:
         # None until asked).
         self._fold_check: tuple[int, bool | None] | None = None
+        #: The positions drawn with "Fold-free" on (`app.viewer.fold_free_frames`).
+        self.fold_free_frames = FoldFreeFrames()
+        self._refused: np.ndarray | None = None  # a certified map whose mesh map folds
 
     @property
     def layer_key(self) -> tuple | None:
@@ -279,7 +283,8 @@ class Scene:
 
     @property
     def fold_free_drawn(self) -> bool:
-        """Whether the mesh drawn has the fold-free map's positions (`app.viewer.fold_free`)."""
+        """Whether the mesh drawn has fold-free positions: the certified map's (`app.viewer.fold_free`)
+        or the fold-free frames' (`app.viewer.fold_free_frames`)."""
         return self._drawn is not None and self._drawn[1] is not None and not self.previewing
 
     @property
@@ -373,7 +378,57 @@ class Scene:
         # the exact positions if the target changed meanwhile.
         self.update_ms = 1e3 * (time.perf_counter() - started)
 
+    def _fold_free_frames_wanted(self, state: AppState) -> bool:
+        """Whether this frame's positions come from `app.viewer.fold_free_frames`: the document asks
+        for fold-free, the basis drawn is the harmonic kernel's, keyframes are not playing."""
+        live = state.document.live
+        return live.fold_free and self._basis.kernel == HARMONIC_KERNEL and not state.playback.playing
+
+    def _update_fold_free(self, state: AppState) -> None:
+        """Positions proven fold-free on the mesh (`app.viewer.fold_free_frames`): the certified
+        continuous map of this target once the background check has it (if the mesh map of it is a
+        bijection too), else this frame's drag step; their count of turned-over triangles (0)."""
+        target, frames = state.document.live.target, self.fold_free_frames
+        certified = _fold_free_positions(state)
+        drawn, certified_drawn = self._drawn if self._drawn is not None else (None, None)
+        if (
+            drawn is not None
+            and np.array_equal(drawn, target)
+            and certified_drawn is not None
+            and (certified is None or certified is certified_drawn or certified is self._refused)
+            and not frames.catching_up
+        ):
+            return
+        started = time.perf_counter()
+        fresh = certified is not None and certified is not self._refused
+        if fresh and frames.adopt(self._basis, target, certified):
+            positions = certified
+        else:
+            self._refused = certified  # not a bijection on the mesh (too coarse for it): not drawn
+            dragging = state.selection.drag is not None and state.selection.drag.kind == "target"
+            positions = frames.positions(self._basis, target, DRAG_BUDGET if dragging else REST_BUDGET)
+        state.compute.mesh_proof = frames.proof
+        state.compute.folded_count = frames.proof.turned_over
+        self._positions = positions[self._dense.order].astype(np.float32)
+        self._exact = True
+        self.renderer.set_ordered_positions(self._positions)
+        self._fold_check = (self.renderer.revision, None)
+        self._drawn = (np.array(target), positions)
+        self.update_ms = 1e3 * (time.perf_counter() - started)
+
+    @property
+    def catching_up(self) -> bool:
+        """The fold-free frames have not yet brought the boundary onto the target curve: the window
+        draws again without waiting for input."""
+        return self.fold_free_frames.catching_up
+
     def _update_positions(self, state: AppState) -> None:
+        if self._fold_free_frames_wanted(state):
+            self._update_fold_free(state)
+            return
+        if self.fold_free_frames.proof is not None:
+            self.fold_free_frames.forget()
+            state.compute.mesh_proof = None
         basis, target = self._basis, state.document.live.target
         dragging = state.selection.drag is not None and state.selection.drag.kind == "target"
         drawn, fold_free_drawn = self._drawn if self._drawn is not None else (None, None)

@@ -408,6 +408,8 @@ class Viewer:
             glfw.wait_events_timeout(0.1)  # playback waiting for its basis
         elif self.script.playing:
             glfw.wait_events_timeout(0.1)  # a script waiting for its basis
+        elif self.scene.catching_up:
+            glfw.poll_events()  # fold-free frames not yet on the target curve (`app.viewer.fold_free_frames`)
         elif self.state.selection.drag is not None:
             glfw.wait_events_timeout(0.1)  # a drag that pauses gets its check (`app.viewer.fold_free`)
         elif self.state.display.viewport_dirty or self.dialogs.waiting:
@@ -451,7 +453,7 @@ class Viewer:
         ) or (time.perf_counter() - self.input.view_changed_at < VIEW_SETTLE)
         self.scene.sync(state)
         self.milestones.drawn(state, self.scene.previewing, shown)
-        if self.milestones.test_mode:
+        if self.milestones.test_mode or state.document.live.fold_free:  # --stats times the proof
             from app.viewer.gui import status_check
 
             folded = state.compute.folded_count

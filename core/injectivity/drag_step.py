@@ -185,10 +185,11 @@ def drag_step(
     """
     deadline = time.perf_counter() + budget
     goal = np.asarray(goal, dtype=np.float64)
-    proof = prove_mesh_bijection(goal, mesh.triangles, mesh.boundary)
     turned = _doubled_areas(goal, mesh.triangles) <= mesh.floors
-    if proof.proven and not turned.any():
-        return DragStep(goal, True, True, proof, 0, None)
+    if not turned.any():
+        proof = prove_mesh_bijection(goal, mesh.triangles, mesh.boundary)
+        if proof.proven:
+            return DragStep(goal, True, True, proof, 0, None)
     origin = mesh.vertices if start is None else np.asarray(start, dtype=np.float64)
     if not np.all(_doubled_areas(origin, mesh.triangles) > 0.0):
         raise ValueError("start turns triangles over: a drag step starts from fold-free positions")

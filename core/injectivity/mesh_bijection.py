@@ -153,19 +153,23 @@ def _candidate_pairs(starts: np.ndarray, ends: np.ndarray) -> tuple[np.ndarray, 
     cell = row * cells + column
     order = np.lexsort((edge, cell))
     cell, edge = cell[order], edge[order]
-    firsts, seconds = [], []
+    firsts, seconds, cells_found = [], [], []
     for gap in range(1, len(cell)):
         same = cell[gap:] == cell[:-gap]
         if not same.any():
             break
         firsts.append(edge[:-gap][same])
         seconds.append(edge[gap:][same])
+        cells_found.append(cell[gap:][same])
     if not firsts:
         return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
-    keys = np.unique(np.concatenate(firsts) * count + np.concatenate(seconds))
-    first, second = keys // count, keys % count
+    first, second, found = np.concatenate(firsts), np.concatenate(seconds), np.concatenate(cells_found)
     overlap = np.all((low[first] <= high[second]) & (low[second] <= high[first]), axis=1)
-    return first[overlap], second[overlap]
+    # A pair of overlapping boxes shares every cell of their intersection: keep it in one, the cell of
+    # the intersection's lowest corner (no sort to drop the repeats).
+    corner = np.clip(((np.maximum(low[first], low[second]) - origin) / size).astype(np.int64), 0, cells - 1)
+    once = overlap & (found == corner[:, 1] * cells + corner[:, 0])
+    return first[once], second[once]
 
 
 def _adjacent_overlap(polygon: np.ndarray, first: np.ndarray, second: np.ndarray) -> bool:
