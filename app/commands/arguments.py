@@ -357,7 +357,9 @@ def _bench_command(commands, run) -> None:
         help="no 24 and 100 megapixel photograph warps against reading and writing them (about 2 minutes)",
     )
     bench.add_argument(
-        "--skip-drag", action="store_true", help="no viewer drag frame at 6k and 400k vertices (Xvfb)"
+        "--skip-drag",
+        action="store_true",
+        help="no viewer drag frame at 6k and 400k vertices, nor its fold-free drag frame (Xvfb)",
     )
     bench.add_argument(
         "--skip-export",

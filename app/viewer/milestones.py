@@ -51,6 +51,7 @@ class Milestones:
         #: most turned-over triangles one drew, and ms from the last release to a proof on the status
         #: line (None: not proven since).
         self.fold_free_drag_ms: list[float] = []
+        self.plain_drag_ms: list[float] = []  # and of those drawn with it off, to compare
         self.max_folded_drawn = 0
         self.proven_after_release_ms: float | None = None
         self._released_at: float | None = None
@@ -135,6 +136,8 @@ class Milestones:
         if dragged and fold_free:
             self.fold_free_drag_ms.append(state.status.frame_ms[-1])
             self.max_folded_drawn = max(self.max_folded_drawn, state.compute.folded_count or 0)
+        elif dragged:
+            self.plain_drag_ms.append(state.status.frame_ms[-1])
         if self._target_dragged and not dragged and fold_free:
             self._released_at = time.perf_counter() - 1e-3 * state.status.frame_ms[-1]
             self.proven_after_release_ms = None
@@ -157,14 +160,17 @@ class Milestones:
     def statistics(self, state: AppState) -> str:
         """``--stats``: frames=N median_frame_ms=X p95_frame_ms=Y median_drag_frame_ms=Z
         fold_free_drag_frames=N max_folded_drawn=K median_fold_free_drag_frame_ms=X
-        proven_after_release_ms=Y (``none``: no release with fold-free on was proven since)."""
+        proven_after_release_ms=Y (``none``: no release with fold-free on was proven since)
+        median_plain_drag_frame_ms=Z (target drags with fold-free off)."""
         count, median, p95 = frame_statistics(state.status.frame_ms)
         _, drag_median, _ = frame_statistics(self.drag_frame_ms)
         fold_free_count, fold_free_median, _ = frame_statistics(self.fold_free_drag_ms)
+        _, plain_median, _ = frame_statistics(self.plain_drag_ms)
         proven = self.proven_after_release_ms
         return (
             f"frames={count} median_frame_ms={median:.2f} p95_frame_ms={p95:.2f} "
             f"median_drag_frame_ms={drag_median:.2f} fold_free_drag_frames={fold_free_count} "
             f"max_folded_drawn={self.max_folded_drawn} median_fold_free_drag_frame_ms={fold_free_median:.2f} "
-            f"proven_after_release_ms={'none' if proven is None else f'{proven:.0f}'}"
+            f"proven_after_release_ms={'none' if proven is None else f'{proven:.0f}'} "
+            f"median_plain_drag_frame_ms={plain_median:.2f}"
         )
