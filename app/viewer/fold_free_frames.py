@@ -21,9 +21,10 @@ import core
 
 #: Seconds of a frame the drag step may spend on a map that folds while a handle moves (the plain
 #: frame of the default mesh takes ~8 ms: the fold-free one may take twice that), and at rest
-#: (catching up after a release, or fold-free switched on: nothing else moves then).
-DRAG_BUDGET = 0.005
-REST_BUDGET = 0.03
+#: (catching up after a release, or fold-free switched on: nothing else moves then; 30 ms took
+#: 3.3 s to catch up with a hard drag on a loaded machine, 100 ms frames are not seen).
+DRAG_BUDGET = 0.002
+REST_BUDGET = 0.1
 
 
 @dataclass(frozen=True)
@@ -82,11 +83,14 @@ class FoldFreeFrames:
         self._mesh = core.drag_mesh(mesh.vertices, mesh.triangles, mesh.boundary)
         self._positions = self._untangling = None
 
-    def positions(self, basis, target: np.ndarray, budget: float) -> np.ndarray:
-        """This frame's fold-free positions (V, 2) for `target` (n, 2) on the mesh of `basis`."""
+    def positions(self, basis, target: np.ndarray, moving: bool) -> np.ndarray:
+        """This frame's fold-free positions (V, 2) for `target` (n, 2) on the mesh of `basis`; while
+        a handle is `moving`, within `DRAG_BUDGET` (the nearest fold-free state on the way where the
+        continuation's next round would not fit), else `REST_BUDGET` and a round at least."""
         self._use(basis)
         goal = plain_positions(basis.basis, target)
-        step = core.drag_step(self._mesh, self._positions, goal, budget, self._untangling)
+        budget, least = (DRAG_BUDGET, 0) if moving else (REST_BUDGET, 1)
+        step = core.drag_step(self._mesh, self._positions, goal, budget, self._untangling, least)
         self._positions, self._untangling = step.positions, step.untangling
         self.catching_up = not step.reached
         self.proof = MeshProof(np.asarray(target).tobytes(), step.reached, step.proof.turned_over)

@@ -31,7 +31,7 @@ from app.viewer.controller import band_corners
 from app.viewer.drawing import clicked_points
 from app.viewer.editing import curve_points, to_image
 from app.viewer.fold_free import HARMONIC_KERNEL, current_check
-from app.viewer.fold_free_frames import DRAG_BUDGET, REST_BUDGET, FoldFreeFrames
+from app.viewer.fold_free_frames import FoldFreeFrames
 from app.viewer.state import AppState
 from app.viewer.view_modes import BY_NAME as VIEW_MODES
 from app.warp.fill import set_fill
@@ -406,7 +406,7 @@ class Scene:
         else:
             self._refused = certified  # not a bijection on the mesh (too coarse for it): not drawn
             dragging = state.selection.drag is not None and state.selection.drag.kind == "target"
-            positions = frames.positions(self._basis, target, DRAG_BUDGET if dragging else REST_BUDGET)
+            positions = frames.positions(self._basis, target, dragging)
         state.compute.mesh_proof = frames.proof
         state.compute.folded_count = frames.proof.turned_over
         self._positions = positions[self._dense.order].astype(np.float32)

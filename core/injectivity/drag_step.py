@@ -13,12 +13,13 @@ which is), and returns positions proven fold-free (`core.injectivity.mesh_biject
   mean-value weights of X (Floater 2003; Schneider, Hormann & Floater 2013's composite maps,
   libigl's `bijective_composite_harmonic_mapping`, take such steps on the whole mesh).  A region
   that stalls is doubled in rings;
-- if the frame's budget runs out first: the nearest fold-free state on the way, X + s D along that
-  composite harmonic step D (s is `SHARE` of the largest step that turns no triangle over, the
-  first positive root of each triangle's area, a quadratic in s: Smith & Schaefer 2015's
-  flip-free line search), its boundary between the last frame's and the target curve (`reached`
-  False), and the continuation's state (`Untangling`), which the next frame resumes: a hard drag
-  catches up over a few frames and never draws a fold.
+- if the frame's budget runs out first: the nearest fold-free state on the way, X + s (Y - X)
+  (s is `SHARE` of the largest step that turns no triangle over, the first positive root of each
+  triangle's area, a quadratic in s: Smith & Schaefer 2015's flip-free line search; the composite
+  harmonic step's direction instead cost a sparse solve more and went no further in the frames
+  tried), its boundary between the last frame's and the target curve (`reached` False), and the
+  continuation's state (`Untangling`), which the next frame resumes: a hard drag catches up over a
+  few frames and never draws a fold.
 
 Every answer passes `prove_mesh_bijection` (exact orientation, a simple boundary polygon); should
 the last state not, X is returned unchanged.  With the source triangles as the barrier's reference
@@ -114,6 +115,10 @@ class Untangling:
         Rings of the region around the triangles it was made for.
     fewest, since : int
         The fewest triangles at or below their floor so far, and the rounds since that fell.
+    goal : ndarray of shape (V, 2)
+        The goal it works towards (a frame with another goal starts afresh on the same region).
+    round_seconds : float
+        How long its last round took (whether the next fits in a frame's budget).
     """
 
     region: np.ndarray
@@ -123,6 +128,8 @@ class Untangling:
     rings: int
     fewest: int
     since: int
+    goal: np.ndarray
+    round_seconds: float
 
 
 @dataclass(frozen=True)
@@ -158,6 +165,7 @@ def drag_step(
     goal: np.ndarray,
     budget: float,
     untangling: Untangling | None = None,
+    least_rounds: int = 1,
 ) -> DragStep:
     """Fold-free positions for this frame, as close to `goal` as the budget allows.
 
@@ -171,8 +179,12 @@ def drag_step(
     budget : float
         Seconds the continuation may take (the proofs come on top: about a millisecond each).
     untangling : Untangling, optional
-        The last frame's continuation (`DragStep.untangling`), resumed if its region still covers
-        the goal's turned-over triangles.
+        The last frame's continuation (`DragStep.untangling`): resumed for the same goal, else its
+        region (with the rings around the goal's turned-over triangles) is started on afresh.
+    least_rounds : int
+        Rounds of the continuation taken even past the budget (a round of a wide region may take
+        longer than a frame: 0 while a handle moves, so that a frame keeps its time and shows the
+        nearest fold-free state instead; 1 at rest, so that the drawing catches up).
 
     Returns
     -------
@@ -193,29 +205,19 @@ def drag_step(
     origin = mesh.vertices if start is None else np.asarray(start, dtype=np.float64)
     if not np.all(_doubled_areas(origin, mesh.triangles) > 0.0):
         raise ValueError("start turns triangles over: a drag step starts from fold-free positions")
-    if untangling is None or not np.all(np.any(untangling.region[mesh.triangles[turned]], axis=1)):
-        region = _rings(mesh, turned, RINGS)
-        moved = origin + _direction(mesh, origin, goal - origin, region)
-        untangling = Untangling(region, moved, 0.0, 0.0, RINGS, len(mesh.triangles), 0)
     rounds, positions = 0, None
-    # A turned-over triangle with no interior vertex cannot be unfolded by moving the interior.
-    while np.all(np.any(untangling.region[mesh.triangles[turned]], axis=1)):
-        positions, untangling, taken = _untangled(mesh, goal, untangling, deadline)
-        rounds += taken
-        if positions is not None or time.perf_counter() >= deadline:
-            break
-        if untangling.since > STALL_ROUNDS:  # a wider region
-            rings = 2 * untangling.rings
-            region = _rings(mesh, turned, rings)
-            moved = np.where(region[:, None], untangling.positions, goal)
-            untangling = Untangling(region, moved, 0.0, 0.0, rings, len(mesh.triangles), 0)
+    estimate = 0.0 if untangling is None else untangling.round_seconds
+    if least_rounds > 0 or time.perf_counter() + estimate < deadline:
+        positions, untangling, rounds = _continued(
+            mesh, origin, goal, turned, untangling, deadline, least_rounds
+        )
     if positions is not None:
         positions[mesh.boundary] = goal[mesh.boundary]  # the same floats as the goal's, on its curve
         proof = prove_mesh_bijection(positions, mesh.triangles, mesh.boundary)
         if proof.proven:
             return DragStep(positions, True, False, proof, rounds, None)
-    # Out of time: the nearest fold-free state on the way.
-    direction = _direction(mesh, origin, goal - origin, _rings(mesh, turned, RINGS))
+    # Out of time: the nearest fold-free state on the straight way to the goal.
+    direction = goal - origin
     length = SHARE * min(_flip_free_step(mesh.triangles, origin, direction), 1.0)
     positions = origin + _checked_length(mesh, origin, direction, length) * direction
     proof = prove_mesh_bijection(positions, mesh.triangles, mesh.boundary)
@@ -225,10 +227,57 @@ def drag_step(
     return DragStep(positions, False, False, proof, rounds, untangling)
 
 
-def _untangled(mesh: DragMesh, goal: np.ndarray, untangling: Untangling, deadline: float):
+def _continued(
+    mesh: DragMesh, origin, goal, turned, untangling: Untangling | None, deadline: float, least: int
+):
+    """The continuation towards `goal` (V, 2) from `origin` (V, 2), its goal's turned-over triangles
+    (T,) bool, resumed or started afresh (`drag_step`), widened where it stalls: (positions (V, 2)
+    with nothing at or below its floor, or None; its state; rounds taken)."""
+    if untangling is None or not np.array_equal(untangling.goal, goal):
+        # A new goal: a fresh start, one composite harmonic step from the last positions (resumed
+        # positions made for the last goal, its rim moved since, turned hundreds of triangles over
+        # where a drag's frames were 40 ms apart), on the last region if it still covers the folds.
+        rings = RINGS if untangling is None else untangling.rings
+        seconds = 0.0 if untangling is None else untangling.round_seconds
+        region = _rings(mesh, turned, rings)
+        if untangling is not None:
+            region |= untangling.region
+        moved = _start(mesh, origin, goal, region)
+        untangling = Untangling(region, moved, 0.0, 0.0, rings, len(mesh.triangles), 0, goal, seconds)
+    rounds, positions = 0, None
+    # A turned-over triangle with no interior vertex cannot be unfolded by moving the interior.
+    while np.all(np.any(untangling.region[mesh.triangles[turned]], axis=1)):
+        positions, untangling, taken = _untangled(mesh, goal, untangling, deadline, least - rounds)
+        rounds += taken
+        out_of_time = time.perf_counter() + untangling.round_seconds > deadline
+        if positions is not None or (rounds >= least and out_of_time):
+            break
+        if untangling.since > STALL_ROUNDS:  # a wider region
+            rings = 2 * untangling.rings
+            region = _rings(mesh, turned, rings) | untangling.region
+            if np.array_equal(region, untangling.region):
+                break  # it holds every vertex it can: the continuation is given up on this goal
+            moved = np.where(region[:, None], untangling.positions, goal)
+            seconds = untangling.round_seconds
+            untangling = Untangling(region, moved, 0.0, 0.0, rings, len(mesh.triangles), 0, goal, seconds)
+    return positions, untangling, rounds
+
+
+def _start(mesh: DragMesh, origin: np.ndarray, goal: np.ndarray, region: np.ndarray) -> np.ndarray:
+    """Where a continuation starts (V, 2): of one composite harmonic step from the last positions
+    (`_direction`) and the goal itself, the one that turns fewer triangles over."""
+    stepped = origin + _direction(mesh, origin, goal - origin, region)
+    folds = [
+        np.count_nonzero(_doubled_areas(start, mesh.triangles) <= mesh.floors) for start in (stepped, goal)
+    ]
+    return stepped if folds[0] <= folds[1] else goal.copy()
+
+
+def _untangled(mesh: DragMesh, goal: np.ndarray, untangling: Untangling, deadline: float, least: int):
     """Garanzha et al.'s barrier continuation (`core.injectivity.mesh_untangling`) of the region's
     vertices, every other vertex at the goal (V, 2), resumed from `untangling`, until no triangle is
-    at or below its floor, it stalls (`STALL_ROUNDS`) or the deadline (`time.perf_counter`) passes.
+    at or below its floor, it stalls (`STALL_ROUNDS`) or, `least` rounds taken, the next round (as
+    long as the last) would end past the deadline (`time.perf_counter`).
     The reference shapes are the source triangles' (the last positions' own, slivers where a drag
     squeezes, took 10 rounds where these took 1).  Returns (positions (V, 2) or None, the
     continuation's state, rounds taken)."""
@@ -237,7 +286,8 @@ def _untangled(mesh: DragMesh, goal: np.ndarray, untangling: Untangling, deadlin
     triangles = mesh.triangles[active]
     start = np.where(region[:, None], untangling.positions, goal)
     if _doubled_areas(start, triangles).sum() <= 0.0:  # positive triangles cannot tile the region
-        return None, Untangling(region, start, 0.0, 0.0, untangling.rings, 0, STALL_ROUNDS + 1), 0
+        stalled = Untangling(region, start, 0.0, 0.0, untangling.rings, 0, STALL_ROUNDS + 1, goal, 0.0)
+        return None, stalled, 0
     gradients, areas = reference_shapes(mesh.vertices, start, triangles, own_shapes=False)
     problem = BarrierProblem(start, triangles, region, gradients, areas)
     lowest = mesh.floors[active] / (2.0 * areas)  # the floors as det J
@@ -247,10 +297,15 @@ def _untangled(mesh: DragMesh, goal: np.ndarray, untangling: Untangling, deadlin
         np.sqrt(1e-12 + 0.04 * min(determinants.min(), 0.0) ** 2), TINY_EPSILON
     )
     previous, fewest, since, taken = problem.energy(flat, epsilon), untangling.fewest, untangling.since, 0
+    seconds = untangling.round_seconds
     while not np.all(determinants > lowest):
-        if (taken and time.perf_counter() > deadline) or since > STALL_ROUNDS:  # one round at least
+        started = time.perf_counter()
+        if (taken >= least and started + seconds > deadline) or since > STALL_ROUNDS:
             start[region] = flat.reshape(-1, 2)
-            return None, Untangling(region, start, epsilon, previous, untangling.rings, fewest, since), taken
+            state = Untangling(
+                region, start, epsilon, previous, untangling.rings, fewest, since, goal, seconds
+            )
+            return None, state, taken
         flat = problem.newton_step(flat, epsilon)
         energy, determinants, taken = problem.energy(flat, epsilon), problem.determinants(flat), taken + 1
         smallest, turned = determinants.min(), np.count_nonzero(determinants <= lowest)
@@ -258,7 +313,7 @@ def _untangled(mesh: DragMesh, goal: np.ndarray, untangling: Untangling, deadlin
         decrease = max(1.0 - energy / previous, SMALLEST_DECREASE)
         mu = (1.0 - decrease) * regularised_determinant(smallest, epsilon)
         epsilon = 2.0 * np.sqrt(mu * (mu - smallest)) if smallest < mu else TINY_EPSILON
-        previous = energy
+        previous, seconds = energy, time.perf_counter() - started
     start[region] = flat.reshape(-1, 2)
     return start, untangling, taken
 

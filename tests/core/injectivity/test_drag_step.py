@@ -95,7 +95,12 @@ def test_with_no_time_a_frame_is_still_fold_free(starfish):
     goal = basis @ moved
     step = drag_step(drag_mesh(mesh.vertices, mesh.triangles, mesh.boundary), None, goal, 0.0)
     _check_frame(mesh, step, goal)
-    assert not step.reached and step.untangling is not None
+    assert not step.reached and step.untangling is not None and step.rounds >= 1
+    # Without a round past the budget: no round at all once the continuation knows a round's time.
+    frames = drag_mesh(mesh.vertices, mesh.triangles, mesh.boundary)
+    again = drag_step(frames, step.positions, goal, 0.0, step.untangling, least_rounds=0)
+    _check_frame(mesh, again, goal)
+    assert again.rounds == 0 and not again.reached
 
 
 def test_a_hard_drag_from_the_source_is_mapped_in_one_call_given_the_time(starfish):
