@@ -73,6 +73,8 @@ class FoldFreeFrames:
         #: The last frame's boundary is not yet on the target curve: draw again.
         self.catching_up = False
         self.proof: MeshProof | None = None
+        #: The last certified map `adopt` refused (its mesh map folds: the mesh is too coarse for it).
+        self.refused: np.ndarray | None = None
 
     def _use(self, basis) -> None:
         """Start over on a new mesh (`basis`: `app.viewer.state.BasisResult`)."""
@@ -103,6 +105,7 @@ class FoldFreeFrames:
         mesh = self._mesh
         proof = core.prove_mesh_bijection(positions, mesh.triangles, mesh.boundary)
         if not proof.proven or np.any(core.folded_triangles(basis.mesh, positions)):
+            self.refused = positions
             return False
         self._positions, self._untangling, self.catching_up = positions, None, False
         self.proof = MeshProof(np.asarray(target).tobytes(), True, 0)

@@ -6,6 +6,7 @@ frame times of ``--stats``."""
 from __future__ import annotations
 
 import time
+from dataclasses import dataclass, field
 
 from app.viewer.state import AppState
 
@@ -24,6 +25,32 @@ def frame_statistics(frame_ms: list[float]) -> tuple[int, float, float]:
         return 0, 0.0, 0.0
     values = np.asarray(frame_ms)
     return len(values), float(np.median(values)), float(np.percentile(values, 95))
+
+
+@dataclass
+class FoldFreeFigures:
+    """What --stats says of fold-free drags (`app.viewer.fold_free_frames`).
+
+    Attributes
+    ----------
+    drag_ms, plain_drag_ms : list of float
+        Times (ms) of the frames drawn while a target point was dragged with fold-free on, and off.
+    max_folded_drawn : int
+        The most turned-over triangles a frame of the first drew.
+    proven_after_release_ms : float or None
+        ms from the last release with fold-free on to a proof on the status line (None: not yet).
+    released_at : float or None
+        When that release was (`time.perf_counter`), while its proof is awaited.
+    target_dragged : bool
+        The last frame was drawn while a target point was dragged.
+    """
+
+    drag_ms: list = field(default_factory=list)
+    plain_drag_ms: list = field(default_factory=list)
+    max_folded_drawn: int = 0
+    proven_after_release_ms: float | None = None
+    released_at: float | None = None
+    target_dragged: bool = False
 
 
 class Milestones:
@@ -47,15 +74,8 @@ class Milestones:
         self.drag_first_frame: int | None = None
         #: Times (ms) of the frames drawn while a control point was dragged, for --stats.
         self.drag_frame_ms: list[float] = []
-        #: Of those drawn with fold-free on (`app.viewer.fold_free_frames`): their times (ms), the
-        #: most turned-over triangles one drew, and ms from the last release to a proof on the status
-        #: line (None: not proven since).
-        self.fold_free_drag_ms: list[float] = []
-        self.plain_drag_ms: list[float] = []  # and of those drawn with it off, to compare
-        self.max_folded_drawn = 0
-        self.proven_after_release_ms: float | None = None
-        self._released_at: float | None = None
-        self._target_dragged = False
+        #: The fold-free figures of --stats (`FoldFreeFigures`).
+        self.fold_free = FoldFreeFigures()
         #: Window points of some widgets (`app.viewer.gui.gui` fills it), announced for the tests.
         self.spots: dict = {}
         self.figures_at = -FIGURES_INTERVAL  # when the status line's frame times were last computed
@@ -131,21 +151,22 @@ class Milestones:
     def _fold_free_frame(self, state: AppState) -> None:
         """A frame with fold-free on: a drag frame's time and turned-over triangles; a release starts
         the clock that the status line's proof (`checked`) stops."""
+        figures = self.fold_free
         dragged = state.selection.drag is not None and state.selection.drag.kind == "target"
         fold_free = state.document.live.fold_free
         if dragged and fold_free:
-            self.fold_free_drag_ms.append(state.status.frame_ms[-1])
-            self.max_folded_drawn = max(self.max_folded_drawn, state.compute.folded_count or 0)
+            figures.drag_ms.append(state.status.frame_ms[-1])
+            figures.max_folded_drawn = max(figures.max_folded_drawn, state.compute.folded_count or 0)
         elif dragged:
-            self.plain_drag_ms.append(state.status.frame_ms[-1])
-        if self._target_dragged and not dragged and fold_free:
-            self._released_at = time.perf_counter() - 1e-3 * state.status.frame_ms[-1]
-            self.proven_after_release_ms = None
-        self._target_dragged = dragged
-        if self._released_at is not None and self.check_status.startswith(PROVEN):
-            self.proven_after_release_ms = 1e3 * (time.perf_counter() - self._released_at)
-            self._released_at = None
-            self.announce(f"proven after release ms={self.proven_after_release_ms:.0f}")
+            figures.plain_drag_ms.append(state.status.frame_ms[-1])
+        if figures.target_dragged and not dragged and fold_free:
+            figures.released_at = time.perf_counter() - 1e-3 * state.status.frame_ms[-1]
+            figures.proven_after_release_ms = None
+        figures.target_dragged = dragged
+        if figures.released_at is not None and self.check_status.startswith(PROVEN):
+            figures.proven_after_release_ms = 1e3 * (time.perf_counter() - figures.released_at)
+            figures.released_at = None
+            self.announce(f"proven after release ms={figures.proven_after_release_ms:.0f}")
 
     def _update_figures(self, state: AppState) -> None:
         """The status line's frame times: what ``--stats`` would report now, twice a second."""
@@ -164,13 +185,15 @@ class Milestones:
         median_plain_drag_frame_ms=Z (target drags with fold-free off)."""
         count, median, p95 = frame_statistics(state.status.frame_ms)
         _, drag_median, _ = frame_statistics(self.drag_frame_ms)
-        fold_free_count, fold_free_median, _ = frame_statistics(self.fold_free_drag_ms)
-        _, plain_median, _ = frame_statistics(self.plain_drag_ms)
-        proven = self.proven_after_release_ms
+        figures = self.fold_free
+        fold_free_count, fold_free_median, _ = frame_statistics(figures.drag_ms)
+        _, plain_median, _ = frame_statistics(figures.plain_drag_ms)
+        proven = figures.proven_after_release_ms
         return (
             f"frames={count} median_frame_ms={median:.2f} p95_frame_ms={p95:.2f} "
             f"median_drag_frame_ms={drag_median:.2f} fold_free_drag_frames={fold_free_count} "
-            f"max_folded_drawn={self.max_folded_drawn} median_fold_free_drag_frame_ms={fold_free_median:.2f} "
+            f"max_folded_drawn={figures.max_folded_drawn} "
+            f"median_fold_free_drag_frame_ms={fold_free_median:.2f} "
             f"proven_after_release_ms={'none' if proven is None else f'{proven:.0f}'} "
             f"median_plain_drag_frame_ms={plain_median:.2f}"
         )

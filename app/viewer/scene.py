@@ -197,6 +197,15 @@ class Columns:
 
 
 @dataclass
+class Preview:
+    """The preview mesh's G, rows in the renderer's preview vertex order, and the target its
+    positions were last made for."""
+
+    columns: Columns | None = None
+    target: np.ndarray | None = None
+
+
+@dataclass
 class Layer:
     """The backdrop-and-mesh layer kept between frames: its framebuffer, the key of what it holds,
     and the key of what the last frame drew (a picture drawn twice in a row is kept)."""
@@ -261,8 +270,7 @@ class Scene:
         self._exact = False
         self._field = None
         # The preview mesh's G, rows in the renderer's preview vertex order.
-        self._preview: Columns | None = None
-        self._preview_target: np.ndarray | None = None  # what the preview's positions were made for
+        self._preview = Preview()
         #: Whether the frame being drawn shows the preview mesh (`sync` decides).
         self.previewing = False
         # The backdrop-and-mesh layer (`draw`) and what it was drawn with.
@@ -274,7 +282,6 @@ class Scene:
         self._fold_check: tuple[int, bool | None] | None = None
         #: The positions drawn with "Fold-free" on (`app.viewer.fold_free_frames`).
         self.fold_free_frames = FoldFreeFrames()
-        self._refused: np.ndarray | None = None  # a certified map whose mesh map folds
 
     @property
     def layer_key(self) -> tuple | None:
@@ -318,11 +325,11 @@ class Scene:
             )
             self._drawn = None
             self._field = None
-            self._preview = self._preview_target = None
+            self._preview = Preview()
             if basis.preview is not None:
                 renderer.set_preview_mesh(basis.preview.vertices, basis.preview.triangles)
                 rows = basis.preview.basis[renderer.preview_vertex_order]
-                self._preview = Columns(
+                self._preview.columns = Columns(
                     np.asfortranarray(rows.real, dtype=np.float32),
                     np.asfortranarray(rows.imag, dtype=np.float32) if np.iscomplexobj(rows) else None,
                 )
@@ -357,7 +364,7 @@ class Scene:
         ) or state.playback.playing
         return (
             (moving or state.display.viewport_moving)
-            and self._preview is not None
+            and self._preview.columns is not None
             and state.display.view_mode == "image"
             and state.selection.edit_mode == "deform"
             and not state.display.show_wireframe
@@ -367,13 +374,14 @@ class Scene:
         """The preview mesh's positions, G' @ P' (~20k rows: cheaper than any update of the dense mesh)."""
         self.previewing = True
         target = state.document.live.target
-        if self._preview_target is not None and np.array_equal(self._preview_target, target):
+        preview = self._preview
+        if preview.target is not None and np.array_equal(preview.target, target):
             return  # a pan or zoom: the positions are those of the last frame
         started = time.perf_counter()
         self.renderer.set_preview_positions(
-            combined_columns(self._preview.columns, target, self._preview.imaginary)
+            combined_columns(preview.columns.columns, target, preview.columns.imaginary)
         )
-        self._preview_target = np.array(target)
+        preview.target = np.array(target)
         # The dense mesh is left as it was (`_drawn` with it): once the motion stops it gets
         # the exact positions if the target changed meanwhile.
         self.update_ms = 1e3 * (time.perf_counter() - started)
@@ -395,16 +403,18 @@ class Scene:
             drawn is not None
             and np.array_equal(drawn, target)
             and certified_drawn is not None
-            and (certified is None or certified is certified_drawn or certified is self._refused)
+            and (certified is None or certified is certified_drawn or certified is frames.refused)
             and not frames.catching_up
         ):
             return
         started = time.perf_counter()
-        fresh = certified is not None and certified is not self._refused
-        if fresh and frames.adopt(self._basis, target, certified):
+        if (
+            certified is not None
+            and certified is not frames.refused
+            and frames.adopt(self._basis, target, certified)
+        ):
             positions = certified
         else:
-            self._refused = certified  # not a bijection on the mesh (too coarse for it): not drawn
             dragging = state.selection.drag is not None and state.selection.drag.kind == "target"
             positions = frames.positions(self._basis, target, dragging)
         state.compute.mesh_proof = frames.proof

@@ -397,8 +397,8 @@ class Viewer:
         again and again on a software renderer took the cores the precompute needed (the
         starfish demo's --play: basis 12.5 s instead of 1.6 s)."""
         playing = self.state.playback.playing and self._playback_ready()
-        if self.script.moving or playing or self.exporter.animation:
-            glfw.poll_events()  # a replay, playback or an export animates every frame
+        if self.script.moving or playing or self.exporter.animation or self.scene.catching_up:
+            glfw.poll_events()  # a replay, playback, an export or fold-free frames catching up
         elif not imgui.get_current_context().input_events_queue.empty():
             glfw.poll_events()  # imgui takes queued input a few events a frame (typed text)
         elif self.input.events or self.input.frames_to_draw > 0:
@@ -408,8 +408,6 @@ class Viewer:
             glfw.wait_events_timeout(0.1)  # playback waiting for its basis
         elif self.script.playing:
             glfw.wait_events_timeout(0.1)  # a script waiting for its basis
-        elif self.scene.catching_up:
-            glfw.poll_events()  # fold-free frames not yet on the target curve (`app.viewer.fold_free_frames`)
         elif self.state.selection.drag is not None:
             glfw.wait_events_timeout(0.1)  # a drag that pauses gets its check (`app.viewer.fold_free`)
         elif self.state.display.viewport_dirty or self.dialogs.waiting:
