@@ -29,6 +29,7 @@ there) took 10.
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from dataclasses import dataclass
 
@@ -118,7 +119,8 @@ class Untangling:
     goal : ndarray of shape (V, 2)
         The goal it works towards (a frame with another goal starts afresh on the same region).
     round_seconds : float
-        How long its last round took (whether the next fits in a frame's budget).
+        What a round cost in the last frame that took some, with the continuation's setup (whether
+        the next fits in a frame's budget).
     """
 
     region: np.ndarray
@@ -197,29 +199,35 @@ def drag_step(
     """
     deadline = time.perf_counter() + budget
     goal = np.asarray(goal, dtype=np.float64)
-    turned = _doubled_areas(goal, mesh.triangles) <= mesh.floors
+    goal_edges = _edges(goal, mesh.triangles)
+    turned = _cross(*goal_edges) <= mesh.floors
     if not turned.any():
         proof = prove_mesh_bijection(goal, mesh.triangles, mesh.boundary)
         if proof.proven:
             return DragStep(goal, True, True, proof, 0, None)
     origin = mesh.vertices if start is None else np.asarray(start, dtype=np.float64)
-    if not np.all(_doubled_areas(origin, mesh.triangles) > 0.0):
-        raise ValueError("start turns triangles over: a drag step starts from fold-free positions")
     rounds, positions = 0, None
     estimate = 0.0 if untangling is None else untangling.round_seconds
-    if least_rounds > 0 or time.perf_counter() + estimate < deadline:
+    started = time.perf_counter()
+    if least_rounds > 0 or started + estimate < deadline:
         positions, untangling, rounds = _continued(
             mesh, origin, goal, turned, untangling, deadline, least_rounds
         )
+        # What a frame's first round costs, with the continuation's setup (a fresh start's harmonic
+        # step and barrier problem took longer than its round): whether the next frame can afford one.
+        seconds = (time.perf_counter() - started) / max(rounds, 1)
+        untangling = dataclasses.replace(untangling, round_seconds=seconds)
     if positions is not None:
         positions[mesh.boundary] = goal[mesh.boundary]  # the same floats as the goal's, on its curve
         proof = prove_mesh_bijection(positions, mesh.triangles, mesh.boundary)
         if proof.proven:
             return DragStep(positions, True, False, proof, rounds, None)
     # Out of time: the nearest fold-free state on the straight way to the goal.
-    direction = goal - origin
-    length = SHARE * min(_flip_free_step(mesh.triangles, origin, direction), 1.0)
-    positions = origin + _checked_length(mesh, origin, direction, length) * direction
+    coefficients = _area_polynomial(_edges(origin, mesh.triangles), goal_edges)
+    if not np.all(coefficients[0] > 0.0):
+        raise ValueError("start turns triangles over: a drag step starts from fold-free positions")
+    length = SHARE * min(_first_root(*coefficients), 1.0)
+    positions = origin + _checked_length(mesh, coefficients, length) * (goal - origin)
     proof = prove_mesh_bijection(positions, mesh.triangles, mesh.boundary)
     if not proof.proven:
         positions = origin
@@ -318,14 +326,52 @@ def _untangled(mesh: DragMesh, goal: np.ndarray, untangling: Untangling, deadlin
     return start, untangling, taken
 
 
-def _checked_length(mesh: DragMesh, positions: np.ndarray, direction: np.ndarray, length: float) -> float:
-    """`length`, halved until every triangle's doubled area at positions + length direction (V, 2)
-    stays above its floor in float; 0 once it is shorter than `SHORTEST`."""
+def _checked_length(mesh: DragMesh, coefficients: tuple, length: float) -> float:
+    """`length`, halved until every triangle's doubled area, c0 + c1 s + c2 s² (`coefficients`, each
+    (T,)) at s = length, stays above its floor; 0 once it is shorter than `SHORTEST`."""
+    c0, c1, c2 = coefficients
     while length >= SHORTEST:
-        if np.all(_doubled_areas(positions + length * direction, mesh.triangles) > mesh.floors):
+        if np.all(c0 + length * (c1 + length * c2) > mesh.floors):
             return length
         length *= 0.5
     return 0.0
+
+
+def _edges(points: np.ndarray, triangles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The edges b - a and c - a (each (T, 2)) of each triangle (a, b, c)."""
+    a = points[triangles[:, 0]]
+    return points[triangles[:, 1]] - a, points[triangles[:, 2]] - a
+
+
+def _cross(u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """u × v (K,) of vectors (K, 2)."""
+    return u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0]
+
+
+def _area_polynomial(start: tuple, end: tuple) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(c0, c1, c2), each (T,): each triangle's doubled area c0 + c1 s + c2 s² on the straight way
+    from the positions of edges `start` to those of edges `end` (`_edges`), s from 0 to 1."""
+    (e1, e2), (g1, g2) = start, end
+    f1, f2 = g1 - e1, g2 - e2
+    return _cross(e1, e2), _cross(e1, f2) + _cross(f1, e2), _cross(f1, f2)
+
+
+def _first_root(c0: np.ndarray, c1: np.ndarray, c2: np.ndarray) -> float:
+    """The smallest s in (0, 1] at which some c0 + c1 s + c2 s² (c0 > 0, each (T,)) reaches zero, or inf
+    (Smith & Schaefer 2015's flip-free step).  Only triangles whose area can reach zero by s = 1 are
+    solved for: negative at s = 1, or a convex quadratic whose lowest point, in (0, 1), is not above 0."""
+    maybe = (c0 + c1 + c2 <= 0.0) | ((c2 > 0.0) & (c1 < 0.0) & (-c1 < 2.0 * c2) & (c1 * c1 >= 4.0 * c0 * c2))
+    if not maybe.any():
+        return np.inf
+    c0, c1, c2 = c0[maybe], c1[maybe], c2[maybe]
+    discriminant = c1 * c1 - 4.0 * c2 * c0
+    root = np.sqrt(np.maximum(discriminant, 0.0))
+    # Stable roots: q = -(c1 + sign(c1) √Δ) / 2, roots q / c2 and c0 / q.
+    q = -0.5 * (c1 + np.where(c1 >= 0.0, root, -root))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        candidates = np.stack([q / c2, c0 / q])
+    real = (discriminant >= 0.0) & np.isfinite(candidates)
+    return float(np.where(real & (candidates > 0.0), candidates, np.inf).min())
 
 
 def _doubled_areas(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
@@ -342,29 +388,6 @@ def _rings(mesh: DragMesh, triangles: np.ndarray, rings: int) -> np.ndarray:
         vertices = (mesh.incidence.T @ marked) > 0
         marked = (mesh.incidence @ vertices.astype(np.float64)) > 0
     return vertices & mesh.interior
-
-
-def _flip_free_step(triangles: np.ndarray, positions: np.ndarray, direction: np.ndarray):
-    """The largest s (or inf) such that no triangle of positions + s' direction (V, 2), 0 ≤ s' < s,
-    turns over.
-
-    Each triangle's doubled area is c0 + c1 s + c2 s² with c0 > 0 (Smith & Schaefer 2015): its
-    first positive root, if any, bounds s."""
-    a, b, c = (positions[triangles[:, k]] for k in range(3))
-    da, db, dc = (direction[triangles[:, k]] for k in range(3))
-    e1, e2, f1, f2 = b - a, c - a, db - da, dc - da
-    c0 = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
-    c1 = e1[:, 0] * f2[:, 1] - e1[:, 1] * f2[:, 0] + f1[:, 0] * e2[:, 1] - f1[:, 1] * e2[:, 0]
-    c2 = f1[:, 0] * f2[:, 1] - f1[:, 1] * f2[:, 0]
-    discriminant = c1 * c1 - 4.0 * c2 * c0
-    root = np.sqrt(np.maximum(discriminant, 0.0))
-    # Stable roots: q = -(c1 + sign(c1) √Δ) / 2, roots q / c2 and c0 / q.
-    q = -0.5 * (c1 + np.where(c1 >= 0.0, root, -root))
-    with np.errstate(divide="ignore", invalid="ignore"):
-        candidates = np.stack([q / c2, c0 / q])
-    real = (discriminant >= 0.0) & np.isfinite(candidates)
-    candidates = np.where(real & (candidates > 0.0), candidates, np.inf)
-    return float(candidates.min())
 
 
 def _direction(mesh: DragMesh, positions: np.ndarray, straight: np.ndarray, region: np.ndarray) -> np.ndarray:
