@@ -92,7 +92,10 @@ class FoldFreeFrames:
         self._use(basis)
         goal = plain_positions(basis.basis, target)
         budget, least = (DRAG_BUDGET, 0) if moving else (REST_BUDGET, 1)
-        step = core.drag_step(self._mesh, self._positions, goal, budget, self._untangling, least)
+        try:
+            step = core.drag_step(self._mesh, self._positions, goal, budget, self._untangling, least)
+        except ValueError:  # a start that is not fold-free (none is kept): from the source mesh then
+            step = core.drag_step(self._mesh, None, goal, budget, None, least)
         self._positions, self._untangling = step.positions, step.untangling
         self.catching_up = not step.reached
         self.proof = MeshProof(np.asarray(target).tobytes(), step.reached, step.proof.turned_over)
