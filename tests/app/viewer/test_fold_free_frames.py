@@ -112,3 +112,13 @@ def test_stats_count_fold_free_drag_frames_and_time_the_proof_after_release(basi
         stats["median_fold_free_drag_frame_ms"] == "13.00" and stats["median_plain_drag_frame_ms"] == "0.00"
     )
     assert 30 <= int(stats["proven_after_release_ms"]) <= 60  # from the release frame's start to the proof
+
+
+def test_a_start_that_folds_is_dropped_for_the_source_mesh(basis):
+    """Were the last positions kept ever folded, the frame starts from the source mesh instead of
+    failing."""
+    frames = FoldFreeFrames()
+    frames.positions(basis, STARFISH, moving=False)
+    frames._positions = plain_positions(basis.basis, strong_target())  # folded: as no frame keeps
+    positions = frames.positions(basis, strong_target(), moving=True)
+    assert np.count_nonzero(core.folded_triangles(basis.mesh, positions)) == 0
