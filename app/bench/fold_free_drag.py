@@ -32,8 +32,9 @@ TIMEOUT = 600
 PROOF_WAIT = 5.0
 
 
-def fold_free_drag_row(step_failed: type[Exception]) -> None:
-    """Print the row; `step_failed` (`app.bench.table.StepFailed`) names a failed child."""
+def fold_free_drag_row(step_failed: type[Exception], move_seconds: float = MOVE_SECONDS) -> None:
+    """Print the row, each move lasting `move_seconds`; `step_failed` (`app.bench.table.StepFailed`)
+    names a failed child."""
     title = "viewer fold-free drag frame"
     if shutil.which("Xvfb") is None:
         print(f"{title}: skipped: no Xvfb (apt-get install xvfb)")
@@ -46,7 +47,7 @@ def fold_free_drag_row(step_failed: type[Exception]) -> None:
     start, out = cage[POINT].tolist(), (cage[POINT] + OFFSET).tolist()
     moves = []
     for index, (fold_free, to) in enumerate(((False, out), (False, start), (True, out))):
-        moves.append({"at": index * MOVE_SECONDS, "duration": MOVE_SECONDS, "point": POINT, "to": to})
+        moves.append({"at": index * move_seconds, "duration": move_seconds, "point": POINT, "to": to})
         moves[-1]["fold_free"] = fold_free
     with tempfile.TemporaryDirectory() as folder:
         folder = Path(folder)

@@ -108,12 +108,18 @@ def run_bench(args: argparse.Namespace) -> int:
     if not args.skip_photos:
         children.append(lambda: photo_rows((QUICK_SIZE,) if args.quick else PHOTO_SIZES, run_child))
     if not args.skip_drag:
-        from app.bench.fold_free_drag import fold_free_drag_row
+        from app.bench import fold_free_drag
 
         children.append(
             lambda: _drag_frames(DRAG_VERTICES[:1], 1.0) if args.quick else _drag_frames(DRAG_VERTICES)
         )
-        children.append(lambda: fold_free_drag_row(StepFailed))
+        children.append(
+            lambda: (
+                fold_free_drag.fold_free_drag_row(StepFailed, 0.5)
+                if args.quick
+                else fold_free_drag.fold_free_drag_row(StepFailed)
+            )
+        )
     if not args.skip_export:
         children.append(
             lambda: (
