@@ -37,6 +37,8 @@ class FoldFreeFigures:
         Times (ms) of the frames drawn while a target point was dragged with fold-free on, and off.
     max_folded_drawn : int
         The most turned-over triangles a frame of the first drew.
+    on_target : int
+        Those of its frames whose boundary was on the target curve (the others caught up later).
     proven_after_release_ms : float or None
         ms from the last release with fold-free on to a proof on the status line (None: not yet).
     released_at : float or None
@@ -48,6 +50,7 @@ class FoldFreeFigures:
     drag_ms: list = field(default_factory=list)
     plain_drag_ms: list = field(default_factory=list)
     max_folded_drawn: int = 0
+    on_target: int = 0
     proven_after_release_ms: float | None = None
     released_at: float | None = None
     target_dragged: bool = False
@@ -157,6 +160,8 @@ class Milestones:
         if dragged and fold_free:
             figures.drag_ms.append(state.status.frame_ms[-1])
             figures.max_folded_drawn = max(figures.max_folded_drawn, state.compute.folded_count or 0)
+            proof = state.compute.mesh_proof
+            figures.on_target += proof is not None and proof.proves(state.document.live.target)
         elif dragged:
             figures.plain_drag_ms.append(state.status.frame_ms[-1])
         if figures.target_dragged and not dragged and fold_free:
@@ -182,7 +187,8 @@ class Milestones:
         """``--stats``: frames=N median_frame_ms=X p95_frame_ms=Y median_drag_frame_ms=Z
         fold_free_drag_frames=N max_folded_drawn=K median_fold_free_drag_frame_ms=X
         proven_after_release_ms=Y (``none``: no release with fold-free on was proven since)
-        median_plain_drag_frame_ms=Z (target drags with fold-free off)."""
+        median_plain_drag_frame_ms=Z (target drags with fold-free off)
+        fold_free_drag_frames_on_target=K (fold-free drag frames whose boundary was on the target curve)."""
         count, median, p95 = frame_statistics(state.status.frame_ms)
         _, drag_median, _ = frame_statistics(self.drag_frame_ms)
         figures = self.fold_free
@@ -195,5 +201,6 @@ class Milestones:
             f"max_folded_drawn={figures.max_folded_drawn} "
             f"median_fold_free_drag_frame_ms={fold_free_median:.2f} "
             f"proven_after_release_ms={'none' if proven is None else f'{proven:.0f}'} "
-            f"median_plain_drag_frame_ms={plain_median:.2f}"
+            f"median_plain_drag_frame_ms={plain_median:.2f} "
+            f"fold_free_drag_frames_on_target={figures.on_target}"
         )

@@ -95,8 +95,9 @@ def test_stats_count_fold_free_drag_frames_and_time_the_proof_after_release(basi
     milestones = Milestones(test_mode=False)
     state = _state(basis, strong_target())
     state.selection.drag = Drag("target", 5, np.zeros(2), state.document.live)
-    for folded, frame_ms in ((0, 12.0), (2, 14.0), (0, 13.0)):
-        state.compute.folded_count = folded
+    reached = MeshProof(state.document.live.target.tobytes(), True, 0)
+    for folded, frame_ms, proof in ((0, 12.0, None), (2, 14.0, None), (0, 13.0, reached)):
+        state.compute.folded_count, state.compute.mesh_proof = folded, proof
         state.status.frame_ms.append(frame_ms)
         milestones.frame_done(state, 0)
     state.selection.drag = None
@@ -111,7 +112,16 @@ def test_stats_count_fold_free_drag_frames_and_time_the_proof_after_release(basi
     assert (
         stats["median_fold_free_drag_frame_ms"] == "13.00" and stats["median_plain_drag_frame_ms"] == "0.00"
     )
-    assert 30 <= int(stats["proven_after_release_ms"]) <= 60  # from the release frame's start to the proof
+    assert stats["fold_free_drag_frames_on_target"] == "1"
+    # From the start of the release's frame (30 ms) to the proof, a frame later.
+    assert 30 <= int(stats["proven_after_release_ms"]) < 1000
+    assert (
+        Milestones(test_mode=False)
+        .statistics(state)
+        .endswith(
+            "proven_after_release_ms=none median_plain_drag_frame_ms=0.00 fold_free_drag_frames_on_target=0"
+        )
+    )
 
 
 def test_a_start_that_folds_is_dropped_for_the_source_mesh(basis):
