@@ -532,7 +532,8 @@ def _add_viewer_options(parser: argparse.ArgumentParser) -> None:
         "drawn while a control point is dragged; 0 without any) fold_free_drag_frames=N max_folded_drawn=K "
         "median_fold_free_drag_frame_ms=X proven_after_release_ms=Y (the drag frames drawn with fold-free "
         "on, the most turned-over triangles one drew, their median time, and the time from the last release "
-        "to a proof on the status line, or none)",
+        "to a proof on the status line, or none) median_plain_drag_frame_ms=Z (drag frames with it off) "
+        "fold_free_drag_frames_on_target=K (fold-free drag frames whose boundary was on the target curve)",
     )
     parser.add_argument(
         "--max-edge",
