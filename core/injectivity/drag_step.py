@@ -8,18 +8,20 @@ which is), and returns positions proven fold-free (`core.injectivity.mesh_biject
 - Y itself when it is proven (the common case);
 - else Y outside a region R of interior vertices around Y's turned-over triangles (`RINGS` rings),
   and inside R positions found by the barrier continuation of Garanzha et al. 2021
-  (`core.injectivity.mesh_untangling`, with R's rim and the boundary fixed at Y), started from X
-  plus one composite harmonic step: the harmonic extension into R of the rim's move Y - X with the
-  mean-value weights of X (Floater 2003; Schneider, Hormann & Floater 2013's composite maps,
-  libigl's `bijective_composite_harmonic_mapping`, take such steps on the whole mesh).  A region
-  that stalls is doubled in rings;
+  (`core.injectivity.mesh_untangling`, with R's rim and the boundary fixed at Y), started from
+  whichever turns fewer triangles over of Y and X plus one composite harmonic step (the harmonic
+  extension into R of the rim's move Y - X with the mean-value weights of X: Floater 2003;
+  Schneider, Hormann & Floater 2013's composite maps, libigl's
+  `bijective_composite_harmonic_mapping`, take such steps on the whole mesh).  A region that
+  stalls is doubled in rings.  A frame takes a round only if the last one, setup included, fits
+  its budget, or if the caller asks for one at least (`least_rounds`: at rest);
 - if the frame's budget runs out first: the nearest fold-free state on the way, X + s (Y - X)
   (s is `SHARE` of the largest step that turns no triangle over, the first positive root of each
   triangle's area, a quadratic in s: Smith & Schaefer 2015's flip-free line search; the composite
   harmonic step's direction instead cost a sparse solve more and went no further in the frames
   tried), its boundary between the last frame's and the target curve (`reached` False), and the
-  continuation's state (`Untangling`), which the next frame resumes: a hard drag catches up over a
-  few frames and never draws a fold.
+  continuation's state (`Untangling`), which the next frame resumes for the same goal (a new goal
+  starts afresh on its region): a hard drag catches up after its release and never draws a fold.
 
 Every answer passes `prove_mesh_bijection` (exact orientation, a simple boundary polygon); should
 the last state not, X is returned unchanged.  With the source triangles as the barrier's reference
