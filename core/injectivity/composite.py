@@ -32,6 +32,7 @@ from core.curves.bspline import ClosedBSpline
 from core.injectivity import inner_curve
 from core.injectivity.certificate import InjectivityCertificate, certify_injective
 from core.injectivity.corner_discs import disc_images, radial_discs
+from core.injectivity.mesh_fold_free import mesh_fold_free_map
 from core.injectivity.mesh_unfolding import unfold_triangles
 from core.injectivity.mesh_untangling import untangle_triangles
 from core.meshes.mesh import FOLDED_AREA_SHARE, triangle_signed_areas
@@ -71,11 +72,15 @@ def fold_free_deform(
         Rows of `points` on the curve, int (B,), and their parameters t (B,) (as in `core.Mesh`):
         their images are the target curve at t exactly (others on it: at their closest t).
     triangles : array_like of shape (T, 3), optional
-        Triangles over `points`, counter-clockwise (as in `core.Mesh`): the map's piecewise-linear
-        interpolant may turn some over where it compresses hard (straight edges cannot follow it).
-        A step is then halved while it turns one over (down to `SMALLEST_MESH_STEP`), and those
-        left at the end are unfolded by moving interior vertices (`_unfolded`); boundary vertices
-        never move.  The certificate says how many moved, how far, and how many stay turned over.
+        Triangles over `points`, counter-clockwise (as in `core.Mesh`).  With `boundary` too, the
+        map is the mesh's own (`core.injectivity.mesh_fold_free`): composite discrete harmonic steps
+        on the straight path, else on a similarity then the straight path, each step cut before
+        a triangle turns over, proven a bijection on the mesh (every triangle positive, the boundary
+        polygon simple; the certificate's ``on_mesh``).  Without `boundary`, the continuous map's
+        piecewise-linear interpolant may turn some over where it compresses hard (straight edges
+        cannot follow it): a step is then halved while it turns one over (down to
+        `SMALLEST_MESH_STEP`), and those left at the end are unfolded by moving interior vertices
+        (`_unfolded`).  The certificate says how many moved, how far, and how many stay turned over.
     max_steps : int
         The most steps to take before giving up.
     progress : callable, optional
@@ -93,7 +98,8 @@ def fold_free_deform(
     ------
     ValueError
         The target is not a valid cage, a cage on the straight path crosses itself, or no step
-        down to `SMALLEST_STEP` is proven within `max_steps` steps.
+        down to `SMALLEST_STEP` is proven within `max_steps` steps; on a mesh, no path tried
+        reaches the target without folding (the sentence names the paths).
     """
     if not isinstance(curve, ClosedBSpline):
         raise ValueError(f"curve must be a core.ClosedBSpline, got {type(curve).__name__}")
@@ -107,6 +113,8 @@ def fold_free_deform(
     if boundary is not None:
         boundary = np.asarray(boundary[0], dtype=np.int64), np.asarray(boundary[1], dtype=np.float64)
         on_curve[boundary[0]] = True
+    if triangles is not None and boundary is not None:
+        return mesh_fold_free_map(curve, goal, images, triangles, boundary, progress)
     start = curve.control_points
     for fraction in np.arange(1, PATH_CHECKS) / PATH_CHECKS:  # a crossing found early saves the proofs
         _path_cage((1.0 - fraction) * start + fraction * goal, fraction)

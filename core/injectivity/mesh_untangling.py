@@ -131,6 +131,24 @@ def untangle_triangles(
     return images.copy(), np.zeros(len(images))
 
 
+def relaxed(
+    vertices: np.ndarray, images: np.ndarray, triangles: np.ndarray, movable: np.ndarray, rounds: int
+) -> np.ndarray:
+    """Images (V, 2) with the `movable` (V,) vertices moved by `rounds` Newton steps on the barrier
+    energy E_ε (ε tiny) against the source triangles' shapes: from images that turn nothing over, a
+    step that would turn a triangle over raises E_ε past any bound and is cut back by the line
+    search, so triangles about to collapse open up and none turns over (the caller checks)."""
+    active = triangles[np.any(movable[triangles], axis=1)]
+    gradients, areas = _reference(vertices, images, active, own_shapes=False)
+    problem = _Problem(images, active, movable, gradients, areas)
+    positions = images[movable].ravel()
+    for _ in range(rounds):
+        positions = problem.newton_step(positions, TINY_EPSILON)
+    result = images.copy()
+    result[movable] = positions.reshape(-1, 2)
+    return result
+
+
 #: The tries on each region: (reference of the images' own shapes, start from the closest try so far
 #: on the region instead of the images).  A try that stalls with a few triangles turned over often
 #: leaves a start from which the source shapes untangle at once (a cornered drag at 6.5k vertices:
@@ -324,4 +342,4 @@ class _Problem:
 _DETERMINANT_HESSIAN = np.array([[0, 0, 0, 1], [0, 0, -1, 0], [0, -1, 0, 0], [1, 0, 0, 0]], dtype=np.float64)
 
 
-__all__ = ["untangle_triangles"]
+__all__ = ["relaxed", "untangle_triangles"]
