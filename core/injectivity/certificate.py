@@ -143,8 +143,8 @@ class InjectivityCertificate:
             )
         if self.on_mesh and self.injective:
             return f"fold-free on the mesh, proven ({self.reason}){repair}"
-        if self.injective and turned:
-            return f"not fold-free on the mesh: the continuous map is proven fold-free, but{repair[1:]}"
+        if turned:  # what is drawn folds, whatever is proven of the continuous map
+            return f"not fold-free on the mesh{repair}"
         if self.injective:
             bounds = f"σ₂ ≥ {self.sigma2_min:.3g}, k ≤ {self.k_max:.3g}"
             return f"fold-free, proven ({bounds}; {self.samples} samples){repair}"

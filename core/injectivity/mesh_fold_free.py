@@ -78,8 +78,11 @@ def mesh_fold_free_map(
     Raises
     ------
     ValueError
-        No path reaches the target without folding (the sentence names the paths tried).
+        The target runs the other way round, or no path reaches it without folding (the sentence
+        names the paths tried).
     """
+    if (_polygon_area(target) > 0.0) != (_polygon_area(curve.control_points) > 0.0):
+        raise ValueError("the target runs the other way round than the cage: every triangle would turn over")
     indices, parameters = boundary
     loop = indices[np.argsort(parameters, kind="stable")]
     final = ClosedBSpline(target)
