@@ -46,6 +46,7 @@ from core.meshes.distortion import (
     vertex_jacobians,
     worst_distortion,
 )
+from core.injectivity.mesh_fold_free import PLAIN_HARMONIC_MAP
 from core.meshes.mesh import unique_edges
 from core.meshes.mesh_transfer import transfer_basis
 from core.meshes.refinement import RADIUS_EDGE_RATIO
@@ -73,6 +74,7 @@ __all__ = [
     "COMPILE_MESSAGE",
     "COMPLEX_KERNELS",
     "DEFAULT_KERNEL",
+    "PLAIN_HARMONIC_MAP",
     "DEFAULT_PARAMETERIZATION",
     "DEFAULT_SAMPLES_PER_SEGMENT",
     "GRADIENTS_COMPILE_MESSAGE",

@@ -32,7 +32,7 @@ from core.curves.bspline import ClosedBSpline
 from core.injectivity import inner_curve
 from core.injectivity.certificate import InjectivityCertificate, certify_injective
 from core.injectivity.corner_discs import disc_images, radial_discs
-from core.injectivity.mesh_fold_free import mesh_fold_free_map
+from core.injectivity.mesh_fold_free import PLAIN_HARMONIC_MAP, mesh_fold_free_map
 from core.injectivity.mesh_unfolding import unfold_triangles
 from core.injectivity.mesh_untangling import untangle_triangles
 from core.meshes.mesh import FOLDED_AREA_SHARE, triangle_signed_areas
@@ -56,6 +56,7 @@ def fold_free_deform(
     triangles=None,
     max_steps: int = MAX_STEPS,
     progress: Callable[[float], None] | None = None,
+    basis=None,
 ) -> tuple[np.ndarray, InjectivityCertificate]:
     """Images of points of the source domain under a certified bijection onto the target's domain.
 
@@ -86,6 +87,10 @@ def fold_free_deform(
     progress : callable, optional
         Called after every step tried with the share of the path proven so far (0 to 1); an
         exception it raises abandons the map (a caller's newer request).
+    basis : array_like of shape (M, n), optional
+        With `triangles` and `boundary`: the harmonic basis G (``poisson``) at the points.  The
+        plain map G P' is then the answer wherever it is a bijection on the mesh (what the plain
+        warp draws, where that does not fold), with ``extra["path"]`` `PLAIN_HARMONIC_MAP`.
 
     Returns
     -------
@@ -114,7 +119,8 @@ def fold_free_deform(
         boundary = np.asarray(boundary[0], dtype=np.int64), np.asarray(boundary[1], dtype=np.float64)
         on_curve[boundary[0]] = True
     if triangles is not None and boundary is not None:
-        return mesh_fold_free_map(curve, goal, images, triangles, boundary, progress)
+        plain = None if basis is None else np.asarray(basis, dtype=np.float64) @ goal
+        return mesh_fold_free_map(curve, goal, images, triangles, boundary, progress, plain)
     start = curve.control_points
     for fraction in np.arange(1, PATH_CHECKS) / PATH_CHECKS:  # a crossing found early saves the proofs
         _path_cage((1.0 - fraction) * start + fraction * goal, fraction)
@@ -340,4 +346,4 @@ def composite_certificate(
     )
 
 
-__all__ = ["composite_certificate", "fold_free_deform"]
+__all__ = ["PLAIN_HARMONIC_MAP", "composite_certificate", "fold_free_deform"]

@@ -5,7 +5,8 @@ bijection onto its boundary polygon when every triangle keeps its orientation an
 simple: no certificate of a continuous map is needed for a fold-free *mesh* map.  The map is the
 composite of discrete harmonic steps of `core.injectivity.mesh_composite`, with the boundary
 vertices on the cages of a path at their parameters, tried on the paths below in turn until one
-reaches the target:
+reaches the target (unless the plain harmonic map G P', where the caller gives it, is a bijection
+on the mesh: then it is the answer, what the plain warp draws):
 
 1. the straight path of cages, P(s) = (1 - s) P + s P';
 2. the similarity (rotation and scale about the centroid, and the centroid's move) that best fits
@@ -36,6 +37,8 @@ from core.meshes.distortion import signed_singular_values, triangle_jacobians
 
 #: Cages at s = 1/PATH_CHECKS, 2/PATH_CHECKS, ... of a path are checked for crossings before any step.
 PATH_CHECKS = 16
+#: The name of the plain harmonic map G P' where it is the answer (no path taken).
+PLAIN_HARMONIC_MAP = "the plain harmonic map"
 #: The paths tried, by name, in order.
 PATHS = ("the straight path", "rotation and scale about the centroid, then the straight path")
 
@@ -47,6 +50,7 @@ def mesh_fold_free_map(
     triangles: np.ndarray,
     boundary: tuple[np.ndarray, np.ndarray],
     progress: Callable[[float], None] | None = None,
+    plain: np.ndarray | None = None,
 ) -> tuple[np.ndarray, InjectivityCertificate]:
     """Images of the mesh's vertices under a fold-free piecewise-linear map onto the target's polygon.
 
@@ -66,6 +70,8 @@ def mesh_fold_free_map(
     progress : callable, optional
         Called after every harmonic step with how far along the current path the images are (a
         path tried after another starts again from 0).
+    plain : ndarray of shape (V, 2), optional
+        The plain harmonic map's images (G P'): the answer if they are a bijection on the mesh.
 
     Returns
     -------
@@ -87,6 +93,11 @@ def mesh_fold_free_map(
     loop = indices[np.argsort(parameters, kind="stable")]
     final = ClosedBSpline(target)
     end_values = final(parameters)
+    if plain is not None:
+        plain = plain.copy()
+        plain[indices] = end_values  # G interpolates the curve: the same up to rounding
+        if mesh_bijection(vertices, plain, triangles, loop).proven:
+            return plain, _certificate(vertices, plain, triangles, PLAIN_HARMONIC_MAP, 0)
     tried, solves, furthest = [], 0, None
     for name, start_cage, start in _paths(curve, target, vertices):
         collapse = _collapse(start_cage, target)
@@ -195,13 +206,14 @@ def _certificate(vertices, images, triangles, path: str, solves: int, moves=None
     moved = 0 if moves is None else int(np.count_nonzero(moves))
     largest = 0.0 if moves is None else float(moves.max()) / float(np.ptp(images, axis=0).max())
     extra = {"steps": solves, "path": path, "moved": moved, "largest_move": largest, "turned_over": 0}
+    steps = "" if path == PLAIN_HARMONIC_MAP else f", {solves} harmonic steps"
     reason = (
         f"the mesh's piecewise-linear map: every triangle keeps its orientation and the boundary "
-        f"polygon is simple ({path}, {solves} harmonic steps)"
+        f"polygon is simple ({path}{steps})"
     )
     return InjectivityCertificate(
         True, float(sigma[:, 1].min()), k, np.zeros((0, 2)), reason, 0, False, 0.0, extra, on_mesh=True
     )
 
 
-__all__ = ["PATHS", "mesh_fold_free_map"]
+__all__ = ["PATHS", "PLAIN_HARMONIC_MAP", "mesh_fold_free_map"]

@@ -140,3 +140,25 @@ def test_a_mirror_image_is_refused_in_one_line():
             curve, points * [-1.0, 1.0], mesh.vertices,
             boundary=(mesh.boundary, mesh.boundary_parameters), triangles=mesh.triangles,
         )  # fmt: skip
+
+
+def test_given_the_basis_a_plain_map_that_does_not_fold_is_the_answer_and_one_that_folds_is_not():
+    curve = core.ClosedBSpline(ELLIPSE)
+    mesh = core.triangulate(curve)
+    basis = core.mesh_basis_functions(curve, mesh, "poisson")
+    boundary = (mesh.boundary, mesh.boundary_parameters)
+    gentle = ELLIPSE.copy()
+    gentle[5] += [-26.06, 18.57]
+    images, certificate = core.fold_free_deform(
+        curve, gentle, mesh.vertices, boundary=boundary, triangles=mesh.triangles, basis=basis
+    )
+    plain = core.deform(basis, gentle)
+    np.testing.assert_allclose(images, plain, rtol=0, atol=1e-9 * curve.diameter)
+    assert certificate.extra["path"] == core.PLAIN_HARMONIC_MAP and certificate.extra["steps"] == 0
+    hard = ELLIPSE.copy()
+    hard[0] += [-31.95, 1.79]
+    images, certificate = core.fold_free_deform(
+        curve, hard, mesh.vertices, boundary=boundary, triangles=mesh.triangles, basis=basis
+    )
+    assert certificate.extra["path"] == mesh_fold_free.PATHS[0]
+    assert not core.folded_triangles(mesh, images).any()
