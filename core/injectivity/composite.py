@@ -74,23 +74,18 @@ def fold_free_deform(
         their images are the target curve at t exactly (others on it: at their closest t).
     triangles : array_like of shape (T, 3), optional
         Triangles over `points`, counter-clockwise (as in `core.Mesh`).  With `boundary` too, the
-        map is the mesh's own (`core.injectivity.mesh_fold_free`): composite discrete harmonic steps
-        on the straight path, else on a similarity then the straight path, each step cut before
-        a triangle turns over, proven a bijection on the mesh (every triangle positive, the boundary
-        polygon simple; the certificate's ``on_mesh``).  Without `boundary`, the continuous map's
-        piecewise-linear interpolant may turn some over where it compresses hard (straight edges
-        cannot follow it): a step is then halved while it turns one over (down to
-        `SMALLEST_MESH_STEP`), and those left at the end are unfolded by moving interior vertices
-        (`_unfolded`).  The certificate says how many moved, how far, and how many stay turned over.
+        mesh's own map, proven a bijection on the mesh (`core.injectivity.mesh_fold_free`; the
+        certificate's ``on_mesh``).  Without, steps of the continuous map are halved while its
+        interpolant turns a triangle over (down to `SMALLEST_MESH_STEP`), those left at the end
+        unfolded (`_unfolded`); the certificate says how many moved, how far, how many stay over.
     max_steps : int
         The most steps to take before giving up.
     progress : callable, optional
         Called after every step tried with the share of the path proven so far (0 to 1); an
         exception it raises abandons the map (a caller's newer request).
     basis : array_like of shape (M, n), optional
-        With `triangles` and `boundary`: the harmonic basis G (``poisson``) at the points.  The
-        plain map G P' is then the answer wherever it is a bijection on the mesh (what the plain
-        warp draws, where that does not fold), with ``extra["path"]`` `PLAIN_HARMONIC_MAP`.
+        With `triangles` and `boundary`: G (``poisson``) at the points; the plain map G P' is the
+        answer where it is a bijection on the mesh (``extra["path"]``: `PLAIN_HARMONIC_MAP`).
 
     Returns
     -------
@@ -102,17 +97,10 @@ def fold_free_deform(
     Raises
     ------
     ValueError
-        The target is not a valid cage, a cage on the straight path crosses itself, or no step
-        down to `SMALLEST_STEP` is proven within `max_steps` steps; on a mesh, no path tried
-        reaches the target without folding (the sentence names the paths).
+        The target is not a valid cage, a cage on the straight path crosses itself, or no step down
+        to `SMALLEST_STEP` is proven in `max_steps` steps; on a mesh, no path reaches the target.
     """
-    if not isinstance(curve, ClosedBSpline):
-        raise ValueError(f"curve must be a core.ClosedBSpline, got {type(curve).__name__}")
-    goal = as_points(target, "target")
-    if goal.shape != (shape := curve.control_points.shape):
-        raise ValueError(f"target must have shape {shape} like the cage, got {goal.shape}")
-    final = _target_curve(goal)
-    images = as_points(points, "points").copy()
+    goal, final, images = _checked(curve, target, points)
     triangles = None if triangles is None else np.asarray(triangles, dtype=np.int64)
     on_curve = np.zeros(images.shape[0], dtype=bool)
     if boundary is not None:
@@ -159,6 +147,17 @@ def fold_free_deform(
     if triangles is None:
         return images, composite_certificate(steps, curve)
     return _unfolded(as_points(points, "points"), images, triangles, ~on_curve, final, steps, curve)
+
+
+def _checked(curve, target, points) -> tuple[np.ndarray, ClosedBSpline, np.ndarray]:
+    """The target's control points (n, 2) and curve, and a copy of the points (M, 2); ValueError,
+    said of the argument, where one is not what `fold_free_deform` takes."""
+    if not isinstance(curve, ClosedBSpline):
+        raise ValueError(f"curve must be a core.ClosedBSpline, got {type(curve).__name__}")
+    goal = as_points(target, "target")
+    if goal.shape != (shape := curve.control_points.shape):
+        raise ValueError(f"target must have shape {shape} like the cage, got {goal.shape}")
+    return goal, _target_curve(goal), as_points(points, "points").copy()
 
 
 def _step_images(

@@ -37,6 +37,9 @@ from core.meshes.distortion import signed_singular_values, triangle_jacobians
 
 #: Cages at s = 1/PATH_CHECKS, 2/PATH_CHECKS, ... of a path are checked for crossings before any step.
 PATH_CHECKS = 16
+#: A control polygon whose area falls to this share of the larger end's on the way counts as collapsed
+#: (a half turn's is 0 at the middle, up to rounding).
+COLLAPSED = 1e-6
 #: The name of the plain harmonic map G P' where it is the answer (no path taken).
 PLAIN_HARMONIC_MAP = "the plain harmonic map"
 #: The paths tried, by name, in order.
@@ -139,7 +142,8 @@ def _paths(curve: ClosedBSpline, target: np.ndarray, vertices: np.ndarray):
 def _collapse(start: np.ndarray, target: np.ndarray) -> float | None:
     """Where on the straight path of cages from `start` to `target` (n, 2) the control polygon's
     signed area (a quadratic in s, checked at `PATH_CHECKS` points and the vertex of the parabola)
-    stops being of the start's sign, or None: no mesh can follow a boundary through that."""
+    falls to `COLLAPSED` of the ends' or changes sign, or None: no mesh follows a boundary through
+    that."""
     fractions = np.arange(1, PATH_CHECKS) / PATH_CHECKS
     first, last, middle = (_polygon_area(points) for points in (start, target, 0.5 * (start + target)))
     # A(s) = first (1 - s)² + 2 c s (1 - s) + last s², with c from A(1/2).
@@ -149,7 +153,7 @@ def _collapse(start: np.ndarray, target: np.ndarray) -> float | None:
         vertex = (first - cross_term) / curvature
         fractions = np.append(fractions, vertex) if 0.0 < vertex < 1.0 else fractions
     areas = first * (1 - fractions) ** 2 + 2 * cross_term * fractions * (1 - fractions) + last * fractions**2
-    collapsed = np.flatnonzero(areas * np.sign(first) <= 0.0)
+    collapsed = np.flatnonzero(areas * np.sign(first) <= COLLAPSED * max(abs(first), abs(last)))
     return None if collapsed.size == 0 else float(np.min(fractions[collapsed]))
 
 
