@@ -108,7 +108,7 @@ def fold_free_deform(
         on_curve[boundary[0]] = True
     if triangles is not None and boundary is not None:
         plain = None if basis is None else np.asarray(basis, dtype=np.float64) @ goal
-        return mesh_fold_free_map(curve, goal, images, triangles, boundary, progress, plain)
+        return mesh_fold_free_map(curve, final, images, triangles, boundary, progress, plain)
     start = curve.control_points
     for fraction in np.arange(1, PATH_CHECKS) / PATH_CHECKS:  # a crossing found early saves the proofs
         _path_cage((1.0 - fraction) * start + fraction * goal, fraction)

@@ -43,6 +43,8 @@ STALL_SOLVES = 12
 #: moved by this many Newton steps of a barrier energy.
 RINGS = 3
 RELAX_ROUNDS = 3
+POOR_RINGS = 8
+POOR_ROUNDS = 10
 
 
 @dataclass(frozen=True)
@@ -114,7 +116,10 @@ def composite_on_mesh(
                 images = _opened(vertices, images, triangles, free, limiting, source_areas)
             s = following if fraction == 1.0 else s + fraction * (following - s)
             step = min(1.0, 2.0 * step) if fraction == 1.0 else step
-        else:
+        else:  # the same triangles would collapse again: ease a wider region open
+            images = _opened(
+                vertices, images, triangles, free, limiting, source_areas, POOR_RINGS, POOR_ROUNDS
+            )
             step *= 0.5
         history.append(s)
         if progress is not None:
@@ -167,19 +172,19 @@ def _kept_fraction(images, proposed, triangles, source_areas) -> float:
     return 0.0, limiting
 
 
-def _opened(vertices, images, triangles, free, limiting, source_areas) -> np.ndarray:
+def _opened(vertices, images, triangles, free, limiting, source_areas, rings=None, rounds=None) -> np.ndarray:
     """The images (V, 2) with the free vertices within `RINGS` rings of the `limiting` triangles (T,)
     (those that would have turned over) moved by `RELAX_ROUNDS` Newton steps of a barrier energy
     (`core.injectivity.mesh_untangling.relaxed`), so that the next steps do not squeeze the same
     triangles again; unchanged if that folds a triangle."""
     region = np.zeros(len(images), dtype=bool)
     region[triangles[limiting].ravel()] = True
-    for _ in range(RINGS):
+    for _ in range(RINGS if rings is None else rings):
         region[triangles[np.any(region[triangles], axis=1)].ravel()] = True
     movable = region & free
     if not movable.any():
         return images
-    moved = relaxed(vertices, images, triangles, movable, RELAX_ROUNDS)
+    moved = relaxed(vertices, images, triangles, movable, RELAX_ROUNDS if rounds is None else rounds)
     areas = triangle_signed_areas(moved, triangles)
     return moved if np.all(areas > folded_limits(source_areas, areas)) else images
 

@@ -48,7 +48,7 @@ PATHS = ("the straight path", "rotation and scale about the centroid, then the s
 
 def mesh_fold_free_map(
     curve: ClosedBSpline,
-    target: np.ndarray,
+    final: ClosedBSpline,
     vertices: np.ndarray,
     triangles: np.ndarray,
     boundary: tuple[np.ndarray, np.ndarray],
@@ -61,8 +61,8 @@ def mesh_fold_free_map(
     ----------
     curve : ClosedBSpline
         The source cage, n control points.
-    target : ndarray of shape (n, 2)
-        The target control points (a valid cage).
+    final : ClosedBSpline
+        The target cage, n control points.
     vertices : ndarray of shape (V, 2)
         The mesh's vertices (a mesh of `curve`: one boundary loop on it).
     triangles : ndarray of shape (T, 3), int
@@ -90,11 +90,11 @@ def mesh_fold_free_map(
         The target runs the other way round, or no path reaches it without folding (the sentence
         names the paths tried).
     """
+    target = final.control_points
     if (_polygon_area(target) > 0.0) != (_polygon_area(curve.control_points) > 0.0):
         raise ValueError("the target runs the other way round than the cage: every triangle would turn over")
     indices, parameters = boundary
     loop = indices[np.argsort(parameters, kind="stable")]
-    final = ClosedBSpline(target)
     end_values = final(parameters)
     if plain is not None:
         plain = plain.copy()
