@@ -7,7 +7,7 @@ a bijection of the mesh onto that polygon's inside: for a point y off the images
 number of triangles whose image holds it is the map's degree at y, which is the winding number of
 the boundary polygon around y, 1 inside and 0 outside (a degree argument; Lipman, "Bijective
 mappings of meshes with boundary and the degree in mesh processing", 2014).  Both tests are exact
-up to rounding and cost O(T + B log B) for T triangles and B boundary vertices.
+up to rounding and cost about O(T + B log B) for T triangles and B boundary vertices.
 
 A triangle counts as kept when its signed area is above `FOLDED_AREA_SHARE` of its own, scaled by
 the ratio of the images' total area to the mesh's (as `core.folded_triangles` counts folds), so that
@@ -80,34 +80,47 @@ def mesh_bijection(
 def polygon_crossing(points: np.ndarray) -> tuple[int, int] | None:
     """Two non-adjacent edges of the closed polygon (B, 2) that meet (touching counts), or None.
 
-    Edges are sorted by their left end and each is tested against those whose x-range overlaps it
-    (a sweep over x in numpy batches); a pair of adjacent edges meets only if they fold back onto
-    each other (collinear and overlapping), which counts too.
+    Each edge is tested against the edges that share a cell of a uniform grid with its bounding
+    box (cells twice the median edge long, so that an edge covers a few); a pair of adjacent edges
+    meets only if they fold back onto each other (collinear and overlapping), which counts too.
     """
     count = len(points)
     following = np.roll(points, -1, axis=0)
-    left, right = np.minimum(points[:, 0], following[:, 0]), np.maximum(points[:, 0], following[:, 0])
-    low, high = np.minimum(points[:, 1], following[:, 1]), np.maximum(points[:, 1], following[:, 1])
-    order = np.argsort(left, kind="stable")
-    sorted_left = left[order]
-    # Edge order[k] can overlap in x only the edges order[k + 1 .. last[k]].
-    last = np.searchsorted(sorted_left, right[order], side="right") - 1
-    first_rank = np.arange(count)
-    spans = last - first_rank
-    for offset in range(1, int(spans.max(initial=0)) + 1):
-        ranks = np.flatnonzero(spans >= offset)
-        a, b = order[ranks], order[ranks + offset]
-        close = (low[a] <= high[b]) & (low[b] <= high[a])
-        a, b = a[close], b[close]
-        adjacent = (b == (a + 1) % count) | (a == (b + 1) % count)
-        meet = np.where(
-            adjacent,
-            _folded_back(points, following, a, b, count),
-            _segments_meet(points[a], following[a], points[b], following[b]),
-        )
-        if meet.any():
-            k = int(np.flatnonzero(meet)[0])
-            return tuple(sorted((int(a[k]), int(b[k]))))
+    low, high = np.minimum(points, following), np.maximum(points, following)
+    size = 2.0 * float(np.median(np.linalg.norm(following - points, axis=1)))
+    if not size > 0.0:
+        size = float(np.ptp(points, axis=0).max()) or 1.0
+    first, last = np.floor((low - low.min(axis=0)) / size), np.floor((high - low.min(axis=0)) / size)
+    first, last = first.astype(np.int64), last.astype(np.int64)
+    spans = last - first + 1
+    cells = spans[:, 0] * spans[:, 1]
+    edge = np.repeat(np.arange(count), cells)
+    offset = np.arange(edge.size) - np.repeat(np.cumsum(cells) - cells, cells)
+    column = first[edge, 0] + offset % spans[edge, 0]
+    row = first[edge, 1] + offset // spans[edge, 0]
+    key = column * (int(last[:, 1].max()) + 1) + row
+    order = np.lexsort((edge, key))
+    key, edge = key[order], edge[order]
+    pairs = []
+    for gap in range(1, count):
+        same = np.flatnonzero(key[gap:] == key[:-gap])
+        if same.size == 0:
+            break
+        pairs.append(np.stack([edge[same], edge[same + gap]], axis=1))
+    if not pairs:
+        return None
+    a, b = np.unique(np.sort(np.concatenate(pairs), axis=1), axis=0).T
+    close = np.all(low[a] <= high[b], axis=1) & np.all(low[b] <= high[a], axis=1) & (a != b)
+    a, b = a[close], b[close]
+    adjacent = (b == (a + 1) % count) | (a == (b + 1) % count)
+    meet = np.where(
+        adjacent,
+        _folded_back(points, following, a, b, count),
+        _segments_meet(points[a], following[a], points[b], following[b]),
+    )
+    if meet.any():
+        k = int(np.flatnonzero(meet)[0])
+        return int(a[k]), int(b[k])
     return None
 
 
