@@ -11,10 +11,15 @@ cut where the first triangle would turn over (Smith & Schaefer, "Bijective param
 free boundaries", 2015: along the straight segment from the current images to the step's, triangle
 t's doubled signed area is a quadratic a τ² + b τ + c in the step's fraction τ, and the smallest
 positive root over the triangles is the largest flip-free fraction); a fraction `SAFETY` of it is
-taken, and since Y is linear in s the boundary is then exactly Y at the matching s.  Every image on
-the way is fold-free, the step size adapts (doubling after a whole step, halving after a poor one),
-and the end is proven a bijection by `core.injectivity.mesh_bijection` (all triangles positive, the
-boundary polygon simple).
+taken, and since Y is linear in s the boundary is then exactly Y at the matching s.  Left alone, the
+next steps squeeze the same triangles again (a 1:8 ellipse's drag: their areas fell 5× a step and
+the path stalled at 0.78), so after a cut step the free vertices around the triangles that limited
+it take a few Newton steps of the barrier energy of `core.injectivity.mesh_untangling` (`relaxed`:
+it grows without bound as a triangle collapses, so they open up; then the same drag took 10 steps).
+Every image on the way is fold-free, the step size adapts (doubling after a whole step, halving
+after a poor one, which also relaxes a wider region), the path is given up when its pace says it
+would not end within `MAX_SOLVES`, and the end is proven a bijection by
+`core.injectivity.mesh_bijection` (all triangles positive, the boundary polygon simple).
 """
 
 from __future__ import annotations
@@ -40,7 +45,7 @@ SMALLEST_STEP = 1.0 / 4096
 #: more than `MAX_SOLVES` in all.
 STALL_SOLVES = 12
 #: After a cut step, the free vertices within this many rings of the triangles that limited it are
-#: moved by this many Newton steps of a barrier energy.
+#: moved by this many Newton steps of a barrier energy; after a poor one, within more, by more.
 RINGS = 3
 RELAX_ROUNDS = 3
 POOR_RINGS = 8
