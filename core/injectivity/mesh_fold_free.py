@@ -31,12 +31,18 @@ import numpy as np
 from core.curves.bspline import ClosedBSpline
 from core.injectivity.certificate import InjectivityCertificate
 from core.injectivity.mesh_bijection import mesh_bijection
-from core.injectivity.mesh_composite import MeshPath, composite_on_mesh, harmonic_images
+from core.injectivity.mesh_composite import MAX_SOLVES, MeshPath, composite_on_mesh, harmonic_images
 from core.injectivity.mesh_untangling import untangle_triangles
 from core.meshes.distortion import signed_singular_values, triangle_jacobians
 
 #: Cages at s = 1/PATH_CHECKS, 2/PATH_CHECKS, ... of a path are checked for crossings before any step.
 PATH_CHECKS = 16
+#: Solves on a path before it is checked for cages that cross themselves, if it has not ended.
+FIRST_SOLVES = 16
+#: Rings around the turned-over triangles in the untangling's first region: a stalled path's tangle
+#: is wide (star drags across a neighbouring arm: 3 and 6 rings failed, 100 rounds each, before 12
+#: untangled, 2.7 of 3.5 s).
+UNTANGLING_RINGS = 12
 #: A control polygon whose area falls to this share of the larger end's on the way counts as collapsed
 #: (a half turn's is 0 at the middle, up to rounding).
 COLLAPSED = 1e-6
@@ -107,7 +113,9 @@ def mesh_fold_free_map(
         if collapse is not None:
             tried.append(f"{name} (the cage's control polygon collapses at {collapse:.3g} of the way)")
             continue
-        reached = composite_on_mesh(vertices, triangles, indices, start, end_values, progress)
+        reached, crossing = _followed(
+            vertices, triangles, indices, (start_cage, start), target, end_values, progress
+        )
         solves += reached.solves
         if reached.reached == 1.0:
             proof = mesh_bijection(vertices, reached.images, triangles, loop)
@@ -115,7 +123,7 @@ def mesh_fold_free_map(
                 return reached.images, _certificate(vertices, reached.images, triangles, name, solves)
             tried.append(f"{name} (its end is not a bijection: {proof.reason()})")
             continue
-        why = _crossing(start_cage, target) or "no cage on it crosses itself"
+        why = crossing or "no cage on it crosses itself"
         tried.append(f"{name} (its steps stall at {reached.reached:.3g} of the way; {why})")
         if furthest is None or reached.reached > furthest[1].reached:
             furthest = (name, reached)
@@ -127,6 +135,30 @@ def mesh_fold_free_map(
     raise ValueError(
         "no fold-free map of the mesh onto the target was found; paths tried: " + "; ".join(tried)
     )
+
+
+def _followed(
+    vertices, triangles, indices, start, target, end_values, progress
+) -> tuple[MeshPath, str | None]:
+    """The composite on the path from `start` (its cage (n, 2), images (V, 2)) to `target` (n, 2),
+    and where a cage on it crosses itself (None if none does).  `FIRST_SOLVES` solves first; a path
+    not ended by then is followed on, from where it got to, only if no cage on it crosses itself:
+    such paths stalled on every drag tried (a star's tip dragged across its neighbour's arm)."""
+    start_cage, images = start
+    first = composite_on_mesh(vertices, triangles, indices, images, end_values, progress, FIRST_SOLVES)
+    if first.reached == 1.0:
+        return first, None
+    crossing = _crossing(start_cage, target)
+    if crossing is not None:
+        return first, crossing
+    done = first.reached  # the rest of the path is the straight path from there: Y is linear in s
+    rest = composite_on_mesh(
+        vertices, triangles, indices, first.images, end_values,
+        None if progress is None else lambda s: progress(done + (1.0 - done) * s),
+        MAX_SOLVES - first.solves,
+    )  # fmt: skip
+    reached = 1.0 if rest.reached == 1.0 else done + (1.0 - done) * rest.reached
+    return MeshPath(rest.images, reached, first.solves + rest.solves), None
 
 
 def _paths(curve: ClosedBSpline, target: np.ndarray, vertices: np.ndarray):
@@ -197,7 +229,7 @@ def _untangled_end(vertices, triangles, indices, loop, end_values, furthest: Mes
     images = harmonic_images(triangles, indices, furthest.images, end_values)
     free = np.ones(len(vertices), dtype=bool)
     free[indices] = False
-    untangled, moves = untangle_triangles(vertices, images, triangles, free)
+    untangled, moves = untangle_triangles(vertices, images, triangles, free, UNTANGLING_RINGS)
     if not mesh_bijection(vertices, untangled, triangles, loop).proven:
         return None
     return untangled, moves

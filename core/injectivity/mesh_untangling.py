@@ -79,6 +79,7 @@ def untangle_triangles(
     images: np.ndarray,
     triangles: np.ndarray,
     free: np.ndarray,
+    rings: int = RINGS,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Images with free vertices near turned-over triangles moved together so that none turns over.
 
@@ -92,6 +93,9 @@ def untangle_triangles(
     triangles : ndarray of shape (T, 3), int
     free : ndarray of shape (V,), bool
         Vertices that may move (the interior ones).
+    rings : int
+        Rings of triangles around the turned-over ones in the first region (doubled after each
+        region that fails): more where the tangle is known to be wide.
 
     Returns
     -------
@@ -109,7 +113,7 @@ def untangle_triangles(
         return images.copy(), np.zeros(len(images))
     tried, budget = np.zeros(len(images), dtype=bool), WORK
     for attempt in range(REGION_TRIES if np.any(turned) else 0):
-        movable = free & _rings_around(triangles, turned, len(images), RINGS * 2**attempt)
+        movable = free & _rings_around(triangles, turned, len(images), rings * 2**attempt)
         if np.array_equal(movable, tried):  # no new vertex: the region holds every free one (or none)
             break
         closest, fewest = None, np.count_nonzero(turned)

@@ -114,9 +114,9 @@ def test_a_moderate_drag_of_a_200_point_cage_is_mapped_within_5_s():
 
 def test_a_refusal_names_every_path_tried(monkeypatch):
     """Paths whose steps stall, and an untangling that fails: one sentence naming each path."""
-    stalled = lambda vertices, triangles, boundary, start, end, progress: MeshPath(start, 0.25, 3)  # noqa: E731
+    stalled = lambda vertices, triangles, boundary, start, *rest: MeshPath(start, 0.0, 3)  # noqa: E731
     monkeypatch.setattr(mesh_fold_free, "composite_on_mesh", stalled)
-    monkeypatch.setattr(mesh_fold_free, "untangle_triangles", lambda v, images, t, free: (images, None))
+    monkeypatch.setattr(mesh_fold_free, "untangle_triangles", lambda v, images, *rest: (images, None))
     curve = core.ClosedBSpline(ELLIPSE)
     mesh = core.triangulate(curve)
     target = ELLIPSE.copy()
@@ -125,8 +125,8 @@ def test_a_refusal_names_every_path_tried(monkeypatch):
         mesh_deformed(curve, target, mesh)
     assert str(refused.value) == (
         "no fold-free map of the mesh onto the target was found; paths tried: the straight path (its "
-        "steps stall at 0.25 of the way; no cage on it crosses itself); rotation and scale about the "
-        "centroid, then the straight path (its steps stall at 0.25 of the way; no cage on it crosses itself)"
+        "steps stall at 0 of the way; no cage on it crosses itself); rotation and scale about the "
+        "centroid, then the straight path (its steps stall at 0 of the way; no cage on it crosses itself)"
     )
 
 
