@@ -16,7 +16,8 @@ on the mesh: then it is the answer, what the plain warp draws):
 
 A path through a cage whose control polygon has no area (a rotation by 180°) is skipped; a path on
 which cages cross themselves is tried all the same (positive triangles can overlap on the way, as
-long as they do not at the end), and when it stalls the refusal says where it crosses.  When no path
+long as they do not at the end) for `FIRST_SOLVES` solves, then given up (such paths stalled on
+every drag tried), and the refusal says where it crosses.  When no path
 reaches the target, the furthest images are carried to it by one harmonic step and the triangles
 that step turns over are untangled (`core.injectivity.mesh_untangling`); if that fails too, the
 refusal names every path tried.
