@@ -6,7 +6,8 @@ simple: no certificate of a continuous map is needed for a fold-free *mesh* map.
 composite of discrete harmonic steps of `core.injectivity.mesh_composite`, with the boundary
 vertices on the cages of a path at their parameters, tried on the paths below in turn until one
 reaches the target (unless the plain harmonic map G P', where the caller gives it, is a bijection
-on the mesh: then it is the answer, what the plain warp draws):
+on the mesh: then it is the answer, what the plain warp draws; next, where the caller gives it, the
+continuous composite's images, kept if they are a bijection on the mesh):
 
 1. the straight path of cages, P(s) = (1 - s) P + s P';
 2. the similarity (rotation and scale about the centroid, and the centroid's move) that best fits
@@ -49,6 +50,9 @@ UNTANGLING_RINGS = 12
 COLLAPSED = 1e-6
 #: The name of the plain harmonic map G P' where it is the answer (no path taken).
 PLAIN_HARMONIC_MAP = "the plain harmonic map"
+#: The name of the continuous composite (harmonic maps between the cages of the straight path,
+#: each step certified), tried first on large meshes where the caller gives it.
+CONTINUOUS_COMPOSITE = "the continuous composite"
 #: The paths tried, by name, in order.
 PATHS = ("the straight path", "rotation and scale about the centroid, then the straight path")
 
@@ -61,6 +65,7 @@ def mesh_fold_free_map(
     boundary: tuple[np.ndarray, np.ndarray],
     progress: Callable[[float], None] | None = None,
     plain: np.ndarray | None = None,
+    continuous: Callable[[], tuple[np.ndarray, int] | None] | None = None,
 ) -> tuple[np.ndarray, InjectivityCertificate]:
     """Images of the mesh's vertices under a fold-free piecewise-linear map onto the target's polygon.
 
@@ -82,6 +87,9 @@ def mesh_fold_free_map(
         path tried after another starts again from 0).
     plain : ndarray of shape (V, 2), optional
         The plain harmonic map's images (G P'): the answer if they are a bijection on the mesh.
+    continuous : callable, optional
+        Tried next (before the paths): (images (V, 2), steps) of the continuous composite
+        (`CONTINUOUS_COMPOSITE`), or None where it stops; the answer if a bijection on the mesh.
 
     Returns
     -------
@@ -109,6 +117,16 @@ def mesh_fold_free_map(
         if mesh_bijection(vertices, plain, triangles, loop).proven:
             return plain, _certificate(vertices, plain, triangles, PLAIN_HARMONIC_MAP, 0)
     tried, solves, furthest = [], 0, None
+    composite = None if continuous is None else continuous()
+    if composite is not None:
+        images, steps = composite
+        images[indices] = end_values
+        proof = mesh_bijection(vertices, images, triangles, loop)
+        if proof.proven:
+            return images, _certificate(vertices, images, triangles, CONTINUOUS_COMPOSITE, steps)
+        tried.append(f"{CONTINUOUS_COMPOSITE} (its mesh map is not a bijection: {proof.reason()})")
+    elif continuous is not None:
+        tried.append(f"{CONTINUOUS_COMPOSITE} (not proven within its steps)")
     for name, start_cage, start in _paths(curve, target, vertices):
         collapse = _collapse(start_cage, target)
         if collapse is not None:
@@ -253,4 +271,4 @@ def _certificate(vertices, images, triangles, path: str, solves: int, moves=None
     )
 
 
-__all__ = ["PATHS", "PLAIN_HARMONIC_MAP", "mesh_fold_free_map"]
+__all__ = ["CONTINUOUS_COMPOSITE", "PATHS", "PLAIN_HARMONIC_MAP", "mesh_fold_free_map"]

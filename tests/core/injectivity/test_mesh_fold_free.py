@@ -178,3 +178,35 @@ def test_given_the_basis_a_plain_map_that_does_not_fold_is_the_answer_and_one_th
     )
     assert certificate.extra["path"] == mesh_fold_free.PATHS[0]
     assert not core.folded_triangles(mesh, images).any()
+
+
+def test_a_large_mesh_takes_the_continuous_composite_first_where_its_mesh_map_is_proven(monkeypatch):
+    """Above `CONTINUOUS_FIRST` vertices (lowered here to the default mesh's size) the continuous
+    composite comes first, and its images are the answer only as a proven bijection on the mesh."""
+    from core.injectivity import composite
+
+    monkeypatch.setattr(composite, "CONTINUOUS_FIRST", 0)
+    points = examples.blob() * 300.0
+    curve = core.ClosedBSpline(points)
+    mesh = core.triangulate(curve)
+    target = points.copy()
+    target[1, 1] += 0.3 * curve.diameter  # the bench's strong drag: the plain map folds
+    assert core.folded_triangles(mesh, core.deform(core.mesh_basis_functions(curve, mesh), target)).any()
+    _, certificate = unfolded(curve, target, mesh)
+    assert certificate.on_mesh and certificate.extra["path"] == mesh_fold_free.CONTINUOUS_COMPOSITE
+
+
+@pytest.mark.parametrize("folded", [True, False])
+def test_a_continuous_composite_that_folds_on_the_mesh_or_stops_leaves_the_mesh_its_own_paths(folded):
+    curve = core.ClosedBSpline(ELLIPSE)
+    mesh = core.triangulate(curve)
+    target = ELLIPSE.copy()
+    target[0] += [-31.95, 1.79]
+    flipped = mesh.vertices.copy()
+    flipped[:, 0] = 2.0 * flipped[:, 0].mean() - flipped[:, 0]  # every triangle turned over
+    images, certificate = mesh_fold_free.mesh_fold_free_map(
+        curve, core.ClosedBSpline(target), mesh.vertices, mesh.triangles,
+        (mesh.boundary, mesh.boundary_parameters), continuous=lambda: (flipped, 1) if folded else None,
+    )  # fmt: skip
+    assert certificate.on_mesh and certificate.extra["path"] == mesh_fold_free.PATHS[0]
+    assert not core.folded_triangles(mesh, images).any()
