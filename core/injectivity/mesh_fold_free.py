@@ -18,7 +18,9 @@ continuous composite's images, kept if they are a bijection on the mesh):
 A path through a cage whose control polygon has no area (a rotation by 180°) is skipped; a path on
 which cages cross themselves is tried all the same (positive triangles can overlap on the way, as
 long as they do not at the end) for `FIRST_SOLVES` solves, then given up (such paths stalled on
-every drag tried), and the refusal says where it crosses.  When no path
+every drag tried), and the refusal says where it crosses; a later path whose cages cross themselves
+too is not followed (on the held-out star drags both paths crossed and stalled, and the untangling
+of the first one's furthest images mapped each, 0.4-0.8 s sooner).  When no path
 reaches the target, the furthest images are carried to it by one harmonic step and the triangles
 that step turns over are untangled (`core.injectivity.mesh_untangling`); if that fails too, the
 refusal names every path tried.
@@ -116,25 +118,24 @@ def mesh_fold_free_map(
         plain[indices] = end_values  # G interpolates the curve: the same up to rounding
         if mesh_bijection(vertices, plain, triangles, loop).proven:
             return plain, _certificate(vertices, plain, triangles, PLAIN_HARMONIC_MAP, 0)
-    tried, solves, furthest = [], 0, None
-    composite = None if continuous is None else continuous()
-    if composite is not None:
-        images, steps = composite
-        images[indices] = end_values
-        proof = mesh_bijection(vertices, images, triangles, loop)
-        if proof.proven:
-            return images, _certificate(vertices, images, triangles, CONTINUOUS_COMPOSITE, steps)
-        tried.append(f"{CONTINUOUS_COMPOSITE} (its mesh map is not a bijection: {proof.reason()})")
-    elif continuous is not None:
-        tried.append(f"{CONTINUOUS_COMPOSITE} (not proven within its steps)")
+    tried, solves, furthest, crossed = [], 0, None, False
+    if continuous is not None:
+        mapped = _continuous_end(vertices, triangles, indices, loop, end_values, continuous, tried)
+        if mapped is not None:
+            return mapped
     for name, start_cage, start in _paths(curve, target, vertices):
         collapse = _collapse(start_cage, target)
         if collapse is not None:
             tried.append(f"{name} (the cage's control polygon collapses at {collapse:.3g} of the way)")
             continue
+        crossing = _crossing(start_cage, target) if crossed else None
+        if crossing is not None:  # the untangling takes the furthest images of the first such path
+            tried.append(f"{name} (not followed after a path that crosses itself stalled; {crossing})")
+            continue
         reached, crossing = _followed(
             vertices, triangles, indices, (start_cage, start), target, end_values, progress
         )
+        crossed |= crossing is not None
         solves += reached.solves
         if reached.reached == 1.0:
             proof = mesh_bijection(vertices, reached.images, triangles, loop)
@@ -154,6 +155,22 @@ def mesh_fold_free_map(
     raise ValueError(
         "no fold-free map of the mesh onto the target was found; paths tried: " + "; ".join(tried)
     )
+
+
+def _continuous_end(vertices, triangles, indices, loop, end_values, continuous, tried):
+    """(images, certificate) of the `continuous` composite (see `mesh_fold_free_map`) if its mesh
+    map is a bijection, else None with the reason appended to `tried`."""
+    composite = continuous()
+    if composite is None:
+        tried.append(f"{CONTINUOUS_COMPOSITE} (not proven within its steps)")
+        return None
+    images, steps = composite
+    images[indices] = end_values
+    proof = mesh_bijection(vertices, images, triangles, loop)
+    if proof.proven:
+        return images, _certificate(vertices, images, triangles, CONTINUOUS_COMPOSITE, steps)
+    tried.append(f"{CONTINUOUS_COMPOSITE} (its mesh map is not a bijection: {proof.reason()})")
+    return None
 
 
 def _followed(

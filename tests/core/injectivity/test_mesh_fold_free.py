@@ -210,3 +210,36 @@ def test_a_continuous_composite_that_folds_on_the_mesh_or_stops_leaves_the_mesh_
     )  # fmt: skip
     assert certificate.on_mesh and certificate.extra["path"] == mesh_fold_free.PATHS[0]
     assert not core.folded_triangles(mesh, images).any()
+
+
+def star_drag_whose_paths_cross() -> np.ndarray:
+    """A point of the 40-point star dragged 110 px across its neighbour's arm: the cages on the
+    straight path and on the rotation's path both cross themselves on the way."""
+    target = STAR.copy()
+    target[1] += 110.0 * np.array([np.cos(np.radians(60.0)), np.sin(np.radians(60.0))])
+    return target
+
+
+def test_a_drag_whose_paths_both_cross_is_untangled_from_the_first_path_alone():
+    curve = core.ClosedBSpline(STAR)
+    _, certificate = mapped_within(5.0, curve, star_drag_whose_paths_cross(), core.triangulate(curve))
+    assert certificate.extra["path"] == mesh_fold_free.PATHS[0] and certificate.extra["moved"] > 0
+
+
+def test_a_later_path_that_crosses_itself_too_is_not_followed_and_the_refusal_says_so(monkeypatch):
+    followed = []
+
+    def stalled(vertices, triangles, boundary, start, *rest):
+        followed.append(start)
+        return MeshPath(start, 0.0, 3)
+
+    monkeypatch.setattr(mesh_fold_free, "composite_on_mesh", stalled)
+    monkeypatch.setattr(mesh_fold_free, "untangle_triangles", lambda v, images, *rest: (images, None))
+    curve = core.ClosedBSpline(STAR)
+    with pytest.raises(ValueError) as refused:
+        mesh_deformed(curve, star_drag_whose_paths_cross(), core.triangulate(curve))
+    assert len(followed) == 1  # the straight path's first solves only
+    assert (
+        "; rotation and scale about the centroid, then the straight path (not followed after a path "
+        "that crosses itself stalled; a cage on it crosses itself at "
+    ) in str(refused.value)
