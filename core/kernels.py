@@ -80,6 +80,8 @@ _IDENTIFIERS = {
     "laplace": codes.LAPLACE,
 }
 _SHIFTS = {"none": codes.SHIFT_NONE, "integral": codes.SHIFT_INTEGRAL, "mean": codes.SHIFT_MEAN}
+#: The shifts of the ``power`` kernel's weights (Eq. 19): its ``shift`` parameter takes one of them.
+SHIFTS = tuple(_SHIFTS)
 # Named members of the power family: (k, shift) of omega = 1 / r^k (Eq. 19).
 _FIXED_POWERS = {"inverse-cube-mean": (3.0, codes.SHIFT_MEAN)}
 # Newton stops when the linear-precision residual is below this fraction of the diameter.
