@@ -101,7 +101,7 @@ def test_player_turns_moves_into_mouse_events():
 
 @pytest.mark.parametrize("name", list(DEMOS))
 def test_demo_sessions_hold_their_scripts_as_keyframes(name):
-    from app.io.files import read_session
+    from app.io.session import read_session
 
     files = demo_files(name)
     cage = read_cage(files.cage)
