@@ -191,7 +191,7 @@ class Pin:
 class ViewerSettings:
     """The viewer's own settings (``viewer``): each None when absent or not of its type.
 
-    The viewer checks the words against its own choices (`app.viewer.session.apply_preferences`);
+    The viewer checks the words against its own choices (`app.viewer.documents.apply_preferences`);
     a value it does not know is dropped there, as the file may come from another version.
     """
 

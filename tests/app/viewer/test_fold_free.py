@@ -12,6 +12,7 @@ from support.fold_free_checks import ASSETS, STARFISH, strong_target  # noqa: F4
 import core
 from app.io.session import session_from_json, session_json
 from app.viewer import commands
+from app.viewer.documents import history_of, session_of
 from app.viewer.fold_free import (
     PAUSE,
     CheckProgress,
@@ -23,7 +24,6 @@ from app.viewer.fold_free import (
 )
 from app.viewer.gui import status_check
 from app.viewer.precompute import compute, make_request, result_from_message
-from app.viewer.session import history_of, session_of
 from app.viewer.state import AppState, Drag, History, Snapshot, WarpCheck
 
 

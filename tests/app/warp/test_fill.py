@@ -117,9 +117,9 @@ def viewer_state(tmp_path: Path, fill: str):
 
 @pytest.mark.parametrize("fill", ["inpaint", "#20c040"])
 def test_the_viewers_export_and_warp_fill_write_the_same_pixels(renderer, tmp_path, fill):
+    from app.viewer.documents import save
     from app.viewer.precompute import compute, make_request, result_from_message
     from app.viewer.scene import Scene
-    from app.viewer.session import save
     from app.warp.framing import output_frame, output_region
     from app.warp.pipeline import render
 

@@ -165,7 +165,7 @@ def test_the_viewers_background_is_saved_and_drawn_as_warp_draws_it(tmp_path, ca
     from app.io.session import read_session
     from app.render.renderer import WarpRenderer
     from app.viewer import commands
-    from app.viewer.session import restore, save
+    from app.viewer.documents import restore, save
 
     write_png(tmp_path / "picture.png", picture())
     cage, moved = np.array(CAGE, dtype=float), transformed(CAGE)

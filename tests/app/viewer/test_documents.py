@@ -1,4 +1,4 @@
-"""Opening and saving viewer documents (app.viewer.session) and the session keys `warp` reads."""
+"""Opening and saving viewer documents (app.viewer.documents)."""
 
 import dataclasses
 import json
@@ -11,7 +11,7 @@ import pytest
 from app.io.files import InputError, kernel_names
 from app.io.session import read_session
 from app.render.viewport import View
-from app.viewer import session as sessions
+from app.viewer import documents as sessions
 from app.viewer.demos import demo_files
 from app.viewer.session_files import BACKUPS, backup_path, backups, session_path_for
 from app.viewer.state import AppState, Display, Document, History
