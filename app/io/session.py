@@ -28,6 +28,7 @@ from __future__ import annotations
 import math
 import os
 from dataclasses import dataclass, field
+from numbers import Real
 from pathlib import Path
 
 import numpy as np
@@ -95,12 +96,27 @@ def checked_kernel_params(kernel: str, params: dict) -> dict:
         raise ValueError(
             f"unknown kernel parameter(s) {', '.join(unknown)} ({kernel} takes {', '.join(accepted)})"
         )
+    for name, value in params.items():
+        if not _number_or_word(value):
+            raise ValueError(f"kernel_params {name} must be a number or a word, got {shown(value)}")
     if params and KERNEL_TABLE[kernel].compiled:
         try:
             kernel_parameters(kernel, params)
         except ValueError as error:
             raise ValueError(f"kernel_params: {error}") from None
     return dict(params)
+
+
+def _number_or_word(value) -> bool:
+    """Whether `value` is a number (not a boolean) or a word that is no number written as text:
+    a file says ``"power": 3``, never ``"power": "3"`` or ``true``, which `core` would take."""
+    if isinstance(value, str):
+        try:
+            float(value)
+        except ValueError:
+            return True
+        return False
+    return isinstance(value, Real) and not isinstance(value, bool)
 
 
 @dataclass(frozen=True)

@@ -142,6 +142,8 @@ def test_kernel_parameters_are_checked_against_cores_kernel_table():
     for kernel, params, message in [
         ("power", {"power": -1}, "kernel_params: power must be a finite number > 0"),
         ("power", {"shift": "up"}, "kernel_params: shift must be one of none, integral, mean"),
+        ("power", {"power": "3"}, "kernel_params power must be a number or a word, got '3'"),
+        ("power", {"shift": True}, "kernel_params shift must be a number or a word, got True"),
         ("power", {"gamma": 1}, r"unknown kernel parameter\(s\) gamma \(power takes power, shift\)"),
         ("mean-value", {"power": 2}, "kernel 'mean-value' takes no parameters, but kernel_params has power"),
         ("bogus", {}, "unknown kernel 'bogus'"),
