@@ -1,16 +1,11 @@
 """Opening a viewer document (demo, image, cage, session file) and saving it as a session.
 
-The session file is the one of .docs/architecture.md (``image``, ``cage``, ``target``,
-``kernel``, ``view``) plus keys of its own that `python -m app warp --session`
-also reads, so that it exports exactly what the viewer showed: ``kernel_params``
-(the ``power`` kernel's ``power`` and ``shift``), ``parameterization`` (``"natural"``,
-the default of older sessions, or ``"arc-length"``: `core.curves.arc_length`) and ``mesh``
-(``{"max_edge": h}``, the mesh the viewer used), and the animation that ``animate`` renders:
-``keyframes`` (``[{"time": s, "target": {cage}}, ...]``) and ``interpolation``
-(`app.warp.keyframes`).  ``viewer`` keeps what only the viewer needs
-(mode, what is shown, the power family's settings while another kernel is
-chosen, the timeline's time and loop) and ``history`` the undo and redo steps (the newest `SAVED_STEPS` of
-each), so that Ctrl+Z still works after a restart.
+The session file is `app.io.session.Session`, read and written there: what `python -m app warp
+--session` and ``animate`` read too, so that they export exactly what the viewer showed (the
+kernel and its parameters, the mesh, the output choices, the keyframes), and the viewer's own
+settings and undo history (the newest `SAVED_STEPS` steps each way), so that Ctrl+Z still works
+after a restart.  Here a document becomes a `Session` (`session_of`) and a `Session` a document
+(`restore`).
 
 Without ``--session`` every image has its own file (`session_path_for`), which
 the viewer restores when the same image (or demo) is opened again, whatever the
@@ -60,7 +55,6 @@ from app.viewer.state import (
     Snapshot,
 )
 from app.viewer.view_modes import VIEW_MODE_NAMES
-from app.warp.framing import OUTSIDES
 from app.warp.keyframes import MAX_TIME
 from core import abandoned_temporaries
 
@@ -196,7 +190,7 @@ def open_document(
         notices.append(note)
         if (pixels[..., 3] == 255).all():
             # A photograph: its subject is cut out of a picture the user wants to keep whole.
-            preferences = Preferences(output=OutputChoice(outside=OUTSIDES[1]))
+            preferences = Preferences(output=OutputChoice(outside="original"))
     snapshot = Snapshot(Path(os.path.realpath(image)), control_points, control_points)
     return OpenedDocument(
         snapshot,
@@ -335,7 +329,7 @@ def _step(snapshot: Snapshot) -> HistoryStep:
     )
 
 
-def history_json(state: AppState) -> History:
+def saved_history(state: AppState) -> History:
     """The session's `History`: the newest `SAVED_STEPS` undo and redo steps of the session's image
     (``undo`` oldest first, ``redo`` with the next step last: `History` order)."""
     image = state.document.history.current.image
@@ -487,7 +481,7 @@ def session_of(state: AppState, max_edge: float | None) -> Session:
             time=state.playback.time,
             loop=state.playback.loop,
         ),
-        history=history_json(state),
+        history=saved_history(state),
     )
 
 
