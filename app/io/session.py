@@ -388,11 +388,6 @@ def session_from_json(value, path: Path) -> Session:
         raise InputError(f'{path}: "image" must be a file path, got {value["image"]!r}')
     cage = cage_points(value["cage"], f"{path}: cage")
     target = cage_points(value["target"], f"{path}: target")
-    if target.shape != cage.shape:
-        raise InputError(f"{path}: target has {len(target)} control points but cage has {len(cage)}")
-    kernel = value["kernel"]
-    if kernel not in kernel_names():
-        raise InputError(f"{path}: unknown kernel {kernel!r}; choose one of {', '.join(kernel_names())}")
     kernel_params = value.get("kernel_params", {})
     if not isinstance(kernel_params, dict):
         raise InputError(f'{path}: "kernel_params" must be an object, got {json_type(kernel_params)}')
@@ -402,7 +397,7 @@ def session_from_json(value, path: Path) -> Session:
             cage=cage,
             target=target,
             kernel=KernelChoice(
-                kernel, kernel_params, value.get("parameterization", DEFAULT_PARAMETERIZATION)
+                value["kernel"], kernel_params, value.get("parameterization", DEFAULT_PARAMETERIZATION)
             ),
             view=_view(value["view"], path),
             max_edge=_max_edge(value.get("mesh"), path),
