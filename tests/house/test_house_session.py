@@ -11,9 +11,10 @@ from app.io.session import OPTIONAL_KEYS, REQUIRED_KEYS
 
 SESSION_MODULE = "app/io/session.py"
 #: Session keys that other dicts of the app use as well (the parser's subcommands, GL objects by
-#: name, kernel keyword arguments, the studies' summaries, the viewer worker's messages): a read of
-#: one of them is not told from a session's by the key alone, so only the others are looked for.
-SHARED_WORDS = {"image", "view", "kernel", "cage", "parameterization", "outside", "background"}
+#: name, kernel keyword arguments, the studies' summaries, the viewer worker's messages, the moves
+#: of a demo script): a read of one of them is not told from a session's by the key alone, so only
+#: the others are looked for.
+SHARED_WORDS = {"image", "view", "kernel", "cage", "parameterization", "outside", "background", "fold_free"}
 SESSION_ONLY_KEYS = {*REQUIRED_KEYS, *OPTIONAL_KEYS} - SHARED_WORDS
 
 
