@@ -301,7 +301,9 @@ def test_the_status_line_says_how_far_the_fold_free_map_has_come(starfish_basis)
     assert status_check(state) == "fold-free map: 40 % of the way"
     worker.answer(request)
     updates.update(state)
-    assert state.compute.check_progress is None and status_check(state).startswith("fold-free on the mesh, proven")
+    assert state.compute.check_progress is None and status_check(state).startswith(
+        "fold-free on the mesh, proven"
+    )
 
 
 def test_playing_keyframes_asks_for_no_check(starfish_basis):
