@@ -97,7 +97,10 @@ def encode_image(
         return _webp(pixels, metadata, quality)
     if kind == "JPEG":
         if not opaque(pixels):
-            raise TransparentOutputError("JPEG has no transparency and the output has transparent pixels")
+            raise TransparentOutputError(
+                "JPEG has no transparency and the output has transparent pixels; give --background COLOR "
+                "to fill them, or write a PNG"
+            )
         ok, buffer = cv2.imencode(
             ".jpg", cv2.cvtColor(pixels, cv2.COLOR_RGBA2BGR), [cv2.IMWRITE_JPEG_QUALITY, int(quality)]
         )
