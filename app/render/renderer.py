@@ -129,8 +129,7 @@ class WarpRenderer:
         self._source: SourceImage | None = None
         self._backdrop_source: SourceImage | None = None  # what the backdrop shows instead (`app.warp.fill`)
         #: The straight pixels of the image and of the backdrop image: `render` copies them.
-        self._host: np.ndarray | None = None
-        self._backdrop_host: np.ndarray | None = None
+        self._host: dict[str, np.ndarray] = {}  # "image", "backdrop"
         self._image_size: tuple[int, int] | None = None
         self._mesh: MeshBuffers | None = None
         self._preview: MeshBuffers | None = None
@@ -154,7 +153,7 @@ class WarpRenderer:
         image = checked_image(self.ctx, image)
         self._release_image()
         self._source = SourceImage(self.ctx, image)
-        self._host = image
+        self._host["image"] = image
         changed = self._image_size != self._source.size
         self._image_size = self._source.size
         if changed:
@@ -176,12 +175,12 @@ class WarpRenderer:
         if self._backdrop_source is not None:
             self._backdrop_source.release()
             self._backdrop_source = None
-        self._backdrop_host = None
+        self._host.pop("backdrop", None)
         if image is not None:
             image = checked_image(self.ctx, image)
             if self._source is None or self._source.size != (image.shape[1], image.shape[0]):
                 raise ValueError("the backdrop image must have the source image's size")
-            self._backdrop_host = image  # uploaded when first drawn: `render` may only copy it
+            self._host["backdrop"] = image  # uploaded when first drawn: `render` may only copy it
 
     def set_mesh(self, vertices: np.ndarray, triangles: np.ndarray) -> None:
         """Set the undeformed mesh; positions start undeformed, the field at 0.
@@ -405,8 +404,8 @@ class WarpRenderer:
         """
         if self._source is None:
             raise RuntimeError("draw_backdrop needs set_image first")
-        if self._backdrop_host is not None and self._backdrop_source is None:
-            self._backdrop_source = SourceImage(self.ctx, self._backdrop_host)
+        if "backdrop" in self._host and self._backdrop_source is None:
+            self._backdrop_source = SourceImage(self.ctx, self._host["backdrop"])
         self._backdrop.draw(self._backdrop_source or self._source, view, viewport_size, opacity)
 
     def set_overlay(self, segments: np.ndarray, points: np.ndarray) -> None:
@@ -575,7 +574,7 @@ class WarpRenderer:
         dtype = self.pixel_type
         clear = clear_pixel(options["background"], dtype)
         box = drawn_box(self._ordered_positions(), offset, size)
-        host = self._host if self._backdrop_host is None else self._backdrop_host
+        host = self._host.get("backdrop", self._host.get("image"))
         small = (min(tile[0], COPIED_TILE), min(tile[1], COPIED_TILE))
         drawing = _Drawing(self, view, small, ("image", False, False, False), options, np.float32)
         drawing.backdrop = False  # copied, not drawn
@@ -682,7 +681,7 @@ class WarpRenderer:
             if source is not None:
                 source.release()
         self._source = self._backdrop_source = None
-        self._host = self._backdrop_host = None
+        self._host = {}
 
     def _release_target(self) -> None:
         if self._target is not None:
