@@ -73,11 +73,12 @@ def backdrop_rows(
     """Fill `rows` (r, width, 4), output rows from `top` on, with `image` (H, W, 4, straight alpha) put
     at `offset` over the straight colour `clear` (4,): the image's pixels themselves wherever
     `clear` is transparent or the image opaque, blended over `clear` elsewhere."""
-    rows[...] = clear
     height, width = image.shape[:2]
     x0, y0 = offset
     first, last = max(top - y0, 0), min(top + len(rows) - y0, height)
     left, right = max(-x0, 0), min(rows.shape[1] - x0, width)
+    if clear[3] != 0 or (last - first, right - left) != rows.shape[:2]:  # shows somewhere
+        rows[...] = clear
     if first >= last or left >= right:
         return
     source = image[first:last, left:right]
@@ -102,21 +103,29 @@ def warp_over(base: np.ndarray, drawn: np.ndarray) -> np.ndarray:
         Premultiplied alpha, as GL reads it back.
     """
     maximum = np.iinfo(base.dtype).max
-    if drawn.dtype != np.float32:
-        drawn = drawn.astype(np.float32) / maximum
+    floats = drawn.dtype == np.float32
     alpha = drawn[..., 3]
-    opaque = alpha >= 1.0
-    base[opaque] = np.clip(drawn[opaque] * maximum + 0.5, 0, maximum).astype(base.dtype)
+    opaque = alpha >= (1.0 if floats else maximum)
+    if opaque.all():  # a tile inside the warp: its pixels as drawn
+        base[...] = _rounded(drawn, base.dtype) if floats else drawn
+        return base
+    if opaque.any():
+        np.copyto(base, _rounded(drawn, base.dtype) if floats else drawn, where=opaque[..., None])
     partial = (alpha > 0) & ~opaque
     if partial.any():
-        over = drawn[partial].astype(np.float64)
+        over = drawn[partial].astype(np.float64) / (1.0 if floats else maximum)
         under = base[partial].astype(np.float64) / maximum
         kept = 1 - over[:, 3:]
         result_alpha = over[:, 3:] + under[:, 3:] * kept
         colour = (over[:, :3] + under[:, :3] * under[:, 3:] * kept) / result_alpha
-        blended = np.concatenate([colour, result_alpha], axis=1)
-        base[partial] = np.clip(blended * maximum + 0.5, 0, maximum).astype(base.dtype)
+        base[partial] = _rounded(np.concatenate([colour, result_alpha], axis=1), base.dtype)
     return base
+
+
+def _rounded(values: np.ndarray, dtype) -> np.ndarray:
+    """Floats in [0, 1] as the nearest samples of the integer `dtype`."""
+    maximum = np.iinfo(dtype).max
+    return np.clip(values * maximum + 0.5, 0, maximum).astype(dtype)
 
 
 def texel_footprint(

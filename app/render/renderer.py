@@ -26,6 +26,7 @@ import moderngl
 import numpy as np
 
 from app.console import captured_c_stderr
+from app.io.images.tiles import crosses
 from app.render.address_space import GL_CONTEXT_BYTES, PROGRAM_BYTES, render_bytes, require_address_space
 from app.render.compositing import (
     backdrop_rows,
@@ -53,9 +54,9 @@ STRIP_ROWS = 512
 #: Largest `app.render.compositing.texel_footprint` drawn without mipmaps: GL samples level 0 alone
 #: up to 1; past it by this much the next level's weight (log2 of it) is under 4e-4.
 UNSHRUNK_FOOTPRINT = 1.0 + 2.0**-12
-#: Largest side of a tile of the warp drawn in floats over a copied backdrop (`WarpRenderer.render`):
-#: a 1024 x 1024 tile of 4 float samples is 64 MiB.
-COPIED_TILE = 1024
+#: Largest side of a tile of the warp drawn over a copied backdrop (`WarpRenderer.render`): those
+#: its outline crosses are multisampled in floats (a 512 x 512 tile of 4 float samples is 16 MiB).
+COPIED_TILE = 512
 
 
 class ContextUnavailableError(RuntimeError):
@@ -133,7 +134,8 @@ class WarpRenderer:
         self._image_size: tuple[int, int] | None = None
         self._mesh: MeshBuffers | None = None
         self._preview: MeshBuffers | None = None
-        self._target: tuple[tuple, list] | None = None
+        #: Offscreen framebuffers by (size, samples, dtype), two kinds at most (`_framebuffers`).
+        self._target: dict[tuple, list] = {}
         #: Counts the changes of what `draw` and `draw_backdrop` would draw (image, meshes,
         #: positions, fields): a picture drawn at one revision can be reused until the next.
         self.revision = 0
@@ -547,7 +549,7 @@ class WarpRenderer:
             offset = exact_offset(view)
         # Leave the caller's framebuffer bound afterwards (a viewer exporting mid-frame).
         previous = self.ctx.fbo
-        if self._target is not None and previous in self._target[1]:
+        if any(previous in objects for objects in self._target.values()):
             previous = None  # ours, perhaps about to be replaced
         dtype = self.pixel_type
         try:
@@ -569,15 +571,23 @@ class WarpRenderer:
 
     def _copied_strips(self, size, view, offset, tile, options, into):
         """`_strips` of the image over its copied backdrop (`app.render.compositing`): the backdrop's
-        pixels copied, the warp drawn alone, in floats, within its box and laid over them."""
+        pixels copied, the warp drawn alone within its box and laid over them; a tile the warp's
+        outline crosses is multisampled, in floats, one inside it drawn once in the image's type."""
         width, height = size
         dtype = self.pixel_type
         clear = clear_pixel(options["background"], dtype)
-        box = drawn_box(self._ordered_positions(), offset, size)
+        positions = self._ordered_positions()
+        box = drawn_box(positions, offset, size)
         host = self._host.get("backdrop", self._host.get("image"))
         small = (min(tile[0], COPIED_TILE), min(tile[1], COPIED_TILE))
-        drawing = _Drawing(self, view, small, ("image", False, False, False), options, np.float32)
-        drawing.backdrop = False  # copied, not drawn
+        what = ("image", False, False, False)
+        edged = _Drawing(self, view, small, what, options, np.float32)
+        plain = _Drawing(self, view, small, what, dict(options, samples=0), dtype)
+        edged.backdrop = plain.backdrop = False  # copied, not drawn
+        edged.antialiased, plain.antialiased = (lambda box: True), (lambda box: False)
+        outline = None  # folds put edges anywhere
+        if not self._mesh.may_fold(positions):
+            outline = positions[self._mesh.boundary_edges] * view.scale + np.asarray(offset, np.float32)
         for top in range(0, height, tile[1]):
             count = min(tile[1], height - top)
             strip = np.empty((count, width, 4), dtype) if into is None else into[top : top + count]
@@ -588,7 +598,8 @@ class WarpRenderer:
                     part = strip[
                         row - top : min(row + small[1], last) - top, left : min(left + small[0], box[2])
                     ]
-                    drawn = drawing.tile(left, row, (0.0, 0.0, 0.0, 0.0))
+                    crossed = outline is None or crosses(outline, (left, row, small[0], small[1]))
+                    drawn = (edged if crossed else plain).tile(left, row, (0.0, 0.0, 0.0, 0.0))
                     warp_over(part, drawn[: len(part), : part.shape[1]])
             yield top, strip
 
@@ -632,17 +643,19 @@ class WarpRenderer:
     def _framebuffers(self, size: tuple[int, int], samples: int, dtype: np.dtype):
         """Multisampled and resolve framebuffers of `size` and samples of `dtype` (8 or 16 bits),
         kept for the next render of that kind."""
-        kind = (size, samples, dtype)
-        if self._target is None or self._target[0] != kind:
-            # Only one size is kept: a 4K 4x multisample target alone is ~130 MB.
-            self._release_target()
+        kind = (size, samples, np.dtype(dtype))
+        if kind not in self._target:
+            # Two kinds are kept (a copied backdrop's warp draws in floats and in the image's type):
+            # a 4K 4x multisample target alone is ~130 MB.
+            if len(self._target) >= 2:
+                self._release_target()
             gl_type = texture_dtype(dtype)
             colour = self.ctx.renderbuffer(size, 4, samples=samples, dtype=gl_type)
             resolved_colour = self.ctx.renderbuffer(size, 4, dtype=gl_type)
             multisample = self.ctx.framebuffer(color_attachments=[colour])
             resolved = self.ctx.framebuffer(color_attachments=[resolved_colour])
-            self._target = (kind, [multisample, resolved, colour, resolved_colour])
-        objects = self._target[1]
+            self._target[kind] = [multisample, resolved, colour, resolved_colour]
+        objects = self._target[kind]
         return objects[0], objects[1]
 
     def _build_mesh(self, vertices: np.ndarray, triangles: np.ndarray) -> MeshBuffers:
@@ -684,13 +697,13 @@ class WarpRenderer:
         self._host = {}
 
     def _release_target(self) -> None:
-        if self._target is not None:
-            if self.ctx.fbo in self._target[1]:
+        for objects in self._target.values():
+            if self.ctx.fbo in objects:
                 # GL falls back to the default framebuffer when the bound one is deleted.
                 self.ctx.fbo = self.ctx.screen
-            for item in self._target[1]:
+            for item in objects:
                 item.release()
-        self._target = None
+        self._target = {}
 
 
 def _output_size(size: tuple[int, int]) -> tuple[int, int]:

@@ -98,6 +98,7 @@ class MeshBuffers:
         self._outline_program = outline_program
         self._fold_margins: FoldMargins | None = None
         self._edge_vao: moderngl.VertexArray | None = None
+        self._boundary: np.ndarray | None = None
         self.positions = ctx.buffer(vertices[order].astype("f4").tobytes(), dynamic=True)
         self.uv = ctx.buffer(self._uv(image_size).tobytes())
         self.values = ctx.buffer(reserve=4 * count, dynamic=True)
@@ -167,6 +168,15 @@ class MeshBuffers:
         if self._fold_margins is None:
             self._fold_margins = FoldMargins(self.vertices[self.order], self.triangle_indices)
         return self._fold_margins.may_fold(positions)
+
+    @property
+    def boundary_edges(self) -> np.ndarray:
+        """ndarray of shape (B, 2): the edges of one triangle only, as rows of the position buffer."""
+        if self._boundary is None:
+            edges = np.sort(self.triangle_indices[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
+            unique, counts = np.unique(edges, axis=0, return_counts=True)
+            self._boundary = unique[counts == 1]
+        return self._boundary
 
     def edge_vao(self) -> moderngl.VertexArray:
         """The edges' vertex array, built on first use (0.5 s for a 400k-vertex mesh)."""
