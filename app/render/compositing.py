@@ -67,13 +67,18 @@ def straight(pixels: np.ndarray) -> np.ndarray:
     return pixels
 
 
-def backdrop_rows(
-    image: np.ndarray, offset: tuple[int, int], rows: np.ndarray, top: int, clear: np.ndarray
-) -> None:
-    """Fill `rows` (r, width, 4), output rows from `top` on, with `image` (H, W, 4, straight alpha) put
-    at `offset` over the straight colour `clear` (4,): the image's pixels themselves wherever
-    `clear` is transparent or the image opaque, blended over `clear` elsewhere."""
-    height, width = image.shape[:2]
+def backdrop_rows(image, offset: tuple[int, int], rows: np.ndarray, top: int, clear: np.ndarray) -> None:
+    """Fill `rows` (r, width, 4), output rows from `top` on, with the image put at `offset` over the
+    straight colour `clear` (4,): the image's pixels themselves wherever `clear` is transparent or the
+    image opaque, blended over `clear` elsewhere.
+
+    Parameters
+    ----------
+    image : tuple
+        (width, height) of the image and a function of (top, bottom, left, right) giving those of
+        its rows and columns, straight RGBA (h, w, 4) of the type of `rows`.
+    """
+    (width, height), read = image
     x0, y0 = offset
     first, last = max(top - y0, 0), min(top + len(rows) - y0, height)
     left, right = max(-x0, 0), min(rows.shape[1] - x0, width)
@@ -81,7 +86,7 @@ def backdrop_rows(
         rows[...] = clear
     if first >= last or left >= right:
         return
-    source = image[first:last, left:right]
+    source = read(first, last, left, right)
     into = rows[first + y0 - top : last + y0 - top, left + x0 : right + x0]
     if clear[3] == 0:
         into[...] = source

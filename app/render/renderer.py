@@ -129,7 +129,7 @@ class WarpRenderer:
             self._mesh_programs.update(field.mesh_programs)
         self._source: SourceImage | None = None
         self._backdrop_source: SourceImage | None = None  # what the backdrop shows instead (`app.warp.fill`)
-        #: The straight pixels of the image and of the backdrop image: `render` copies them.
+        #: The straight pixels of a translucent image and of the backdrop image: `render` copies them.
         self._host: dict[str, np.ndarray] = {}  # "image", "backdrop"
         self._image_size: tuple[int, int] | None = None
         self._mesh: MeshBuffers | None = None
@@ -155,7 +155,8 @@ class WarpRenderer:
         image = checked_image(self.ctx, image)
         self._release_image()
         self._source = SourceImage(self.ctx, image)
-        self._host["image"] = image
+        if not self._source.opaque:  # straight alpha, which the premultiplied texture does not keep
+            self._host["image"] = image
         changed = self._image_size != self._source.size
         self._image_size = self._source.size
         if changed:
@@ -579,6 +580,13 @@ class WarpRenderer:
         positions = self._ordered_positions()
         box = drawn_box(positions, offset, size)
         host = self._host.get("backdrop", self._host.get("image"))
+        if host is None:  # an opaque image: the texture holds its very pixels
+            image = (self._source.size, self._source.read)
+        else:
+            image = (
+                (host.shape[1], host.shape[0]),
+                lambda top, bottom, left, right: host[top:bottom, left:right],
+            )
         small = (min(tile[0], COPIED_TILE), min(tile[1], COPIED_TILE))
         what = ("image", False, False, False)
         edged = _Drawing(self, view, small, what, options, np.float32)
@@ -591,7 +599,7 @@ class WarpRenderer:
         for top in range(0, height, tile[1]):
             count = min(tile[1], height - top)
             strip = np.empty((count, width, 4), dtype) if into is None else into[top : top + count]
-            backdrop_rows(host, offset, strip, top, clear)
+            backdrop_rows(image, offset, strip, top, clear)
             first, last = (max(top, box[1]), min(top + count, box[3])) if box else (0, 0)
             for row in range(first, last, small[1]):
                 for left in range(box[0], box[2], small[0]):

@@ -50,6 +50,8 @@ class SourceImage:
         (W, H) of the image.
     dtype : numpy.dtype
         uint8 or uint16: the image's samples, and those a drawing of it is read back in.
+    opaque : bool
+        Whether every alpha is its type's maximum: the texture then holds the image itself.
     """
 
     def __init__(self, ctx: moderngl.Context, image: np.ndarray):
@@ -60,9 +62,13 @@ class SourceImage:
         # premultiplied) a strip at a time: a 100-megapixel image is 0.4 GB, and a whole copy of
         # it on the way to the driver would be as much again.
         self._texture = ctx.texture((width, height), 4, dtype=texture_dtype(image.dtype))
+        self.opaque = True
         for top in range(0, height, UPLOAD_ROWS):
-            rows = np.ascontiguousarray(_premultiply(image[top : top + UPLOAD_ROWS]))
-            self._texture.write(rows, viewport=(0, top, width, len(rows)))
+            rows = image[top : top + UPLOAD_ROWS]
+            premultiplied = _premultiply(rows)
+            self.opaque &= premultiplied is rows
+            self._texture.write(np.ascontiguousarray(premultiplied), viewport=(0, top, width, len(rows)))
+        self._reader: moderngl.Framebuffer | None = None
         # The mipmaps are built at the first drawing that samples them (`bind`): by then the caller
         # may have let go of `image`, and the driver's temporaries of that step (~0.8 of the image)
         # do not come on top of the image's array (issue 36: 100 megapixels within 1.5 GiB); a
@@ -101,6 +107,18 @@ class SourceImage:
         self._bound.use(location=0)
         program["u_image"].value = 0
 
+    def read(self, top: int, bottom: int, left: int, right: int) -> np.ndarray:
+        """Rows `top` to `bottom` and columns `left` to `right` of the image as uploaded (premultiplied:
+        the image itself where `opaque`), ndarray (bottom - top, right - left, 4) of `dtype`."""
+        if self._reader is None:
+            self._reader = self._texture.ctx.framebuffer(color_attachments=[self._texture])
+        pixels = np.empty((bottom - top, right - left, 4), self.dtype)
+        viewport = (left, top, right - left, bottom - top)  # texture row 0 is image row 0: no flip
+        self._reader.read_into(
+            pixels, viewport=viewport, components=4, alignment=1, dtype=texture_dtype(self.dtype)
+        )
+        return pixels
+
     def unbind(self) -> None:
         """Unbind the sampler: a bound sampler object overrides any texture's own filtering on its
         unit, and other code drawing into the same context (imgui) must be unaffected."""
@@ -109,6 +127,8 @@ class SourceImage:
             self._bound = None
 
     def release(self) -> None:
+        if self._reader is not None:
+            self._reader.release()
         for sampler in self._samplers.values():
             sampler.release()
         self._texture.release()
