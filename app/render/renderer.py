@@ -734,7 +734,7 @@ class _Drawing:
         self.multisample, self.resolved = renderer._framebuffers(tile, samples, np.dtype(dtype))
         self.pixels = np.empty((tile[1], tile[0], 4), dtype)
         mipmaps = what[0] == "image" and renderer._needs_mipmaps(view, self.backdrop)
-        self.sampling = (mipmaps, view.scale == 1)
+        self.sampling = (bool(mipmaps), bool(view.scale == 1))
 
     def tile(self, left: int, top: int, background) -> np.ndarray:
         """The tile whose top-left output pixel is (`left`, `top`) drawn over `background` (straight
