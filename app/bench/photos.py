@@ -106,3 +106,66 @@ def photo_rows(sizes, run_child, repeats: int = PHOTO_REPEATS, kinds=PHOTO_FORMA
             f"warp / (1.5 x (read + write) + 1.5 s) = {row['warp'] / bound:.2f}; "
             f"warp peak memory {row['peak'] / 2**20:.2f} GiB"
         )
+
+
+#: (width, height) and seconds at 30 fps of the animation row's session.
+ANIMATION_SIZE, ANIMATION_SECONDS = (1600, 1200), 2.0
+
+_ANIMATION_CHILD = r"""
+import json, sys, time
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from app.__main__ import main
+from core.curves import examples
+
+width, height, seconds = int(sys.argv[1]), int(sys.argv[2]), float(sys.argv[3])
+folder, output = Path(sys.argv[4]), sys.argv[5]
+if not (folder / "photo.png").exists():
+    rng = np.random.default_rng(5)
+    small = np.zeros((240, 360, 3), np.uint8)
+    for _ in range(60):
+        centre = (int(rng.integers(0, 360)), int(rng.integers(0, 240)))
+        colour = tuple(int(c) for c in rng.integers(0, 255, 3))
+        cv2.circle(small, centre, int(rng.integers(5, 60)), colour, -1, cv2.LINE_AA)
+    cv2.imwrite(str(folder / "photo.png"), cv2.resize(small, (width, height), interpolation=cv2.INTER_CUBIC))
+    cage = examples.starfish() * (0.4 * height) + np.array([width / 2, height / 2])
+    target = cage.copy()
+    target[0] += (0.1 * height, 0.05 * height)
+    target[4] -= (0.05 * height, 0.1 * height)
+    keyframes = [{"time": t, "target": {"control_points": p.tolist()}}
+                 for t, p in ((0.0, cage), (seconds, target))]
+    session = {"image": "photo.png", "cage": {"control_points": cage.tolist()}, "kernel": "poisson",
+               "target": {"control_points": target.tolist()}, "view": {"scale": 1.0, "offset": [0, 0]},
+               "keyframes": keyframes, "outside": "original"}
+    (folder / "session.json").write_text(json.dumps(session))
+# The basis computed and cached first: the row times the frames.
+main(["animate", str(folder / "session.json"), "--output", str(folder / "warm.gif"), "--fps", "1"])
+start = time.perf_counter()
+if main(["animate", str(folder / "session.json"), "--output", str(folder / output), "--fps", "30"]) != 0:
+    raise SystemExit("animate failed")
+seconds = time.perf_counter() - start
+peak = next(int(line.split()[1]) for line in open("/proc/self/status") if line.startswith("VmHWM:"))
+print(json.dumps({"seconds": seconds, "peak": peak}))
+"""
+
+
+def animation_row(run_child, size=ANIMATION_SIZE, seconds: float = ANIMATION_SECONDS) -> None:
+    """Print the row of ``animate`` to GIF of a `size` session of `seconds` at 30 fps against the same
+    frames written as PNGs (each in a child of its own: its peak memory is its own)."""
+    results = {}
+    with tempfile.TemporaryDirectory() as folder:
+        environment = dict(os.environ, TRANSFINITE_CACHE_DIR=str(Path(folder) / "cache"))
+        for output in ("frames/", "out.gif"):
+            command = [sys.executable, "-c", _ANIMATION_CHILD, *map(str, size), str(seconds), folder, output]
+            result = run_child(command, f"the {output} animation", env=environment)
+            results[output] = json.loads(result.stdout.strip().splitlines()[-1])
+    gif, frames = results["out.gif"], results["frames/"]
+    print(
+        f"animate {size[0]}x{size[1]}, {seconds:g} s at 30 fps, --outside original: "
+        f"GIF {gif['seconds']:.2f} s, "
+        f"PNG frames {frames['seconds']:.2f} s, GIF / PNG frames = {gif['seconds'] / frames['seconds']:.2f}; "
+        f"GIF peak memory {gif['peak'] / 2**20:.2f} GiB"
+    )

@@ -165,6 +165,12 @@ class WarpRenderer:
                     mesh.write_uv(self._image_size)
         self._backdrop.set_image_size(self._image_size)
 
+    def release_image(self) -> None:
+        """Free the image's textures and pixels once its last drawing is made (a JPEG encoder's
+        memory then does not come on top of them); `set_image` again before drawing it."""
+        self.revision += 1
+        self._release_image()
+
     def set_backdrop_image(self, image: np.ndarray | None) -> None:
         """What `draw_backdrop` shows instead of the source image (the source with the cage's original
         position filled, `app.warp.fill`), or None for the source image itself.

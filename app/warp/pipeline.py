@@ -278,6 +278,7 @@ def render_to_file(
         write_png_strips(output.path, size, renderer.pixel_type, strips, output.metadata)
         return
     pixels = render(renderer, deformation, target, size, view, outside, output.background)
+    renderer.release_image()  # drawn: the encoder's memory does not come on top of the textures
     write_image(output.path, pixels, output.metadata, output.quality)
 
 

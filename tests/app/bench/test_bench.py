@@ -117,6 +117,7 @@ def test_quick_runs_every_row_once_at_tiny_sizes(monkeypatch):
     monkeypatch.setattr(bench, "_drag_frames", lambda *rest: calls.update(drag=rest))
     monkeypatch.setattr(bench, "_export_gif", lambda *rest: calls.update(export=rest))
     monkeypatch.setattr(bench, "photo_rows", lambda sizes, run: calls.update(photos=sizes))
+    monkeypatch.setattr(bench, "animation_row", lambda run, *rest: calls.update(animation=rest))
     monkeypatch.setattr(
         bench_fold_free,
         "fold_free_rows",
@@ -145,6 +146,7 @@ def test_quick_runs_every_row_once_at_tiny_sizes(monkeypatch):
         "memory": 20_000,
         "warp": (640, 360),
         "photos": ((1200, 800),),
+        "animation": ((1200, 800), 0.25),
         "drag": ((6_000,), 1.0),
         "export": (1, 1.0),  # 8 frames instead of the default 30 fps' 220
         "fold_free": (2_000,),
