@@ -167,5 +167,5 @@ def animation_row(run_child, size=ANIMATION_SIZE, seconds: float = ANIMATION_SEC
         f"animate {size[0]}x{size[1]}, {seconds:g} s at 30 fps, --outside original: "
         f"GIF {gif['seconds']:.2f} s, "
         f"PNG frames {frames['seconds']:.2f} s, GIF / PNG frames = {gif['seconds'] / frames['seconds']:.2f}; "
-        f"GIF peak memory {gif['peak'] / 2**20:.2f} GiB"
+        f"peak memory: GIF {gif['peak'] / 2**20:.2f} GiB, PNG frames {frames['peak'] / 2**20:.2f} GiB"
     )

@@ -218,12 +218,17 @@ class GifWriter(FrameWriter):
 
         self._stream.close()
         width, height = self.size
-        frames = np.memmap(self.spool, np.uint8, "r", shape=(self.count, height, width, 3))
+        count = height * width * 3
+
+        def frame(index: int) -> np.ndarray:  # read, not mapped: a mapping's pages stay resident
+            return np.fromfile(self.spool, np.uint8, count, offset=index * count).reshape(height, width, 3)
+
         picks = np.linspace(0, self.count - 1, min(PALETTE_FRAMES, self.count)).round().astype(int)
-        sample = Image.fromarray(np.concatenate([frames[i] for i in sorted(set(picks))], axis=0))
+        sample = Image.fromarray(np.concatenate([frame(i) for i in sorted(set(picks))], axis=0))
         palette = sample.quantize(256, method=Image.Quantize.MEDIANCUT)
         images = (
-            Image.fromarray(np.asarray(f)).quantize(palette=palette, dither=Image.Dither.NONE) for f in frames
+            Image.fromarray(frame(i)).quantize(palette=palette, dither=Image.Dither.NONE)
+            for i in range(self.count)
         )
         delay = gif_delays(self.count, self.fps)
         temporary = temporary_path(self.path)
@@ -240,7 +245,6 @@ class GifWriter(FrameWriter):
                 os.remove(temporary)
             raise
         finally:
-            del frames
             with contextlib.suppress(OSError):
                 os.remove(self.spool)
 
