@@ -15,6 +15,8 @@ from __future__ import annotations
 
 import numpy as np
 
+#: Rows of the image read at a time by `backdrop_rows`.
+READ_ROWS = 128
 #: Output pixels added around the deformed mesh's bounding box: a multisampled pixel is drawn
 #: where any of its samples falls in a triangle.
 BOX_MARGIN = 1
@@ -86,14 +88,16 @@ def backdrop_rows(image, offset: tuple[int, int], rows: np.ndarray, top: int, cl
         rows[...] = clear
     if first >= last or left >= right:
         return
-    source = read(first, last, left, right)
-    into = rows[first + y0 - top : last + y0 - top, left + x0 : right + x0]
-    if clear[3] == 0:
-        into[...] = source
-        return
-    cover = source.copy()
-    cover[..., :3] = _premultiplied(source)
-    into[...] = warp_over(into, cover)
+    for start in range(first, last, READ_ROWS):  # a few MB at a time, not a whole strip more
+        end = min(start + READ_ROWS, last)
+        source = read(start, end, left, right)
+        into = rows[start + y0 - top : end + y0 - top, left + x0 : right + x0]
+        if clear[3] == 0:
+            into[...] = source
+            continue
+        cover = source.copy()
+        cover[..., :3] = _premultiplied(source)
+        into[...] = warp_over(into, cover)
 
 
 def warp_over(base: np.ndarray, drawn: np.ndarray) -> np.ndarray:
