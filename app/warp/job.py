@@ -336,7 +336,8 @@ def _render_still(job: WarpJob, renderer, deformation: Deformation) -> None:
     from app.warp.pipeline import render_to_file
 
     with reported_as_input("rendering"):
-        render_to_file(renderer, deformation, job.targets[0], (job.size, job.view), job.outside, job.file)
+        frame = (job.size, job.view)
+        render_to_file(renderer, deformation, job.targets[0], frame, job.outside, job.file, last=True)
 
 
 def _render_frames(job: WarpJob, renderer, deformation: Deformation) -> None:

@@ -236,6 +236,7 @@ def render_to_file(
     frame: tuple[tuple[int, int], View],
     outside: str,
     output: OutputFile,
+    last: bool = False,
 ) -> None:
     """`render` written to `output.path` in its format: a PNG larger than one strip is drawn and
     compressed strip by strip (`WarpRenderer.render_strips`), so that the output is never whole in
@@ -249,6 +250,9 @@ def render_to_file(
         (width, height) of the output and the `View` of image pixels to output pixels.
     output : OutputFile
         Where and how to write.
+    last : bool
+        The image is drawn no more (``warp``): its textures are freed before a whole output is
+        encoded, so that the encoder's memory does not come on top of them.
 
     Raises
     ------
@@ -278,7 +282,8 @@ def render_to_file(
         write_png_strips(output.path, size, renderer.pixel_type, strips, output.metadata)
         return
     pixels = render(renderer, deformation, target, size, view, outside, output.background)
-    renderer.release_image()  # drawn: the encoder's memory does not come on top of the textures
+    if last:
+        renderer.release_image()
     write_image(output.path, pixels, output.metadata, output.quality)
 
 
