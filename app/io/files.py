@@ -643,8 +643,10 @@ def write_image(
     image: np.ndarray,
     metadata: ImageMetadata | None = None,
     quality: int = DEFAULT_QUALITY,
+    consume: bool = False,
 ) -> None:
-    """Write an RGBA image (H, W, 4), uint8 or uint16, in the format of `path`'s extension, atomically.
+    """Write an RGBA image (H, W, 4), uint8 or uint16, in the format of `path`'s extension, atomically;
+    with `consume`, `image` may be overwritten on the way (`app.io.images.encode_image`).
 
     PNG and TIFF keep 16 bits; JPEG and WebP are 8-bit at `quality`.  The ICC profile and
     EXIF block of `metadata` are embedded (`app.io.images.writing`).
@@ -655,7 +657,7 @@ def write_image(
         An extension not written, or transparent pixels for a JPEG: nothing is written.
     """
     with reported_as_input(str(path)):
-        data = encode_image(image, output_format(path), metadata, quality)
+        data = encode_image(image, output_format(path), metadata, quality, consume)
     write_atomic(path, data)
 
 

@@ -165,12 +165,6 @@ class WarpRenderer:
                     mesh.write_uv(self._image_size)
         self._backdrop.set_image_size(self._image_size)
 
-    def release_image(self) -> None:
-        """Free the image's textures and pixels once its last drawing is made (a JPEG encoder's
-        memory then does not come on top of them); `set_image` again before drawing it."""
-        self.revision += 1
-        self._release_image()
-
     def set_backdrop_image(self, image: np.ndarray | None) -> None:
         """What `draw_backdrop` shows instead of the source image (the source with the cage's original
         position filled, `app.warp.fill`), or None for the source image itself.
@@ -740,6 +734,8 @@ class _Drawing:
         self.multisample, self.resolved = renderer._framebuffers(tile, samples, np.dtype(dtype))
         self.pixels = np.empty((tile[1], tile[0], 4), dtype)
         mipmaps = what[0] == "image" and renderer._needs_mipmaps(view, self.backdrop)
+        if mipmaps and renderer._source is not None:
+            renderer._source.build_mipmaps()  # before the output's pages: the driver's temporaries go first
         self.sampling = (bool(mipmaps), bool(view.scale == 1))
 
     def tile(self, left: int, top: int, background) -> np.ndarray:

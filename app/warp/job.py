@@ -311,6 +311,7 @@ def run_job(job: WarpJob, target_source: str | None = None, report: bool = False
     require_render_memory(job.image_size, job.size, context=True)
     ctx = create_headless_context()
     lines: list[str] = []
+    write = None
     try:
         started = time.perf_counter()
         deformation = _prepare(job, run)
@@ -323,25 +324,29 @@ def run_job(job: WarpJob, target_source: str | None = None, report: bool = False
             set_fill(renderer, job.image, job.curve.control_points, job.fill, job.outside)
             job.image = None  # the texture holds it now
             renderer.set_mesh(deformation.mesh.vertices, deformation.mesh.triangles)
-            run.draw(job, renderer, deformation)
-        seconds = time.perf_counter() - started
+            write = run.draw(job, renderer, deformation)
     finally:
         ctx.release()
+    if write is not None:
+        with reported_as_input("rendering"):
+            write()
+    seconds = time.perf_counter() - started
     note(run.wrote(job, len(deformation.mesh.vertices), seconds))
     return lines
 
 
-def _render_still(job: WarpJob, renderer, deformation: Deformation) -> None:
-    """The one target of `job` written to its file (`app.warp.pipeline.render_to_file`)."""
+def _render_still(job: WarpJob, renderer, deformation: Deformation):
+    """The one target of `job` drawn for its file (`app.warp.pipeline.render_to_file`): written, or
+    returned as what writes it once the GL context is released."""
     from app.warp.pipeline import render_to_file
 
     with reported_as_input("rendering"):
         frame = (job.size, job.view)
-        render_to_file(renderer, deformation, job.targets[0], frame, job.outside, job.file, last=True)
+        return render_to_file(renderer, deformation, job.targets[0], frame, job.outside, job.file, last=True)
 
 
 def _render_frames(job: WarpJob, renderer, deformation: Deformation) -> None:
-    """Every target of `job` drawn into the writer its output asks for."""
+    """Every target of `job` drawn into the writer its output asks for (nothing left to write)."""
     from app.warp.pipeline import render
 
     metadata = None if job.file is None else job.file.metadata
@@ -407,7 +412,8 @@ class _Run:
     still : bool
         One image: the mesh is noted and a fold-free path proven with a progress bar of its own.
     draw : callable
-        (job, renderer, deformation): the drawing and writing.
+        (job, renderer, deformation): the drawing and writing; returns None, or what writes the
+        output once the GL context is released.
     wrote : callable
         (job, vertices, seconds): the closing note.
     """

@@ -100,12 +100,17 @@ class SourceImage:
             filtering of the image itself, the same pixels wherever no triangle shrinks the picture
             (`app.render.compositing.texel_footprint` at most 1).
         """
-        if mipmaps and not self._mipmapped:
-            self._texture.build_mipmaps()
-            self._mipmapped = True
+        if mipmaps:
+            self.build_mipmaps()
         self._bound = self._samplers[mipmaps]
         self._bound.use(location=0)
         program["u_image"].value = 0
+
+    def build_mipmaps(self) -> None:
+        """Build the mipmaps now, if they are not yet (a drawing that samples them would)."""
+        if not self._mipmapped:
+            self._texture.build_mipmaps()
+            self._mipmapped = True
 
     def read(self, top: int, bottom: int, left: int, right: int) -> np.ndarray:
         """Rows `top` to `bottom` and columns `left` to `right` of the image as uploaded (premultiplied:
