@@ -19,6 +19,8 @@ from core.gradients import basis_gradients, kernel_gradients
 from core.meshes.harmonic import harmonic_basis
 from core.injectivity.certificate import InjectivityCertificate, certify_injective
 from core.injectivity.composite import fold_free_deform
+from core.injectivity.drag_step import DragMesh, DragStep, Untangling, drag_mesh, drag_step
+from core.injectivity.mesh_bijection import MeshBijection, prove_mesh_bijection
 from core.kernel_table import BOUNDARY_INTEGRAL_KERNELS, COMPLEX_KERNELS, DEFAULT_KERNEL, MESH_ONLY_KERNELS
 from core.kernels import KERNELS, ConvergenceWarning, SolveReport, kernel
 from core.meshes.mesh import Mesh, folded_triangles
@@ -90,9 +92,13 @@ __all__ = [
     "CacheWarning",
     "ClosedBSpline",
     "ConvergenceWarning",
+    "DragMesh",
+    "DragStep",
     "InjectivityCertificate",
     "Mesh",
+    "MeshBijection",
     "SolveReport",
+    "Untangling",
     "abandoned_temporaries",
     "as_points",
     "basis_functions",
@@ -106,6 +112,8 @@ __all__ = [
     "deform",
     "distance_to_curve",
     "distortion",
+    "drag_mesh",
+    "drag_step",
     "examples",
     "fold_free_deform",
     "folded_triangles",
@@ -118,6 +126,7 @@ __all__ = [
     "mesh_basis_functions",
     "pgw_basis",
     "positive_int",
+    "prove_mesh_bijection",
     "reference_kernel",
     "signed_singular_values",
     "solved_densities",
