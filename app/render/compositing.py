@@ -77,8 +77,9 @@ def backdrop_rows(image, offset: tuple[int, int], rows: np.ndarray, top: int, cl
     Parameters
     ----------
     image : tuple
-        (width, height) of the image and a function of (top, bottom, left, right) giving those of
-        its rows and columns, straight RGBA (h, w, 4) of the type of `rows`.
+        (width, height) of the image and a function of (top, bottom, left, right, out=None) giving
+        those of its rows and columns, straight RGBA (h, w, 4) of the type of `rows` (into `out`,
+        a C-contiguous array, if given).
     """
     (width, height), read = image
     x0, y0 = offset
@@ -88,10 +89,14 @@ def backdrop_rows(image, offset: tuple[int, int], rows: np.ndarray, top: int, cl
         rows[...] = clear
     if first >= last or left >= right:
         return
+    whole = clear[3] == 0 and rows.flags.c_contiguous and (left + x0, right + x0) == (0, rows.shape[1])
     for start in range(first, last, READ_ROWS):  # a few MB at a time, not a whole strip more
         end = min(start + READ_ROWS, last)
-        source = read(start, end, left, right)
         into = rows[start + y0 - top : end + y0 - top, left + x0 : right + x0]
+        if whole:  # whole rows: read straight into them
+            read(start, end, left, right, into)
+            continue
+        source = read(start, end, left, right)
         if clear[3] == 0:
             into[...] = source
             continue

@@ -21,6 +21,7 @@ counted from the framebuffer's top-left corner, exactly like the session file.
 from __future__ import annotations
 
 from collections.abc import Callable, Iterator
+from functools import partial
 
 import moderngl
 import numpy as np
@@ -583,10 +584,7 @@ class WarpRenderer:
         if host is None:  # an opaque image: the texture holds its very pixels
             image = (self._source.size, self._source.read)
         else:
-            image = (
-                (host.shape[1], host.shape[0]),
-                lambda top, bottom, left, right: host[top:bottom, left:right],
-            )
+            image = ((host.shape[1], host.shape[0]), partial(_host_rows, host))
         small = (min(tile[0], COPIED_TILE), min(tile[1], COPIED_TILE))
         what = ("image", False, False, False)
         edged = _Drawing(self, view, small, what, options, np.float32)
@@ -712,6 +710,14 @@ class WarpRenderer:
             for item in objects:
                 item.release()
         self._target = {}
+
+
+def _host_rows(host: np.ndarray, top: int, bottom: int, left: int, right: int, out=None) -> np.ndarray:
+    """Rows `top` to `bottom`, columns `left` to `right` of `host` (H, W, 4): a view, or copied into `out`."""
+    if out is None:
+        return host[top:bottom, left:right]
+    out[...] = host[top:bottom, left:right]
+    return out
 
 
 def _output_size(size: tuple[int, int]) -> tuple[int, int]:

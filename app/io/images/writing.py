@@ -119,6 +119,10 @@ def encode_image(
     return {"PNG": png_with_metadata, "JPEG": jpeg_with_metadata}[kind](data, metadata)
 
 
+#: Rows of a JPEG's pixels converted to BGR at a time (`_jpeg`).
+_PACKED_ROWS = 256
+
+
 def _jpeg(pixels: np.ndarray, quality: int, consume: bool):
     """`cv2.imencode` of opaque RGBA uint8 `pixels` (H, W, 4) as JPEG, from a BGR copy; with
     `consume`, from BGR packed into the front of their own buffer, a row at a time (they are
@@ -128,8 +132,9 @@ def _jpeg(pixels: np.ndarray, quality: int, consume: bool):
         return cv2.imencode(".jpg", cv2.cvtColor(pixels, cv2.COLOR_RGBA2BGR), options)
     height, width = pixels.shape[:2]
     packed = pixels.reshape(-1)[: height * width * 3].reshape(height, width, 3)
-    for row in range(height):  # row r's BGR ends before row r + 1's RGBA starts: read before written
-        packed[row] = cv2.cvtColor(pixels[row : row + 1], cv2.COLOR_RGBA2BGR)[0]
+    # Rows r0 to r1, converted before written, land before row r1's RGBA: never on rows unread.
+    for top in range(0, height, _PACKED_ROWS):
+        packed[top : top + _PACKED_ROWS] = cv2.cvtColor(pixels[top : top + _PACKED_ROWS], cv2.COLOR_RGBA2BGR)
     return cv2.imencode(".jpg", packed, options)
 
 

@@ -112,12 +112,13 @@ class SourceImage:
             self._texture.build_mipmaps()
             self._mipmapped = True
 
-    def read(self, top: int, bottom: int, left: int, right: int) -> np.ndarray:
+    def read(self, top: int, bottom: int, left: int, right: int, out: np.ndarray | None = None) -> np.ndarray:
         """Rows `top` to `bottom` and columns `left` to `right` of the image as uploaded (premultiplied:
-        the image itself where `opaque`), ndarray (bottom - top, right - left, 4) of `dtype`."""
+        the image itself where `opaque`), ndarray (bottom - top, right - left, 4) of `dtype`: `out`
+        (C-contiguous) if given."""
         if self._reader is None:
             self._reader = self._texture.ctx.framebuffer(color_attachments=[self._texture])
-        pixels = np.empty((bottom - top, right - left, 4), self.dtype)
+        pixels = np.empty((bottom - top, right - left, 4), self.dtype) if out is None else out
         viewport = (left, top, right - left, bottom - top)  # texture row 0 is image row 0: no flip
         self._reader.read_into(
             pixels, viewport=viewport, components=4, alignment=1, dtype=texture_dtype(self.dtype)

@@ -379,3 +379,11 @@ def test_a_large_png_output_is_streamed_with_the_pixels_of_a_whole_one(tmp_path,
     assert (tmp_path / "whole.png").read_bytes() != (tmp_path / "streamed.png").read_bytes()
     # Tiles off the warp's edges are drawn without multisampling: a unit where triangles meet.
     assert np.abs(streamed.pixels.astype(int) - whole.pixels).max() <= 1
+
+
+def test_a_jpeg_packed_in_its_own_buffer_is_the_same_bytes_as_from_a_copy():
+    image = np.random.default_rng(8).integers(0, 256, (700, 130, 4), dtype=np.uint8)  # over 256 rows
+    image[..., 3] = 255
+    kept = image.copy()
+    assert encode_image(image, "JPEG") == encode_image(kept.copy(), "JPEG", consume=True)
+    np.testing.assert_array_equal(image, kept)  # not consumed unless asked
