@@ -113,21 +113,24 @@ def warp_over(base: np.ndarray, drawn: np.ndarray) -> np.ndarray:
     ----------
     base : ndarray of shape (h, w, 4), uint8 or uint16
         Straight alpha.
-    drawn : ndarray of shape (h, w, 4), float32 in [0, 1] or the type of `base`
+    drawn : ndarray of shape (h, w, 4), float32 in [0, 1], uint16 or the type of `base`
         Premultiplied alpha, as GL reads it back.
     """
-    maximum = np.iinfo(base.dtype).max
-    floats = drawn.dtype == np.float32
+    full = 1.0 if drawn.dtype == np.float32 else np.iinfo(drawn.dtype).max
+    same = drawn.dtype == base.dtype
     alpha = drawn[..., 3]
-    opaque = alpha >= (1.0 if floats else maximum)
+    opaque = alpha >= full
     if opaque.all():  # a tile inside the warp: its pixels as drawn
-        base[...] = _rounded(drawn, base.dtype) if floats else drawn
+        base[...] = drawn if same else _rounded(drawn / np.float32(full), base.dtype)
         return base
     if opaque.any():
-        np.copyto(base, _rounded(drawn, base.dtype) if floats else drawn, where=opaque[..., None])
+        np.copyto(
+            base, drawn if same else _rounded(drawn / np.float32(full), base.dtype), where=opaque[..., None]
+        )
     partial = (alpha > 0) & ~opaque
     if partial.any():
-        over = drawn[partial].astype(np.float64) / (1.0 if floats else maximum)
+        maximum = np.iinfo(base.dtype).max
+        over = drawn[partial].astype(np.float64) / full
         under = base[partial].astype(np.float64) / maximum
         kept = 1 - over[:, 3:]
         result_alpha = over[:, 3:] + under[:, 3:] * kept

@@ -587,8 +587,12 @@ class WarpRenderer:
             image = ((host.shape[1], host.shape[0]), partial(_host_rows, host))
         small = (min(tile[0], COPIED_TILE), min(tile[1], COPIED_TILE))
         what = ("image", False, False, False)
-        edged = _Drawing(self, view, small, what, options, np.float32)
-        plain = _Drawing(self, view, small, what, dict(options, samples=0), dtype)
+        mipmaps = self._needs_mipmaps(view, False)
+        # Edges blended in 16 bits for an 8-bit image (a unit of 65535 is far below its rounding),
+        # in floats for a 16-bit one.
+        edge_type = np.uint16 if dtype == np.uint8 else np.float32
+        edged = _Drawing(self, view, small, what, options, edge_type, mipmaps)
+        plain = _Drawing(self, view, small, what, dict(options, samples=0), dtype, mipmaps)
         edged.backdrop = plain.backdrop = False  # copied, not drawn
         edged.antialiased, plain.antialiased = (lambda box: True), (lambda box: False)
         outline = None  # folds put edges anywhere
@@ -732,14 +736,15 @@ class _Drawing:
     """One offscreen drawing of `WarpRenderer._strips`, a tile at a time: its view, what it draws and
     how, and the framebuffers (of samples of `dtype`) it draws into and reads back from."""
 
-    def __init__(self, renderer: WarpRenderer, view: View, tile, what, options, dtype):
+    def __init__(self, renderer: WarpRenderer, view: View, tile, what, options, dtype, mipmaps=None):
         self.renderer, self.view, self.size, self.what = renderer, view, tile, what
         self.backdrop = options["backdrop"]
         self.antialiased = options.get("antialiased") or (lambda box: True)
         samples = max(0, min(int(options["samples"]), renderer.ctx.max_samples))
         self.multisample, self.resolved = renderer._framebuffers(tile, samples, np.dtype(dtype))
         self.pixels = np.empty((tile[1], tile[0], 4), dtype)
-        mipmaps = what[0] == "image" and renderer._needs_mipmaps(view, self.backdrop)
+        if mipmaps is None:  # whether the drawing samples them (`WarpRenderer._needs_mipmaps`)
+            mipmaps = what[0] == "image" and renderer._needs_mipmaps(view, self.backdrop)
         if mipmaps and renderer._source is not None:
             renderer._source.build_mipmaps()  # before the output's pages: the driver's temporaries go first
         self.sampling = (bool(mipmaps), bool(view.scale == 1))
