@@ -39,7 +39,7 @@ from core.curves.closest_point import distance_to_curve
 from core.curves.examples import wave_heights
 from core.curves.interpolating_spline import interpolating_control_points
 from core.kernel_table import COMPILED_KERNELS, BY_NAME as KERNEL_TABLE, PARAMETERIZED_KERNELS
-from core.kernels import kernel_parameters
+from core.kernels import SHIFTS, kernel_parameters
 from core.mesh_basis import DEFAULT_SAMPLES_PER_SEGMENT
 from core.meshes import distortion
 from core.meshes.distortion import (
@@ -48,6 +48,7 @@ from core.meshes.distortion import (
     vertex_jacobians,
     worst_distortion,
 )
+from core.injectivity.mesh_fold_free import PLAIN_HARMONIC_MAP
 from core.meshes.mesh import unique_edges
 from core.meshes.mesh_transfer import transfer_basis
 from core.meshes.refinement import RADIUS_EDGE_RATIO
@@ -87,7 +88,9 @@ __all__ = [
     "NAME_MAX",
     "PARAMETERIZATIONS",
     "PARAMETERIZED_KERNELS",
+    "PLAIN_HARMONIC_MAP",
     "RADIUS_EDGE_RATIO",
+    "SHIFTS",
     "Boundary",
     "CacheWarning",
     "ClosedBSpline",

@@ -37,8 +37,8 @@ import cv2
 import numpy as np
 
 from app.__main__ import main
+from app.bench.photos import write_starfish_drag
 from app.io.files import read_image, write_image
-from core.curves import examples
 
 width, height, folder, repeats = int(sys.argv[1]), int(sys.argv[2]), Path(sys.argv[3]), int(sys.argv[4])
 kind = sys.argv[5]
@@ -52,12 +52,7 @@ image = cv2.resize(small, (width, height), interpolation=cv2.INTER_CUBIC)
 image = cv2.add(image, rng.integers(0, 6, image.shape, dtype=np.uint8))  # grain
 cv2.imwrite(str(folder / f"photo.{kind}"), image)
 del image, small
-cage = examples.starfish() * (0.45 * height) + np.array([width / 2, height / 2])
-target = cage.copy()
-target[0] += (0.1 * height, 0.05 * height)
-target[4] -= (0.05 * height, 0.1 * height)
-(folder / "cage.json").write_text(json.dumps({"control_points": cage.tolist()}))
-(folder / "target.json").write_text(json.dumps({"control_points": target.tolist()}))
+write_starfish_drag(folder, width, height)
 argv = ["warp", str(folder / f"photo.{kind}"), "--cage", str(folder / "cage.json"), "--target",
         str(folder / "target.json"), "--output", str(folder / f"out.{kind}"), "--outside", "original"]
 
@@ -87,6 +82,21 @@ for _ in range(repeats):
 print(json.dumps({"warp": statistics.median(warps), "baseline": statistics.median(baselines),
                   "peak": peak, "before": before}))
 """
+
+
+def write_starfish_drag(folder: Path, width: int, height: int) -> None:
+    """Write ``cage.json`` (the starfish, centred on a `width` x `height` image) and ``target.json``
+    (two of its arms dragged) into `folder`: the warp the bench times on generated pictures."""
+    import numpy as np
+
+    from core import examples
+
+    cage = examples.starfish() * (0.45 * height) + np.array([width / 2, height / 2])
+    target = cage.copy()
+    target[0] += (0.1 * height, 0.05 * height)
+    target[4] -= (0.05 * height, 0.1 * height)
+    (folder / "cage.json").write_text(json.dumps({"control_points": cage.tolist()}))
+    (folder / "target.json").write_text(json.dumps({"control_points": target.tolist()}))
 
 
 def photo_rows(sizes, run_child, repeats: int = PHOTO_REPEATS, kinds=PHOTO_FORMATS) -> None:
@@ -119,7 +129,7 @@ import cv2
 import numpy as np
 
 from app.__main__ import main
-from core.curves import examples
+from app.bench.photos import write_starfish_drag
 
 width, height, seconds = int(sys.argv[1]), int(sys.argv[2]), float(sys.argv[3])
 folder, output = Path(sys.argv[4]), sys.argv[5]
@@ -131,10 +141,9 @@ if not (folder / "photo.png").exists():
         colour = tuple(int(c) for c in rng.integers(0, 255, 3))
         cv2.circle(small, centre, int(rng.integers(5, 60)), colour, -1, cv2.LINE_AA)
     cv2.imwrite(str(folder / "photo.png"), cv2.resize(small, (width, height), interpolation=cv2.INTER_CUBIC))
-    cage = examples.starfish() * (0.4 * height) + np.array([width / 2, height / 2])
-    target = cage.copy()
-    target[0] += (0.1 * height, 0.05 * height)
-    target[4] -= (0.05 * height, 0.1 * height)
+    write_starfish_drag(folder, width, height)
+    cage, target = (np.array(json.loads((folder / f"{name}.json").read_text())["control_points"])
+                    for name in ("cage", "target"))
     keyframes = [{"time": t, "target": {"control_points": p.tolist()}}
                  for t, p in ((0.0, cage), (seconds, target))]
     session = {"image": "photo.png", "cage": {"control_points": cage.tolist()}, "kernel": "poisson",
