@@ -19,6 +19,7 @@ from core.gradients import basis_gradients, kernel_gradients
 from core.meshes.harmonic import harmonic_basis
 from core.injectivity.certificate import InjectivityCertificate, certify_injective
 from core.injectivity.composite import fold_free_deform
+from core.pins.pin_deform import PIN_KERNELS, PinDeformation, pin_deform
 from core.kernel_table import BOUNDARY_INTEGRAL_KERNELS, COMPLEX_KERNELS, DEFAULT_KERNEL, MESH_ONLY_KERNELS
 from core.kernels import KERNELS, ConvergenceWarning, SolveReport, kernel
 from core.meshes.mesh import Mesh, folded_triangles
@@ -32,12 +33,14 @@ __all__ = [
     "DEFAULT_KERNEL",
     "KERNELS",
     "MESH_ONLY_KERNELS",
+    "PIN_KERNELS",
     "Boundary",
     "CacheWarning",
     "ClosedBSpline",
     "ConvergenceWarning",
     "InjectivityCertificate",
     "Mesh",
+    "PinDeformation",
     "SolveReport",
     "basis_functions",
     "basis_gradients",
@@ -51,5 +54,6 @@ __all__ = [
     "kernel_gradients",
     "mesh_basis_functions",
     "pgw_basis",
+    "pin_deform",
     "triangulate",
 ]
