@@ -95,10 +95,7 @@ def bounded_solution(
         f_zbar = precompute.f_zbar[0] @ x + 1j * (precompute.f_zbar[1] @ x)
         size = np.abs(f_z)
         failing = (np.abs(f_zbar) > (limits + CHECK_SLACK) * size) | (size < floor * (1.0 - CHECK_SLACK))
-        ratio = np.abs(f_zbar) / np.maximum(size, floor)
-        strip = np.maximum(ratio[paired], ratio[partner]) + STRIP_RATE * np.abs(
-            ratio[paired] - ratio[partner]
-        )
+        strip = _strip_ratios(precompute, f_z, f_zbar, floor)
         over = strip > k * (1.0 + CHECK_SLACK)
         for rows in (paired[over], partner[over]):
             lowered = limits[rows] - STRIP_TIGHTEN * (strip[over] - k)
@@ -117,6 +114,27 @@ def bounded_solution(
     if x is None:
         raise ValueError(f"the cone solver found no map within the distortion bound (k = {k:.3g})")
     return x, solves
+
+
+def meets_bound(precompute: PinPrecompute, x: np.ndarray, k: float, similarity: complex) -> bool:
+    """Whether a solution x (2n + 4,) meets the program's bounds at every sample (its frames the
+    directions of its own f_z): the exact solution, when it does, is the answer."""
+    f_z = precompute.f_z[0] @ x + 1j * (precompute.f_z[1] @ x)
+    f_zbar = precompute.f_zbar[0] @ x + 1j * (precompute.f_zbar[1] @ x)
+    floor = FLOOR * abs(similarity)
+    return bool(
+        np.all(np.abs(f_z) >= floor)
+        and np.all(np.abs(f_zbar) <= k * np.abs(f_z))
+        and np.all(_strip_ratios(precompute, f_z, f_zbar, floor) <= k)
+    )
+
+
+def _strip_ratios(precompute: PinPrecompute, f_z, f_zbar, floor: float) -> np.ndarray:
+    """The strip's bound of k beside each sample of Γ that has a companion (`STRIP_RATE`)."""
+    paired = np.flatnonzero(precompute.companion >= 0)
+    partner = precompute.companion[paired]
+    ratio = np.abs(f_zbar) / np.maximum(np.abs(f_z), floor)
+    return np.maximum(ratio[paired], ratio[partner]) + STRIP_RATE * np.abs(ratio[paired] - ratio[partner])
 
 
 def _solved(
@@ -148,4 +166,4 @@ def _solved(
     return solver.solve()
 
 
-__all__ = ["FLOOR", "W_PIN", "bounded_solution"]
+__all__ = ["FLOOR", "W_PIN", "bounded_solution", "meets_bound"]

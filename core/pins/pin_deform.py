@@ -30,7 +30,7 @@ import numpy as np
 
 from core.curves.bspline import ClosedBSpline
 from core.injectivity.certificate import InjectivityCertificate, certify_injective
-from core.pins.conic_solve import bounded_solution
+from core.pins.conic_solve import bounded_solution, meets_bound
 from core.pins.exact_solve import best_similarity, exact_solution
 from core.pins.linear_rows import control_points
 from core.pins.precompute import PinPrecompute, precompute_for
@@ -96,9 +96,7 @@ class PinDeformation:
         """Proven injective with σ₁/σ₂ <= `max_distortion` (up to `K_SLACK` on k)."""
         if self.max_distortion is None:
             return self.certificate.injective
-        return (
-            self.certificate.injective and self.certificate.k_max <= _k_bound(self.max_distortion) + K_SLACK
-        )
+        return _proves(self.certificate, _k_bound(self.max_distortion))
 
 
 def pin_deform(
@@ -153,12 +151,12 @@ def pin_deform(
     hard_rows, hard_values = _hard_rows(precompute, held, pins.shape[0])
     linear, translation = best_similarity(precompute.normalised(pins), normalised)
     solves, certificate = 0, None
+    rows = (pin_rows, targets, hard_rows, hard_values)
     if bound is None:
-        x = exact_solution(pin_rows, targets, hard_rows, hard_values, precompute.departure)
+        x = exact_solution(*rows, precompute.departure)
     elif bound == 1.0 and kernel == "poisson" and not held:
         x = _similarity(precompute, linear, translation)
     else:
-        rows = (pin_rows, targets, hard_rows, hard_values)
         x, solves, certificate = _bounded(precompute, rows, bound, linear, certify)
     target = precompute.cage_coordinates(control_points(x, precompute.n))
     reached = precompute.cage_coordinates(np.stack([x_rows @ x, y_rows @ x], axis=1))
@@ -171,6 +169,12 @@ def _bounded(precompute, rows, bound, linear, certify):
     `rows` are the pins' rows and targets and the hard rows and values."""
     goal = _k_bound(bound)
     k = goal * FIRST_MARGIN
+    exact = exact_solution(*rows, precompute.departure)
+    if meets_bound(precompute, exact, k, linear):
+        target = precompute.cage_coordinates(control_points(exact, precompute.n))
+        certificate = _certificate(precompute.curve, target, precompute.kernel, goal) if certify else None
+        if certificate is None or _proves(certificate, goal):
+            return exact, 0, certificate
     total, certificate = 0, None
     for _ in range(CERTIFY_ROUNDS):
         x, solves = bounded_solution(precompute, *rows, k, linear)
@@ -179,7 +183,7 @@ def _bounded(precompute, rows, bound, linear, certify):
             break
         target = precompute.cage_coordinates(control_points(x, precompute.n))
         certificate = certify_injective(precompute.curve, target, k_goal=goal)
-        if certificate.injective and certificate.k_max <= goal + K_SLACK:
+        if _proves(certificate, goal):
             break
         if certificate.injective:
             k = max(k - TIGHTEN * (certificate.k_max - goal), 0.5 * k)
@@ -187,6 +191,10 @@ def _bounded(precompute, rows, bound, linear, certify):
             k *= 0.5
             _activate_near(precompute, certificate.where)
     return x, total, certificate
+
+
+def _proves(certificate: InjectivityCertificate, goal: float) -> bool:
+    return certificate.injective and certificate.k_max <= goal + K_SLACK
 
 
 def _activate_near(precompute: PinPrecompute, where: np.ndarray) -> None:
@@ -205,9 +213,9 @@ def _similarity(precompute: PinPrecompute, linear: complex, translation: complex
     )
 
 
-def _certificate(curve: ClosedBSpline, target: np.ndarray, kernel: str) -> InjectivityCertificate:
+def _certificate(curve: ClosedBSpline, target: np.ndarray, kernel: str, goal=None) -> InjectivityCertificate:
     if kernel == "poisson":
-        return certify_injective(curve, target)
+        return certify_injective(curve, target, k_goal=goal)
     return InjectivityCertificate(
         False, 0.0, 0.0, np.zeros((0, 2)),
         "certify_injective proves harmonic (poisson) maps; a Cauchy-Green map is conformal (k = 0) by "
