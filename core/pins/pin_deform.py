@@ -43,10 +43,12 @@ MISS = 1e-5
 #: Two pins closer than this fraction of the diameter are at one point.
 SAME_POINT = 1e-9
 #: Certify-and-tighten rounds, the samples' first bound as a fraction of (K - 1) / (K + 1), and
-#: how many times the certificate's excess over (K - 1) / (K + 1) each tightening takes off.
+#: how many times the certificate's excess over (K - 1) / (K + 1) each tightening takes off (and
+#: at least this fraction of the samples' bound).
 CERTIFY_ROUNDS = 6
 FIRST_MARGIN = 0.85
 TIGHTEN = 3.0
+LEAST_STEP = 0.02
 #: The certificate's k_max may exceed (K - 1) / (K + 1) by this much (its own evaluation allowance,
 #: `core.injectivity.certificate.EVALUATION`).
 K_SLACK = 1e-6
@@ -186,7 +188,7 @@ def _bounded(precompute, rows, bound, linear, certify):
         if _proves(certificate, goal):
             break
         if certificate.injective:
-            k = max(k - TIGHTEN * (certificate.k_max - goal), 0.5 * k)
+            k = max(min(k - TIGHTEN * (certificate.k_max - goal), (1.0 - LEAST_STEP) * k), 0.5 * k)
         else:
             k *= 0.5
             _activate_near(precompute, certificate.where)

@@ -28,7 +28,7 @@ from core.pins.linear_rows import complex_rows, departure_rows, derivative_coeff
 PER_SPAN = 8
 PER_ARC = 12
 #: The first active set: every this-many-th sample.
-ACTIVE_EVERY = 4
+ACTIVE_EVERY = 8
 #: Cages whose precompute `precompute_for` keeps, and pin sets whose basis rows each keeps.
 KEPT_CAGES = 4
 KEPT_PIN_SETS = 8
