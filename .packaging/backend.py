@@ -27,7 +27,7 @@ compiles); if it fails, the build goes on without the cache and says why.
   same sources as a checkout whose cache `compile_all` has just filled (``.ci/run`` builds the
   wheel that way).  numba stamps each function with the content of `core`'s compiled modules
   (`core.jit_cache`): where the sources differ, the shipped files are stale and the installed
-  package compiles on first use, which ``tests/test_wheel.py`` would catch.
+  package compiles on first use, which ``tests/packaging/test_wheel.py`` would catch.
 """
 
 from __future__ import annotations

@@ -53,7 +53,7 @@ piecewise smooth there; the gradient returned is the derivative with the nodes o
 x held fixed: the same rule applied to the x-derivative of the integrands, i.e.
 the quadrature of the exact gradient of Eq. 17 at x.  It differs from the exact
 derivative of the values by the x-derivative of the quadrature error, which
-`tests/test_gradients.py` bounds against central differences near the boundary.
+`tests/core/test_gradients.py` bounds against central differences near the boundary.
 Points on the boundary (the Lagrange limit of the values) get NaN gradients.
 """
 

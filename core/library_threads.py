@@ -25,10 +25,11 @@ busy-wait for the next one (~300,000 spins by default) before they sleep, the sa
 OpenBLAS's, and the viewer runs its drawing, its precompute worker and its fold-free check
 worker side by side.  A caller idling 2 ms after each of 100 small parallel loops kept 0.49-0.66
 of a core busy with the pool's spinning; with ``OMP_WAIT_POLICY=passive`` (sleep at once) 0.02.
-On the 2-core development machine under load, the tests of the kernels (`tests/test_poisson.py`,
-`test_kernels.py`, `test_gradients.py`) took 35-37 CPU-seconds instead of 44-52.  Importing this
-module sets `WAIT_POLICY`, unless the user set a policy; numba starts its pool at the first
-parallel loop, after `core` is imported, and libgomp reads the variable then.
+On the 2-core development machine under load, the tests of the kernels
+(`tests/core/boundary_integrals/test_poisson.py`, `test_kernels.py`, `test_gradients.py`) took 35-37
+CPU-seconds instead of 44-52. Importing this module sets `WAIT_POLICY`, unless the user set a
+policy; numba starts its pool at the first parallel loop, after `core` is imported, and libgomp
+reads the variable then.
 """
 
 from __future__ import annotations

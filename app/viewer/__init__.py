@@ -6,7 +6,7 @@ Modules, each named by what it does:
 - `editing`: pure geometry of the edits (picking, inserting, deleting, subdividing, zoom);
 - `controller`: what mouse events and commands do to the state;
 - `precompute`: the basis functions in a background process, with progress;
-- `scene`: keeps the renderer (`app.render.WarpRenderer`) in step with the state;
+- `scene`: keeps the renderer (`app.render.renderer.WarpRenderer`) in step with the state;
 - `gui`: the imgui widgets; `window`: the glfw loop; `session`: opening and saving;
 - `demos`: the bundled demo images, cages and scripts.
 """

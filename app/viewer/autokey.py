@@ -11,8 +11,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from app.keyframes import MAX_TIME, TIME_RESOLUTION, Keyframe, interpolate
 from app.viewer.state import Snapshot
+from app.warp.keyframes import MAX_TIME, TIME_RESOLUTION, Keyframe, interpolate
 
 
 def keyed(before: Snapshot, edited: Snapshot, time: float) -> tuple[Snapshot, str | None]:
@@ -33,7 +33,7 @@ def keyed(before: Snapshot, edited: Snapshot, time: float) -> tuple[Snapshot, st
         `edited` unchanged and None when there is nothing to key: no keyframes, an edit of
         the cage or of the keyframes, a time off the timeline, or a pose that is already the
         animation's at `time`.  Otherwise `edited` with a keyframe at `time` (new, or the
-        one within `app.keyframes.TIME_RESOLUTION` of it replaced) and
+        one within `app.warp.keyframes.TIME_RESOLUTION` of it replaced) and
         ``"keyframe added at 0.80 s"`` or ``"keyframe at 0.80 s updated"``.
     """
     keyframes = edited.keyframes

@@ -17,10 +17,7 @@ from typing import Protocol
 
 import numpy as np
 
-from app.files import InputError, kernel_names
-from app.fill import checked_fill
-from app.framing import CANVASES, OUTSIDES
-from app.keyframes import INTERPOLATIONS, MAX_TIME, TIME_RESOLUTION, Keyframe
+from app.io.files import InputError, kernel_names
 from app.viewer import drawing, editing
 from app.viewer.controller import (
     KEY_ZOOM_STEP,
@@ -37,6 +34,9 @@ from app.viewer.controller import (
 from app.viewer.fold_free import HARMONIC_KERNEL
 from app.viewer.state import EDIT_MODES, MEASURES, PARAMETERIZATIONS, SHIFTS, AppState
 from app.viewer.view_modes import VIEW_MODE_NAMES
+from app.warp.fill import checked_fill
+from app.warp.framing import CANVASES, OUTSIDES
+from app.warp.keyframes import INTERPOLATIONS, MAX_TIME, TIME_RESOLUTION, Keyframe
 
 
 class WindowActions(Protocol):
@@ -310,7 +310,7 @@ def _outside(state: AppState, value) -> None:
 
 @_command("background", "what exports show where the warp leaves them transparent: none, or a colour")
 def _background(state: AppState, value) -> None:
-    from app.images.colours import parse_colour
+    from app.io.images.colours import parse_colour
 
     if value != "none":
         try:

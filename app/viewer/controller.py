@@ -23,11 +23,11 @@ import time
 
 import numpy as np
 
-from app.files import InputError, read_image
-from app.keyframes import Keyframe, interpolate
+from app.io.files import InputError, read_image
+from app.render.viewport import View
 from app.viewer import autokey, drawing, editing
 from app.viewer.state import AppState, Drag, Snapshot
-from app.viewport import View
+from app.warp.keyframes import Keyframe, interpolate
 
 LEFT, RIGHT, MIDDLE = 0, 1, 2
 #: Window pixels of the status line at the bottom (kept in step with app.viewer.gui).

@@ -11,7 +11,7 @@ can be pulled together (where mean value coordinates fold over).
 ``assets/NAME.session.json`` (a session whose keyframes are the script's moves,
 `script_keyframes`, for ``demo NAME --play`` and ``animate``) are written by
 ``python -m app.viewer.demos`` (``--output DIR`` elsewhere) and shipped in the
-package (`app.bundled`); when they cannot be found as files, the demo is drawn
+package (`app.io.bundled`); when they cannot be found as files, the demo is drawn
 again into the cache directory, so every demo is also embedded in the code.
 
 `SCRIPT_FORMAT` says what a script file holds; `ScriptPlayer` turns its moves
@@ -32,8 +32,8 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from app.bundled import bundled_directory
-from app.files import (
+from app.io.bundled import bundled_directory
+from app.io.files import (
     InputError,
     Session,
     finite_number,
@@ -46,8 +46,8 @@ from app.files import (
     write_png,
     write_session,
 )
-from app.keyframes import DEFAULT_INTERPOLATION, Keyframe, keyframes_json
 from app.viewer.editing import curve_points, default_max_edge
+from app.warp.keyframes import DEFAULT_INTERPOLATION, Keyframe, keyframes_json
 from core import DEFAULT_KERNEL
 
 SIZE = (640, 480)
@@ -104,8 +104,8 @@ def _fill(mask: np.ndarray, outline: np.ndarray) -> None:
 
 
 def _enclosing_cage(mask: np.ndarray, points: int, margin: int) -> np.ndarray:
-    """A cage fitted (app.fit) around the mask grown by `margin` pixels."""
-    from app.fit import fit_cage
+    """A cage fitted (app.fit.subject) around the mask grown by `margin` pixels."""
+    from app.fit.subject import fit_cage
 
     kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * margin + 1, 2 * margin + 1))
     grown = cv2.dilate((mask > 127).astype(np.uint8) * 255, kernel)
@@ -392,7 +392,7 @@ def _files_in(directory: Path, name: str) -> DemoFiles:
 
 
 def _cache_directory() -> Path:
-    from core.storage.cache import cache_directory
+    from core import cache_directory
 
     return cache_directory() / "demos"
 

@@ -25,8 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from app.viewer.state import MEASURES
-from core.deformation import deform
-from core.meshes.distortion import signed_singular_values, triangle_jacobians, vertex_jacobians
+from core import deform, signed_singular_values, triangle_jacobians, vertex_jacobians
 
 #: The per-vertex value of a folded vertex (the shader paints values below -50 as folds).
 FOLDED = -100.0

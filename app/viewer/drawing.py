@@ -20,7 +20,7 @@ import numpy as np
 
 from app.viewer import editing
 from app.viewer.state import AppState, Drawing, Snapshot
-from core.curves.interpolating_spline import interpolating_control_points
+from core import interpolating_control_points
 
 #: What a click places: a point on the curve, or a control point (the panel's choice).
 STYLES = ("curve", "control")

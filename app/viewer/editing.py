@@ -17,8 +17,8 @@ from functools import cache
 
 import numpy as np
 
-from app.viewport import View
-from core.curves.bspline import basis_weights
+from app.render.viewport import View
+from core import basis_weights
 
 #: Window pixels within which a click grabs a handle.
 PICK_RADIUS = 10.0

@@ -1,7 +1,7 @@
 """The viewer's exports (Ctrl+E): the warped image at the image's full resolution, like
 ``warp --session``, or the keyframed animation, like ``animate``, as many frames as fit in
 `EXPORT_BUDGET` between two frames the viewer draws (Esc stops it).  Both draw through
-`app.warping.render` on the window's renderer, so they are ``warp``'s and ``animate``'s pixels."""
+`app.warp.pipeline.render` on the window's renderer, so they are ``warp``'s and ``animate``'s pixels."""
 
 from __future__ import annotations
 
@@ -13,10 +13,10 @@ from pathlib import Path
 
 import numpy as np
 
-from app.files import IMAGE_SUFFIXES, InputError, image_metadata, write_image
-from app.framing import output_frame, output_region
+from app.io.files import IMAGE_SUFFIXES, InputError, image_metadata, write_image
 from app.viewer.file_dialogs import FileRequests
 from app.viewer.state import AppState, Snapshot
+from app.warp.framing import output_frame, output_region
 
 #: Seconds of an animation export's frames rendered between two window frames (the window's own
 #: frame costs as much as several exported ones on a software rasteriser).
@@ -29,14 +29,14 @@ class AnimationExport:
 
     Attributes
     ----------
-    writer : app.frame_writers.FrameWriter
+    writer : app.warp.frame_writers.FrameWriter
     times : ndarray of shape (F,)
-        Seconds of every frame (`app.keyframes.frame_times`).
+        Seconds of every frame (`app.warp.keyframes.frame_times`).
     size, view
-        Output size (width, height) and image-to-output `View` (`app.framing`).
+        Output size (width, height) and image-to-output `View` (`app.warp.framing`).
     snapshot : Snapshot
         The document when the export started (its keyframes and interpolation).
-    deformation : app.warping.Deformation
+    deformation : app.warp.pipeline.Deformation
         The mesh drawn and its G.
     outside : str
     background : tuple of float or None
@@ -50,7 +50,7 @@ class AnimationExport:
     size: tuple[int, int]
     view: object
     snapshot: Snapshot
-    deformation: object  # app.warping.Deformation
+    deformation: object  # app.warp.pipeline.Deformation
     outside: str
     background: tuple[float, float, float, float] | None
     written: int = 0
@@ -124,7 +124,7 @@ class Exporter:
             path = path.with_name(path.name + ".png")
         try:
             pixels = self.render_still()
-        except ValueError as error:  # an output over app.framing.MAX_OUTPUT_PIXELS
+        except ValueError as error:  # an output over app.warp.framing.MAX_OUTPUT_PIXELS
             state.say(str(error), error=True)
             return None
         if pixels is None:
@@ -146,7 +146,7 @@ class Exporter:
         state = self.state
         if not self.ready(state):
             return None
-        from app.warping import render
+        from app.warp.pipeline import render
 
         deformation = self.scene.deformation(state)
         if deformation is None:
@@ -168,9 +168,9 @@ class Exporter:
         return True
 
     def _start_animation(self, path: Path, typed: str | None) -> None:
-        from app.frame_writers import WRITERS, check_output, output_kind
-        from app.framing import frame_region
-        from app.keyframes import frame_times
+        from app.warp.frame_writers import WRITERS, check_output, output_kind
+        from app.warp.framing import frame_region
+        from app.warp.keyframes import frame_times
 
         state = self.state
         live = state.document.live
@@ -204,12 +204,12 @@ class Exporter:
     def next_frame(self) -> None:
         """Render and write the next frames of the animation being exported, for `EXPORT_BUDGET`
         seconds (a window frame between them keeps the progress shown and Esc heard); finish after
-        the last.  Each frame is what `animate` renders (`app.warping.render`)."""
+        the last.  Each frame is what `animate` renders (`app.warp.pipeline.render`)."""
         export, state = self.animation, self.state
         if export is None:
             return
-        from app.keyframes import interpolate
-        from app.warping import render
+        from app.warp.keyframes import interpolate
+        from app.warp.pipeline import render
 
         snapshot = export.snapshot
         self.scene.invalidate_positions()
@@ -244,7 +244,7 @@ class Exporter:
 
 def document_background(state: AppState) -> tuple[float, float, float, float] | None:
     """The document's ``background`` as straight RGBA in [0, 1], None for ``"none"`` (transparent)."""
-    from app.images.colours import parse_colour
+    from app.io.images.colours import parse_colour
 
     background = state.document.background
     return None if background == "none" else parse_colour(background)

@@ -12,8 +12,7 @@ from __future__ import annotations
 
 from imgui_bundle import imgui
 
-from app.files import kernel_names
-from app.keyframes import MAX_TIME
+from app.io.files import kernel_names
 from app.viewer.controller import STATUS_HEIGHT
 from app.viewer.editing import to_window
 from app.viewer.fold_free import HARMONIC_KERNEL, current_check, status_text
@@ -22,6 +21,7 @@ from app.viewer.state import PARAMETERIZATIONS, SHIFTS, AppState
 from app.viewer.view_modes import BY_NAME as VIEW_MODE
 from app.viewer.view_modes import MODES as VIEW_MODES
 from app.viewer.view_modes.colours import packed
+from app.warp.keyframes import MAX_TIME
 
 PANEL_WIDTH = 300.0
 
@@ -604,7 +604,7 @@ FILL_CHOICES = (("none", "original kept"), ("transparent", "transparent"), ("inp
 
 
 def _fill_choice(state: AppState, commands: list) -> None:
-    """What fills the subject's original position behind the warp (`app.fill`): a list, and a
+    """What fills the subject's original position behind the warp (`app.warp.fill`): a list, and a
     colour picker when the fill is a colour."""
     labels = dict(FILL_CHOICES)
     fill = state.document.fill

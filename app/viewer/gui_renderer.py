@@ -13,7 +13,7 @@ pixels are the same: at the white texel's centre the fetch returns exactly (1, 1
 
 It draws through moderngl rather than imgui_bundle's PyOpenGL calls: those cost
 ~3 ms of Python a frame (state queried and restored, every call checked for errors),
-a fifth of a 60 Hz frame.  tests/test_viewer_gui_renderer.py compares the pixels
+a fifth of a 60 Hz frame.  tests/app/viewer/test_gui_renderer.py compares the pixels
 with imgui_bundle 1.93's ``ProgrammablePipelineRenderer.render``.
 """
 
@@ -28,7 +28,7 @@ from imgui_bundle import imgui
 from imgui_bundle.python_backends import compute_fb_scale
 from imgui_bundle.python_backends.glfw_backend import GlfwRenderer
 
-from app.shaders import load_shader
+from app.render.shaders import load_shader
 
 #: A run of flat triangles gets its own draw call from this many pixels of area on: a draw call
 #: costs tens of microseconds of Python and GL, the fetch ~10 ns a pixel (llvmpipe, 2 busy cores).
@@ -142,7 +142,7 @@ class GuiRenderer(GlfwRenderer):
 
     Input handling and the font atlas's texture are the base class's; `render` is this class's.
     The base class's own GL objects are kept, so that its `render` can still draw a frame for
-    comparison (tests/test_viewer_gui_renderer.py).
+    comparison (tests/app/viewer/test_gui_renderer.py).
 
     Parameters
     ----------

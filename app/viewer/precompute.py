@@ -165,8 +165,8 @@ def compute(request: Request, progress=None) -> dict:
         The cage, kernel or parameters are invalid (message for the status line).
     """
     import core
-    from app.warping import WarpSettings, prepare
-    from core.newton.compilation import MESSAGE as COMPILING
+    from app.warp.pipeline import WarpSettings, prepare
+    from core import COMPILE_MESSAGE as COMPILING
 
     started = time.perf_counter()
     curve = core.ClosedBSpline(request.cage)
@@ -236,7 +236,7 @@ def _preview(curve, mesh, basis: np.ndarray, max_edge: float, kernel: str) -> tu
     B-spline basis that `transfer_basis` puts there) are evaluated at the preview's vertices.
     """
     import core
-    from core.meshes.mesh_transfer import transfer_basis
+    from core import transfer_basis
 
     coarse = core.triangulate(curve, max_edge=max_edge * np.sqrt(len(mesh.vertices) / PREVIEW_VERTICES))
     if np.iscomplexobj(basis):
@@ -421,7 +421,7 @@ def _serve(requests, results, nice: int, companion: tuple | None = None) -> None
     at a time, newest first, until told to stop or until the viewer is gone (closed, or killed:
     its ends of the pipes are closed); then end the companion."""
     _lower_priority(nice)
-    freeze_after_loading("core", "app.warping")
+    freeze_after_loading("core", "app.warp.pipeline")
     # Forked here, not in the window's process: this one holds no GL context, X connection,
     # session lock or thread of its own, and has loaded core.
     companion_pid = None if companion is None else _fork(*companion, unneeded=(requests, results))
@@ -460,7 +460,7 @@ def _fork(target: Callable, arguments: tuple, unneeded: tuple = ()) -> int:
 
 
 def _serve_requests(requests, results) -> None:
-    from core.boundary_integrals.poisson import load_compiled
+    from core import load_compiled_integrals as load_compiled
 
     waiting = []
     compiled_layer = False

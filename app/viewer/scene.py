@@ -25,17 +25,17 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from app.fill import set_fill
-from app.framing import output_region
-from app.render import WarpRenderer
+from app.render.renderer import WarpRenderer
+from app.render.viewport import View
 from app.viewer.controller import band_corners
 from app.viewer.drawing import clicked_points
 from app.viewer.editing import curve_points, to_image
 from app.viewer.fold_free import current_check
 from app.viewer.state import AppState
 from app.viewer.view_modes import BY_NAME as VIEW_MODES
-from app.viewport import View
-from core.deformation import deform
+from app.warp.fill import set_fill
+from app.warp.framing import output_region
+from core import deform
 
 #: Straight RGB of the overlays: the source curve green, the target blue (the paper's Fig. 11).
 SOURCE_COLOUR = (0.16, 0.80, 0.28)
@@ -115,7 +115,7 @@ def overlay_arrays(state: AppState) -> tuple[np.ndarray, np.ndarray]:
 
 
 def export_frame(state: AppState) -> np.ndarray | None:
-    """Corners (4, 2), image pixels, of what an export holds (`app.framing.output_region`), or None.
+    """Corners (4, 2), image pixels, of what an export holds (`app.warp.framing.output_region`), or None.
 
     Shown in deform mode when the target curve leaves the image: with ``canvas="source"``
     the export is clipped there, with ``"grow"`` it widens to this frame.
@@ -331,7 +331,7 @@ class Scene:
         self._update_field(state)
 
     def _update_fill(self, state: AppState) -> None:
-        """The backdrop with the original position filled (`app.fill`), for the committed cage: a
+        """The backdrop with the original position filled (`app.warp.fill`), for the committed cage: a
         source drag in progress or a new cage being drawn keep the last one."""
         document = state.document
         cage = document.history.current.cage
@@ -445,7 +445,7 @@ class Scene:
         self._drawn = None
 
     def deformation(self, state: AppState):
-        """The `app.warping.Deformation` of the mesh drawn (what `warp` renders: the fold-free map
+        """The `app.warp.pipeline.Deformation` of the mesh drawn (what `warp` renders: the fold-free map
         when the document asks for it), or None without a matching mesh."""
         if not self.mesh_matches(state):
             return None

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from app.files import InputError, write_png
+from app.io.files import InputError, write_png
 from app.viewer import editing
 from app.viewer.controller import LEFT
 from app.viewer.state import AppState

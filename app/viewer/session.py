@@ -7,7 +7,7 @@ also reads, so that it exports exactly what the viewer showed: ``kernel_params``
 the default of older sessions, or ``"arc-length"``: `core.curves.arc_length`) and ``mesh``
 (``{"max_edge": h}``, the mesh the viewer used), and the animation that ``animate`` renders:
 ``keyframes`` (``[{"time": s, "target": {cage}}, ...]``) and ``interpolation``
-(`app.keyframes`).  ``viewer`` keeps what only the viewer needs
+(`app.warp.keyframes`).  ``viewer`` keeps what only the viewer needs
 (mode, what is shown, the power family's settings while another kernel is
 chosen, the timeline's time and loop) and ``history`` the undo and redo steps (the newest `SAVED_STEPS` of
 each), so that Ctrl+Z still works after a restart.
@@ -27,7 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
-from app.files import (
+from app.io.files import (
     InputError,
     Session,
     cage_curve,
@@ -47,9 +47,7 @@ from app.files import (
     session_parameterization,
     write_session,
 )
-from app.fill import session_fill
-from app.framing import CANVASES, OUTSIDES
-from app.keyframes import DEFAULT_INTERPOLATION, MAX_TIME, Keyframe, keyframes_json
+from app.render.viewport import View
 from app.viewer.session_files import backups, keep_aside, rotate_backups, session_path_for
 from app.viewer.session_lock import SessionLock, lock_session
 from app.viewer.state import (
@@ -62,8 +60,10 @@ from app.viewer.state import (
     Snapshot,
 )
 from app.viewer.view_modes import VIEW_MODE_NAMES
-from app.viewport import View
-from core.storage.atomic_write import abandoned_temporaries
+from app.warp.fill import session_fill
+from app.warp.framing import CANVASES, OUTSIDES
+from app.warp.keyframes import DEFAULT_INTERPOLATION, MAX_TIME, Keyframe, keyframes_json
+from core import abandoned_temporaries
 
 #: Undo steps (and redo steps) written into the session file.
 SAVED_STEPS = 100
@@ -440,9 +440,9 @@ def begin_with(document: OpenedDocument, snapshot: Snapshot, message: str) -> No
 
 
 def fit_or_ellipse(image: np.ndarray, points: int = 16, rect=None) -> tuple[np.ndarray, str]:
-    """A cage fitted to the image's subject (app.fit; inside `rect`, (x, y, width, height), if
+    """A cage fitted to the image's subject (app.fit.subject; inside `rect`, (x, y, width, height), if
     given), or an ellipse if that fails; and a note."""
-    from app.fit import fit_cage
+    from app.fit.subject import fit_cage
     from app.viewer.editing import ellipse_cage
 
     with warnings.catch_warnings(record=True) as caught:
@@ -474,7 +474,7 @@ def apply_preferences(state: AppState, preferences: dict | None) -> None:
     if preferences.get("canvas") in CANVASES:
         state.document.canvas = preferences["canvas"]
     if isinstance(preferences.get("fill"), str):
-        state.document.fill = preferences["fill"]  # checked by `restore` (app.fill.session_fill)
+        state.document.fill = preferences["fill"]  # checked by `restore` (app.warp.fill.session_fill)
     if isinstance(preferences.get("background"), str):
         state.document.background = preferences["background"]  # checked by `restore`
     if isinstance(preferences.get("loop"), bool):

@@ -22,7 +22,7 @@ import shutil
 import time
 from pathlib import Path
 
-from core.storage.state_directory import state_directory
+from core import state_directory
 
 #: Previous versions kept beside each session file.
 BACKUPS = 5

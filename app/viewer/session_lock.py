@@ -24,7 +24,7 @@ import os
 import weakref
 from pathlib import Path
 
-from app.files import InputError
+from app.io.files import InputError
 from app.viewer.session_files import state_directory
 
 try:

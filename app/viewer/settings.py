@@ -11,8 +11,8 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-from app.files import InputError, read_json, write_json
-from core.storage.state_directory import state_directory
+from app.io.files import InputError, read_json, write_json
+from core import state_directory
 
 FILE_NAME = "viewer-settings.json"
 

@@ -21,8 +21,8 @@ from pathlib import Path
 
 import numpy as np
 
-from app.keyframes import DEFAULT_INTERPOLATION, INTERPOLATIONS, Keyframe, sorted_keyframes
-from app.viewport import View
+from app.render.viewport import View
+from app.warp.keyframes import DEFAULT_INTERPOLATION, INTERPOLATIONS, Keyframe, sorted_keyframes
 
 #: Parameters of the ``power`` kernel family (Eq. 19) when a session does not say.
 DEFAULT_POWER = 4.0
@@ -59,17 +59,17 @@ class Snapshot:
     target : ndarray of shape (n, 2)
         Target control points (read-only), one per source point.
     kernel : str
-        A name of `app.files.kernel_names`.
+        A name of `app.io.files.kernel_names`.
     power, shift : float, str
         Parameters of the ``power`` kernel (ignored by the others).
     parameterization : str
         One of `PARAMETERIZATIONS`: the boundary parameter of the point kernels'
         integrals (ignored by ``harmonic`` and ``pgw``).
-    keyframes : tuple of app.keyframes.Keyframe
-        The animation, sorted by time, each target of n points (`app.keyframes`);
+    keyframes : tuple of app.warp.keyframes.Keyframe
+        The animation, sorted by time, each target of n points (`app.warp.keyframes`);
         adding, moving or deleting one is an edit like any other.
     interpolation : str
-        One of `app.keyframes.INTERPOLATIONS`.
+        One of `app.warp.keyframes.INTERPOLATIONS`.
     fold_free : bool
         Deform by the certified fold-free map (`core.fold_free_deform`; ``poisson`` only), as
         sessions' ``"fold_free": true`` asks of ``warp`` and ``animate``.
@@ -341,10 +341,10 @@ class BasisResult:
     imaginary_columns: np.ndarray | None = None
 
     def deformation(self, fold_free: bool = False):
-        """This basis as an `app.warping.Deformation`: what `warp` and the export render (with
+        """This basis as an `app.warp.pipeline.Deformation`: what `warp` and the export render (with
         `fold_free`, the certified fold-free map, as ``warp`` with a session's ``"fold_free"``)."""
         import core
-        from app.warping import Deformation
+        from app.warp.pipeline import Deformation
 
         return Deformation(self.mesh, self.basis, self.kernel, core.ClosedBSpline(self.cage), fold_free)
 
@@ -385,14 +385,14 @@ class Document:
     session_dirty : bool
         An edit to save now.
     outside : str
-        What exports show outside the deformed region (`app.framing.OUTSIDES`).
+        What exports show outside the deformed region (`app.warp.framing.OUTSIDES`).
     canvas : str
         What exports frame: ``"source"``, or ``"grow"`` to hold the whole target.
     fill : str
-        What fills the source cage's region behind the warp, with outside "original" (`app.fill`).
+        What fills the source cage's region behind the warp, with outside "original" (`app.warp.fill`).
     background : str
         What exports show where the warp leaves them transparent: ``"none"`` (transparent) or a
-        colour as ``--background`` takes it (`app.images.colours.parse_colour`).
+        colour as ``--background`` takes it (`app.io.images.colours.parse_colour`).
     max_edge : float or None
         A forced mesh edge length (None: from the cage's area).
     saved : Snapshot or None

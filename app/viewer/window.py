@@ -25,7 +25,7 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-from app.files import InputError, read_json
+from app.io.files import InputError, read_json
 from app.viewer import commands, controller, editing
 from app.viewer.basis_updates import BasisUpdates
 from app.viewer.exports import Exporter
@@ -147,7 +147,7 @@ class Viewer:
         import moderngl
         from imgui_bundle import imgui
 
-        from app.render import WarpRenderer
+        from app.render.renderer import WarpRenderer
         from app.viewer.gui_renderer import GuiRenderer
         from app.viewer.scene import Scene
 
@@ -250,7 +250,7 @@ class Viewer:
                 if isinstance(value, dict) and "image" in value and "target" in value:
                     self._switch_to(open_document(session=path))
                     return
-                from app.files import read_cage
+                from app.io.files import read_cage
 
                 cage = read_cage(path)
                 problem = editing.cage_problem(cage)
@@ -484,7 +484,7 @@ def _initialised_glfw():
 
 
 def _environment_error(message: str) -> Exception:
-    from app.render import ContextUnavailableError
+    from app.render.renderer import ContextUnavailableError
 
     return ContextUnavailableError(message)
 

@@ -95,7 +95,7 @@ def screen_rectangle(
 
 def save_settings(glfw, window, state) -> None:
     """Remember `window`'s place and size, and how cages are drawn, for the next viewer."""
-    from app.files import InputError
+    from app.io.files import InputError
     from app.viewer.settings import write_settings
 
     x, y = glfw.get_window_pos(window)

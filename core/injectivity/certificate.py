@@ -50,7 +50,7 @@ most `STRIP_SAFETY` (2) times its mean rate between Γ and the companion 4δ dee
 the boundary where that bound is thin).  The argument principle, the maximum principle, the
 corner sectors' bound and the simple-target proof are exact; A1-A3 are estimates, checked against
 a dense evaluation of the exact Jacobian on 200 random deformations
-(tests/test_injectivity_certificate.py).  When in doubt the answer is `injective=False`.
+(tests/core/injectivity/test_certificate.py).  When in doubt the answer is `injective=False`.
 """
 
 from __future__ import annotations

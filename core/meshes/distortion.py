@@ -7,7 +7,7 @@ sigma_1 >= |sigma_2| describe how the triangle is stretched; sigma_2 is taken wi
 the sign of det J, so sigma_2 <= 0 exactly where the triangle is folded over or
 collapsed.  The conformal distortion sigma_1 / sigma_2 is 1 for a similarity and
 grows with the anisotropy of the stretch.  These are the measures of the quality
-study (`app.quality`), which compares kernels by how well the deformations they give
+study (`app.studies.quality`), which compares kernels by how well the deformations they give
 keep the mapping injective and inside the target curve (the paper's Fig. 11).
 
 The transfinite deformation itself, x -> sum_i P'_i G_i(x), has the Jacobian

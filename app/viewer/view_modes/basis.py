@@ -19,7 +19,7 @@ def legend(state, draw, left: float, top: float, span: float) -> None:
     """The heat map's colours: negative values, then 0 to 1."""
     from imgui_bundle import imgui
 
-    from app.render_passes.fields import HEAT_NEGATIVE, HEAT_STOPS
+    from app.render.passes.fields import HEAT_NEGATIVE, HEAT_STOPS
     from app.viewer.view_modes.colours import packed
 
     index = state.selection.selected if state.selection.selected is not None else 0

@@ -30,7 +30,7 @@ def legend(state, draw, left: float, top: float, span: float) -> None:
     """The colour bar of the measure and the worst values of the deformation shown."""
     from imgui_bundle import imgui
 
-    from app.render_passes.fields import (
+    from app.render.passes.fields import (
         DISTORTION_FOLDED,
         DISTORTION_GROWN,
         DISTORTION_RANGE,

@@ -7,7 +7,7 @@ from app.viewer.view_modes.mode import ViewMode
 
 def field(state, basis, renderer, current):
     """Upload G @ h (V,) for the wave heights h of `core.curves.examples.wave_heights`."""
-    from core.curves.examples import wave_heights
+    from core import wave_heights
 
     signature = ("height", basis.key)
     if signature != current:
@@ -19,7 +19,7 @@ def legend(state, draw, left: float, top: float, span: float) -> None:
     """The bands' colours, [k, k+1]/10."""
     from imgui_bundle import imgui
 
-    from app.render_passes.fields import BAND_COLOURS, BAND_START, BAND_WIDTH
+    from app.render.passes.fields import BAND_COLOURS, BAND_START, BAND_WIDTH
     from app.viewer.view_modes.colours import packed
 
     imgui.text("height, bands [k, k+1]/10 (Fig. 1)")

@@ -1,0 +1,1 @@
+"""The performance table (`python -m app bench`) and its rows."""

@@ -1,0 +1,94 @@
+"""The fold-free rows of ``bench``: `core.fold_free_deform` against libigl on the same mesh.
+
+libigl's ``bijective_composite_harmonic_mapping`` composes discrete (finite-element) harmonic maps
+between morphs of the boundary values and checks the flips of its own mesh's triangles; ours
+composes the exact harmonic maps of the cages on the straight path, each step certified injective
+for the continuous map (`core.injectivity`).  Both get the same mesh (`core.triangulate`) and the
+same boundary values (the target curve at the boundary vertices' parameters), in this process.
+libigl is imported here only (the ``bench`` extra); without it the rows say so and time ours alone.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+
+import numpy as np
+
+import core
+from app.bench.timing import edge_for_vertices, median_time
+
+#: Vertices of the fold-free rows: the default mesh's size, and a large one.
+VERTICES = (10_000, 50_000)
+#: The deformation: control point `HANDLE` of the bench's blob dragged by `DRAG` of its diameter
+#: in the direction `DRAG_ANGLE` (degrees; the plain harmonic map folds there).
+HANDLE = 1
+DRAG = 0.3
+DRAG_ANGLE = 90.0
+
+
+def bench_target(curve: core.ClosedBSpline) -> np.ndarray:
+    """The target control points (n, 2) of the fold-free rows."""
+    target = curve.control_points.copy()
+    angle = math.radians(DRAG_ANGLE)
+    target[HANDLE] += DRAG * curve.diameter * np.array([math.cos(angle), math.sin(angle)])
+    return target
+
+
+def fold_free_rows(
+    curve: core.ClosedBSpline, repeats: int, forget: Callable[[], None], vertices=None
+) -> None:
+    """Print the fold-free table: ours (its density solves included: `forget` empties their cache) and
+    libigl's on the same meshes (`VERTICES` if `vertices` is None), medians of `repeats` runs."""
+    vertices = VERTICES if vertices is None else vertices
+    try:
+        import igl
+    except ImportError:
+        igl = None
+    target = bench_target(curve)
+    print(
+        "fold-free warp: core.fold_free_deform (certified composite of exact harmonic maps, solves included)"
+    )
+    if igl is None:
+        print("  libigl is not installed (pip install libigl, or the package's 'bench' extra): ours alone")
+    header = f"{'vertices V':>11} {'ours s':>8} {'steps':>6} {'flips':>6} {'proven':>7} {'plain flips':>12}"
+    header += f" {'libigl s':>9} {'flips':>6} {'ours / libigl':>14}"
+    print(header)
+    print("-" * len(header))
+    for count in vertices:
+        max_edge = edge_for_vertices(curve.area, count)
+        mesh = core.triangulate(curve, max_edge=max_edge)
+        boundary = (mesh.boundary, mesh.boundary_parameters)
+
+        def ours(mesh=mesh, boundary=boundary):
+            forget()
+            return core.fold_free_deform(
+                curve, target, mesh.vertices, boundary=boundary, triangles=mesh.triangles
+            )
+
+        seconds, (images, certificate) = median_time(ours, repeats)
+        plain = core.deform(core.mesh_basis_functions(curve, mesh, "poisson", cache=False), target)
+        row = f"{len(mesh.vertices):>11,} {seconds:>8.3f} {certificate.extra['steps']:>6} "
+        proven = "yes" if certificate.injective else "no"
+        row += f"{_flips(mesh, images):>6} {proven:>7} {_flips(mesh, plain):>12}"
+        if igl is not None:
+            values = target_curve_values(target, mesh)
+
+            def theirs(mesh=mesh, values=values):
+                return igl.bijective_composite_harmonic_mapping(
+                    mesh.vertices, mesh.triangles, mesh.boundary, values
+                )
+
+            igl_seconds, mapped = median_time(theirs, repeats)
+            row += f" {igl_seconds:>9.3f} {_flips(mesh, mapped):>6} {seconds / igl_seconds:>14.2f}"
+        print(row)
+    print()
+
+
+def target_curve_values(target: np.ndarray, mesh: core.Mesh) -> np.ndarray:
+    """The target curve at the boundary vertices' parameters, (B, 2)."""
+    return core.ClosedBSpline(target)(mesh.boundary_parameters)
+
+
+def _flips(mesh: core.Mesh, images: np.ndarray) -> int:
+    return int(np.count_nonzero(core.folded_triangles(mesh, images)))

@@ -1,0 +1,100 @@
+"""``bench``'s photograph rows: a warp of a 24 and a 100 megapixel PNG against reading and writing it.
+
+Each size runs in a child process of its own: the picture is generated there (a
+photograph scaled up, with grain, so that PNG compresses it like a photograph), then
+the warp (``--outside original``, the whole command in-process, basis not cached) and
+the baseline, `app.io.files.read_image` then `write_png` of the same picture, alternate
+in the same process; the row shows the medians, the ratio of the warp's time to
+1.5 x baseline + 1.5 s (the issue's bound: at most 1) and the warp's peak memory
+(the process's high-water mark, measured before any baseline ran).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import sys
+import tempfile
+from pathlib import Path
+
+#: (width, height) of the rows: 24 and 100 megapixels.
+PHOTO_SIZES = ((6000, 4000), (12000, 8400))
+#: The quick smoke test's size.
+QUICK_SIZE = (1200, 800)
+#: Runs of the warp and of the baseline in each child.
+PHOTO_REPEATS = 2
+
+_CHILD = r"""
+import json, statistics, sys, time
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from app.__main__ import main
+from app.io.files import read_image, write_png
+from core.curves import examples
+
+width, height, folder, repeats = int(sys.argv[1]), int(sys.argv[2]), Path(sys.argv[3]), int(sys.argv[4])
+rng = np.random.default_rng(5)
+small = np.zeros((240, 360, 3), np.uint8)
+for _ in range(60):
+    centre = (int(rng.integers(0, 360)), int(rng.integers(0, 240)))
+    colour = tuple(int(c) for c in rng.integers(0, 255, 3))
+    cv2.circle(small, centre, int(rng.integers(5, 60)), colour, -1, cv2.LINE_AA)
+image = cv2.resize(small, (width, height), interpolation=cv2.INTER_CUBIC)
+image = cv2.add(image, rng.integers(0, 6, image.shape, dtype=np.uint8))  # grain
+cv2.imwrite(str(folder / "photo.png"), image)
+del image, small
+cage = examples.starfish() * (0.45 * height) + np.array([width / 2, height / 2])
+target = cage.copy()
+target[0] += (0.1 * height, 0.05 * height)
+target[4] -= (0.05 * height, 0.1 * height)
+(folder / "cage.json").write_text(json.dumps({"control_points": cage.tolist()}))
+(folder / "target.json").write_text(json.dumps({"control_points": target.tolist()}))
+argv = ["warp", str(folder / "photo.png"), "--cage", str(folder / "cage.json"), "--target",
+        str(folder / "target.json"), "--output", str(folder / "out.png"), "--outside", "original"]
+
+def high_water():
+    for line in open("/proc/self/status"):
+        if line.startswith("VmHWM:"):
+            return int(line.split()[1])
+
+def baseline():
+    start = time.perf_counter()
+    write_png(folder / "copy.png", read_image(folder / "photo.png"))
+    return time.perf_counter() - start
+
+def warp():
+    start = time.perf_counter()
+    if main(argv) != 0:
+        raise SystemExit("the warp failed")
+    return time.perf_counter() - start
+
+before = high_water()
+warps, baselines = [warp()], []
+peak = high_water()
+for _ in range(repeats):
+    baselines.append(baseline())
+    if len(warps) < repeats:
+        warps.append(warp())
+print(json.dumps({"warp": statistics.median(warps), "baseline": statistics.median(baselines),
+                  "peak": peak, "before": before}))
+"""
+
+
+def photo_rows(sizes, run_child, repeats: int = PHOTO_REPEATS) -> None:
+    """Print one row per (width, height) of `sizes`; `run_child` is `app.bench.table.run_child`."""
+    for width, height in sizes:
+        with tempfile.TemporaryDirectory() as folder:
+            environment = dict(os.environ, TRANSFINITE_CACHE_DIR=str(Path(folder) / "cache"))
+            command = [sys.executable, "-c", _CHILD, str(width), str(height), folder, str(repeats)]
+            result = run_child(command, f"the {width}x{height} photograph warp", env=environment)
+        row = json.loads(result.stdout.strip().splitlines()[-1])
+        bound = 1.5 * row["baseline"] + 1.5
+        print(
+            f"photograph {width}x{height} ({width * height / 1e6:.0f} MP) warp --outside original: "
+            f"{row['warp']:.2f} s; read + write {row['baseline']:.2f} s; "
+            f"warp / (1.5 x (read + write) + 1.5 s) = {row['warp'] / bound:.2f}; "
+            f"warp peak memory {row['peak'] / 2**20:.2f} GiB"
+        )

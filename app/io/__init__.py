@@ -1,0 +1,1 @@
+"""Files on disk: cages, sessions, images (read, checked, written), the bundled files."""

@@ -1,0 +1,806 @@
+"""Reading and writing the files of the command line and the viewer.
+
+Cage files are JSON ``{"control_points": [[x, y], ...]}`` in image pixels (x to
+the right, y down, origin at the image's top-left corner); session files hold
+``image``, ``cage``, ``target``, ``kernel`` and ``view`` (see .docs/architecture.md), and
+optionally ``kernel_params``, ``parameterization`` and ``mesh`` (what the viewer
+computed with).  Every
+reader validates its input and raises `InputError` with one line naming the file
+and what is wrong in it; every writer is atomic (a temporary file in the same
+directory, then `os.replace`), so a failed or interrupted write leaves an existing
+file untouched.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import math
+import os
+import re
+import stat
+from collections.abc import Iterable, Iterator
+from dataclasses import dataclass, field
+from numbers import Real
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from app.console import captured_c_stderr, note
+from app.io.image_header import MAX_IMAGE_PIXELS, ImageHeader, image_header
+from app.io.images import (
+    DEFAULT_QUALITY,
+    OUTPUT_FORMATS,
+    ImageMetadata,
+    Photo,
+    encode_image,
+    oriented,
+    output_format,
+    read_metadata,
+    rgba_pixels,
+    straight_rgba_tiff,
+)
+from app.io.images.tiles import PngStripWriter
+from app.warp.keyframes import DEFAULT_INTERPOLATION, INTERPOLATIONS, Keyframe, sorted_keyframes
+from core import MAX_CONTROL_POINTS, NAME_MAX, as_points, too_many_control_points, write_atomically
+
+#: Largest image file read into memory.
+MAX_IMAGE_FILE_BYTES = 1 << 30
+#: Largest JSON file (cage, session, script, data) read: parsed, it takes about 10 times that.
+MAX_JSON_FILE_BYTES = 1 << 27
+#: The extensions of the image files written (`write_image`): PNG, TIFF, JPEG, WebP.
+IMAGE_SUFFIXES = tuple(OUTPUT_FORMATS)
+#: Largest cage coordinate, in pixels: beyond it float64 has no sub-pixel precision left.
+MAX_COORDINATE = 1e15
+
+
+class InputError(ValueError):
+    """Bad input from a file or the command line: one line saying what and where."""
+
+
+@contextlib.contextmanager
+def reported_as_input(where: str) -> Iterator[None]:
+    """Turn a `ValueError` of the block (bad cage, kernel, mesh size, ...) into an `InputError`.
+
+    `core` raises `ValueError` with a message a person can act on; this adds
+    where the offending input came from.
+    """
+    try:
+        yield
+    except InputError:
+        raise
+    except ValueError as error:
+        raise InputError(f"{where}: {error}") from None
+
+
+def cage_curve(control_points: np.ndarray, where: str, samples_per_segment: int | None = None):
+    """`core.ClosedBSpline` of a cage, or `InputError` naming `where` (self-intersection, ...).
+
+    First, before the curve's own checks (which take time in the number of control
+    points), the cage's boundary samples at `samples_per_segment` per span (the
+    kernels' default if None) must be within `core.validation.MAX_BOUNDARY_SAMPLES`.
+    """
+    import core
+    from core import DEFAULT_SAMPLES_PER_SEGMENT, checked_samples_per_segment
+
+    per = DEFAULT_SAMPLES_PER_SEGMENT if samples_per_segment is None else samples_per_segment
+    with reported_as_input(where):
+        checked_samples_per_segment(per, len(control_points))
+        return core.ClosedBSpline(control_points)
+
+
+# -- generic ------------------------------------------------------------------
+
+
+def write_atomic(path: str | os.PathLike, data: bytes) -> None:
+    """Write `data` to `path` through a temporary file in the same directory and `os.replace`.
+
+    Temporaries left by a killed process are removed first (`core.storage.atomic_write`);
+    a new file gets the mode the umask gives, a replaced one keeps its mode.
+
+    Raises
+    ------
+    InputError
+        If the file cannot be written; `path` is then unchanged.
+    """
+    path = Path(path)
+    check_writable(path)
+    try:
+        write_atomically(path, lambda stream: stream.write(data))
+    except OSError as error:
+        raise InputError(f"{path}: cannot write ({error.strerror or error})") from None
+
+
+def check_writable(path: str | os.PathLike, *, suffix: str | tuple[str, ...] | None = None) -> None:
+    """Raise `InputError` early if `path` obviously cannot be written (before long work).
+
+    Parameters
+    ----------
+    path : path-like
+        The output file.
+    suffix : str or tuple of str, optional
+        Required file name extension, e.g. ``".png"``, or one of several (`IMAGE_SUFFIXES`),
+        compared case-insensitively.
+    """
+    path = Path(path)
+    suffixes = (suffix,) if isinstance(suffix, str) else suffix
+    if suffixes is not None and path.suffix.lower() not in suffixes:
+        raise InputError(f"{path}: the output file name must end in {', '.join(suffixes)}")
+    check_name_length(path)
+    try:
+        if path.is_dir():
+            raise InputError(f"{path}: cannot write, it is a directory")
+        parent = path.parent
+        if not parent.is_dir():
+            raise InputError(f"{path}: cannot write, directory {parent} does not exist")
+        if not os.access(parent, os.W_OK | os.X_OK) or (path.exists() and not os.access(path, os.W_OK)):
+            raise InputError(f"{path}: cannot write, permission denied")
+    except OSError as error:  # a path too long, a loop of symbolic links, ...
+        raise InputError(f"{path}: cannot write ({error.strerror or error})") from None
+
+
+def check_name_length(path: str | os.PathLike) -> None:
+    """`InputError` if the last part of `path` is longer than a file name may be (`NAME_MAX` bytes)."""
+    length = len(os.fsencode(Path(path).name))
+    if length > NAME_MAX:
+        raise InputError(f"{path}: the file name is {length} bytes long; at most {NAME_MAX} are allowed")
+
+
+def refuse_overwriting_inputs(output: str | os.PathLike, inputs: dict[str, str | os.PathLike | None]) -> None:
+    """`InputError` if `output` is one of the `inputs` (what it is -> its path, None if not given):
+    the same file, also through another name or a link.  An output that does not exist yet is none."""
+    for what, path in inputs.items():
+        if path is not None and same_file(output, path):
+            raise InputError(f"{output}: is the {what}; give another output, inputs are never overwritten")
+
+
+def same_file(first: str | os.PathLike, second: str | os.PathLike) -> bool:
+    """Whether both paths name one existing file."""
+    try:
+        return os.path.samefile(first, second)
+    except (OSError, ValueError):  # one of them does not exist (or cannot be a path)
+        return False
+
+
+def read_json(path: str | os.PathLike):
+    """Parse a JSON file; `InputError` with the file name (and line) if that fails."""
+    path = Path(path)
+    # utf-8-sig: a byte order mark, which some editors write, is not part of the JSON text.
+    text = _read_bytes(path, MAX_JSON_FILE_BYTES).decode("utf-8-sig", errors="replace")
+    try:
+        return json.loads(text)
+    except json.JSONDecodeError as error:
+        raise InputError(
+            f"{path}: not valid JSON ({error.msg} at line {error.lineno}, column {error.colno})"
+        ) from None
+    except RecursionError:
+        raise InputError(f"{path}: cannot read the JSON (arrays or objects nested too deeply)") from None
+    except ValueError as error:  # e.g. an integer of more digits than Python converts
+        raise InputError(f"{path}: cannot read the JSON ({str(error).split(':')[0]})") from None
+
+
+#: A list of numbers that `json.dumps(indent=...)` spread over lines (raw newlines occur in no JSON string).
+_NUMBER_LIST = re.compile(r"\[\n\s*(-?[0-9][0-9.eE+-]*(?:,\n\s*-?[0-9][0-9.eE+-]*)*)\n\s*\]")
+
+
+def json_text(value) -> str:
+    """Indented JSON text of `value`, each list of numbers (an [x, y] pair) on one line."""
+    # allow_nan=False: Python would write NaN, which is not JSON.
+    text = json.dumps(value, indent=2, allow_nan=False)
+    return _NUMBER_LIST.sub(
+        lambda match: f"[{', '.join(n.strip() for n in match.group(1).split(','))}]", text
+    )
+
+
+def write_json(path: str | os.PathLike, value) -> None:
+    """Write `value` as indented JSON (number lists on one line), atomically."""
+    write_atomic(path, (json_text(value) + "\n").encode("utf-8"))
+
+
+# -- cages --------------------------------------------------------------------
+
+
+def cage_points(value, where: str) -> np.ndarray:
+    """Control points of a cage object ``{"control_points": [[x, y], ...]}``.
+
+    Parameters
+    ----------
+    value : object
+        Parsed JSON.
+    where : str
+        Where the object comes from, for messages (e.g. ``"cage.json"`` or
+        ``"session.json: target"``).
+
+    Returns
+    -------
+    ndarray of shape (n, 2), float64
+
+    Raises
+    ------
+    InputError
+        Not an object with a ``control_points`` list of number pairs, non-finite
+        values, or fewer than 3 points.  Whether the curve is simple is
+        checked by `core.ClosedBSpline`.
+    """
+    if not isinstance(value, dict):
+        raise InputError(f'{where}: expected an object with "control_points", got {_json_type(value)}')
+    if "control_points" not in value:
+        raise InputError(f'{where}: missing "control_points"')
+    points = value["control_points"]
+    if not isinstance(points, list):
+        raise InputError(
+            f'{where}: "control_points" must be a list of [x, y] pairs, got {_json_type(points)}'
+        )
+    if len(points) > MAX_CONTROL_POINTS:  # before the checks of each point, which take time
+        raise InputError(f"{where}: {too_many_control_points(len(points))}")
+    for index, point in enumerate(points):
+        # bool is an int in Python, but `true` is never a coordinate.
+        if not (isinstance(point, list) and len(point) == 2 and all(_is_number(c) for c in point)):
+            raise InputError(
+                f"{where}: control_points[{index}] must be a pair of numbers [x, y], got {_shown(point)}"
+            )
+        if any(_out_of_range(c) for c in point):
+            raise InputError(
+                f"{where}: control_points[{index}] = {_shown(point)} is out of range: coordinates must "
+                f"lie within +-{MAX_COORDINATE:g} pixels"
+            )
+    try:
+        return as_points(points, "control_points", min_count=3)
+    except ValueError as error:
+        raise InputError(f"{where}: {error}") from None
+
+
+def read_cage(path: str | os.PathLike) -> np.ndarray:
+    """Control points, ndarray of shape (n, 2), of the cage file at `path`."""
+    return cage_points(read_json(path), str(path))
+
+
+def write_cage(path: str | os.PathLike, control_points: np.ndarray) -> None:
+    """Write a cage file (coordinates rounded to 1/1000 pixel), atomically."""
+    points = np.round(np.asarray(control_points, dtype=np.float64), 3)
+    write_json(path, {"control_points": points.tolist()})
+
+
+# -- sessions -----------------------------------------------------------------
+
+
+@dataclass
+class Session:
+    """The state of a viewer session.
+
+    Attributes
+    ----------
+    image : Path
+        The source image (relative paths in the file are relative to the file's directory).
+    cage, target : ndarray of shape (n, 2)
+        Source and target control points, image pixels.
+    kernel : str
+        A name from `core.KERNELS`.
+    scale : float
+        View scale s: image point (x, y) is drawn at window pixel (ox + s x, oy + s y).
+    offset : tuple of float
+        View offset (ox, oy).
+    extra : dict
+        Other keys of the file, written back unchanged.
+    """
+
+    image: Path
+    cage: np.ndarray
+    target: np.ndarray
+    kernel: str
+    scale: float = 1.0
+    offset: tuple[float, float] = (0.0, 0.0)
+    extra: dict = field(default_factory=dict)
+
+
+def kernel_names() -> tuple[str, ...]:
+    """Every kernel name `core.mesh_basis_functions` takes: the point kernels and the mesh-based ones."""
+    import core
+
+    return (*core.KERNELS, *core.COMPLEX_KERNELS, *core.MESH_ONLY_KERNELS)
+
+
+def read_session(path: str | os.PathLike) -> Session:
+    """Read and validate a session file; `InputError` naming the file and key if it is bad."""
+    path = Path(path)
+    value = read_json(path)
+    if not isinstance(value, dict):
+        raise InputError(f"{path}: expected a JSON object, got {_json_type(value)}")
+    missing = [key for key in ("image", "cage", "target", "kernel", "view") if key not in value]
+    if missing:
+        raise InputError(f"{path}: missing key(s) {', '.join(missing)}")
+    if not isinstance(value["image"], str) or not value["image"]:
+        raise InputError(f'{path}: "image" must be a file path, got {value["image"]!r}')
+    cage = cage_points(value["cage"], f"{path}: cage")
+    target = cage_points(value["target"], f"{path}: target")
+    if target.shape != cage.shape:
+        raise InputError(f"{path}: target has {len(target)} control points but cage has {len(cage)}")
+    kernel = value["kernel"]
+    if kernel not in kernel_names():
+        raise InputError(f"{path}: unknown kernel {kernel!r}; choose one of {', '.join(kernel_names())}")
+    scale, offset = _view(value["view"], path)
+    extra = {k: v for k, v in value.items() if k not in ("image", "cage", "target", "kernel", "view")}
+    return Session(path.parent / value["image"], cage, target, kernel, scale, offset, extra)
+
+
+def session_image(session: Session, path: str | os.PathLike) -> Path:
+    """The image of `session` (read from the session file `path`); `InputError` saying where it was
+    looked for if it is not there: a relative ``"image"`` is relative to the session file."""
+    image = Path(session.image)
+    try:
+        missing = not image.exists() and not image.is_symlink()
+    except OSError:  # a loop of links, a name too long: reading it says what is wrong
+        missing = False
+    if missing:
+        try:
+            written = os.path.relpath(image, Path(path).parent)
+        except ValueError:  # on another drive (Windows)
+            written = str(image)
+        raise InputError(
+            f'{path}: its "image" {written!r} is {os.path.abspath(image)}, which does not exist (a relative '
+            '"image" is relative to the session file); copy the image there or write its path in "image"'
+        )
+    return image
+
+
+def write_session(path: str | os.PathLike, session: Session) -> None:
+    """Write a session file atomically; the image path is stored relative to it when possible."""
+    path = Path(path)
+    try:
+        image = os.path.relpath(Path(session.image).resolve(), path.resolve().parent)
+    except ValueError:  # another drive on Windows
+        image = str(Path(session.image).resolve())
+    value = dict(session.extra)
+    value.update(
+        image=image,
+        cage={"control_points": np.asarray(session.cage, dtype=float).tolist()},
+        target={"control_points": np.asarray(session.target, dtype=float).tolist()},
+        kernel=session.kernel,
+        view={"scale": float(session.scale), "offset": [float(v) for v in session.offset]},
+    )
+    write_json(path, value)
+
+
+def session_kernel_params(session: Session, path: str | os.PathLike = "session") -> dict:
+    """Kernel parameters of a session: its ``kernel_params`` object, validated; {} if absent.
+
+    Only the ``power`` kernel takes parameters: ``power`` (a number > 0) and
+    ``shift`` (``"none"``, ``"integral"`` or ``"mean"``).  The viewer writes them
+    so that ``warp --session`` computes the very basis functions it showed.
+    """
+    value = session.extra.get("kernel_params")
+    if value is None:
+        return {}
+    if not isinstance(value, dict):
+        raise InputError(f'{path}: "kernel_params" must be an object, got {_json_type(value)}')
+    if session.kernel != "power":
+        if value:
+            raise InputError(
+                f"{path}: kernel {session.kernel!r} takes no parameters, but kernel_params has "
+                f"{', '.join(sorted(value))}"
+            )
+        return {}
+    unknown = sorted(set(value) - {"power", "shift"})
+    if unknown:
+        raise InputError(
+            f"{path}: unknown kernel parameter(s) {', '.join(unknown)} (power takes power, shift)"
+        )
+    params = {}
+    if "power" in value:
+        power = finite_number(value["power"])
+        if power is None or power <= 0:
+            raise InputError(
+                f"{path}: kernel_params power must be a number > 0, got {_shown(value['power'])}"
+            )
+        params["power"] = power
+    if "shift" in value:
+        if value["shift"] not in ("none", "integral", "mean"):
+            raise InputError(
+                f'{path}: kernel_params shift must be "none", "integral" or "mean", got {value["shift"]!r}'
+            )
+        params["shift"] = value["shift"]
+    return params
+
+
+def session_max_edge(session: Session, path: str | os.PathLike = "session") -> float | None:
+    """The mesh edge length of a session (its ``mesh`` object's ``max_edge``), or None if absent."""
+    value = session.extra.get("mesh")
+    if value is None:
+        return None
+    if not isinstance(value, dict) or "max_edge" not in value:
+        raise InputError(f'{path}: "mesh" must be an object {{"max_edge": h}}')
+    edge = finite_number(value["max_edge"])
+    if edge is None or edge <= 0:
+        raise InputError(f"{path}: mesh max_edge must be a number > 0, got {_shown(value['max_edge'])}")
+    return edge
+
+
+def session_fold_free(session: Session, path: str | os.PathLike = "session") -> bool:
+    """Whether a session asks for fold-free warps (``"fold_free": true``; false when absent)."""
+    value = session.extra.get("fold_free", False)
+    if not isinstance(value, bool):
+        raise InputError(f'{path}: "fold_free" must be true or false, got {_shown(value)}')
+    return value
+
+
+def session_output(session: Session, path: str | os.PathLike = "session") -> tuple[str, str]:
+    """The session's ``outside`` and ``canvas`` settings (default ``"transparent"``, ``"source"``).
+
+    They say what an export shows outside the deformed region (nothing, or the
+    untouched image) and whether the output grows to hold the whole target.
+    """
+    from app.warp.framing import CANVASES, OUTSIDES
+
+    settings = []
+    for key, choices in (("outside", OUTSIDES), ("canvas", CANVASES)):
+        value = session.extra.get(key, choices[0])
+        if value not in choices:
+            raise InputError(f'{path}: "{key}" must be one of {", ".join(choices)}, got {value!r}')
+        settings.append(value)
+    return settings[0], settings[1]
+
+
+def session_background(session: Session, path: str | os.PathLike = "session") -> tuple | None:
+    """The session's ``background``: straight RGBA in [0, 1] under the warp (``--background``), or
+    None (transparent) when absent or ``"none"``.  A colour as ``--background`` takes it
+    (`app.io.images.colours.parse_colour`); anything else is an `InputError`."""
+    from app.io.images.colours import parse_colour
+
+    value = session.extra.get("background", "none")
+    if value == "none":
+        return None
+    if not isinstance(value, str):
+        raise InputError(f'{path}: "background" must be a colour or "none", got {_shown(value)}')
+    try:
+        return parse_colour(value)
+    except ValueError as error:
+        raise InputError(f'{path}: "background": {error}') from None
+
+
+def session_parameterization(session: Session, path: str | os.PathLike = "session") -> str:
+    """The session's ``parameterization`` of the boundary for the point kernels (Fig. 12):
+    ``"natural"`` (also when absent, as in older sessions) or ``"arc-length"``."""
+    from core import DEFAULT_PARAMETERIZATION, PARAMETERIZATIONS
+
+    value = session.extra.get("parameterization", DEFAULT_PARAMETERIZATION)
+    if value not in PARAMETERIZATIONS:
+        raise InputError(
+            f'{path}: "parameterization" must be one of {", ".join(PARAMETERIZATIONS)}, got {value!r}'
+        )
+    return value
+
+
+def session_keyframes(
+    session: Session, path: str | os.PathLike = "session"
+) -> tuple[tuple[Keyframe, ...], str]:
+    """The session's ``keyframes`` (sorted by time; () if absent) and ``interpolation`` (default catmull-rom).
+
+    ``keyframes`` is a list of ``{"time": seconds, "target": {"control_points":
+    [[x, y], ...]}}``, each target with as many control points as the cage, times
+    distinct and within 0..`app.warp.keyframes.MAX_TIME`.
+    """
+    value = session.extra.get("keyframes", [])
+    if not isinstance(value, list):
+        raise InputError(f'{path}: "keyframes" must be a list, got {_json_type(value)}')
+    keyframes = []
+    for index, item in enumerate(value):
+        where = f"{path}: keyframes[{index}]"
+        if not isinstance(item, dict) or "time" not in item or "target" not in item:
+            raise InputError(f'{where}: expected an object with "time" and "target", got {_shown(item)}')
+        time = finite_number(item["time"])
+        if time is None:
+            raise InputError(f"{where}: time must be a number of seconds, got {_shown(item['time'])}")
+        target = cage_points(item["target"], f"{where}: target")
+        if target.shape != session.cage.shape:
+            raise InputError(
+                f"{where}: target has {len(target)} control points but cage has {len(session.cage)}"
+            )
+        try:
+            keyframes.append(Keyframe(time, target))
+        except ValueError as error:
+            raise InputError(f"{where}: {error}") from None
+    try:
+        keyframes = sorted_keyframes(keyframes)
+    except ValueError as error:
+        raise InputError(f"{path}: keyframes: {error}") from None
+    interpolation = session.extra.get("interpolation", DEFAULT_INTERPOLATION)
+    if interpolation not in INTERPOLATIONS:
+        raise InputError(
+            f'{path}: "interpolation" must be one of {", ".join(INTERPOLATIONS)}, got {_shown(interpolation)}'
+        )
+    return keyframes, interpolation
+
+
+def _view(value, path: Path) -> tuple[float, tuple[float, float]]:
+    if not isinstance(value, dict) or "scale" not in value or "offset" not in value:
+        raise InputError(f'{path}: "view" must be an object {{"scale": s, "offset": [ox, oy]}}')
+    scale, offset = finite_number(value["scale"]), value["offset"]
+    if scale is None or scale <= 0:
+        raise InputError(f"{path}: view scale must be a finite number > 0, got {_shown(value['scale'])}")
+    if not (
+        isinstance(offset, list) and len(offset) == 2 and all(finite_number(v) is not None for v in offset)
+    ):
+        raise InputError(f"{path}: view offset must be two finite numbers [ox, oy], got {_shown(offset)}")
+    return scale, (float(offset[0]), float(offset[1]))
+
+
+# -- images -------------------------------------------------------------------
+
+
+def read_image(path: str | os.PathLike) -> np.ndarray:
+    """The pixels of an image file: `read_photo`'s, without the metadata.
+
+    Returns
+    -------
+    ndarray of shape (H, W, 4), uint8 or uint16 (the file's depth)
+        Straight alpha (the type's maximum where the file has none), row 0 at the top of the
+        displayed picture (EXIF orientation applied).
+    """
+    return read_photo(path).pixels
+
+
+def read_photo(path: str | os.PathLike) -> Photo:
+    """Decode an image file (PNG, JPEG, TIFF, WebP, ... anything OpenCV reads) as RGBA and its metadata.
+
+    The header is read first: an image of more than `MAX_IMAGE_PIXELS` pixels is
+    refused before anything is allocated for it.  8- and 16-bit samples are kept; grey,
+    palette and CMYK pictures become RGB; the EXIF orientation is applied, so that cage
+    coordinates are in the frame every viewer shows; the ICC profile and EXIF block are
+    kept for writing (`write_image`).  What is dropped or ignored (a malformed EXIF
+    block, the other pages of a TIFF) is a note.
+
+    Returns
+    -------
+    Photo
+        ``pixels`` of shape (H, W, 4), uint8 or uint16, straight alpha, row 0 at the top.
+
+    Raises
+    ------
+    InputError
+        Missing, unreadable, empty, corrupt, unsupported or too large file.
+    MemoryError
+        The machine cannot allocate the decoded image.
+    """
+    path = Path(path)
+    data = _read_bytes(path, limit=MAX_IMAGE_FILE_BYTES)
+    header = image_header(data)
+    if header is not None:
+        check_image_size(header, path)
+    info = read_metadata(data)
+    with reported_as_input(str(path)):
+        # An 8-bit RGBA TIFF: OpenCV reads it through libtiff's RGBA interface, which premultiplies
+        # a straight alpha; Pillow does not.
+        tiff_rgba = header is not None and header.format == "TIFF" and info.mode == "RGBA"
+        decoded = straight_rgba_tiff(data) if tiff_rgba else _decode(data, path)
+        del data  # the encoded file is no longer needed: not held while the pixels are converted
+        pixels = oriented(decoded if tiff_rgba else rgba_pixels(decoded), info.orientation)
+    for line in info.notes:
+        note(f"{path}: {line}")
+    return Photo(pixels, info.metadata, info.notes)
+
+
+def image_metadata(path: str | os.PathLike) -> ImageMetadata:
+    """The ICC profile and EXIF block of the image file `path` (orientation reset to 1), without
+    decoding its pixels; empty if the file cannot be read."""
+    try:
+        return read_metadata(_read_bytes(Path(path), MAX_IMAGE_FILE_BYTES)).metadata
+    except InputError:
+        return ImageMetadata()
+
+
+def check_image_size(header: ImageHeader, path: str | os.PathLike) -> None:
+    """`InputError` if the image `header` declares has more than `MAX_IMAGE_PIXELS` pixels."""
+    if header.pixels > MAX_IMAGE_PIXELS:
+        raise InputError(
+            f"{path}: the {header.format} image is {header.width}x{header.height} pixels "
+            f"({header.pixels / 1e6:.0f} megapixels); at most {MAX_IMAGE_PIXELS / 1e6:.0f} megapixels "
+            "can be processed"
+        )
+
+
+def _decode(data: bytes, path: Path) -> np.ndarray:
+    """OpenCV's decoding of `data`, with its complaints as one `InputError` line."""
+    with captured_c_stderr() as messages:
+        try:
+            image = cv2.imdecode(np.frombuffer(data, dtype=np.uint8), cv2.IMREAD_UNCHANGED)
+        except cv2.error as error:
+            if error.code == cv2.Error.StsNoMem:
+                raise MemoryError(f"decoding {path}: {error.err}") from None
+            if "CV_IO_MAX_IMAGE_PIXELS" in error.err:
+                raise InputError(
+                    f"{path}: the image has more than {MAX_IMAGE_PIXELS / 1e6:.0f} megapixels, the most "
+                    "that can be processed"
+                ) from None
+            image, messages = None, [*messages, error.err]
+    if image is None:
+        reason = "the file is cut short" if _cut_short(data) else _decoder_reason(messages)
+        raise InputError(f"{path}: cannot decode the image{f' ({reason})' if reason else ''}")
+    return image
+
+
+def encode_png(image: np.ndarray, metadata: ImageMetadata | None = None) -> bytes:
+    """PNG bytes of an RGBA image of shape (H, W, 4), uint8 or uint16 (kept), row 0 at the top,
+    with the ICC profile and EXIF block of `metadata` if given."""
+    return encode_image(image, "PNG", metadata)
+
+
+def write_png(path: str | os.PathLike, image: np.ndarray, metadata: ImageMetadata | None = None) -> None:
+    """Write an RGBA image of shape (H, W, 4), uint8 or uint16, as PNG, atomically."""
+    write_atomic(path, encode_png(image, metadata))
+
+
+def write_image(
+    path: str | os.PathLike,
+    image: np.ndarray,
+    metadata: ImageMetadata | None = None,
+    quality: int = DEFAULT_QUALITY,
+) -> None:
+    """Write an RGBA image (H, W, 4), uint8 or uint16, in the format of `path`'s extension, atomically.
+
+    PNG and TIFF keep 16 bits; JPEG and WebP are 8-bit at `quality`.  The ICC profile and
+    EXIF block of `metadata` are embedded (`app.io.images.writing`).
+
+    Raises
+    ------
+    InputError
+        An extension not written, or transparent pixels for a JPEG: nothing is written.
+    """
+    with reported_as_input(str(path)):
+        data = encode_image(image, output_format(path), metadata, quality)
+    write_atomic(path, data)
+
+
+def write_png_strips(
+    path: str | os.PathLike,
+    size: tuple[int, int],
+    dtype,
+    strips: Iterable[tuple[int, np.ndarray]],
+    metadata: ImageMetadata | None = None,
+) -> None:
+    """Write a PNG of (width, height) RGBA pixels from its horizontal strips, atomically.
+
+    Each strip (top row, ndarray of shape (r, width, 4) of `dtype`) is compressed while the
+    next one is made (`app.io.images.tiles.PngStripWriter`): the whole image is never in memory.
+    """
+    path = Path(path)
+    check_writable(path)
+
+    def write(stream) -> None:
+        writer = PngStripWriter(stream, size, dtype, metadata)
+        try:
+            for _, rows in strips:
+                writer.add(rows)
+            writer.finish()
+        except BaseException:
+            writer.close()
+            raise
+
+    try:
+        write_atomically(path, write)
+    except OSError as error:
+        raise InputError(f"{path}: cannot write ({error.strerror or error})") from None
+
+
+def _read_bytes(path: Path, limit: int) -> bytes:
+    """The bytes of the regular file at `path`, at most `limit` of them, or `InputError`.
+
+    The file is opened without blocking and refused unless it is a regular file (a
+    FIFO would block forever, ``/dev/zero`` never ends), and its size is checked
+    while reading, so a file that grows meanwhile cannot exhaust memory either.
+    """
+    try:
+        descriptor = os.open(path, os.O_RDONLY | os.O_NONBLOCK)
+    except FileNotFoundError:
+        raise InputError(f"{path}: no such file") from None
+    except OSError as error:
+        raise InputError(f"{path}: cannot read ({error.strerror or error})") from None
+    mode = os.fstat(descriptor).st_mode
+    if not stat.S_ISREG(mode):
+        os.close(descriptor)
+        if stat.S_ISDIR(mode):
+            raise InputError(f"{path}: is a directory, not a file")
+        raise InputError(f"{path}: is {_file_kind(mode)}, not a regular file")
+    with os.fdopen(descriptor, "rb") as stream:
+        size = os.fstat(descriptor).st_size
+        if size <= limit:
+            try:
+                data = _read_at_most(stream, limit + 1, size)
+            except OSError as error:
+                raise InputError(f"{path}: cannot read ({error.strerror or error})") from None
+            size = max(size, len(data))
+    if size > limit:
+        raise InputError(
+            f"{path}: the file is {size / 2**20:.0f} MiB{' or more' * (size == limit + 1)}; "
+            f"at most {limit / 2**20:.0f} MiB can be read"
+        )
+    if not data:
+        raise InputError(f"{path}: the file is empty")
+    return data
+
+
+def _read_at_most(stream, most: int, expected: int) -> bytes:
+    """Up to `most` bytes of `stream`: first the `expected` size and one more (one allocation for
+    a file that does not change), then in chunks, so memory follows what is really there."""
+    parts, total, want = [], 0, expected + 1
+    while total < most:
+        part = stream.read(min(want, most - total))
+        if not part:
+            break
+        parts.append(part)
+        total += len(part)
+        want = 1 << 20
+    return b"".join(parts)
+
+
+def _file_kind(mode: int) -> str:
+    """What a file that is not regular is, for messages: "a FIFO", "a character device", ..."""
+    for test, kind in (
+        (stat.S_ISFIFO, "a FIFO (named pipe)"),
+        (stat.S_ISCHR, "a character device"),
+        (stat.S_ISBLK, "a block device"),
+        (stat.S_ISSOCK, "a socket"),
+    ):
+        if test(mode):
+            return kind
+    return "a special file"
+
+
+def _cut_short(data: bytes) -> bool:
+    """Whether `data` is a PNG or JPEG file that ends before its format's end marker (PNG's IEND
+    chunk, JPEG's EOI), as a file cut short by a failed copy or download does."""
+    if data.startswith(b"\x89PNG\r\n\x1a\n"):
+        return b"IEND" not in data[-12:]
+    if data.startswith(b"\xff\xd8"):
+        return not data.rstrip(b"\x00").endswith(b"\xff\xd9")
+    return False
+
+
+def _decoder_reason(messages: list[str]) -> str:
+    """The most specific decoder message, without OpenCV's log prefix."""
+    for line in reversed(messages):
+        line = line.strip()
+        if line.startswith("[") and "]" in line:
+            line = line.split("]", 1)[1].strip()
+            # OpenCV's log lines read "global file.cpp:123 function message".
+            parts = line.split(" ", 3)
+            line = parts[3] if len(parts) == 4 and parts[0] == "global" else line
+        if line:
+            return line.removeprefix("libpng error: ")
+    return ""
+
+
+def _is_number(value) -> bool:
+    return isinstance(value, Real) and not isinstance(value, bool)
+
+
+def finite_number(value) -> float | None:
+    """`value` as a float if it is a JSON number (not a boolean) that is finite as a float, else None.
+
+    JSON integers have any number of digits: one beyond float's range (a 401-digit
+    integer) is not finite, like 1e999, instead of an `OverflowError`.
+    """
+    if not _is_number(value):
+        return None
+    try:
+        number = float(value)
+    except OverflowError:
+        return None
+    return number if math.isfinite(number) else None
+
+
+def _out_of_range(value: Real) -> bool:
+    """A coordinate beyond +-MAX_COORDINATE (integers of any size compare exactly; NaN and
+    infinities are left to the finiteness check, which names them)."""
+    return abs(value) > MAX_COORDINATE and not (isinstance(value, float) and math.isinf(value))
+
+
+def _shown(value, limit: int = 60) -> str:
+    """`repr` of a JSON value, shortened to one readable piece of a line."""
+    text = repr(value)
+    return text if len(text) <= limit else f"{text[: limit - 3]}..."
+
+
+def _json_type(value) -> str:
+    names = {dict: "an object", list: "a list", str: "a string", bool: "a boolean", type(None): "null"}
+    return names.get(type(value), "a number")

@@ -1,0 +1,1 @@
+"""GL rendering: the warp renderer, its passes, shaders, the view and memory checks."""

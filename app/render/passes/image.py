@@ -1,0 +1,128 @@
+"""The image pass: a mesh textured with the source image (Sec. 4.3), and the marks drawn on a
+mesh: the triangles it folds over (found on the GPU), chosen triangles, its edges."""
+
+from __future__ import annotations
+
+import moderngl
+
+from app.render.passes.gl_state import premultiplied_blending, set_view
+from app.render.passes.mesh_buffers import MeshBuffers
+from app.render.passes.source_image import SourceImage
+from app.render.shaders import load_shader
+from app.render.viewport import View
+
+#: Premultiplied RGBA of the marks.
+WIREFRAME_COLOUR = (0.0, 0.0, 0.0, 0.35)
+HIGHLIGHT_COLOUR = (0.9 * 0.6, 0.0, 0.6 * 0.6, 0.6)
+
+
+class ImagePass:
+    """The programs of the textured mesh (``image.frag.glsl``, also the backdrop's), of one solid
+    colour (``solid.frag.glsl``) and of the folded triangles (``folds.geom.glsl``).
+
+    Parameters
+    ----------
+    ctx : moderngl.Context
+        The context of the programs, freed in `release`.
+
+    Attributes
+    ----------
+    textured_program : moderngl.Program
+        Draws the source image at ``u_opacity`` (1 unless a draw fades it).
+    solid_program : moderngl.Program
+        Draws in one colour from the positions alone: highlighted triangles and edges.
+    mesh_programs : dict
+        ``{kind: (program, attribute)}`` of the vertex arrays of a `MeshBuffers` that this
+        pass draws: "image" and "folds".
+    """
+
+    def __init__(self, ctx: moderngl.Context):
+        self._ctx = ctx
+        vertex = load_shader("mesh.vert.glsl")
+        self.textured_program = ctx.program(
+            vertex_shader=vertex, fragment_shader=load_shader("image.frag.glsl")
+        )
+        self.solid_program = ctx.program(vertex_shader=vertex, fragment_shader=load_shader("solid.frag.glsl"))
+        self._folds_program = ctx.program(
+            vertex_shader=vertex,
+            geometry_shader=load_shader("folds.geom.glsl"),
+            fragment_shader=load_shader("solid.frag.glsl"),
+        )
+        self._programs = [self.textured_program, self.solid_program, self._folds_program]
+        self.textured_program["u_opacity"].value = 1.0
+        self.mesh_programs = {
+            "image": (self.textured_program, "in_uv"),
+            "folds": (self._folds_program, "in_uv"),
+        }
+
+    def draw_image(
+        self, source: SourceImage, mesh: MeshBuffers, order: str, view: View, viewport_size: tuple[int, int]
+    ) -> None:
+        """Draw `mesh` textured with `source` into the bound framebuffer.
+
+        Parameters
+        ----------
+        source : SourceImage
+        mesh : MeshBuffers
+        order : {"screen", "caller"}
+            The triangle order (`MeshBuffers.vaos`).
+        view : View
+            Image-to-framebuffer transform.
+        viewport_size : tuple of int
+            (width, height) of the viewport in framebuffer pixels.
+        """
+        set_view((self.textured_program,), view, viewport_size)
+        premultiplied_blending(self._ctx)
+        source.bind(self.textured_program)
+        self.textured_program["u_opacity"].value = 1.0
+        mesh.vaos[order]["image"].render()
+        source.unbind()
+
+    def draw_marks(
+        self,
+        mesh: MeshBuffers,
+        order: str,
+        view: View,
+        viewport_size: tuple[int, int],
+        *,
+        folds: bool,
+        highlight: bool,
+        wireframe: bool,
+    ) -> None:
+        """Draw the chosen marks on `mesh` into the bound framebuffer, in this order, each over the last;
+        with none chosen, touch no GL state.
+
+        Parameters
+        ----------
+        mesh : MeshBuffers
+        order : {"screen", "caller"}
+            The triangle order of the fold pass.
+        view : View
+            Image-to-framebuffer transform.
+        viewport_size : tuple of int
+            (width, height) of the viewport in framebuffer pixels.
+        folds : bool
+            Fill the triangles that the current positions fold over.
+        highlight : bool
+            Fill the triangles of `MeshBuffers.write_highlighted`.
+        wireframe : bool
+            Draw the edges.
+        """
+        if not (folds or highlight or wireframe):
+            return
+        set_view((self.solid_program, self._folds_program), view, viewport_size)
+        premultiplied_blending(self._ctx)
+        if folds:
+            self._folds_program["u_colour"].value = HIGHLIGHT_COLOUR
+            mesh.vaos[order]["folds"].render()
+        if highlight and mesh.highlight_count:
+            self.solid_program["u_colour"].value = HIGHLIGHT_COLOUR
+            mesh.highlight_vao.render(vertices=3 * mesh.highlight_count)
+        if wireframe:
+            self.solid_program["u_colour"].value = WIREFRAME_COLOUR
+            mesh.edge_vao().render()
+
+    def release(self) -> None:
+        for program in self._programs:
+            program.release()
+        self._programs = []

@@ -1,0 +1,642 @@
+"""GPU drawing of a deformed, textured triangle mesh (Sec. 4.3) with moderngl.
+
+`WarpRenderer` composes the passes of `app.render.passes`, each owning its programs:
+the image pass (the source image warped onto the mesh, the folded and highlighted
+triangles, the wireframe, the preview mesh), the field passes (the mesh coloured by a
+scalar field: height bands, one basis function G_i as a heat map as in the paper's
+Fig. 8, the distortion view), the backdrop pass (the source image faded under the warp)
+and the overlay pass (antialiased lines and round handles for the curves, control
+polygons and control points of the paper's Fig. 11).  The renderer itself holds the
+source image texture, the mesh and preview mesh buffers (`MeshBuffers`) that the image
+and field passes draw, and the offscreen framebuffers of `render`.  The per-drag update
+is `WarpRenderer.set_positions`, which writes the deformed vertices into a buffer in
+place; vertex arrays are built only when the mesh itself changes.
+
+Coordinates are image pixels, x to the right, y down, origin at the top-left
+corner of the image: pixel (column i, row j) covers [i, i+1] x [j, j+1].  A
+`View` maps an image point (x, y) to framebuffer pixel (ox + s x, oy + s y),
+counted from the framebuffer's top-left corner, exactly like the session file.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterator
+
+import moderngl
+import numpy as np
+
+from app.console import captured_c_stderr
+from app.render.address_space import GL_CONTEXT_BYTES, PROGRAM_BYTES, render_bytes, require_address_space
+from app.render.passes.backdrop import BackdropPass
+from app.render.passes.fields import DistortionPass, FieldPass, heat_map_pass, height_bands_pass
+from app.render.passes.image import ImagePass
+from app.render.passes.mesh_buffers import MeshBuffers, checked_mesh
+from app.render.passes.overlay import OverlayPass
+from app.render.passes.source_image import SourceImage, checked_image, texture_dtype
+from app.render.viewport import View
+from app.warp.framing import MAX_OUTPUT_PIXELS
+
+#: Largest side of one offscreen drawing of `WarpRenderer.render`; larger outputs are drawn in tiles.
+TILE = 4096
+#: Rows of a strip of `WarpRenderer.render_strips` (drawn in tiles of as many columns): a
+#: 12000-pixel-wide strip is 25 MB at 8 bits; smaller tiles multisample less of the picture.
+STRIP_ROWS = 512
+
+
+class ContextUnavailableError(RuntimeError):
+    """No OpenGL context could be created (missing EGL or driver)."""
+
+
+def create_headless_context() -> moderngl.Context:
+    """An OpenGL 3.3 core context without a window, through EGL.
+
+    Raises
+    ------
+    ContextUnavailableError
+        If EGL or a GL 3.3 driver is unavailable; the message says what to install.
+    MemoryError
+        If an address-space limit leaves less than `app.render.address_space.GL_CONTEXT_BYTES`.
+    """
+    require_address_space(GL_CONTEXT_BYTES, "an OpenGL context")
+    # EGL and Mesa print their warnings (a driver they did not find, ...) on stderr themselves.
+    with captured_c_stderr():
+        try:
+            return moderngl.create_context(standalone=True, backend="egl", require=330)
+        except Exception as error:  # moderngl/glcontext raise plain Exception subclasses
+            raise ContextUnavailableError(
+                f"cannot create a headless OpenGL 3.3 context through EGL ({error}); on Debian/Ubuntu "
+                "install libegl1, libegl-mesa0 and libgl1-mesa-dri"
+            ) from None
+
+
+def require_render_memory(image_size: tuple[int, int], output_size: tuple[int, int], context: bool) -> None:
+    """`MemoryError` in one line if an address-space limit leaves too little to draw an image
+    (width, height) into an output (width, height), and to create the GL context first
+    (`context`) or else the renderer's programs (`app.render.address_space`): llvmpipe crashes where
+    numpy would report the lack of memory."""
+    needed = render_bytes(image_size, output_size, TILE) + (GL_CONTEXT_BYTES if context else PROGRAM_BYTES)
+    what = "an OpenGL context and " if context else "OpenGL "
+    what += f"drawing the {image_size[0]}x{image_size[1]} image into {output_size[0]}x{output_size[1]} pixels"
+    require_address_space(needed, what)
+
+
+class WarpRenderer:
+    """Draws one triangle mesh: the source image warped onto it, or a coloured scalar field.
+
+    Typical use::
+
+        renderer = WarpRenderer(ctx)
+        renderer.set_image(rgba)                       # (H, W, 4) uint8
+        renderer.set_mesh(mesh.vertices, mesh.triangles)
+        renderer.set_positions(G @ target_points)      # every drag: in place
+        pixels = renderer.render((W, H))               # or renderer.draw(view, size) on screen
+        renderer.release()
+
+    Parameters
+    ----------
+    ctx : moderngl.Context
+        An OpenGL >= 3.3 context; the renderer creates its objects in it and frees
+        them in `release`.
+    """
+
+    def __init__(self, ctx: moderngl.Context):
+        self.ctx = ctx
+        self._image = ImagePass(ctx)
+        self._distortion = DistortionPass(ctx)
+        self._fields: dict[str, FieldPass] = {
+            field.kind: field for field in (height_bands_pass(ctx), heat_map_pass(ctx), self._distortion)
+        }
+        self._backdrop = BackdropPass(ctx, self._image.textured_program)
+        self._overlay = OverlayPass(ctx)
+        self._mesh_programs = dict(self._image.mesh_programs)
+        for field in self._fields.values():
+            self._mesh_programs.update(field.mesh_programs)
+        self._source: SourceImage | None = None
+        self._backdrop_source: SourceImage | None = None  # what the backdrop shows instead (`app.warp.fill`)
+        self._image_size: tuple[int, int] | None = None
+        self._mesh: MeshBuffers | None = None
+        self._preview: MeshBuffers | None = None
+        self._target: tuple[tuple, list] | None = None
+        #: Counts the changes of what `draw` and `draw_backdrop` would draw (image, meshes,
+        #: positions, fields): a picture drawn at one revision can be reused until the next.
+        self.revision = 0
+
+    # -- data ---------------------------------------------------------------
+
+    def set_image(self, image: np.ndarray) -> None:
+        """Upload the source image.
+
+        Parameters
+        ----------
+        image : ndarray of shape (H, W, 4), uint8 or uint16
+            RGBA with straight (non-premultiplied) alpha, row 0 at the top.  A 16-bit image
+            is drawn, and `render` reads it back, at 16 bits.
+        """
+        self.revision += 1
+        image = checked_image(self.ctx, image)
+        self._release_image()
+        self._source = SourceImage(self.ctx, image)
+        changed = self._image_size != self._source.size
+        self._image_size = self._source.size
+        if changed:
+            for mesh in (self._mesh, self._preview):
+                if mesh is not None:
+                    mesh.write_uv(self._image_size)
+        self._backdrop.set_image_size(self._image_size)
+
+    def set_backdrop_image(self, image: np.ndarray | None) -> None:
+        """What `draw_backdrop` shows instead of the source image (the source with the cage's original
+        position filled, `app.warp.fill`), or None for the source image itself.
+
+        Parameters
+        ----------
+        image : ndarray of shape (H, W, 4), uint8, or None
+            The size of the source image (`set_image` first; a new source image drops it).
+        """
+        self.revision += 1
+        if self._backdrop_source is not None:
+            self._backdrop_source.release()
+            self._backdrop_source = None
+        if image is not None:
+            image = checked_image(self.ctx, image)
+            if self._source is None or self._source.size != (image.shape[1], image.shape[0]):
+                raise ValueError("the backdrop image must have the source image's size")
+            self._backdrop_source = SourceImage(self.ctx, image)
+
+    def set_mesh(self, vertices: np.ndarray, triangles: np.ndarray) -> None:
+        """Set the undeformed mesh; positions start undeformed, the field at 0.
+
+        This (re)builds buffers and vertex arrays, and drops the preview mesh: call it
+        when the mesh changes, not per drag.
+
+        Parameters
+        ----------
+        vertices : ndarray of shape (V, 2)
+            Undeformed vertices in image pixels; texture coordinates are vertices / (W, H).
+        triangles : ndarray of shape (T, 3)
+            Vertex indices; triangles sharing an edge share its two vertices, which
+            is what keeps the rendering free of cracks.
+        """
+        self.revision += 1
+        vertices, triangles = checked_mesh(vertices, triangles)
+        self._release_mesh()
+        self._mesh = self._build_mesh(vertices, triangles)
+
+    def set_preview_mesh(self, vertices: np.ndarray, triangles: np.ndarray) -> None:
+        """Set a lighter mesh of the same domain, drawn instead of the mesh by ``draw(preview=True)``.
+
+        A software rasteriser's frame grows with the triangle count (llvmpipe, 1280x1024:
+        ~170 ms for 800k triangles, ~30 ms for 50k), so the viewer draws a dense
+        mesh's deformation through a preview mesh of ~20k vertices while a handle moves,
+        with positions the dense mesh's P1 interpolant gives there (`core.meshes.mesh_transfer`).
+
+        Parameters
+        ----------
+        vertices, triangles
+            As in `set_mesh`.
+        """
+        self.revision += 1
+        self._require_mesh()
+        vertices, triangles = checked_mesh(vertices, triangles)
+        self._release_preview()
+        self._preview = self._build_mesh(vertices, triangles)
+
+    @property
+    def has_preview(self) -> bool:
+        """Whether a preview mesh is set (`set_preview_mesh`) for the current mesh."""
+        return self._preview is not None
+
+    def set_positions(self, positions: np.ndarray) -> None:
+        """Write deformed vertex positions in place (the per-drag update).
+
+        Parameters
+        ----------
+        positions : ndarray of shape (V, 2)
+            Deformed vertices in image pixels, in the order of `set_mesh`.
+        """
+        self.revision += 1
+        self._require_mesh()
+        self._mesh.write_positions(positions)
+
+    @property
+    def vertex_order(self) -> np.ndarray:
+        """ndarray of shape (V,): the vertex of `set_mesh` that each GPU buffer row holds."""
+        self._require_mesh()
+        return self._mesh.order
+
+    @property
+    def preview_vertex_order(self) -> np.ndarray:
+        """ndarray of shape (V',): the vertex of `set_preview_mesh` that each GPU buffer row holds."""
+        self._require_preview()
+        return self._preview.order
+
+    def set_ordered_positions(self, positions: np.ndarray) -> None:
+        """`set_positions` for positions already in `vertex_order`: no gather, one buffer write.
+
+        Parameters
+        ----------
+        positions : ndarray of shape (V, 2), float32, C-contiguous
+            ``deformed[vertex_order]``, image pixels.
+        """
+        self.revision += 1
+        self._require_mesh()
+        self._mesh.write_ordered_positions(positions)
+
+    def set_preview_positions(self, positions: np.ndarray) -> None:
+        """Deformed preview vertices, in `preview_vertex_order`: float32 of shape (V', 2)."""
+        self.revision += 1
+        self._require_preview()
+        self._preview.write_ordered_positions(positions)
+
+    def may_fold(self, positions: np.ndarray) -> bool:
+        """Whether ``draw(folds=True)`` could mark a triangle at these positions; if not, it may skip
+        that pass (a geometry shader over every triangle, run on the CPU by a software rasteriser)
+        and draw the same pixels.
+
+        Parameters
+        ----------
+        positions : ndarray of shape (V, 2), float32
+            The positions last written, in `vertex_order` (`set_ordered_positions`).
+
+        Returns
+        -------
+        bool
+            False when every triangle keeps its orientation with a margin
+            (`app.render.passes.fold_possible.FOLD_MARGIN`) far beyond the pass's float32
+            rounding, so that the pass would emit nothing.
+        """
+        self._require_mesh()
+        return self._mesh.may_fold(positions)
+
+    def set_distortion_measure(self, measure: str) -> None:
+        """How ``content="distortion"`` colours its field: ``"area"`` (log2 det J) or ``"conformal"``."""
+        if self._distortion.set_measure(measure):
+            self.revision += 1
+
+    def set_field(self, values: np.ndarray) -> None:
+        """Write the per-vertex scalar field drawn by ``content="field"``, ``"heat"`` or ``"distortion"``.
+
+        Parameters
+        ----------
+        values : ndarray of shape (V,)
+        """
+        self.revision += 1
+        self._require_mesh()
+        self._mesh.write_values(values)
+
+    def set_highlighted(self, triangles: np.ndarray) -> None:
+        """Choose the triangles drawn by ``highlight=True`` (e.g. folded ones).
+
+        Parameters
+        ----------
+        triangles : ndarray of shape (K,), int or bool of shape (T,)
+            Indices into the triangles of `set_mesh`, or a mask over them.
+        """
+        self.revision += 1
+        self._require_mesh()
+        self._mesh.write_highlighted(triangles)
+
+    # -- drawing ------------------------------------------------------------
+
+    def draw(
+        self,
+        view: View,
+        viewport_size: tuple[int, int],
+        *,
+        content: str = "image",
+        wireframe: bool = False,
+        highlight: bool = False,
+        folds: bool = False,
+        preview: bool = False,
+    ) -> None:
+        """Draw into the bound framebuffer with premultiplied-alpha blending.
+
+        Parameters
+        ----------
+        view : View
+            Image-to-framebuffer transform.
+        viewport_size : tuple of int
+            (width, height) of the viewport in framebuffer pixels.
+        content : {"image", "field", "heat", "distortion", "none"}
+            The warped image, the scalar field in height bands (Fig. 1), the scalar
+            field as a heat map (Fig. 8), the field as the distortion view
+            (`app.viewer.distortion_view`), or only overlays.
+        wireframe : bool
+            Draw the mesh edges on top.
+        highlight : bool
+            Fill the triangles chosen by `set_highlighted` on top.
+        folds : bool
+            Fill the triangles that the current positions fold over (found on the
+            GPU, like `core.folded_triangles`) on top.
+        preview : bool
+            Draw the preview mesh (`set_preview_mesh`) instead: ``content`` "image" or
+            "none", and folds, only.
+        """
+        self._draw(view, viewport_size, "screen", content, wireframe, highlight, folds, preview)
+
+    def _draw(self, view, viewport_size, order, content, wireframe, highlight, folds, preview=False) -> None:
+        """`draw` with the triangles in ``order``: "screen" (fastest) or "caller" (as given to `set_mesh`)."""
+        self._require_mesh()
+        if preview:
+            self._require_preview()
+            if content not in ("image", "none") or wireframe or highlight:
+                raise ValueError("the preview mesh draws the image and its folds only")
+        if content not in ("image", *self._fields, "none"):
+            raise ValueError(
+                f"content must be 'image', 'field', 'heat', 'distortion' or 'none', got {content!r}"
+            )
+        if content == "image" and self._source is None:
+            raise RuntimeError("draw(content='image') needs set_image first")
+        if content in self._fields and not self._mesh.has_field:
+            raise RuntimeError(f"draw(content={content!r}) needs set_field first")
+        mesh = self._preview if preview else self._mesh
+        if content == "image":
+            self._image.draw_image(self._source, mesh, order, view, viewport_size)
+        elif content in self._fields:
+            self._fields[content].draw(mesh, order, view, viewport_size)
+        self._image.draw_marks(
+            mesh, order, view, viewport_size, folds=folds, highlight=highlight, wireframe=wireframe
+        )
+
+    def draw_backdrop(self, view: View, viewport_size: tuple[int, int], opacity: float = 1.0) -> None:
+        """Draw the whole undeformed source image, faded by `opacity`, into the bound framebuffer.
+
+        Parameters
+        ----------
+        view : View
+            Image-to-framebuffer transform.
+        viewport_size : tuple of int
+            (width, height) of the viewport in framebuffer pixels.
+        opacity : float
+            In [0, 1]; the image is blended over what is drawn already.
+        """
+        if self._source is None:
+            raise RuntimeError("draw_backdrop needs set_image first")
+        self._backdrop.draw(self._backdrop_source or self._source, view, viewport_size, opacity)
+
+    def set_overlay(self, segments: np.ndarray, points: np.ndarray) -> None:
+        """Set the overlay lines and handles drawn by `draw_overlay` (rewritten in place).
+
+        Parameters
+        ----------
+        segments : ndarray of shape (S, 2, 7)
+            Line segments, each endpoint ``[x, y, r, g, b, a, width]``: image pixels,
+            straight-alpha colour in [0, 1], width in framebuffer pixels.
+        points : ndarray of shape (K, 7)
+            Round handles ``[x, y, r, g, b, a, diameter]``, drawn after (over) the lines
+            in order, the last on top.
+        """
+        self._overlay.set(segments, points)
+
+    def draw_overlay(self, view: View, viewport_size: tuple[int, int]) -> None:
+        """Draw the lines and handles of `set_overlay` into the bound framebuffer.
+
+        Parameters
+        ----------
+        view : View
+            Image-to-framebuffer transform.
+        viewport_size : tuple of int
+            (width, height) of the viewport in framebuffer pixels.
+        """
+        self._overlay.draw(view, viewport_size)
+
+    def render(
+        self,
+        size: tuple[int, int],
+        view: View | None = None,
+        *,
+        samples: int = 4,
+        background: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0),
+        content: str = "image",
+        wireframe: bool = False,
+        highlight: bool = False,
+        folds: bool = False,
+        backdrop: bool = False,
+    ) -> np.ndarray:
+        """Draw offscreen with multisampling and read the result back.
+
+        An output larger than `TILE` pixels on a side is drawn in tiles of at most
+        `TILE` x `TILE`, each through the view shifted by the tile's corner: GL
+        drivers cap a framebuffer's size (llvmpipe: 2 GiB of multisampled pixels,
+        about 11,585 x 11,585 at 4 samples) below their maximum renderbuffer side.
+
+        Parameters
+        ----------
+        size : tuple of int
+            (width, height) of the output in pixels.
+        view : View, optional
+            Image-to-output transform; the identity by default.
+        samples : int
+            Multisample count, lowered to what the driver supports.
+        background : tuple of float
+            Straight RGBA in [0, 1] outside the drawn mesh; transparent by default.
+        content, wireframe, highlight, folds
+            As in `draw`.
+        backdrop : bool
+            Draw the whole undeformed image first (`draw_backdrop`) and the warp
+            over it: the rest of the picture kept (``--outside original``).
+
+        Returns
+        -------
+        ndarray of shape (height, width, 4), uint8, or uint16 for a 16-bit source image
+            RGBA with straight alpha, row 0 at the top.
+        """
+        width, height = _output_size(size)
+        pixels = np.empty((height, width, 4), self.pixel_type)
+        options = dict(samples=samples, background=background, backdrop=backdrop)
+        for _ in self._strips(size, view, None, (content, wireframe, highlight, folds), options, pixels):
+            pass
+        return pixels
+
+    @property
+    def image_size(self) -> tuple[int, int] | None:
+        """(width, height) of the source image, None before `set_image`."""
+        return self._image_size
+
+    @property
+    def pixel_type(self) -> np.dtype:
+        """The samples `render` returns: uint16 for a 16-bit source image, else uint8."""
+        return np.dtype(np.uint8) if self._source is None else self._source.dtype
+
+    def render_strips(
+        self,
+        size: tuple[int, int],
+        view: View | None = None,
+        *,
+        rows: int = STRIP_ROWS,
+        samples: int = 4,
+        background: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0),
+        backdrop: bool = False,
+        antialiased: Callable[[tuple[int, int, int, int]], bool] | None = None,
+    ) -> Iterator[tuple[int, np.ndarray]]:
+        """`render` of the image, a horizontal strip at a time: a large output is never held whole.
+
+        Parameters
+        ----------
+        size, view, samples, background, backdrop
+            As in `render` (``content="image"``, without marks).
+        rows : int
+            Rows of a strip (the last may have fewer); it is drawn in tiles of `rows` x `rows`.
+        antialiased : callable, optional
+            Given a tile (left, top, width, height) in output pixels, whether it needs
+            multisampling: False where no edge of what is drawn crosses it (every pixel wholly
+            inside or outside the warp), which then is drawn without (a multisample resolve
+            costs more than the drawing on a software rasteriser; the pixels may differ by a
+            unit where two triangles meet).  None: every tile is multisampled, as in `render`.
+
+        Yields
+        ------
+        top : int
+            The strip's first row.
+        strip : ndarray of shape (r, width, 4), uint8 or uint16 (`pixel_type`)
+            RGBA with straight alpha, a new array each time; the same pixels as `render`'s rows.
+        """
+        options = dict(samples=samples, background=background, backdrop=backdrop, antialiased=antialiased)
+        yield from self._strips(size, view, rows, ("image", False, False, False), options, None)
+
+    def _strips(self, size, view, rows, what, options, into):
+        """The strips of `render` (into rows of `into` if given, else new arrays), `rows` high or one
+        tile; `what` is ``(content, wireframe, highlight, folds)``, `options` the drawing's."""
+        width, height = _output_size(size)
+        view = view or View()
+        limit = min(TILE, self.ctx.info["GL_MAX_RENDERBUFFER_SIZE"], *self.ctx.info["GL_MAX_VIEWPORT_DIMS"])
+        tile = (min(width, limit, rows or limit), min(height, limit, rows or limit))
+        antialiased = options.get("antialiased") or (lambda box: True)
+        # Leave the caller's framebuffer bound afterwards (a viewer exporting mid-frame).
+        previous = self.ctx.fbo
+        if self._target is not None and previous in self._target[1]:
+            previous = None  # ours, perhaps about to be replaced
+        dtype = self.pixel_type
+        samples = max(0, min(int(options["samples"]), self.ctx.max_samples))
+        multisample, resolved = self._framebuffers(tile, samples, dtype)
+        drawn = np.empty((tile[1], tile[0], 4), dtype)
+        red, green, blue, alpha = options["background"]
+        try:
+            for top in range(0, height, tile[1]):
+                count = min(tile[1], height - top)
+                strip = np.empty((count, width, 4), dtype) if into is None else into[top : top + count]
+                for left in range(0, width, tile[0]):
+                    smooth = antialiased((left, top, tile[0], tile[1]))
+                    target = multisample if smooth else resolved
+                    target.use()
+                    target.clear(red * alpha, green * alpha, blue * alpha, alpha)
+                    shifted = View(view.scale, (view.offset[0] - left, view.offset[1] - top))
+                    if options["backdrop"]:
+                        self.draw_backdrop(shifted, tile)
+                    self._draw(shifted, tile, "caller", *what)
+                    if smooth:
+                        self.ctx.copy_framebuffer(resolved, multisample)
+                    resolved.read_into(drawn, components=4, alignment=1, dtype=texture_dtype(dtype))
+                    part = strip[:, left : left + tile[0]]
+                    # GL rows run bottom-up.
+                    part[...] = drawn[::-1][: part.shape[0], : part.shape[1]]
+                yield top, _unpremultiply(strip)
+        finally:
+            if previous is not None:
+                previous.use()
+
+    # -- lifetime -----------------------------------------------------------
+
+    def release(self) -> None:
+        """Free every GL object of the renderer; it cannot draw afterwards."""
+        self._release_mesh()
+        self._release_image()
+        self._release_target()
+        self._overlay.release()
+        self._image.release()
+        for field in self._fields.values():
+            field.release()
+
+    def __enter__(self) -> WarpRenderer:
+        return self
+
+    def __exit__(self, *exc_info) -> None:
+        self.release()
+
+    # -- internals ----------------------------------------------------------
+
+    def _framebuffers(self, size: tuple[int, int], samples: int, dtype: np.dtype):
+        """Multisampled and resolve framebuffers of `size` and samples of `dtype` (8 or 16 bits),
+        kept for the next render of that kind."""
+        kind = (size, samples, dtype)
+        if self._target is None or self._target[0] != kind:
+            # Only one size is kept: a 4K 4x multisample target alone is ~130 MB.
+            self._release_target()
+            gl_type = texture_dtype(dtype)
+            colour = self.ctx.renderbuffer(size, 4, samples=samples, dtype=gl_type)
+            resolved_colour = self.ctx.renderbuffer(size, 4, dtype=gl_type)
+            multisample = self.ctx.framebuffer(color_attachments=[colour])
+            resolved = self.ctx.framebuffer(color_attachments=[resolved_colour])
+            self._target = (kind, [multisample, resolved, colour, resolved_colour])
+        objects = self._target[1]
+        return objects[0], objects[1]
+
+    def _build_mesh(self, vertices: np.ndarray, triangles: np.ndarray) -> MeshBuffers:
+        """Buffers and vertex arrays of one mesh for the image and field passes, positions undeformed."""
+        return MeshBuffers(
+            self.ctx,
+            vertices,
+            triangles,
+            self._image_size or (1, 1),
+            self._mesh_programs,
+            self._image.solid_program,
+        )
+
+    def _require_mesh(self) -> None:
+        if self._mesh is None:
+            raise RuntimeError("the renderer has no mesh yet: call set_mesh first")
+
+    def _require_preview(self) -> None:
+        if self._preview is None:
+            raise RuntimeError("the renderer has no preview mesh: call set_preview_mesh first")
+
+    def _release_mesh(self) -> None:
+        self._release_preview()
+        if self._mesh is not None:
+            self._mesh.release()
+        self._mesh = None
+
+    def _release_preview(self) -> None:
+        if self._preview is not None:
+            self._preview.release()
+        self._preview = None
+
+    def _release_image(self) -> None:
+        self._backdrop.release()
+        for source in (self._source, self._backdrop_source):
+            if source is not None:
+                source.release()
+        self._source = self._backdrop_source = None
+
+    def _release_target(self) -> None:
+        if self._target is not None:
+            if self.ctx.fbo in self._target[1]:
+                # GL falls back to the default framebuffer when the bound one is deleted.
+                self.ctx.fbo = self.ctx.screen
+            for item in self._target[1]:
+                item.release()
+        self._target = None
+
+
+def _output_size(size: tuple[int, int]) -> tuple[int, int]:
+    """(width, height) as ints, or ValueError if it is not 1 to `MAX_OUTPUT_PIXELS` pixels."""
+    width, height = int(size[0]), int(size[1])
+    if not (1 <= width and 1 <= height and width * height <= MAX_OUTPUT_PIXELS):
+        raise ValueError(f"output size {width}x{height} is not 1 to {MAX_OUTPUT_PIXELS / 1e6:.0f} megapixels")
+    return width, height
+
+
+def _unpremultiply(pixels: np.ndarray) -> np.ndarray:
+    """RGBA uint8 or uint16 (H, W, 4), premultiplied -> straight alpha, in place; only partly covered
+    pixels change (opaque ones are exactly what was drawn)."""
+    result = pixels
+    maximum = np.iinfo(result.dtype).max
+    alpha = result[..., 3]
+    partial = (alpha > 0) & (alpha < maximum)
+    if partial.any():
+        # float64 for 16 bits: float32's 24 bits would round c * 65535 / a off by a unit.
+        wide = np.float32 if maximum == 255 else np.float64
+        a = alpha[partial].astype(wide)[:, None]
+        straight = np.clip(result[partial, :3] * (wide(maximum) / a) + 0.5, 0, maximum)
+        result[partial, :3] = straight.astype(result.dtype)
+    return result

@@ -1,0 +1,1 @@
+"""The studies: Fig. 1's comparison, folds and distortion per kernel."""

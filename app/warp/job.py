@@ -1,0 +1,502 @@
+"""One warp job: what ``warp`` and ``animate`` read from their arguments (or a session), and one run
+of it for one frame or many.
+
+A `WarpJob` holds everything a run needs and nothing it computes: the source image, the source
+cage as a curve, `app.warp.pipeline.WarpSettings` (kernel, parameters, mesh size), the targets of its
+frames (one for ``warp``, the keyframes' interpolation for ``animate``), the framing (output size,
+image-to-output `View`, what shows outside) and the output with the kind of writer its name asks
+for (`app.warp.frame_writers.WRITERS`).  `warp_job` builds one from ``warp``'s arguments,
+`app.warp.animation.animation_job` from ``animate``'s; `run_job` draws it: the GL context first, then
+the mesh and the basis functions (`app.warp.pipeline.prepare`, once), then one render per target into
+the writer.  Every check that can fail on bad input runs while the job is built, before the slow
+part.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from app.console import ProgressBar, note
+from app.io.files import (
+    IMAGE_SUFFIXES,
+    InputError,
+    Session,
+    cage_curve,
+    check_writable,
+    kernel_names,
+    read_cage,
+    read_photo,
+    read_session,
+    refuse_overwriting_inputs,
+    reported_as_input,
+    same_file,
+    session_background,
+    session_fold_free,
+    session_image,
+    session_kernel_params,
+    session_max_edge,
+    session_output,
+    session_parameterization,
+)
+from app.io.images import has_alpha, output_format
+from app.render.viewport import View
+from app.warp.fill import FILLS, chosen_fill, session_fill
+from app.warp.frame_writers import WRITERS, interrupted_by_sigterm
+from app.warp.framing import CANVASES, OUTSIDES, output_frame, output_region
+from app.warp.pipeline import Deformation, OutputFile, WarpSettings
+
+DEFAULT_KERNEL = "poisson"  # core.mesh_basis.DEFAULT_KERNEL, the deformation default
+#: A target larger than this many times the output's larger side is reported.
+ABSURD_TARGET_EXTENT = 100.0
+
+
+@dataclass(frozen=True)
+class WarpInputs:
+    """What a job reads from a session or from image and cage files, before the image itself.
+
+    Attributes
+    ----------
+    image_path : Path
+    cage, target : ndarray of shape (n, 2)
+        Source and target control points, image pixels.
+    kernel : str
+    params : dict
+        The kernel's parameters as the session saved them (empty from files).
+    parameterization : str
+        The boundary parameter of the point kernels (``"natural"`` from files).
+    max_edge : float or None
+    outside, canvas : str
+        What the output shows outside the warp, and what it frames (`app.warp.framing`).
+    fill : str
+        What fills the source cage's region behind the warp with ``outside = original``
+        (`app.warp.fill`).
+    fold_free : bool
+        Deform by the certified fold-free map (`core.fold_free_deform`) instead of G P'.
+    cage_source, target_source : str
+        How messages name the cage and the target (a file, or ``SESSION: cage``).
+    background : tuple of float or None
+        Straight RGBA in [0, 1] under the warp (``--background``, or the session's); None: transparent.
+    """
+
+    image_path: Path
+    cage: np.ndarray
+    target: np.ndarray
+    kernel: str
+    params: dict
+    parameterization: str
+    max_edge: float | None
+    outside: str
+    canvas: str
+    fill: str
+    fold_free: bool
+    cage_source: str
+    target_source: str
+    background: tuple[float, float, float, float] | None = None
+
+
+@dataclass
+class WarpJob:
+    """A warp to draw: image, cage, settings, frames, framing and output.
+
+    Attributes
+    ----------
+    image : ndarray of shape (H, W, 4), uint8 or uint16, or None
+        The source image, RGBA; None once `run_job` has uploaded it (a 100-megapixel input is
+        not held twice).
+    image_path : Path
+    curve : core.ClosedBSpline
+        The source cage.
+    source : str
+        How errors of its meshing and of its kernel name it.
+    settings : app.warp.pipeline.WarpSettings
+    targets : tuple of ndarray of shape (n, 2)
+        The target control points of each frame, image pixels.
+    size : tuple of int
+        (width, height) of the output.
+    view : app.render.viewport.View
+        Image pixels to output pixels.
+    outside : str
+        ``"original"`` or ``"transparent"``.
+    fill : str
+        What fills the source cage's region behind the warp (`app.warp.fill`).
+    output : Path
+    file : app.warp.pipeline.OutputFile or None
+        How the output is written: a single image's format options, and the input's ICC profile
+        and EXIF (also in an animation's PNG frames); None for no metadata.
+    kind : str
+        The writer: a key of `app.warp.frame_writers.WRITERS`, or ``"image"`` for one file
+        (``warp``'s, written by `app.warp.pipeline.render_to_file`).
+    fps : float
+        Frames per second of an animation (0 for one image).
+    """
+
+    image: np.ndarray
+    image_path: Path
+    curve: object  # core.ClosedBSpline (core is imported when a job runs)
+    source: str
+    settings: WarpSettings
+    targets: tuple[np.ndarray, ...]
+    size: tuple[int, int]
+    view: View
+    outside: str
+    fill: str
+    output: Path
+    file: OutputFile | None
+    kind: str
+    fps: float = 0.0
+    #: (width, height) of the source image, kept when the image is released.
+    image_size: tuple[int, int] = (0, 0)
+
+    def __post_init__(self) -> None:
+        if self.image is not None:
+            self.image_size = width_height(self.image)
+
+
+def session_inputs(session: Session, path: Path, kernel: str | None = None) -> WarpInputs:
+    """The image, cage, target, kernel (`kernel` instead, if given: then without the session's
+    parameters, which are its own kernel's), mesh size and output choices of `session`, read from
+    the file `path`."""
+    image_path = session_image(session, path)
+    kernel = session.kernel if kernel is None else kernel
+    params = session_kernel_params(session, path) if kernel == session.kernel else {}
+    parameterization = session_parameterization(session, path)
+    max_edge = session_max_edge(session, path)
+    outside, canvas = session_output(session, path)
+    return WarpInputs(
+        image_path=image_path,
+        cage=session.cage,
+        target=session.target,
+        kernel=kernel,
+        # The viewer's kernel parameters and mesh, so that the output is exactly what it showed.
+        params=params,
+        parameterization=parameterization,
+        max_edge=max_edge,
+        outside=outside,
+        canvas=canvas,
+        fill=session_fill(session.extra, path),
+        fold_free=session_fold_free(session, path),
+        cage_source=f"{path}: cage",
+        target_source=f"{path}: target",
+        background=session_background(session, path),
+    )
+
+
+def file_inputs(image: Path, cage: Path, target: Path, kernel: str | None) -> WarpInputs:
+    """An image and two cage files: the package's defaults for everything else."""
+    inputs = WarpInputs(
+        image_path=image,
+        cage=read_cage(cage),
+        target=read_cage(target),
+        kernel=DEFAULT_KERNEL if kernel is None else kernel,
+        params={},
+        parameterization="natural",
+        max_edge=None,
+        outside=OUTSIDES[0],
+        canvas=CANVASES[0],
+        fill=FILLS[0],
+        fold_free=False,
+        cage_source=str(cage),
+        target_source=str(target),
+    )
+    if len(inputs.target) != len(inputs.cage):
+        raise InputError(
+            f"{inputs.target_source}: has {len(inputs.target)} control points but {inputs.cage_source} "
+            f"has {len(inputs.cage)}"
+        )
+    return inputs
+
+
+def warp_job(args: argparse.Namespace) -> tuple[WarpJob, WarpInputs]:
+    """``warp``'s arguments as a job of one frame, and the inputs it was made of.
+
+    Raises
+    ------
+    InputError
+        Anything wrong with the arguments or the files, before any slow work.
+    """
+    _require_warp_arguments(args)
+    check_writable(args.output, suffix=IMAGE_SUFFIXES)
+    if args.session is not None:
+        given = [f"--{name}" for name in ("cage", "target") if getattr(args, name) is not None]
+        if args.image is not None or given:
+            raise InputError(
+                f"give either --session or IMAGE with --cage and --target, not both "
+                f"({' and '.join(['IMAGE'] * (args.image is not None) + given)} with --session)"
+            )
+        inputs = session_inputs(read_session(args.session), args.session, args.kernel)
+    else:
+        inputs = file_inputs(args.image, args.cage, args.target, args.kernel)
+    if inputs.kernel not in kernel_names():
+        raise InputError(f"unknown kernel {inputs.kernel!r}; choose one of {', '.join(kernel_names())}")
+    _refuse_overwriting_input(args.output, inputs.image_path, args.overwrite_input)
+    refuse_overwriting_inputs(
+        args.output, {"source cage": args.cage, "target cage": args.target, "session file": args.session}
+    )
+    photo = read_photo(inputs.image_path)
+    image = photo.pixels
+    curve = checked_curve(inputs, image, args.samples_per_segment)
+    canvas = args.canvas or inputs.canvas
+    outside = args.outside or inputs.outside
+    fill = chosen_fill(args.fill, inputs.fill, outside)
+    fold_free = args.fold_free or inputs.fold_free
+    if fold_free and inputs.kernel != DEFAULT_KERNEL:
+        raise InputError(
+            f"--fold-free: fold-free warps are harmonic: use the {DEFAULT_KERNEL} kernel, "
+            f"not {inputs.kernel!r}"
+        )
+    background = inputs.background if args.background is None else args.background
+    _require_opaque_output(args.output, outside, background)
+    with reported_as_input("output size"):
+        size, view = output_frame(
+            output_region(width_height(image), inputs.target, canvas), args.scale, args.size
+        )
+    _warn_if_target_is_absurd(inputs.target, size, inputs.target_source)
+    params = kernel_params(inputs, args.samples_per_segment, args.parameterization)
+    max_edge = inputs.max_edge if args.max_edge is None else args.max_edge
+    job = WarpJob(
+        image=image,
+        image_path=inputs.image_path,
+        curve=curve,
+        source=inputs.cage_source,
+        settings=WarpSettings(inputs.kernel, params, max_edge, fold_free=fold_free),
+        targets=(inputs.target,),
+        size=size,
+        view=view,
+        outside=outside,
+        fill=fill,
+        output=args.output,
+        file=OutputFile(args.output, photo.metadata, args.quality, background),
+        kind="image",
+    )
+    return job, inputs
+
+
+def run_job(job: WarpJob, inspect: Callable[[Deformation, np.ndarray], None] | None = None) -> None:
+    """Draw every frame of `job` into its output.
+
+    Parameters
+    ----------
+    job : WarpJob
+    inspect : callable, optional
+        Called with the deformation and the deformed mesh vertices (V, 2) of the first frame
+        before anything is drawn (``warp``'s fold warning and ``--report``).
+
+    Raises
+    ------
+    InputError
+        A cage the mesher or the kernel refuses, an image the renderer cannot hold, an output
+        that cannot be written; nothing is written then.
+    app.render.renderer.ContextUnavailableError
+        No OpenGL.
+    """
+    from app.render.renderer import WarpRenderer, create_headless_context, require_render_memory
+    from app.warp.fill import set_fill
+    from app.warp.pipeline import render_to_file
+
+    # The GL context comes first: without one there is no point in the long precompute.
+    require_render_memory(job.image_size, job.size, context=True)
+    ctx = create_headless_context()
+    try:
+        started = time.perf_counter()
+        deformation = _prepare(job)
+        if inspect is not None:
+            with reported_as_input(f"{job.source}: fold-free"):  # a fold-free path may cross itself
+                deformed = deformation.positions(job.targets[0])
+            inspect(deformation, deformed)
+        require_render_memory(job.image_size, job.size, context=False)
+        with WarpRenderer(ctx) as renderer, interrupted_by_sigterm():
+            with reported_as_input(str(job.image_path)):
+                renderer.set_image(job.image)
+            set_fill(renderer, job.image, job.curve.control_points, job.fill, job.outside)
+            job.image = None  # the texture holds it now
+            renderer.set_mesh(deformation.mesh.vertices, deformation.mesh.triangles)
+            if job.kind == "image":
+                with reported_as_input("rendering"):
+                    render_to_file(
+                        renderer, deformation, job.targets[0], (job.size, job.view), job.outside, job.file
+                    )
+            else:
+                _render_frames(job, renderer, deformation)
+        seconds = time.perf_counter() - started
+    finally:
+        ctx.release()
+    note(_wrote(job, len(deformation.mesh.vertices), seconds))
+
+
+def _render_frames(job: WarpJob, renderer, deformation: Deformation) -> None:
+    """Every target of `job` drawn into the writer its output asks for."""
+    from app.warp.pipeline import render
+
+    metadata = None if job.file is None else job.file.metadata
+    background = None if job.file is None else job.file.background
+    with WRITERS[job.kind](job.output, job.size, job.fps, metadata) as writer, _frames_bar(job) as bar:
+        for index, target in enumerate(job.targets):
+            with reported_as_input(f"rendering frame {index}"):  # a fold-free path may cross itself
+                pixels = render(renderer, deformation, target, job.size, job.view, job.outside, background)
+                writer.add(pixels)
+            bar((index + 1) / len(job.targets))
+        try:
+            writer.finish()
+        except OSError as error:
+            raise InputError(f"{job.output}: cannot write ({error.strerror or error})") from None
+
+
+def _prepare(job: WarpJob) -> Deformation:
+    """The mesh of the job's cage and its basis functions, with progress and notes."""
+    import core
+    from app.warp.pipeline import prepare
+    from core import COMPILE_MESSAGE as COMPILING
+
+    kernel = job.settings.kernel
+    with reported_as_input(f"{job.source}: meshing"):
+        mesh = core.triangulate(job.curve, max_edge=job.settings.max_edge)
+    if job.kind == "image":
+        note(f"mesh: {len(mesh.vertices)} vertices, {len(mesh.triangles)} triangles")
+    with (
+        ProgressBar(COMPILING, announce=True) as compiling,
+        ProgressBar(f"basis functions ({kernel})") as bar,
+        reported_as_input(f"{job.source}: kernel {kernel!r}"),
+    ):
+        deformation = prepare(job.curve, job.settings, mesh, progress=bar, compiling=compiling)
+    if compiling.seconds is not None:
+        note(f"compiled the solver in {compiling.seconds:.1f} s (first run only; numba caches it)")
+    if job.kind == "image" and job.settings.fold_free:  # a strong cornered drag's takes up to a minute
+        with (
+            ProgressBar("fold-free map (share of the path proven)") as bar,
+            reported_as_input(f"{job.source}: fold-free"),  # a fold-free path may cross itself
+        ):
+            deformation.fold_free_map(job.targets[0], bar)
+    return deformation
+
+
+def _frames_bar(job: WarpJob):
+    """A progress bar over the frames of an animation; nothing for one image."""
+    if job.kind == "image":
+        return contextlib.nullcontext(lambda fraction: None)
+    return ProgressBar(f"frames ({len(job.targets)})")
+
+
+def _wrote(job: WarpJob, vertices: int, seconds: float) -> str:
+    width, height = job.size
+    if job.kind == "image":
+        return f"wrote {job.output} ({width}x{height}) in {seconds:.1f} s"
+    return (
+        f"wrote {job.output}: {len(job.targets)} frames of {width}x{height} at {job.fps:g} fps "
+        f"({vertices} vertices) in {seconds:.1f} s"
+    )
+
+
+def width_height(image: np.ndarray) -> tuple[int, int]:
+    """(width, height) of an image (H, W, channels)."""
+    return image.shape[1], image.shape[0]
+
+
+def checked_curve(inputs: WarpInputs, image: np.ndarray, samples_per_segment: int | None):
+    """The source cage as a curve, `InputError` unless it is one and covers a pixel of `image`."""
+    from core import checked_samples_per_segment
+
+    if samples_per_segment is not None:
+        with reported_as_input("--samples-per-segment"):
+            checked_samples_per_segment(samples_per_segment, len(inputs.cage))
+    curve = cage_curve(inputs.cage, inputs.cage_source, samples_per_segment)
+    _require_overlap(curve, width_height(image), inputs.cage_source)
+    return curve
+
+
+def kernel_params(inputs: WarpInputs, samples_per_segment: int | None, parameterization: str | None) -> dict:
+    """The kernel's parameters: the session's, then the command line's samples and parameterization."""
+    from core import PARAMETERIZED_KERNELS
+
+    params = dict(inputs.params)
+    if samples_per_segment is not None:
+        params["samples_per_segment"] = samples_per_segment
+    if parameterization is not None:
+        if inputs.kernel not in PARAMETERIZED_KERNELS and parameterization != "natural":
+            raise InputError(
+                f"--parameterization {parameterization}: kernel {inputs.kernel!r} does not depend on the "
+                "boundary's parameterization; choose a point kernel (--kernel) or leave it out"
+            )
+    else:
+        parameterization = inputs.parameterization
+    if inputs.kernel in PARAMETERIZED_KERNELS:  # a session's choice does not bind the geometric kernels
+        params["parameterization"] = parameterization
+    return params
+
+
+def _require_warp_arguments(args: argparse.Namespace) -> None:
+    """`InputError` naming everything `warp` lacks, with an example command line."""
+    missing = []
+    if args.session is None:
+        inputs = [
+            name
+            for name, value in (("IMAGE", args.image), ("--cage", args.cage), ("--target", args.target))
+            if value is None
+        ]
+        if inputs:
+            missing.append(f"{', '.join(inputs)} (or --session)")
+    if args.output is None:
+        missing.append("--output")
+    if missing:
+        raise InputError(
+            f"warp needs {' and '.join(missing)}, e.g. warp photo.png --cage cage.json --target target.json "
+            "--output out.png (images and cages to try: python -m app demo --list)"
+        )
+
+
+def _require_opaque_output(output: Path, outside: str, background) -> None:
+    """`InputError` before any work if `output` is a format without alpha (JPEG) and the warp leaves
+    pixels transparent: outside the deformed region, unless --outside original or --background."""
+    if not has_alpha(output_format(output)) and outside == "transparent" and background is None:
+        raise InputError(
+            f"{output}: JPEG has no transparency and the warp is transparent outside the deformed cage; "
+            "give --outside original or --background COLOR"
+        )
+
+
+def _require_overlap(curve, image_size: tuple[int, int], source: str) -> None:
+    """`InputError` if the domain does not cover a single pixel centre of the image."""
+    import cv2
+
+    width, height = image_size
+    outline = curve(np.linspace(0.0, curve.n, 32 * curve.n, endpoint=False))
+    low, high = outline.min(axis=0), outline.max(axis=0)
+    if np.abs(outline).max() > 1e7:  # beyond what fillPoly's fixed point (and any image) holds
+        raise InputError(f"{source}: control points lie over 10^7 pixels away; are they in image pixels?")
+    if high[0] <= 0 or high[1] <= 0 or low[0] >= width or low[1] >= height:
+        covered = 0
+    else:
+        mask = np.zeros((height, width), dtype=np.uint8)
+        # Pixel (i, j) has its centre at (i + 0.5, j + 0.5); fillPoly samples integer points.
+        cv2.fillPoly(mask, [np.round((outline - 0.5) * 16).astype(np.int32)], 1, shift=4)
+        covered = int(np.count_nonzero(mask))
+    if covered == 0:
+        raise InputError(
+            f"{source}: the cage lies entirely outside the {width}x{height} image "
+            f"(its bounding box is x {low[0]:.4g}..{high[0]:.4g}, y {low[1]:.4g}..{high[1]:.4g})"
+        )
+
+
+def _refuse_overwriting_input(output: Path, image: Path, allowed: bool) -> None:
+    """`InputError` if `output` is the input `image` (the same file), unless `allowed`."""
+    if same_file(output, image) and not allowed:
+        raise InputError(
+            f"{output}: is the input image; give another --output, or --overwrite-input to replace it"
+        )
+
+
+def _warn_if_target_is_absurd(target: np.ndarray, size: tuple[int, int], source: str) -> None:
+    """Note a target cage (n, 2) whose extent dwarfs the output `size` (width, height):
+    almost all of the deformed image then falls outside the picture."""
+    extent = float(np.ptp(target, axis=0).max())
+    if extent > ABSURD_TARGET_EXTENT * max(size):
+        note(
+            f"warning: {source}: the target spans {extent:.3g} pixels, {extent / max(size):.3g} times the "
+            f"{size[0]}x{size[1]} output; the output shows only a tiny part of the deformed image"
+        )

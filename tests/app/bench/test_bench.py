@@ -1,0 +1,194 @@
+"""Tests of app.bench.table's error reporting (the table itself is smoke-tested in test_layout)."""
+
+import argparse
+import sys
+
+import pytest
+
+from app.bench import fold_free as bench_fold_free
+from app.bench import mesher as bench_mesher
+from app.bench import table as bench
+from app.bench.table import StepFailed, run_child
+
+pytestmark = pytest.mark.slow
+
+
+def test_a_failed_child_shows_its_own_error():
+    code = (
+        "import sys; print('compiling', file=sys.stderr); sys.exit('error: shader mesh.vert.glsl not found')"
+    )
+    with pytest.raises(StepFailed) as raised:
+        run_child([sys.executable, "-c", code], "the 640x360 warp")
+    assert str(raised.value) == (
+        "the 640x360 warp failed with exit code 1:\n    compiling\n    error: shader mesh.vert.glsl not found"
+    )
+    assert run_child([sys.executable, "-c", "print(42)"], "a row").stdout == "42\n"
+
+
+def test_a_failed_row_is_reported_and_the_others_still_run(monkeypatch, capsys):
+    ran = []
+
+    def fail(*args):
+        ran.append("memory")
+        raise StepFailed("the 20,000-point memory run failed with exit code 1:\n    MemoryError")
+
+    monkeypatch.setattr(bench, "_warm_up", lambda curve: None)
+    monkeypatch.setattr(bench, "_point_kernels", lambda *args: None)
+    monkeypatch.setattr(bench, "_memory", fail)
+    monkeypatch.setattr(bench, "_warp_4k", lambda size: ran.append("warp"))
+    args = argparse.Namespace(
+        quick=True,
+        repeats=1,
+        large=False,
+        skip_fem=True,
+        skip_memory=False,
+        skip_warp=False,
+        skip_photos=True,
+        skip_drag=True,
+        skip_export=True,
+        skip_fold_free=True,
+        skip_mesher=True,
+    )
+    assert bench.run_bench(args) == 1
+    assert ran == ["memory", "warp"]
+    assert (
+        capsys.readouterr().err
+        == "bench: the 20,000-point memory run failed with exit code 1:\n    MemoryError\n"
+    )
+
+
+def test_the_drag_frame_says_it_is_skipped_without_xvfb(monkeypatch, capsys):
+    monkeypatch.setattr(bench.shutil, "which", lambda name: None)
+    bench._drag_frames((6_000,))
+    assert capsys.readouterr().out == "viewer drag frame: skipped: no Xvfb (apt-get install xvfb)\n"
+
+
+def test_the_gif_export_row_says_it_is_skipped_without_xdotool(monkeypatch, capsys):
+    monkeypatch.setattr(bench.shutil, "which", lambda name: None if name == "xdotool" else "/usr/bin/" + name)
+    bench._export_gif(1, bench.QUICK_EXPORT_FPS)
+    assert capsys.readouterr().out == (
+        "viewer GIF export: skipped: needs Xvfb and xdotool (apt-get install xvfb xdotool)\n"
+    )
+
+
+def test_the_fem_comparison_alternates_its_runs_after_a_pause(monkeypatch):
+    # Each method is timed in turn, after a pause that lets the other's BLAS threads sleep.
+    events = []
+    monkeypatch.setattr(bench.time, "sleep", lambda seconds: events.append(("sleep", seconds)))
+    clock = iter(range(100))
+    monkeypatch.setattr(bench.time, "perf_counter", lambda: next(clock) ** 2)
+    fem, ours = bench._alternating_medians(
+        (lambda: events.append("fem"), lambda: events.append("ours")), repeats=3
+    )
+    pause = ("sleep", bench.BLAS_SETTLE)
+    assert events == [pause, "fem", pause, "ours"] * 3
+    # Runs take 1, 5, 9, 13, 17, 21 clock units (squares of consecutive readings), in turn.
+    assert (fem, ours) == (9, 13)
+
+
+def test_short_fem_rows_run_until_each_solve_has_run_long_enough(monkeypatch):
+    monkeypatch.setattr(bench.time, "sleep", lambda seconds: None)
+    readings = iter(range(1000))
+    monkeypatch.setattr(bench.time, "perf_counter", lambda: 0.125 * next(readings))  # every run 1/8 s
+    calls = {"fem": 0, "ours": 0}
+
+    def counted(name):
+        return lambda: calls.__setitem__(name, calls[name] + 1)
+
+    medians = bench._alternating_medians((counted("fem"), counted("ours")), repeats=3, least_seconds=1.0)
+    assert calls == {"fem": 8, "ours": 8}  # 8 x 1/8 s each, more than the 3 asked for
+    assert medians == [0.125, 0.125]
+    calls.update(fem=0, ours=0)
+    bench._alternating_medians((counted("fem"), counted("ours")), repeats=3, least_seconds=1e6)
+    assert calls == {"fem": bench.MAX_REPEATS, "ours": bench.MAX_REPEATS}
+    calls.update(fem=0, ours=0)
+    bench._alternating_medians((counted("fem"), counted("ours")), repeats=4, least_seconds=0.25)
+    assert calls == {"fem": 4, "ours": 4}  # long enough already: the runs asked for
+
+
+def test_quick_runs_every_row_once_at_tiny_sizes(monkeypatch):
+    # --quick used to time the FEM rows again and again for ROW_SECONDS and drag for 4 s: 30 s or more.
+    calls = {}
+    monkeypatch.setattr(bench, "_warm_up", lambda curve: None)
+    monkeypatch.setattr(bench, "_point_kernels", lambda curve, sizes, *rest: calls.update(points=sizes))
+    monkeypatch.setattr(bench, "_fem_comparison", lambda curve, *rest: calls.update(fem=rest), raising=True)
+    monkeypatch.setattr(bench, "_memory", lambda curve, count: calls.update(memory=count))
+    monkeypatch.setattr(bench, "_warp_4k", lambda size: calls.update(warp=size))
+    monkeypatch.setattr(bench, "_drag_frames", lambda *rest: calls.update(drag=rest))
+    monkeypatch.setattr(bench, "_export_gif", lambda *rest: calls.update(export=rest))
+    monkeypatch.setattr(bench, "photo_rows", lambda sizes, run: calls.update(photos=sizes))
+    monkeypatch.setattr(
+        bench_fold_free,
+        "fold_free_rows",
+        lambda curve, repeats, forget, vertices: calls.update(fold_free=vertices),
+    )
+    monkeypatch.setattr(
+        bench_mesher, "mesher_rows", lambda curve, repeats, vertices: calls.update(mesher=(repeats, vertices))
+    )
+    args = argparse.Namespace(
+        quick=True,
+        repeats=3,
+        large=False,
+        skip_fem=False,
+        skip_memory=False,
+        skip_warp=False,
+        skip_photos=False,
+        skip_drag=False,
+        skip_export=False,
+        skip_fold_free=False,
+        skip_mesher=False,
+    )
+    assert bench.run_bench(args) == 0
+    assert calls == {
+        "points": (500,),
+        "fem": ((2_000,), 1, 0.0),
+        "memory": 20_000,
+        "warp": (640, 360),
+        "photos": ((1200, 800),),
+        "drag": ((6_000,), 1.0),
+        "export": (1, 1.0),  # 8 frames instead of the default 30 fps' 220
+        "fold_free": (2_000,),
+        "mesher": (1, (2_000,)),
+    }
+
+
+def test_the_fold_free_row_says_when_libigl_is_missing(monkeypatch, capsys):
+    """Without libigl the row times ours alone and says so; libigl is never needed at run time."""
+    import core
+    from core.curves import examples
+
+    monkeypatch.setitem(sys.modules, "igl", None)  # `import igl` raises ImportError
+    curve = core.ClosedBSpline(examples.blob() * 1000.0)
+    bench_fold_free.fold_free_rows(curve, 1, lambda: None, (300,))
+    out = capsys.readouterr().out
+    assert "libigl is not installed" in out
+    row = out.strip().splitlines()[-1].split()
+    assert row[2] != "0" and row[3] == "0" and row[4] == "yes"  # steps, flips, proven
+
+
+def test_the_mesher_row_says_when_triangle_is_missing(monkeypatch, capsys):
+    """Without the triangle package the row times ours alone and says so; it is never needed at run time."""
+    import core
+    from core.curves import examples
+
+    monkeypatch.setitem(sys.modules, "triangle", None)  # `import triangle` raises ImportError
+    curve = core.ClosedBSpline(examples.blob() * 1000.0)
+    bench_mesher.mesher_rows(curve, 1, (300,))
+    out = capsys.readouterr().out
+    assert "triangle is not installed" in out
+    target, vertices, seconds = out.strip().splitlines()[-1].split()
+    # a coarse mesh: its boundary vertices add to the estimate from the area
+    assert target == "300" and 300 <= int(vertices) < 600 and float(seconds) > 0
+
+
+def test_triangle_gets_the_closed_boundary_polygon_of_our_mesh():
+    import core
+    from core.curves import examples
+
+    mesh = core.triangulate(core.ClosedBSpline(examples.blob() * 1000.0), max_edge=100.0)
+    graph = bench_mesher.triangle_input(mesh)
+    count = mesh.boundary.size
+    assert graph["vertices"].shape == (count, 2)
+    assert (graph["vertices"] == mesh.vertices[mesh.boundary]).all()
+    assert sorted(graph["segments"][:, 0]) == list(range(count))
+    assert ((graph["segments"][:, 1] - graph["segments"][:, 0]) % count == 1).all()

@@ -1,0 +1,200 @@
+"""One warp pipeline (app.warp.pipeline): `warp`, `animate`, the viewer's export and `quality` draw or
+measure the same deformation of the same mesh."""
+
+import json
+
+import numpy as np
+import pytest
+from support.commands import CAGE, picture, run_main, transformed
+
+import app.warp.pipeline
+import core
+from app.io.files import read_image, write_png
+from app.viewer.exports import Exporter
+from app.viewer.precompute import compute, make_request, result_from_message
+from app.viewer.scene import Scene
+from app.viewer.state import AppState, Document, History, Snapshot
+
+MAX_EDGE = 9.0
+
+
+@pytest.fixture(autouse=True)
+def private_cache(tmp_path_factory, monkeypatch):
+    monkeypatch.setenv("TRANSFINITE_CACHE_DIR", str(tmp_path_factory.mktemp("cache")))
+
+
+@pytest.fixture
+def spied(monkeypatch):
+    """The names of the commands that called `app.warp.pipeline.prepare` and `render`, in order."""
+    calls = []
+    for name in ("prepare", "render"):
+        original = getattr(app.warp.pipeline, name)
+
+        def spy(*arguments, original=original, name=name, **keywords):
+            calls.append(name)
+            return original(*arguments, **keywords)
+
+        monkeypatch.setattr(app.warp.pipeline, name, spy)
+    return calls
+
+
+def test_warp_animate_the_viewer_export_and_quality_share_one_pipeline(tmp_path, capfd, renderer, spied):
+    write_png(tmp_path / "picture.png", picture())
+    cage, moved = np.array(CAGE, dtype=float), transformed(CAGE)
+    session = {
+        "image": "picture.png",
+        "cage": {"control_points": cage.tolist()},
+        "target": {"control_points": moved.tolist()},
+        "kernel": "poisson",
+        "view": {"scale": 1.0, "offset": [0, 0]},
+        "keyframes": [{"time": t, "target": {"control_points": moved.tolist()}} for t in (0.0, 1.0)],
+    }
+    (tmp_path / "session.json").write_text(json.dumps(session))
+    limit = ["--max-edge", str(MAX_EDGE)]
+
+    warp_argv = ["warp", "--session", tmp_path / "session.json", "--output", tmp_path / "warp.png", *limit]
+    code, _, err = run_main(warp_argv, capfd)
+    assert code == 0, err
+    assert spied == ["prepare", "render"]
+    warped = read_image(tmp_path / "warp.png")
+
+    frames = tmp_path / "frames"
+    animate_argv = ["animate", tmp_path / "session.json", "--output", f"{frames}/", "--fps", "2", *limit]
+    assert run_main(animate_argv, capfd)[0] == 0
+    assert spied[2:] == ["prepare", "render", "render", "render"]
+    for frame in sorted(frames.iterdir()):
+        np.testing.assert_array_equal(read_image(frame), warped)
+
+    # The viewer: its worker's precompute, its scene, and the export of the current target.
+    snapshot = Snapshot(tmp_path / "picture.png", cage, moved)
+    request = make_request(snapshot, MAX_EDGE)
+    state = AppState(Document(History(snapshot), snapshot, picture(), tmp_path / "s.json"))
+    state.compute.basis = result_from_message(request.key, compute(request))
+    state.selection.edit_mode = "deform"
+    # warp and animate made their own GL contexts current and released them: the fixture's
+    # renderer draws in its own context again, made current for the viewer's part (then restored).
+    with renderer.ctx:
+        scene = Scene(renderer)
+        exporter = Exporter(
+            state, scene, lambda s: s.compute.basis.key == request.key, None, 30.0, print, None
+        )
+        scene.sync(state)
+        np.testing.assert_array_equal(exporter.render_still(), warped)
+    assert spied[6:] == ["prepare", "render"]
+
+    # quality measures the positions of the same preparation.
+    from app.studies.quality import KernelChoice, run_study
+    from app.studies.quality_suite import Deformation, Domain
+
+    domain = Domain("picture", cage, [Deformation("moved", moved)])
+    study = run_study([domain], [KernelChoice("poisson", "poisson")], keep=True)
+    assert spied[8:] == ["prepare", "prepare"]  # the FEM reference, then poisson
+    expected = app.warp.pipeline.prepare(
+        core.ClosedBSpline(cage), app.warp.pipeline.WarpSettings(cache=False), study.meshes["picture"]
+    )
+    np.testing.assert_array_equal(study.bases["picture", "poisson"], expected.basis)
+
+
+def test_prepare_uses_the_given_mesh_and_the_default_kernel():
+    curve = core.ClosedBSpline(np.array(CAGE, dtype=float))
+    mesh = core.triangulate(curve, max_edge=12.0)
+    fractions = []
+    deformation = app.warp.pipeline.prepare(
+        curve, app.warp.pipeline.WarpSettings(cache=False), mesh, fractions.append
+    )
+    assert deformation.mesh is mesh and deformation.kernel == core.DEFAULT_KERNEL == "poisson"
+    assert fractions[0] == 0.0 and fractions[-1] == 1.0
+    np.testing.assert_allclose(deformation.positions(curve.control_points), mesh.vertices, atol=1e-7)
+
+
+def test_a_fold_free_map_reports_the_share_of_the_path_proven_and_is_kept_for_its_target():
+    from support.fold_free_checks import STARFISH, strong_target
+
+    curve = core.ClosedBSpline(STARFISH)
+    mesh = core.triangulate(curve, max_edge=12.0)
+    deformation = app.warp.pipeline.prepare(
+        curve, app.warp.pipeline.WarpSettings(cache=False, fold_free=True), mesh
+    )
+    shares = []
+    positions, certificate = deformation.fold_free_map(strong_target(), shares.append)
+    assert len(shares) >= certificate.extra["steps"] > 1
+    assert shares == sorted(shares) and shares[-1] == 1.0
+    assert deformation.positions(strong_target()) is positions  # kept: the report and the render ask again
+
+
+def test_the_viewers_fold_free_export_is_warps_fold_free_session(tmp_path, capfd):
+    from support.fold_free_checks import ASSETS, STARFISH, strong_target
+
+    from app.render.renderer import WarpRenderer, create_headless_context
+
+    target = strong_target()  # the plain map folds there
+    session = {
+        "image": str(ASSETS / "starfish.png"),
+        "cage": {"control_points": STARFISH.tolist()},
+        "target": {"control_points": target.tolist()},
+        "kernel": "poisson",
+        "view": {"scale": 1.0, "offset": [0, 0]},
+        "mesh": {"max_edge": 12.0},
+        "fold_free": True,
+    }
+    (tmp_path / "session.json").write_text(json.dumps(session))
+    argv = ["warp", "--session", tmp_path / "session.json", "--output", tmp_path / "warp.png"]
+    code, _, err = run_main(argv, capfd)
+    assert code == 0, err
+    warped = read_image(tmp_path / "warp.png")
+
+    snapshot = Snapshot(ASSETS / "starfish.png", STARFISH, target, fold_free=True)
+    request = make_request(snapshot, 12.0)
+    image = read_image(ASSETS / "starfish.png")
+    state = AppState(Document(History(snapshot), snapshot, image, tmp_path / "s.json"))
+    state.compute.basis = result_from_message(request.key, compute(request))
+    ctx = create_headless_context()  # as warp's: its own, made after warp released its own
+    try:
+        with WarpRenderer(ctx) as renderer:
+            scene = Scene(renderer)
+            exporter = Exporter(state, scene, lambda s: True, None, 30.0, print, None)
+            scene.sync(state)
+            np.testing.assert_array_equal(exporter.render_still(), warped)
+            state.document.live = snapshot.replace(fold_free=False)
+            assert not np.array_equal(exporter.render_still(), warped)  # the plain map's pixels differ
+    finally:
+        ctx.release()
+
+
+def test_the_viewers_background_is_saved_and_drawn_as_warp_draws_it(tmp_path, capfd, ctx):
+    from app.io.files import read_session
+    from app.render.renderer import WarpRenderer
+    from app.viewer import commands
+    from app.viewer.session import restore, save
+
+    write_png(tmp_path / "picture.png", picture())
+    cage, moved = np.array(CAGE, dtype=float), transformed(CAGE)
+    snapshot = Snapshot(tmp_path / "picture.png", cage, moved)
+    request = make_request(snapshot, MAX_EDGE)
+    state = AppState(Document(History(snapshot), snapshot, picture(), tmp_path / "s.json"))
+    state.compute.basis = result_from_message(request.key, compute(request))
+    commands.command(state, "background", "mauve")
+    assert state.status.message_is_error and state.document.background == "none"
+    commands.command(state, "background", "#0000ff")
+    assert state.document.background == "#0000ff" and state.document.session_dirty
+    save(state, MAX_EDGE)
+    assert read_session(tmp_path / "s.json").extra["background"] == "#0000ff"
+    assert restore(tmp_path / "s.json").preferences["background"] == "#0000ff"
+    # An earlier test's warp made its own context current and released it: this one is made current.
+    with ctx, WarpRenderer(ctx) as renderer:
+        scene = Scene(renderer)
+        exporter = Exporter(
+            state, scene, lambda s: s.compute.basis.key == request.key, None, 30.0, print, None
+        )
+        scene.sync(state)
+        exported = exporter.render_still()
+    assert (exported[..., 3] == 255).all() and (exported == [0, 0, 255, 255]).all(axis=2).any()
+    # warp --session takes the session's background: the same pixels, and a JPEG needs no option.
+    argv = ["warp", "--session", tmp_path / "s.json", "--max-edge", str(MAX_EDGE)]
+    code, _, err = run_main([*argv, "--output", tmp_path / "warp.png"], capfd)
+    assert code == 0, err
+    np.testing.assert_array_equal(exported, read_image(tmp_path / "warp.png"))
+    assert run_main([*argv, "--output", tmp_path / "warp.jpg"], capfd)[0] == 0
+    code, _, err = run_main([*argv, "--output", tmp_path / "black.png", "--background", "black"], capfd)
+    assert code == 0, err
+    assert (read_image(tmp_path / "black.png") == [0, 0, 0, 255]).all(axis=2).any()
