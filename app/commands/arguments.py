@@ -381,6 +381,11 @@ def _bench_command(commands, run) -> None:
         help="no viewer GIF export of the starfish animation against animate (Xvfb, xdotool)",
     )
     bench.add_argument(
+        "--skip-pins",
+        action="store_true",
+        help="no pins rows (core.pin_deform within a distortion bound at 16, 40 and 100 control points)",
+    )
+    bench.add_argument(
         "--skip-fold-free",
         action="store_true",
         help="no fold-free warp against libigl at 10k and 50k vertices",

@@ -25,7 +25,6 @@ turned.
 
 from __future__ import annotations
 
-import clarabel
 import numpy as np
 from scipy import sparse
 
@@ -75,6 +74,8 @@ def bounded_solution(
     ValueError
         When no map meets the bound with the hard rows (fixed control points) held.
     """
+    import clarabel  # here, not at the top: `import core` (and the package's build) does without it
+
     quadratic = 2.0 * (W_PIN * pin_rows.T @ pin_rows + precompute.departure.T @ precompute.departure)
     linear = -2.0 * W_PIN * pin_rows.T @ targets
     objective_matrix = sparse.csc_matrix(np.triu(quadratic))
@@ -153,6 +154,7 @@ def _solved(
     precompute: PinPrecompute, objective_matrix, linear, hard_rows, hard_values, limits, floor: float
 ):
     """Clarabel's solution of the program over the current active set and frames."""
+    import clarabel
     active = np.flatnonzero(precompute.active)
     frames = precompute.frames[active]
     along = (
