@@ -155,6 +155,7 @@ def _solved(
 ):
     """Clarabel's solution of the program over the current active set and frames."""
     import clarabel
+
     active = np.flatnonzero(precompute.active)
     frames = precompute.frames[active]
     along = (
