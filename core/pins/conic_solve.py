@@ -44,6 +44,8 @@ FLOOR = 0.25
 ROUNDS = 10
 SETTLED = 1e-3
 FRAME_SETTLED = 0.02
+#: Clarabel's gap and feasibility tolerances.
+TOLERANCE = 1e-7
 #: A sample outside the active set joins it when it exceeds its bound by more than this fraction:
 #: the active samples, held exactly at their bound, keep their neighbours within it, and the active
 #: set stays small (the program's cost grows with it).  The first bound is below the goal by more
@@ -175,6 +177,8 @@ def _solved(
     constraints = sparse.csc_matrix(np.vstack(blocks))
     settings = clarabel.DefaultSettings()
     settings.verbose = False
+    # A thousandth of a pixel is more than enough: fewer interior-point iterations.
+    settings.tol_gap_abs = settings.tol_gap_rel = settings.tol_feas = TOLERANCE
     solver = clarabel.DefaultSolver(
         objective_matrix, linear, constraints, np.concatenate(values), cones, settings
     )

@@ -45,7 +45,7 @@ SAME_POINT = 1e-9
 #: Certify-and-tighten rounds, the samples' first bound as a fraction of (K - 1) / (K + 1), and
 #: how many times the certificate's excess over (K - 1) / (K + 1) each tightening takes off (and
 #: at least this fraction of the samples' bound).
-CERTIFY_ROUNDS = 6
+CERTIFY_ROUNDS = 8
 FIRST_MARGIN = 0.85
 TIGHTEN = 3.0
 LEAST_STEP = 0.02
