@@ -130,3 +130,15 @@ def test_a_sessions_bad_bound_is_one_line(files, capfd):
     code, _, err = run_main(["warp", "--session", files / "pinned.json", "--output", files / "s.png"], capfd)
     assert code == 2 and re.search(r"pinned\.json: max_distortion: must be a number >= 1", err.strip())
     assert not (files / "s.png").exists()
+
+
+def test_animate_refuses_a_sessions_bad_pins_like_warp(files, capfd):
+    session = json.loads((files / "session.json").read_text())
+    keyframes = [{"time": t, "target": session["target"]} for t in (0.0, 0.5)]
+    session.update(kernel="poisson", keyframes=keyframes, pins=[{"at": [0.0, 0.0]}])
+    (files / "pinned.json").write_text(json.dumps(session))
+    code, _, err = run_main(["animate", files / "pinned.json", "--output", files / "a.gif"], capfd)
+    assert code == 2 and re.search(
+        r'pinned\.json: pins\[0\]: must be \{"at": \[x, y\], "to": \[x, y\]\}', err
+    )
+    assert not (files / "a.gif").exists()
