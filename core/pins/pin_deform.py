@@ -160,6 +160,7 @@ def pin_deform(
         x = _similarity(precompute, linear, translation)
     else:
         x, solves, certificate = _bounded(precompute, rows, bound, linear, certify)
+    x = _joined_corners(precompute, x)
     target = precompute.cage_coordinates(control_points(x, precompute.n))
     reached = precompute.cage_coordinates(np.stack([x_rows @ x, y_rows @ x], axis=1))
     error = np.linalg.norm(reached - moved, axis=1)
@@ -171,7 +172,7 @@ def _bounded(precompute, rows, bound, linear, certify):
     `rows` are the pins' rows and targets and the hard rows and values."""
     goal = _k_bound(bound)
     k = goal * FIRST_MARGIN
-    exact = exact_solution(*rows, precompute.departure)
+    exact = _joined_corners(precompute, exact_solution(*rows, precompute.departure))
     if meets_bound(precompute, exact, k, linear):
         target = precompute.cage_coordinates(control_points(exact, precompute.n))
         certificate = _certificate(precompute.curve, target, precompute.kernel, goal) if certify else None
@@ -180,14 +181,19 @@ def _bounded(precompute, rows, bound, linear, certify):
     total, certificate = 0, None
     for _ in range(CERTIFY_ROUNDS):
         x, solves = bounded_solution(precompute, *rows, k, linear)
+        x = _joined_corners(precompute, x)
         total += solves
         if not certify or precompute.kernel != "poisson":
             break
         target = precompute.cage_coordinates(control_points(x, precompute.n))
         certificate = certify_injective(precompute.curve, target, k_goal=goal)
-        if _proves(certificate, goal):
+        # At a reflex corner no harmonic map is proven (it folds in a tiny disc there, generically):
+        # the bound proven outside the corners' discs is all there is to reach.
+        if _proves(certificate, goal) or (
+            certificate.away_from_corners and certificate.k_max <= goal + K_SLACK
+        ):
             break
-        if certificate.injective:
+        if certificate.injective or certificate.away_from_corners:
             k = max(min(k - TIGHTEN * (certificate.k_max - goal), (1.0 - LEAST_STEP) * k), 0.5 * k)
         else:
             k *= 0.5
@@ -197,6 +203,19 @@ def _bounded(precompute, rows, bound, linear, certify):
 
 def _proves(certificate: InjectivityCertificate, goal: float) -> bool:
     return certificate.injective and certificate.k_max <= goal + K_SLACK
+
+
+def _joined_corners(precompute: PinPrecompute, x: np.ndarray) -> np.ndarray:
+    """x with the two copies of each doubled control point equal to the bit (the solvers hold them
+    equal to rounding; a sharp corner needs them exactly equal)."""
+    source, n = precompute.curve.control_points, precompute.n
+    doubled = np.flatnonzero(np.all(source == np.roll(source, 1, axis=0), axis=1))
+    if doubled.size == 0:
+        return x
+    x = x.copy()
+    for offset in (0, n):
+        x[offset + doubled] = x[offset + (doubled - 1) % n]
+    return x
 
 
 def _activate_near(precompute: PinPrecompute, where: np.ndarray) -> None:
@@ -226,8 +245,9 @@ def _certificate(curve: ClosedBSpline, target: np.ndarray, kernel: str, goal=Non
 
 
 def _hard_rows(precompute: PinPrecompute, held: dict, pin_count: int) -> tuple[np.ndarray, np.ndarray]:
-    """Rows (h, 2n + 4) and values (h,) that hold exactly: fixed control points, and the similarity's
-    linear part 1 for a single pin (its best similarity is a translation)."""
+    """Rows (h, 2n + 4) and values (h,) that hold exactly: fixed control points, the similarity's
+    linear part 1 for a single pin (its best similarity is a translation), and the two copies of
+    each doubled control point (a sharp corner) together."""
     n = precompute.n
     rows, values = [], []
     for index, point in held.items():
@@ -237,6 +257,13 @@ def _hard_rows(precompute: PinPrecompute, held: dict, pin_count: int) -> tuple[n
     if pin_count == 1:
         rows.extend([np.eye(1, 2 * n + 4, 2 * n)[0], np.eye(1, 2 * n + 4, 2 * n + 1)[0]])
         values.extend([1.0, 0.0])
+    source = precompute.curve.control_points
+    for j in np.flatnonzero(np.all(source == np.roll(source, 1, axis=0), axis=1)):
+        for offset in (0, n):  # a sharp corner (a doubled point) stays one
+            row = np.zeros(2 * n + 4)
+            row[offset + j], row[offset + (j - 1) % n] = 1.0, -1.0
+            rows.append(row)
+            values.append(0.0)
     return np.array(rows).reshape(-1, 2 * n + 4), np.array(values, dtype=np.float64)
 
 

@@ -149,3 +149,27 @@ def test_bad_input_is_one_line(arguments, message):
     with pytest.raises(ValueError, match=message) as raised:
         core.pin_deform(CAGE, pins, moved, **given)
     assert "\n" not in str(raised.value)
+
+
+@pytest.mark.parametrize("bound", [None, 2.0])
+def test_sharp_corners_stay_sharp_and_a_polygon_is_proven(bound):
+    square = core.ClosedBSpline(
+        np.repeat([[0.0, 0.0], [400.0, 0.0], [400.0, 300.0], [0.0, 300.0]], 2, axis=0)
+    )
+    pins = np.array([[100.0, 100.0], [300.0, 100.0], [200.0, 250.0]])
+    result = core.pin_deform(
+        square, pins, pins + [[0.0, 0.0], [30.0, -20.0], [-10.0, 20.0]], max_distortion=bound
+    )
+    assert np.array_equal(result.target[1::2], result.target[0::2])
+    assert result.certificate.injective and np.all(result.pin_error < 1e-3)
+
+
+def test_a_reflex_corner_is_proven_outside_its_disc_without_endless_tightening():
+    shape = np.repeat(
+        [[0.0, 0.0], [400.0, 0.0], [400.0, 160.0], [160.0, 160.0], [160.0, 400.0], [0.0, 400.0]], 2, axis=0
+    )
+    pins = np.array([[80.0, 80.0], [300.0, 80.0], [80.0, 300.0]])
+    moved = pins + [[0.0, 0.0], [30.0, -20.0], [-10.0, 20.0]]
+    result = core.pin_deform(core.ClosedBSpline(shape), pins, moved, max_distortion=2.0)
+    assert result.certificate.away_from_corners and result.certificate.k_max <= 1.0 / 3.0
+    assert not result.within_bound and np.all(result.pin_error < 1e-3)
