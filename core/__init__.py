@@ -20,6 +20,8 @@ from core.meshes.harmonic import harmonic_basis
 from core.injectivity.certificate import InjectivityCertificate, certify_injective
 from core.injectivity.composite import fold_free_deform
 from core.pins.pin_deform import PIN_KERNELS, PinDeformation, pin_deform
+from core.injectivity.drag_step import DragMesh, DragStep, Untangling, drag_mesh, drag_step
+from core.injectivity.mesh_bijection import MeshBijection, prove_mesh_bijection
 from core.kernel_table import BOUNDARY_INTEGRAL_KERNELS, COMPLEX_KERNELS, DEFAULT_KERNEL, MESH_ONLY_KERNELS
 from core.kernels import KERNELS, ConvergenceWarning, SolveReport, kernel
 from core.meshes.mesh import Mesh, folded_triangles
@@ -92,10 +94,14 @@ __all__ = [
     "CacheWarning",
     "ClosedBSpline",
     "ConvergenceWarning",
+    "DragMesh",
+    "DragStep",
     "InjectivityCertificate",
     "Mesh",
+    "MeshBijection",
     "PinDeformation",
     "SolveReport",
+    "Untangling",
     "abandoned_temporaries",
     "as_points",
     "basis_functions",
@@ -109,6 +115,8 @@ __all__ = [
     "deform",
     "distance_to_curve",
     "distortion",
+    "drag_mesh",
+    "drag_step",
     "examples",
     "fold_free_deform",
     "folded_triangles",
@@ -122,6 +130,7 @@ __all__ = [
     "pgw_basis",
     "pin_deform",
     "positive_int",
+    "prove_mesh_bijection",
     "reference_kernel",
     "signed_singular_values",
     "solved_densities",

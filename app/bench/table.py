@@ -112,8 +112,17 @@ def run_bench(args: argparse.Namespace) -> int:
     if not args.skip_photos:
         children.append(lambda: photo_rows((QUICK_SIZE,) if args.quick else PHOTO_SIZES, run_child))
     if not args.skip_drag:
+        from app.bench import fold_free_drag
+
         children.append(
             lambda: _drag_frames(DRAG_VERTICES[:1], 1.0) if args.quick else _drag_frames(DRAG_VERTICES)
+        )
+        children.append(
+            lambda: (
+                fold_free_drag.fold_free_drag_row(StepFailed, 0.5)
+                if args.quick
+                else fold_free_drag.fold_free_drag_row(StepFailed)
+            )
         )
     if not args.skip_export:
         children.append(
@@ -505,7 +514,7 @@ def _drag_child(
         if child.poll() is None:
             child.kill()
             child.wait()
-    stats = [m for m in map(re.compile(r".*median_drag_frame_ms=([\d.]+)").fullmatch, lines) if m]
+    stats = [m for m in map(re.compile(r"frames=.*median_drag_frame_ms=([\d.]+)").match, lines) if m]
     if child.returncode != 0 or not stats or not vertices:
         errors = child.stderr.read().strip().splitlines()[-CHILD_ERROR_LINES:] or ["(no output on stderr)"]
         details = "\n".join(f"    {line}" for line in [*lines[-3:], *errors])

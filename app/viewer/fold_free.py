@@ -4,7 +4,8 @@ For the live target of a ``poisson`` warp the worker computes either the certifi
 plain map (`core.certify_injective`, ~0.2 s on the starfish demo) or, with the document's
 "Fold-free" on, the certified fold-free map at the mesh's vertices (`core.fold_free_deform`,
 ~0.4 s at the default mesh, with its certificate): neither may block a frame.  While a handle
-moves nothing is asked (the plain map is drawn); once the drag pauses (`PAUSE` seconds) or ends,
+moves nothing is asked (the frames draw the plain map, or with "Fold-free" on positions proven
+fold-free on the mesh: `app.viewer.fold_free_frames`); once the drag pauses (`PAUSE` seconds) or ends,
 the newest target is sent, a newer request supersedes an older one, and a result is applied only
 if its key is still the one the live document wants (`check_key`): a stale certificate is never
 shown for a newer target.

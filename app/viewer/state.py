@@ -468,6 +468,7 @@ class Compute:
     folded_count: int | None = None
     check: WarpCheck | None = None  # the last injectivity check applied (`app.viewer.fold_free`)
     check_progress: float | None = None  # share of the path proven of the fold-free map being made
+    mesh_proof: object = None  # app.viewer.fold_free_frames.MeshProof of the fold-free mesh drawn
 
 
 @dataclass(frozen=True, eq=False)

@@ -397,8 +397,8 @@ class Viewer:
         again and again on a software renderer took the cores the precompute needed (the
         starfish demo's --play: basis 12.5 s instead of 1.6 s)."""
         playing = self.state.playback.playing and self._playback_ready()
-        if self.script.moving or playing or self.exporter.animation:
-            glfw.poll_events()  # a replay, playback or an export animates every frame
+        if self.script.moving or playing or self.exporter.animation or self.scene.catching_up:
+            glfw.poll_events()  # a replay, playback, an export or fold-free frames catching up
         elif not imgui.get_current_context().input_events_queue.empty():
             glfw.poll_events()  # imgui takes queued input a few events a frame (typed text)
         elif self.input.events or self.input.frames_to_draw > 0:
@@ -451,7 +451,7 @@ class Viewer:
         ) or (time.perf_counter() - self.input.view_changed_at < VIEW_SETTLE)
         self.scene.sync(state)
         self.milestones.drawn(state, self.scene.previewing, shown)
-        if self.milestones.test_mode:
+        if self.milestones.test_mode or state.document.live.fold_free:  # --stats times the proof
             from app.viewer.gui import status_check
 
             folded = state.compute.folded_count

@@ -11,5 +11,9 @@
 - `mesh_unfolding`: `unfold_triangles`, the repair of the few mesh triangles that a proven
   bijection's straight-edged interpolant still turns over, one vertex at a time;
 - `mesh_untangling`: `untangle_triangles`, the global fallback where rows of them turn over
-  together (Garanzha et al. 2021's barrier method on a region around them).
+  together (Garanzha et al. 2021's barrier method on a region around them);
+- `mesh_bijection`: `prove_mesh_bijection`, the exact proof that a mesh's piecewise-linear map is a
+  bijection (every triangle positive, the boundary polygon simple);
+- `drag_step`: `drag_step`, one frame of a fold-free drag: the plain map where it is proven, else
+  fold-free positions reached from the last frame's.
 """

@@ -152,14 +152,14 @@ def _untangled(
 ) -> tuple[np.ndarray, int]:
     """Images (V, 2) with the `movable` (V,) ones moved by the barrier continuation (at most `rounds`
     rounds) on the triangles that have a movable vertex, against references of their `own_shapes`
-    or not (`_reference`): the last positions tried, whether or not they untangle; and the rounds
+    or not (`reference_shapes`): the last positions tried, whether or not they untangle; and the rounds
     taken."""
     active = triangles[np.any(movable[triangles], axis=1)]
     if triangle_signed_areas(start, active).sum() <= 0.0:
         # The region's boundary image does not enclose a positive area: positive triangles cannot tile it.
         return start.copy(), 0
-    gradients, areas = _reference(vertices, images, active, own_shapes)
-    problem = _Problem(start, active, movable, gradients, areas)
+    gradients, areas = reference_shapes(vertices, images, active, own_shapes)
+    problem = BarrierProblem(start, active, movable, gradients, areas)
     # det J at which a triangle counts as turned over: TOLERANCE of its source area, in its image.
     floors = TOLERANCE * triangle_signed_areas(vertices, active) / areas
     positions = start[movable].ravel()
@@ -176,7 +176,7 @@ def _untangled(
         if turned == 0 or since > STALL_ROUNDS:
             break
         decrease = max(1.0 - energy / previous, SMALLEST_DECREASE)
-        mu = (1.0 - decrease) * _chi(smallest, epsilon)
+        mu = (1.0 - decrease) * regularised_determinant(smallest, epsilon)
         epsilon = 2.0 * np.sqrt(mu * (mu - smallest)) if smallest < mu else TINY_EPSILON
         previous = energy
     untangled = start.copy()
@@ -184,7 +184,7 @@ def _untangled(
     return untangled, taken
 
 
-def _chi(determinant, epsilon):
+def regularised_determinant(determinant, epsilon):
     """χ(D, ε) = (D + √(ε² + D²)) / 2, the regularised determinant, positive for ε > 0 (for D < 0
     written as ε² / (2 (√(ε² + D²) - D)), which does not round to 0)."""
     root = np.sqrt(epsilon * epsilon + determinant * determinant)
@@ -194,7 +194,7 @@ def _chi(determinant, epsilon):
     )
 
 
-def _reference(vertices, images, active, own_shapes: bool) -> tuple[np.ndarray, np.ndarray]:
+def reference_shapes(vertices, images, active, own_shapes: bool) -> tuple[np.ndarray, np.ndarray]:
     """Per active triangle (K, 3) the gradients (K, 3, 2) of its barycentric coordinates on its
     reference triangle (J = Xᵀ G for the images X (3, 2) of its corners) and the reference areas
     (K,).  The reference is the triangle's own image where that is not turned over and `own_shapes`,
@@ -213,7 +213,7 @@ def _reference(vertices, images, active, own_shapes: bool) -> tuple[np.ndarray, 
     return gradients, areas * scale**2
 
 
-class _Problem:
+class BarrierProblem:
     """The barrier energy of the active triangles (K, 3) as a function of the movable vertices'
     positions, flattened (2 F,) in vertex order, with its gradient and projected Newton steps."""
 
@@ -255,7 +255,7 @@ class _Problem:
         jacobians = self._jacobians(positions)
         determinant = jacobians[:, 0, 0] * jacobians[:, 1, 1] - jacobians[:, 0, 1] * jacobians[:, 1, 0]
         trace = np.einsum("kij,kij->k", jacobians, jacobians)
-        chi = _chi(determinant, epsilon)
+        chi = regularised_determinant(determinant, epsilon)
         return float(np.dot(self.weights, ((1.0 - THETA) * trace + THETA * (determinant**2 + 1.0)) / chi))
 
     def _derivatives(self, positions, epsilon) -> tuple[np.ndarray, np.ndarray]:
@@ -266,7 +266,7 @@ class _Problem:
         determinant = a * d - b * c
         trace = np.einsum("ki,ki->k", vector, vector)
         root = np.sqrt(epsilon * epsilon + determinant * determinant)
-        chi = _chi(determinant, epsilon)
+        chi = regularised_determinant(determinant, epsilon)
         chi1 = chi / root  # χ' = (1 + D / r) / 2
         chi2 = epsilon * epsilon / (2.0 * root**3)
         # E per triangle = A(D) tr + B(D), A = (1 - θ) / χ, B = θ (D² + 1) / χ.
@@ -324,4 +324,4 @@ class _Problem:
 _DETERMINANT_HESSIAN = np.array([[0, 0, 0, 1], [0, 0, -1, 0], [0, -1, 0, 0], [1, 0, 0, 0]], dtype=np.float64)
 
 
-__all__ = ["untangle_triangles"]
+__all__ = ["BarrierProblem", "reference_shapes", "regularised_determinant", "untangle_triangles"]

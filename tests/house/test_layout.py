@@ -74,8 +74,9 @@ def test_bench_runs(tmp_path):
         check=True,
     )
     assert "harmonic-like" in result.stdout and "FEM / poisson" in result.stdout
-    # The viewer's drag frame at ~6k vertices under Xvfb (or the line saying it was skipped).
-    assert "viewer drag frame" in result.stdout
+    # The viewer's drag frame at ~6k vertices under Xvfb (or the line saying it was skipped), and
+    # its fold-free drag frame.
+    assert "viewer drag frame" in result.stdout and "viewer fold-free drag frame" in result.stdout
 
 
 def test_find_cycle_finds_a_cycle():

@@ -83,7 +83,11 @@ def box_difference(a: np.ndarray, b: np.ndarray, centre, half: int) -> float:
 def stats_line(lines: list[str]) -> re.Match:
     for line in lines:
         match = re.fullmatch(
-            r"frames=(\d+) median_frame_ms=([\d.]+) p95_frame_ms=([\d.]+) median_drag_frame_ms=([\d.]+)", line
+            r"frames=(\d+) median_frame_ms=([\d.]+) p95_frame_ms=([\d.]+) median_drag_frame_ms=([\d.]+) "
+            r"fold_free_drag_frames=\d+ max_folded_drawn=\d+ median_fold_free_drag_frame_ms=[\d.]+ "
+            r"proven_after_release_ms=(?:\d+|none) median_plain_drag_frame_ms=[\d.]+ "
+            r"fold_free_drag_frames_on_target=\d+",
+            line,
         )
         if match:
             return match
