@@ -56,14 +56,9 @@ def departure_rows(source: np.ndarray) -> np.ndarray:
     return rows / np.sqrt(n)
 
 
-def similarity_part(x: np.ndarray) -> tuple[complex, complex]:
-    """The similarity of a solution x (2n + 4,): its linear part a + i b and translation t_x + i t_y."""
-    return complex(x[-4], x[-3]), complex(x[-2], x[-1])
-
-
 def control_points(x: np.ndarray, n: int) -> np.ndarray:
     """The normalised target control points (n, 2) of a solution x (2n + 4,)."""
     return np.stack([x[:n], x[n : 2 * n]], axis=1)
 
 
-__all__ = ["complex_rows", "control_points", "departure_rows", "derivative_coefficients", "similarity_part"]
+__all__ = ["complex_rows", "control_points", "departure_rows", "derivative_coefficients"]
