@@ -49,6 +49,7 @@ from core.meshes.distortion import (
     vertex_jacobians,
     worst_distortion,
 )
+from core.injectivity.mesh_fold_free import PLAIN_HARMONIC_MAP
 from core.meshes.mesh import unique_edges
 from core.meshes.mesh_transfer import transfer_basis
 from core.meshes.refinement import RADIUS_EDGE_RATIO
@@ -89,6 +90,7 @@ __all__ = [
     "PARAMETERIZATIONS",
     "PARAMETERIZED_KERNELS",
     "PIN_KERNELS",
+    "PLAIN_HARMONIC_MAP",
     "RADIUS_EDGE_RATIO",
     "Boundary",
     "CacheWarning",

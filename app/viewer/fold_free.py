@@ -131,6 +131,7 @@ def compute_check(request: CheckRequest, progress: Callable[[float], None] | Non
         str(certificate),
         positions,
         time.perf_counter() - started,
+        bool(certificate.on_mesh),
     )
 
 
@@ -153,13 +154,16 @@ def _images(curve, target: np.ndarray, points: np.ndarray) -> np.ndarray:
 
 
 def status_text(check: WarpCheck, folded: int | None) -> str:
-    """The status line's words for a check: proven fold-free with its σ₂ bound (the fold-free map:
+    """The status line's words for a check: fold-free on the mesh (the mesh's map proven a bijection),
+    proven fold-free with its σ₂ bound (the fold-free map:
     harmonic and proven outside the discs of its sharp corners, radial inside them, if it has
     some), or where the proof fails (`folded`: the mesh's folded triangles, to say whether it does
     fold there).  A fold-free map whose mesh still shows `folded` triangles says so: the map is a
     bijection, the mesh's straight edges are too coarse to follow it there."""
     if check.fold_free and check.positions is None:
         return f"fold-free map failed: {check.text}"
+    if check.on_mesh and check.injective:  # the mesh's map is what is proven, its σ₂ per triangle
+        return f"fold-free on the mesh, proven (σ₂ ≥ {check.sigma2_min:.2g})"
     if check.fold_free or check.injective:
         text = f"fold-free, proven (σ₂ ≥ {check.sigma2_min:.2g})"
         if not check.injective:  # a composite proven outside its corners' discs, radial inside

@@ -495,6 +495,9 @@ class WarpCheck:
         The fold-free map at the mesh's vertices (with `fold_free`).
     seconds : float
         Time the worker took.
+    on_mesh : bool
+        What is proven is the mesh's piecewise-linear map (every triangle positive, the boundary
+        simple), not the continuous map's σ₂ bound (`core.InjectivityCertificate.on_mesh`).
     """
 
     key: str
@@ -506,6 +509,7 @@ class WarpCheck:
     text: str
     positions: np.ndarray | None
     seconds: float
+    on_mesh: bool = False
 
 
 @dataclass

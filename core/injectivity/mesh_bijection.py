@@ -1,4 +1,7 @@
-"""A proof that a mesh's piecewise-linear map is a bijection: `prove_mesh_bijection`.
+"""A proof that a mesh's piecewise-linear map is a bijection: `prove_mesh_bijection`, and
+`mesh_bijection`, which also counts as turned over a triangle whose area is a negligible share of
+its own (as `core.folded_triangles` does, so that a fold-free map's proof and its fold count agree
+at every scale of the target).
 
 What the viewer draws is the mesh's piecewise-linear (PL) map: each triangle of a triangulated
 disk mapped affinely onto the triangle of its vertices' images.  If every image triangle is
@@ -21,6 +24,8 @@ once.  Both tests are exact:
 At the default mesh (6,332 vertices, 12,155 triangles, 507 boundary vertices) it takes about a
 millisecond.  It assumes that the triangles form a disk whose boundary loop is `boundary`
 (what `core.triangulate` makes); it proves nothing about the continuous map between vertices.
+(Lipman, "Bijective mappings of meshes with boundary and the degree in mesh processing", 2014,
+has the degree argument.)
 """
 
 from __future__ import annotations
@@ -29,6 +34,8 @@ from dataclasses import dataclass
 from fractions import Fraction
 
 import numpy as np
+
+from core.meshes.mesh import folded_limits, triangle_signed_areas
 
 #: Shewchuk's bound on the relative error of the float determinant: (3 + 16 ε) ε, ε = 2⁻⁵³.
 ORIENTATION_ERROR = (3.0 + 16.0 * 2.0**-53) * 2.0**-53
@@ -52,6 +59,14 @@ class MeshBijection:
     turned_over: int
     boundary_simple: bool
 
+    def reason(self) -> str:
+        """One clause: why the map is not proven a bijection (empty when it is)."""
+        if self.turned_over:
+            return f"{self.turned_over} triangles turned over or collapsed"
+        if not self.boundary_simple:
+            return "the image's boundary polygon crosses itself"
+        return ""
+
 
 def prove_mesh_bijection(images: np.ndarray, triangles: np.ndarray, boundary: np.ndarray) -> MeshBijection:
     """Whether the PL map of a triangulated disk onto `images` is proven a bijection.
@@ -72,6 +87,36 @@ def prove_mesh_bijection(images: np.ndarray, triangles: np.ndarray, boundary: np
     images = np.asarray(images, dtype=np.float64)
     positive = orientation_signs(images, triangles) > 0
     turned_over = int(len(positive) - np.count_nonzero(positive))
+    simple = polygon_is_simple(images[np.asarray(boundary)])
+    return MeshBijection(turned_over == 0 and simple, turned_over, simple)
+
+
+def mesh_bijection(
+    vertices: np.ndarray, images: np.ndarray, triangles: np.ndarray, boundary: np.ndarray
+) -> MeshBijection:
+    """`prove_mesh_bijection`, with a triangle counted as turned over also where its signed area is
+    at most `core.meshes.mesh.folded_limits` of the source's (a negligible share of its own, scaled
+    by the ratio of the images' total area to the mesh's): what `fold_free_deform` proves.
+
+    Parameters
+    ----------
+    vertices : ndarray of shape (V, 2)
+        The mesh, its triangles counter-clockwise, one boundary loop.
+    images : ndarray of shape (V, 2)
+    triangles : ndarray of shape (T, 3), int
+    boundary : ndarray of shape (B,), int
+        The boundary vertices in order along the loop (counter-clockwise).
+
+    Returns
+    -------
+    MeshBijection
+    """
+    images = np.asarray(images, dtype=np.float64)
+    areas = triangle_signed_areas(images, triangles)
+    kept = (areas > folded_limits(triangle_signed_areas(vertices, triangles), areas)) & (
+        orientation_signs(images, triangles) > 0
+    )
+    turned_over = int(len(kept) - np.count_nonzero(kept))
     simple = polygon_is_simple(images[np.asarray(boundary)])
     return MeshBijection(turned_over == 0 and simple, turned_over, simple)
 
@@ -204,4 +249,10 @@ def _segments_meet(p1: np.ndarray, p2: np.ndarray, p3: np.ndarray, p4: np.ndarra
     return crossing | touching
 
 
-__all__ = ["MeshBijection", "orientation_signs", "polygon_is_simple", "prove_mesh_bijection"]
+__all__ = [
+    "MeshBijection",
+    "mesh_bijection",
+    "orientation_signs",
+    "polygon_is_simple",
+    "prove_mesh_bijection",
+]

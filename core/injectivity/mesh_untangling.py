@@ -79,6 +79,7 @@ def untangle_triangles(
     images: np.ndarray,
     triangles: np.ndarray,
     free: np.ndarray,
+    rings: int = RINGS,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Images with free vertices near turned-over triangles moved together so that none turns over.
 
@@ -92,6 +93,9 @@ def untangle_triangles(
     triangles : ndarray of shape (T, 3), int
     free : ndarray of shape (V,), bool
         Vertices that may move (the interior ones).
+    rings : int
+        Rings of triangles around the turned-over ones in the first region (doubled after each
+        region that fails): more where the tangle is known to be wide.
 
     Returns
     -------
@@ -109,7 +113,7 @@ def untangle_triangles(
         return images.copy(), np.zeros(len(images))
     tried, budget = np.zeros(len(images), dtype=bool), WORK
     for attempt in range(REGION_TRIES if np.any(turned) else 0):
-        movable = free & _rings_around(triangles, turned, len(images), RINGS * 2**attempt)
+        movable = free & _rings_around(triangles, turned, len(images), rings * 2**attempt)
         if np.array_equal(movable, tried):  # no new vertex: the region holds every free one (or none)
             break
         closest, fewest = None, np.count_nonzero(turned)
@@ -129,6 +133,24 @@ def untangle_triangles(
             budget -= taken * np.count_nonzero(movable)
         tried = movable
     return images.copy(), np.zeros(len(images))
+
+
+def relaxed(
+    vertices: np.ndarray, images: np.ndarray, triangles: np.ndarray, movable: np.ndarray, rounds: int
+) -> np.ndarray:
+    """Images (V, 2) with the `movable` (V,) vertices moved by `rounds` Newton steps on the barrier
+    energy E_ε (ε tiny) against the source triangles' shapes: from images that turn nothing over, a
+    step that would turn a triangle over raises E_ε past any bound and is cut back by the line
+    search, so triangles about to collapse open up and none turns over (the caller checks)."""
+    active = triangles[np.any(movable[triangles], axis=1)]
+    gradients, areas = reference_shapes(vertices, images, active, own_shapes=False)
+    problem = BarrierProblem(images, active, movable, gradients, areas)
+    positions = images[movable].ravel()
+    for _ in range(rounds):
+        positions = problem.newton_step(positions, TINY_EPSILON)
+    result = images.copy()
+    result[movable] = positions.reshape(-1, 2)
+    return result
 
 
 #: The tries on each region: (reference of the images' own shapes, start from the closest try so far
@@ -324,4 +346,4 @@ class BarrierProblem:
 _DETERMINANT_HESSIAN = np.array([[0, 0, 0, 1], [0, 0, -1, 0], [0, -1, 0, 0], [1, 0, 0, 0]], dtype=np.float64)
 
 
-__all__ = ["BarrierProblem", "reference_shapes", "regularised_determinant", "untangle_triangles"]
+__all__ = ["BarrierProblem", "reference_shapes", "regularised_determinant", "relaxed", "untangle_triangles"]

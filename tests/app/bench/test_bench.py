@@ -7,6 +7,7 @@ import pytest
 
 from app.bench import fold_free as bench_fold_free
 from app.bench import fold_free_drag as bench_fold_free_drag
+from app.bench import fold_free_held_out as bench_held_out
 from app.bench import mesher as bench_mesher
 from app.bench import pins as bench_pins
 from app.bench import table as bench
@@ -135,6 +136,7 @@ def test_quick_runs_every_row_once_at_tiny_sizes(monkeypatch):
         "fold_free_rows",
         lambda curve, repeats, forget, vertices: calls.update(fold_free=vertices),
     )
+    monkeypatch.setattr(bench_held_out, "held_out_rows", lambda forget, quick: calls.update(held_out=quick))
     monkeypatch.setattr(
         bench_mesher, "mesher_rows", lambda curve, repeats, vertices: calls.update(mesher=(repeats, vertices))
     )
@@ -163,6 +165,7 @@ def test_quick_runs_every_row_once_at_tiny_sizes(monkeypatch):
         "fold_free_drag": (0.5,),
         "export": (1, 1.0),  # 8 frames instead of the default 30 fps' 220
         "fold_free": (2_000,),
+        "held_out": True,
         "mesher": (1, (2_000,)),
         "pins": ((16,), 2, 1),
     }

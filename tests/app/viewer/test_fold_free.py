@@ -76,7 +76,11 @@ def test_the_plain_map_of_a_strong_drag_is_not_proven_and_its_fold_free_map_is(s
     # The boundary vertices on the target curve at their parameters, exactly as warp's.
     curve = core.ClosedBSpline(target)
     np.testing.assert_allclose(check.positions[mesh.boundary], curve(mesh.boundary_parameters), atol=1e-9)
-    assert status_text(check, 0) == f"fold-free, proven (σ₂ ≥ {check.sigma2_min:.2g})"
+    # core.fold_free_deform's map is the mesh's own, proven on the mesh (σ₂ of its triangles).
+    assert (
+        check.on_mesh
+        and status_text(check, 0) == f"fold-free on the mesh, proven (σ₂ ≥ {check.sigma2_min:.2g})"
+    )
 
 
 def test_the_status_of_a_fold_free_map_on_a_cornered_cage_says_it_is_proven_and_where_the_mesh_is_coarse():
@@ -99,6 +103,9 @@ def test_the_status_of_a_fold_free_map_on_a_cornered_cage_says_it_is_proven_and_
         "k", True, False, 0.0, np.zeros((0, 2)), np.zeros((0, 2)), "the path crosses", None, 0.1
     )
     assert status_text(failed, 5) == "fold-free map failed: the path crosses"
+    # core.fold_free_deform's own map, proven on the mesh: no σ₂ bound is claimed for it.
+    on_mesh = WarpCheck("k", True, True, 0.05, np.zeros((0, 2)), np.zeros((0, 2)), "t", positions, 0.1, True)
+    assert status_text(on_mesh, 0) == "fold-free on the mesh, proven (σ₂ ≥ 0.05)"
 
 
 def test_a_check_of_an_older_target_is_never_applied(starfish_basis):
@@ -291,7 +298,7 @@ def test_the_status_line_says_how_far_the_fold_free_map_has_come(starfish_basis)
     assert status_check(state) == "fold-free map: 40 % of the way"
     worker.answer(request)
     updates.update(state)
-    assert state.compute.check_progress is None and status_check(state).startswith("fold-free, proven")
+    assert state.compute.check_progress is None and status_check(state).startswith("fold-free on the mesh, proven")
 
 
 def test_playing_keyframes_asks_for_no_check(starfish_basis):

@@ -69,13 +69,14 @@ def test_fold_free_on_a_strong_drag_is_proven_and_draws_no_folded_triangle(displ
         # The plain map folds: the proof fails and the mesh has folded triangles.
         assert viewer.wait_for("status check folds", 60) == "status check folds near the marked spots"
         xdotool(display, "key", "b")
-        # At once the mesh map, proven a bijection (`app.viewer.fold_free_frames`); the continuous
-        # map's certificate after it.
+        # At once the mesh map, proven a bijection (`app.viewer.fold_free_frames`); the background
+        # worker's fold-free map after it (`core.fold_free_deform`: proven on the mesh, with the σ₂
+        # of its triangles).
         drawn = viewer.wait_for("fold-free drawn", 30)
         assert drawn == "fold-free drawn folded=0", drawn
         on_mesh = viewer.wait_for("status check fold-free on the mesh, proven", 30)
         assert on_mesh.startswith("status check fold-free on the mesh, proven; "), on_mesh
-        proven = viewer.wait_for("status check fold-free, proven", 60)
+        proven = viewer.wait_for("status check fold-free on the mesh, proven (σ₂ ≥ ", 60)
         sigma = float(proven.split("≥ ")[1].rstrip(")"))
         assert sigma > 0, proven
         _, target, saved = wait_for_session(session, lambda c, t, v: v.get("fold_free") is True)
