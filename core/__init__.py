@@ -40,7 +40,7 @@ from core.curves.closest_point import distance_to_curve
 from core.curves.examples import wave_heights
 from core.curves.interpolating_spline import interpolating_control_points
 from core.kernel_table import COMPILED_KERNELS, BY_NAME as KERNEL_TABLE, PARAMETERIZED_KERNELS
-from core.kernels import kernel_parameters
+from core.kernels import SHIFTS, kernel_parameters
 from core.mesh_basis import DEFAULT_SAMPLES_PER_SEGMENT
 from core.meshes import distortion
 from core.meshes.distortion import (
@@ -92,6 +92,7 @@ __all__ = [
     "PIN_KERNELS",
     "PLAIN_HARMONIC_MAP",
     "RADIUS_EDGE_RATIO",
+    "SHIFTS",
     "Boundary",
     "CacheWarning",
     "ClosedBSpline",

@@ -35,8 +35,8 @@ from pathlib import Path
 import numpy as np
 
 import core
-from app.bench.photos import PHOTO_SIZES, QUICK_SIZE, photo_rows
-from app.bench.timing import edge_for_vertices, median_time
+from app.bench.photos import PHOTO_SIZES, QUICK_SIZE, photo_rows, write_starfish_drag
+from app.bench.timing import edge_for_vertices, median_time, print_head
 from app.console import EXIT_ENVIRONMENT, EXIT_OK, ProgressBar
 from core import GRADIENTS_COMPILE_MESSAGE as GRADIENTS_COMPILING
 from core import examples
@@ -234,8 +234,7 @@ def _point_kernels(curve, sizes, repeats, quick) -> None:
     print("point kernels (basis functions G at random interior points)")
     header = f"{'kernel':<28} {'points M':>10} {'samples N':>10} {'seconds':>9} {'us/point':>9} "
     header += f"{'Newton med/max':>15}"
-    print(header)
-    print("-" * len(header))
+    print_head(header)
     samples = SAMPLES_PER_SEGMENT * curve.n
     rows = [(name, sizes[0]) for name in core.KERNELS if name not in ("wachspress", "laplace")]
     rows[1:1] = [("harmonic-like", size) for size in sizes[1:]]
@@ -306,8 +305,7 @@ def _fem_comparison(curve, vertices, repeats: int, least_seconds: float = ROW_SE
     )
     header = f"{'vertices V':>11} {'mesh s':>8} {'FEM s':>8} {'poisson s':>10} {'FEM / poisson':>14}"
     header += f" {'solve cached s':>15} {'harmonic-like s':>16} {'FEM / h-like':>13} {'Newton med':>11}"
-    print(header)
-    print("-" * len(header))
+    print_head(header)
     for count in vertices:
         max_edge = edge_for_vertices(curve.area, count)
         start = time.perf_counter()
@@ -404,12 +402,7 @@ def _warp_4k(size) -> None:
             colour = tuple(int(c) for c in rng.integers(0, 255, 3))
             cv2.circle(image, centre, int(rng.integers(5, width // 20)), colour, -1, cv2.LINE_AA)
         cv2.imwrite(str(folder / "image.png"), image)
-        cage = examples.starfish() * (0.45 * height) + np.array([width / 2, height / 2])
-        target = cage.copy()
-        target[0] += (0.1 * height, 0.05 * height)
-        target[4] -= (0.05 * height, 0.1 * height)
-        (folder / "cage.json").write_text(json.dumps({"control_points": cage.tolist()}))
-        (folder / "target.json").write_text(json.dumps({"control_points": target.tolist()}))
+        write_starfish_drag(folder, width, height)
         environment = dict(os.environ, TRANSFINITE_CACHE_DIR=str(folder / "cache"))
         command = [
             sys.executable,

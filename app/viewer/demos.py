@@ -35,19 +35,16 @@ import numpy as np
 from app.io.bundled import bundled_directory
 from app.io.files import (
     InputError,
-    Session,
     finite_number,
     read_cage,
     read_json,
-    read_session,
-    session_keyframes,
     write_cage,
     write_json,
     write_png,
-    write_session,
 )
+from app.io.session import Animation, KernelChoice, Session, read_session, write_session
 from app.viewer.editing import curve_points, default_max_edge
-from app.warp.keyframes import DEFAULT_INTERPOLATION, Keyframe, keyframes_json
+from app.warp.keyframes import DEFAULT_INTERPOLATION, Keyframe
 from core import DEFAULT_KERNEL
 
 SIZE = (640, 480)
@@ -336,21 +333,24 @@ def write_demo(name: str, directory: Path) -> DemoFiles:
     write_json(files.script, {"demo": name, "moves": moves})
     cage = read_cage(files.cage)  # rounded as in the file
     keyframes = script_keyframes(cage, read_script(files.script, len(cage)))
-    extra = {
-        "keyframes": keyframes_json(keyframes),
-        "interpolation": DEFAULT_INTERPOLATION,
-        "mesh": {"max_edge": default_max_edge(cage)},  # the viewer's mesh: animate shows what it plays
-    }
     # The session shows the script's boldest pose, so that `warp --session` (and any kernel chosen
     # for it) shows a deformation, with the default kernel, which nothing needs compiling for.
     boldest = max(keyframes, key=lambda keyframe: np.abs(keyframe.target - cage).max())
-    write_session(files.session, Session(files.image, cage, boldest.target, DEFAULT_KERNEL, extra=extra))
+    session = Session(
+        files.image,
+        cage,
+        boldest.target,
+        KernelChoice(DEFAULT_KERNEL),
+        max_edge=default_max_edge(cage),  # the viewer's mesh: animate shows what it plays
+        animation=Animation(keyframes, DEFAULT_INTERPOLATION),
+    )
+    write_session(files.session, session)
     return files
 
 
 def demo_keyframes(files: DemoFiles) -> tuple[Keyframe, ...]:
     """The keyframes of a demo's session file (`InputError` if it cannot be read)."""
-    return session_keyframes(read_session(files.session), files.session)[0]
+    return read_session(files.session).animation.keyframes
 
 
 #: Seconds from the last move of a script back to the start, so that the animation loops.

@@ -28,6 +28,7 @@ from pathlib import Path
 from app.io.files import InputError, read_json
 from app.viewer import commands, controller, editing
 from app.viewer.basis_updates import BasisUpdates
+from app.viewer.documents import OpenedDocument, apply_preferences, open_document, save, start_snapshot
 from app.viewer.exports import Exporter
 from app.viewer.file_dialogs import FileRequests
 from app.viewer.fold_free import CheckUpdates, CheckWorker
@@ -35,7 +36,6 @@ from app.viewer.milestones import Milestones
 from app.viewer.playback_clock import PlaybackClock
 from app.viewer.precompute import Precompute
 from app.viewer.script_replay import ScriptReplay
-from app.viewer.session import OpenedDocument, apply_preferences, open_document, save, start_snapshot
 from app.viewer.state import AppState, History
 from app.viewer.window_fit import save_settings, screen_rectangle
 from app.viewer.window_input import InputQueue

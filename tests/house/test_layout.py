@@ -45,7 +45,7 @@ def test_the_geometry_of_framing_and_editing_loads_no_gl_module():
     # The viewer's document, editing and framing are plain geometry (app.render.viewport):
     # testable without GL.
     modules = (
-        "app.warp.framing, app.viewer.state, app.viewer.editing, app.viewer.controller, app.viewer.session"
+        "app.warp.framing, app.viewer.state, app.viewer.editing, app.viewer.controller, app.viewer.documents"
     )
     loaded = f"sorted(m for m in sys.modules if m.split('.')[0] in {FORBIDDEN[1:]!r})"
     code = f"import sys, {modules}; print({loaded})"

@@ -118,7 +118,7 @@ def test_a_move_that_sets_fold_free_says_so_before_its_press(tmp_path):
 
 @pytest.mark.parametrize("name", list(DEMOS))
 def test_demo_sessions_hold_their_scripts_as_keyframes(name):
-    from app.io.files import read_session
+    from app.io.session import read_session
 
     files = demo_files(name)
     cage = read_cage(files.cage)

@@ -10,7 +10,9 @@ import pytest
 from support.fold_free_checks import ASSETS, STARFISH, strong_target  # noqa: F401
 
 import core
+from app.io.session import session_from_json, session_json
 from app.viewer import commands
+from app.viewer.documents import history_of, session_of
 from app.viewer.fold_free import (
     PAUSE,
     CheckProgress,
@@ -22,7 +24,6 @@ from app.viewer.fold_free import (
 )
 from app.viewer.gui import status_check
 from app.viewer.precompute import compute, make_request, result_from_message
-from app.viewer.session import history_of, session_of
 from app.viewer.state import AppState, Drag, History, Snapshot, WarpCheck
 
 
@@ -176,16 +177,18 @@ def test_fold_free_needs_poisson_is_undoable_and_another_kernel_turns_it_off(sta
 
 def test_the_session_keeps_fold_free_as_warp_reads_it(starfish_basis):
     state = opened(starfish_basis)
-    assert "fold_free" not in session_of(state, 12.0).extra  # absent, as older versions wrote
+    assert "fold_free" not in session_json(session_of(state, 12.0))  # absent, as older versions wrote
     commands.command(state, "fold_free")
     session = session_of(state, 12.0)
-    assert session.extra["fold_free"] is True
-    undo, redo = history_of(session.extra["history"], ASSETS / "starfish.png")
+    assert session.fold_free is True and session_json(session)["fold_free"] is True
+    undo, redo = history_of(session.history, ASSETS / "starfish.png")
     assert [step.fold_free for step in undo] == [False] and redo == []
     # Older sessions' steps (no key) read as before.
-    steps = session.extra["history"]["undo"]
+    steps = session_json(session)["history"]["undo"]
     del steps[0]["fold_free"]
-    assert history_of({"undo": steps}, ASSETS / "starfish.png")[0][0].fold_free is False
+    value = {**session_json(session), "image": "starfish.png", "history": {"undo": steps}}
+    older = session_from_json(value, ASSETS / "s.json")
+    assert history_of(older.history, ASSETS / "starfish.png")[0][0].fold_free is False
 
 
 def test_the_worker_process_answers_the_newest_request(starfish_basis):
@@ -298,7 +301,9 @@ def test_the_status_line_says_how_far_the_fold_free_map_has_come(starfish_basis)
     assert status_check(state) == "fold-free map: 40 % of the way"
     worker.answer(request)
     updates.update(state)
-    assert state.compute.check_progress is None and status_check(state).startswith("fold-free on the mesh, proven")
+    assert state.compute.check_progress is None and status_check(state).startswith(
+        "fold-free on the mesh, proven"
+    )
 
 
 def test_playing_keyframes_asks_for_no_check(starfish_basis):
