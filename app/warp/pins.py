@@ -15,7 +15,8 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from app.io.files import InputError, Session, finite_number, read_json
+from app.io.files import InputError, finite_number, read_json
+from app.io.session import Session
 
 
 @dataclass(frozen=True)
@@ -74,19 +75,12 @@ def read_pins(path: str | os.PathLike, max_distortion: float | None) -> PinReque
 
 
 def session_pins(session: Session, path: str | os.PathLike) -> PinRequest | None:
-    """The pins a session holds (None if it holds none)."""
-    value = session.extra.get("pins", [])
-    where = f"{path}: pins"
-    if not isinstance(value, list):
-        raise InputError(f'{where}: must be a list of {{"at": [x, y], "to": [x, y]}}, got {value!r:.60}')
-    if not value:
+    """The pins a session holds (None if it holds none); the session's model has checked ``pins``
+    and ``max_distortion`` (`app.io.session`), ``fixed`` is checked here."""
+    if not session.pins:
         return None
-    for index, pin in enumerate(value):
-        if not (isinstance(pin, dict) and "at" in pin and "to" in pin):
-            raise InputError(f'{where}[{index}]: must be {{"at": [x, y], "to": [x, y]}}, got {pin!r:.60}')
-    pins = _points([pin["at"] for pin in value], f"{where}: at")
-    moved = _points([pin["to"] for pin in value], f"{where}: to")
-    bound = checked_bound(session.extra.get("max_distortion"), f"{path}: max_distortion")
+    pins = np.array([pin.at for pin in session.pins], dtype=np.float64)
+    moved = np.array([pin.to for pin in session.pins], dtype=np.float64)
     fixed = session.extra.get("fixed", [])
     if not isinstance(fixed, list) or not all(
         isinstance(i, int) and not isinstance(i, bool) and 0 <= i < len(session.target) for i in fixed
@@ -94,7 +88,9 @@ def session_pins(session: Session, path: str | os.PathLike) -> PinRequest | None
         raise InputError(
             f"{path}: fixed: must be a list of control point indices from 0 to {len(session.target) - 1}"
         )
-    return PinRequest(pins, moved, bound, where, {i: session.target[i] for i in fixed})
+    return PinRequest(
+        pins, moved, session.max_distortion, f"{path}: pins", {i: session.target[i] for i in fixed}
+    )
 
 
 def checked_bound(value, where: str) -> float | None:

@@ -128,7 +128,7 @@ def test_a_sessions_bad_bound_is_one_line(files, capfd):
     session.update(kernel="poisson", pins=[{"at": PINS[0], "to": MOVED[0]}], max_distortion=0.2)
     (files / "pinned.json").write_text(json.dumps(session))
     code, _, err = run_main(["warp", "--session", files / "pinned.json", "--output", files / "s.png"], capfd)
-    assert code == 2 and re.search(r"pinned\.json: max_distortion: must be a number >= 1", err.strip())
+    assert code == 2 and re.search(r'pinned\.json.*"max_distortion" must be a number >= 1', err.strip()), err
     assert not (files / "s.png").exists()
 
 
@@ -138,7 +138,7 @@ def test_animate_refuses_a_sessions_bad_pins_like_warp(files, capfd):
     session.update(kernel="poisson", keyframes=keyframes, pins=[{"at": [0.0, 0.0]}])
     (files / "pinned.json").write_text(json.dumps(session))
     code, _, err = run_main(["animate", files / "pinned.json", "--output", files / "a.gif"], capfd)
-    assert code == 2 and re.search(
-        r'pinned\.json: pins\[0\]: must be \{"at": \[x, y\], "to": \[x, y\]\}', err
+    assert code == 2 and re.search(r'pinned\.json: pins\[0\]: expected an object with "at" and "to"', err), (
+        err
     )
     assert not (files / "a.gif").exists()
