@@ -18,6 +18,9 @@ import numpy as np
 from app.io.files import InputError, finite_number, read_json
 from app.io.session import Session
 
+#: The two lists of a PINS.json file: the pins, and where each is moved.
+PINS_FILE_KEYS = ("pins", "moved")
+
 
 @dataclass(frozen=True)
 class PinRequest:
@@ -63,10 +66,9 @@ def read_pins(path: str | os.PathLike, max_distortion: float | None) -> PinReque
     """The pins of a PINS.json file, with the command line's bound."""
     value = read_json(path)
     where = str(path)
-    if not isinstance(value, dict) or "pins" not in value or "moved" not in value:
+    if not isinstance(value, dict) or not all(key in value for key in PINS_FILE_KEYS):
         raise InputError(f'{where}: expected an object with "pins" and "moved", lists of [x, y] pairs')
-    pins = _points(value["pins"], f'{where}: "pins"')
-    moved = _points(value["moved"], f'{where}: "moved"')
+    pins, moved = (_points(value[key], f'{where}: "{key}"') for key in PINS_FILE_KEYS)
     if len(pins) != len(moved):
         raise InputError(
             f'{where}: {len(pins)} "pins" but {len(moved)} "moved" points; give one for each pin'
