@@ -153,9 +153,12 @@ def build_parser(prog: str = "python -m app") -> argparse.ArgumentParser:
 
 def _warp(args: argparse.Namespace) -> int:
     from app.warp.job import run_job, warp_job
+    from app.warp.pins import pin_report
 
     job, inputs = warp_job(args)
     report = run_job(job, inputs.target_source, args.report)
+    if args.report and inputs.pinned is not None:
+        report[:0] = pin_report(inputs.pinned)
     if report:
         print("\n".join(report))
     return EXIT_OK
