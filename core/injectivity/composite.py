@@ -54,8 +54,11 @@ SMALLEST_MESH_STEP = 1.0 / 64
 #: `CONTINUOUS_STEPS` steps, kept where the mesh's map is proven a bijection: its steps cost a
 #: certificate of the cage and an evaluation of the basis, the mesh's a sparse factorisation on all
 #: vertices (the bench's strong drag at 50k vertices: 0.82 s against 1.93 s, loaded machine).
+#: Only for cages of at most `CONTINUOUS_MOST_POINTS` control points: the continuous steps need the
+#: cage's densities (a solve of 0.14 s at 60 points, 0.55 s at 120, ~5 s at 200 on a loaded machine).
 CONTINUOUS_FIRST = 20_000
 CONTINUOUS_STEPS = 8
+CONTINUOUS_MOST_POINTS = 120
 
 
 def fold_free_deform(
@@ -87,7 +90,8 @@ def fold_free_deform(
         Triangles over `points`, counter-clockwise (as in `core.Mesh`).  With `boundary` too, the
         mesh's own map, proven a bijection on the mesh (`core.injectivity.mesh_fold_free`; the
         certificate's ``on_mesh``), tried after the continuous composite of at most
-        `CONTINUOUS_STEPS` steps on meshes of `CONTINUOUS_FIRST` vertices or more.  Without,
+        `CONTINUOUS_STEPS` steps on meshes of `CONTINUOUS_FIRST` vertices or more (cages of at
+        most `CONTINUOUS_MOST_POINTS` control points).  Without,
         steps of the continuous map are halved while its interpolant turns a triangle over (down
         to `SMALLEST_MESH_STEP`), those left at the end unfolded (`_unfolded`); the certificate
         says how many moved, how far, how many stay over.
@@ -122,7 +126,7 @@ def fold_free_deform(
     if triangles is not None and boundary is not None:
         plain = None if basis is None else np.asarray(basis, dtype=np.float64) @ goal
         continuous = None
-        if len(images) >= CONTINUOUS_FIRST:
+        if len(images) >= CONTINUOUS_FIRST and curve.n <= CONTINUOUS_MOST_POINTS:
 
             def continuous():
                 try:

@@ -194,6 +194,9 @@ def test_a_large_mesh_takes_the_continuous_composite_first_where_its_mesh_map_is
     assert core.folded_triangles(mesh, core.deform(core.mesh_basis_functions(curve, mesh), target)).any()
     _, certificate = unfolded(curve, target, mesh)
     assert certificate.on_mesh and certificate.extra["path"] == mesh_fold_free.CONTINUOUS_COMPOSITE
+    monkeypatch.setattr(composite, "CONTINUOUS_MOST_POINTS", curve.n - 1)  # a cage too large for it
+    _, certificate = unfolded(curve, target, mesh)
+    assert certificate.extra["path"] == mesh_fold_free.PATHS[0]
 
 
 @pytest.mark.parametrize("folded", [True, False])
