@@ -18,7 +18,7 @@ from typing import Protocol
 import numpy as np
 
 from app.io.files import InputError, kernel_names
-from app.viewer import drawing, editing
+from app.viewer import cage_files, drawing, editing
 from app.viewer.controller import (
     KEY_ZOOM_STEP,
     cancel_drag,
@@ -31,6 +31,7 @@ from app.viewer.controller import (
     show_time,
     zoom,
 )
+from app.viewer.file_dialogs import FileRequests
 from app.viewer.fold_free import HARMONIC_KERNEL
 from app.viewer.state import EDIT_MODES, MEASURES, PARAMETERIZATIONS, SHIFTS, AppState
 from app.viewer.view_modes import VIEW_MODE_NAMES
@@ -41,6 +42,9 @@ from app.warp.keyframes import INTERPOLATIONS, MAX_TIME, TIME_RESOLUTION, Keyfra
 
 class WindowActions(Protocol):
     """What the window's commands ask of the running viewer (`app.viewer.window.Viewer`)."""
+
+    state: AppState
+    dialogs: FileRequests
 
     def save_now(self) -> None: ...
 
@@ -549,6 +553,30 @@ def _open_session(viewer: WindowActions, value) -> None:
 @_window_command("open_path", "open the image at the path given")
 def _open_path(viewer: WindowActions, value) -> None:
     viewer.open_path(Path(value))
+
+
+@_window_command("save_cage", "save the source cage to a file (value: its path, .svg or .json; none: ask)")
+def _save_cage(viewer: WindowActions, value) -> None:
+    _save_cage_file(viewer, "cage", value)
+
+
+@_window_command("save_target", "save the target cage to a file (value: its path, .svg or .json; none: ask)")
+def _save_target(viewer: WindowActions, value) -> None:
+    _save_cage_file(viewer, "target", value)
+
+
+def _save_cage_file(viewer: WindowActions, which: str, path: str | None) -> None:
+    """Save the cage or the target to `path`; without one, ask where (a file dialog), or, with no
+    dialog program, write beside the session file and say so."""
+    state = viewer.state
+    if path:
+        cage_files.save_cage(state, which, Path(path).expanduser())
+        return
+    proposed = cage_files.proposed_path(state, which)
+    if not viewer.dialogs.ask_save(f"save_{which}", f"Save the {which}", proposed):
+        cage_files.save_cage(state, which, proposed)
+        if not state.status.message_is_error:
+            state.say(f"{state.status.message} (no file dialog program: zenity or kdialog)")
 
 
 @_window_command("play", "play or stop the demo script")

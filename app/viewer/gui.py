@@ -305,6 +305,13 @@ def _file_section(state: AppState, commands: list, extras: dict) -> None:
         commands.append(("start_over", None))
     if imgui.is_item_hovered():
         imgui.set_tooltip("a new start from the opening cage (or a fitted one); Ctrl+Z goes back")
+    for which in ("cage", "target"):
+        if which == "target":
+            imgui.same_line()
+        if imgui.button(f"Save {which}..."):
+            commands.append((f"save_{which}", None))
+        if imgui.is_item_hovered():
+            imgui.set_tooltip(f"write the {which} as an SVG path (or .json); Open reads it back")
     if extras.get("script"):
         if imgui.button("Stop script" if extras.get("playing") else "Play demo script"):
             commands.append(("play", None))
