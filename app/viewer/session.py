@@ -9,8 +9,8 @@ the default of older sessions, or ``"arc-length"``: `core.curves.arc_length`) an
 ``keyframes`` (``[{"time": s, "target": {cage}}, ...]``) and ``interpolation``
 (`app.warp.keyframes`).  ``viewer`` keeps what only the viewer needs
 (mode, what is shown, the power family's settings while another kernel is
-chosen, the timeline's time and loop) and ``history`` the undo and redo steps (the newest `SAVED_STEPS` of
-each), so that Ctrl+Z still works after a restart.
+chosen, the timeline's time, loop and frame rate ``fps``) and ``history`` the undo
+and redo steps (the newest `SAVED_STEPS` of each), so that Ctrl+Z still works after a restart.
 
 Without ``--session`` every image has its own file (`session_path_for`), which
 the viewer restores when the same image (or demo) is opened again, whatever the
@@ -48,6 +48,7 @@ from app.io.files import (
     write_session,
 )
 from app.render.viewport import View
+from app.viewer.frame_grid import DEFAULT_FPS, checked_fps, on_grid
 from app.viewer.session_files import backups, keep_aside, rotate_backups, session_path_for
 from app.viewer.session_lock import SessionLock, lock_session
 from app.viewer.state import (
@@ -180,7 +181,7 @@ def open_document(
         aside = keep_aside(path, "replaced")
         notices.append(f"started afresh; the previous session is kept as {aside}")
     pixels = read_image(image)
-    preferences = {}
+    outside = "transparent"
     if cage is not None:
         control_points = read_cage(cage)
         cage_curve(control_points, str(cage))
@@ -189,14 +190,14 @@ def open_document(
         notices.append(note)
         if (pixels[..., 3] == 255).all():
             # A photograph: its subject is cut out of a picture the user wants to keep whole.
-            preferences["outside"] = "original"
-    snapshot = Snapshot(Path(os.path.realpath(image)), control_points, control_points)
+            outside = "original"
+    snapshot = Snapshot(Path(os.path.realpath(image)), control_points, control_points, outside=outside)
     return OpenedDocument(
         snapshot,
         pixels,
         path,
         max_edge=max_edge,
-        preferences=preferences,
+        preferences={},
         start_cage=cage,
         notices=notices,
         lock=lock,
@@ -272,14 +273,9 @@ def restore(path: Path, max_edge: float | None = None) -> OpenedDocument:
     params = session_kernel_params(session, path)
     preferences = session.extra.get("viewer") if isinstance(session.extra.get("viewer"), dict) else {}
     outside, canvas = session_output(session, path)
-    preferences = {
-        **preferences,
-        "outside": outside,
-        "canvas": canvas,
-        "fill": session_fill(session.extra, path),
-    }
+    settings = {"outside": outside, "canvas": canvas, "fill": session_fill(session.extra, path)}
     if session_background(session, path) is not None:  # checked: a bad colour is one line
-        preferences["background"] = session.extra["background"]
+        settings["background"] = session.extra["background"]
     power = params.get("power", preferences.get("power", DEFAULT_POWER))
     shift = params.get("shift", preferences.get("shift", DEFAULT_SHIFT))
     power = finite_number(power)
@@ -300,10 +296,11 @@ def restore(path: Path, max_edge: float | None = None) -> OpenedDocument:
         interpolation,
         session_parameterization(session, path),
         session_fold_free(session, path) and session.kernel == "poisson",
+        **settings,
     )
     notices: list[str] = []
     try:
-        undo, redo = history_of(session.extra.get("history"), image)
+        undo, redo = history_of(session.extra.get("history"), image, settings)
     except (TypeError, ValueError, KeyError, OverflowError) as error:
         undo, redo = [], []
         notices.append(f"{path}: the undo history cannot be read ({error}); starting without it")
@@ -332,6 +329,7 @@ def _step(snapshot: Snapshot) -> dict:
         "interpolation": snapshot.interpolation,
         "parameterization": snapshot.parameterization,
         "fold_free": snapshot.fold_free,
+        **dict(zip(SETTINGS, snapshot.settings(), strict=True)),
     }
 
 
@@ -360,8 +358,14 @@ def history_json(state: AppState) -> dict:
     }
 
 
-def history_of(value, image: Path) -> tuple[list[Snapshot], list[Snapshot]]:
+#: The export's settings that each history step holds (`Snapshot.settings`).
+SETTINGS = ("outside", "canvas", "fill", "background")
+
+
+def history_of(value, image: Path, settings: dict | None = None) -> tuple[list[Snapshot], list[Snapshot]]:
     """Undo and redo steps of a ``history`` object (`history_json`); ([], []) when absent.
+
+    A step without the export's settings (older sessions) takes `settings`, the session's.
 
     Raises
     ------
@@ -394,6 +398,7 @@ def history_of(value, image: Path) -> tuple[list[Snapshot], list[Snapshot]]:
             power, shift = float(step["power"]), step["shift"]
             parameterization = step.get("parameterization", "natural")  # absent in older sessions
             fold_free = step.get("fold_free", False) is True and kernel == "poisson"
+            kept = {name: step[name] for name in SETTINGS if _valid_setting(name, step.get(name))}
             result.append(
                 Snapshot(
                     image,
@@ -406,11 +411,28 @@ def history_of(value, image: Path) -> tuple[list[Snapshot], list[Snapshot]]:
                     interpolation,
                     parameterization,
                     fold_free,
+                    **{**(settings or {}), **kept},
                 )
             )
         return result
 
     return snapshots("undo"), snapshots("redo")
+
+
+def _valid_setting(name: str, value) -> bool:
+    """Whether `value` is a valid export setting `name` of a history step (one of `SETTINGS`)."""
+    from app.io.images.colours import parse_colour
+    from app.warp.fill import checked_fill
+
+    if not isinstance(value, str):
+        return False
+    if name in ("outside", "canvas"):
+        return value in (OUTSIDES if name == "outside" else CANVASES)
+    try:
+        checked_fill(value, name) if name == "fill" else value == "none" or parse_colour(value)
+    except ValueError:
+        return False
+    return True
 
 
 def start_snapshot(current: Snapshot, image: np.ndarray, cage: Path | None) -> tuple[Snapshot, str]:
@@ -469,19 +491,12 @@ def apply_preferences(state: AppState, preferences: dict | None) -> None:
     for name in ("show_folds", "show_wireframe", "show_overlay"):
         if isinstance(preferences.get(name), bool):
             setattr(state.display, name, preferences[name])
-    if preferences.get("outside") in OUTSIDES:
-        state.document.outside = preferences["outside"]
-    if preferences.get("canvas") in CANVASES:
-        state.document.canvas = preferences["canvas"]
-    if isinstance(preferences.get("fill"), str):
-        state.document.fill = preferences["fill"]  # checked by `restore` (app.warp.fill.session_fill)
-    if isinstance(preferences.get("background"), str):
-        state.document.background = preferences["background"]  # checked by `restore`
     if isinstance(preferences.get("loop"), bool):
         state.playback.loop = preferences["loop"]
+    state.playback.fps = checked_fps(preferences.get("fps")) or DEFAULT_FPS
     time = finite_number(preferences.get("time"))
     if time is not None and 0 <= time <= MAX_TIME:
-        state.playback.time = time
+        state.playback.time = on_grid(time, state.playback.fps)
     selected = preferences.get("selected")
     if isinstance(selected, int) and 0 <= selected < state.document.live.n:
         state.selection.selected = selected
@@ -503,6 +518,7 @@ def session_of(state: AppState, max_edge: float | None) -> Session:
             "shift": snapshot.shift,
             "time": state.playback.time,
             "loop": state.playback.loop,
+            "fps": state.playback.fps,
         }
     }
     if snapshot.kernel_params():

@@ -341,7 +341,7 @@ def test_keyframes_are_saved_restored_and_in_the_history_steps(tmp_path):
     second = first.replace(keyframes=(*first.keyframes, Keyframe(1.5, moved)), interpolation="linear")
     state = AppState(Document(History(first), first, document.image, path))
     state.document.history.push(second)
-    state.document.live, state.playback.time, state.playback.loop = second, 0.75, False
+    state.document.live, state.playback.time, state.playback.loop = second, 0.8, False
     sessions.save(state, None)
     stored = json.loads(path.read_text())
     assert [k["time"] for k in stored["keyframes"]] == [0.0, 1.5] and stored["interpolation"] == "linear"
@@ -351,7 +351,7 @@ def test_keyframes_are_saved_restored_and_in_the_history_steps(tmp_path):
     assert restored.snapshot == second and restored.undo == [first]
     again = AppState(Document(History(restored.snapshot), restored.snapshot, restored.image, path))
     sessions.apply_preferences(again, restored.preferences)
-    assert (again.playback.time, again.playback.loop) == (0.75, False)
+    assert (again.playback.time, again.playback.loop) == (0.8, False)
 
 
 def test_old_sessions_without_keyframes_still_load(tmp_path):
@@ -533,3 +533,31 @@ def test_an_autosave_killed_before_its_rename_is_finished_on_the_next_open(given
     os.utime(stale, (stamp - 10, stamp - 10))
     again = sessions.open_document(session=path)
     assert path.read_bytes() == current and not any("finished" in n for n in again.notices)
+
+
+def test_the_export_settings_are_in_every_history_step_and_come_back_with_undo(tmp_path):
+    from app.viewer import commands
+
+    files = demo_files("starfish")
+    path = tmp_path / "settings.json"
+    state = opened_state(sessions.open_document(files.image, files.cage, path))
+    commands.command(state, "outside", "original")
+    commands.command(state, "fill", "#20c040")
+    sessions.save(state, None)
+    stored = json.loads(path.read_text())
+    assert (stored["outside"], stored["fill"]) == ("original", "#20c040")
+    assert [(s["outside"], s["fill"]) for s in stored["history"]["undo"]] == [
+        ("transparent", "none"),
+        ("original", "none"),
+    ]
+    again = opened_state(sessions.restore(path))
+    assert (again.document.outside, again.document.fill) == ("original", "#20c040")
+    commands.command(again, "undo")
+    assert again.document.fill == "none" and again.status_message() == "undone: fill → #20c040"
+    # Steps of older sessions, without the settings, take the session's; bad ones are not taken.
+    for step in stored["history"]["undo"]:
+        del step["outside"], step["fill"]
+    stored["history"]["undo"][0]["canvas"] = "sideways"
+    path.write_text(json.dumps(stored))
+    older = sessions.restore(path)
+    assert [(s.outside, s.fill, s.canvas) for s in older.undo] == [("original", "#20c040", "source")] * 2

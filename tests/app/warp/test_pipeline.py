@@ -179,7 +179,7 @@ def test_the_viewers_background_is_saved_and_drawn_as_warp_draws_it(tmp_path, ca
     assert state.document.background == "#0000ff" and state.document.session_dirty
     save(state, MAX_EDGE)
     assert read_session(tmp_path / "s.json").extra["background"] == "#0000ff"
-    assert restore(tmp_path / "s.json").preferences["background"] == "#0000ff"
+    assert restore(tmp_path / "s.json").snapshot.background == "#0000ff"
     # An earlier test's warp made its own context current and released it: this one is made current.
     with ctx, WarpRenderer(ctx) as renderer:
         scene = Scene(renderer)
