@@ -54,8 +54,9 @@ def gui(
     spots = {} if spots is None else spots
     commands: list[tuple] = []
     width, height = state.screen.window_size
-    _panel(state, commands, extras, height, spots)
-    _status(state, width, height)
+    status_height = _status_height(state, width)
+    _panel(state, commands, extras, height - status_height, spots)
+    _status(state, width, height, status_height, spots)
     _canvas_label(state)
     if state.display.view_mode != "image" and state.compute.basis is not None:
         _colour_bar(state, width, height)
@@ -109,23 +110,26 @@ def _path_prompt(state: AppState, commands: list[tuple], size: tuple[float, floa
         setattr(state.status, field, None)
 
 
-def _panel(state: AppState, commands: list, extras: dict, height: float, spots: dict) -> None:
+def _panel(state: AppState, commands: list, extras: dict, room: float, spots: dict) -> None:
+    """The side panel, at most `room` pixels tall (the window above the status line): taller
+    content scrolls, and a click on the panel never lifts it over the status line."""
     live = state.document.live
     imgui.set_next_window_pos((0, 0))
     # As tall as its content: every pixel of panel costs a software rasteriser time.
-    imgui.set_next_window_size_constraints((PANEL_WIDTH, 0), (PANEL_WIDTH, height - STATUS_HEIGHT))
-    imgui.begin("Transfinite warp", None, _FIXED | imgui.WindowFlags_.always_auto_resize)
+    imgui.set_next_window_size_constraints((PANEL_WIDTH, 0), (PANEL_WIDTH, room))
+    flags = _FIXED | imgui.WindowFlags_.always_auto_resize | imgui.WindowFlags_.no_bring_to_front_on_focus
+    imgui.begin("Transfinite warp", None, flags)
     # A window too short for the whole panel (a 1024x600 screen) opens with two sections folded.
-    tall = height >= FOLD_BELOW_HEIGHT
-    if _section("Edit"):
+    tall = room + STATUS_HEIGHT >= FOLD_BELOW_HEIGHT
+    if _section("Edit", spots):
         _edit_section(state, live, commands)
-    if _section("Kernel"):
+    if _section("Kernel", spots):
         _kernel_section(state, live, commands, spots)
-    if _section("Show", tall):
+    if _section("Show", spots, tall):
         _show_section(state, commands)
-    if _section("Animation", tall):
+    if _section("Animation", spots, tall):
         _timeline(state, commands, extras)
-    if _section("File"):
+    if _section("File", spots):
         _file_section(state, commands, extras)
     state.screen.canvas_left = PANEL_WIDTH
     # Its bottom edge and the pixels of content scrolled out of sight (for the window tests).
@@ -137,10 +141,14 @@ def _panel(state: AppState, commands: list, extras: dict, height: float, spots: 
 FOLD_BELOW_HEIGHT = 900
 
 
-def _section(title: str, open_at_first: bool = True) -> bool:
-    """A heading that folds its section (a click); whether the section's widgets are shown."""
+def _section(title: str, spots: dict, open_at_first: bool = True) -> bool:
+    """A heading that folds its section (a click); whether the section's widgets are shown.
+    Its centre is ``spots[title]`` (for the window tests)."""
     imgui.set_next_item_open(open_at_first, imgui.Cond_.once)
-    return imgui.collapsing_header(title)
+    shown = imgui.collapsing_header(title)
+    low, high = imgui.get_item_rect_min(), imgui.get_item_rect_max()
+    spots[title] = (0.5 * (low.x + high.x), 0.5 * (low.y + high.y))
+    return shown
 
 
 def _edit_section(state: AppState, live, commands: list) -> None:
@@ -521,31 +529,47 @@ def in_the_font(text: str) -> str:
     return text
 
 
-def _status(state: AppState, width: float, height: float) -> None:
-    """The status line: kernel, mesh, zoom, timings and the last message.
-
-    A message too long for the line goes on lines of its own above it, wrapped,
-    instead of being cut at the window's edge.
-    """
+def _status_lines(state: AppState, width: float) -> tuple[str, str, bool, float]:
+    """The status line's summary and message, whether they share one line, and the height the
+    wrapped lines above the last take (0 when all fits on one line)."""
     summary = in_the_font(status_summary(state))
     message = in_the_font(state.status_message())
-    padding = imgui.get_style().window_padding.x
-    room = width - 2 * padding
+    room = width - 2 * imgui.get_style().window_padding.x
     spacing = imgui.get_style().item_spacing.x
-    inline = imgui.calc_text_size(f"{summary} | {message}").x + spacing <= room
-    extra = 0.0 if inline or not message else imgui.calc_text_size(message, wrap_width=room).y
-    imgui.set_next_window_pos((0, height - STATUS_HEIGHT - extra))
-    imgui.set_next_window_size((width, STATUS_HEIGHT + extra))
+    inline = not message or imgui.calc_text_size(f"{summary} | {message}").x + spacing <= room
+    wrapped = imgui.calc_text_size(summary, wrap_width=room).y - imgui.get_text_line_height()
+    if not inline:
+        wrapped += imgui.calc_text_size(message, wrap_width=room).y + spacing
+    return summary, message, inline, max(wrapped, 0.0)
+
+
+def _status_height(state: AppState, width: float) -> float:
+    """Window pixels the status line takes at the window's bottom (more than one line when its
+    words do not fit the window's width)."""
+    return STATUS_HEIGHT + _status_lines(state, width)[3]
+
+
+def _status(state: AppState, width: float, height: float, status_height: float, spots: dict) -> None:
+    """The status line: kernel, mesh, zoom, timings and the last message.
+
+    A message too long for the line goes on lines of its own above it, and a summary too long
+    for the window wraps, instead of being cut at the window's edge; the panel stays above it
+    (`_panel`).  Its top is ``spots["status"]`` (for the window tests).
+    """
+    summary, message, inline, _ = _status_lines(state, width)
+    imgui.set_next_window_pos((0, height - status_height))
+    imgui.set_next_window_size((width, status_height))
     imgui.begin("##status", None, _FIXED | imgui.WindowFlags_.no_title_bar | imgui.WindowFlags_.no_scrollbar)
     colour = (1.0, 0.45, 0.4, 1.0) if state.status.message_is_error else (0.75, 0.85, 1.0, 1.0)
+    imgui.push_text_wrap_pos(0.0)
     if message and not inline:
-        imgui.push_text_wrap_pos(0.0)
         imgui.text_colored(colour, message)
-        imgui.pop_text_wrap_pos()
     imgui.text(summary)
+    imgui.pop_text_wrap_pos()
     if message and inline:
         imgui.same_line()
         imgui.text_colored(colour, f"| {message}")
+    spots["status"] = (0.0, height - status_height)
     imgui.end()
 
 

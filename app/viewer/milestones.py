@@ -9,6 +9,9 @@ import time
 
 from app.viewer.state import AppState
 
+#: The panel's sections (`app.viewer.gui`), whose headings' centres are announced.
+SECTIONS = ("Edit", "Kernel", "Show", "Animation", "File")
+
 #: Seconds between two updates of the status line's frame times (a median of every frame so far).
 FIGURES_INTERVAL = 0.5
 
@@ -47,6 +50,9 @@ class Milestones:
         #: Window points of some widgets (`app.viewer.gui.gui` fills it), announced for the tests.
         self.spots: dict = {}
         self.figures_at = -FIGURES_INTERVAL  # when the status line's frame times were last computed
+        self.said = ""  # the status line's message last announced
+        self.status_top: float | None = None  # the status line's top edge last announced
+        self.headings: dict = {}  # the panel's section headings last announced, by title
 
     def announce(self, line: str) -> None:
         if self.test_mode:
@@ -113,6 +119,25 @@ class Milestones:
             for name in ("kernel", "arc-length"):
                 x, y = self.spots.get(name, (0, 0))
                 self.announce(f"spot {name}={x:.0f},{y:.0f}")
+        self._status_line(state)
+
+    def _status_line(self, state: AppState) -> None:
+        """Test mode: what the status line says and where its top is, announced when they change."""
+        if not self.test_mode:
+            return
+        said = state.status_message()
+        if said != self.said:
+            self.said = said
+            self.announce(f"status said {said}")
+        top = self.spots.get("status", (0.0, None))[1]
+        if top is not None and top != self.status_top:
+            self.status_top = top
+            self.announce(f"spot status={top:.0f}")
+        for name in SECTIONS:  # the panel's headings move as sections open and the progress bar goes
+            spot = self.spots.get(name)
+            if spot is not None and spot != self.headings.get(name):
+                self.headings[name] = spot
+                self.announce(f"spot {name}={spot[0]:.0f},{spot[1]:.0f}")
 
     def _update_figures(self, state: AppState) -> None:
         """The status line's frame times: what ``--stats`` would report now, twice a second."""
