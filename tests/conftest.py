@@ -7,6 +7,9 @@ import pytest
 import core
 from core.curves import examples
 
+#: The viewer-window harness's `display` fixture (a private Xvfb server), for every window test.
+pytest_plugins = ("support.viewer_harness",)
+
 #: The test files that take longest, longest first (their wall time in one `.ci/run` on a shared
 #: machine, with core compiled beforehand: 431 s down to 22 s, 16 min for all). `.ci/run` hands
 #: whole files to its two workers in collection order (``--dist loadfile --no-loadscope-reorder``):

@@ -17,7 +17,18 @@ from pathlib import Path
 import cv2
 import numpy as np
 import pytest
-from support.commands import AFFINE, CAGE, HEIGHT, WIDTH, files, picture, run_main, transformed, warp_argv  # noqa: F401
+from support.commands import (  # noqa: F401 (fixtures: files, private_cache)
+    AFFINE,
+    CAGE,
+    HEIGHT,
+    WIDTH,
+    files,
+    picture,
+    private_cache,
+    run_main,
+    transformed,
+    warp_argv,
+)
 from support.paths import ROOT
 from support.png_files import blank_png, declared_png
 

@@ -27,7 +27,7 @@ import pytest
 from support.paths import ROOT
 from support.viewer_harness import (
     PANEL_RIGHT,
-    STATUS_TOP,  # noqa: F401  # noqa: F401
+    STATUS_TOP,
     ViewerProcess,
     changed_fraction,
     close_window,
