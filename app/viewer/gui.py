@@ -10,11 +10,15 @@ basis-function and height views, and the help with every shortcut.
 
 from __future__ import annotations
 
+import os
+
 from imgui_bundle import imgui
 
 from app.io.files import kernel_names
 from app.viewer.controller import STATUS_HEIGHT
 from app.viewer.editing import to_window
+from app.viewer.file_browser import EXPORT_SUFFIXES, OPEN_SUFFIXES, chosen, current_listing
+from app.viewer.file_dialogs import DIALOG_PROGRAMS
 from app.viewer.fold_free import HARMONIC_KERNEL, current_check, status_text
 from app.viewer.scene import export_frame
 from app.viewer.state import PARAMETERIZATIONS, SHIFTS, AppState
@@ -64,27 +68,32 @@ def gui(
         _help(state, shortcuts, width, height)
     for kind in ("open", "export"):
         if getattr(state.status, f"{kind}_prompt") is not None:
-            _path_prompt(state, commands, (width, height), kind)
+            _path_prompt(state, commands, (width, height), kind, spots)
     return commands
 
 
-def _path_prompt(state: AppState, commands: list[tuple], size: tuple[float, float], kind: str) -> None:
-    """Type a path to open (`kind` "open") or to export to ("export"), where no file dialog
-    program (zenity, kdialog) is installed."""
+def _path_prompt(
+    state: AppState, commands: list[tuple], size: tuple[float, float], kind: str, spots: dict
+) -> None:
+    """Type a path to open (`kind` "open") or to export to ("export"), or pick it in the viewer's
+    own file list (`app.viewer.file_browser`), where no file dialog program (zenity, kdialog) is
+    installed."""
     width, height = size
     field = f"{kind}_prompt"
-    title, explanation, button, command = {
+    title, explanation, button, command, suffixes = {
         "open": (
             "Open a file",
             "Path of an image, a session or a cage file (or drop the file on the window):",
             "Open",
             "open_path",
+            OPEN_SUFFIXES,
         ),
         "export": (
             "Export the warped image or the animation",
             "Write to (a .png image; the keyframes' animation as .mp4, .gif, or PNG frames in a folder/):",
             "Export",
             "export_path",
+            EXPORT_SUFFIXES,
         ),
     }[kind]
     imgui.set_next_window_pos((width / 2, height / 3), imgui.Cond_.appearing, (0.5, 0.5))
@@ -98,8 +107,9 @@ def _path_prompt(state: AppState, commands: list[tuple], size: tuple[float, floa
         # The proposed path starts selected, as in a file dialog: typing replaces it.
         flags = imgui.InputTextFlags_.enter_returns_true | imgui.InputTextFlags_.auto_select_all
         entered, text = imgui.input_text(f"##{kind}", getattr(state.status, field), flags)
+        text, opened_file = _file_list(text, suffixes, height, spots)
         setattr(state.status, field, text)
-        if (entered or imgui.button(button)) and text.strip():
+        if (entered or opened_file or imgui.button(button)) and text.strip():
             commands.append((command, text.strip()))
             setattr(state.status, field, None)
         imgui.same_line()
@@ -108,6 +118,30 @@ def _path_prompt(state: AppState, commands: list[tuple], size: tuple[float, floa
     imgui.end()
     if opened is False:
         setattr(state.status, field, None)
+
+
+def _file_list(text: str, suffixes: tuple[str, ...], height: float, spots: dict) -> tuple[str, bool]:
+    """The folder of the typed path, listed under the field; the field's new text (a click on an
+    entry) and whether a file was double-clicked.  ``spots["files"]`` is the first entry's middle
+    height and the rows' pitch (for the window tests; the list is in the window's middle)."""
+    listed = current_listing(text, suffixes)
+    programs = ", ".join(DIALOG_PROGRAMS)
+    imgui.text_disabled(f"no file dialog program ({programs}) is installed: the viewer lists the files")
+    imgui.text(f"{listed.folder}{os.sep}" + (f"  ({listed.note})" if listed.note else ""))
+    opened = False
+    if imgui.begin_child("##files", (0, min(280.0, 0.4 * height)), imgui.ChildFlags_.borders):
+        top = imgui.get_cursor_screen_pos().y
+        spots["files"] = (top + 0.5 * imgui.get_text_line_height(), imgui.get_text_line_height_with_spacing())
+        for entry in listed.entries:
+            label = entry.name if entry.folder or entry.name == ".." else f"  {entry.name}"
+            clicked, _ = imgui.selectable(
+                label, str(entry.path) == text, imgui.SelectableFlags_.allow_double_click
+            )
+            if clicked:
+                text = chosen(entry)
+                opened = not entry.folder and imgui.is_mouse_double_clicked(imgui.MouseButton_.left)
+    imgui.end_child()
+    return text, opened
 
 
 def _panel(state: AppState, commands: list, extras: dict, room: float, spots: dict) -> None:

@@ -22,6 +22,8 @@ from support.viewer_harness import (
     xdotool,
 )
 
+from app.io.svg_cages import svg_text
+
 pytestmark = pytest.mark.slow
 
 ASSETS = ROOT / "assets"
@@ -186,6 +188,47 @@ def test_a_pause_and_the_key_of_a_drag_sit_on_the_frame_grid(display, tmp_path):
         times = [k["time"] for k in saved["keyframes"]]
         assert times == [0.0, frame / 30, 2.0]
         assert saved["viewer"]["fps"] == 30.0
+        xdotool(display, "key", "ctrl+q")
+        code, stderr = viewer.finish()
+        assert code == 0, stderr
+    finally:
+        viewer.kill()
+
+
+def test_without_a_dialog_program_the_window_lists_the_files_and_a_double_click_opens_one(display, tmp_path):
+    """Ctrl+O on a machine without zenity or kdialog: the typed-path field lists the folder, says
+    why, and a double click on an SVG cage in it opens that cage (exactly: a Q/T chain)."""
+    session = tmp_path / "browse.json"
+    starfish_session(session)
+    folder = tmp_path / "pick"
+    folder.mkdir()
+    moved = CAGE + [3.5, -2.25]
+    (folder / "cage.svg").write_text(svg_text(moved, 640, 480))
+    no_programs = tmp_path / "empty-bin"
+    no_programs.mkdir()
+    env = {**environment(display, tmp_path), "PATH": str(no_programs)}
+    viewer = ViewerProcess(["view", "--session", str(session)], env, ROOT)
+    try:
+        window = viewer.wait_for("ready window=", 30).split("=")[1]
+        viewer.wait_for("basis ", 60)
+        xdotool(display, "windowfocus", "--sync", window)
+        xdotool(display, "key", "ctrl+o")
+        viewer.wait_for("text input on", 10)
+        xdotool(display, "key", "ctrl+a")
+        time.sleep(0.3)
+        xdotool(display, "type", "--delay", "5", f"{folder}{os.sep}")
+        settled(viewer)
+        first, pitch = last_spot(viewer, "files")
+        # The list: "..", then cage.svg; a double click on the file opens it.
+        xdotool(display, "mousemove", "--window", window, "640", f"{first + pitch:.0f}")
+        time.sleep(0.2)
+        xdotool(display, "click", "--repeat", "2", "--delay", "80", "1")
+        said = viewer.wait_for("status said cage from", 10)
+        assert said == f"status said cage from {folder / 'cage.svg'}"
+        cage, target, _ = wait_for_session(session, lambda c, t, v: np.allclose(c, moved, atol=1e-9))
+        np.testing.assert_array_equal(cage, target)
+        pixels = screenshot(display)
+        save_png(tmp_path / "browsed.png", pixels)
         xdotool(display, "key", "ctrl+q")
         code, stderr = viewer.finish()
         assert code == 0, stderr
