@@ -368,6 +368,11 @@ def _bench_command(commands, run) -> None:
         "--skip-drag", action="store_true", help="no viewer drag frame at 6k and 400k vertices (Xvfb)"
     )
     bench.add_argument(
+        "--skip-launch",
+        action="store_true",
+        help="no viewer launch to a warpable picture (the demo, a 24 megapixel photograph; Xvfb)",
+    )
+    bench.add_argument(
         "--skip-export",
         action="store_true",
         help="no viewer GIF export of the starfish animation against animate (Xvfb, xdotool)",
