@@ -178,6 +178,7 @@ def _cancel(state: AppState, value) -> None:
     if not cancel_drag(state):
         state.display.show_help = False
         state.status.open_prompt = state.status.export_prompt = None
+        state.status.cage_prompt = state.status.target_prompt = None
 
 
 @_command("new_cage", "draw a new cage by clicking")
@@ -586,17 +587,15 @@ def _save_target(viewer: WindowActions, value) -> None:
 
 
 def _save_cage_file(viewer: WindowActions, which: str, path: str | None) -> None:
-    """Save the cage or the target to `path`; without one, ask where (a file dialog), or, with no
-    dialog program, write beside the session file and say so."""
+    """Save the cage or the target to `path`; without one, ask where: a file dialog, or, with no
+    dialog program, the typed path and file list in the window (``status.cage_prompt``)."""
     state = viewer.state
     if path:
         cage_files.save_cage(state, which, Path(path).expanduser())
         return
     proposed = cage_files.proposed_path(state, which)
     if not viewer.dialogs.ask_save(f"save_{which}", f"Save the {which}", proposed):
-        cage_files.save_cage(state, which, proposed)
-        if not state.status.message_is_error:
-            state.say(f"{state.status.message} (no file dialog program: zenity or kdialog)")
+        setattr(state.status, f"{which}_prompt", str(proposed))
 
 
 @_window_command("play", "play or stop the demo script")

@@ -14,7 +14,7 @@ import os
 
 from imgui_bundle import imgui
 
-from app.io.files import kernel_names
+from app.io.files import CAGE_SUFFIXES, kernel_names
 from app.viewer.controller import STATUS_HEIGHT
 from app.viewer.editing import to_window
 from app.viewer.file_browser import EXPORT_SUFFIXES, OPEN_SUFFIXES, chosen, current_listing
@@ -66,7 +66,7 @@ def gui(
         _colour_bar(state, width, height)
     if state.display.show_help:
         _help(state, shortcuts, width, height)
-    for kind in ("open", "export"):
+    for kind in ("open", "export", "cage", "target"):
         if getattr(state.status, f"{kind}_prompt") is not None:
             _path_prompt(state, commands, (width, height), kind, spots)
     return commands
@@ -75,9 +75,9 @@ def gui(
 def _path_prompt(
     state: AppState, commands: list[tuple], size: tuple[float, float], kind: str, spots: dict
 ) -> None:
-    """Type a path to open (`kind` "open") or to export to ("export"), or pick it in the viewer's
-    own file list (`app.viewer.file_browser`), where no file dialog program (zenity, kdialog) is
-    installed."""
+    """Type a path to open (`kind` "open"), to export to ("export") or to save the cage or the
+    target to ("cage", "target"), or pick it in the viewer's own file list
+    (`app.viewer.file_browser`), where no file dialog program (zenity, kdialog) is installed."""
     width, height = size
     field = f"{kind}_prompt"
     title, explanation, button, command, suffixes = {
@@ -95,6 +95,8 @@ def _path_prompt(
             "export_path",
             EXPORT_SUFFIXES,
         ),
+        "cage": ("Save the cage", _CAGE_FILE_WORDS, "Save", "save_cage", CAGE_SUFFIXES),
+        "target": ("Save the target", _CAGE_FILE_WORDS, "Save", "save_target", CAGE_SUFFIXES),
     }[kind]
     imgui.set_next_window_pos((width / 2, height / 3), imgui.Cond_.appearing, (0.5, 0.5))
     imgui.set_next_window_size((min(640.0, 0.9 * width), 0), imgui.Cond_.appearing)
@@ -118,6 +120,9 @@ def _path_prompt(
     imgui.end()
     if opened is False:
         setattr(state.status, field, None)
+
+
+_CAGE_FILE_WORDS = "Write to (.svg: a path of quadratic Beziers that Inkscape edits; .json: the cage file):"
 
 
 def _file_list(text: str, suffixes: tuple[str, ...], height: float, spots: dict) -> tuple[str, bool]:

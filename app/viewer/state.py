@@ -539,6 +539,8 @@ class Status:
     message_owner: Snapshot | None = None  # the document the message was said about (`status_message`)
     open_prompt: str | None = None  # the path typed into the open prompt (no dialog program)
     export_prompt: str | None = None  # the path typed into the export prompt (no dialog program)
+    cage_prompt: str | None = None  # the path typed into Save cage's prompt (no dialog program)
+    target_prompt: str | None = None  # the path typed into Save target's prompt (no dialog program)
     frame_ms: list[float] = field(default_factory=list)
     #: (median frame, median drag frame) in ms, as ``--stats`` reports them (the window updates them).
     frame_figures: tuple[float, float] | None = None

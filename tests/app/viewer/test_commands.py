@@ -72,3 +72,34 @@ def test_a_bad_setting_changes_nothing(state):
     commands.command(state, "fill", "chartreuse")
     commands.command(state, "background", "mauve")
     assert state.status.message_is_error and not state.document.history.can_undo
+
+
+class NoDialogs:
+    """A viewer's dialogs where no dialog program is installed."""
+
+    def ask_save(self, command, title, proposed) -> bool:
+        return False
+
+
+class StandInViewer:
+    """What the window's Save cage and Save target commands ask of the viewer."""
+
+    def __init__(self, state):
+        self.state, self.dialogs = state, NoDialogs()
+
+
+@pytest.mark.parametrize("which", ["cage", "target"])
+def test_save_without_a_dialog_program_asks_in_the_window_then_writes(tmp_path, which):
+    snapshot = Snapshot(Path("a.png"), SQUARE, SQUARE + 1.5)
+    state = AppState(
+        Document(History(snapshot), snapshot, np.zeros((120, 160, 4), np.uint8), tmp_path / "s.json")
+    )
+    viewer = StandInViewer(state)
+    commands.COMMANDS[f"save_{which}"].run(viewer, None)
+    assert getattr(state.status, f"{which}_prompt") == str(tmp_path / f"s.{which}.svg")
+    assert not (tmp_path / f"s.{which}.svg").exists()  # nothing written before the user says where
+    commands.command(state, "cancel")
+    assert getattr(state.status, f"{which}_prompt") is None
+    commands.COMMANDS[f"save_{which}"].run(viewer, str(tmp_path / "mine.svg"))
+    assert state.status_message() == f"saved the {which} to {tmp_path / 'mine.svg'}"
+    assert 'width="160" height="120"' in (tmp_path / "mine.svg").read_text()
