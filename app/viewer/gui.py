@@ -171,8 +171,9 @@ def _panel(state: AppState, commands: list, extras: dict, room: float, spots: di
     if _section("File", spots):
         _file_section(state, commands, extras)
     state.screen.canvas_left = PANEL_WIDTH
+    state.screen.panel_bottom = imgui.get_window_pos().y + imgui.get_window_size().y
     # Its bottom edge and the pixels of content scrolled out of sight (for the window tests).
-    spots["panel"] = (imgui.get_window_pos().y + imgui.get_window_size().y, imgui.get_scroll_max_y())
+    spots["panel"] = (state.screen.panel_bottom, imgui.get_scroll_max_y())
     imgui.end()
 
 
@@ -517,6 +518,8 @@ def status_check(state: AppState) -> str:
     live = state.document.live
     if live.kernel != HARMONIC_KERNEL:
         return f"no fold-free proof ({HARMONIC_KERNEL} only)"
+    if state.selection.drawing is not None:
+        return "fold-free: -"  # nothing is checked while a new cage is drawn
     check = current_check(state)
     if check is not None:
         return status_text(check, state.compute.folded_count)

@@ -560,6 +560,9 @@ class Screen:
     cursor: tuple[float, float] = (0.0, 0.0)
     window_size: tuple[int, int] = (1280, 1024)
     canvas_left: float = 0.0  # hidden under the side panel
+    panel_bottom: float = (
+        0.0  # the side panel's bottom edge: a press above it, left of canvas_left, is the panel's
+    )
 
 
 @dataclass

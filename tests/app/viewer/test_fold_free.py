@@ -328,3 +328,12 @@ def test_undo_and_redo_of_a_fold_free_step_reuse_its_proof(starfish_basis):
     updates.update(state)
     assert current_check(state) is proven and len(worker.requests) == 2 and not updates.pending
     assert announced[-1] == "check reused fold_free=True"
+
+
+def test_nothing_is_said_to_be_checked_while_a_new_cage_is_drawn(starfish_basis):
+    state = opened(starfish_basis)
+    assert status_check(state) == "checking folds..."
+    commands.command(state, "new_cage")
+    assert state.selection.drawing is not None and status_check(state) == "fold-free: -"
+    commands.command(state, "cancel")
+    assert status_check(state) == "checking folds..."
