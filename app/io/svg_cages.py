@@ -23,6 +23,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+#: Largest distance of a chain's joints from its control points' midpoints, relative to its size, for
+#: the chain to be read as the B-spline of its control points: rounding, as an editor that writes 8
+#: significant digits (Inkscape's default) leaves it, but no visible bend.
+CHAIN_TOLERANCE = 1e-6
+
 #: Largest distance, in pixels, between an SVG path and the cage fitted to it.
 FIT_TOLERANCE = 0.5
 
@@ -166,7 +171,7 @@ def _exact_chain(segments: list) -> np.ndarray | None:
     ends = np.array([[s.end.x, s.end.y] for s in segments], dtype=np.float64)
     extent = max(1.0, float(np.abs(controls).max()))
     joints = 0.5 * (controls + np.roll(controls, -1, axis=0))
-    if np.abs(joints - ends).max() > 1e-12 * extent:
+    if np.abs(joints - ends).max() > CHAIN_TOLERANCE * extent:
         return None
     return controls
 

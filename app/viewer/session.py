@@ -34,6 +34,7 @@ from app.io.files import (
     finite_number,
     kernel_names,
     read_cage,
+    read_cage_file,
     read_image,
     read_session,
     reported_as_input,
@@ -183,7 +184,8 @@ def open_document(
     pixels = read_image(image)
     outside = "transparent"
     if cage is not None:
-        control_points = read_cage(cage)
+        control_points, remark = read_cage_file(cage)  # an SVG path fitted: said on the status line
+        notices += [remark] if remark else []
         cage_curve(control_points, str(cage))
     else:
         control_points, note = fit_or_ellipse(pixels)

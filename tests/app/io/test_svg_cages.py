@@ -119,3 +119,13 @@ def test_a_fitted_cage_says_how_closely(tmp_path):
     control_points, remark = read_cage_file(tmp_path / "circle.svg")
     assert remark.startswith(f"{tmp_path / 'circle.svg'}: the path is not a quadratic B-spline; fitted ")
     assert f"{len(control_points)} control points within 0." in remark
+
+
+def test_a_chain_rounded_by_an_editor_is_still_read_as_its_control_points():
+    """Inkscape writes 8 significant digits: the joints are then off the midpoints by rounding only."""
+    import re
+
+    cage = read_cage(STARFISH) + 0.123456789
+    text = re.sub(r"\d+\.\d+", lambda m: f"{float(m.group()):.8g}", svg_text(cage, 640, 480))
+    read = svg_cage(text.encode())
+    assert read.fit_error is None and np.abs(read.control_points - cage).max() <= 1e-5

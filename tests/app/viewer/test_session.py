@@ -561,3 +561,13 @@ def test_the_export_settings_are_in_every_history_step_and_come_back_with_undo(t
     path.write_text(json.dumps(stored))
     older = sessions.restore(path)
     assert [(s.outside, s.fill, s.canvas) for s in older.undo] == [("original", "#20c040", "source")] * 2
+
+
+def test_a_fitted_svg_cage_says_so_when_the_viewer_opens(tmp_path):
+    files = demo_files("starfish")
+    circle = tmp_path / "circle.svg"
+    circle.write_text('<svg xmlns="http://www.w3.org/2000/svg"><circle cx="320" cy="240" r="150"/></svg>')
+    document = sessions.open_document(files.image, circle, tmp_path / "s.json")
+    assert document.notices[-1].startswith(f"{circle}: the path is not a quadratic B-spline; fitted ")
+    radii = np.linalg.norm(document.snapshot.cage - [320, 240], axis=1)
+    assert radii.min() > 140 and radii.max() < 170  # control points just outside the circle they fit
