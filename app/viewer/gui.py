@@ -169,7 +169,7 @@ def _panel(state: AppState, commands: list, extras: dict, room: float, spots: di
     if _section("Animation", spots, tall):
         _timeline(state, commands, extras)
     if _section("File", spots):
-        _file_section(state, commands, extras)
+        _file_section(state, commands, extras, spots)
     state.screen.canvas_left = PANEL_WIDTH
     state.screen.panel_bottom = imgui.get_window_pos().y + imgui.get_window_size().y
     # Its bottom edge and the pixels of content scrolled out of sight (for the window tests).
@@ -336,8 +336,9 @@ def _show_section(state: AppState, commands: list) -> None:
         imgui.text_colored((1.0, 0.5, 0.8, 1.0), f"{state.compute.folded_count} folded triangles")
 
 
-def _file_section(state: AppState, commands: list, extras: dict) -> None:
-    """Open, save, export, start over, the demo script, help and quit."""
+def _file_section(state: AppState, commands: list, extras: dict, spots: dict) -> None:
+    """Open, save, export, start over, save the cage or the target, the demo script, help and quit.
+    The Save target button's centre is ``spots["save target"]`` (for the window tests)."""
     if imgui.button("Open image..."):
         commands.append(("open", None))
     imgui.same_line()
@@ -358,6 +359,8 @@ def _file_section(state: AppState, commands: list, extras: dict) -> None:
             imgui.same_line()
         if imgui.button(f"Save {which}..."):
             commands.append((f"save_{which}", None))
+        low, high = imgui.get_item_rect_min(), imgui.get_item_rect_max()
+        spots[f"save {which}"] = (0.5 * (low.x + high.x), 0.5 * (low.y + high.y))
         if imgui.is_item_hovered():
             imgui.set_tooltip(f"write the {which} as an SVG path (or .json); Open reads it back")
     if extras.get("script"):

@@ -133,7 +133,11 @@ class Milestones:
         if top is not None and top != self.status_top:
             self.status_top = top
             self.announce(f"spot status={top:.0f}")
-        for name in (*SECTIONS, "files"):  # the headings move as sections open and the progress bar goes
+        for name in (
+            *SECTIONS,
+            "files",
+            "save target",
+        ):  # the headings move as sections open and the progress bar goes
             spot = self.spots.get(name)
             if spot is not None and spot != self.headings.get(name):
                 self.headings[name] = spot

@@ -22,6 +22,7 @@ from support.viewer_harness import (
     xdotool,
 )
 
+from app.io.files import read_cage_file
 from app.io.svg_cages import svg_text
 
 pytestmark = pytest.mark.slow
@@ -229,6 +230,41 @@ def test_without_a_dialog_program_the_window_lists_the_files_and_a_double_click_
         np.testing.assert_array_equal(cage, target)
         pixels = screenshot(display)
         save_png(tmp_path / "browsed.png", pixels)
+        xdotool(display, "key", "ctrl+q")
+        code, stderr = viewer.finish()
+        assert code == 0, stderr
+    finally:
+        viewer.kill()
+
+
+def test_save_target_writes_the_exact_chain_that_warp_reads_back(display, tmp_path):
+    """Save target... without a dialog program: the typed path in the window, an SVG written over the
+    image's size that reads back (as --target does) to the session's target exactly."""
+    session = tmp_path / "save.json"
+    starfish_session(session)
+    no_programs = tmp_path / "empty-bin"
+    no_programs.mkdir()
+    env = {**environment(display, tmp_path), "PATH": str(no_programs)}
+    viewer = ViewerProcess(["view", "--session", str(session)], env, ROOT)
+    try:
+        window = viewer.wait_for("ready window=", 30).split("=")[1]
+        viewer.wait_for("basis ", 60)
+        xdotool(display, "windowfocus", "--sync", window)
+        drag_point(display, window, window_pixel(VIEW, CAGE[4]), np.array([35.0, -25.0]))
+        _, target, _ = wait_for_session(session, lambda c, t, v: not np.array_equal(c, t))
+        settled(viewer)
+        x, y = last_spot(viewer, "save target")
+        xdotool(display, "mousemove", "--window", window, f"{x:.0f}", f"{y:.0f}", "click", "1")
+        viewer.wait_for("text input on", 10)
+        xdotool(display, "key", "ctrl+a")
+        time.sleep(0.3)
+        saved = tmp_path / "target.svg"
+        xdotool(display, "type", "--delay", "5", str(saved))
+        xdotool(display, "key", "Return")
+        assert viewer.wait_for("status said ", 10) == f"status said saved the target to {saved}"
+        assert 'width="640" height="480"' in saved.read_text()
+        points, remark = read_cage_file(saved)
+        assert remark is None and np.abs(points - target).max() <= 1e-9
         xdotool(display, "key", "ctrl+q")
         code, stderr = viewer.finish()
         assert code == 0, stderr
