@@ -34,8 +34,14 @@ FIT_TOLERANCE = 0.5
 #: A joint of two segments whose tangents turn by more than this (degrees) is a sharp corner.
 CORNER_ANGLE = 5.0
 
-#: Spacing, in pixels, of the samples of the path and of the fitted curve that measure the fit.
+#: Spacing, in pixels, of the samples of the path and of the fitted curve that measure the fit
+#: (wider on a path longer than `MAX_SAMPLES` of them).
 SAMPLE_SPACING = 0.05
+
+#: Most samples of a path fitted; its length at most `MAX_PATH_LENGTH` pixels, so that they stay
+#: at most 0.2 px apart (the fit's error then overestimated by at most that).
+MAX_SAMPLES = 1_000_000
+MAX_PATH_LENGTH = 200_000.0
 
 #: Most control points of a fitted cage; a path that needs more is refused.
 MAX_FITTED_POINTS = 2000
@@ -178,7 +184,16 @@ def _exact_chain(segments: list) -> np.ndarray | None:
 
 def _fitted(segments: list) -> SvgCage:
     """A closed B-spline fitted to the path within `FIT_TOLERANCE`, corners as doubled points."""
-    pieces, cornered = _pieces(segments)
+    lengths = [float(segment.length(error=1e-6)) for segment in segments]
+    total = sum(lengths)
+    if not math.isfinite(total):
+        raise ValueError("the path's coordinates are not all finite numbers")
+    if total > MAX_PATH_LENGTH:
+        raise ValueError(
+            f"the path is {total:,.0f} px long; a path of at most {MAX_PATH_LENGTH:,.0f} px can be fitted"
+        )
+    spacing = max(SAMPLE_SPACING, total / MAX_SAMPLES)
+    pieces, cornered = _pieces(segments, lengths, spacing)
     path_samples = np.concatenate([piece[:-1] for piece in pieces])
     lengths = np.array([np.linalg.norm(np.diff(piece, axis=0), axis=1).sum() for piece in pieces])
     minimum = 2 if cornered else 3  # two spans between corners make a straight side
@@ -193,7 +208,7 @@ def _fitted(segments: list) -> SvgCage:
                 f"points (off by {error:.2f} px)"
             )
         control_points = _fit(pieces, spans, cornered)
-        error = _distance(path_samples, control_points)
+        error = _distance(path_samples, control_points, spacing)
         if error <= FIT_TOLERANCE:
             return SvgCage(control_points, error)
         budget = count * SPAN_GROWTH
@@ -205,17 +220,17 @@ def _turn(incoming: np.ndarray, outgoing: np.ndarray) -> float:
     return abs(math.degrees(math.atan2(cross, float(np.dot(incoming, outgoing)))))
 
 
-def _pieces(segments: list) -> tuple[list[np.ndarray], bool]:
-    """Dense samples of the path between its sharp corners, and whether it has corners.
+def _pieces(segments: list, lengths: list[float], spacing: float) -> tuple[list[np.ndarray], bool]:
+    """Dense samples of the path (its segments' `lengths`, `spacing` apart) between its sharp
+    corners, and whether it has corners.
 
     Each piece, an array (K, 2), runs from one corner to the next; a path without corners is
     one piece, its first sample repeated at its end."""
     samples = []
-    for segment in segments:
-        length = float(segment.length(error=1e-6))
+    for segment, length in zip(segments, lengths, strict=True):
         if length == 0.0:
             continue
-        count = max(8, math.ceil(length / SAMPLE_SPACING))
+        count = max(8, math.ceil(length / spacing))
         samples.append(np.asarray(segment.npoint(np.linspace(0.0, 1.0, count + 1)), dtype=np.float64))
     corners = [
         k
@@ -254,17 +269,18 @@ def _fit(pieces: list[np.ndarray], spans: np.ndarray, cornered: bool) -> np.ndar
     )
 
 
-def _distance(path_samples: np.ndarray, control_points: np.ndarray) -> float:
+def _distance(path_samples: np.ndarray, control_points: np.ndarray, spacing: float) -> float:
     """The largest distance from the sampled path to the curve and from the curve to the path (pixels).
 
-    Both are sampled at most `SAMPLE_SPACING` apart, so this overestimates by at most that."""
+    Both are sampled at most `spacing` apart, so this overestimates by at most that."""
     from scipy.spatial import cKDTree
 
     from core import basis_weights
 
     count = len(control_points)
     polygon = np.linalg.norm(np.diff(control_points, axis=0, append=control_points[:1]), axis=1).sum()
-    t = np.linspace(0.0, count, max(8 * count, math.ceil(polygon / SAMPLE_SPACING)), endpoint=False)
+    samples = min(max(8 * count, math.ceil(polygon / spacing)), 2 * MAX_SAMPLES)  # a wild fit: capped
+    t = np.linspace(0.0, count, samples, endpoint=False)
     index, weights = basis_weights(t, count)
     curve = np.einsum("kj,kjd->kd", weights, control_points[index])
     to_curve = cKDTree(curve).query(path_samples)[0].max()

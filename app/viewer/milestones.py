@@ -50,12 +50,16 @@ class Milestones:
         #: Window points of some widgets (`app.viewer.gui.gui` fills it), announced for the tests.
         self.spots: dict = {}
         self.figures_at = -FIGURES_INTERVAL  # when the status line's frame times were last computed
-        self.said = ""  # the status line's message last announced
-        self.status_top: float | None = None  # the status line's top edge last announced
+        self.status_shown: tuple[str, float | None] = ("", None)  # the status line's message and top
+        #: Lines said before ``ready`` that tests read after it (the first basis, when the worker
+        #: had it before the window's first frame was done): said just after ``ready``.
+        self.held: list[str] = []
         self.headings: dict = {}  # the panel's section headings last announced, by title
 
     def announce(self, line: str) -> None:
-        if self.test_mode:
+        if self.test_mode and not self.announced_ready and line.startswith("basis "):
+            self.held.append(line)
+        elif self.test_mode:
             print(line, flush=True)
 
     def drags(self, state: AppState) -> None:
@@ -119,20 +123,21 @@ class Milestones:
             for name in ("kernel", "arc-length"):
                 x, y = self.spots.get(name, (0, 0))
                 self.announce(f"spot {name}={x:.0f},{y:.0f}")
+            for line in self.held:
+                self.announce(line)
+            self.held.clear()
         self._status_line(state)
 
     def _status_line(self, state: AppState) -> None:
         """Test mode: what the status line says and where its top is, announced when they change."""
         if not self.test_mode:
             return
-        said = state.status_message()
-        if said != self.said:
-            self.said = said
+        said, top = state.status_message(), self.spots.get("status", (0.0, None))[1]
+        if said != self.status_shown[0]:
             self.announce(f"status said {said}")
-        top = self.spots.get("status", (0.0, None))[1]
-        if top is not None and top != self.status_top:
-            self.status_top = top
+        if top is not None and top != self.status_shown[1]:
             self.announce(f"spot status={top:.0f}")
+        self.status_shown = (said, top)
         for name in (
             *SECTIONS,
             "files",
