@@ -129,3 +129,20 @@ def test_a_chain_rounded_by_an_editor_is_still_read_as_its_control_points():
     text = re.sub(r"\d+\.\d+", lambda m: f"{float(m.group()):.8g}", svg_text(cage, 640, 480))
     read = svg_cage(text.encode())
     assert read.fit_error is None and np.abs(read.control_points - cage).max() <= 1e-5
+
+
+@pytest.mark.parametrize(
+    "path, message",
+    [
+        ("M 1e400 0 L 1 1 L 2 0 Z", "the path's coordinates are not all finite numbers"),
+        (
+            "M 0 0 L 1e12 0 L 1e12 1e12 Z",
+            "the path is 3,414,213,562,373 px long; a path of at most 50,000 px",
+        ),
+    ],
+)
+def test_a_path_that_cannot_be_fitted_is_refused_in_one_line(tmp_path, path, message):
+    (tmp_path / "far.svg").write_text(f'{SVG_HEAD}<path d="{path}"/></svg>')
+    with pytest.raises(InputError) as error:
+        read_cage(tmp_path / "far.svg")
+    assert str(error.value).startswith(f"{tmp_path / 'far.svg'}: {message}")
