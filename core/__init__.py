@@ -19,6 +19,8 @@ from core.gradients import basis_gradients, kernel_gradients
 from core.meshes.harmonic import harmonic_basis
 from core.injectivity.certificate import InjectivityCertificate, certify_injective
 from core.injectivity.composite import fold_free_deform
+from core.injectivity.drag_step import DragMesh, DragStep, Untangling, drag_mesh, drag_step
+from core.injectivity.mesh_bijection import MeshBijection, prove_mesh_bijection
 from core.kernel_table import BOUNDARY_INTEGRAL_KERNELS, COMPLEX_KERNELS, DEFAULT_KERNEL, MESH_ONLY_KERNELS
 from core.kernels import KERNELS, ConvergenceWarning, SolveReport, kernel
 from core.meshes.mesh import Mesh, folded_triangles
@@ -37,7 +39,7 @@ from core.curves.closest_point import distance_to_curve
 from core.curves.examples import wave_heights
 from core.curves.interpolating_spline import interpolating_control_points
 from core.kernel_table import COMPILED_KERNELS, BY_NAME as KERNEL_TABLE, PARAMETERIZED_KERNELS
-from core.kernels import kernel_parameters
+from core.kernels import SHIFTS, kernel_parameters
 from core.mesh_basis import DEFAULT_SAMPLES_PER_SEGMENT
 from core.meshes import distortion
 from core.meshes.distortion import (
@@ -46,6 +48,7 @@ from core.meshes.distortion import (
     vertex_jacobians,
     worst_distortion,
 )
+from core.injectivity.mesh_fold_free import PLAIN_HARMONIC_MAP
 from core.meshes.mesh import unique_edges
 from core.meshes.mesh_transfer import transfer_basis
 from core.meshes.refinement import RADIUS_EDGE_RATIO
@@ -85,14 +88,20 @@ __all__ = [
     "NAME_MAX",
     "PARAMETERIZATIONS",
     "PARAMETERIZED_KERNELS",
+    "PLAIN_HARMONIC_MAP",
     "RADIUS_EDGE_RATIO",
+    "SHIFTS",
     "Boundary",
     "CacheWarning",
     "ClosedBSpline",
     "ConvergenceWarning",
+    "DragMesh",
+    "DragStep",
     "InjectivityCertificate",
     "Mesh",
+    "MeshBijection",
     "SolveReport",
+    "Untangling",
     "abandoned_temporaries",
     "as_points",
     "basis_functions",
@@ -106,6 +115,8 @@ __all__ = [
     "deform",
     "distance_to_curve",
     "distortion",
+    "drag_mesh",
+    "drag_step",
     "examples",
     "fold_free_deform",
     "folded_triangles",
@@ -118,6 +129,7 @@ __all__ = [
     "mesh_basis_functions",
     "pgw_basis",
     "positive_int",
+    "prove_mesh_bijection",
     "reference_kernel",
     "signed_singular_values",
     "solved_densities",

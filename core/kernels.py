@@ -59,7 +59,7 @@ from core.curves.boundary import Boundary
 from core.curves.crossing_slabs import crossing_slabs
 from core.kernel_table import BOUNDARY_INTEGRAL_KERNELS, CONVEX_ONLY, POINT_KERNELS
 from core.newton import codes, quadrature_nodes, solver
-from core.newton.solver_state import Geometry, Output, Samples, Settings
+from core.newton.solver_state import Geometry, Nodes, Output, Samples, Settings
 from core.validation import as_points, positive_float
 
 #: The real point kernels: their coordinates G (M, n) satisfy G @ P == x (`core.kernel_table`).
@@ -80,6 +80,8 @@ _IDENTIFIERS = {
     "laplace": codes.LAPLACE,
 }
 _SHIFTS = {"none": codes.SHIFT_NONE, "integral": codes.SHIFT_INTEGRAL, "mean": codes.SHIFT_MEAN}
+#: The shifts of the ``power`` kernel's weights (Eq. 19): its ``shift`` parameter takes one of them.
+SHIFTS = tuple(_SHIFTS)
 # Named members of the power family: (k, shift) of omega = 1 / r^k (Eq. 19).
 _FIXED_POWERS = {"inverse-cube-mean": (3.0, codes.SHIFT_MEAN)}
 # Newton stops when the linear-precision residual is below this fraction of the diameter.
@@ -363,15 +365,18 @@ def curve_arrays(boundary: Boundary, mode: int, columns: int, factor: int, out_s
         basis = (np.zeros(count),) * 3
     column = np.ascontiguousarray
     spacing = _sample_spacing(boundary.points)
-    return Samples(
+    rule = Nodes(
         column(boundary.points[:, 0]),
         column(boundary.points[:, 1]),
         column(boundary.tangents[:, 0]),
         column(boundary.tangents[:, 1]),
         column(boundary.second_derivatives[:, 0]),
         column(boundary.second_derivatives[:, 1]),
-        spacing,
         np.full(count, boundary.step),
+    )
+    return Samples(
+        rule,
+        spacing,
         boundary.parameters,
         *basis,
         float(boundary.step),

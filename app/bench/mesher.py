@@ -14,7 +14,7 @@ import math
 import numpy as np
 
 import core
-from app.bench.timing import edge_for_vertices, median_time
+from app.bench.timing import median_time, meshes_with_vertices, print_head
 from core import RADIUS_EDGE_RATIO
 
 #: Vertices of the mesher rows.
@@ -40,11 +40,8 @@ def mesher_rows(curve: core.ClosedBSpline, repeats: int, vertices=None) -> None:
         )
     header = f"{'target V':>9} {'ours V':>8} {'ours s':>8}"
     header += f" {'Triangle V':>11} {'Triangle s':>11} {'ours / Triangle':>16}"
-    print(header)
-    print("-" * len(header))
-    for count in vertices:
-        max_edge = edge_for_vertices(curve.area, count)
-        mesh = core.triangulate(curve, max_edge=max_edge)
+    print_head(header)
+    for count, max_edge, mesh in meshes_with_vertices(curve, vertices):
         row = f"{count:>9,} {len(mesh.vertices):>8,}"
 
         def ours(max_edge=max_edge):

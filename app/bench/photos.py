@@ -32,8 +32,8 @@ import cv2
 import numpy as np
 
 from app.__main__ import main
+from app.bench.photos import write_starfish_drag
 from app.io.files import read_image, write_png
-from core.curves import examples
 
 width, height, folder, repeats = int(sys.argv[1]), int(sys.argv[2]), Path(sys.argv[3]), int(sys.argv[4])
 rng = np.random.default_rng(5)
@@ -46,12 +46,7 @@ image = cv2.resize(small, (width, height), interpolation=cv2.INTER_CUBIC)
 image = cv2.add(image, rng.integers(0, 6, image.shape, dtype=np.uint8))  # grain
 cv2.imwrite(str(folder / "photo.png"), image)
 del image, small
-cage = examples.starfish() * (0.45 * height) + np.array([width / 2, height / 2])
-target = cage.copy()
-target[0] += (0.1 * height, 0.05 * height)
-target[4] -= (0.05 * height, 0.1 * height)
-(folder / "cage.json").write_text(json.dumps({"control_points": cage.tolist()}))
-(folder / "target.json").write_text(json.dumps({"control_points": target.tolist()}))
+write_starfish_drag(folder, width, height)
 argv = ["warp", str(folder / "photo.png"), "--cage", str(folder / "cage.json"), "--target",
         str(folder / "target.json"), "--output", str(folder / "out.png"), "--outside", "original"]
 
@@ -81,6 +76,21 @@ for _ in range(repeats):
 print(json.dumps({"warp": statistics.median(warps), "baseline": statistics.median(baselines),
                   "peak": peak, "before": before}))
 """
+
+
+def write_starfish_drag(folder: Path, width: int, height: int) -> None:
+    """Write ``cage.json`` (the starfish, centred on a `width` x `height` image) and ``target.json``
+    (two of its arms dragged) into `folder`: the warp the bench times on generated pictures."""
+    import numpy as np
+
+    from core import examples
+
+    cage = examples.starfish() * (0.45 * height) + np.array([width / 2, height / 2])
+    target = cage.copy()
+    target[0] += (0.1 * height, 0.05 * height)
+    target[4] -= (0.05 * height, 0.1 * height)
+    (folder / "cage.json").write_text(json.dumps({"control_points": cage.tolist()}))
+    (folder / "target.json").write_text(json.dumps({"control_points": target.tolist()}))
 
 
 def photo_rows(sizes, run_child, repeats: int = PHOTO_REPEATS) -> None:

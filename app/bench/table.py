@@ -37,8 +37,8 @@ import numpy as np
 
 import core
 from app.bench.launch import launch_rows
-from app.bench.photos import PHOTO_SIZES, QUICK_SIZE, photo_rows
-from app.bench.timing import edge_for_vertices, median_time
+from app.bench.photos import PHOTO_SIZES, QUICK_SIZE, photo_rows, write_starfish_drag
+from app.bench.timing import edge_for_vertices, median_time, print_head
 from app.console import EXIT_ENVIRONMENT, EXIT_OK, ProgressBar
 from core import GRADIENTS_COMPILE_MESSAGE as GRADIENTS_COMPILING
 from core import examples
@@ -94,10 +94,12 @@ def run_bench(args: argparse.Namespace) -> int:
         _fem_comparison(curve, vertices, 1 if args.quick else repeats, 0.0 if args.quick else ROW_SECONDS)
     if not args.skip_fold_free:
         from app.bench.fold_free import fold_free_rows
+        from app.bench.fold_free_held_out import held_out_rows
 
         fold_free_rows(
             curve, 1 if args.quick else repeats, _forget_densities, (2_000,) if args.quick else None
         )
+        held_out_rows(_forget_densities, args.quick)
     if not args.skip_mesher:
         from app.bench.mesher import LEAST_REPEATS, mesher_rows
 
@@ -110,8 +112,17 @@ def run_bench(args: argparse.Namespace) -> int:
     if not args.skip_photos:
         children.append(lambda: photo_rows((QUICK_SIZE,) if args.quick else PHOTO_SIZES, run_child))
     if not args.skip_drag:
+        from app.bench import fold_free_drag
+
         children.append(
             lambda: _drag_frames(DRAG_VERTICES[:1], 1.0) if args.quick else _drag_frames(DRAG_VERTICES)
+        )
+        children.append(
+            lambda: (
+                fold_free_drag.fold_free_drag_row(StepFailed, 0.5)
+                if args.quick
+                else fold_free_drag.fold_free_drag_row(StepFailed)
+            )
         )
     if not args.skip_launch:
         children.append(lambda: launch_rows(args.repeats, args.quick, _started_xvfb, StepFailed))
@@ -223,8 +234,7 @@ def _point_kernels(curve, sizes, repeats, quick) -> None:
     print("point kernels (basis functions G at random interior points)")
     header = f"{'kernel':<28} {'points M':>10} {'samples N':>10} {'seconds':>9} {'us/point':>9} "
     header += f"{'Newton med/max':>15}"
-    print(header)
-    print("-" * len(header))
+    print_head(header)
     samples = SAMPLES_PER_SEGMENT * curve.n
     rows = [(name, sizes[0]) for name in core.KERNELS if name not in ("wachspress", "laplace")]
     rows[1:1] = [("harmonic-like", size) for size in sizes[1:]]
@@ -295,8 +305,7 @@ def _fem_comparison(curve, vertices, repeats: int, least_seconds: float = ROW_SE
     )
     header = f"{'vertices V':>11} {'mesh s':>8} {'FEM s':>8} {'poisson s':>10} {'FEM / poisson':>14}"
     header += f" {'solve cached s':>15} {'harmonic-like s':>16} {'FEM / h-like':>13} {'Newton med':>11}"
-    print(header)
-    print("-" * len(header))
+    print_head(header)
     for count in vertices:
         max_edge = edge_for_vertices(curve.area, count)
         start = time.perf_counter()
@@ -393,12 +402,7 @@ def _warp_4k(size) -> None:
             colour = tuple(int(c) for c in rng.integers(0, 255, 3))
             cv2.circle(image, centre, int(rng.integers(5, width // 20)), colour, -1, cv2.LINE_AA)
         cv2.imwrite(str(folder / "image.png"), image)
-        cage = examples.starfish() * (0.45 * height) + np.array([width / 2, height / 2])
-        target = cage.copy()
-        target[0] += (0.1 * height, 0.05 * height)
-        target[4] -= (0.05 * height, 0.1 * height)
-        (folder / "cage.json").write_text(json.dumps({"control_points": cage.tolist()}))
-        (folder / "target.json").write_text(json.dumps({"control_points": target.tolist()}))
+        write_starfish_drag(folder, width, height)
         environment = dict(os.environ, TRANSFINITE_CACHE_DIR=str(folder / "cache"))
         command = [
             sys.executable,
@@ -505,7 +509,7 @@ def _drag_child(
         if child.poll() is None:
             child.kill()
             child.wait()
-    stats = [m for m in map(re.compile(r".*median_drag_frame_ms=([\d.]+)").fullmatch, lines) if m]
+    stats = [m for m in map(re.compile(r"frames=.*median_drag_frame_ms=([\d.]+)").match, lines) if m]
     if child.returncode != 0 or not stats or not vertices:
         errors = child.stderr.read().strip().splitlines()[-CHILD_ERROR_LINES:] or ["(no output on stderr)"]
         details = "\n".join(f"    {line}" for line in [*lines[-3:], *errors])

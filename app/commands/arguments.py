@@ -365,7 +365,9 @@ def _bench_command(commands, run) -> None:
         help="no 24 and 100 megapixel photograph warps against reading and writing them (about 2 minutes)",
     )
     bench.add_argument(
-        "--skip-drag", action="store_true", help="no viewer drag frame at 6k and 400k vertices (Xvfb)"
+        "--skip-drag",
+        action="store_true",
+        help="no viewer drag frame at 6k and 400k vertices, nor its fold-free drag frame (Xvfb)",
     )
     bench.add_argument(
         "--skip-launch",
@@ -540,7 +542,11 @@ def _add_viewer_options(parser: argparse.ArgumentParser) -> None:
         "--stats",
         action="store_true",
         help="on exit, print frames=N median_frame_ms=X p95_frame_ms=Y median_drag_frame_ms=Z (Z: the frames "
-        "drawn while a control point is dragged; 0 without any)",
+        "drawn while a control point is dragged; 0 without any) fold_free_drag_frames=N max_folded_drawn=K "
+        "median_fold_free_drag_frame_ms=X proven_after_release_ms=Y (the drag frames drawn with fold-free "
+        "on, the most turned-over triangles one drew, their median time, and the time from the last release "
+        "to a proof on the status line, or none) median_plain_drag_frame_ms=Z (drag frames with it off) "
+        "fold_free_drag_frames_on_target=K (fold-free drag frames whose boundary was on the target curve)",
     )
     parser.add_argument(
         "--max-edge",

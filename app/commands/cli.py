@@ -239,7 +239,7 @@ def _animate(args: argparse.Namespace) -> int:
 
 def _view(args: argparse.Namespace) -> int:
     from app.viewer.demos import DEFAULT_DEMO, demo_files
-    from app.viewer.session import open_document
+    from app.viewer.documents import open_document
     from app.viewer.window import Options, run
 
     _check_viewer_outputs(args)
@@ -264,7 +264,7 @@ def _view(args: argparse.Namespace) -> int:
 
 def _demo(args: argparse.Namespace) -> int:
     from app.viewer.demos import DEFAULT_DEMO, demo_files, demo_keyframes, read_script
-    from app.viewer.session import begin_with, open_document, start_snapshot
+    from app.viewer.documents import begin_with, open_document, start_snapshot
     from app.viewer.window import Options, run
 
     if args.list:
@@ -320,7 +320,7 @@ def _list_demos() -> None:
 def _choose_start(document, kernel: str | None, parameterization: str | None) -> None:
     """Start the viewer with the kernel and boundary parameterization of the command line, each one
     undoable step."""
-    from app.viewer.session import begin_with
+    from app.viewer.documents import begin_with
 
     if kernel is not None:
         begin_with(

@@ -29,6 +29,15 @@ GROWTH_VARIANCE = 4.0
 GROWTH_ROUNDS = 40
 
 
+def within_bounds(shape: tuple[int, int], bounds: tuple[int, int, int, int]) -> np.ndarray:
+    """bool ndarray of `shape` (h, w): True on the pixels of `bounds` (left, top, right, bottom; the
+    right and bottom ones excluded)."""
+    left, top, right, bottom = bounds
+    inside = np.zeros(shape, bool)
+    inside[top:bottom, left:right] = True
+    return inside
+
+
 def locally_grown(bgr: np.ndarray, subject: np.ndarray, bounds: tuple[int, int, int, int]) -> np.ndarray:
     """`subject` (h, w) uint8 grown where its nearby colours explain a pixel better than the background's.
 
@@ -45,18 +54,16 @@ def locally_grown(bgr: np.ndarray, subject: np.ndarray, bounds: tuple[int, int, 
     bgr : ndarray of shape (h, w, 3), uint8
         The picture, BGR.
     subject : ndarray of shape (h, w), uint8
-        1 on the subject.
+        1 on the subject before it grows.
     bounds : (left, top, right, bottom)
-        The pixels that may belong to the subject.
+        The pixels it may grow into: the others stay 0.
 
     Returns
     -------
     ndarray of shape (h, w), uint8
         1 on the grown subject; it holds `subject`.
     """
-    left, top, right, bottom = bounds
-    allowed = np.zeros(subject.shape, bool)
-    allowed[top:bottom, left:right] = True
+    allowed = within_bounds(subject.shape, bounds)
     lab = cv2.cvtColor(bgr, cv2.COLOR_BGR2LAB).astype(np.float32)
     # The window sums of 1, the colour and its square norm, over the subject or the ring.
     features = np.dstack([np.ones(lab.shape[:2], np.float32), lab, np.sum(lab**2, axis=2)])

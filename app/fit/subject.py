@@ -60,7 +60,7 @@ from app.fit.colours import (
 )
 from app.fit.curve import fit_closed_bspline, rectangle_cage, snap_corners
 from app.fit.doubt import colour_separation
-from app.fit.growth import locally_grown
+from app.fit.growth import locally_grown, within_bounds
 from app.io.images.writing import eight_bit
 from core import DEFAULT_SAMPLES_PER_SEGMENT, MAX_BOUNDARY_SAMPLES, ClosedBSpline, positive_int
 
@@ -589,9 +589,7 @@ def refined_subject(
     ndarray of shape (h, w), uint8
         1 on the subject; `subject` itself when it is too thin to have a core.
     """
-    left, top, right, bottom = bounds
-    allowed = np.zeros(subject.shape, bool)
-    allowed[top:bottom, left:right] = True
+    allowed = within_bounds(subject.shape, bounds)
     subject = np.where(allowed, subject, 0).astype(np.uint8)
     for _ in range(rounds):
         band = max(2, round(REFINE_BAND * np.sqrt(float(subject.sum()))))
@@ -802,7 +800,6 @@ def _bays_filled(subject: np.ndarray, bounds: tuple[int, int, int, int]) -> np.n
     Distance transforms stand for the dilation and the erosion, whose cost would grow
     with r.  Nothing outside `bounds` (left, top, right, bottom) is added.
     """
-    left, top, right, bottom = bounds
     radius = BAY_MOUTH * np.sqrt(float(subject.sum()))
     pad = int(np.ceil(radius)) + 1
     padded = cv2.copyMakeBorder(subject, pad, pad, pad, pad, cv2.BORDER_CONSTANT, value=0)
@@ -810,9 +807,7 @@ def _bays_filled(subject: np.ndarray, bounds: tuple[int, int, int, int]) -> np.n
     grown = _filled((outside <= radius).astype(np.uint8))
     inside = cv2.distanceTransform(grown, cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
     closed = (inside > radius)[pad:-pad, pad:-pad] | (subject > 0)
-    allowed = np.zeros(subject.shape, bool)
-    allowed[top:bottom, left:right] = True
-    return _filled((closed & allowed).astype(np.uint8))
+    return _filled((closed & within_bounds(subject.shape, bounds)).astype(np.uint8))
 
 
 def _resized(mask: np.ndarray, shape: tuple[int, int]) -> np.ndarray:

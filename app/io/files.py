@@ -1,10 +1,8 @@
 """Reading and writing the files of the command line and the viewer.
 
 Cage files are JSON ``{"control_points": [[x, y], ...]}`` in image pixels (x to
-the right, y down, origin at the image's top-left corner); session files hold
-``image``, ``cage``, ``target``, ``kernel`` and ``view`` (see .docs/architecture.md), and
-optionally ``kernel_params``, ``parameterization`` and ``mesh`` (what the viewer
-computed with).  Every
+the right, y down, origin at the image's top-left corner); session files are read and written
+by `app.io.session`, with the JSON and cage helpers here.  Every
 reader validates its input and raises `InputError` with one line naming the file
 and what is wrong in it; every writer is atomic (a temporary file in the same
 directory, then `os.replace`), so a failed or interrupted write leaves an existing
@@ -20,7 +18,6 @@ import os
 import re
 import stat
 from collections.abc import Iterable, Iterator
-from dataclasses import dataclass, field
 from numbers import Real
 from pathlib import Path
 
@@ -42,7 +39,6 @@ from app.io.images import (
     straight_rgba_tiff,
 )
 from app.io.images.tiles import PngStripWriter
-from app.warp.keyframes import DEFAULT_INTERPOLATION, INTERPOLATIONS, Keyframe, sorted_keyframes
 from core import MAX_CONTROL_POINTS, NAME_MAX, as_points, too_many_control_points, write_atomically
 
 #: Largest image file read into memory.
@@ -224,25 +220,23 @@ def cage_points(value, where: str) -> np.ndarray:
         checked by `core.ClosedBSpline`.
     """
     if not isinstance(value, dict):
-        raise InputError(f'{where}: expected an object with "control_points", got {_json_type(value)}')
+        raise InputError(f'{where}: expected an object with "control_points", got {json_type(value)}')
     if "control_points" not in value:
         raise InputError(f'{where}: missing "control_points"')
     points = value["control_points"]
     if not isinstance(points, list):
-        raise InputError(
-            f'{where}: "control_points" must be a list of [x, y] pairs, got {_json_type(points)}'
-        )
+        raise InputError(f'{where}: "control_points" must be a list of [x, y] pairs, got {json_type(points)}')
     if len(points) > MAX_CONTROL_POINTS:  # before the checks of each point, which take time
         raise InputError(f"{where}: {too_many_control_points(len(points))}")
     for index, point in enumerate(points):
         # bool is an int in Python, but `true` is never a coordinate.
         if not (isinstance(point, list) and len(point) == 2 and all(_is_number(c) for c in point)):
             raise InputError(
-                f"{where}: control_points[{index}] must be a pair of numbers [x, y], got {_shown(point)}"
+                f"{where}: control_points[{index}] must be a pair of numbers [x, y], got {shown(point)}"
             )
         if any(_out_of_range(c) for c in point):
             raise InputError(
-                f"{where}: control_points[{index}] = {_shown(point)} is out of range: coordinates must "
+                f"{where}: control_points[{index}] = {shown(point)} is out of range: coordinates must "
                 f"lie within +-{MAX_COORDINATE:g} pixels"
             )
     try:
@@ -306,36 +300,7 @@ def write_cage(
     write_json(path, {"control_points": np.round(points, 3).tolist()})
 
 
-# -- sessions -----------------------------------------------------------------
-
-
-@dataclass
-class Session:
-    """The state of a viewer session.
-
-    Attributes
-    ----------
-    image : Path
-        The source image (relative paths in the file are relative to the file's directory).
-    cage, target : ndarray of shape (n, 2)
-        Source and target control points, image pixels.
-    kernel : str
-        A name from `core.KERNELS`.
-    scale : float
-        View scale s: image point (x, y) is drawn at window pixel (ox + s x, oy + s y).
-    offset : tuple of float
-        View offset (ox, oy).
-    extra : dict
-        Other keys of the file, written back unchanged.
-    """
-
-    image: Path
-    cage: np.ndarray
-    target: np.ndarray
-    kernel: str
-    scale: float = 1.0
-    offset: tuple[float, float] = (0.0, 0.0)
-    extra: dict = field(default_factory=dict)
+# -- kernels -------------------------------------------------------------------
 
 
 def kernel_names() -> tuple[str, ...]:
@@ -343,230 +308,6 @@ def kernel_names() -> tuple[str, ...]:
     import core
 
     return (*core.KERNELS, *core.COMPLEX_KERNELS, *core.MESH_ONLY_KERNELS)
-
-
-def read_session(path: str | os.PathLike) -> Session:
-    """Read and validate a session file; `InputError` naming the file and key if it is bad."""
-    path = Path(path)
-    value = read_json(path)
-    if not isinstance(value, dict):
-        raise InputError(f"{path}: expected a JSON object, got {_json_type(value)}")
-    missing = [key for key in ("image", "cage", "target", "kernel", "view") if key not in value]
-    if missing:
-        raise InputError(f"{path}: missing key(s) {', '.join(missing)}")
-    if not isinstance(value["image"], str) or not value["image"]:
-        raise InputError(f'{path}: "image" must be a file path, got {value["image"]!r}')
-    cage = cage_points(value["cage"], f"{path}: cage")
-    target = cage_points(value["target"], f"{path}: target")
-    if target.shape != cage.shape:
-        raise InputError(f"{path}: target has {len(target)} control points but cage has {len(cage)}")
-    kernel = value["kernel"]
-    if kernel not in kernel_names():
-        raise InputError(f"{path}: unknown kernel {kernel!r}; choose one of {', '.join(kernel_names())}")
-    scale, offset = _view(value["view"], path)
-    extra = {k: v for k, v in value.items() if k not in ("image", "cage", "target", "kernel", "view")}
-    return Session(path.parent / value["image"], cage, target, kernel, scale, offset, extra)
-
-
-def session_image(session: Session, path: str | os.PathLike) -> Path:
-    """The image of `session` (read from the session file `path`); `InputError` saying where it was
-    looked for if it is not there: a relative ``"image"`` is relative to the session file."""
-    image = Path(session.image)
-    try:
-        missing = not image.exists() and not image.is_symlink()
-    except OSError:  # a loop of links, a name too long: reading it says what is wrong
-        missing = False
-    if missing:
-        try:
-            written = os.path.relpath(image, Path(path).parent)
-        except ValueError:  # on another drive (Windows)
-            written = str(image)
-        raise InputError(
-            f'{path}: its "image" {written!r} is {os.path.abspath(image)}, which does not exist (a relative '
-            '"image" is relative to the session file); copy the image there or write its path in "image"'
-        )
-    return image
-
-
-def write_session(path: str | os.PathLike, session: Session) -> None:
-    """Write a session file atomically; the image path is stored relative to it when possible."""
-    path = Path(path)
-    try:
-        image = os.path.relpath(Path(session.image).resolve(), path.resolve().parent)
-    except ValueError:  # another drive on Windows
-        image = str(Path(session.image).resolve())
-    value = dict(session.extra)
-    value.update(
-        image=image,
-        cage={"control_points": np.asarray(session.cage, dtype=float).tolist()},
-        target={"control_points": np.asarray(session.target, dtype=float).tolist()},
-        kernel=session.kernel,
-        view={"scale": float(session.scale), "offset": [float(v) for v in session.offset]},
-    )
-    write_json(path, value)
-
-
-def session_kernel_params(session: Session, path: str | os.PathLike = "session") -> dict:
-    """Kernel parameters of a session: its ``kernel_params`` object, validated; {} if absent.
-
-    Only the ``power`` kernel takes parameters: ``power`` (a number > 0) and
-    ``shift`` (``"none"``, ``"integral"`` or ``"mean"``).  The viewer writes them
-    so that ``warp --session`` computes the very basis functions it showed.
-    """
-    value = session.extra.get("kernel_params")
-    if value is None:
-        return {}
-    if not isinstance(value, dict):
-        raise InputError(f'{path}: "kernel_params" must be an object, got {_json_type(value)}')
-    if session.kernel != "power":
-        if value:
-            raise InputError(
-                f"{path}: kernel {session.kernel!r} takes no parameters, but kernel_params has "
-                f"{', '.join(sorted(value))}"
-            )
-        return {}
-    unknown = sorted(set(value) - {"power", "shift"})
-    if unknown:
-        raise InputError(
-            f"{path}: unknown kernel parameter(s) {', '.join(unknown)} (power takes power, shift)"
-        )
-    params = {}
-    if "power" in value:
-        power = finite_number(value["power"])
-        if power is None or power <= 0:
-            raise InputError(
-                f"{path}: kernel_params power must be a number > 0, got {_shown(value['power'])}"
-            )
-        params["power"] = power
-    if "shift" in value:
-        if value["shift"] not in ("none", "integral", "mean"):
-            raise InputError(
-                f'{path}: kernel_params shift must be "none", "integral" or "mean", got {value["shift"]!r}'
-            )
-        params["shift"] = value["shift"]
-    return params
-
-
-def session_max_edge(session: Session, path: str | os.PathLike = "session") -> float | None:
-    """The mesh edge length of a session (its ``mesh`` object's ``max_edge``), or None if absent."""
-    value = session.extra.get("mesh")
-    if value is None:
-        return None
-    if not isinstance(value, dict) or "max_edge" not in value:
-        raise InputError(f'{path}: "mesh" must be an object {{"max_edge": h}}')
-    edge = finite_number(value["max_edge"])
-    if edge is None or edge <= 0:
-        raise InputError(f"{path}: mesh max_edge must be a number > 0, got {_shown(value['max_edge'])}")
-    return edge
-
-
-def session_fold_free(session: Session, path: str | os.PathLike = "session") -> bool:
-    """Whether a session asks for fold-free warps (``"fold_free": true``; false when absent)."""
-    value = session.extra.get("fold_free", False)
-    if not isinstance(value, bool):
-        raise InputError(f'{path}: "fold_free" must be true or false, got {_shown(value)}')
-    return value
-
-
-def session_output(session: Session, path: str | os.PathLike = "session") -> tuple[str, str]:
-    """The session's ``outside`` and ``canvas`` settings (default ``"transparent"``, ``"source"``).
-
-    They say what an export shows outside the deformed region (nothing, or the
-    untouched image) and whether the output grows to hold the whole target.
-    """
-    from app.warp.framing import CANVASES, OUTSIDES
-
-    settings = []
-    for key, choices in (("outside", OUTSIDES), ("canvas", CANVASES)):
-        value = session.extra.get(key, choices[0])
-        if value not in choices:
-            raise InputError(f'{path}: "{key}" must be one of {", ".join(choices)}, got {value!r}')
-        settings.append(value)
-    return settings[0], settings[1]
-
-
-def session_background(session: Session, path: str | os.PathLike = "session") -> tuple | None:
-    """The session's ``background``: straight RGBA in [0, 1] under the warp (``--background``), or
-    None (transparent) when absent or ``"none"``.  A colour as ``--background`` takes it
-    (`app.io.images.colours.parse_colour`); anything else is an `InputError`."""
-    from app.io.images.colours import parse_colour
-
-    value = session.extra.get("background", "none")
-    if value == "none":
-        return None
-    if not isinstance(value, str):
-        raise InputError(f'{path}: "background" must be a colour or "none", got {_shown(value)}')
-    try:
-        return parse_colour(value)
-    except ValueError as error:
-        raise InputError(f'{path}: "background": {error}') from None
-
-
-def session_parameterization(session: Session, path: str | os.PathLike = "session") -> str:
-    """The session's ``parameterization`` of the boundary for the point kernels (Fig. 12):
-    ``"natural"`` (also when absent, as in older sessions) or ``"arc-length"``."""
-    from core import DEFAULT_PARAMETERIZATION, PARAMETERIZATIONS
-
-    value = session.extra.get("parameterization", DEFAULT_PARAMETERIZATION)
-    if value not in PARAMETERIZATIONS:
-        raise InputError(
-            f'{path}: "parameterization" must be one of {", ".join(PARAMETERIZATIONS)}, got {value!r}'
-        )
-    return value
-
-
-def session_keyframes(
-    session: Session, path: str | os.PathLike = "session"
-) -> tuple[tuple[Keyframe, ...], str]:
-    """The session's ``keyframes`` (sorted by time; () if absent) and ``interpolation`` (default catmull-rom).
-
-    ``keyframes`` is a list of ``{"time": seconds, "target": {"control_points":
-    [[x, y], ...]}}``, each target with as many control points as the cage, times
-    distinct and within 0..`app.warp.keyframes.MAX_TIME`.
-    """
-    value = session.extra.get("keyframes", [])
-    if not isinstance(value, list):
-        raise InputError(f'{path}: "keyframes" must be a list, got {_json_type(value)}')
-    keyframes = []
-    for index, item in enumerate(value):
-        where = f"{path}: keyframes[{index}]"
-        if not isinstance(item, dict) or "time" not in item or "target" not in item:
-            raise InputError(f'{where}: expected an object with "time" and "target", got {_shown(item)}')
-        time = finite_number(item["time"])
-        if time is None:
-            raise InputError(f"{where}: time must be a number of seconds, got {_shown(item['time'])}")
-        target = cage_points(item["target"], f"{where}: target")
-        if target.shape != session.cage.shape:
-            raise InputError(
-                f"{where}: target has {len(target)} control points but cage has {len(session.cage)}"
-            )
-        try:
-            keyframes.append(Keyframe(time, target))
-        except ValueError as error:
-            raise InputError(f"{where}: {error}") from None
-    try:
-        keyframes = sorted_keyframes(keyframes)
-    except ValueError as error:
-        raise InputError(f"{path}: keyframes: {error}") from None
-    interpolation = session.extra.get("interpolation", DEFAULT_INTERPOLATION)
-    if interpolation not in INTERPOLATIONS:
-        raise InputError(
-            f'{path}: "interpolation" must be one of {", ".join(INTERPOLATIONS)}, got {_shown(interpolation)}'
-        )
-    return keyframes, interpolation
-
-
-def _view(value, path: Path) -> tuple[float, tuple[float, float]]:
-    if not isinstance(value, dict) or "scale" not in value or "offset" not in value:
-        raise InputError(f'{path}: "view" must be an object {{"scale": s, "offset": [ox, oy]}}')
-    scale, offset = finite_number(value["scale"]), value["offset"]
-    if scale is None or scale <= 0:
-        raise InputError(f"{path}: view scale must be a finite number > 0, got {_shown(value['scale'])}")
-    if not (
-        isinstance(offset, list) and len(offset) == 2 and all(finite_number(v) is not None for v in offset)
-    ):
-        raise InputError(f"{path}: view offset must be two finite numbers [ox, oy], got {_shown(offset)}")
-    return scale, (float(offset[0]), float(offset[1]))
 
 
 # -- images -------------------------------------------------------------------
@@ -839,12 +580,12 @@ def _out_of_range(value: Real) -> bool:
     return abs(value) > MAX_COORDINATE and not (isinstance(value, float) and math.isinf(value))
 
 
-def _shown(value, limit: int = 60) -> str:
+def shown(value, limit: int = 60) -> str:
     """`repr` of a JSON value, shortened to one readable piece of a line."""
     text = repr(value)
     return text if len(text) <= limit else f"{text[: limit - 3]}..."
 
 
-def _json_type(value) -> str:
+def json_type(value) -> str:
     names = {dict: "an object", list: "a list", str: "a string", bool: "a boolean", type(None): "null"}
     return names.get(type(value), "a number")

@@ -200,7 +200,7 @@ def _press(state: AppState, x: float, y: float, button: int, shift: bool = False
 def fit(state: AppState, rect=None, points: int | None = None) -> None:
     """Fit the cage to the image's subject (inside `rect`, (x, y, width, height) image pixels) as one
     edit, with `points` control points (default: as many as now, at least 8, or 16)."""
-    from app.viewer.session import fit_or_ellipse
+    from app.viewer.documents import fit_or_ellipse
 
     state.selection.fit_rect = False
     live = state.document.live

@@ -35,19 +35,16 @@ import numpy as np
 from app.io.bundled import bundled_directory
 from app.io.files import (
     InputError,
-    Session,
     finite_number,
     read_cage,
     read_json,
-    read_session,
-    session_keyframes,
     write_cage,
     write_json,
     write_png,
-    write_session,
 )
+from app.io.session import Animation, KernelChoice, Session, read_session, write_session
 from app.viewer.editing import curve_points, default_max_edge
-from app.warp.keyframes import DEFAULT_INTERPOLATION, Keyframe, keyframes_json
+from app.warp.keyframes import DEFAULT_INTERPOLATION, Keyframe
 from core import DEFAULT_KERNEL
 
 SIZE = (640, 480)
@@ -58,7 +55,8 @@ SCRIPT_FORMAT = (
     'A script is JSON {"moves": [{"at": s, "duration": d, "point": i, "to": [x, y]}, ...]}: '
     "at s seconds from the start of the replay, press the mouse on target control point i, "
     "drag it to the image point (x, y) (pixels, origin top-left) over d seconds (default 1), "
-    "and release. Moves run one after another, like one hand on the mouse."
+    'and release. Moves run one after another, like one hand on the mouse. A move with "fold_free": '
+    "true or false switches fold-free on or off (B) before it starts."
 )
 
 
@@ -335,21 +333,24 @@ def write_demo(name: str, directory: Path) -> DemoFiles:
     write_json(files.script, {"demo": name, "moves": moves})
     cage = read_cage(files.cage)  # rounded as in the file
     keyframes = script_keyframes(cage, read_script(files.script, len(cage)))
-    extra = {
-        "keyframes": keyframes_json(keyframes),
-        "interpolation": DEFAULT_INTERPOLATION,
-        "mesh": {"max_edge": default_max_edge(cage)},  # the viewer's mesh: animate shows what it plays
-    }
     # The session shows the script's boldest pose, so that `warp --session` (and any kernel chosen
     # for it) shows a deformation, with the default kernel, which nothing needs compiling for.
     boldest = max(keyframes, key=lambda keyframe: np.abs(keyframe.target - cage).max())
-    write_session(files.session, Session(files.image, cage, boldest.target, DEFAULT_KERNEL, extra=extra))
+    session = Session(
+        files.image,
+        cage,
+        boldest.target,
+        KernelChoice(DEFAULT_KERNEL),
+        max_edge=default_max_edge(cage),  # the viewer's mesh: animate shows what it plays
+        animation=Animation(keyframes, DEFAULT_INTERPOLATION),
+    )
+    write_session(files.session, session)
     return files
 
 
 def demo_keyframes(files: DemoFiles) -> tuple[Keyframe, ...]:
     """The keyframes of a demo's session file (`InputError` if it cannot be read)."""
-    return session_keyframes(read_session(files.session), files.session)[0]
+    return read_session(files.session).animation.keyframes
 
 
 #: Seconds from the last move of a script back to the start, so that the animation loops.
@@ -402,12 +403,14 @@ def _cache_directory() -> Path:
 
 @dataclass(frozen=True)
 class Move:
-    """Drag target control point `point` to image point `to` from time `at` for `duration` seconds."""
+    """Drag target control point `point` to image point `to` from time `at` for `duration` seconds,
+    with fold-free switched on or off first (`fold_free`, None: as it is)."""
 
     at: float
     duration: float
     point: int
     to: tuple[float, float]
+    fold_free: bool | None = None
 
 
 def read_script(path: str | Path, control_points: int | None = None) -> list[Move]:
@@ -443,8 +446,11 @@ def read_script(path: str | Path, control_points: int | None = None) -> list[Mov
             raise InputError(f"{where}: point must be a control point index{limit}, got {point!r}")
         if duration <= 0 or at < end:
             raise InputError(f"{where}: moves must not overlap and need a duration > 0")
+        fold_free = item.get("fold_free")
+        if fold_free is not None and not isinstance(fold_free, bool):
+            raise InputError(f"{where}: fold_free must be true or false, got {fold_free!r}")
         end = at + duration
-        result.append(Move(at, duration, point, to))
+        result.append(Move(at, duration, point, to, fold_free))
     return result
 
 
@@ -487,7 +493,8 @@ class ScriptPlayer:
         Returns
         -------
         list of tuple
-            ``("press", x, y)``, ``("move", x, y)``, ``("release", x, y)`` in window pixels.
+            ``("press", x, y)``, ``("move", x, y)``, ``("release", x, y)`` in window pixels;
+            ``("fold_free", on, None)`` before a move's press that sets the switch.
         """
         events = []
         while not self.finished:
@@ -495,6 +502,8 @@ class ScriptPlayer:
             if time < move.at:
                 break
             if not self._pressed:
+                if move.fold_free is not None:
+                    events.append(("fold_free", move.fold_free, None))
                 self._start = np.asarray(handle_position(move.point), dtype=np.float64)
                 events.append(("press", *to_window(self._start)))
                 self._pressed = True

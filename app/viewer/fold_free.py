@@ -4,7 +4,8 @@ For the live target of a ``poisson`` warp the worker computes either the certifi
 plain map (`core.certify_injective`, ~0.2 s on the starfish demo) or, with the document's
 "Fold-free" on, the certified fold-free map at the mesh's vertices (`core.fold_free_deform`,
 ~0.4 s at the default mesh, with its certificate): neither may block a frame.  While a handle
-moves nothing is asked (the plain map is drawn); once the drag pauses (`PAUSE` seconds) or ends,
+moves nothing is asked (the frames draw the plain map, or with "Fold-free" on positions proven
+fold-free on the mesh: `app.viewer.fold_free_frames`); once the drag pauses (`PAUSE` seconds) or ends,
 the newest target is sent, a newer request supersedes an older one, and a result is applied only
 if its key is still the one the live document wants (`check_key`): a stale certificate is never
 shown for a newer target.
@@ -132,6 +133,7 @@ def compute_check(request: CheckRequest, progress: Callable[[float], None] | Non
         str(certificate),
         positions,
         time.perf_counter() - started,
+        bool(certificate.on_mesh),
     )
 
 
@@ -154,13 +156,16 @@ def _images(curve, target: np.ndarray, points: np.ndarray) -> np.ndarray:
 
 
 def status_text(check: WarpCheck, folded: int | None) -> str:
-    """The status line's words for a check: proven fold-free with its σ₂ bound (the fold-free map:
+    """The status line's words for a check: fold-free on the mesh (the mesh's map proven a bijection),
+    proven fold-free with its σ₂ bound (the fold-free map:
     harmonic and proven outside the discs of its sharp corners, radial inside them, if it has
     some), or where the proof fails (`folded`: the mesh's folded triangles, to say whether it does
     fold there).  A fold-free map whose mesh still shows `folded` triangles says so: the map is a
     bijection, the mesh's straight edges are too coarse to follow it there."""
     if check.fold_free and check.positions is None:
         return f"fold-free map failed: {check.text}"
+    if check.on_mesh and check.injective:  # the mesh's map is what is proven, its σ₂ per triangle
+        return f"fold-free on the mesh, proven (σ₂ ≥ {check.sigma2_min:.2g})"
     if check.fold_free or check.injective:
         text = f"fold-free, proven (σ₂ ≥ {check.sigma2_min:.2g})"
         if not check.injective:  # a composite proven outside its corners' discs, radial inside

@@ -517,13 +517,19 @@ def status_summary(state: AppState) -> str:
 
 
 def status_check(state: AppState) -> str:
-    """What is proven about the warp shown (`app.viewer.fold_free`): of the live target only."""
+    """What is proven about the warp shown (`app.viewer.fold_free`, `app.viewer.fold_free_frames`):
+    of the live target only.  With fold-free on, the mesh map's proof comes first ("fold-free on
+    the mesh, proven"), the continuous map's certificate after it ("fold-free, proven (σ₂ ≥ …)")."""
     live = state.document.live
     if live.kernel != HARMONIC_KERNEL:
         return f"no fold-free proof ({HARMONIC_KERNEL} only)"
     if state.selection.drawing is not None:
         return "fold-free: -"  # nothing is checked while a new cage is drawn
     check = current_check(state)
+    proof = state.compute.mesh_proof
+    on_mesh = live.fold_free and proof is not None and proof.proves(live.target)
+    if check is not None and on_mesh and check.fold_free and check.positions is None:
+        return f"{MESH_PROVEN}; no continuous proof: {check.text}"
     if check is not None:
         return status_text(check, state.compute.folded_count)
     if state.compute.basis is None:
@@ -531,11 +537,21 @@ def status_check(state: AppState) -> str:
     if not live.fold_free:
         return "checking folds..."
     share = state.compute.check_progress
-    return (
-        "computing the fold-free map..."
-        if share is None
-        else f"fold-free map: {100 * share:.0f} % of the way"
-    )
+    if share is None:
+        continuous = "computing the fold-free map..."
+    elif share >= 0.995:  # the path is done; its certificate and the mesh's repair take a while more
+        continuous = "proving the fold-free map..."
+    else:
+        continuous = f"fold-free map: {100 * share:.0f} % of the way"
+    if on_mesh:
+        return f"{MESH_PROVEN}; {continuous}"
+    if proof is not None and not proof.reached:
+        return "fold-free on the mesh, catching up with the drag..."
+    return continuous
+
+
+#: The status line's words for a mesh map proven a bijection (`app.viewer.fold_free_frames`).
+MESH_PROVEN = "fold-free on the mesh, proven"
 
 
 def _fold_free_toggle(live, commands: list) -> None:
@@ -547,8 +563,9 @@ def _fold_free_toggle(live, commands: list) -> None:
     imgui.end_disabled()
     if imgui.is_item_hovered(imgui.HoveredFlags_.allow_when_disabled):
         imgui.set_tooltip(
-            "a warp that provably never folds and still meets the target curve (B); drawn once a drag\n"
-            f"pauses, saved in the session for warp and animate; needs the {HARMONIC_KERNEL} kernel"
+            "a warp that provably never folds and still meets the target curve (B): every frame of a drag\n"
+            "is proven fold-free on the mesh, the continuous map after it; saved in the session for warp\n"
+            f"and animate; needs the {HARMONIC_KERNEL} kernel"
         )
 
 

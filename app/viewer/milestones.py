@@ -6,6 +6,7 @@ frame times of ``--stats``."""
 from __future__ import annotations
 
 import time
+from dataclasses import dataclass, field
 
 from app.viewer.state import AppState
 
@@ -14,6 +15,9 @@ SECTIONS = ("Edit", "Kernel", "Show", "Animation", "File")
 
 #: Seconds between two updates of the status line's frame times (a median of every frame so far).
 FIGURES_INTERVAL = 0.5
+#: How the status line's fold-free words begin once something is proven: the mesh map's bijection
+#: (`app.viewer.gui.MESH_PROVEN`) or the continuous map's certificate (`app.viewer.fold_free.status_text`).
+PROVEN = ("fold-free on the mesh, proven", "fold-free, proven")
 
 
 def frame_statistics(frame_ms: list[float]) -> tuple[int, float, float]:
@@ -24,6 +28,35 @@ def frame_statistics(frame_ms: list[float]) -> tuple[int, float, float]:
         return 0, 0.0, 0.0
     values = np.asarray(frame_ms)
     return len(values), float(np.median(values)), float(np.percentile(values, 95))
+
+
+@dataclass
+class FoldFreeFigures:
+    """What --stats says of fold-free drags (`app.viewer.fold_free_frames`).
+
+    Attributes
+    ----------
+    drag_ms, plain_drag_ms : list of float
+        Times (ms) of the frames drawn while a target point was dragged with fold-free on, and off.
+    max_folded_drawn : int
+        The most turned-over triangles a frame of the first drew.
+    on_target : int
+        Those of its frames whose boundary was on the target curve (the others caught up later).
+    proven_after_release_ms : float or None
+        ms from the last release with fold-free on to a proof on the status line (None: not yet).
+    released_at : float or None
+        When that release was (`time.perf_counter`), while its proof is awaited.
+    target_dragged : bool
+        The last frame was drawn while a target point was dragged.
+    """
+
+    drag_ms: list = field(default_factory=list)
+    plain_drag_ms: list = field(default_factory=list)
+    max_folded_drawn: int = 0
+    on_target: int = 0
+    proven_after_release_ms: float | None = None
+    released_at: float | None = None
+    target_dragged: bool = False
 
 
 class Milestones:
@@ -47,6 +80,8 @@ class Milestones:
         self.drag_first_frame: int | None = None
         #: Times (ms) of the frames drawn while a control point was dragged, for --stats.
         self.drag_frame_ms: list[float] = []
+        #: The fold-free figures of --stats (`FoldFreeFigures`).
+        self.fold_free = FoldFreeFigures()
         #: Window points of some widgets (`app.viewer.gui.gui` fills it), announced for the tests.
         self.spots: dict = {}
         self.figures_at = -FIGURES_INTERVAL  # when the status line's frame times were last computed
@@ -90,7 +125,8 @@ class Milestones:
 
     def checked(self, status: str, fold_free_drawn: bool, folded: int | None) -> None:
         """The status line's fold-free words and whether the fold-free map is drawn (with the mesh's
-        folded triangles), announced when they change (`app.viewer.fold_free`)."""
+        folded triangles), announced when they change (`app.viewer.fold_free`); kept for the time
+        from a release to a proof (`frame_done`)."""
         if status != self.check_status:
             self.check_status = status
             self.announce(f"status check {status}")
@@ -116,6 +152,7 @@ class Milestones:
         drag = state.selection.drag
         if drag is not None and drag.kind in ("target", "source"):
             self.drag_frame_ms.append(state.status.frame_ms[-1])
+        self._fold_free_frame(state)
         self._update_figures(state)
         if not self.announced_ready:
             self.announced_ready = True
@@ -148,6 +185,28 @@ class Milestones:
                 self.headings[name] = spot
                 self.announce(f"spot {name}={spot[0]:.0f},{spot[1]:.0f}")
 
+    def _fold_free_frame(self, state: AppState) -> None:
+        """A frame with fold-free on: a drag frame's time and turned-over triangles; a release starts
+        the clock that the status line's proof (`checked`) stops."""
+        figures = self.fold_free
+        dragged = state.selection.drag is not None and state.selection.drag.kind == "target"
+        fold_free = state.document.live.fold_free
+        if dragged and fold_free:
+            figures.drag_ms.append(state.status.frame_ms[-1])
+            figures.max_folded_drawn = max(figures.max_folded_drawn, state.compute.folded_count or 0)
+            proof = state.compute.mesh_proof
+            figures.on_target += proof is not None and proof.proves(state.document.live.target)
+        elif dragged:
+            figures.plain_drag_ms.append(state.status.frame_ms[-1])
+        if figures.target_dragged and not dragged and fold_free:
+            figures.released_at = time.perf_counter() - 1e-3 * state.status.frame_ms[-1]
+            figures.proven_after_release_ms = None
+        figures.target_dragged = dragged
+        if figures.released_at is not None and self.check_status.startswith(PROVEN):
+            figures.proven_after_release_ms = 1e3 * (time.perf_counter() - figures.released_at)
+            figures.released_at = None
+            self.announce(f"proven after release ms={figures.proven_after_release_ms:.0f}")
+
     def _update_figures(self, state: AppState) -> None:
         """The status line's frame times: what ``--stats`` would report now, twice a second."""
         now = time.perf_counter()
@@ -159,10 +218,23 @@ class Milestones:
         state.status.frame_figures = (median, drag_median)
 
     def statistics(self, state: AppState) -> str:
-        """``--stats``: frames=N median_frame_ms=X p95_frame_ms=Y median_drag_frame_ms=Z."""
+        """``--stats``: frames=N median_frame_ms=X p95_frame_ms=Y median_drag_frame_ms=Z
+        fold_free_drag_frames=N max_folded_drawn=K median_fold_free_drag_frame_ms=X
+        proven_after_release_ms=Y (``none``: no release with fold-free on was proven since)
+        median_plain_drag_frame_ms=Z (target drags with fold-free off)
+        fold_free_drag_frames_on_target=K (fold-free drag frames whose boundary was on the target curve)."""
         count, median, p95 = frame_statistics(state.status.frame_ms)
         _, drag_median, _ = frame_statistics(self.drag_frame_ms)
+        figures = self.fold_free
+        fold_free_count, fold_free_median, _ = frame_statistics(figures.drag_ms)
+        _, plain_median, _ = frame_statistics(figures.plain_drag_ms)
+        proven = figures.proven_after_release_ms
         return (
             f"frames={count} median_frame_ms={median:.2f} p95_frame_ms={p95:.2f} "
-            f"median_drag_frame_ms={drag_median:.2f}"
+            f"median_drag_frame_ms={drag_median:.2f} fold_free_drag_frames={fold_free_count} "
+            f"max_folded_drawn={figures.max_folded_drawn} "
+            f"median_fold_free_drag_frame_ms={fold_free_median:.2f} "
+            f"proven_after_release_ms={'none' if proven is None else f'{proven:.0f}'} "
+            f"median_plain_drag_frame_ms={plain_median:.2f} "
+            f"fold_free_drag_frames_on_target={figures.on_target}"
         )

@@ -30,7 +30,8 @@ from app.render.viewport import View
 from app.viewer.controller import band_corners
 from app.viewer.drawing import clicked_points
 from app.viewer.editing import curve_points, to_image
-from app.viewer.fold_free import current_check
+from app.viewer.fold_free import HARMONIC_KERNEL, current_check
+from app.viewer.fold_free_frames import FoldFreeFrames
 from app.viewer.state import AppState
 from app.viewer.view_modes import BY_NAME as VIEW_MODES
 from app.warp.fill import set_fill
@@ -196,6 +197,15 @@ class Columns:
 
 
 @dataclass
+class Preview:
+    """The preview mesh's G, rows in the renderer's preview vertex order, and the target its
+    positions were last made for."""
+
+    columns: Columns | None = None
+    target: np.ndarray | None = None
+
+
+@dataclass
 class Layer:
     """The backdrop-and-mesh layer kept between frames: its framebuffer, the key of what it holds,
     and the key of what the last frame drew (a picture drawn twice in a row is kept)."""
@@ -260,8 +270,7 @@ class Scene:
         self._exact = False
         self._field = None
         # The preview mesh's G, rows in the renderer's preview vertex order.
-        self._preview: Columns | None = None
-        self._preview_target: np.ndarray | None = None  # what the preview's positions were made for
+        self._preview = Preview()
         #: Whether the frame being drawn shows the preview mesh (`sync` decides).
         self.previewing = False
         # The backdrop-and-mesh layer (`draw`) and what it was drawn with.
@@ -271,6 +280,8 @@ class Scene:
         # (the renderer's revision at which `_positions` were written, whether they may fold there:
         # None until asked).
         self._fold_check: tuple[int, bool | None] | None = None
+        #: The positions drawn with "Fold-free" on (`app.viewer.fold_free_frames`).
+        self.fold_free_frames = FoldFreeFrames()
 
     @property
     def layer_key(self) -> tuple | None:
@@ -279,7 +290,8 @@ class Scene:
 
     @property
     def fold_free_drawn(self) -> bool:
-        """Whether the mesh drawn has the fold-free map's positions (`app.viewer.fold_free`)."""
+        """Whether the mesh drawn has fold-free positions: the certified map's (`app.viewer.fold_free`)
+        or the fold-free frames' (`app.viewer.fold_free_frames`)."""
         return self._drawn is not None and self._drawn[1] is not None and not self.previewing
 
     @property
@@ -313,11 +325,11 @@ class Scene:
             )
             self._drawn = None
             self._field = None
-            self._preview = self._preview_target = None
+            self._preview = Preview()
             if basis.preview is not None:
                 renderer.set_preview_mesh(basis.preview.vertices, basis.preview.triangles)
                 rows = basis.preview.basis[renderer.preview_vertex_order]
-                self._preview = Columns(
+                self._preview.columns = Columns(
                     np.asfortranarray(rows.real, dtype=np.float32),
                     np.asfortranarray(rows.imag, dtype=np.float32) if np.iscomplexobj(rows) else None,
                 )
@@ -352,7 +364,7 @@ class Scene:
         ) or state.playback.playing
         return (
             (moving or state.display.viewport_moving)
-            and self._preview is not None
+            and self._preview.columns is not None
             and state.display.view_mode == "image"
             and state.selection.edit_mode == "deform"
             and not state.display.show_wireframe
@@ -362,18 +374,71 @@ class Scene:
         """The preview mesh's positions, G' @ P' (~20k rows: cheaper than any update of the dense mesh)."""
         self.previewing = True
         target = state.document.live.target
-        if self._preview_target is not None and np.array_equal(self._preview_target, target):
+        preview = self._preview
+        if preview.target is not None and np.array_equal(preview.target, target):
             return  # a pan or zoom: the positions are those of the last frame
         started = time.perf_counter()
         self.renderer.set_preview_positions(
-            combined_columns(self._preview.columns, target, self._preview.imaginary)
+            combined_columns(preview.columns.columns, target, preview.columns.imaginary)
         )
-        self._preview_target = np.array(target)
+        preview.target = np.array(target)
         # The dense mesh is left as it was (`_drawn` with it): once the motion stops it gets
         # the exact positions if the target changed meanwhile.
         self.update_ms = 1e3 * (time.perf_counter() - started)
 
+    def _fold_free_frames_wanted(self, state: AppState) -> bool:
+        """Whether this frame's positions come from `app.viewer.fold_free_frames`: the document asks
+        for fold-free, the basis drawn is the harmonic kernel's, keyframes are not playing."""
+        live = state.document.live
+        return live.fold_free and self._basis.kernel == HARMONIC_KERNEL and not state.playback.playing
+
+    def _update_fold_free(self, state: AppState) -> None:
+        """Positions proven fold-free on the mesh (`app.viewer.fold_free_frames`): the certified
+        continuous map of this target once the background check has it (if the mesh map of it is a
+        bijection too), else this frame's drag step; their count of turned-over triangles (0)."""
+        target, frames = state.document.live.target, self.fold_free_frames
+        certified = _fold_free_positions(state)
+        drawn, certified_drawn = self._drawn if self._drawn is not None else (None, None)
+        if (
+            drawn is not None
+            and np.array_equal(drawn, target)
+            and certified_drawn is not None
+            and (certified is None or certified is certified_drawn or certified is frames.refused)
+            and not frames.catching_up
+        ):
+            return
+        started = time.perf_counter()
+        if (
+            certified is not None
+            and certified is not frames.refused
+            and frames.adopt(self._basis, target, certified)
+        ):
+            positions = certified
+        else:
+            dragging = state.selection.drag is not None and state.selection.drag.kind == "target"
+            positions = frames.positions(self._basis, target, dragging)
+        state.compute.mesh_proof = frames.proof
+        state.compute.folded_count = frames.proof.turned_over
+        self._positions = positions[self._dense.order].astype(np.float32)
+        self._exact = True
+        self.renderer.set_ordered_positions(self._positions)
+        self._fold_check = (self.renderer.revision, None)
+        self._drawn = (np.array(target), positions)
+        self.update_ms = 1e3 * (time.perf_counter() - started)
+
+    @property
+    def catching_up(self) -> bool:
+        """The fold-free frames have not yet brought the boundary onto the target curve: the window
+        draws again without waiting for input."""
+        return self.fold_free_frames.catching_up
+
     def _update_positions(self, state: AppState) -> None:
+        if self._fold_free_frames_wanted(state):
+            self._update_fold_free(state)
+            return
+        if self.fold_free_frames.proof is not None:
+            self.fold_free_frames.forget()
+            state.compute.mesh_proof = None
         basis, target = self._basis, state.document.live.target
         dragging = state.selection.drag is not None and state.selection.drag.kind == "target"
         drawn, fold_free_drawn = self._drawn if self._drawn is not None else (None, None)

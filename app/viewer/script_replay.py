@@ -87,6 +87,10 @@ class ScriptReplay:
             lambda point: editing.to_window(state.display.viewport, point),
         )
         for kind, x, y in moves:
+            if kind == "fold_free":  # the switch, as B would set it
+                if state.document.live.fold_free != x:
+                    events.append(("command", "fold_free", None))
+                continue
             # The same path as the mouse: the queue that the glfw callbacks fill.
             events.append(("pointer", kind, x, y, LEFT, 0.0, False, False))
         if player.finished and not moves:

@@ -23,14 +23,11 @@ import numpy as np
 
 from app.render.viewport import View
 from app.warp.keyframes import DEFAULT_INTERPOLATION, INTERPOLATIONS, Keyframe, sorted_keyframes
+from core import KERNEL_TABLE, PARAMETERIZATIONS, PARAMETERIZED_KERNELS, SHIFTS
 
 #: Parameters of the ``power`` kernel family (Eq. 19) when a session does not say.
 DEFAULT_POWER = 4.0
 DEFAULT_SHIFT = "mean"
-SHIFTS = ("none", "integral", "mean")
-
-#: The boundary's parameter of the point kernels (`core.curves.arc_length`, the paper's Fig. 12).
-PARAMETERIZATIONS = ("natural", "arc-length")
 
 #: What the distortion view shows: log2 det J, or log2 sigma_1 / sigma_2 (app.viewer.distortion_view).
 MEASURES = ("area", "conformal")
@@ -133,14 +130,13 @@ class Snapshot:
 
     def kernel_params(self) -> dict:
         """Keyword parameters of the kernel for `core.mesh_basis_functions`."""
-        if self.kernel == "power":
-            return {"power": self.power, "shift": self.shift}
-        return {}
+        settings = {"power": self.power, "shift": self.shift}  # the power family's (Eq. 19)
+        return {name: settings[name] for name in KERNEL_TABLE[self.kernel].parameters if name in settings}
 
     @property
     def parameterized(self) -> bool:
         """Whether the kernel depends on the boundary's parameterization (a point kernel)."""
-        return self.kernel not in ("harmonic", "pgw", "poisson", "cauchy-green")  # not Newton kernels
+        return self.kernel in PARAMETERIZED_KERNELS
 
     def basis_params(self) -> dict:
         """Keyword arguments of `core.mesh_basis_functions` besides the kernel: `kernel_params`
@@ -491,6 +487,7 @@ class Compute:
     folded_count: int | None = None
     check: WarpCheck | None = None  # the last injectivity check applied (`app.viewer.fold_free`)
     check_progress: float | None = None  # share of the path proven of the fold-free map being made
+    mesh_proof: object = None  # app.viewer.fold_free_frames.MeshProof of the fold-free mesh drawn
 
 
 @dataclass(frozen=True, eq=False)
@@ -517,6 +514,9 @@ class WarpCheck:
         The fold-free map at the mesh's vertices (with `fold_free`).
     seconds : float
         Time the worker took.
+    on_mesh : bool
+        What is proven is the mesh's piecewise-linear map (every triangle positive, the boundary
+        simple), not the continuous map's σ₂ bound (`core.InjectivityCertificate.on_mesh`).
     """
 
     key: str
@@ -528,6 +528,7 @@ class WarpCheck:
     text: str
     positions: np.ndarray | None
     seconds: float
+    on_mesh: bool = False
 
 
 @dataclass

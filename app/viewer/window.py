@@ -29,6 +29,7 @@ from app.io.files import CAGE_SUFFIXES, InputError, read_json
 from app.viewer import commands, controller
 from app.viewer.basis_updates import BasisUpdates
 from app.viewer.cage_files import open_cage
+from app.viewer.documents import OpenedDocument, apply_preferences, open_document, save, start_snapshot
 from app.viewer.exports import Exporter
 from app.viewer.file_dialogs import FileRequests
 from app.viewer.fold_free import CheckUpdates, CheckWorker
@@ -36,7 +37,6 @@ from app.viewer.milestones import Milestones
 from app.viewer.playback_clock import PlaybackClock
 from app.viewer.precompute import Precompute
 from app.viewer.script_replay import ScriptReplay
-from app.viewer.session import OpenedDocument, apply_preferences, open_document, save, start_snapshot
 from app.viewer.state import AppState, History
 from app.viewer.window_fit import save_settings, screen_rectangle
 from app.viewer.window_input import InputQueue
@@ -390,8 +390,8 @@ class Viewer:
         again and again on a software renderer took the cores the precompute needed (the
         starfish demo's --play: basis 12.5 s instead of 1.6 s)."""
         playing = self.state.playback.playing and self._playback_ready()
-        if self.script.moving or playing or self.exporter.animation:
-            glfw.poll_events()  # a replay, playback or an export animates every frame
+        if self.script.moving or playing or self.exporter.animation or self.scene.catching_up:
+            glfw.poll_events()  # a replay, playback, an export or fold-free frames catching up
         elif not imgui.get_current_context().input_events_queue.empty():
             glfw.poll_events()  # imgui takes queued input a few events a frame (typed text)
         elif self.input.events or self.input.frames_to_draw > 0:
@@ -444,7 +444,7 @@ class Viewer:
         ) or (time.perf_counter() - self.input.view_changed_at < VIEW_SETTLE)
         self.scene.sync(state)
         self.milestones.drawn(state, self.scene.previewing, shown)
-        if self.milestones.test_mode:
+        if self.milestones.test_mode or state.document.live.fold_free:  # --stats times the proof
             from app.viewer.gui import status_check
 
             folded = state.compute.folded_count

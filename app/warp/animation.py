@@ -14,14 +14,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from app.io.files import (
-    InputError,
-    read_photo,
-    read_session,
-    refuse_overwriting_inputs,
-    reported_as_input,
-    session_keyframes,
-)
+from app.io.files import InputError, read_photo, refuse_overwriting_inputs, reported_as_input
+from app.io.session import read_session
 from app.warp.frame_writers import check_output, output_kind
 from app.warp.framing import frame_region, output_frame
 from app.warp.job import WarpJob, checked_curve, kernel_params, session_inputs, width_height
@@ -51,7 +45,7 @@ def animation_job(args: argparse.Namespace) -> WarpJob:
     session = read_session(args.session)
     inputs = session_inputs(session, args.session)
     refuse_overwriting_inputs(path, {"session's image": session.image})
-    keyframes, interpolation = session_keyframes(session, args.session)
+    keyframes, interpolation = session.animation.keyframes, session.animation.interpolation
     if not keyframes:
         raise InputError(
             f'{args.session}: has no "keyframes"; add them in the viewer (I: a keyframe at the current time) '

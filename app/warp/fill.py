@@ -47,12 +47,6 @@ def checked_fill(value: str, where: str = "--fill") -> str:
     raise InputError(f"{where}: must be {', '.join(FILLS)} or a colour such as #ffffff, got {value!r}")
 
 
-def session_fill(extra: dict, path="session") -> str:
-    """The ``fill`` of a session's keys besides the required ones (``Session.extra``); ``none``
-    when the session has none (files written before there were fills)."""
-    return checked_fill(extra.get("fill", "none"), f'{path}: "fill"')
-
-
 def chosen_fill(option: str | None, saved: str, outside: str) -> str:
     """The fill of a command: ``--fill`` (`option`, None when not given) over the session's (`saved`).
 

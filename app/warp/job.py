@@ -27,27 +27,19 @@ from app.console import ProgressBar, note
 from app.io.files import (
     IMAGE_SUFFIXES,
     InputError,
-    Session,
     cage_curve,
     check_writable,
     kernel_names,
     read_cage,
     read_photo,
-    read_session,
     refuse_overwriting_inputs,
     reported_as_input,
     same_file,
-    session_background,
-    session_fold_free,
-    session_image,
-    session_kernel_params,
-    session_max_edge,
-    session_output,
-    session_parameterization,
 )
 from app.io.images import has_alpha, output_format
+from app.io.session import Session, existing_image, read_session
 from app.render.viewport import View
-from app.warp.fill import FILLS, chosen_fill, session_fill
+from app.warp.fill import FILLS, chosen_fill
 from app.warp.frame_writers import WRITERS, interrupted_by_sigterm
 from app.warp.framing import CANVASES, OUTSIDES, output_frame, output_region
 from app.warp.pipeline import Deformation, OutputFile, WarpSettings
@@ -163,28 +155,23 @@ def session_inputs(session: Session, path: Path, kernel: str | None = None) -> W
     """The image, cage, target, kernel (`kernel` instead, if given: then without the session's
     parameters, which are its own kernel's), mesh size and output choices of `session`, read from
     the file `path`."""
-    image_path = session_image(session, path)
-    kernel = session.kernel if kernel is None else kernel
-    params = session_kernel_params(session, path) if kernel == session.kernel else {}
-    parameterization = session_parameterization(session, path)
-    max_edge = session_max_edge(session, path)
-    outside, canvas = session_output(session, path)
+    chosen = session.kernel
     return WarpInputs(
-        image_path=image_path,
+        image_path=existing_image(session, path),
         cage=session.cage,
         target=session.target,
-        kernel=kernel,
+        kernel=chosen.name if kernel is None else kernel,
         # The viewer's kernel parameters and mesh, so that the output is exactly what it showed.
-        params=params,
-        parameterization=parameterization,
-        max_edge=max_edge,
-        outside=outside,
-        canvas=canvas,
-        fill=session_fill(session.extra, path),
-        fold_free=session_fold_free(session, path),
+        params=chosen.params if kernel in (None, chosen.name) else {},
+        parameterization=chosen.parameterization,
+        max_edge=session.max_edge,
+        outside=session.output.outside,
+        canvas=session.output.canvas,
+        fill=session.output.fill,
+        fold_free=session.fold_free,
         cage_source=f"{path}: cage",
         target_source=f"{path}: target",
-        background=session_background(session, path),
+        background=session.output.background_rgba,
     )
 
 

@@ -113,10 +113,16 @@ class Deformation:
         return self.fold_free_map(target)[0]
 
     def certificate(self, target: np.ndarray) -> core.InjectivityCertificate | None:
-        """What is proven about the map to `target` (`core.certify_injective`; of the composite when
-        `fold_free`); None for kernels whose maps are not harmonic."""
+        """What is proven about the map to `target` (`core.certify_injective`; when `fold_free`, of the
+        mesh's fold-free map, or of the continuous map where that map is the plain one and proven);
+        None for kernels whose maps are not harmonic."""
         if self.fold_free:
-            return self.fold_free_map(target)[1]
+            certificate = self.fold_free_map(target)[1]
+            if certificate.extra.get("path") != core.PLAIN_HARMONIC_MAP:
+                return certificate
+            # The plain map, proven on the mesh: its continuous certificate says more where it proves.
+            continuous = core.certify_injective(self.curve, target)
+            return continuous if continuous.injective else certificate
         if self.kernel != core.DEFAULT_KERNEL or self.curve is None:
             return None
         return core.certify_injective(self.curve, target)
@@ -138,6 +144,7 @@ class Deformation:
                 boundary=boundary,
                 triangles=self.mesh.triangles,
                 progress=progress,
+                basis=self.basis,
             )
         return self._last[key]
 

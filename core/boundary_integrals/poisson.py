@@ -638,19 +638,29 @@ def load_compiled() -> bool:
 
 
 @one_blas_thread
-def poisson_gradients(curve: ClosedBSpline, x: np.ndarray) -> np.ndarray:
+def poisson_gradients(curve: ClosedBSpline, x: np.ndarray, weights: np.ndarray | None = None) -> np.ndarray:
     """grad G_i(x), shape (M, n, 2), at interior points x (M, 2); NaN on the curve.
 
     G_i = Re F_i / Re F_s with F = C[μ] holomorphic and F_s the layer of the
     densities' sum, so grad Re F = (Re F', -Im F') and the quotient rule gives
     grad G_i = (grad Re F_i - G_i grad Re F_s) / Re F_s.
+
+    With `weights` (n, k): the gradients of the k combinations Σ_i G_i w_ik instead, shape
+    (M, k, 2), from the densities combined first (the layer is linear in its density, so
+    Σ_i F_i w_ik is the layer of Σ_i μ_i w_ik): k columns evaluated instead of n, the cost of a
+    map's derivatives (`core.injectivity.harmonic_parts`) rather than of every basis function's.
     """
     refuse_far_outside(curve, x)
     shown = x
     curve, x = centred(curve, x)
-    solution = densities(curve)
-    real, _, on_curve = cauchy_integrals(curve, solution.levels, x)
-    derivative = cauchy_derivatives(curve, solution.levels, x)
+    levels = densities(curve).levels
+    if weights is not None:
+        mix = np.zeros((curve.n + 1, weights.shape[1] + 1))
+        mix[: curve.n, :-1], mix[curve.n, -1] = weights, 1.0
+        mixed = tuple(density @ mix for density in levels.densities)
+        levels = Levels(levels.panels, levels.parents, mixed, levels.safety)
+    real, _, on_curve = cauchy_integrals(curve, levels, x)
+    derivative = cauchy_derivatives(curve, levels, x)
     total = real[:, -1:]
     values = real[:, :-1] / total
     gradient = np.stack([derivative.real, -derivative.imag], axis=2)  # (M, n + 1, 2)

@@ -103,6 +103,15 @@ class InjectivityCertificate:
     away_from_corners : bool
         Proven everywhere except within `corner_radius` of the points in `where`, which are
         sharp corners, reflex or not proven in their sector (`injective` is then False).
+    corner_radius : float
+    extra : dict
+        What `core.fold_free_deform` adds: ``"steps"``, and of a mesh ``"moved"``,
+        ``"largest_move"``, ``"turned_over"``, ``"path"``.
+    on_mesh : bool
+        What is proven is the mesh's piecewise-linear map, not a continuous one: every triangle
+        keeps its orientation and the boundary polygon is simple, so that it is a bijection onto
+        that polygon (`core.injectivity.mesh_bijection`); `sigma2_min` and `k_max` are then its
+        triangles' (exact).
     """
 
     injective: bool
@@ -114,6 +123,7 @@ class InjectivityCertificate:
     away_from_corners: bool = False
     corner_radius: float = 0.0
     extra: dict = field(default_factory=dict, compare=False, repr=False)
+    on_mesh: bool = False
 
     def __str__(self) -> str:
         # `core.fold_free_deform` notes the mesh vertices it moved to unfold straight edges, and
@@ -131,6 +141,10 @@ class InjectivityCertificate:
                 f"; {turned} mesh triangles still turned over (their straight edges are too coarse "
                 "to follow the map there)"
             )
+        if self.on_mesh and self.injective:
+            return f"fold-free on the mesh, proven ({self.reason}){repair}"
+        if turned:  # what is drawn folds, whatever is proven of the continuous map
+            return f"not fold-free on the mesh{repair}"
         if self.injective:
             bounds = f"σ₂ ≥ {self.sigma2_min:.3g}, k ≤ {self.k_max:.3g}"
             return f"fold-free, proven ({bounds}; {self.samples} samples){repair}"

@@ -16,6 +16,11 @@ its straight edges still turn over are unfolded at the end by moving a few inter
 (`core.injectivity.mesh_unfolding`), and where rows of them turn over together, by moving all interior
 vertices of a region at once (`core.injectivity.mesh_untangling`): the images change, by amounts the
 certificate reports, the certificate (of the continuous map) does not.
+
+Given a mesh with its boundary (what every caller gives), `fold_free_deform` takes the mesh's own
+map instead (`core.injectivity.mesh_fold_free`): composite discrete harmonic steps proven a
+bijection on the mesh, at a fraction of the cost of a certificate a step; the continuous composite
+here is what points alone, or a mesh without its boundary, get.
 """
 
 from __future__ import annotations
@@ -32,6 +37,7 @@ from core.curves.bspline import ClosedBSpline
 from core.injectivity import inner_curve
 from core.injectivity.certificate import InjectivityCertificate, certify_injective
 from core.injectivity.corner_discs import disc_images, radial_discs
+from core.injectivity.mesh_fold_free import mesh_fold_free_map
 from core.injectivity.mesh_unfolding import unfold_triangles
 from core.injectivity.mesh_untangling import untangle_triangles
 from core.meshes.mesh import FOLDED_AREA_SHARE, triangle_signed_areas
@@ -55,6 +61,7 @@ def fold_free_deform(
     triangles=None,
     max_steps: int = MAX_STEPS,
     progress: Callable[[float], None] | None = None,
+    basis=None,
 ) -> tuple[np.ndarray, InjectivityCertificate]:
     """Images of points of the source domain under a certified bijection onto the target's domain.
 
@@ -71,16 +78,19 @@ def fold_free_deform(
         Rows of `points` on the curve, int (B,), and their parameters t (B,) (as in `core.Mesh`):
         their images are the target curve at t exactly (others on it: at their closest t).
     triangles : array_like of shape (T, 3), optional
-        Triangles over `points`, counter-clockwise (as in `core.Mesh`): the map's piecewise-linear
-        interpolant may turn some over where it compresses hard (straight edges cannot follow it).
-        A step is then halved while it turns one over (down to `SMALLEST_MESH_STEP`), and those
-        left at the end are unfolded by moving interior vertices (`_unfolded`); boundary vertices
-        never move.  The certificate says how many moved, how far, and how many stay turned over.
+        Triangles over `points`, counter-clockwise (as in `core.Mesh`).  With `boundary` too, the
+        mesh's own map, proven a bijection on the mesh (`core.injectivity.mesh_fold_free`; the
+        certificate's ``on_mesh``).  Without, steps of the continuous map are halved while its
+        interpolant turns a triangle over (down to `SMALLEST_MESH_STEP`), those left at the end
+        unfolded (`_unfolded`); the certificate says how many moved, how far, how many stay over.
     max_steps : int
         The most steps to take before giving up.
     progress : callable, optional
         Called after every step tried with the share of the path proven so far (0 to 1); an
         exception it raises abandons the map (a caller's newer request).
+    basis : array_like of shape (M, n), optional
+        With `triangles` and `boundary`: G (``poisson``) at the points; the plain map G P' is the
+        answer where it is a bijection on the mesh (``extra["path"]``: `core.PLAIN_HARMONIC_MAP`).
 
     Returns
     -------
@@ -92,21 +102,18 @@ def fold_free_deform(
     Raises
     ------
     ValueError
-        The target is not a valid cage, a cage on the straight path crosses itself, or no step
-        down to `SMALLEST_STEP` is proven within `max_steps` steps.
+        The target is not a valid cage, a cage on the straight path crosses itself, or no step down
+        to `SMALLEST_STEP` is proven in `max_steps` steps; on a mesh, no path reaches the target.
     """
-    if not isinstance(curve, ClosedBSpline):
-        raise ValueError(f"curve must be a core.ClosedBSpline, got {type(curve).__name__}")
-    goal = as_points(target, "target")
-    if goal.shape != (shape := curve.control_points.shape):
-        raise ValueError(f"target must have shape {shape} like the cage, got {goal.shape}")
-    final = _target_curve(goal)
-    images = as_points(points, "points").copy()
+    goal, final, images = _checked(curve, target, points)
     triangles = None if triangles is None else np.asarray(triangles, dtype=np.int64)
     on_curve = np.zeros(images.shape[0], dtype=bool)
     if boundary is not None:
         boundary = np.asarray(boundary[0], dtype=np.int64), np.asarray(boundary[1], dtype=np.float64)
         on_curve[boundary[0]] = True
+    if triangles is not None and boundary is not None:
+        plain = None if basis is None else np.asarray(basis, dtype=np.float64) @ goal
+        return mesh_fold_free_map(curve, final, images, triangles, boundary, progress, plain)
     start = curve.control_points
     for fraction in np.arange(1, PATH_CHECKS) / PATH_CHECKS:  # a crossing found early saves the proofs
         _path_cage((1.0 - fraction) * start + fraction * goal, fraction)
@@ -145,6 +152,17 @@ def fold_free_deform(
     if triangles is None:
         return images, composite_certificate(steps, curve)
     return _unfolded(as_points(points, "points"), images, triangles, ~on_curve, final, steps, curve)
+
+
+def _checked(curve, target, points) -> tuple[np.ndarray, ClosedBSpline, np.ndarray]:
+    """The target's control points (n, 2) and curve, and a copy of the points (M, 2); ValueError,
+    said of the argument, where one is not what `fold_free_deform` takes."""
+    if not isinstance(curve, ClosedBSpline):
+        raise ValueError(f"curve must be a core.ClosedBSpline, got {type(curve).__name__}")
+    goal = as_points(target, "target")
+    if goal.shape != (shape := curve.control_points.shape):
+        raise ValueError(f"target must have shape {shape} like the cage, got {goal.shape}")
+    return goal, _target_curve(goal), as_points(points, "points").copy()
 
 
 def _step_images(

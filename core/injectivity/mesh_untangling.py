@@ -79,6 +79,7 @@ def untangle_triangles(
     images: np.ndarray,
     triangles: np.ndarray,
     free: np.ndarray,
+    rings: int = RINGS,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Images with free vertices near turned-over triangles moved together so that none turns over.
 
@@ -92,6 +93,9 @@ def untangle_triangles(
     triangles : ndarray of shape (T, 3), int
     free : ndarray of shape (V,), bool
         Vertices that may move (the interior ones).
+    rings : int
+        Rings of triangles around the turned-over ones in the first region (doubled after each
+        region that fails): more where the tangle is known to be wide.
 
     Returns
     -------
@@ -109,7 +113,7 @@ def untangle_triangles(
         return images.copy(), np.zeros(len(images))
     tried, budget = np.zeros(len(images), dtype=bool), WORK
     for attempt in range(REGION_TRIES if np.any(turned) else 0):
-        movable = free & _rings_around(triangles, turned, len(images), RINGS * 2**attempt)
+        movable = free & _rings_around(triangles, turned, len(images), rings * 2**attempt)
         if np.array_equal(movable, tried):  # no new vertex: the region holds every free one (or none)
             break
         closest, fewest = None, np.count_nonzero(turned)
@@ -129,6 +133,24 @@ def untangle_triangles(
             budget -= taken * np.count_nonzero(movable)
         tried = movable
     return images.copy(), np.zeros(len(images))
+
+
+def relaxed(
+    vertices: np.ndarray, images: np.ndarray, triangles: np.ndarray, movable: np.ndarray, rounds: int
+) -> np.ndarray:
+    """Images (V, 2) with the `movable` (V,) vertices moved by `rounds` Newton steps on the barrier
+    energy E_ε (ε tiny) against the source triangles' shapes: from images that turn nothing over, a
+    step that would turn a triangle over raises E_ε past any bound and is cut back by the line
+    search, so triangles about to collapse open up and none turns over (the caller checks)."""
+    active = triangles[np.any(movable[triangles], axis=1)]
+    gradients, areas = reference_shapes(vertices, images, active, own_shapes=False)
+    problem = BarrierProblem(images, active, movable, gradients, areas)
+    positions = images[movable].ravel()
+    for _ in range(rounds):
+        positions = problem.newton_step(positions, TINY_EPSILON)
+    result = images.copy()
+    result[movable] = positions.reshape(-1, 2)
+    return result
 
 
 #: The tries on each region: (reference of the images' own shapes, start from the closest try so far
@@ -152,14 +174,14 @@ def _untangled(
 ) -> tuple[np.ndarray, int]:
     """Images (V, 2) with the `movable` (V,) ones moved by the barrier continuation (at most `rounds`
     rounds) on the triangles that have a movable vertex, against references of their `own_shapes`
-    or not (`_reference`): the last positions tried, whether or not they untangle; and the rounds
+    or not (`reference_shapes`): the last positions tried, whether or not they untangle; and the rounds
     taken."""
     active = triangles[np.any(movable[triangles], axis=1)]
     if triangle_signed_areas(start, active).sum() <= 0.0:
         # The region's boundary image does not enclose a positive area: positive triangles cannot tile it.
         return start.copy(), 0
-    gradients, areas = _reference(vertices, images, active, own_shapes)
-    problem = _Problem(start, active, movable, gradients, areas)
+    gradients, areas = reference_shapes(vertices, images, active, own_shapes)
+    problem = BarrierProblem(start, active, movable, gradients, areas)
     # det J at which a triangle counts as turned over: TOLERANCE of its source area, in its image.
     floors = TOLERANCE * triangle_signed_areas(vertices, active) / areas
     positions = start[movable].ravel()
@@ -176,7 +198,7 @@ def _untangled(
         if turned == 0 or since > STALL_ROUNDS:
             break
         decrease = max(1.0 - energy / previous, SMALLEST_DECREASE)
-        mu = (1.0 - decrease) * _chi(smallest, epsilon)
+        mu = (1.0 - decrease) * regularised_determinant(smallest, epsilon)
         epsilon = 2.0 * np.sqrt(mu * (mu - smallest)) if smallest < mu else TINY_EPSILON
         previous = energy
     untangled = start.copy()
@@ -184,7 +206,7 @@ def _untangled(
     return untangled, taken
 
 
-def _chi(determinant, epsilon):
+def regularised_determinant(determinant, epsilon):
     """χ(D, ε) = (D + √(ε² + D²)) / 2, the regularised determinant, positive for ε > 0 (for D < 0
     written as ε² / (2 (√(ε² + D²) - D)), which does not round to 0)."""
     root = np.sqrt(epsilon * epsilon + determinant * determinant)
@@ -194,7 +216,7 @@ def _chi(determinant, epsilon):
     )
 
 
-def _reference(vertices, images, active, own_shapes: bool) -> tuple[np.ndarray, np.ndarray]:
+def reference_shapes(vertices, images, active, own_shapes: bool) -> tuple[np.ndarray, np.ndarray]:
     """Per active triangle (K, 3) the gradients (K, 3, 2) of its barycentric coordinates on its
     reference triangle (J = Xᵀ G for the images X (3, 2) of its corners) and the reference areas
     (K,).  The reference is the triangle's own image where that is not turned over and `own_shapes`,
@@ -213,7 +235,7 @@ def _reference(vertices, images, active, own_shapes: bool) -> tuple[np.ndarray, 
     return gradients, areas * scale**2
 
 
-class _Problem:
+class BarrierProblem:
     """The barrier energy of the active triangles (K, 3) as a function of the movable vertices'
     positions, flattened (2 F,) in vertex order, with its gradient and projected Newton steps."""
 
@@ -255,7 +277,7 @@ class _Problem:
         jacobians = self._jacobians(positions)
         determinant = jacobians[:, 0, 0] * jacobians[:, 1, 1] - jacobians[:, 0, 1] * jacobians[:, 1, 0]
         trace = np.einsum("kij,kij->k", jacobians, jacobians)
-        chi = _chi(determinant, epsilon)
+        chi = regularised_determinant(determinant, epsilon)
         return float(np.dot(self.weights, ((1.0 - THETA) * trace + THETA * (determinant**2 + 1.0)) / chi))
 
     def _derivatives(self, positions, epsilon) -> tuple[np.ndarray, np.ndarray]:
@@ -266,7 +288,7 @@ class _Problem:
         determinant = a * d - b * c
         trace = np.einsum("ki,ki->k", vector, vector)
         root = np.sqrt(epsilon * epsilon + determinant * determinant)
-        chi = _chi(determinant, epsilon)
+        chi = regularised_determinant(determinant, epsilon)
         chi1 = chi / root  # χ' = (1 + D / r) / 2
         chi2 = epsilon * epsilon / (2.0 * root**3)
         # E per triangle = A(D) tr + B(D), A = (1 - θ) / χ, B = θ (D² + 1) / χ.
@@ -324,4 +346,4 @@ class _Problem:
 _DETERMINANT_HESSIAN = np.array([[0, 0, 0, 1], [0, 0, -1, 0], [0, -1, 0, 0], [1, 0, 0, 0]], dtype=np.float64)
 
 
-__all__ = ["untangle_triangles"]
+__all__ = ["BarrierProblem", "reference_shapes", "regularised_determinant", "relaxed", "untangle_triangles"]

@@ -108,8 +108,21 @@ class Mesh:
 
 
 #: A deformed triangle counts as folded (turned over or collapsed) when its signed area is at most
-#: this share of its own (`folded_triangles`, and the fold-free repairs of `core.injectivity`).
+#: this share of its own, at the deformation's scale (`folded_limits`; `folded_triangles`, and the
+#: fold-free maps and repairs of `core.injectivity`).
 FOLDED_AREA_SHARE = 1e-9
+
+
+def folded_limits(areas: np.ndarray, deformed_areas: np.ndarray, tolerance: float = FOLDED_AREA_SHARE):
+    """The signed area (T,) at or below which each deformed triangle counts as folded.
+
+    `tolerance` times the triangle's own signed area (T,), times the ratio of the deformed triangles'
+    total signed area (T,) to the mesh's (the area of the boundary's image over the domain's), so
+    that a fold is told apart from a uniform shrink at every scale: a map shrunk to 1e-5 of the
+    cage's size scales every area by 1e-10, which is no fold.
+    """
+    scale = abs(float(np.sum(deformed_areas))) / float(np.sum(areas))
+    return tolerance * scale * areas
 
 
 def folded_triangles(mesh: Mesh, deformed_vertices, tolerance: float = FOLDED_AREA_SHARE) -> np.ndarray:
@@ -123,7 +136,7 @@ def folded_triangles(mesh: Mesh, deformed_vertices, tolerance: float = FOLDED_AR
         The deformed vertex positions, in the same frame as ``mesh.vertices``.
     tolerance : float
         A triangle counts as collapsed when its deformed signed area is at most
-        ``tolerance`` times its undeformed area.
+        ``tolerance`` times its undeformed area, at the deformation's scale (`folded_limits`).
 
     Returns
     -------
@@ -133,7 +146,8 @@ def folded_triangles(mesh: Mesh, deformed_vertices, tolerance: float = FOLDED_AR
     if not isinstance(mesh, Mesh):
         raise ValueError(f"mesh must be a core.Mesh, got {type(mesh).__name__}")
     tolerance = positive_float(tolerance, "tolerance")
-    return mesh.signed_areas(deformed_vertices) <= tolerance * mesh.signed_areas()
+    deformed = mesh.signed_areas(deformed_vertices)
+    return deformed <= folded_limits(mesh.signed_areas(), deformed, tolerance)
 
 
 def require_mesh_of(curve: ClosedBSpline, mesh: Mesh) -> None:

@@ -26,7 +26,7 @@ import math
 from numba import njit
 
 from core.newton import codes, kernel_weights, minimisation, output_rows, point_rule, quadrature_nodes, solver
-from core.newton.solver_state import Directions, Nodes, thread_arrays
+from core.newton.solver_state import Directions, thread_arrays
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -299,7 +299,7 @@ def _accumulate_nodes(rows, settings, samples, a, gradient, t, total):
     row, row_x, row_y = rows
     grad_x, grad_y = gradient
     mode, control_count = settings.mode, settings.control_count
-    count, step, out_step = samples.x.shape[0], samples.step, samples.out_step
+    count, step, out_step = samples.rule.x.shape[0], samples.step, samples.out_step
     period = count * step
     out_count = int(round(count * step / out_step))
     for j in range(total):
@@ -383,19 +383,16 @@ def _gradient_point(point, settings, samples, geometry, rows, scratch, windows):
     """
     x, y = point
     row, row_x, row_y = rows
-    kernel, power, shift, mode, orientation, diameter, control_count, tolerance = settings
-    coefficients, piece_length, corners = geometry
-    window_start, window_stop, window_t, window_d, runs = windows
-    (
-        sample_x, sample_y, tangent_x, tangent_y, second_x, second_y, spacing, uniform, sample_t,
-        basis0, basis1, basis2, step, sinh_step, out_step, slabs, largest_spacing,
-    ) = samples  # fmt: skip
-    px, py, tx, ty, sx, sy, w = scratch.nodes
-    ux, uy, inv_r, a, s, inv_s, trial, trial_inv, blend = scratch.work
+    kernel, mode, control_count = settings.kernel, settings.mode, settings.control_count
+    accuracy = settings.tolerance * settings.diameter
+    corners, plain, sample_t = geometry.corners, samples.rule, samples.t
+    step, out_step, largest_spacing = samples.step, samples.out_step, samples.largest_spacing
+    work = scratch.work
+    a, trial, trial_inv = work.a, work.trial, work.trial_inv
     t, coarse = scratch.t, scratch.coarse
-    rays = Directions(ux, uy, inv_r)
+    rays = Directions(work.ux, work.uy, work.inv_r)
     likelihood = kernel <= codes.MODIFIED_MEAN_VALUE_SQUARED
-    count = sample_x.shape[0]
+    count = plain.x.shape[0]
     out_count = int(round(count * step / out_step))
     period = count * step
     rule, value, nodes, run_count = point_rule.point_rule(
@@ -413,19 +410,18 @@ def _gradient_point(point, settings, samples, geometry, rows, scratch, windows):
     if rule == point_rule.RULE_SAMPLES:
         nearest = value
         # The trapezoid rule on the shared samples, as in the solver's common case.
-        plain = Nodes(sample_x, sample_y, tangent_x, tangent_y, second_x, second_y, uniform)
         total = kernel_weights.kernel_weights(settings, plain, (x, y), count, corners, rays, nearest, a)
         phix, phiy = 0.0, 0.0
         if likelihood:
             phix, phiy = minimisation.coarse_start(
                 rays, a, count, max(nearest / largest_spacing, solver.FAR_START_SEPARATION),
-                coarse, tolerance * diameter, (0.0, 0.0),
+                coarse, accuracy, (0.0, 0.0),
             )  # fmt: skip
         iterations, status, residual = minimisation.finish(
-            kernel, scratch.work, total, plain, step, (x, y),
-            (tolerance * diameter, largest_spacing / nearest), (phix, phiy),
+            kernel, work, total, plain, step, (x, y),
+            (accuracy, largest_spacing / nearest), (phix, phiy),
         )  # fmt: skip
-        _differentiate(settings, plain, scratch.work, total, count, corners, (x, y), nearest)
+        _differentiate(settings, plain, work, total, count, corners, (x, y), nearest)
         if mode == codes.OUTPUT_BASIS:
             _accumulate_samples(rows, a, (trial, trial_inv), count, samples, control_count)
         else:
@@ -436,13 +432,13 @@ def _gradient_point(point, settings, samples, geometry, rows, scratch, windows):
     phix, phiy = 0.0, 0.0
     if likelihood:
         phix, phiy = minimisation.coarse_start(
-            rays, a, total, solver.NEAR_START_SEPARATION, coarse, tolerance * diameter, (0.0, 0.0)
+            rays, a, total, solver.NEAR_START_SEPARATION, coarse, accuracy, (0.0, 0.0)
         )
-    limits = (tolerance * diameter, math.inf)
+    limits = (accuracy, math.inf)
     iterations, status, residual = minimisation.finish(
-        kernel, scratch.work, total, scratch.nodes, step, (x, y), limits, (phix, phiy)
+        kernel, work, total, scratch.nodes, step, (x, y), limits, (phix, phiy)
     )
-    _differentiate(settings, scratch.nodes, scratch.work, total, nodes, corners, (x, y), r_min)
+    _differentiate(settings, scratch.nodes, work, total, nodes, corners, (x, y), r_min)
     _accumulate_nodes(rows, settings, samples, a, (trial, trial_inv), t, total)
     return iterations, status, residual
 
@@ -454,7 +450,7 @@ def gradient_points(points, settings, samples, geometry, output, gradients, firs
     Arguments as in `solver.solve_points`; gradients[m, 0] and gradients[m, 1]
     are the x- and y-derivatives of the row output.values[m].  Releases the GIL.
     """
-    scratch, windows = thread_arrays(samples.x.shape[0], geometry.corners.shape[0])
+    scratch, windows = thread_arrays(samples.rule.x.shape[0], geometry.corners.shape[0])
     for m in range(first, points.shape[0], stride):
         rows = (output.values[m], gradients[m, 0], gradients[m, 1])
         output.iterations[m], output.status[m], output.residual[m] = _gradient_point(

@@ -64,7 +64,7 @@ def accumulate_nodes(row, settings, samples, coefficients, a, t, total, runs_use
     """
     mode, control_count = settings.mode, settings.control_count
     runs, run_count = runs_used
-    count, step, out_step = samples.x.shape[0], samples.step, samples.out_step
+    count, step, out_step = samples.rule.x.shape[0], samples.step, samples.out_step
     period = count * step
     out_count = int(round(count * step / out_step))
     if mode != OUTPUT_BASIS:
@@ -118,7 +118,7 @@ def _fold_run(row, a, first, sample, length, control_count, coefficients, sample
     (mod N) at nodes first, first + 1, ... (`length` of them), with the samples'
     stored basis values (basis0..2 of `samples`, see `fold_onto_basis`).
     """
-    count = samples.x.shape[0]
+    count = samples.rule.x.shape[0]
     basis0, basis1, basis2, step = samples.basis0, samples.basis1, samples.basis2, samples.step
     sample = sample % count
     while length > 0:  # at most twice: the run may wrap past sample N - 1

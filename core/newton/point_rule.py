@@ -50,7 +50,7 @@ def point_rule(point, settings, samples, geometry, scratch, windows):
     r_min.  The arguments are those of `solver.solve_point`.
     """
     x, y = point
-    sample_x, sample_y, spacing, slabs = samples.x, samples.y, samples.spacing, samples.slabs
+    sample_x, sample_y, spacing, slabs = samples.rule.x, samples.rule.y, samples.spacing, samples.slabs
     sample_t, step = samples.t, samples.step
     coefficients, piece_length, corners = geometry
     window_start, window_stop, window_t, window_d, runs = windows

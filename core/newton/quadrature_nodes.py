@@ -194,8 +194,9 @@ def node_geometry(t, node_arrays, nodes, runs, run_count, samples, geometry, cor
     plain one there; others are evaluated on the curve.
     """
     px, py, tx, ty, sx, sy, w = node_arrays  # `Nodes`, filled here
-    sample_x, sample_y, tangent_x, tangent_y = samples.x, samples.y, samples.tangent_x, samples.tangent_y
-    second_x, second_y, step, count = samples.second_x, samples.second_y, samples.step, samples.x.shape[0]
+    rule = samples.rule
+    sample_x, sample_y, tangent_x, tangent_y = rule.x, rule.y, rule.tangent_x, rule.tangent_y
+    second_x, second_y, step, count = rule.second_x, rule.second_y, samples.step, rule.x.shape[0]
     coefficients, piece_length, corners = geometry
     inverse = 1.0 / step
     j = 0
@@ -333,7 +334,7 @@ def refined_nodes(windows, window_count, samples, geometry, t, w):
     window i: (its first node, its first sample index, not wrapped, its length).
     """
     window_start, window_stop, window_t, window_d, runs = windows
-    count, step, sinh_step = samples.x.shape[0], samples.step, samples.sinh_step
+    count, step, sinh_step = samples.rule.x.shape[0], samples.step, samples.sinh_step
     coefficients, piece_length = geometry.coefficients, geometry.piece_length
     # Reach at least step / sinh_step on both sides of the closest point, so that the
     # sigma step of the graded rule (about h / reach) is at most sinh_step; never

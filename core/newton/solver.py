@@ -43,7 +43,7 @@ from core.newton.minimisation import (
 from core.newton.output_rows import accumulate, accumulate_nodes, fold_onto_basis, output_parameter
 from core.newton.point_rule import RULE_ON_BOUNDARY, RULE_OUTSIDE, RULE_SAMPLES, point_rule
 from core.newton.quadrature_nodes import wrap
-from core.newton.solver_state import Directions, Nodes, thread_arrays
+from core.newton.solver_state import Directions, thread_arrays
 
 # A far point's Newton starts from the last minimisers of its block of BLOCK points (see
 # solve_points and predicted_start) when they are closer than WARM_REACH times its distance to
@@ -79,18 +79,15 @@ def solve_point(point, settings, samples, geometry, row, scratch, windows, start
     there is none to pass on (explicit kernels, near points).
     """
     x, y = point
-    kernel, power, shift, mode, orientation, diameter, control_count, tolerance = settings
-    coefficients, piece_length, corners = geometry
-    window_start, window_stop, window_t, window_d, runs = windows
-    (
-        sample_x, sample_y, tangent_x, tangent_y, second_x, second_y, spacing, uniform, sample_t,
-        basis0, basis1, basis2, step, sinh_step, out_step, slabs, largest_spacing,
-    ) = samples  # fmt: skip
-    px, py, tx, ty, sx, sy, w = scratch.nodes
-    ux, uy, inv_r, a, s, inv_s, trial, trial_inv, blend = scratch.work
+    kernel, mode, diameter = settings.kernel, settings.mode, settings.diameter
+    control_count, tolerance = settings.control_count, settings.tolerance
+    coefficients, corners, runs = geometry.coefficients, geometry.corners, windows.runs
+    plain, sample_t, step, out_step = samples.rule, samples.t, samples.step, samples.out_step
+    work = scratch.work
+    a, inv_r, inv_s = work.a, work.inv_r, work.inv_s
     t, ones, coarse = scratch.t, scratch.ones, scratch.coarse
-    rays = Directions(ux, uy, inv_r)
-    count = sample_x.shape[0]
+    rays = Directions(work.ux, work.uy, inv_r)
+    count = plain.x.shape[0]
     out_count = int(round(count * step / out_step))
     rule, value, nodes, run_count = point_rule((x, y), settings, samples, geometry, scratch, windows)
     if rule == RULE_OUTSIDE:
@@ -102,22 +99,19 @@ def solve_point(point, settings, samples, geometry, row, scratch, windows, start
     if rule == RULE_SAMPLES:
         nearest = value
         # The common case: the plain trapezoid rule on the shared samples.
-        total = kernel_weights(
-            settings, Nodes(sample_x, sample_y, tangent_x, tangent_y, second_x, second_y, uniform),
-            (x, y), count, corners, rays, nearest, a,
-        )  # fmt: skip
+        total = kernel_weights(settings, plain, (x, y), count, corners, rays, nearest, a)
         likelihood = kernel <= MODIFIED_MEAN_VALUE_SQUARED
         if likelihood:
             phix, phiy, predicted = predicted_start(x, y, start, WARM_REACH * nearest)
             if not predicted:
                 phix, phiy = coarse_start(
-                    rays, a, count, max(nearest / largest_spacing, FAR_START_SEPARATION),
+                    rays, a, count, max(nearest / samples.largest_spacing, FAR_START_SEPARATION),
                     coarse, tolerance * diameter, (phix, phiy),
                 )  # fmt: skip
             # No sample is within NEAR_SPACINGS spacings: |u_(k+1) - u_k| <= chord / nearest
             # (2 |p - q| / (|p| + |q|) bounds |p / |p| - q / |q||), so the peak scan is skipped.
             iterations, status, residual, d, phix, phiy = maximum_likelihood(
-                scratch.work, uniform, step, count, (tolerance * diameter, largest_spacing / nearest),
+                work, plain.weight, step, count, (tolerance * diameter, samples.largest_spacing / nearest),
                 (phix, phiy),
             )  # fmt: skip
             if mode == OUTPUT_BASIS:
@@ -129,10 +123,8 @@ def solve_point(point, settings, samples, geometry, row, scratch, windows, start
                 a[k] = a[k] * inv_r[k] * inv_s[k] * inverse
         else:
             iterations, status, residual = finish(
-                kernel, scratch.work, total,
-                Nodes(sample_x, sample_y, tangent_x, tangent_y, second_x, second_y, uniform), step,
-                (x, y), (tolerance * diameter, math.inf), (0.0, 0.0),
-            )  # fmt: skip
+                kernel, work, total, plain, step, (x, y), (tolerance * diameter, math.inf), (0.0, 0.0)
+            )
         if mode == OUTPUT_BASIS:
             fold_onto_basis(row, a, ones, ones, 1.0, samples, control_count, coefficients)
         elif out_count == count:
@@ -153,7 +145,7 @@ def solve_point(point, settings, samples, geometry, row, scratch, windows, start
         )
     iterations, status, residual = finish(
         kernel,
-        scratch.work,
+        work,
         total,
         scratch.nodes,
         step,
@@ -187,7 +179,7 @@ def solve_points(points, settings, samples, geometry, output, first, stride):
     test of far points.  `geometry` (`solver_state.Geometry`): the exact curve between
     samples.
     """
-    scratch, windows = thread_arrays(samples.x.shape[0], geometry.corners.shape[0])
+    scratch, windows = thread_arrays(samples.rule.x.shape[0], geometry.corners.shape[0])
     count = points.shape[0]
     for block in range(first, (count + BLOCK - 1) // BLOCK, stride):
         nan = math.nan

@@ -27,9 +27,8 @@ class Settings(NamedTuple):
     tolerance: float  #: Newton's tolerance relative to the diameter
 
 
-class Samples(NamedTuple):
-    """The N uniform boundary samples (`core.kernels.curve_arrays`): contiguous float64 (N,)
-    arrays but for the scalars and `slabs`."""
+class Nodes(NamedTuple):
+    """A quadrature rule on the curve: p, p', p'' and the weight at every node, each (K,)."""
 
     x: np.ndarray
     y: np.ndarray
@@ -37,8 +36,15 @@ class Samples(NamedTuple):
     tangent_y: np.ndarray
     second_x: np.ndarray
     second_y: np.ndarray
+    weight: np.ndarray
+
+
+class Samples(NamedTuple):
+    """The N uniform boundary samples (`core.kernels.curve_arrays`): contiguous float64 (N,)
+    arrays but for the scalars and `slabs`."""
+
+    rule: Nodes  #: p, p', p'' at the samples and the trapezoid rule's weights: far points' rule
     spacing: np.ndarray  #: the larger distance to the two neighbours
-    uniform: np.ndarray  #: the trapezoid rule's weights
     t: np.ndarray  #: the samples' parameters
     basis0: np.ndarray  #: the three non-zero B-spline basis values at t (`codes.OUTPUT_BASIS`)
     basis1: np.ndarray
@@ -56,18 +62,6 @@ class Geometry(NamedTuple):
     coefficients: np.ndarray  #: (P, D + 1, 2) piecewise polynomial, or (P, 3, 3) in arc length
     piece_length: float
     corners: np.ndarray  #: (C, 5): the sharp corners' parameters and data (three-point kernels)
-
-
-class Nodes(NamedTuple):
-    """A quadrature rule on the curve: p, p', p'' and the weight at every node, each (K,)."""
-
-    x: np.ndarray
-    y: np.ndarray
-    tangent_x: np.ndarray
-    tangent_y: np.ndarray
-    second_x: np.ndarray
-    second_y: np.ndarray
-    weight: np.ndarray
 
 
 class Directions(NamedTuple):

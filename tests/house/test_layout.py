@@ -45,7 +45,7 @@ def test_the_geometry_of_framing_and_editing_loads_no_gl_module():
     # The viewer's document, editing and framing are plain geometry (app.render.viewport):
     # testable without GL.
     modules = (
-        "app.warp.framing, app.viewer.state, app.viewer.editing, app.viewer.controller, app.viewer.session"
+        "app.warp.framing, app.viewer.state, app.viewer.editing, app.viewer.controller, app.viewer.documents"
     )
     loaded = f"sorted(m for m in sys.modules if m.split('.')[0] in {FORBIDDEN[1:]!r})"
     code = f"import sys, {modules}; print({loaded})"
@@ -74,8 +74,9 @@ def test_bench_runs(tmp_path):
         check=True,
     )
     assert "harmonic-like" in result.stdout and "FEM / poisson" in result.stdout
-    # The viewer's drag frame at ~6k vertices under Xvfb (or the line saying it was skipped).
-    assert "viewer drag frame" in result.stdout
+    # The viewer's drag frame at ~6k vertices under Xvfb (or the line saying it was skipped), and
+    # its fold-free drag frame.
+    assert "viewer drag frame" in result.stdout and "viewer fold-free drag frame" in result.stdout
 
 
 def test_find_cycle_finds_a_cycle():

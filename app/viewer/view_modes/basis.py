@@ -20,22 +20,19 @@ def legend(state, draw, left: float, top: float, span: float) -> None:
     from imgui_bundle import imgui
 
     from app.render.passes.fields import HEAT_NEGATIVE, HEAT_STOPS
-    from app.viewer.view_modes.colours import packed
+    from app.viewer.view_modes.colours import colour_bar
 
     index = state.selection.selected if state.selection.selected is not None else 0
     imgui.text(f"basis function G_{index} (Fig. 8)")
-    top += 20
     negative = 0.12 * span
-    draw.add_rect_filled((left, top), (left + negative, top + 22), packed(HEAT_NEGATIVE))
     stops = len(HEAT_STOPS) - 1
-    for k in range(stops):
-        x0 = left + negative + (span - negative) * k / stops
-        x1 = left + negative + (span - negative) * (k + 1) / stops
-        a, b = packed(HEAT_STOPS[k]), packed(HEAT_STOPS[k + 1])
-        draw.add_rect_filled_multi_color((x0, top), (x1, top + 22), a, b, b, a)
-    for value, x in (("<0", left), ("0", left + negative), ("1", left + span - 6)):
-        draw.add_text((x, top + 26), packed((1, 1, 1)), value)
-    imgui.dummy((span, 48))
+    width = (span - negative) / stops
+    pieces = [(0.0, negative, HEAT_NEGATIVE, HEAT_NEGATIVE)]
+    pieces += [
+        (negative + width * k, negative + width * (k + 1), HEAT_STOPS[k], HEAT_STOPS[k + 1])
+        for k in range(stops)
+    ]
+    colour_bar(draw, (left, top + 20), span, pieces, ((0.0, "<0"), (negative, "0"), (span - 6, "1")))
     imgui.text_disabled("isolines every 0.1, white at 0")
 
 

@@ -37,28 +37,25 @@ def legend(state, draw, left: float, top: float, span: float) -> None:
         DISTORTION_SHEARED,
         DISTORTION_SHRUNK,
     )
-    from app.viewer.view_modes.colours import packed
+    from app.viewer.view_modes.colours import BAR_HEIGHT, colour_bar, packed
 
     white = (1.0, 1.0, 1.0)
     area = state.display.distortion_measure == "area"
     imgui.text("area change det J" if area else "anisotropy sigma1/sigma2")
     top += 20
     folded = 0.16 * span
-    draw.add_rect_filled((left, top), (left + folded, top + 22), packed(DISTORTION_FOLDED))
-    draw.add_rect((left, top), (left + folded, top + 22), packed(white))
     stops = (DISTORTION_SHRUNK, white, DISTORTION_GROWN) if area else (white, DISTORTION_SHEARED)
     width = (span - folded) / (len(stops) - 1)
-    for k in range(len(stops) - 1):
-        a, b = packed(stops[k]), packed(stops[k + 1])
-        x0 = left + folded + width * k
-        draw.add_rect_filled_multi_color((x0, top), (x0 + width, top + 22), a, b, b, a)
+    pieces = [(0.0, folded, DISTORTION_FOLDED, DISTORTION_FOLDED)]
+    pieces += [
+        (folded + width * k, folded + width * (k + 1), stops[k], stops[k + 1]) for k in range(len(stops) - 1)
+    ]
     full = 2.0**DISTORTION_RANGE
-    labels = (("fold", 0.0), (f"1/{full:g}", folded + 4), ("1", folded + width - 3), (f"{full:g}", span - 8))
+    labels = ((0.0, "fold"), (folded + 4, f"1/{full:g}"), (folded + width - 3, "1"), (span - 8, f"{full:g}"))
     if not area:
-        labels = (("fold", 0.0), ("1", folded + 4), (f"{full:g}", span - 8))
-    for text, x in labels:
-        draw.add_text((left + x, top + 26), packed(white), text)
-    imgui.dummy((span, 48))
+        labels = ((0.0, "fold"), (folded + 4, "1"), (span - 8, f"{full:g}"))
+    colour_bar(draw, (left, top), span, pieces, labels)
+    draw.add_rect((left, top), (left + folded, top + BAR_HEIGHT), packed(white))  # over the fold's colour
     summary = state.display.distortion
     if summary is not None:
         worst = f"min det {summary.min_det:.3g}" if area else f"max {summary.max_ratio:.3g}"

@@ -20,18 +20,13 @@ def legend(state, draw, left: float, top: float, span: float) -> None:
     from imgui_bundle import imgui
 
     from app.render.passes.fields import BAND_COLOURS, BAND_START, BAND_WIDTH
-    from app.viewer.view_modes.colours import packed
+    from app.viewer.view_modes.colours import colour_bar
 
     imgui.text("height, bands [k, k+1]/10 (Fig. 1)")
-    top += 20
     count = len(BAND_COLOURS)
-    for k, rgb in enumerate(BAND_COLOURS):
-        x0 = left + span * k / count
-        draw.add_rect_filled((x0, top), (left + span * (k + 1) / count, top + 22), packed(rgb))
-    for k in (1, 6, 11):
-        value = BAND_START + k * BAND_WIDTH
-        draw.add_text((left + span * k / count - 6, top + 26), packed((1, 1, 1)), f"{value:.1f}")
-    imgui.dummy((span, 48))
+    pieces = [(span * k / count, span * (k + 1) / count, rgb, rgb) for k, rgb in enumerate(BAND_COLOURS)]
+    labels = [(span * k / count - 6, f"{BAND_START + k * BAND_WIDTH:.1f}") for k in (1, 6, 11)]
+    colour_bar(draw, (left, top + 20), span, pieces, labels)
     imgui.text_disabled("red < 0, green > 1")
 
 

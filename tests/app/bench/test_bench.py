@@ -6,6 +6,8 @@ import sys
 import pytest
 
 from app.bench import fold_free as bench_fold_free
+from app.bench import fold_free_drag as bench_fold_free_drag
+from app.bench import fold_free_held_out as bench_held_out
 from app.bench import mesher as bench_mesher
 from app.bench import table as bench
 from app.bench.table import StepFailed, run_child
@@ -64,6 +66,12 @@ def test_the_drag_frame_says_it_is_skipped_without_xvfb(monkeypatch, capsys):
     assert capsys.readouterr().out == "viewer drag frame: skipped: no Xvfb (apt-get install xvfb)\n"
 
 
+def test_the_fold_free_drag_frame_says_it_is_skipped_without_xvfb(monkeypatch, capsys):
+    monkeypatch.setattr(bench_fold_free_drag.shutil, "which", lambda name: None)
+    bench_fold_free_drag.fold_free_drag_row(StepFailed)
+    assert capsys.readouterr().out == "viewer fold-free drag frame: skipped: no Xvfb (apt-get install xvfb)\n"
+
+
 def test_the_gif_export_row_says_it_is_skipped_without_xdotool(monkeypatch, capsys):
     monkeypatch.setattr(bench.shutil, "which", lambda name: None if name == "xdotool" else "/usr/bin/" + name)
     bench._export_gif(1, bench.QUICK_EXPORT_FPS)
@@ -118,6 +126,9 @@ def test_quick_runs_every_row_once_at_tiny_sizes(monkeypatch):
     monkeypatch.setattr(bench, "_drag_frames", lambda *rest: calls.update(drag=rest))
     monkeypatch.setattr(bench, "_export_gif", lambda *rest: calls.update(export=rest))
     monkeypatch.setattr(
+        bench_fold_free_drag, "fold_free_drag_row", lambda failed, *rest: calls.update(fold_free_drag=rest)
+    )
+    monkeypatch.setattr(
         bench, "launch_rows", lambda repeats, quick, *rest: calls.update(launch=(repeats, quick))
     )
     monkeypatch.setattr(bench, "photo_rows", lambda sizes, run: calls.update(photos=sizes))
@@ -126,6 +137,7 @@ def test_quick_runs_every_row_once_at_tiny_sizes(monkeypatch):
         "fold_free_rows",
         lambda curve, repeats, forget, vertices: calls.update(fold_free=vertices),
     )
+    monkeypatch.setattr(bench_held_out, "held_out_rows", lambda forget, quick: calls.update(held_out=quick))
     monkeypatch.setattr(
         bench_mesher, "mesher_rows", lambda curve, repeats, vertices: calls.update(mesher=(repeats, vertices))
     )
@@ -151,9 +163,11 @@ def test_quick_runs_every_row_once_at_tiny_sizes(monkeypatch):
         "warp": (640, 360),
         "photos": ((1200, 800),),
         "drag": ((6_000,), 1.0),
+        "fold_free_drag": (0.5,),
         "export": (1, 1.0),  # 8 frames instead of the default 30 fps' 220
         "launch": (3, True),
         "fold_free": (2_000,),
+        "held_out": True,
         "mesher": (1, (2_000,)),
     }
 

@@ -12,7 +12,7 @@ import pytest
 from support.commands import CAGE, files, private_cache, run_main, warp_argv  # noqa: F401 (fixtures)
 
 from app.io.files import read_image
-from app.viewer import session as sessions
+from app.viewer import documents as sessions
 from app.viewer.commands import command as run_command
 from app.viewer.demos import demo_files
 from app.viewer.precompute import basis_key, make_request

@@ -11,17 +11,14 @@ from support.png_files import declared_png
 from app.io import files
 from app.io.files import (
     InputError,
-    Session,
     cage_curve,
     check_writable,
     read_cage,
     read_image,
     read_json,
-    read_session,
     write_atomic,
     write_cage,
     write_png,
-    write_session,
 )
 
 SQUARE = [[10, 10], [50, 10], [50, 40], [10, 40]]
@@ -79,61 +76,6 @@ def test_cage_curve_passes_on_self_intersection():
 
 
 # -- sessions -----------------------------------------------------------------------------
-
-
-def session_value(**changes):
-    value = {
-        "image": "picture.png",
-        "cage": {"control_points": SQUARE},
-        "target": {"control_points": SQUARE},
-        "kernel": "harmonic-like",
-        "view": {"scale": 1.5, "offset": [3, 4]},
-        "comment": "kept",
-    }
-    value.update(changes)
-    return value
-
-
-def test_session_round_trip_keeps_other_keys_and_relative_image(tmp_path):
-    path = write(tmp_path / "session.json", json.dumps(session_value()))
-    session = read_session(path)
-    assert session.image == tmp_path / "picture.png"
-    assert session.kernel == "harmonic-like" and session.scale == 1.5 and session.offset == (3.0, 4.0)
-    session.target = session.target + 1.0
-    write_session(tmp_path / "copy.json", session)
-    written = json.loads((tmp_path / "copy.json").read_text())
-    assert written["image"] == "picture.png" and written["comment"] == "kept"
-    assert written["target"]["control_points"][0] == [11.0, 11.0]
-    assert read_session(tmp_path / "copy.json").cage.tolist() == np.array(SQUARE, float).tolist()
-
-
-@pytest.mark.parametrize(
-    "changes, message",
-    [
-        ({"image": 3}, r'"image" must be a file path'),
-        ({"kernel": "bogus"}, r"unknown kernel 'bogus'; choose one of .*harmonic-like"),
-        ({"target": {"control_points": SQUARE[:3]}}, r"target has 3 control points but cage has 4"),
-        ({"cage": {"control_points": [[0, 0], [1, 1]]}}, r"s.json: cage: control_points needs at least 3"),
-        ({"view": {"scale": 0, "offset": [0, 0]}}, r"view scale must be a finite number > 0"),
-        ({"view": {"scale": 1, "offset": [0]}}, r"view offset must be two finite numbers"),
-        ({"view": [1, 2]}, r'"view" must be an object'),
-    ],
-)
-def test_bad_sessions(tmp_path, changes, message):
-    with pytest.raises(InputError, match=message):
-        read_session(write(tmp_path / "s.json", json.dumps(session_value(**changes))))
-
-
-def test_session_missing_keys(tmp_path):
-    value = session_value()
-    del value["target"], value["view"]
-    with pytest.raises(InputError, match=r"s.json: missing key\(s\) target, view"):
-        read_session(write(tmp_path / "s.json", json.dumps(value)))
-
-
-def test_session_dataclass_defaults():
-    session = Session("a.png", np.zeros((3, 2)), np.zeros((3, 2)), "harmonic-like")
-    assert session.scale == 1.0 and session.offset == (0.0, 0.0) and session.extra == {}
 
 
 # -- images ---------------------------------------------------------------------------------

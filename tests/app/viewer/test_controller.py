@@ -254,7 +254,7 @@ def test_opening_dropped_files(tmp_path, monkeypatch):
     """
     from app.io.files import write_cage
     from app.viewer.demos import demo_files
-    from app.viewer.session import open_document
+    from app.viewer.documents import open_document
     from app.viewer.session_files import session_path_for
     from app.viewer.window import Options, Viewer
 
@@ -397,7 +397,7 @@ def test_a_double_click_makes_a_corner_and_crossing_cages_are_refused(state, mon
 
 
 def test_fit_on_a_photo_asks_for_a_rectangle_around_the_subject(state, monkeypatch):
-    import app.viewer.session as sessions
+    import app.viewer.documents as sessions
 
     asked = []
 

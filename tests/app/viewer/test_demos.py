@@ -69,6 +69,10 @@ def test_unknown_demo():
             r"moves\[1\]: moves must not overlap",
         ),
         ({"moves": [{"at": 0, "point": 1, "to": ["a", 2]}]}, r"must be numbers"),
+        (
+            {"moves": [{"at": 0, "point": 1, "to": [1, 2], "fold_free": 1}]},
+            r"fold_free must be true or false",
+        ),
         ([1, 2], r"moves\[0\]"),
         ({"steps": []}, r'expected \{"moves": \[...\]\}'),
     ],
@@ -99,9 +103,22 @@ def test_player_turns_moves_into_mouse_events():
     assert player.finished and player.duration == 4.5
 
 
+def test_a_move_that_sets_fold_free_says_so_before_its_press(tmp_path):
+    path = tmp_path / "script.json"
+    moves = [{"at": 0, "point": 1, "to": [1, 2], "fold_free": True}, {"at": 2, "point": 1, "to": [3, 4]}]
+    path.write_text(json.dumps({"moves": moves}))
+    read = read_script(path, 20)
+    assert [move.fold_free for move in read] == [True, None]
+    player = ScriptPlayer(read)
+    first = player.events(0.5, lambda index: np.zeros(2), lambda p: np.asarray(p))
+    assert [e[0] for e in first] == ["fold_free", "press", "move"] and first[0][1] is True
+    second = player.events(5.0, lambda index: np.zeros(2), lambda p: np.asarray(p))
+    assert [e[0] for e in second] == ["move", "release", "press", "move", "release"]
+
+
 @pytest.mark.parametrize("name", list(DEMOS))
 def test_demo_sessions_hold_their_scripts_as_keyframes(name):
-    from app.io.files import read_session
+    from app.io.session import read_session
 
     files = demo_files(name)
     cage = read_cage(files.cage)

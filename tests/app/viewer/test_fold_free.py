@@ -10,7 +10,9 @@ import pytest
 from support.fold_free_checks import ASSETS, STARFISH, strong_target  # noqa: F401
 
 import core
+from app.io.session import session_from_json, session_json
 from app.viewer import commands
+from app.viewer.documents import history_of, session_of
 from app.viewer.fold_free import (
     PAUSE,
     CheckProgress,
@@ -22,7 +24,6 @@ from app.viewer.fold_free import (
 )
 from app.viewer.gui import status_check
 from app.viewer.precompute import compute, make_request, result_from_message
-from app.viewer.session import history_of, session_of
 from app.viewer.state import AppState, Drag, History, Snapshot, WarpCheck
 
 
@@ -76,7 +77,11 @@ def test_the_plain_map_of_a_strong_drag_is_not_proven_and_its_fold_free_map_is(s
     # The boundary vertices on the target curve at their parameters, exactly as warp's.
     curve = core.ClosedBSpline(target)
     np.testing.assert_allclose(check.positions[mesh.boundary], curve(mesh.boundary_parameters), atol=1e-9)
-    assert status_text(check, 0) == f"fold-free, proven (σ₂ ≥ {check.sigma2_min:.2g})"
+    # core.fold_free_deform's map is the mesh's own, proven on the mesh (σ₂ of its triangles).
+    assert (
+        check.on_mesh
+        and status_text(check, 0) == f"fold-free on the mesh, proven (σ₂ ≥ {check.sigma2_min:.2g})"
+    )
 
 
 def test_the_status_of_a_fold_free_map_on_a_cornered_cage_says_it_is_proven_and_where_the_mesh_is_coarse():
@@ -99,6 +104,9 @@ def test_the_status_of_a_fold_free_map_on_a_cornered_cage_says_it_is_proven_and_
         "k", True, False, 0.0, np.zeros((0, 2)), np.zeros((0, 2)), "the path crosses", None, 0.1
     )
     assert status_text(failed, 5) == "fold-free map failed: the path crosses"
+    # core.fold_free_deform's own map, proven on the mesh: no σ₂ bound is claimed for it.
+    on_mesh = WarpCheck("k", True, True, 0.05, np.zeros((0, 2)), np.zeros((0, 2)), "t", positions, 0.1, True)
+    assert status_text(on_mesh, 0) == "fold-free on the mesh, proven (σ₂ ≥ 0.05)"
 
 
 def test_a_check_of_an_older_target_is_never_applied(starfish_basis):
@@ -169,16 +177,18 @@ def test_fold_free_needs_poisson_is_undoable_and_another_kernel_turns_it_off(sta
 
 def test_the_session_keeps_fold_free_as_warp_reads_it(starfish_basis):
     state = opened(starfish_basis)
-    assert "fold_free" not in session_of(state, 12.0).extra  # absent, as older versions wrote
+    assert "fold_free" not in session_json(session_of(state, 12.0))  # absent, as older versions wrote
     commands.command(state, "fold_free")
     session = session_of(state, 12.0)
-    assert session.extra["fold_free"] is True
-    undo, redo = history_of(session.extra["history"], ASSETS / "starfish.png")
+    assert session.fold_free is True and session_json(session)["fold_free"] is True
+    undo, redo = history_of(session.history, ASSETS / "starfish.png")
     assert [step.fold_free for step in undo] == [False] and redo == []
     # Older sessions' steps (no key) read as before.
-    steps = session.extra["history"]["undo"]
+    steps = session_json(session)["history"]["undo"]
     del steps[0]["fold_free"]
-    assert history_of({"undo": steps}, ASSETS / "starfish.png")[0][0].fold_free is False
+    value = {**session_json(session), "image": "starfish.png", "history": {"undo": steps}}
+    older = session_from_json(value, ASSETS / "s.json")
+    assert history_of(older.history, ASSETS / "starfish.png")[0][0].fold_free is False
 
 
 def test_the_worker_process_answers_the_newest_request(starfish_basis):
@@ -291,7 +301,9 @@ def test_the_status_line_says_how_far_the_fold_free_map_has_come(starfish_basis)
     assert status_check(state) == "fold-free map: 40 % of the way"
     worker.answer(request)
     updates.update(state)
-    assert state.compute.check_progress is None and status_check(state).startswith("fold-free, proven")
+    assert state.compute.check_progress is None and status_check(state).startswith(
+        "fold-free on the mesh, proven"
+    )
 
 
 def test_playing_keyframes_asks_for_no_check(starfish_basis):

@@ -556,3 +556,40 @@ def test_frames_before_the_first_basis_show_what_the_settled_view_shows_outside_
     np.testing.assert_array_equal(frame(state, scene)[..., :3], image[..., :3])  # nothing to wait for
     scene.release()
     screen.release()
+
+
+def test_with_fold_free_on_the_scene_draws_no_turned_over_triangle(renderer):
+    """A bilinear warp of a square whose corner is pulled inside the other three folds; with the
+    document's fold-free on, the positions drawn (`app.viewer.fold_free_frames`) turn nothing over,
+    frame after frame until the boundary is the target's, and off again the plain map is drawn."""
+    count = 11
+    vertices, triangles = grid_mesh(count=count, size=100.0)
+    index = np.arange(count * count).reshape(count, count)  # row j (y), column i (x)
+    loop = np.concatenate([index[0, :-1], index[:-1, -1], index[-1, :0:-1], index[:0:-1, 0]])
+    mesh = core.Mesh(vertices, triangles, loop, np.arange(len(loop), dtype=float))
+    u, v = vertices[:, 0] / 100.0, vertices[:, 1] / 100.0
+    basis = np.stack([(1 - u) * (1 - v), u * (1 - v), u * v, (1 - u) * v], axis=1)
+    cage = np.array([[0.0, 0.0], [100.0, 0.0], [100.0, 100.0], [0.0, 100.0]])
+    result = BasisResult("k", cage, mesh, basis, np.asfortranarray(basis, np.float32), "poisson", 1.0)
+    target = cage.copy()
+    target[2] = (30.0, 30.0)
+    assert np.count_nonzero(core.folded_triangles(mesh, basis @ target)) > 0
+    snapshot = Snapshot(Path("x.png"), cage, target, fold_free=True)
+    state = AppState(
+        Document(History(snapshot), snapshot, opaque_image(), Path("s.json")), compute=Compute(basis=result)
+    )
+    scene = Scene(renderer)
+    drawn = np.empty_like(vertices)
+    for _ in range(50):
+        scene.sync(state)
+        drawn[renderer.vertex_order] = scene._positions
+        assert np.count_nonzero(core.folded_triangles(mesh, drawn)) == 0
+        assert state.compute.mesh_proof.turned_over == 0 and scene.fold_free_drawn
+        if not scene.catching_up:
+            break
+    assert state.compute.mesh_proof.proves(target)
+    np.testing.assert_allclose(drawn[loop], (basis @ target)[loop], atol=1e-4)
+    state.document.live = state.document.live.replace(fold_free=False)
+    scene.sync(state)
+    drawn[renderer.vertex_order] = scene._positions
+    assert np.count_nonzero(core.folded_triangles(mesh, drawn)) > 0 and state.compute.mesh_proof is None

@@ -83,7 +83,11 @@ def box_difference(a: np.ndarray, b: np.ndarray, centre, half: int) -> float:
 def stats_line(lines: list[str]) -> re.Match:
     for line in lines:
         match = re.fullmatch(
-            r"frames=(\d+) median_frame_ms=([\d.]+) p95_frame_ms=([\d.]+) median_drag_frame_ms=([\d.]+)", line
+            r"frames=(\d+) median_frame_ms=([\d.]+) p95_frame_ms=([\d.]+) median_drag_frame_ms=([\d.]+) "
+            r"fold_free_drag_frames=\d+ max_folded_drawn=\d+ median_fold_free_drag_frame_ms=[\d.]+ "
+            r"proven_after_release_ms=(?:\d+|none) median_plain_drag_frame_ms=[\d.]+ "
+            r"fold_free_drag_frames_on_target=\d+",
+            line,
         )
         if match:
             return match
@@ -809,7 +813,8 @@ def test_a_drag_between_keyframes_is_keyed_in_the_saved_session_and_undone(displ
 
 
 def test_distortion_view_shows_the_exact_folds_of_a_point_kernel(display, environment):
-    from app.io.files import Session, write_session
+    from app.io.session import KernelChoice, Session, ViewerSettings, write_session
+    from app.render.viewport import View
 
     env, folder = environment
     cage = np.array(json.loads((ASSETS / "starfish.cage.json").read_text())["control_points"])
@@ -817,10 +822,16 @@ def test_distortion_view_shows_the_exact_folds_of_a_point_kernel(display, enviro
     target[0] = (320.0, 300.0)  # the top arm's tip pulled down through the body: a fold
     session = folder / "distortion.json"
     view = {"scale": 1.4, "offset": [360.0, 40.0]}
-    extra = {"viewer": {"content": "distortion", "distortion": "area"}}
     write_session(
         session,
-        Session(ASSETS / "starfish.png", cage, target, "inverse-cube-mean", 1.4, (360.0, 40.0), extra),
+        Session(
+            ASSETS / "starfish.png",
+            cage,
+            target,
+            KernelChoice("inverse-cube-mean"),
+            View(view["scale"], tuple(view["offset"])),
+            viewer=ViewerSettings(content="distortion", distortion="area"),
+        ),
     )
     viewer = ViewerProcess(["view", "--session", str(session)], env, ROOT)
     try:

@@ -12,7 +12,8 @@ import pytest
 from support.paths import ROOT
 
 from app.__main__ import main
-from app.io.files import InputError, read_cage, read_image, read_session
+from app.io.files import InputError, read_cage, read_image
+from app.io.session import read_session
 from app.warp.fill import (
     INPAINT_PIXELS,
     MARGIN,
@@ -20,7 +21,6 @@ from app.warp.fill import (
     checked_fill,
     colour_of,
     filled_image,
-    session_fill,
 )
 
 ASSETS = ROOT / "assets"
@@ -39,9 +39,6 @@ def test_fills_are_names_or_colours():
     for bad in ("blue", "#fff", "#ggggggg", "", None, 3):
         with pytest.raises(InputError, match="--fill: must be none, transparent, inpaint or a colour"):
             checked_fill(bad)
-    assert session_fill({}) == "none"  # sessions written before fills
-    with pytest.raises(InputError, match='s.json: "fill"'):
-        session_fill({"fill": "sepia"}, "s.json")
 
 
 def test_the_mask_is_the_inside_of_the_curve_and_a_margin():
@@ -120,9 +117,9 @@ def viewer_state(tmp_path: Path, fill: str):
 
 @pytest.mark.parametrize("fill", ["inpaint", "#20c040"])
 def test_the_viewers_export_and_warp_fill_write_the_same_pixels(renderer, tmp_path, fill):
+    from app.viewer.documents import save
     from app.viewer.precompute import compute, make_request, result_from_message
     from app.viewer.scene import Scene
-    from app.viewer.session import save
     from app.warp.framing import output_frame, output_region
     from app.warp.pipeline import render
 
@@ -142,7 +139,7 @@ def test_the_viewers_export_and_warp_fill_write_the_same_pixels(renderer, tmp_pa
         renderer, scene.deformation(state), state.document.live.target, size, view, state.document.outside
     )
     save(state, max_edge)
-    assert read_session(state.document.session_path).extra["fill"] == fill
+    assert read_session(state.document.session_path).output.fill == fill
     plain = render(renderer, scene.deformation(state), state.document.live.target, size, view, "transparent")
 
     def warp(*arguments) -> np.ndarray:

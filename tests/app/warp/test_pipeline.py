@@ -162,10 +162,10 @@ def test_the_viewers_fold_free_export_is_warps_fold_free_session(tmp_path, capfd
 
 
 def test_the_viewers_background_is_saved_and_drawn_as_warp_draws_it(tmp_path, capfd, ctx):
-    from app.io.files import read_session
+    from app.io.session import read_session
     from app.render.renderer import WarpRenderer
     from app.viewer import commands
-    from app.viewer.session import restore, save
+    from app.viewer.documents import restore, save
 
     write_png(tmp_path / "picture.png", picture())
     cage, moved = np.array(CAGE, dtype=float), transformed(CAGE)
@@ -178,8 +178,8 @@ def test_the_viewers_background_is_saved_and_drawn_as_warp_draws_it(tmp_path, ca
     commands.command(state, "background", "#0000ff")
     assert state.document.background == "#0000ff" and state.document.session_dirty
     save(state, MAX_EDGE)
-    assert read_session(tmp_path / "s.json").extra["background"] == "#0000ff"
-    assert restore(tmp_path / "s.json").snapshot.background == "#0000ff"
+    assert read_session(tmp_path / "s.json").output.background == "#0000ff"
+    assert restore(tmp_path / "s.json").preferences.output.background == "#0000ff"
     # An earlier test's warp made its own context current and released it: this one is made current.
     with ctx, WarpRenderer(ctx) as renderer:
         scene = Scene(renderer)

@@ -135,8 +135,18 @@ def test_fold_free_unfolds_a_folding_move_and_proves_it(files, capfd):  # noqa: 
     code, out, err = run_main([*argv, "--fold-free"], capfd)
     assert code == 0, err
     fold_free = parse(out)
+    # One truth: the count is that of the map whose pixels are written, and "proven" never stands
+    # beside "folds over".
     assert fold_free["folded"][0] == 0 and fold_free["folded"][2].startswith("triangles")
-    assert fold_free["certificate"].startswith("fold-free, proven")
+    assert fold_free["certificate"].startswith("fold-free on the mesh, proven (the mesh's ")
+    assert "folds over" not in err
+
+
+def test_fold_free_keeps_a_plain_map_that_does_not_fold_and_its_continuous_certificate(files, capfd):  # noqa: F811
+    code, out, err = run_main([*warp_argv(files), "--report", "--fold-free"], capfd)
+    assert code == 0, err
+    report = parse(out)
+    assert report["folded"][0] == 0 and report["certificate"].startswith("fold-free, proven (σ₂ ≥ ")
 
 
 def test_fold_free_needs_the_harmonic_kernel(files, capfd):  # noqa: F811

@@ -293,6 +293,20 @@ def test_gradients_are_the_derivatives_of_the_values():
     np.testing.assert_allclose(identity, np.broadcast_to(np.eye(2), identity.shape), atol=1e-7)
 
 
+def test_gradients_of_combinations_are_the_combinations_of_the_gradients():
+    """`poisson_gradients` with weights (n, k) combines the densities before evaluating: the same
+    numbers as combining the n basis functions' gradients, up to rounding."""
+    from core.boundary_integrals.poisson import poisson_gradients
+
+    curve = core.ClosedBSpline(SHAPES["star"])
+    x = interior_points(curve, 40, seed=36, margin=0.001)
+    weights = np.random.default_rng(36).normal(size=(curve.n, 3))
+    combined = poisson_gradients(curve, x, weights)
+    assert combined.shape == (40, 3, 2)
+    expected = np.einsum("mid,ik->mkd", poisson_gradients(curve, x), weights)
+    np.testing.assert_allclose(combined, expected, rtol=0, atol=1e-11 * np.abs(expected).max())
+
+
 def test_orientation_and_similarity_do_not_matter():
     curve = core.ClosedBSpline(SHAPES["hook"])
     x = interior_points(curve, 50, seed=35)

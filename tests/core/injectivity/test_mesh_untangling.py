@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy.spatial import Delaunay
 
-from core.injectivity.mesh_untangling import RINGS, untangle_triangles
+from core.injectivity.mesh_untangling import RINGS, relaxed, untangle_triangles
 from core.meshes.mesh import triangle_signed_areas
 
 #: An L-shaped polygon (counter-clockwise; the reflex corner at (1, 1)) and the grid's spacing.
@@ -172,3 +172,20 @@ def test_a_vertex_whose_fixed_ring_has_no_kernel_is_left_turned_over():
 
     np.testing.assert_array_equal(untangled, images)
     assert np.all(moves == 0.0) and turned_over(vertices, untangled, triangles) == before
+
+
+def test_relaxed_opens_a_squeezed_triangle_and_turns_none_over():
+    """An interior vertex pushed almost onto its ring's edge (a sliver, still positive): a few
+    barrier Newton steps move it back in; no triangle turns over, fixed vertices stay."""
+    vertices, triangles, free = l_shaped_mesh()
+    images = vertices.copy()
+    vertex = int(np.flatnonzero(free)[10])
+    ring = triangles[np.any(triangles == vertex, axis=1)]
+    neighbour = ring[ring != vertex][0]
+    images[vertex] = vertices[vertex] + 0.99 * (vertices[neighbour] - vertices[vertex])
+    before = triangle_signed_areas(images, triangles) / triangle_signed_areas(vertices, triangles)
+    assert before.min() > 0
+    relaxed_images = relaxed(vertices, images, triangles, free, 3)
+    after = triangle_signed_areas(relaxed_images, triangles) / triangle_signed_areas(vertices, triangles)
+    assert after.min() > 2 * before.min()  # 0.01 of its area to 0.025 in three steps
+    np.testing.assert_array_equal(relaxed_images[~free], images[~free])

@@ -380,6 +380,20 @@ def test_folded_triangles():
     assert not folded[np.setdiff1d(np.arange(mesh.triangles.shape[0]), ring)].any()
 
 
+def test_a_uniform_shrink_folds_nothing_at_any_scale_and_a_collapse_at_that_scale_does():
+    """Areas are compared at the deformation's scale: a shrink to 1e-6 scales every area by 1e-12
+    (below the tolerance of the mesh's own areas), which is no fold; a triangle collapsed within
+    that shrink is."""
+    mesh = triangulate(core.ClosedBSpline(starfish()), max_edge=0.2)
+    shrunk = 1e-6 * mesh.vertices + 3.0
+    assert not folded_triangles(mesh, shrunk).any()
+    v = mesh.interior[0]
+    ring = np.flatnonzero((mesh.triangles == v).any(axis=1))
+    _, b, c = np.roll(mesh.triangles[ring[0]], -list(mesh.triangles[ring[0]]).index(v))
+    shrunk[v] = 0.5 * (shrunk[b] + shrunk[c])
+    assert folded_triangles(mesh, shrunk)[ring[0]]
+
+
 # ---------------------------------------------------------------- errors
 
 

@@ -1,16 +1,11 @@
 """Opening a viewer document (demo, image, cage, session file) and saving it as a session.
 
-The session file is the one of .docs/architecture.md (``image``, ``cage``, ``target``,
-``kernel``, ``view``) plus keys of its own that `python -m app warp --session`
-also reads, so that it exports exactly what the viewer showed: ``kernel_params``
-(the ``power`` kernel's ``power`` and ``shift``), ``parameterization`` (``"natural"``,
-the default of older sessions, or ``"arc-length"``: `core.curves.arc_length`) and ``mesh``
-(``{"max_edge": h}``, the mesh the viewer used), and the animation that ``animate`` renders:
-``keyframes`` (``[{"time": s, "target": {cage}}, ...]``) and ``interpolation``
-(`app.warp.keyframes`).  ``viewer`` keeps what only the viewer needs
-(mode, what is shown, the power family's settings while another kernel is
-chosen, the timeline's time, loop and frame rate ``fps``) and ``history`` the undo
-and redo steps (the newest `SAVED_STEPS` of each), so that Ctrl+Z still works after a restart.
+The session file is `app.io.session.Session`, read and written there: what `python -m app warp
+--session` and ``animate`` read too, so that they export exactly what the viewer showed (the
+kernel and its parameters, the mesh, the output choices, the keyframes), and the viewer's own
+settings and undo history (the newest `SAVED_STEPS` steps each way), so that Ctrl+Z still works
+after a restart.  Here a document becomes a `Session` (`session_of`) and a `Session` a document
+(`restore`).
 
 Without ``--session`` every image has its own file (`session_path_for`), which
 the viewer restores when the same image (or demo) is opened again, whatever the
@@ -29,26 +24,27 @@ import numpy as np
 
 from app.io.files import (
     InputError,
-    Session,
     cage_curve,
     finite_number,
-    kernel_names,
     read_cage,
     read_cage_file,
     read_image,
-    read_session,
     reported_as_input,
-    session_background,
-    session_fold_free,
-    session_image,
-    session_kernel_params,
-    session_keyframes,
-    session_max_edge,
-    session_output,
-    session_parameterization,
+)
+from app.io.session import (
+    Animation,
+    History,
+    HistoryStep,
+    KernelChoice,
+    OutputChoice,
+    Session,
+    ViewerSettings,
+    existing_image,
+    read_session,
     write_session,
 )
 from app.render.viewport import View
+from app.viewer import state as model
 from app.viewer.frame_grid import DEFAULT_FPS, checked_fps, on_grid
 from app.viewer.session_files import backups, keep_aside, rotate_backups, session_path_for
 from app.viewer.session_lock import SessionLock, lock_session
@@ -62,13 +58,19 @@ from app.viewer.state import (
     Snapshot,
 )
 from app.viewer.view_modes import VIEW_MODE_NAMES
-from app.warp.fill import session_fill
-from app.warp.framing import CANVASES, OUTSIDES
-from app.warp.keyframes import DEFAULT_INTERPOLATION, MAX_TIME, Keyframe, keyframes_json
+from app.warp.keyframes import MAX_TIME
 from core import abandoned_temporaries
 
 #: Undo steps (and redo steps) written into the session file.
 SAVED_STEPS = 100
+
+
+@dataclass(frozen=True)
+class Preferences:
+    """What a document's session says of the viewer (mode, content, ...) and of its exports."""
+
+    viewer: ViewerSettings = field(default_factory=ViewerSettings)
+    output: OutputChoice = field(default_factory=OutputChoice)
 
 
 @dataclass
@@ -86,8 +88,8 @@ class OpenedDocument:
         The session's view (None: fit the image to the window).
     max_edge : float or None
         Mesh edge length given on the command line or by the session.
-    preferences : dict
-        The session's ``viewer`` object (mode, content, ...).
+    preferences : Preferences
+        The session's viewer settings and output choices.
     undo, redo : list of Snapshot
         The undo history restored with the session (`History` order).
     restored : bool
@@ -108,7 +110,7 @@ class OpenedDocument:
     session_path: Path
     view: View | None = None
     max_edge: float | None = None
-    preferences: dict | None = None
+    preferences: Preferences | None = None
     undo: list[Snapshot] = field(default_factory=list)
     redo: list[Snapshot] = field(default_factory=list)
     restored: bool = False
@@ -182,7 +184,7 @@ def open_document(
         aside = keep_aside(path, "replaced")
         notices.append(f"started afresh; the previous session is kept as {aside}")
     pixels = read_image(image)
-    outside = "transparent"
+    preferences = Preferences()
     if cage is not None:
         control_points, remark = read_cage_file(cage)  # an SVG path fitted: said on the status line
         notices += [remark] if remark else []
@@ -192,14 +194,14 @@ def open_document(
         notices.append(note)
         if (pixels[..., 3] == 255).all():
             # A photograph: its subject is cut out of a picture the user wants to keep whole.
-            outside = "original"
-    snapshot = Snapshot(Path(os.path.realpath(image)), control_points, control_points, outside=outside)
+            preferences = Preferences(output=OutputChoice(outside="original"))
+    snapshot = Snapshot(Path(os.path.realpath(image)), control_points, control_points)
     return OpenedDocument(
         snapshot,
         pixels,
         path,
         max_edge=max_edge,
-        preferences={},
+        preferences=preferences,
         start_cage=cage,
         notices=notices,
         lock=lock,
@@ -270,49 +272,36 @@ def recover(path: Path, image: Path, max_edge: float | None, notices: list[str])
 def restore(path: Path, max_edge: float | None = None) -> OpenedDocument:
     """Open a session file: everything, including the view and the undo history."""
     session = read_session(path)
-    pixels = read_image(session_image(session, path))
+    pixels = read_image(existing_image(session, path))
     cage_curve(session.cage, f"{path}: cage")
-    params = session_kernel_params(session, path)
-    preferences = session.extra.get("viewer") if isinstance(session.extra.get("viewer"), dict) else {}
-    outside, canvas = session_output(session, path)
-    settings = {"outside": outside, "canvas": canvas, "fill": session_fill(session.extra, path)}
-    if session_background(session, path) is not None:  # checked: a bad colour is one line
-        settings["background"] = session.extra["background"]
-    power = params.get("power", preferences.get("power", DEFAULT_POWER))
-    shift = params.get("shift", preferences.get("shift", DEFAULT_SHIFT))
-    power = finite_number(power)
-    if power is None or not power > 0:
-        power = DEFAULT_POWER
-    if shift not in SHIFTS:
-        shift = DEFAULT_SHIFT
     image = Path(os.path.realpath(session.image))
-    keyframes, interpolation = session_keyframes(session, path)
+    chosen, animation = session.kernel, session.animation
+    power, shift = power_family(chosen.params, session.viewer)
     snapshot = Snapshot(
         image,
         session.cage,
         session.target,
-        session.kernel,
+        chosen.name,
         power,
         shift,
-        keyframes,
-        interpolation,
-        session_parameterization(session, path),
-        session_fold_free(session, path) and session.kernel == "poisson",
-        **settings,
+        animation.keyframes,
+        animation.interpolation,
+        chosen.parameterization,
+        session.fold_free and chosen.name == "poisson",
     )
     notices: list[str] = []
     try:
-        undo, redo = history_of(session.extra.get("history"), image, settings)
-    except (TypeError, ValueError, KeyError, OverflowError) as error:
+        undo, redo = history_of(session.history, image)
+    except ValueError as error:
         undo, redo = [], []
         notices.append(f"{path}: the undo history cannot be read ({error}); starting without it")
     return OpenedDocument(
         snapshot,
         pixels,
         path,
-        View(session.scale, session.offset),
-        max_edge if max_edge is not None else session_max_edge(session, path),
-        preferences,
+        session.view,
+        max_edge if max_edge is not None else session.max_edge,
+        Preferences(session.viewer, session.output),
         undo,
         redo,
         restored=True,
@@ -320,121 +309,82 @@ def restore(path: Path, max_edge: float | None = None) -> OpenedDocument:
     )
 
 
-def _step(snapshot: Snapshot) -> dict:
-    return {
-        "cage": snapshot.cage.tolist(),
-        "target": snapshot.target.tolist(),
-        "kernel": snapshot.kernel,
-        "power": snapshot.power,
-        "shift": snapshot.shift,
-        "keyframes": keyframes_json(snapshot.keyframes),
-        "interpolation": snapshot.interpolation,
-        "parameterization": snapshot.parameterization,
-        "fold_free": snapshot.fold_free,
-        **dict(zip(SETTINGS, snapshot.settings(), strict=True)),
-    }
+def power_family(params: dict, viewer: ViewerSettings) -> tuple[float, str]:
+    """The ``power`` kernel's (power, shift) of a session: its kernel parameters when it is the
+    kernel, else what the viewer kept of them, else the viewer's defaults."""
+    power = finite_number(params.get("power", viewer.power))
+    shift = params.get("shift", viewer.shift)
+    return (power if power is not None and power > 0 else DEFAULT_POWER), (
+        shift if shift in SHIFTS else DEFAULT_SHIFT
+    )
 
 
-def history_json(state: AppState) -> dict:
-    """The ``history`` object of the session file: the newest `SAVED_STEPS` undo and redo steps.
+def _step(snapshot: Snapshot) -> HistoryStep:
+    return HistoryStep(
+        snapshot.cage,
+        snapshot.target,
+        snapshot.kernel,
+        snapshot.power,
+        snapshot.shift,
+        snapshot.keyframes,
+        snapshot.interpolation,
+        snapshot.parameterization,
+        snapshot.fold_free,
+    )
 
-    Steps are ``{"cage": [[x, y], ...], "target": [[x, y], ...], "kernel", "power",
-    "shift", "keyframes", "interpolation", "parameterization"}`` of the session's image (the keyframes as in
-    the session file); ``undo`` is oldest first, ``redo`` has the
-    next step last (`History` order).
-    """
+
+def saved_history(state: AppState) -> History:
+    """The session's `History`: the newest `SAVED_STEPS` undo and redo steps of the session's image
+    (``undo`` oldest first, ``redo`` with the next step last: `History` order)."""
     image = state.document.history.current.image
 
-    def nearest(steps: tuple[Snapshot, ...]) -> list[dict]:
+    def nearest(steps: tuple[Snapshot, ...]) -> tuple[HistoryStep, ...]:
         """The last `SAVED_STEPS` steps (the nearest to the current state) back to another image."""
         kept = []
         for snapshot in reversed(steps):
             if snapshot.image != image or len(kept) == SAVED_STEPS:
                 break
             kept.append(_step(snapshot))
-        return kept[::-1]
+        return tuple(kept[::-1])
 
-    return {
-        "undo": nearest(state.document.history.undo_steps),
-        "redo": nearest(state.document.history.redo_steps),
-    }
+    return History(nearest(state.document.history.undo_steps), nearest(state.document.history.redo_steps))
 
 
-#: The export's settings that each history step holds (`Snapshot.settings`).
-SETTINGS = ("outside", "canvas", "fill", "background")
-
-
-def history_of(value, image: Path, settings: dict | None = None) -> tuple[list[Snapshot], list[Snapshot]]:
-    """Undo and redo steps of a ``history`` object (`history_json`); ([], []) when absent.
-
-    A step without the export's settings (older sessions) takes `settings`, the session's.
+def history_of(history: History, image: Path) -> tuple[list[Snapshot], list[Snapshot]]:
+    """Undo and redo steps of a session's `History`, as snapshots of `image`.
 
     Raises
     ------
-    TypeError, KeyError, ValueError
-        The object is malformed (a step's cage is not simple is not checked here:
-        undoing to it shows it as it was).
+    ValueError
+        The history could not be read (`History.problem`), or a step is no snapshot (a step's
+        cage that is not simple is not checked here: undoing to it shows it as it was).
     """
-    if value is None:
-        return [], []
-    if not isinstance(value, dict):
-        raise TypeError(f"expected an object, got {type(value).__name__}")
+    if history.problem:
+        raise ValueError(history.problem)
 
-    def snapshots(name: str) -> list[Snapshot]:
-        steps = value.get(name, [])
-        if not isinstance(steps, list):
-            raise TypeError(f"{name} must be a list")
+    def snapshots(name: str, steps: tuple[HistoryStep, ...]) -> list[Snapshot]:
         result = []
         for index, step in enumerate(steps):
-            kernel = step["kernel"]
-            if kernel not in kernel_names():
-                raise ValueError(f"{name}[{index}] has unknown kernel {kernel!r}")
-            cage, target = np.asarray(step["cage"], float), np.asarray(step["target"], float)
-            if cage.ndim != 2 or cage.shape[1:] != (2,) or len(cage) < 3:
-                raise ValueError(f"{name}[{index}] cage must be 3 or more [x, y] pairs")
-            keyframes = [
-                Keyframe(float(item["time"]), np.asarray(item["target"]["control_points"], float))
-                for item in step.get("keyframes", [])  # absent in the steps of older sessions
-            ]
-            interpolation = step.get("interpolation", DEFAULT_INTERPOLATION)
-            power, shift = float(step["power"]), step["shift"]
-            parameterization = step.get("parameterization", "natural")  # absent in older sessions
-            fold_free = step.get("fold_free", False) is True and kernel == "poisson"
-            kept = {name: step[name] for name in SETTINGS if _valid_setting(name, step.get(name))}
-            result.append(
-                Snapshot(
-                    image,
-                    cage,
-                    target,
-                    kernel,
-                    power,
-                    shift,
-                    keyframes,
-                    interpolation,
-                    parameterization,
-                    fold_free,
-                    **{**(settings or {}), **kept},
+            try:
+                result.append(
+                    Snapshot(
+                        image,
+                        step.cage,
+                        step.target,
+                        step.kernel,
+                        step.power,
+                        step.shift,
+                        step.keyframes,
+                        step.interpolation,
+                        step.parameterization,
+                        step.fold_free,
+                    )
                 )
-            )
+            except ValueError as error:
+                raise ValueError(f"{name}[{index}]: {error}") from None
         return result
 
-    return snapshots("undo"), snapshots("redo")
-
-
-def _valid_setting(name: str, value) -> bool:
-    """Whether `value` is a valid export setting `name` of a history step (one of `SETTINGS`)."""
-    from app.io.images.colours import parse_colour
-    from app.warp.fill import checked_fill
-
-    if not isinstance(value, str):
-        return False
-    if name in ("outside", "canvas"):
-        return value in (OUTSIDES if name == "outside" else CANVASES)
-    try:
-        checked_fill(value, name) if name == "fill" else value == "none" or parse_colour(value)
-    except ValueError:
-        return False
-    return True
+    return snapshots("undo", history.undo), snapshots("redo", history.redo)
 
 
 def start_snapshot(current: Snapshot, image: np.ndarray, cage: Path | None) -> tuple[Snapshot, str]:
@@ -481,73 +431,84 @@ def fit_or_ellipse(image: np.ndarray, points: int = 16, rect=None) -> tuple[np.n
     return np.round(control_points, 3), note
 
 
-def apply_preferences(state: AppState, preferences: dict | None) -> None:
-    """Take the session's ``viewer`` settings that make sense."""
-    preferences = preferences or {}
-    if preferences.get("mode") in EDIT_MODES:
-        state.selection.edit_mode = preferences["mode"]
-    if preferences.get("content") in VIEW_MODE_NAMES:
-        state.display.view_mode = preferences["content"]
-    if preferences.get("distortion") in MEASURES:
-        state.display.distortion_measure = preferences["distortion"]
+def apply_preferences(state: AppState, preferences: Preferences | None) -> None:
+    """Take the session's viewer settings that make sense (a word the viewer does not know, as
+    from another version, is passed over) and its output choices (checked when it was read)."""
+    viewer = (preferences or Preferences()).viewer
+    output = (preferences or Preferences()).output
+    if viewer.mode in EDIT_MODES:
+        state.selection.edit_mode = viewer.mode
+    if viewer.content in VIEW_MODE_NAMES:
+        state.display.view_mode = viewer.content
+    if viewer.distortion in MEASURES:
+        state.display.distortion_measure = viewer.distortion
     for name in ("show_folds", "show_wireframe", "show_overlay"):
-        if isinstance(preferences.get(name), bool):
-            setattr(state.display, name, preferences[name])
-    if isinstance(preferences.get("loop"), bool):
-        state.playback.loop = preferences["loop"]
-    state.playback.fps = checked_fps(preferences.get("fps")) or DEFAULT_FPS
-    time = finite_number(preferences.get("time"))
-    if time is not None and 0 <= time <= MAX_TIME:
-        state.playback.time = on_grid(time, state.playback.fps)
-    selected = preferences.get("selected")
-    if isinstance(selected, int) and 0 <= selected < state.document.live.n:
-        state.selection.selected = selected
+        if getattr(viewer, name) is not None:
+            setattr(state.display, name, getattr(viewer, name))
+    _take_output(state, output)
+    if viewer.loop is not None:
+        state.playback.loop = viewer.loop
+    state.playback.fps = checked_fps(viewer.fps) or DEFAULT_FPS
+    if viewer.time is not None and 0 <= viewer.time <= MAX_TIME:
+        state.playback.time = on_grid(viewer.time, state.playback.fps)
+    if viewer.selected is not None and 0 <= viewer.selected < state.document.live.n:
+        state.selection.selected = viewer.selected
+
+
+def _take_output(state: AppState, output: OutputChoice) -> None:
+    """The session's output choices as the document's: they are the snapshots' (each a step of the
+    undo history), so the history's steps take them too, as its steps in the file do not hold them."""
+    chosen = {
+        "outside": output.outside,
+        "canvas": output.canvas,
+        "fill": output.fill,
+        "background": output.background,
+    }
+    document, history = state.document, state.document.history
+    saved = document.saved is not None and document.saved == history.current
+    document.history = model.History(
+        history.current.replace(**chosen),
+        history.limit,
+        [step.replace(**chosen) for step in history.undo_steps],
+        [step.replace(**chosen) for step in history.redo_steps],
+    )
+    document.live = document.history.current
+    if saved:
+        document.saved = document.live
 
 
 def session_of(state: AppState, max_edge: float | None) -> Session:
     """The session file's content for the committed state (not a drag in progress)."""
     snapshot = state.document.history.current
-    extra = {
-        "viewer": {
-            "mode": state.selection.edit_mode,
-            "content": state.display.view_mode,
-            "distortion": state.display.distortion_measure,
-            "show_folds": state.display.show_folds,
-            "show_wireframe": state.display.show_wireframe,
-            "show_overlay": state.display.show_overlay,
-            "selected": state.selection.selected,
-            "power": snapshot.power,
-            "shift": snapshot.shift,
-            "time": state.playback.time,
-            "loop": state.playback.loop,
-            "fps": state.playback.fps,
-        }
-    }
-    if snapshot.kernel_params():
-        extra["kernel_params"] = snapshot.kernel_params()
-    if max_edge is not None:
-        extra["mesh"] = {"max_edge": float(max_edge)}
-    extra["outside"], extra["canvas"] = state.document.outside, state.document.canvas
-    if state.document.background != "none":  # files without the key read as transparent
-        extra["background"] = state.document.background
-    if (
-        state.document.fill != "none"
-    ):  # files without the key read as "none" (and stay as older versions wrote them)
-        extra["fill"] = state.document.fill
-    if snapshot.fold_free:  # read by warp and animate too; absent (false) as older versions wrote
-        extra["fold_free"] = True
-    extra["keyframes"] = keyframes_json(snapshot.keyframes)
-    extra["interpolation"] = snapshot.interpolation
-    extra["parameterization"] = snapshot.parameterization
-    extra["history"] = history_json(state)
+    document, display = state.document, state.display
     return Session(
         snapshot.image,
         np.array(snapshot.cage),
         np.array(snapshot.target),
-        snapshot.kernel,
-        float(state.display.viewport.scale),
-        (float(state.display.viewport.offset[0]), float(state.display.viewport.offset[1])),
-        extra,
+        KernelChoice(snapshot.kernel, snapshot.kernel_params(), snapshot.parameterization),
+        View(
+            float(display.viewport.scale),
+            (float(display.viewport.offset[0]), float(display.viewport.offset[1])),
+        ),
+        max_edge=None if max_edge is None else float(max_edge),
+        fold_free=snapshot.fold_free,
+        output=OutputChoice(document.outside, document.canvas, document.fill, document.background),
+        animation=Animation(snapshot.keyframes, snapshot.interpolation),
+        viewer=ViewerSettings(
+            mode=state.selection.edit_mode,
+            content=display.view_mode,
+            distortion=display.distortion_measure,
+            show_folds=display.show_folds,
+            show_wireframe=display.show_wireframe,
+            show_overlay=display.show_overlay,
+            selected=state.selection.selected,
+            power=snapshot.power,
+            shift=snapshot.shift,
+            time=state.playback.time,
+            loop=state.playback.loop,
+            fps=state.playback.fps,
+        ),
+        history=saved_history(state),
     )
 
 

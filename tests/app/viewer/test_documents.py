@@ -1,4 +1,4 @@
-"""Opening and saving viewer documents (app.viewer.session) and the session keys `warp` reads."""
+"""Opening and saving viewer documents (app.viewer.documents)."""
 
 import dataclasses
 import json
@@ -8,16 +8,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from app.io.files import (
-    InputError,
-    Session,
-    kernel_names,
-    read_session,
-    session_kernel_params,
-    session_max_edge,
-)
+from app.io.files import InputError, kernel_names
+from app.io.session import read_session
 from app.render.viewport import View
-from app.viewer import session as sessions
+from app.viewer import documents as sessions
 from app.viewer.demos import demo_files
 from app.viewer.session_files import BACKUPS, backup_path, backups, session_path_for
 from app.viewer.state import AppState, Display, Document, History
@@ -99,33 +93,6 @@ def test_save_and_restore_everything(tmp_path):
         sessions.open_document(files.image, None, broken)
 
 
-def session_with(extra, kernel="power"):
-    points = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]])
-    return Session(Path("x.png"), points, points, kernel, extra=extra)
-
-
-def test_session_kernel_params_and_mesh_are_validated():
-    assert session_kernel_params(session_with({})) == {}
-    assert session_kernel_params(session_with({"kernel_params": {"power": 2, "shift": "mean"}})) == {
-        "power": 2.0,
-        "shift": "mean",
-    }
-    for extra, message in [
-        ({"kernel_params": []}, "must be an object"),
-        ({"kernel_params": {"power": -1}}, "power must be a number > 0"),
-        ({"kernel_params": {"shift": "up"}}, "shift must be"),
-        ({"kernel_params": {"gamma": 1}}, "unknown kernel parameter"),
-    ]:
-        with pytest.raises(InputError, match=message):
-            session_kernel_params(session_with(extra))
-    with pytest.raises(InputError, match="takes no parameters"):
-        session_kernel_params(session_with({"kernel_params": {"power": 2}}, kernel="mean-value"))
-    assert session_max_edge(session_with({})) is None
-    assert session_max_edge(session_with({"mesh": {"max_edge": 3}})) == 3.0
-    with pytest.raises(InputError, match="max_edge must be a number > 0"):
-        session_max_edge(session_with({"mesh": {"max_edge": "big"}}))
-
-
 def test_a_saved_session_reads_back_with_the_shared_reader(tmp_path):
     files = demo_files("character")
     path = tmp_path / "c.json"
@@ -133,8 +100,8 @@ def test_a_saved_session_reads_back_with_the_shared_reader(tmp_path):
     state = AppState(Document(History(document.snapshot), document.snapshot, document.image, path))
     sessions.save(state, None)
     session = read_session(path)
-    assert session.image.resolve() == files.image.resolve() and session.kernel == "poisson"
-    assert "mesh" not in session.extra and "kernel_params" not in session.extra
+    assert session.image.resolve() == files.image.resolve() and session.kernel.name == "poisson"
+    assert session.max_edge is None and session.kernel.params == {}
 
 
 def test_a_session_keeps_the_kernel_it_names_whatever_the_default(tmp_path):
@@ -373,22 +340,6 @@ def test_old_sessions_without_keyframes_still_load(tmp_path):
     assert restored.snapshot.keyframes == () and restored.snapshot.interpolation == "catmull-rom"
     assert len(restored.undo) == 1 and restored.undo[0].keyframes == ()
     assert restored.snapshot == state.document.live
-
-
-def test_bad_keyframes_in_a_session_are_named(tmp_path):
-    from app.io.files import session_keyframes
-
-    points = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]])
-    for value, message in [
-        ({"keyframes": {}}, '"keyframes" must be a list'),
-        ({"keyframes": [{"time": 0}]}, r'keyframes\[0\]: expected an object with "time" and "target"'),
-        ({"keyframes": [{"time": -1, "target": {"control_points": points.tolist()}}]}, "time must be within"),
-        ({"keyframes": [{"time": 0, "target": {"control_points": [[0, 0]] * 4}}]}, "target has 4 control"),
-        ({"interpolation": "spline"}, '"interpolation" must be one of'),
-    ]:
-        session = Session(Path("x.png"), points, points, "harmonic-like", extra=value)
-        with pytest.raises(InputError, match=message):
-            session_keyframes(session, "s.json")
 
 
 def _hold_lock(session: Path, state: Path):
