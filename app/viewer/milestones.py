@@ -74,7 +74,10 @@ class Milestones:
         self.previewing = False  # the last frame drew the preview mesh
         self.popup_open = False  # an imgui popup (a list) is open: Esc closes it
         self.typing = False  # a text field has the keyboard
-        self.panel_spot = None  # the panel's bottom and hidden height last announced
+        #: What was last announced of the layout and the status line, by name: the panel's bottom
+        #: and hidden height ("panel"), the status line's message ("said") and top ("status"), the
+        #: section headings and other spots.
+        self.shown: dict = {}
         self.check_status = ""  # the status line's fold-free words last announced
         self.fold_free_drawn = False  # the last frame drew the fold-free map
         self.drag_first_frame: int | None = None
@@ -85,11 +88,9 @@ class Milestones:
         #: Window points of some widgets (`app.viewer.gui.gui` fills it), announced for the tests.
         self.spots: dict = {}
         self.figures_at = -FIGURES_INTERVAL  # when the status line's frame times were last computed
-        self.status_shown: tuple[str, float | None] = ("", None)  # the status line's message and top
         #: Lines said before ``ready`` that tests read after it (the first basis, when the worker
         #: had it before the window's first frame was done): said just after ``ready``.
         self.held: list[str] = []
-        self.headings: dict = {}  # the panel's section headings last announced, by title
 
     def announce(self, line: str) -> None:
         if self.test_mode and not self.announced_ready and line.startswith("basis "):
@@ -119,8 +120,8 @@ class Milestones:
             self.announce(f"text input {'on' if typing else 'off'}")  # keys go to a text field
             self.typing = typing
         panel = self.spots.get("panel")
-        if panel is not None and panel != self.panel_spot:  # its layout settles over the first frames
-            self.panel_spot = panel
+        if panel is not None and panel != self.shown.get("panel"):  # it settles over the first frames
+            self.shown["panel"] = panel
             self.announce(f"spot panel={panel[0]:.0f},{panel[1]:.0f}")
 
     def checked(self, status: str, fold_free_drawn: bool, folded: int | None) -> None:
@@ -170,19 +171,19 @@ class Milestones:
         if not self.test_mode:
             return
         said, top = state.status_message(), self.spots.get("status", (0.0, None))[1]
-        if said != self.status_shown[0]:
+        if said != self.shown.get("said", ""):
             self.announce(f"status said {said}")
-        if top is not None and top != self.status_shown[1]:
+        if top is not None and top != self.shown.get("status"):
             self.announce(f"spot status={top:.0f}")
-        self.status_shown = (said, top)
+        self.shown.update(said=said, status=top)
         for name in (
             *SECTIONS,
             "files",
             "save target",
         ):  # the headings move as sections open and the progress bar goes
             spot = self.spots.get(name)
-            if spot is not None and spot != self.headings.get(name):
-                self.headings[name] = spot
+            if spot is not None and spot != self.shown.get(name):
+                self.shown[name] = spot
                 self.announce(f"spot {name}={spot[0]:.0f},{spot[1]:.0f}")
 
     def _fold_free_frame(self, state: AppState) -> None:
