@@ -19,6 +19,7 @@ from core.gradients import basis_gradients, kernel_gradients
 from core.meshes.harmonic import harmonic_basis
 from core.injectivity.certificate import InjectivityCertificate, certify_injective
 from core.injectivity.composite import fold_free_deform
+from core.pins.pin_deform import PIN_KERNELS, PinDeformation, pin_deform
 from core.injectivity.drag_step import DragMesh, DragStep, Untangling, drag_mesh, drag_step
 from core.injectivity.mesh_bijection import MeshBijection, prove_mesh_bijection
 from core.kernel_table import BOUNDARY_INTEGRAL_KERNELS, COMPLEX_KERNELS, DEFAULT_KERNEL, MESH_ONLY_KERNELS
@@ -88,6 +89,7 @@ __all__ = [
     "NAME_MAX",
     "PARAMETERIZATIONS",
     "PARAMETERIZED_KERNELS",
+    "PIN_KERNELS",
     "PLAIN_HARMONIC_MAP",
     "RADIUS_EDGE_RATIO",
     "SHIFTS",
@@ -100,6 +102,7 @@ __all__ = [
     "InjectivityCertificate",
     "Mesh",
     "MeshBijection",
+    "PinDeformation",
     "SolveReport",
     "Untangling",
     "abandoned_temporaries",
@@ -128,6 +131,7 @@ __all__ = [
     "load_compiled_integrals",
     "mesh_basis_functions",
     "pgw_basis",
+    "pin_deform",
     "positive_int",
     "prove_mesh_bijection",
     "reference_kernel",

@@ -100,6 +100,10 @@ def run_bench(args: argparse.Namespace) -> int:
             curve, 1 if args.quick else repeats, _forget_densities, (2_000,) if args.quick else None
         )
         held_out_rows(_forget_densities, args.quick)
+    if not args.skip_pins:
+        from app.bench.pins import pin_rows
+
+        pin_rows((16,), 2, 1) if args.quick else pin_rows()
     if not args.skip_mesher:
         from app.bench.mesher import LEAST_REPEATS, mesher_rows
 

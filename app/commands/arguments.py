@@ -75,6 +75,7 @@ def _warp_command(commands, run, kernels: tuple[str, ...]) -> None:
         ("%(prog)s photo.png --cage cage.json --target target.json --output out.png", None),
         ("%(prog)s photo.png --cage c.json --target t.json --output out.png --kernel mean-value", None),
         ("%(prog)s --session photo.json --output out.png", "what the viewer showed, saved in photo.json"),
+        ("%(prog)s p.png --cage c.json --pins pins.json --max-distortion 2 --output o.png --report", None),
         (
             "%(prog)s p.png --cage c.json --target t.json --output o.png --outside original --canvas grow",
             "keep the rest of the picture, and widen it where the target leaves the image",
@@ -85,6 +86,21 @@ def _warp_command(commands, run, kernels: tuple[str, ...]) -> None:
         "--cage", type=Path, help="source cage, JSON or SVG (its first closed path), image pixels"
     )
     warp.add_argument("--target", type=Path, help="target cage, JSON or SVG, same number of control points")
+    warp.add_argument(
+        "--pins",
+        type=Path,
+        metavar="PINS.json",
+        help='instead of --target: pins in the picture, {"pins": [[x, y], ...], "moved": [[x, y], ...]} '
+        "in image pixels; the target is the cage that takes each pin where it was moved (one pin: a "
+        "translation, two: a similarity, more: the least departure from one; core.pin_deform)",
+    )
+    warp.add_argument(
+        "--max-distortion",
+        type=float,
+        metavar="K",
+        help="with --pins: sigma1/sigma2 <= K (K >= 1; 1 is rigid up to scale) and no fold anywhere in the "
+        "picture, proven; the pins land as close as that allows (--report says how close)",
+    )
     warp.add_argument(
         "--session",
         type=Path,
@@ -378,6 +394,11 @@ def _bench_command(commands, run) -> None:
         "--skip-export",
         action="store_true",
         help="no viewer GIF export of the starfish animation against animate (Xvfb, xdotool)",
+    )
+    bench.add_argument(
+        "--skip-pins",
+        action="store_true",
+        help="no pins rows (core.pin_deform within a distortion bound at 16, 40 and 100 control points)",
     )
     bench.add_argument(
         "--skip-fold-free",

@@ -154,6 +154,7 @@ def build_parser(prog: str = "python -m app") -> argparse.ArgumentParser:
 
 def _warp(args: argparse.Namespace) -> int:
     from app.warp.job import run_job, warp_job
+    from app.warp.pins import pin_report
     from app.warp.report import distortion_report, warn_of_folds
 
     job, inputs = warp_job(args)
@@ -176,6 +177,8 @@ def _warp(args: argparse.Namespace) -> int:
         warn_of_folds(deformation, deformed, job.targets[0], inputs.target_source)
 
     run_job(job, inspect)
+    if args.report and inputs.pinned is not None:
+        report[:0] = pin_report(inputs.pinned)
     if report:
         print("\n".join(report))
     return EXIT_OK

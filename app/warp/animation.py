@@ -20,6 +20,7 @@ from app.warp.frame_writers import check_output, output_kind
 from app.warp.framing import frame_region, output_frame
 from app.warp.job import WarpJob, checked_curve, kernel_params, session_inputs, width_height
 from app.warp.keyframes import frame_times, interpolate
+from app.warp.pins import session_pins
 from app.warp.pipeline import OutputFile, WarpSettings
 
 #: Most bytes of frames a GIF export keeps in memory until it writes the file.
@@ -44,6 +45,9 @@ def animation_job(args: argparse.Namespace) -> WarpJob:
     refuse_overwriting_inputs(path, {"session file": args.session})
     session = read_session(args.session)
     inputs = session_inputs(session, args.session)
+    # The keyframes hold the targets the session's pins made; the pins themselves are checked like
+    # `warp --session`'s, so that a session one command refuses the other refuses too.
+    session_pins(session, args.session)
     refuse_overwriting_inputs(path, {"session's image": session.image})
     keyframes, interpolation = session.animation.keyframes, session.animation.interpolation
     if not keyframes:

@@ -42,6 +42,7 @@ from app.render.viewport import View
 from app.warp.fill import FILLS, chosen_fill
 from app.warp.frame_writers import WRITERS, interrupted_by_sigterm
 from app.warp.framing import CANVASES, OUTSIDES, output_frame, output_region
+from app.warp.pins import pin_request, pinned_inputs
 from app.warp.pipeline import Deformation, OutputFile, WarpSettings
 
 DEFAULT_KERNEL = "poisson"  # core.mesh_basis.DEFAULT_KERNEL, the deformation default
@@ -75,6 +76,8 @@ class WarpInputs:
         How messages name the cage and the target (a file, or ``SESSION: cage``).
     background : tuple of float or None
         Straight RGBA in [0, 1] under the warp (``--background``, or the session's); None: transparent.
+    pinned : core.PinDeformation or None
+        The pins' solve that gave the target (``--pins`` or the session's pins; `app.warp.pins`).
     """
 
     image_path: Path
@@ -91,6 +94,7 @@ class WarpInputs:
     cage_source: str
     target_source: str
     background: tuple[float, float, float, float] | None = None
+    pinned: object = None
 
 
 @dataclass
@@ -175,12 +179,14 @@ def session_inputs(session: Session, path: Path, kernel: str | None = None) -> W
     )
 
 
-def file_inputs(image: Path, cage: Path, target: Path, kernel: str | None) -> WarpInputs:
-    """An image and two cage files: the package's defaults for everything else."""
+def file_inputs(image: Path, cage: Path, target: Path | None, kernel: str | None) -> WarpInputs:
+    """An image and two cage files (or one: the target is the pins' then, solved later): the
+    package's defaults for everything else."""
+    source = read_cage(cage)
     inputs = WarpInputs(
         image_path=image,
-        cage=read_cage(cage),
-        target=read_cage(target),
+        cage=source,
+        target=source if target is None else read_cage(target),
         kernel=DEFAULT_KERNEL if kernel is None else kernel,
         params={},
         parameterization="natural",
@@ -190,7 +196,7 @@ def file_inputs(image: Path, cage: Path, target: Path, kernel: str | None) -> Wa
         fill=FILLS[0],
         fold_free=False,
         cage_source=str(cage),
-        target_source=str(target),
+        target_source=str(target or cage),
     )
     if len(inputs.target) != len(inputs.cage):
         raise InputError(
@@ -210,25 +216,35 @@ def warp_job(args: argparse.Namespace) -> tuple[WarpJob, WarpInputs]:
     """
     _require_warp_arguments(args)
     check_writable(args.output, suffix=IMAGE_SUFFIXES)
+    session = None
     if args.session is not None:
-        given = [f"--{name}" for name in ("cage", "target") if getattr(args, name) is not None]
+        given = [f"--{name}" for name in ("cage", "target", "pins") if getattr(args, name) is not None]
         if args.image is not None or given:
             raise InputError(
                 f"give either --session or IMAGE with --cage and --target, not both "
                 f"({' and '.join(['IMAGE'] * (args.image is not None) + given)} with --session)"
             )
-        inputs = session_inputs(read_session(args.session), args.session, args.kernel)
+        session = read_session(args.session)
+        inputs = session_inputs(session, args.session, args.kernel)
     else:
         inputs = file_inputs(args.image, args.cage, args.target, args.kernel)
     if inputs.kernel not in kernel_names():
         raise InputError(f"unknown kernel {inputs.kernel!r}; choose one of {', '.join(kernel_names())}")
     _refuse_overwriting_input(args.output, inputs.image_path, args.overwrite_input)
     refuse_overwriting_inputs(
-        args.output, {"source cage": args.cage, "target cage": args.target, "session file": args.session}
+        args.output,
+        {
+            "source cage": args.cage,
+            "target cage": args.target,
+            "pins": args.pins,
+            "session file": args.session,
+        },
     )
+    request = pin_request(args, session)
     photo = read_photo(inputs.image_path)
     image = photo.pixels
     curve = checked_curve(inputs, image, args.samples_per_segment)
+    inputs = pinned_inputs(inputs, curve, request)
     canvas = args.canvas or inputs.canvas
     outside = args.outside or inputs.outside
     fill = chosen_fill(args.fill, inputs.fill, outside)
@@ -423,7 +439,11 @@ def _require_warp_arguments(args: argparse.Namespace) -> None:
     if args.session is None:
         inputs = [
             name
-            for name, value in (("IMAGE", args.image), ("--cage", args.cage), ("--target", args.target))
+            for name, value in (
+                ("IMAGE", args.image),
+                ("--cage", args.cage),
+                ("--target or --pins", args.target or args.pins),
+            )
             if value is None
         ]
         if inputs:

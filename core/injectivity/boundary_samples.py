@@ -48,8 +48,9 @@ PER_ARC = 16
 class PieceSamples:
     """Samples of one piece: parameters (m,) in the piece's order, points (m, 2) of Γ, h' and f_z̄
     (complex (m,), |f_z̄| = |g'|), the lower bound of σ₂ = |h'| - |g'| across the strip from the
-    sample to the boundary (m,), on offset pieces the depth of each sample (m,) (None on arcs), and
-    the allowance for the evaluation error of h' and g' (m,)."""
+    sample to the boundary (m,), on offset pieces the depth of each sample (m,) (None on arcs), the
+    allowance for the evaluation error of h' and g' (m,), and the upper bound of k = |g'| / |h'|
+    across the strip (m,; at the sample itself on arcs)."""
 
     parameters: np.ndarray
     points: np.ndarray
@@ -58,6 +59,7 @@ class PieceSamples:
     sigma_strip: np.ndarray
     depths: np.ndarray | None = None
     allowance: np.ndarray | None = None
+    k_strip: np.ndarray | None = None
 
 
 def first_parameters(piece: Piece) -> np.ndarray:
@@ -80,8 +82,9 @@ def evaluate(
         h, g, error = complex_derivatives(curve, target, points)
         allowance = ERROR_SAFETY * error
         return PieceSamples(
-            parameters, points, h, g, np.abs(h) - np.abs(g) - 2.0 * allowance, None, allowance
-        )
+            parameters, points, h, g, np.abs(h) - np.abs(g) - 2.0 * allowance, None, allowance,
+            _ratio_high(h, g, allowance),
+        )  # fmt: skip
     depths = np.full(parameters.size, DEPTH) if depths is None else np.asarray(depths, dtype=np.float64)
     points, deeper = offset_points(curve, parameters, depths * curve.diameter)
     try:
@@ -102,7 +105,17 @@ def evaluate(
     sigma = np.abs(h_both) - np.abs(g_both)
     near, far = sigma[:m], sigma[m:]
     strip = np.minimum(near, far) - STRIP_SAFETY / (DEEPER - 1.0) * np.abs(near - far) - 2.0 * allowance
-    return PieceSamples(parameters, points, h_both[:m], g_both[:m], strip, depths, allowance)
+    ratio = _ratio_high(h_both, g_both, np.concatenate([allowance, allowance]))
+    near, far = ratio[:m], ratio[m:]
+    k_strip = np.maximum(near, far) + STRIP_SAFETY / (DEEPER - 1.0) * np.abs(near - far)
+    return PieceSamples(parameters, points, h_both[:m], g_both[:m], strip, depths, allowance, k_strip)
+
+
+def _ratio_high(h: np.ndarray, g: np.ndarray, allowance: np.ndarray) -> np.ndarray:
+    """Upper bounds of |g'| / |h'| from samples (M,) with their allowances (inf where |h'| is not
+    above its allowance)."""
+    low = np.abs(h) - allowance
+    return np.where(low > 0, (np.abs(g) + allowance) / np.where(low > 0, low, 1.0), np.inf)
 
 
 def merged(old: PieceSamples, new: PieceSamples) -> PieceSamples:
@@ -123,7 +136,7 @@ def merged(old: PieceSamples, new: PieceSamples) -> PieceSamples:
 def _fields(samples: PieceSamples) -> tuple:
     return (
         samples.parameters, samples.points, samples.h, samples.g, samples.sigma_strip, samples.depths,
-        samples.allowance,
+        samples.allowance, samples.k_strip,
     )  # fmt: skip
 
 

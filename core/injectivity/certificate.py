@@ -19,7 +19,8 @@ diameter to start with (on the boundary itself h' has only log-Lipschitz behavio
 and gradients lose accuracy as the distance shrinks).  What is left:
 
 - the strip between Γ and the boundary: each sample has a companion 4δ deep, and σ₂ on the strip
-  is taken to drop by at most twice its mean rate between the two (A3 below);
+  is taken to drop by at most twice its mean rate between the two, and k = |f_z̄| / |f_z| to rise
+  by at most twice its mean rate (A3 below);
 - a sharp corner P of the source (a doubled control point) must be a sharp corner of the target.
   Both sides at P are straight spans, the data on them linear in position, so
   f = P' + L(z - P) + E with L the real linear map of the source's sides onto the target's and
@@ -44,8 +45,8 @@ identity map there (their linear precision), plus `EVALUATION` relative to the t
 (where that error is a good part of σ₂ the sample moves away from the curve); (A2) the
 Lipschitz constants of h' and g' along each segment of Γ are at most `SAFETY` (2) times the
 largest difference quotient of the segment and its neighbours (refinement halves segments until
-the margin holds); (A3) across the strip between Γ and the boundary σ₂ drops by at most
-`STRIP_SAFETY` (2) times its mean rate between Γ and the companion 4δ deep (samples move closer to
+the margin holds); (A3) across the strip between Γ and the boundary σ₂ drops, and k rises, by at
+most `STRIP_SAFETY` (2) times its mean rate between Γ and the companion 4δ deep (samples move closer to
 the boundary where that bound is thin).  The argument principle, the maximum principle, the
 corner sectors' bound and the simple-target proof are exact; A1-A3 are estimates, checked against
 a dense evaluation of the exact Jacobian on 200 random deformations
@@ -156,7 +157,9 @@ class InjectivityCertificate:
         return f"not proven fold-free: {self.reason}"
 
 
-def certify_injective(curve: ClosedBSpline, target, kernel: str = "poisson") -> InjectivityCertificate:
+def certify_injective(
+    curve: ClosedBSpline, target, kernel: str = "poisson", *, k_goal: float | None = None
+) -> InjectivityCertificate:
     """Prove (or fail to prove) that the harmonic map of `curve`'s domain onto `target` is injective.
 
     Parameters
@@ -168,6 +171,9 @@ def certify_injective(curve: ClosedBSpline, target, kernel: str = "poisson") -> 
         the target curve's point at t.
     kernel : str
         ``"poisson"`` (the exact harmonic coordinates); other kernels raise ValueError.
+    k_goal : float, optional
+        Also refine the samples of Γ where the bound of k = |f_z̄| / |f_z| between them is above this
+        (`core.pin_deform` asks for its distortion bound), as long as the refinement limits allow.
 
     Returns
     -------
@@ -199,7 +205,7 @@ def certify_injective(curve: ClosedBSpline, target, kernel: str = "poisson") -> 
         return _flipped(refused, flip)
     for depth in inner_curve.DEPTHS:
         try:
-            return _flipped(_proof(source, points * flip, found, depth), flip)
+            return _flipped(_proof(source, points * flip, found, depth, k_goal), flip)
         except ValueError:  # Γ left the domain where it is thinner than the depth
             continue
     return _flipped(
@@ -266,7 +272,9 @@ def corner_linear_map(source: np.ndarray, target: np.ndarray, corner: inner_curv
     return images @ np.linalg.inv(sides)
 
 
-def _proof(source: ClosedBSpline, target: np.ndarray, found, depth: float) -> InjectivityCertificate:
+def _proof(
+    source: ClosedBSpline, target: np.ndarray, found, depth: float, k_goal=None
+) -> InjectivityCertificate:
     """Sample Γ at `depth` (a fraction of the diameter), refine (halve segments, move samples towards
     the boundary), then combine the bounds of (a), (b), the strip and the corners."""
     pieces = inner_curve.pieces(source, found)
@@ -290,17 +298,22 @@ def _proof(source: ClosedBSpline, target: np.ndarray, found, depth: float) -> In
         if hopeless.size:
             where = flat["points"][hopeless]
             return _failure("the Jacobian is not positive near the marked points", where, flat["count"])
-        if not failing.any():
+        thin = np.zeros_like(failing) if k_goal is None else ~(bounds.g_high <= k_goal * bounds.h_low)
+        if not failing.any() and not (thin & flat["refinable"]).any():
             return _combined(source, target, found, samples, flat, bounds, tolerance)
         offset = flat["depth"] > 0
         factor = np.ones(raw.size)
         factor[inaccurate & offset & (flat["depth"] < MAX_DEPTH)] = 4.0
         closer = (flat["sigma_strip"] <= tolerance) & (flat["allowance"] <= 0.05 * np.abs(raw))
         factor[closer & offset & (flat["depth"] > MIN_DEPTH)] = 0.25
-        refinable = failing & flat["refinable"]
+        refinable = (failing | thin) & flat["refinable"]
         if not (refinable.any() or (factor != 1).any()) or flat["count"] > MAX_SAMPLES:
+            if not failing.any():
+                return _combined(source, target, found, samples, flat, bounds, tolerance)
             break
         samples = _refined(source, target, pieces, samples, flat, refinable, factor)
+    if not failing.any():  # only the bound of k stayed above k_goal
+        return _combined(source, target, found, samples, flat, bounds, tolerance)
     failing_samples = np.flatnonzero(failing)
     where = flat["points"][failing_samples]
     if np.any(inaccurate[failing_samples] | inaccurate[(failing_samples + 1) % inaccurate.size]):
@@ -324,6 +337,7 @@ def _concatenated(samples) -> dict:
         "g": np.concatenate([s.g for s in samples]),
         "sigma_strip": np.concatenate([s.sigma_strip for s in samples]),
         "allowance": np.concatenate([s.allowance for s in samples]),
+        "k_strip": np.concatenate([s.k_strip for s in samples]),
         "depth": np.concatenate(
             [np.zeros(s.parameters.size) if s.depths is None else s.depths for s in samples]
         ),
@@ -363,7 +377,7 @@ def _combined(source, target, found, samples, flat, bounds, tolerance) -> Inject
     k_gamma = float(np.max(bounds.g_high / bounds.h_low))
     interior = float(bounds.h_low.min()) * (1.0 - k_gamma)
     strip = float(bounds.sigma_strip.min())
-    sigma2, k_max = min(interior, strip), max(k_gamma, float(np.max(1.0 - bounds.sigma_strip / bounds.h_low)))
+    sigma2, k_max = min(interior, strip), max(k_gamma, _strip_ratio(flat, bounds))
     unproven = []
     for index, corner in enumerate(found):
         sector = None
@@ -382,6 +396,16 @@ def _combined(source, target, found, samples, flat, bounds, tolerance) -> Inject
         )
         return InjectivityCertificate(False, sigma2, k_max, where, reason, count, True, radius)
     return InjectivityCertificate(True, sigma2, k_max, np.zeros((0, 2)), "proven", count)
+
+
+def _strip_ratio(flat: dict, bounds) -> float:
+    """Upper bound of k across the strip between Γ and the boundary: on each segment the larger of
+    its ends' strip bounds (A3 for ω = g'/h'), plus what the segment's bound g_high / h_low adds to
+    the larger of its ends' ratios (A2)."""
+    ratio = (np.abs(flat["g"]) + flat["allowance"]) / (np.abs(flat["h"]) - flat["allowance"])
+    following = np.roll(np.arange(ratio.size), -1)
+    between = np.maximum(bounds.g_high / bounds.h_low - np.maximum(ratio, ratio[following]), 0.0)
+    return float(np.max(np.maximum(flat["k_strip"], flat["k_strip"][following]) + between))
 
 
 def _sector_bound(source, target, corner, arc, bounds, flat, piece) -> tuple[float, float]:

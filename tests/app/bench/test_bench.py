@@ -9,6 +9,7 @@ from app.bench import fold_free as bench_fold_free
 from app.bench import fold_free_drag as bench_fold_free_drag
 from app.bench import fold_free_held_out as bench_held_out
 from app.bench import mesher as bench_mesher
+from app.bench import pins as bench_pins
 from app.bench import table as bench
 from app.bench.table import StepFailed, run_child
 
@@ -51,6 +52,7 @@ def test_a_failed_row_is_reported_and_the_others_still_run(monkeypatch, capsys):
         skip_export=True,
         skip_fold_free=True,
         skip_mesher=True,
+        skip_pins=True,
     )
     assert bench.run_bench(args) == 1
     assert ran == ["memory", "warp"]
@@ -132,6 +134,7 @@ def test_quick_runs_every_row_once_at_tiny_sizes(monkeypatch):
         bench, "launch_rows", lambda repeats, quick, *rest: calls.update(launch=(repeats, quick))
     )
     monkeypatch.setattr(bench, "photo_rows", lambda sizes, run: calls.update(photos=sizes))
+    monkeypatch.setattr(bench_pins, "pin_rows", lambda *rest: calls.update(pins=rest))
     monkeypatch.setattr(
         bench_fold_free,
         "fold_free_rows",
@@ -154,6 +157,7 @@ def test_quick_runs_every_row_once_at_tiny_sizes(monkeypatch):
         skip_export=False,
         skip_fold_free=False,
         skip_mesher=False,
+        skip_pins=False,
     )
     assert bench.run_bench(args) == 0
     assert calls == {
@@ -169,7 +173,14 @@ def test_quick_runs_every_row_once_at_tiny_sizes(monkeypatch):
         "fold_free": (2_000,),
         "held_out": True,
         "mesher": (1, (2_000,)),
+        "pins": ((16,), 2, 1),
     }
+
+
+def test_the_pins_row_proves_the_bound(capsys):
+    bench_pins.pin_rows((16,), 2, 1)
+    row = capsys.readouterr().out.strip().splitlines()[-1].split()
+    assert row[0] == "16" and 1.0 <= float(row[4]) <= bench_pins.MAX_DISTORTION + 1e-5
 
 
 def test_the_fold_free_row_says_when_libigl_is_missing(monkeypatch, capsys):

@@ -131,8 +131,8 @@ BAD_WARP_INPUTS = {
     "missing --cage": (lambda d: warp_argv(d, **{"--cage": None}), r"warp needs --cage \(or --session\)"),
     "nothing": (
         lambda d: ["warp"],
-        r"warp needs IMAGE, --cage, --target \(or --session\) and --output, e\.g\. warp photo\.png .*"
-        r"python -m app demo --list",
+        r"warp needs IMAGE, --cage, --target or --pins \(or --session\) and --output, e\.g\. "
+        r"warp photo\.png .*python -m app demo --list",
     ),
     "session and image": (
         lambda d: warp_argv(d, **{"--session": d / "session.json", "--cage": None, "--target": None}),

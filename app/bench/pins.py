@@ -1,0 +1,65 @@
+"""The pins rows of ``bench``: `core.pin_deform` with a distortion bound, per cage size.
+
+A wavy cage of n control points (an ellipse with a three-fold wave, 400 pixels wide) and four pins
+dragged along a straight path, K = 2: the first solve (the cage's gradients at the samples
+included), the median solve of the drag that follows (the bound held at the samples of Γ, as the
+viewer solves at drag rate: ``certify=False``), and the median certified solve (certificate and
+re-solves until the bound is proven), with the largest pin error and the bound the last one proves.
+"""
+
+from __future__ import annotations
+
+import statistics
+import time
+
+import numpy as np
+
+from core import ClosedBSpline, pin_deform
+
+#: Control points of the rows.
+CONTROL_POINTS = (16, 40, 100)
+#: The bound of the rows, and how many drag steps and certified solves each row times.
+MAX_DISTORTION = 2.0
+DRAG_STEPS = 10
+CERTIFIED = 3
+PINS = np.array([[300.0, 300.0], [380.0, 320.0], [230.0, 280.0], [300.0, 400.0]])
+PULL = np.array([[0.0, 0.0], [60.0, -40.0], [-20.0, 0.0], [0.0, 30.0]])
+
+
+def wavy_cage(count: int) -> ClosedBSpline:
+    """The rows' cage of `count` control points."""
+    angle = np.linspace(0.0, 2.0 * np.pi, count, endpoint=False)
+    points = np.stack([np.cos(angle) * (1.0 + 0.2 * np.cos(3.0 * angle)), 0.8 * np.sin(angle)], axis=1)
+    return ClosedBSpline(points * 200.0 + 300.0)
+
+
+def pin_rows(control_points=CONTROL_POINTS, steps: int = DRAG_STEPS, certified: int = CERTIFIED) -> None:
+    """Print the pins table for cages of each count of `control_points`."""
+    print(f"\npins: core.pin_deform, four pins dragged, max_distortion = {MAX_DISTORTION:g}")
+    header = (
+        f"{'control points':>15} {'first s':>8} {'drag median ms':>15} {'certified median s':>19} "
+        f"{'proven K':>9} {'max pin error px':>17}"
+    )
+    print(header)
+    print("-" * len(header))
+    for count in control_points:
+        curve = wavy_cage(count)
+        start = time.perf_counter()
+        pin_deform(curve, PINS, PINS + 0.1 * PULL, max_distortion=MAX_DISTORTION, certify=False)
+        first = time.perf_counter() - start
+        drag = []
+        for fraction in np.linspace(0.1, 1.0, steps + 1)[1:]:
+            start = time.perf_counter()
+            pin_deform(curve, PINS, PINS + fraction * PULL, max_distortion=MAX_DISTORTION, certify=False)
+            drag.append(time.perf_counter() - start)
+        proofs, result = [], None
+        for fraction in np.linspace(0.4, 1.0, certified):
+            start = time.perf_counter()
+            result = pin_deform(curve, PINS, PINS + fraction * PULL, max_distortion=MAX_DISTORTION)
+            proofs.append(time.perf_counter() - start)
+        print(
+            f"{count:>15} {first:>8.2f} {1000 * statistics.median(drag):>15.0f} "
+            f"{statistics.median(proofs):>19.2f} {result.proven_distortion:>9.3f} "
+            f"{result.pin_error.max():>17.2g}",
+            flush=True,
+        )
