@@ -2,13 +2,33 @@
 // The source image, stored with premultiplied alpha so that mipmaps, bilinear
 // filtering, multisample resolve and blending all average colours correctly.
 // u_opacity fades the whole image (1 for the warp, less for the viewer's backdrop).
+// u_snap (drawings at one output pixel per image pixel): a texture coordinate within float32's
+// rounding of a texel's centre reads that texel itself, so that an undeformed part of the
+// picture comes back exactly rather than blended with its neighbours by the rounding.
 
 uniform sampler2D u_image;
 uniform float u_opacity;
+uniform bool u_snap;
 
 in vec2 v_uv;
 out vec4 f_colour;
 
 void main() {
-    f_colour = texture(u_image, v_uv) * u_opacity;
+    vec4 colour;
+    if (u_snap) {
+        vec2 size = vec2(textureSize(u_image, 0));
+        vec2 texel = v_uv * size - 0.5;
+        vec2 nearest = floor(texel + 0.5);
+        // Eight units in the last place of the larger side: the rounding of v_uv's interpolation.
+        float rounding = 8.0 * max(size.x, size.y) / 16777216.0;
+        bool inside = all(greaterThanEqual(nearest, vec2(0.0))) && all(lessThan(nearest, size));
+        if (inside && all(lessThanEqual(abs(texel - nearest), vec2(rounding)))) {
+            colour = texelFetch(u_image, ivec2(nearest), 0);
+        } else {
+            colour = texture(u_image, v_uv);
+        }
+    } else {
+        colour = texture(u_image, v_uv);
+    }
+    f_colour = colour * u_opacity;
 }

@@ -37,7 +37,15 @@ import numpy as np
 
 import core
 from app.bench.launch import launch_rows
-from app.bench.photos import PHOTO_SIZES, QUICK_SIZE, photo_rows, write_starfish_drag
+from app.bench.photos import (
+    ANIMATION_SECONDS,
+    ANIMATION_SIZE,
+    PHOTO_SIZES,
+    QUICK_SIZE,
+    animation_row,
+    photo_rows,
+    write_starfish_drag,
+)
 from app.bench.timing import edge_for_vertices, median_time, print_head
 from app.console import EXIT_ENVIRONMENT, EXIT_OK, ProgressBar
 from core import GRADIENTS_COMPILE_MESSAGE as GRADIENTS_COMPILING
@@ -115,6 +123,11 @@ def run_bench(args: argparse.Namespace) -> int:
         children.append(lambda: _warp_4k((640, 360) if args.quick else (3840, 2160)))
     if not args.skip_photos:
         children.append(lambda: photo_rows((QUICK_SIZE,) if args.quick else PHOTO_SIZES, run_child))
+        children.append(
+            lambda: animation_row(
+                run_child, *((QUICK_SIZE, 0.25) if args.quick else (ANIMATION_SIZE, ANIMATION_SECONDS))
+            )
+        )
     if not args.skip_drag:
         from app.bench import fold_free_drag
 

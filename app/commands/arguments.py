@@ -378,7 +378,8 @@ def _bench_command(commands, run) -> None:
     bench.add_argument(
         "--skip-photos",
         action="store_true",
-        help="no 24 and 100 megapixel photograph warps against reading and writing them (about 2 minutes)",
+        help="no 24 and 100 megapixel PNG and JPEG warps against reading and writing them, nor the "
+        "1600x1200 animation to GIF against PNG frames (about 4 minutes)",
     )
     bench.add_argument(
         "--skip-drag",

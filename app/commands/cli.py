@@ -155,28 +155,9 @@ def build_parser(prog: str = "python -m app") -> argparse.ArgumentParser:
 def _warp(args: argparse.Namespace) -> int:
     from app.warp.job import run_job, warp_job
     from app.warp.pins import pin_report
-    from app.warp.report import distortion_report, warn_of_folds
 
     job, inputs = warp_job(args)
-    report = []
-
-    def inspect(deformation, deformed) -> None:
-        if args.report:
-            kernel, params = job.settings.kernel, job.settings.params
-            target, fold_free = job.targets[0], job.settings.fold_free
-            with reported_as_input(f"{job.source}: kernel {kernel!r}: gradients"):
-                report.extend(
-                    distortion_report(
-                        job.curve, deformation.mesh, kernel, target, deformed, params, fold_free
-                    )
-                )
-            certificate = deformation.certificate(target)
-            report.append(
-                f"certificate: {'n/a (not a harmonic map)' if certificate is None else certificate}"
-            )
-        warn_of_folds(deformation, deformed, job.targets[0], inputs.target_source)
-
-    run_job(job, inspect)
+    report = run_job(job, inputs.target_source, args.report)
     if args.report and inputs.pinned is not None:
         report[:0] = pin_report(inputs.pinned)
     if report:

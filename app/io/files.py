@@ -38,6 +38,7 @@ from app.io.images import (
     rgba_pixels,
     straight_rgba_tiff,
 )
+from app.io.images.colour_profiles import matched_profile
 from app.io.images.tiles import PngStripWriter
 from core import MAX_CONTROL_POINTS, NAME_MAX, as_points, too_many_control_points, write_atomically
 
@@ -353,25 +354,32 @@ def read_photo(path: str | os.PathLike) -> Photo:
     if header is not None:
         check_image_size(header, path)
     info = read_metadata(data)
+    notes = list(info.notes)
     with reported_as_input(str(path)):
+        converted, metadata = matched_profile(data, info.mode, info.metadata, notes)
         # An 8-bit RGBA TIFF: OpenCV reads it through libtiff's RGBA interface, which premultiplies
         # a straight alpha; Pillow does not.
         tiff_rgba = header is not None and header.format == "TIFF" and info.mode == "RGBA"
-        decoded = straight_rgba_tiff(data) if tiff_rgba else _decode(data, path)
+        if converted is None:
+            decoded = straight_rgba_tiff(data) if tiff_rgba else _decode(data, path)
         del data  # the encoded file is no longer needed: not held while the pixels are converted
-        pixels = oriented(decoded if tiff_rgba else rgba_pixels(decoded), info.orientation)
-    for line in info.notes:
+        if converted is None:
+            converted = decoded if tiff_rgba else rgba_pixels(decoded)
+        pixels = oriented(converted, info.orientation)
+    for line in notes:
         note(f"{path}: {line}")
-    return Photo(pixels, info.metadata, info.notes)
+    return Photo(pixels, metadata, tuple(notes))
 
 
 def image_metadata(path: str | os.PathLike) -> ImageMetadata:
     """The ICC profile and EXIF block of the image file `path` (orientation reset to 1), without
     decoding its pixels; empty if the file cannot be read."""
     try:
-        return read_metadata(_read_bytes(Path(path), MAX_IMAGE_FILE_BYTES)).metadata
+        data = _read_bytes(Path(path), MAX_IMAGE_FILE_BYTES)
     except InputError:
         return ImageMetadata()
+    info = read_metadata(data)
+    return matched_profile(data, info.mode, info.metadata, [], convert=False)[1]
 
 
 def check_image_size(header: ImageHeader, path: str | os.PathLike) -> None:
@@ -420,8 +428,10 @@ def write_image(
     image: np.ndarray,
     metadata: ImageMetadata | None = None,
     quality: int = DEFAULT_QUALITY,
+    consume: bool = False,
 ) -> None:
-    """Write an RGBA image (H, W, 4), uint8 or uint16, in the format of `path`'s extension, atomically.
+    """Write an RGBA image (H, W, 4), uint8 or uint16, in the format of `path`'s extension, atomically;
+    with `consume`, `image` may be overwritten on the way (`app.io.images.encode_image`).
 
     PNG and TIFF keep 16 bits; JPEG and WebP are 8-bit at `quality`.  The ICC profile and
     EXIF block of `metadata` are embedded (`app.io.images.writing`).
@@ -432,7 +442,7 @@ def write_image(
         An extension not written, or transparent pixels for a JPEG: nothing is written.
     """
     with reported_as_input(str(path)):
-        data = encode_image(image, output_format(path), metadata, quality)
+        data = encode_image(image, output_format(path), metadata, quality, consume)
     write_atomic(path, data)
 
 

@@ -21,12 +21,23 @@ counted from the framebuffer's top-left corner, exactly like the session file.
 from __future__ import annotations
 
 from collections.abc import Callable, Iterator
+from functools import partial
 
 import moderngl
 import numpy as np
 
 from app.console import captured_c_stderr
+from app.io.images.tiles import crosses
 from app.render.address_space import GL_CONTEXT_BYTES, PROGRAM_BYTES, render_bytes, require_address_space
+from app.render.compositing import (
+    backdrop_rows,
+    clear_pixel,
+    drawn_box,
+    exact_offset,
+    straight,
+    texel_footprint,
+    warp_over,
+)
 from app.render.passes.backdrop import BackdropPass
 from app.render.passes.fields import DistortionPass, FieldPass, heat_map_pass, height_bands_pass
 from app.render.passes.image import ImagePass
@@ -41,6 +52,12 @@ TILE = 4096
 #: Rows of a strip of `WarpRenderer.render_strips` (drawn in tiles of as many columns): a
 #: 12000-pixel-wide strip is 25 MB at 8 bits; smaller tiles multisample less of the picture.
 STRIP_ROWS = 512
+#: Largest `app.render.compositing.texel_footprint` drawn without mipmaps: GL samples level 0 alone
+#: up to 1; past it by this much the next level's weight (log2 of it) is under 4e-4.
+UNSHRUNK_FOOTPRINT = 1.0 + 2.0**-12
+#: Largest side of a tile of the warp drawn over a copied backdrop (`WarpRenderer.render`): those
+#: its outline crosses are multisampled in floats (a 512 x 512 tile of 4 float samples is 16 MiB).
+COPIED_TILE = 512
 
 
 class ContextUnavailableError(RuntimeError):
@@ -113,10 +130,13 @@ class WarpRenderer:
             self._mesh_programs.update(field.mesh_programs)
         self._source: SourceImage | None = None
         self._backdrop_source: SourceImage | None = None  # what the backdrop shows instead (`app.warp.fill`)
+        #: The straight pixels of a translucent image and of the backdrop image: `render` copies them.
+        self._host: dict[str, np.ndarray] = {}  # "image", "backdrop"
         self._image_size: tuple[int, int] | None = None
         self._mesh: MeshBuffers | None = None
         self._preview: MeshBuffers | None = None
-        self._target: tuple[tuple, list] | None = None
+        #: Offscreen framebuffers by (size, samples, dtype), two kinds at most (`_framebuffers`).
+        self._target: dict[tuple, list] = {}
         #: Counts the changes of what `draw` and `draw_backdrop` would draw (image, meshes,
         #: positions, fields): a picture drawn at one revision can be reused until the next.
         self.revision = 0
@@ -136,6 +156,8 @@ class WarpRenderer:
         image = checked_image(self.ctx, image)
         self._release_image()
         self._source = SourceImage(self.ctx, image)
+        if not self._source.opaque:  # straight alpha, which the premultiplied texture does not keep
+            self._host["image"] = image
         changed = self._image_size != self._source.size
         self._image_size = self._source.size
         if changed:
@@ -157,11 +179,12 @@ class WarpRenderer:
         if self._backdrop_source is not None:
             self._backdrop_source.release()
             self._backdrop_source = None
+        self._host.pop("backdrop", None)
         if image is not None:
             image = checked_image(self.ctx, image)
             if self._source is None or self._source.size != (image.shape[1], image.shape[0]):
                 raise ValueError("the backdrop image must have the source image's size")
-            self._backdrop_source = SourceImage(self.ctx, image)
+            self._host["backdrop"] = image  # uploaded when first drawn: `render` may only copy it
 
     def set_mesh(self, vertices: np.ndarray, triangles: np.ndarray) -> None:
         """Set the undeformed mesh; positions start undeformed, the field at 0.
@@ -334,8 +357,20 @@ class WarpRenderer:
         """
         self._draw(view, viewport_size, "screen", content, wireframe, highlight, folds, preview)
 
-    def _draw(self, view, viewport_size, order, content, wireframe, highlight, folds, preview=False) -> None:
-        """`draw` with the triangles in ``order``: "screen" (fastest) or "caller" (as given to `set_mesh`)."""
+    def _draw(
+        self,
+        view,
+        viewport_size,
+        order,
+        content,
+        wireframe,
+        highlight,
+        folds,
+        preview=False,
+        sampling=(True, False),
+    ) -> None:
+        """`draw` with the triangles in ``order``: "screen" (fastest) or "caller" (as given to `set_mesh`);
+        `sampling` is ``(mipmaps, snap)`` of `ImagePass.draw_image`."""
         self._require_mesh()
         if preview:
             self._require_preview()
@@ -351,7 +386,8 @@ class WarpRenderer:
             raise RuntimeError(f"draw(content={content!r}) needs set_field first")
         mesh = self._preview if preview else self._mesh
         if content == "image":
-            self._image.draw_image(self._source, mesh, order, view, viewport_size)
+            mipmaps, snap = sampling
+            self._image.draw_image(self._source, mesh, order, view, viewport_size, mipmaps=mipmaps, snap=snap)
         elif content in self._fields:
             self._fields[content].draw(mesh, order, view, viewport_size)
         self._image.draw_marks(
@@ -372,6 +408,8 @@ class WarpRenderer:
         """
         if self._source is None:
             raise RuntimeError("draw_backdrop needs set_image first")
+        if "backdrop" in self._host and self._backdrop_source is None:
+            self._backdrop_source = SourceImage(self.ctx, self._host["backdrop"])
         self._backdrop.draw(self._backdrop_source or self._source, view, viewport_size, opacity)
 
     def set_overlay(self, segments: np.ndarray, points: np.ndarray) -> None:
@@ -414,6 +452,13 @@ class WarpRenderer:
         backdrop: bool = False,
     ) -> np.ndarray:
         """Draw offscreen with multisampling and read the result back.
+
+        With `backdrop` at one output pixel per image pixel and a whole-pixel offset, the image's
+        pixels are copied, not drawn, and GL draws only the warp, within the box it covers, laid
+        over them (`app.render.compositing`): pixels the warp does not touch are the image's, bit
+        for bit, straight alpha kept.  The mipmaps are sampled only if a triangle shrinks the image.
+        A drawing at one output pixel per image pixel reads a texel itself wherever the texture
+        coordinate is its centre up to float32 rounding (an undeformed part comes back exact).
 
         An output larger than `TILE` pixels on a side is drawn in tiles of at most
         `TILE` x `TILE`, each through the view shifted by the tile's corner: GL
@@ -501,39 +546,89 @@ class WarpRenderer:
         view = view or View()
         limit = min(TILE, self.ctx.info["GL_MAX_RENDERBUFFER_SIZE"], *self.ctx.info["GL_MAX_VIEWPORT_DIMS"])
         tile = (min(width, limit, rows or limit), min(height, limit, rows or limit))
-        antialiased = options.get("antialiased") or (lambda box: True)
+        offset = None
+        if options["backdrop"] and what == ("image", False, False, False):
+            offset = exact_offset(view)
         # Leave the caller's framebuffer bound afterwards (a viewer exporting mid-frame).
         previous = self.ctx.fbo
-        if self._target is not None and previous in self._target[1]:
+        if any(previous in objects for objects in self._target.values()):
             previous = None  # ours, perhaps about to be replaced
         dtype = self.pixel_type
-        samples = max(0, min(int(options["samples"]), self.ctx.max_samples))
-        multisample, resolved = self._framebuffers(tile, samples, dtype)
-        drawn = np.empty((tile[1], tile[0], 4), dtype)
-        red, green, blue, alpha = options["background"]
         try:
-            for top in range(0, height, tile[1]):
-                count = min(tile[1], height - top)
-                strip = np.empty((count, width, 4), dtype) if into is None else into[top : top + count]
-                for left in range(0, width, tile[0]):
-                    smooth = antialiased((left, top, tile[0], tile[1]))
-                    target = multisample if smooth else resolved
-                    target.use()
-                    target.clear(red * alpha, green * alpha, blue * alpha, alpha)
-                    shifted = View(view.scale, (view.offset[0] - left, view.offset[1] - top))
-                    if options["backdrop"]:
-                        self.draw_backdrop(shifted, tile)
-                    self._draw(shifted, tile, "caller", *what)
-                    if smooth:
-                        self.ctx.copy_framebuffer(resolved, multisample)
-                    resolved.read_into(drawn, components=4, alignment=1, dtype=texture_dtype(dtype))
-                    part = strip[:, left : left + tile[0]]
-                    # GL rows run bottom-up.
-                    part[...] = drawn[::-1][: part.shape[0], : part.shape[1]]
-                yield top, _unpremultiply(strip)
+            if offset is None:
+                drawing = _Drawing(self, view, tile, what, options, dtype)
+                for top in range(0, height, tile[1]):
+                    count = min(tile[1], height - top)
+                    strip = np.empty((count, width, 4), dtype) if into is None else into[top : top + count]
+                    for left in range(0, width, tile[0]):
+                        part = strip[:, left : left + tile[0]]
+                        drawn = drawing.tile(left, top, options["background"])
+                        part[...] = drawn[: len(part), : part.shape[1]]
+                    yield top, straight(strip)
+            else:
+                yield from self._copied_strips((width, height), view, offset, tile, options, into)
         finally:
             if previous is not None:
                 previous.use()
+
+    def _copied_strips(self, size, view, offset, tile, options, into):
+        """`_strips` of the image over its copied backdrop (`app.render.compositing`): the backdrop's
+        pixels copied, the warp drawn alone within its box and laid over them; a tile the warp's
+        outline crosses is multisampled, in floats, one inside it drawn once in the image's type."""
+        width, height = size
+        dtype = self.pixel_type
+        clear = clear_pixel(options["background"], dtype)
+        positions = self._ordered_positions()
+        box = drawn_box(positions, offset, size)
+        host = self._host.get("backdrop", self._host.get("image"))
+        if host is None:  # an opaque image: the texture holds its very pixels
+            image = (self._source.size, self._source.read)
+        else:
+            image = ((host.shape[1], host.shape[0]), partial(_host_rows, host))
+        small = (min(tile[0], COPIED_TILE), min(tile[1], COPIED_TILE))
+        what = ("image", False, False, False)
+        mipmaps = self._needs_mipmaps(view, False)
+        # Edges blended in 16 bits for an 8-bit image (a unit of 65535 is far below its rounding),
+        # in floats for a 16-bit one.
+        edge_type = np.uint16 if dtype == np.uint8 else np.float32
+        edged = _Drawing(self, view, small, what, options, edge_type, mipmaps)
+        plain = _Drawing(self, view, small, what, dict(options, samples=0), dtype, mipmaps)
+        edged.backdrop = plain.backdrop = False  # copied, not drawn
+        edged.antialiased, plain.antialiased = (lambda box: True), (lambda box: False)
+        outline = None  # folds put edges anywhere
+        if not self._mesh.may_fold(positions):
+            outline = positions[self._mesh.boundary_edges] * view.scale + np.asarray(offset, np.float32)
+        for top in range(0, height, tile[1]):
+            count = min(tile[1], height - top)
+            strip = np.empty((count, width, 4), dtype) if into is None else into[top : top + count]
+            backdrop_rows(image, offset, strip, top, clear)
+            first, last = (max(top, box[1]), min(top + count, box[3])) if box else (0, 0)
+            for row in range(first, last, small[1]):
+                for left in range(box[0], box[2], small[0]):
+                    part = strip[
+                        row - top : min(row + small[1], last) - top, left : min(left + small[0], box[2])
+                    ]
+                    crossed = outline is None or crosses(outline, (left, row, small[0], small[1]))
+                    drawn = (edged if crossed else plain).tile(left, row, (0.0, 0.0, 0.0, 0.0))
+                    warp_over(part, drawn[: len(part), : part.shape[1]])
+            yield top, strip
+
+    def _ordered_positions(self) -> np.ndarray:
+        """The deformed vertices (V, 2) as the GPU holds them (in `vertex_order`), float32."""
+        self._require_mesh()
+        return np.frombuffer(self._mesh.positions.read(), np.float32).reshape(-1, 2)
+
+    def _needs_mipmaps(self, view: View, backdrop: bool) -> bool:
+        """Whether a drawing through `view` (and of the whole image, with `backdrop`) shrinks the image
+        anywhere, so that GL samples its mipmaps (`app.render.compositing.texel_footprint`)."""
+        if backdrop and view.scale * UNSHRUNK_FOOTPRINT < 1.0:
+            return True
+        mesh = self._mesh
+        if mesh is None or self._source is None:
+            return True  # nothing to draw: `_draw` says what is missing
+        vertices = mesh.vertices[mesh.order]
+        footprint = texel_footprint(vertices, self._ordered_positions(), mesh.triangle_indices, view.scale)
+        return footprint > UNSHRUNK_FOOTPRINT
 
     # -- lifetime -----------------------------------------------------------
 
@@ -558,17 +653,19 @@ class WarpRenderer:
     def _framebuffers(self, size: tuple[int, int], samples: int, dtype: np.dtype):
         """Multisampled and resolve framebuffers of `size` and samples of `dtype` (8 or 16 bits),
         kept for the next render of that kind."""
-        kind = (size, samples, dtype)
-        if self._target is None or self._target[0] != kind:
-            # Only one size is kept: a 4K 4x multisample target alone is ~130 MB.
-            self._release_target()
+        kind = (size, samples, np.dtype(dtype))
+        if kind not in self._target:
+            # Two kinds are kept (a copied backdrop's warp draws in floats and in the image's type):
+            # a 4K 4x multisample target alone is ~130 MB.
+            if len(self._target) >= 2:
+                self._release_target()
             gl_type = texture_dtype(dtype)
             colour = self.ctx.renderbuffer(size, 4, samples=samples, dtype=gl_type)
             resolved_colour = self.ctx.renderbuffer(size, 4, dtype=gl_type)
             multisample = self.ctx.framebuffer(color_attachments=[colour])
             resolved = self.ctx.framebuffer(color_attachments=[resolved_colour])
-            self._target = (kind, [multisample, resolved, colour, resolved_colour])
-        objects = self._target[1]
+            self._target[kind] = [multisample, resolved, colour, resolved_colour]
+        objects = self._target[kind]
         return objects[0], objects[1]
 
     def _build_mesh(self, vertices: np.ndarray, triangles: np.ndarray) -> MeshBuffers:
@@ -607,15 +704,24 @@ class WarpRenderer:
             if source is not None:
                 source.release()
         self._source = self._backdrop_source = None
+        self._host = {}
 
     def _release_target(self) -> None:
-        if self._target is not None:
-            if self.ctx.fbo in self._target[1]:
+        for objects in self._target.values():
+            if self.ctx.fbo in objects:
                 # GL falls back to the default framebuffer when the bound one is deleted.
                 self.ctx.fbo = self.ctx.screen
-            for item in self._target[1]:
+            for item in objects:
                 item.release()
-        self._target = None
+        self._target = {}
+
+
+def _host_rows(host: np.ndarray, top: int, bottom: int, left: int, right: int, out=None) -> np.ndarray:
+    """Rows `top` to `bottom`, columns `left` to `right` of `host` (H, W, 4): a view, or copied into `out`."""
+    if out is None:
+        return host[top:bottom, left:right]
+    out[...] = host[top:bottom, left:right]
+    return out
 
 
 def _output_size(size: tuple[int, int]) -> tuple[int, int]:
@@ -626,17 +732,38 @@ def _output_size(size: tuple[int, int]) -> tuple[int, int]:
     return width, height
 
 
-def _unpremultiply(pixels: np.ndarray) -> np.ndarray:
-    """RGBA uint8 or uint16 (H, W, 4), premultiplied -> straight alpha, in place; only partly covered
-    pixels change (opaque ones are exactly what was drawn)."""
-    result = pixels
-    maximum = np.iinfo(result.dtype).max
-    alpha = result[..., 3]
-    partial = (alpha > 0) & (alpha < maximum)
-    if partial.any():
-        # float64 for 16 bits: float32's 24 bits would round c * 65535 / a off by a unit.
-        wide = np.float32 if maximum == 255 else np.float64
-        a = alpha[partial].astype(wide)[:, None]
-        straight = np.clip(result[partial, :3] * (wide(maximum) / a) + 0.5, 0, maximum)
-        result[partial, :3] = straight.astype(result.dtype)
-    return result
+class _Drawing:
+    """One offscreen drawing of `WarpRenderer._strips`, a tile at a time: its view, what it draws and
+    how, and the framebuffers (of samples of `dtype`) it draws into and reads back from."""
+
+    def __init__(self, renderer: WarpRenderer, view: View, tile, what, options, dtype, mipmaps=None):
+        self.renderer, self.view, self.size, self.what = renderer, view, tile, what
+        self.backdrop = options["backdrop"]
+        self.antialiased = options.get("antialiased") or (lambda box: True)
+        samples = max(0, min(int(options["samples"]), renderer.ctx.max_samples))
+        self.multisample, self.resolved = renderer._framebuffers(tile, samples, np.dtype(dtype))
+        self.pixels = np.empty((tile[1], tile[0], 4), dtype)
+        if mipmaps is None:  # whether the drawing samples them (`WarpRenderer._needs_mipmaps`)
+            mipmaps = what[0] == "image" and renderer._needs_mipmaps(view, self.backdrop)
+        if mipmaps and renderer._source is not None:
+            renderer._source.build_mipmaps()  # before the output's pages: the driver's temporaries go first
+        self.sampling = (bool(mipmaps), bool(view.scale == 1))
+
+    def tile(self, left: int, top: int, background) -> np.ndarray:
+        """The tile whose top-left output pixel is (`left`, `top`) drawn over `background` (straight
+        RGBA in [0, 1]), read back premultiplied, row 0 at the top: a view of a reused array."""
+        red, green, blue, alpha = background
+        smooth = self.antialiased((left, top, self.size[0], self.size[1]))
+        target = self.multisample if smooth else self.resolved
+        target.use()
+        target.clear(red * alpha, green * alpha, blue * alpha, alpha)
+        shifted = View(self.view.scale, (self.view.offset[0] - left, self.view.offset[1] - top))
+        if self.backdrop:
+            self.renderer.draw_backdrop(shifted, self.size)
+        self.renderer._draw(shifted, self.size, "caller", *self.what, sampling=self.sampling)
+        if smooth:
+            self.renderer.ctx.copy_framebuffer(self.resolved, self.multisample)
+        self.resolved.read_into(
+            self.pixels, components=4, alignment=1, dtype=texture_dtype(self.pixels.dtype)
+        )
+        return self.pixels[::-1]  # GL rows run bottom-up

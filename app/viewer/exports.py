@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from app.io.files import IMAGE_SUFFIXES, InputError, image_metadata, write_image
+from app.io.files import IMAGE_SUFFIXES, InputError, image_metadata
 from app.viewer.file_dialogs import FileRequests
 from app.viewer.state import AppState, Snapshot
 from app.warp.framing import output_frame, output_region
@@ -123,23 +123,45 @@ class Exporter:
         if path.suffix.lower() not in IMAGE_SUFFIXES:
             path = path.with_name(path.name + ".png")
         try:
-            pixels = self.render_still()
-        except ValueError as error:  # an output over app.warp.framing.MAX_OUTPUT_PIXELS
+            written = self.write_still(path)
+        except (ValueError, InputError) as error:  # too large an output, or a file not written
             state.say(str(error), error=True)
             return None
-        if pixels is None:
+        if not written:
             state.say("nothing to export yet: the basis functions are still being computed", error=True)
-            return None
-        try:
-            # The image's depth (render's), ICC profile and EXIF, in the format of the name, like warp.
-            write_image(path, pixels, image_metadata(state.document.live.image))
-        except InputError as error:
-            state.say(str(error), error=True)
             return None
         self.last = str(path)
         state.say(f"exported {path} (Ctrl+Shift+E writes it again)")
         self.announce(f"exported {path}")
         return path
+
+    def write_still(self, path: Path) -> bool:
+        """Write the live target's warp to `path` as ``warp --session`` does (`render_to_file`: the
+        image's depth, ICC profile and EXIF, strips for a large PNG); False before its basis is ready.
+
+        Raises
+        ------
+        ValueError
+            An output over `app.warp.framing.MAX_OUTPUT_PIXELS`.
+        InputError
+            The file cannot be written (transparent pixels for a JPEG, a folder that is not there...).
+        """
+        state = self.state
+        if not self.ready(state):
+            return False
+        from app.warp.pipeline import OutputFile, render_to_file
+
+        deformation = self.scene.deformation(state)
+        if deformation is None:
+            return False
+        self.scene.invalidate_positions()
+        height, width = state.document.image.shape[:2]
+        target = state.document.live.target
+        frame = output_frame(output_region((width, height), target, state.document.canvas))
+        metadata = image_metadata(state.document.live.image)
+        output = OutputFile(path, metadata, background=document_background(state))
+        render_to_file(self.scene.renderer, deformation, target, frame, state.document.outside, output)
+        return True
 
     def render_still(self) -> np.ndarray | None:
         """The live target's warp framed like ``warp`` (RGBA (H, W, 4)), None before its basis is ready."""

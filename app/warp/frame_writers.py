@@ -199,33 +199,43 @@ class Mp4Writer(FrameWriter):
 class GifWriter(FrameWriter):
     """An animated GIF through Pillow, looping, one palette for all frames, flattened over `BACKGROUND`.
 
-    The frames are kept (RGB, 3 bytes a pixel) until `finish`, which picks the
-    palette from a few of them and writes the file.
+    The frames are not held: each is flattened to RGB and spooled to a temporary file beside the
+    output as it comes (3 bytes a pixel on disk); `finish` picks the palette from a few of them and
+    quantizes and writes them one at a time from there (Pillow keeps them at 1 byte a pixel).
     """
 
     def __init__(self, path: Path, size: tuple[int, int], fps: float, metadata: ImageMetadata | None = None):
         super().__init__(path, size, fps, metadata)
-        self.frames: list[np.ndarray] = []
+        self.spool = temporary_path(self.path, suffix=".frames")
+        self._stream = open(self.spool, "wb")  # noqa: SIM115 (closed by finish or abort)
 
     def add(self, rgba: np.ndarray) -> None:
-        self.frames.append(flatten(rgba))
+        self._stream.write(np.ascontiguousarray(flatten(rgba)).tobytes())
         self.count += 1
 
     def finish(self) -> None:
         from PIL import Image
 
-        picks = (
-            np.linspace(0, len(self.frames) - 1, min(PALETTE_FRAMES, len(self.frames))).round().astype(int)
-        )
-        sample = Image.fromarray(np.concatenate([self.frames[i] for i in sorted(set(picks))], axis=0))
+        self._stream.close()
+        width, height = self.size
+        count = height * width * 3
+
+        def frame(index: int) -> np.ndarray:  # read, not mapped: a mapping's pages stay resident
+            return np.fromfile(self.spool, np.uint8, count, offset=index * count).reshape(height, width, 3)
+
+        picks = np.linspace(0, self.count - 1, min(PALETTE_FRAMES, self.count)).round().astype(int)
+        sample = Image.fromarray(np.concatenate([frame(i) for i in sorted(set(picks))], axis=0))
         palette = sample.quantize(256, method=Image.Quantize.MEDIANCUT)
-        images = [Image.fromarray(f).quantize(palette=palette, dither=Image.Dither.NONE) for f in self.frames]
-        delay = gif_delays(len(images), self.fps)
+        images = (
+            Image.fromarray(frame(i)).quantize(palette=palette, dither=Image.Dither.NONE)
+            for i in range(self.count)
+        )
+        delay = gif_delays(self.count, self.fps)
         temporary = temporary_path(self.path)
         try:
             with open(temporary, "wb") as stream:
-                images[0].save(
-                    stream, format="GIF", save_all=True, append_images=images[1:], duration=delay, loop=0
+                next(images).save(
+                    stream, format="GIF", save_all=True, append_images=images, duration=delay, loop=0
                 )
                 stream.flush()
                 os.fsync(stream.fileno())
@@ -234,9 +244,14 @@ class GifWriter(FrameWriter):
             with contextlib.suppress(OSError):
                 os.remove(temporary)
             raise
+        finally:
+            with contextlib.suppress(OSError):
+                os.remove(self.spool)
 
     def abort(self) -> None:
-        self.frames.clear()
+        self._stream.close()
+        with contextlib.suppress(OSError):
+            os.remove(self.spool)
 
 
 def gif_delays(count: int, fps: float) -> list[int]:

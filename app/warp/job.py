@@ -15,7 +15,6 @@ part.
 from __future__ import annotations
 
 import argparse
-import contextlib
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -281,15 +280,22 @@ def warp_job(args: argparse.Namespace) -> tuple[WarpJob, WarpInputs]:
     return job, inputs
 
 
-def run_job(job: WarpJob, inspect: Callable[[Deformation, np.ndarray], None] | None = None) -> None:
+def run_job(job: WarpJob, target_source: str | None = None, report: bool = False) -> list[str]:
     """Draw every frame of `job` into its output.
 
     Parameters
     ----------
     job : WarpJob
-    inspect : callable, optional
-        Called with the deformation and the deformed mesh vertices (V, 2) of the first frame
-        before anything is drawn (``warp``'s fold warning and ``--report``).
+    target_source : str, optional
+        How the fold warning names the target (``warp``'s); None: the deformation is not examined
+        (``animate``).
+    report : bool
+        With `target_source`: also measure ``--report``'s worst Jacobians and the certificate.
+
+    Returns
+    -------
+    list of str
+        ``--report``'s lines (`app.warp.report.examined`), to print; empty without it.
 
     Raises
     ------
@@ -301,18 +307,19 @@ def run_job(job: WarpJob, inspect: Callable[[Deformation, np.ndarray], None] | N
     """
     from app.render.renderer import WarpRenderer, create_headless_context, require_render_memory
     from app.warp.fill import set_fill
-    from app.warp.pipeline import render_to_file
+    from app.warp.report import examined
 
+    run = _STILL if job.kind == "image" else _FRAMES  # the one place the kind of job is read
     # The GL context comes first: without one there is no point in the long precompute.
     require_render_memory(job.image_size, job.size, context=True)
     ctx = create_headless_context()
+    lines: list[str] = []
+    write = None
     try:
         started = time.perf_counter()
-        deformation = _prepare(job)
-        if inspect is not None:
-            with reported_as_input(f"{job.source}: fold-free"):  # a fold-free path may cross itself
-                deformed = deformation.positions(job.targets[0])
-            inspect(deformation, deformed)
+        deformation = _prepare(job, run)
+        if target_source is not None:
+            lines = examined(job, deformation, target_source, report)
         require_render_memory(job.image_size, job.size, context=False)
         with WarpRenderer(ctx) as renderer, interrupted_by_sigterm():
             with reported_as_input(str(job.image_path)):
@@ -320,26 +327,35 @@ def run_job(job: WarpJob, inspect: Callable[[Deformation, np.ndarray], None] | N
             set_fill(renderer, job.image, job.curve.control_points, job.fill, job.outside)
             job.image = None  # the texture holds it now
             renderer.set_mesh(deformation.mesh.vertices, deformation.mesh.triangles)
-            if job.kind == "image":
-                with reported_as_input("rendering"):
-                    render_to_file(
-                        renderer, deformation, job.targets[0], (job.size, job.view), job.outside, job.file
-                    )
-            else:
-                _render_frames(job, renderer, deformation)
-        seconds = time.perf_counter() - started
+            write = run.draw(job, renderer, deformation)
     finally:
         ctx.release()
-    note(_wrote(job, len(deformation.mesh.vertices), seconds))
+    if write is not None:
+        with reported_as_input("rendering"):
+            write()
+    seconds = time.perf_counter() - started
+    note(run.wrote(job, len(deformation.mesh.vertices), seconds))
+    return lines
+
+
+def _render_still(job: WarpJob, renderer, deformation: Deformation):
+    """The one target of `job` drawn for its file (`app.warp.pipeline.render_to_file`): written, or
+    returned as what writes it once the GL context is released."""
+    from app.warp.pipeline import render_to_file
+
+    with reported_as_input("rendering"):
+        frame = (job.size, job.view)
+        return render_to_file(renderer, deformation, job.targets[0], frame, job.outside, job.file, last=True)
 
 
 def _render_frames(job: WarpJob, renderer, deformation: Deformation) -> None:
-    """Every target of `job` drawn into the writer its output asks for."""
+    """Every target of `job` drawn into the writer its output asks for (nothing left to write)."""
     from app.warp.pipeline import render
 
     metadata = None if job.file is None else job.file.metadata
     background = None if job.file is None else job.file.background
-    with WRITERS[job.kind](job.output, job.size, job.fps, metadata) as writer, _frames_bar(job) as bar:
+    frames_bar = ProgressBar(f"frames ({len(job.targets)})")
+    with WRITERS[job.kind](job.output, job.size, job.fps, metadata) as writer, frames_bar as bar:
         for index, target in enumerate(job.targets):
             with reported_as_input(f"rendering frame {index}"):  # a fold-free path may cross itself
                 pixels = render(renderer, deformation, target, job.size, job.view, job.outside, background)
@@ -351,7 +367,7 @@ def _render_frames(job: WarpJob, renderer, deformation: Deformation) -> None:
             raise InputError(f"{job.output}: cannot write ({error.strerror or error})") from None
 
 
-def _prepare(job: WarpJob) -> Deformation:
+def _prepare(job: WarpJob, run: _Run) -> Deformation:
     """The mesh of the job's cage and its basis functions, with progress and notes."""
     import core
     from app.warp.pipeline import prepare
@@ -360,7 +376,7 @@ def _prepare(job: WarpJob) -> Deformation:
     kernel = job.settings.kernel
     with reported_as_input(f"{job.source}: meshing"):
         mesh = core.triangulate(job.curve, max_edge=job.settings.max_edge)
-    if job.kind == "image":
+    if run.still:
         note(f"mesh: {len(mesh.vertices)} vertices, {len(mesh.triangles)} triangles")
     with (
         ProgressBar(COMPILING, announce=True) as compiling,
@@ -370,7 +386,7 @@ def _prepare(job: WarpJob) -> Deformation:
         deformation = prepare(job.curve, job.settings, mesh, progress=bar, compiling=compiling)
     if compiling.seconds is not None:
         note(f"compiled the solver in {compiling.seconds:.1f} s (first run only; numba caches it)")
-    if job.kind == "image" and job.settings.fold_free:  # a strong cornered drag's takes up to a minute
+    if run.still and job.settings.fold_free:  # a strong cornered drag's takes up to a minute
         with (
             ProgressBar("fold-free map (share of the path proven)") as bar,
             reported_as_input(f"{job.source}: fold-free"),  # a fold-free path may cross itself
@@ -379,21 +395,39 @@ def _prepare(job: WarpJob) -> Deformation:
     return deformation
 
 
-def _frames_bar(job: WarpJob):
-    """A progress bar over the frames of an animation; nothing for one image."""
-    if job.kind == "image":
-        return contextlib.nullcontext(lambda fraction: None)
-    return ProgressBar(f"frames ({len(job.targets)})")
+def _wrote_still(job: WarpJob, vertices: int, seconds: float) -> str:
+    return f"wrote {job.output} ({job.size[0]}x{job.size[1]}) in {seconds:.1f} s"
 
 
-def _wrote(job: WarpJob, vertices: int, seconds: float) -> str:
-    width, height = job.size
-    if job.kind == "image":
-        return f"wrote {job.output} ({width}x{height}) in {seconds:.1f} s"
+def _wrote_frames(job: WarpJob, vertices: int, seconds: float) -> str:
     return (
-        f"wrote {job.output}: {len(job.targets)} frames of {width}x{height} at {job.fps:g} fps "
+        f"wrote {job.output}: {len(job.targets)} frames of {job.size[0]}x{job.size[1]} at {job.fps:g} fps "
         f"({vertices} vertices) in {seconds:.1f} s"
     )
+
+
+@dataclass(frozen=True)
+class _Run:
+    """What differs between a job of one still and one of frames, chosen once by `run_job`.
+
+    Attributes
+    ----------
+    still : bool
+        One image: the mesh is noted and a fold-free path proven with a progress bar of its own.
+    draw : callable
+        (job, renderer, deformation): the drawing and writing; returns None, or what writes the
+        output once the GL context is released.
+    wrote : callable
+        (job, vertices, seconds): the closing note.
+    """
+
+    still: bool
+    draw: Callable
+    wrote: Callable
+
+
+_STILL = _Run(True, _render_still, _wrote_still)
+_FRAMES = _Run(False, _render_frames, _wrote_frames)
 
 
 def width_height(image: np.ndarray) -> tuple[int, int]:

@@ -243,7 +243,8 @@ def render_to_file(
     frame: tuple[tuple[int, int], View],
     outside: str,
     output: OutputFile,
-) -> None:
+    last: bool = False,
+) -> Callable[[], None] | None:
     """`render` written to `output.path` in its format: a PNG larger than one strip is drawn and
     compressed strip by strip (`WarpRenderer.render_strips`), so that the output is never whole in
     memory and compressing overlaps drawing; other outputs are rendered whole, then encoded.
@@ -256,6 +257,15 @@ def render_to_file(
         (width, height) of the output and the `View` of image pixels to output pixels.
     output : OutputFile
         Where and how to write.
+    last : bool
+        The image is drawn no more (``warp``): a whole output is not encoded here but returned as
+        a function that writes it, to call once the GL context is released, so that the
+        encoder's memory does not come on top of the driver's textures.
+
+    Returns
+    -------
+    callable or None
+        With `last`, what writes a whole output; None once the file is written.
 
     Raises
     ------
@@ -283,9 +293,12 @@ def render_to_file(
             antialiased=None if edges is None else lambda box: crosses(edges, box),
         )
         write_png_strips(output.path, size, renderer.pixel_type, strips, output.metadata)
-        return
+        return None
     pixels = render(renderer, deformation, target, size, view, outside, output.background)
+    if last:  # encoded once the caller has let go of the GL context, and the textures with it
+        return lambda: write_image(output.path, pixels, output.metadata, output.quality, consume=True)
     write_image(output.path, pixels, output.metadata, output.quality)
+    return None
 
 
 __all__ = ["Deformation", "OutputFile", "WarpSettings", "prepare", "render", "render_to_file"]

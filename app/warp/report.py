@@ -6,9 +6,35 @@ from __future__ import annotations
 import numpy as np
 
 from app.console import ProgressBar, note
+from app.io.files import reported_as_input
 from app.warp.pipeline import Deformation
 from core import COMPILED_KERNELS
 from core import GRADIENT_COMPILE_MESSAGE as GRADIENT_COMPILING
+
+
+def examined(job, deformation: Deformation, target_source: str, report: bool) -> list[str]:
+    """Examine the deformation of a ``warp`` job (`app.warp.job.WarpJob`) to its target before it is
+    drawn: the fold warning (a note), and with `report` the lines of ``--report`` (returned)."""
+    target = job.targets[0]
+    with reported_as_input(f"{job.source}: fold-free"):  # a fold-free path may cross itself
+        deformed = deformation.positions(target)
+    lines = []
+    if report:
+        settings = job.settings
+        with reported_as_input(f"{job.source}: kernel {settings.kernel!r}: gradients"):
+            lines += distortion_report(
+                job.curve,
+                deformation.mesh,
+                settings.kernel,
+                target,
+                deformed,
+                settings.params,
+                settings.fold_free,
+            )
+        certificate = deformation.certificate(target)
+        lines.append(f"certificate: {'n/a (not a harmonic map)' if certificate is None else certificate}")
+    warn_of_folds(deformation, deformed, target, target_source)
+    return lines
 
 
 def warn_of_folds(

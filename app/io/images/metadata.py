@@ -18,10 +18,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from app.io.images.colour_profiles import cut_short
+
 #: Largest ICC profile carried from input to output; a larger one is dropped with a note.
 MAX_ICC_BYTES = 16 << 20
 #: The EXIF tag of the orientation (a SHORT in the first IFD).
 ORIENTATION_TAG = 0x0112
+#: The TIFF tag of a TIFF's description of itself.
+_IMAGE_DESCRIPTION = 270
 #: The TIFF tag of the bits of each sample.
 _BITS_PER_SAMPLE = 258
 #: The first bytes of every PNG file.
@@ -166,6 +170,13 @@ def _icc_profile(profile, notes: list[str]) -> bytes | None:
     # An ICC profile starts with its own size and has the signature "acsp" at byte 36.
     if len(profile) < 128 or profile[36:40] != b"acsp":
         notes.append("its ICC profile is not a valid profile (no 'acsp' signature); carried over unchanged")
+        return profile
+    declared = cut_short(profile)
+    if declared is not None:
+        notes.append(
+            f"its ICC profile is cut short ({len(profile)} of the {declared} bytes it declares); dropped"
+        )
+        return None
     return profile
 
 
@@ -197,10 +208,11 @@ def laid_out_exif(exif, leave_out: frozenset[int] | set[int], head: bytes, at: i
 
 def _tiff_exif(image) -> bytes | None:
     """The EXIF of a TIFF opened by Pillow as a block (little-endian, no prefix): the tags of its
-    first IFD but `TIFF_LAYOUT_TAGS`, with its Exif and GPS sub-IFDs; None if it has none."""
+    first IFD but `TIFF_LAYOUT_TAGS` and its ImageDescription (what wrote it says of its layout,
+    stale for a warped copy), with its Exif and GPS sub-IFDs; None if it has none."""
     head = b"II*\x00" + struct.pack("<I", 8)
     try:
-        laid_out, count = laid_out_exif(image.getexif(), TIFF_LAYOUT_TAGS, head, 8)
+        laid_out, count = laid_out_exif(image.getexif(), TIFF_LAYOUT_TAGS | {_IMAGE_DESCRIPTION}, head, 8)
     except Exception:  # Pillow raises many kinds on damaged tags: the EXIF is left behind
         return None
     return head + laid_out if count else None

@@ -50,13 +50,22 @@ class ImagePass:
         )
         self._programs = [self.textured_program, self.solid_program, self._folds_program]
         self.textured_program["u_opacity"].value = 1.0
+        self.textured_program["u_snap"].value = False
         self.mesh_programs = {
             "image": (self.textured_program, "in_uv"),
             "folds": (self._folds_program, "in_uv"),
         }
 
     def draw_image(
-        self, source: SourceImage, mesh: MeshBuffers, order: str, view: View, viewport_size: tuple[int, int]
+        self,
+        source: SourceImage,
+        mesh: MeshBuffers,
+        order: str,
+        view: View,
+        viewport_size: tuple[int, int],
+        *,
+        mipmaps: bool = True,
+        snap: bool = False,
     ) -> None:
         """Draw `mesh` textured with `source` into the bound framebuffer.
 
@@ -70,12 +79,19 @@ class ImagePass:
             Image-to-framebuffer transform.
         viewport_size : tuple of int
             (width, height) of the viewport in framebuffer pixels.
+        mipmaps : bool
+            Sample through the mipmaps (`SourceImage.bind`); False where no triangle shrinks the image.
+        snap : bool
+            Read a texel itself where the texture coordinate is its centre up to float32 rounding
+            (``image.frag.glsl``): for drawings at one pixel per image pixel.
         """
         set_view((self.textured_program,), view, viewport_size)
         premultiplied_blending(self._ctx)
-        source.bind(self.textured_program)
+        source.bind(self.textured_program, mipmaps)
         self.textured_program["u_opacity"].value = 1.0
+        self.textured_program["u_snap"].value = snap
         mesh.vaos[order]["image"].render()
+        self.textured_program["u_snap"].value = False
         source.unbind()
 
     def draw_marks(

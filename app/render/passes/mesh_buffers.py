@@ -96,7 +96,8 @@ class MeshBuffers:
         self.highlight_count = 0
         self.has_field = False
         self._outline_program = outline_program
-        self._fold_margins: FoldMargins | None = None
+        #: What is derived from the mesh on first use: "fold_margins" (`FoldMargins`), "boundary".
+        self._derived: dict = {}
         self._edge_vao: moderngl.VertexArray | None = None
         self.positions = ctx.buffer(vertices[order].astype("f4").tobytes(), dynamic=True)
         self.uv = ctx.buffer(self._uv(image_size).tobytes())
@@ -164,9 +165,18 @@ class MeshBuffers:
 
     def may_fold(self, positions: np.ndarray) -> bool:
         """`FoldMargins.may_fold` of this mesh for float32 positions (V, 2) in `order`."""
-        if self._fold_margins is None:
-            self._fold_margins = FoldMargins(self.vertices[self.order], self.triangle_indices)
-        return self._fold_margins.may_fold(positions)
+        if "fold_margins" not in self._derived:
+            self._derived["fold_margins"] = FoldMargins(self.vertices[self.order], self.triangle_indices)
+        return self._derived["fold_margins"].may_fold(positions)
+
+    @property
+    def boundary_edges(self) -> np.ndarray:
+        """ndarray of shape (B, 2): the edges of one triangle only, as rows of the position buffer."""
+        if "boundary" not in self._derived:
+            edges = np.sort(self.triangle_indices[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
+            unique, counts = np.unique(edges, axis=0, return_counts=True)
+            self._derived["boundary"] = unique[counts == 1]
+        return self._derived["boundary"]
 
     def edge_vao(self) -> moderngl.VertexArray:
         """The edges' vertex array, built on first use (0.5 s for a 400k-vertex mesh)."""

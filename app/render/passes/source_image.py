@@ -50,6 +50,8 @@ class SourceImage:
         (W, H) of the image.
     dtype : numpy.dtype
         uint8 or uint16: the image's samples, and those a drawing of it is read back in.
+    opaque : bool
+        Whether every alpha is its type's maximum: the texture then holds the image itself.
     """
 
     def __init__(self, ctx: moderngl.Context, image: np.ndarray):
@@ -60,39 +62,81 @@ class SourceImage:
         # premultiplied) a strip at a time: a 100-megapixel image is 0.4 GB, and a whole copy of
         # it on the way to the driver would be as much again.
         self._texture = ctx.texture((width, height), 4, dtype=texture_dtype(image.dtype))
+        self.opaque = True
         for top in range(0, height, UPLOAD_ROWS):
-            rows = np.ascontiguousarray(_premultiply(image[top : top + UPLOAD_ROWS]))
-            self._texture.write(rows, viewport=(0, top, width, len(rows)))
-        # The mipmaps are built at the first drawing (`bind`): by then the caller may have let go
-        # of `image`, and the driver's temporaries of that step (~0.8 of the image) do not come
-        # on top of the image's array (issue 36: 100 megapixels within 1.5 GiB).
+            rows = image[top : top + UPLOAD_ROWS]
+            premultiplied = _premultiply(rows)
+            self.opaque &= premultiplied is rows
+            self._texture.write(np.ascontiguousarray(premultiplied), viewport=(0, top, width, len(rows)))
+        self._reader: moderngl.Framebuffer | None = None
+        # The mipmaps are built at the first drawing that samples them (`bind`): by then the caller
+        # may have let go of `image`, and the driver's temporaries of that step (~0.8 of the image)
+        # do not come on top of the image's array (issue 36: 100 megapixels within 1.5 GiB); a
+        # drawing that shrinks nothing never builds them (issue 48).
         self._mipmapped = False
         # Clamp to a transparent border: parts of the domain beyond the image
         # stay empty instead of smearing the edge pixels, and fade smoothly.
-        self._sampler = ctx.sampler(
-            repeat_x=False,
-            repeat_y=False,
-            filter=(moderngl.LINEAR_MIPMAP_LINEAR, moderngl.LINEAR),
-            anisotropy=_anisotropy(ctx),
-            border_color=(0.0, 0.0, 0.0, 0.0),
-            texture=self._texture,
-        )
+        self._samplers = {
+            mipmaps: ctx.sampler(
+                repeat_x=False,
+                repeat_y=False,
+                filter=(moderngl.LINEAR_MIPMAP_LINEAR if mipmaps else moderngl.LINEAR, moderngl.LINEAR),
+                anisotropy=_anisotropy(ctx) if mipmaps else 1.0,
+                border_color=(0.0, 0.0, 0.0, 0.0),
+                texture=self._texture,
+            )
+            for mipmaps in (True, False)
+        }
+        self._bound: moderngl.Sampler | None = None
 
-    def bind(self, program: moderngl.Program) -> None:
-        """Sample the image in `program`'s ``u_image``; `unbind` after drawing."""
+    def bind(self, program: moderngl.Program, mipmaps: bool = True) -> None:
+        """Sample the image in `program`'s ``u_image``; `unbind` after drawing.
+
+        Parameters
+        ----------
+        program : moderngl.Program
+        mipmaps : bool
+            Filter trilinearly through the mipmaps (built at the first such drawing); False: bilinear
+            filtering of the image itself, the same pixels wherever no triangle shrinks the picture
+            (`app.render.compositing.texel_footprint` at most 1).
+        """
+        if mipmaps:
+            self.build_mipmaps()
+        self._bound = self._samplers[mipmaps]
+        self._bound.use(location=0)
+        program["u_image"].value = 0
+
+    def build_mipmaps(self) -> None:
+        """Build the mipmaps now, if they are not yet (a drawing that samples them would)."""
         if not self._mipmapped:
             self._texture.build_mipmaps()
             self._mipmapped = True
-        self._sampler.use(location=0)
-        program["u_image"].value = 0
+
+    def read(self, top: int, bottom: int, left: int, right: int, out: np.ndarray | None = None) -> np.ndarray:
+        """Rows `top` to `bottom` and columns `left` to `right` of the image as uploaded (premultiplied:
+        the image itself where `opaque`), ndarray (bottom - top, right - left, 4) of `dtype`: `out`
+        (C-contiguous) if given."""
+        if self._reader is None:
+            self._reader = self._texture.ctx.framebuffer(color_attachments=[self._texture])
+        pixels = np.empty((bottom - top, right - left, 4), self.dtype) if out is None else out
+        viewport = (left, top, right - left, bottom - top)  # texture row 0 is image row 0: no flip
+        self._reader.read_into(
+            pixels, viewport=viewport, components=4, alignment=1, dtype=texture_dtype(self.dtype)
+        )
+        return pixels
 
     def unbind(self) -> None:
         """Unbind the sampler: a bound sampler object overrides any texture's own filtering on its
         unit, and other code drawing into the same context (imgui) must be unaffected."""
-        self._sampler.clear(location=0)
+        if self._bound is not None:
+            self._bound.clear(location=0)
+            self._bound = None
 
     def release(self) -> None:
-        self._sampler.release()
+        if self._reader is not None:
+            self._reader.release()
+        for sampler in self._samplers.values():
+            sampler.release()
         self._texture.release()
 
 
@@ -109,8 +153,9 @@ def _anisotropy(ctx: moderngl.Context) -> float:
 
 
 def texture_dtype(dtype: np.dtype) -> str:
-    """moderngl's texture and renderbuffer type for samples of `dtype`: normalised 8 or 16 bits."""
-    return "f1" if np.dtype(dtype) == np.uint8 else "nu2"
+    """moderngl's texture and renderbuffer type for samples of `dtype`: normalised 8 or 16 bits, or
+    32-bit floats."""
+    return {np.dtype(np.uint8): "f1", np.dtype(np.uint16): "nu2", np.dtype(np.float32): "f4"}[np.dtype(dtype)]
 
 
 def _premultiply(image: np.ndarray) -> np.ndarray:

@@ -134,6 +134,7 @@ def test_quick_runs_every_row_once_at_tiny_sizes(monkeypatch):
         bench, "launch_rows", lambda repeats, quick, *rest: calls.update(launch=(repeats, quick))
     )
     monkeypatch.setattr(bench, "photo_rows", lambda sizes, run: calls.update(photos=sizes))
+    monkeypatch.setattr(bench, "animation_row", lambda run, *rest: calls.update(animation=rest))
     monkeypatch.setattr(bench_pins, "pin_rows", lambda *rest: calls.update(pins=rest))
     monkeypatch.setattr(
         bench_fold_free,
@@ -166,6 +167,7 @@ def test_quick_runs_every_row_once_at_tiny_sizes(monkeypatch):
         "memory": 20_000,
         "warp": (640, 360),
         "photos": ((1200, 800),),
+        "animation": ((1200, 800), 0.25),
         "drag": ((6_000,), 1.0),
         "fold_free_drag": (0.5,),
         "export": (1, 1.0),  # 8 frames instead of the default 30 fps' 220

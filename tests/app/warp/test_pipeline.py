@@ -198,3 +198,45 @@ def test_the_viewers_background_is_saved_and_drawn_as_warp_draws_it(tmp_path, ca
     code, _, err = run_main([*argv, "--output", tmp_path / "black.png", "--background", "black"], capfd)
     assert code == 0, err
     assert (read_image(tmp_path / "black.png") == [0, 0, 0, 255]).all(axis=2).any()
+
+
+@pytest.mark.parametrize("outside", ["transparent", "original"])
+def test_the_viewers_still_export_of_a_large_picture_is_warps_file_byte_for_byte(
+    tmp_path, capfd, monkeypatch, outside
+):
+    from app.render.renderer import WarpRenderer, create_headless_context
+
+    # Every output counts as large: drawn and compressed strip by strip by both (issue 48 item 5).
+    monkeypatch.setattr("app.warp.pipeline.STREAMED_PIXELS", 0)
+    monkeypatch.setattr("app.render.renderer.STRIP_ROWS", 16)
+    write_png(tmp_path / "picture.png", picture())
+    cage, moved = np.array(CAGE, dtype=float), transformed(CAGE)
+    session = {
+        "image": "picture.png",
+        "cage": {"control_points": cage.tolist()},
+        "target": {"control_points": moved.tolist()},
+        "kernel": "poisson",
+        "view": {"scale": 1.0, "offset": [0, 0]},
+        "mesh": {"max_edge": MAX_EDGE},
+        "outside": outside,
+    }
+    (tmp_path / "session.json").write_text(json.dumps(session))
+    argv = ["warp", "--session", tmp_path / "session.json", "--output", tmp_path / "warp.png"]
+    code, _, err = run_main(argv, capfd)
+    assert code == 0, err
+
+    snapshot = Snapshot(tmp_path / "picture.png", cage, moved)
+    request = make_request(snapshot, MAX_EDGE)
+    state = AppState(Document(History(snapshot), snapshot, picture(), tmp_path / "s.json"))
+    state.document.outside = outside
+    state.compute.basis = result_from_message(request.key, compute(request))
+    ctx = create_headless_context()  # as warp's: its own, made after warp released its own
+    try:
+        with WarpRenderer(ctx) as renderer:
+            scene = Scene(renderer)
+            exporter = Exporter(state, scene, lambda s: True, None, 30.0, print, None)
+            scene.sync(state)
+            assert exporter.export(tmp_path / "viewer.png") == tmp_path / "viewer.png"
+    finally:
+        ctx.release()
+    assert (tmp_path / "viewer.png").read_bytes() == (tmp_path / "warp.png").read_bytes()

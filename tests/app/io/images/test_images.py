@@ -7,6 +7,7 @@ context, with procedural 16-bit images and files made with Pillow.
 import io
 import json
 import re
+import struct
 
 import cv2
 import numpy as np
@@ -333,7 +334,7 @@ def test_an_8_bit_tiff_with_alpha_is_read_straight_and_others_see_its_alpha(tmp_
 
 def test_a_png_profile_over_pillows_1_mb_limit_is_carried_with_the_orientation(tmp_path):
     profile = bytearray(np.random.default_rng(4).integers(0, 256, 3 << 20, dtype=np.uint8).tobytes())
-    profile[36:40] = b"acsp"
+    profile[:4], profile[16:20], profile[36:40] = struct.pack(">I", len(profile)), b"RGB ", b"acsp"
     exif = exif_with_orientation(8).removeprefix(b"Exif\x00\x00")
     (tmp_path / "in.png").write_bytes(encode_image(gradient16(), "PNG", ImageMetadata(bytes(profile), exif)))
     photo = read_photo(tmp_path / "in.png")
@@ -378,3 +379,11 @@ def test_a_large_png_output_is_streamed_with_the_pixels_of_a_whole_one(tmp_path,
     assert (tmp_path / "whole.png").read_bytes() != (tmp_path / "streamed.png").read_bytes()
     # Tiles off the warp's edges are drawn without multisampling: a unit where triangles meet.
     assert np.abs(streamed.pixels.astype(int) - whole.pixels).max() <= 1
+
+
+def test_a_jpeg_packed_in_its_own_buffer_is_the_same_bytes_as_from_a_copy():
+    image = np.random.default_rng(8).integers(0, 256, (700, 130, 4), dtype=np.uint8)  # over 256 rows
+    image[..., 3] = 255
+    kept = image.copy()
+    assert encode_image(image, "JPEG") == encode_image(kept.copy(), "JPEG", consume=True)
+    np.testing.assert_array_equal(image, kept)  # not consumed unless asked

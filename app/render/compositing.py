@@ -1,0 +1,190 @@
+"""The untouched picture under an offscreen warp, copied rather than drawn (``--outside original``).
+
+Drawn at one output pixel per image pixel and a whole-pixel offset, the backdrop of
+`app.render.renderer.WarpRenderer.render` is the picture itself: its pixels are copied, bit for bit
+and with their straight alpha (`backdrop_rows`), GL draws only the warp, alone and only within the
+box the deformed mesh covers (`drawn_box`), and that drawing is laid over the copy where it covers
+anything (`warp_over`).  `texel_footprint` tells whether any triangle shrinks the picture, that is
+whether a drawing samples the texture's mipmaps at all.
+
+Pixels are RGBA of shape (h, w, 4), uint8 or uint16, row 0 at the top; a View maps image point
+(x, y) to output pixel (ox + s x, oy + s y).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+#: Rows of the image read at a time by `backdrop_rows`.
+READ_ROWS = 128
+#: Output pixels added around the deformed mesh's bounding box: a multisampled pixel is drawn
+#: where any of its samples falls in a triangle.
+BOX_MARGIN = 1
+
+
+def exact_offset(view) -> tuple[int, int] | None:
+    """(ox, oy) of a `View` of scale 1 and whole-pixel offsets, whose output pixels are image pixels;
+    None for any other view."""
+    if view.scale != 1 or not all(float(offset).is_integer() for offset in view.offset):
+        return None
+    return int(view.offset[0]), int(view.offset[1])
+
+
+def drawn_box(
+    positions: np.ndarray, offset: tuple[int, int], size: tuple[int, int]
+) -> tuple[int, ...] | None:
+    """(left, top, right, bottom), output pixels, holding every pixel the mesh deformed to
+    `positions` (V, 2) can touch through the view of `offset`, within an output of `size`
+    (width, height); None if it touches none."""
+    low = np.floor(positions.min(axis=0)) + offset - BOX_MARGIN
+    high = np.ceil(positions.max(axis=0)) + offset + BOX_MARGIN
+    left, top = max(int(low[0]), 0), max(int(low[1]), 0)
+    right, bottom = min(int(high[0]), size[0]), min(int(high[1]), size[1])
+    if left >= right or top >= bottom:
+        return None
+    return left, top, right, bottom
+
+
+def clear_pixel(background: tuple[float, float, float, float], dtype) -> np.ndarray:
+    """The straight RGBA of `dtype` (4,) that a GL clear to `background` (straight, in [0, 1]) reads
+    back as: premultiplied and rounded at the depth of `dtype`, then made straight again."""
+    maximum = np.iinfo(dtype).max
+    red, green, blue, alpha = background
+    drawn = np.round(np.array([red * alpha, green * alpha, blue * alpha, alpha]) * maximum)
+    return straight(drawn[None, None].astype(dtype))[0, 0]
+
+
+def straight(pixels: np.ndarray) -> np.ndarray:
+    """Premultiplied RGBA uint8 or uint16 (h, w, 4) -> straight alpha, in place; only partly covered
+    pixels change (opaque ones are exactly what was drawn)."""
+    maximum = np.iinfo(pixels.dtype).max
+    alpha = pixels[..., 3]
+    partial = (alpha > 0) & (alpha < maximum)
+    if partial.any():
+        # float64 for 16 bits: float32's 24 bits would round c * 65535 / a off by a unit.
+        wide = np.float32 if maximum == 255 else np.float64
+        a = alpha[partial].astype(wide)[:, None]
+        result = np.clip(pixels[partial, :3] * (wide(maximum) / a) + 0.5, 0, maximum)
+        pixels[partial, :3] = result.astype(pixels.dtype)
+    return pixels
+
+
+def backdrop_rows(image, offset: tuple[int, int], rows: np.ndarray, top: int, clear: np.ndarray) -> None:
+    """Fill `rows` (r, width, 4), output rows from `top` on, with the image put at `offset` over the
+    straight colour `clear` (4,): the image's pixels themselves wherever `clear` is transparent or the
+    image opaque, blended over `clear` elsewhere.
+
+    Parameters
+    ----------
+    image : tuple
+        (width, height) of the image and a function of (top, bottom, left, right, out=None) giving
+        those of its rows and columns, straight RGBA (h, w, 4) of the type of `rows` (into `out`,
+        a C-contiguous array, if given).
+    """
+    (width, height), read = image
+    x0, y0 = offset
+    first, last = max(top - y0, 0), min(top + len(rows) - y0, height)
+    left, right = max(-x0, 0), min(rows.shape[1] - x0, width)
+    if clear[3] != 0 or (last - first, right - left) != rows.shape[:2]:  # shows somewhere
+        rows[...] = clear
+    if first >= last or left >= right:
+        return
+    whole = clear[3] == 0 and rows.flags.c_contiguous and (left + x0, right + x0) == (0, rows.shape[1])
+    for start in range(first, last, READ_ROWS):  # a few MB at a time, not a whole strip more
+        end = min(start + READ_ROWS, last)
+        into = rows[start + y0 - top : end + y0 - top, left + x0 : right + x0]
+        if whole:  # whole rows: read straight into them
+            read(start, end, left, right, into)
+            continue
+        source = read(start, end, left, right)
+        if clear[3] == 0:
+            into[...] = source
+            continue
+        cover = source.copy()
+        cover[..., :3] = _premultiplied(source)
+        into[...] = warp_over(into, cover)
+
+
+def warp_over(base: np.ndarray, drawn: np.ndarray) -> np.ndarray:
+    """`drawn` laid over `base`, in place in `base`, which is returned: untouched where `drawn` is
+    clear, `drawn` itself where it is opaque, blended where it partly covers, rounded once.
+
+    Parameters
+    ----------
+    base : ndarray of shape (h, w, 4), uint8 or uint16
+        Straight alpha.
+    drawn : ndarray of shape (h, w, 4), float32 in [0, 1], uint16 or the type of `base`
+        Premultiplied alpha, as GL reads it back.
+    """
+    full = 1.0 if drawn.dtype == np.float32 else np.iinfo(drawn.dtype).max
+    same = drawn.dtype == base.dtype
+    alpha = drawn[..., 3]
+    opaque = alpha >= full
+    if opaque.all():  # a tile inside the warp: its pixels as drawn
+        base[...] = drawn if same else _rounded(drawn / np.float32(full), base.dtype)
+        return base
+    if opaque.any():
+        np.copyto(
+            base, drawn if same else _rounded(drawn / np.float32(full), base.dtype), where=opaque[..., None]
+        )
+    partial = (alpha > 0) & ~opaque
+    if partial.any():
+        maximum = np.iinfo(base.dtype).max
+        over = drawn[partial].astype(np.float64) / full
+        under = base[partial].astype(np.float64) / maximum
+        kept = 1 - over[:, 3:]
+        result_alpha = over[:, 3:] + under[:, 3:] * kept
+        colour = (over[:, :3] + under[:, :3] * under[:, 3:] * kept) / result_alpha
+        base[partial] = _rounded(np.concatenate([colour, result_alpha], axis=1), base.dtype)
+    return base
+
+
+def _rounded(values: np.ndarray, dtype) -> np.ndarray:
+    """Floats in [0, 1] as the nearest samples of the integer `dtype`."""
+    maximum = np.iinfo(dtype).max
+    return np.clip(values * maximum + 0.5, 0, maximum).astype(dtype)
+
+
+def texel_footprint(
+    vertices: np.ndarray, positions: np.ndarray, triangles: np.ndarray, scale: float
+) -> float:
+    """The most image pixels that one output pixel steps over inside any triangle (GL's rho, whose
+    log2 is the mipmap level sampled): at most 1 where no triangle shrinks the picture.
+
+    Parameters
+    ----------
+    vertices, positions : ndarray of shape (V, 2)
+        The mesh's vertices, undeformed and deformed, image pixels.
+    triangles : ndarray of shape (T, 3)
+    scale : float
+        Output pixels per image pixel.
+
+    Returns
+    -------
+    float
+        max over triangles of the longer column of J^-1, J the triangle's affine map from image
+        to output pixels; infinite where a triangle collapses.
+    """
+    corners = vertices[triangles].astype(np.float64)
+    moved = positions[triangles].astype(np.float64) * scale
+    source = np.stack([corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]], axis=2)
+    drawn = np.stack([moved[:, 1] - moved[:, 0], moved[:, 2] - moved[:, 0]], axis=2)
+    if not len(triangles):
+        return 0.0
+    determinant = drawn[:, 0, 0] * drawn[:, 1, 1] - drawn[:, 0, 1] * drawn[:, 1, 0]
+    if np.any(np.abs(determinant) <= 1e-12 * np.abs(drawn).max(axis=(1, 2)) ** 2):
+        return float("inf")
+    inverse = np.empty_like(drawn)
+    inverse[:, 0, 0], inverse[:, 1, 1] = drawn[:, 1, 1], drawn[:, 0, 0]
+    inverse[:, 0, 1], inverse[:, 1, 0] = -drawn[:, 0, 1], -drawn[:, 1, 0]
+    inverse /= determinant[:, None, None]
+    steps = source @ inverse  # columns: image pixels per output pixel along x and along y
+    return float(np.sqrt((steps**2).sum(axis=1)).max())
+
+
+def _premultiplied(image: np.ndarray) -> np.ndarray:
+    """The colour of straight RGBA `image` (h, w, 4) premultiplied by its alpha, rounded: (h, w, 3)."""
+    maximum = np.iinfo(image.dtype).max
+    wide = np.uint32 if image.dtype == np.uint8 else np.uint64
+    colour = image[..., :3].astype(wide) * image[..., 3:].astype(wide)
+    return ((colour + maximum // 2) // maximum).astype(image.dtype)

@@ -1,0 +1,132 @@
+"""The untouched picture copied under the warp (issue 48 item 1): pixels away from both cages are the
+input's, bit for bit, at 8 and 16 bits and with any straight alpha; an identity warp gives the input
+back inside the cage too; the compositing helpers on their own."""
+
+import json
+
+import numpy as np
+import pytest
+
+from app.__main__ import main
+from app.io.files import read_photo, write_image
+from app.render.compositing import clear_pixel, drawn_box, exact_offset, texel_footprint, warp_over
+from app.render.viewport import View
+
+WIDTH, HEIGHT = 200, 150
+CAGE = np.array([[60, 40], [100, 30], [140, 45], [150, 75], [135, 110], [100, 118], [62, 108], [50, 75]])
+#: Two control points moved: the warp draws near the cage and nowhere else.
+TARGET = CAGE + np.array([[0, 0], [6, -4], [0, 0], [8, 3], [0, 0], [0, 0], [-5, 2], [0, 0]])
+
+
+def noisy(dtype, alpha: str, seed: int = 7) -> np.ndarray:
+    """RGBA (HEIGHT, WIDTH, 4) of `dtype`: colour noise over the whole range; alpha opaque, every
+    level in turn (``"levels"``), or noise (``"noise"``)."""
+    rng = np.random.default_rng(seed)
+    maximum = np.iinfo(dtype).max
+    image = rng.integers(0, maximum + 1, (HEIGHT, WIDTH, 4), dtype=np.int64).astype(dtype)
+    if alpha == "opaque":
+        image[..., 3] = maximum
+    elif alpha == "levels":  # 0, 1, 2, ... 255 along the rows, over and over
+        image[..., 3] = (np.arange(HEIGHT * WIDTH).reshape(HEIGHT, WIDTH) % 256) * (maximum // 255)
+    return image
+
+
+def away_from_both_cages(margin: float = 4.0) -> np.ndarray:
+    """bool (HEIGHT, WIDTH): pixels whose centres lie more than `margin` pixels outside the boxes
+    of the source and target control polygons (the curves lie inside them)."""
+    y, x = np.mgrid[0:HEIGHT, 0:WIDTH] + 0.5
+    near = np.zeros((HEIGHT, WIDTH), bool)
+    for points in (CAGE, TARGET):
+        low, high = points.min(axis=0) - margin, points.max(axis=0) + margin
+        near |= (x >= low[0]) & (x <= high[0]) & (y >= low[1]) & (y <= high[1])
+    return ~near
+
+
+def warp(tmp_path, image, output, target=TARGET, *extra):
+    write_image(tmp_path / "in.png", image)
+    for name, points in (("cage", CAGE), ("target", target)):
+        (tmp_path / f"{name}.json").write_text(json.dumps({"control_points": np.asarray(points).tolist()}))
+    argv = ["warp", str(tmp_path / "in.png"), "--cage", str(tmp_path / "cage.json")]
+    argv += ["--target", str(tmp_path / "target.json"), "--output", str(tmp_path / output)]
+    assert main([*argv, "--outside", "original", *extra]) == 0
+    return read_photo(tmp_path / output).pixels
+
+
+@pytest.mark.parametrize("dtype", [np.uint8, np.uint16])
+@pytest.mark.parametrize("alpha", ["opaque", "levels", "noise"])
+@pytest.mark.parametrize("output", ["out.png", "out.tif"])
+def test_pixels_away_from_both_cages_are_the_inputs_bit_for_bit(tmp_path, dtype, alpha, output):
+    image = noisy(dtype, alpha)
+    back = warp(tmp_path, image, output)
+    away = away_from_both_cages()
+    assert away.mean() > 0.5
+    assert back.dtype == image.dtype
+    np.testing.assert_array_equal(back[away], image[away])
+    assert not np.array_equal(back, image)  # the warp drew something
+
+
+@pytest.mark.parametrize("dtype", [np.uint8, np.uint16])
+def test_an_identity_warp_gives_the_input_back_inside_the_cage_too(tmp_path, dtype):
+    image = noisy(dtype, "opaque", seed=11)  # neighbours differ by up to the whole range
+    back = warp(tmp_path, image, "out.png", CAGE)
+    np.testing.assert_array_equal(back, image)
+
+
+def test_an_identity_warp_of_straight_alpha_is_the_picture_over_itself_inside_the_cage(tmp_path):
+    image = noisy(np.uint8, "levels")
+    back = warp(tmp_path, image, "out.png", CAGE).astype(int)
+    inside = np.zeros((HEIGHT, WIDTH), bool)
+    inside[55:95, 80:120] = True  # well inside the cage's curve: the warp covers it whole
+    alpha = image[..., 3].astype(float) / 255
+    # --outside original draws the warp over the untouched picture: alpha a over a.
+    over = np.round(255 * (alpha + alpha * (1 - alpha)))
+    assert np.abs(back[..., 3] - over)[inside].max() <= 1
+    # Colour is straight: kept within a unit where the premultiplied 8-bit texture holds it so.
+    dense = inside & (image[..., 3] >= 128)
+    assert np.abs(back[..., :3] - image[..., :3])[dense].max() <= 1
+    opaque = inside & (image[..., 3] == 255)
+    np.testing.assert_array_equal(back[opaque], image[opaque])
+
+
+def test_a_background_shows_under_transparent_pixels_and_leaves_opaque_ones(tmp_path):
+    image = noisy(np.uint8, "levels")
+    back = warp(tmp_path, image, "out.png", TARGET, "--background", "white")
+    away = away_from_both_cages()
+    opaque = away & (image[..., 3] == 255)
+    np.testing.assert_array_equal(back[opaque], image[opaque])
+    assert (back[away][:, 3] == 255).all()  # blended over an opaque white
+    clear = away & (image[..., 3] == 0)
+    assert (back[clear] == 255).all()
+
+
+def test_warp_over_keeps_the_base_where_nothing_is_drawn_and_blends_where_it_partly_covers():
+    base = np.array([[[10, 20, 30, 40], [200, 100, 50, 255], [0, 0, 0, 0]]], np.uint8)
+    drawn = np.zeros((1, 3, 4), np.float32)
+    drawn[0, 1] = (0.5, 0.25, 0.0, 0.5)  # premultiplied: straight (1, 0.5, 0) at half cover
+    drawn[0, 2] = (0.2, 0.4, 0.6, 1.0)
+    result = warp_over(base.copy(), drawn)
+    np.testing.assert_array_equal(result[0, 0], base[0, 0])
+    np.testing.assert_array_equal(result[0, 2], [51, 102, 153, 255])
+    expected = np.round(np.array([0.5 + 200 / 255 * 0.5, 0.25 + 100 / 255 * 0.5, 50 / 255 * 0.5, 1.0]) * 255)
+    np.testing.assert_array_equal(result[0, 1], expected)
+
+
+def test_exact_offsets_boxes_and_clear_pixels():
+    assert exact_offset(View(1.0, (3.0, -2.0))) == (3, -2)
+    assert exact_offset(View(1.0, (0.5, 0.0))) is None and exact_offset(View(0.5)) is None
+    positions = np.array([[10.2, 5.0], [20.0, 30.7]])
+    assert drawn_box(positions, (2, 0), (100, 100)) == (11, 4, 23, 32)
+    assert drawn_box(positions, (200, 0), (100, 100)) is None
+    np.testing.assert_array_equal(clear_pixel((1.0, 0.5, 0.0, 1.0), np.uint8), [255, 128, 0, 255])
+    np.testing.assert_array_equal(clear_pixel((0.0, 0.0, 0.0, 0.0), np.uint16), [0, 0, 0, 0])
+
+
+def test_texel_footprint_is_one_for_a_translation_and_the_shrinking_otherwise():
+    vertices = np.array([[0.0, 0.0], [4.0, 0.0], [0.0, 4.0], [4.0, 4.0]])
+    triangles = np.array([[0, 1, 2], [1, 3, 2]])
+    assert texel_footprint(vertices, vertices + 7.0, triangles, 1.0) == pytest.approx(1.0, abs=1e-12)
+    assert texel_footprint(vertices, vertices * 0.5, triangles, 1.0) == pytest.approx(2.0, abs=1e-12)
+    assert texel_footprint(vertices, vertices * 3.0, triangles, 0.5) == pytest.approx(2 / 3, abs=1e-12)
+    flat = vertices.copy()
+    flat[:, 1] = 0.0
+    assert texel_footprint(vertices, flat, triangles, 1.0) == float("inf")
