@@ -6,7 +6,8 @@ simple: no certificate of a continuous map is needed for a fold-free *mesh* map.
 composite of discrete harmonic steps of `core.injectivity.mesh_composite`, with the boundary
 vertices on the cages of a path at their parameters, tried on the paths below in turn until one
 reaches the target (unless the plain harmonic map G P', where the caller gives it, is a bijection
-on the mesh: then it is the answer, what the plain warp draws):
+on the mesh: then it is the answer, what the plain warp draws; next, where the caller gives it, the
+continuous composite's images, kept if they are a bijection on the mesh):
 
 1. the straight path of cages, P(s) = (1 - s) P + s P';
 2. the similarity (rotation and scale about the centroid, and the centroid's move) that best fits
@@ -17,7 +18,9 @@ on the mesh: then it is the answer, what the plain warp draws):
 A path through a cage whose control polygon has no area (a rotation by 180°) is skipped; a path on
 which cages cross themselves is tried all the same (positive triangles can overlap on the way, as
 long as they do not at the end) for `FIRST_SOLVES` solves, then given up (such paths stalled on
-every drag tried), and the refusal says where it crosses.  When no path
+every drag tried), and the refusal says where it crosses; a later path whose cages cross themselves
+too is not followed (on the held-out star drags both paths crossed and stalled, and the untangling
+of the first one's furthest images mapped each, 0.4-0.8 s sooner).  When no path
 reaches the target, the furthest images are carried to it by one harmonic step and the triangles
 that step turns over are untangled (`core.injectivity.mesh_untangling`); if that fails too, the
 refusal names every path tried.
@@ -49,6 +52,9 @@ UNTANGLING_RINGS = 12
 COLLAPSED = 1e-6
 #: The name of the plain harmonic map G P' where it is the answer (no path taken).
 PLAIN_HARMONIC_MAP = "the plain harmonic map"
+#: The name of the continuous composite (harmonic maps between the cages of the straight path,
+#: each step certified), tried first on large meshes where the caller gives it.
+CONTINUOUS_COMPOSITE = "the continuous composite"
 #: The paths tried, by name, in order.
 PATHS = ("the straight path", "rotation and scale about the centroid, then the straight path")
 
@@ -61,6 +67,7 @@ def mesh_fold_free_map(
     boundary: tuple[np.ndarray, np.ndarray],
     progress: Callable[[float], None] | None = None,
     plain: np.ndarray | None = None,
+    continuous: Callable[[], tuple[np.ndarray, int] | None] | None = None,
 ) -> tuple[np.ndarray, InjectivityCertificate]:
     """Images of the mesh's vertices under a fold-free piecewise-linear map onto the target's polygon.
 
@@ -82,6 +89,9 @@ def mesh_fold_free_map(
         path tried after another starts again from 0).
     plain : ndarray of shape (V, 2), optional
         The plain harmonic map's images (G P'): the answer if they are a bijection on the mesh.
+    continuous : callable, optional
+        Tried next (before the paths): (images (V, 2), steps) of the continuous composite
+        (`CONTINUOUS_COMPOSITE`), or None where it stops; the answer if a bijection on the mesh.
 
     Returns
     -------
@@ -108,15 +118,24 @@ def mesh_fold_free_map(
         plain[indices] = end_values  # G interpolates the curve: the same up to rounding
         if mesh_bijection(vertices, plain, triangles, loop).proven:
             return plain, _certificate(vertices, plain, triangles, PLAIN_HARMONIC_MAP, 0)
-    tried, solves, furthest = [], 0, None
+    tried, solves, furthest, crossed = [], 0, None, False
+    if continuous is not None:
+        mapped = _continuous_end(vertices, triangles, indices, loop, end_values, continuous, tried)
+        if mapped is not None:
+            return mapped
     for name, start_cage, start in _paths(curve, target, vertices):
         collapse = _collapse(start_cage, target)
         if collapse is not None:
             tried.append(f"{name} (the cage's control polygon collapses at {collapse:.3g} of the way)")
             continue
+        crossing = _crossing(start_cage, target) if crossed else None
+        if crossing is not None:  # the untangling takes the furthest images of the first such path
+            tried.append(f"{name} (not followed after a path that crosses itself stalled; {crossing})")
+            continue
         reached, crossing = _followed(
             vertices, triangles, indices, (start_cage, start), target, end_values, progress
         )
+        crossed |= crossing is not None
         solves += reached.solves
         if reached.reached == 1.0:
             proof = mesh_bijection(vertices, reached.images, triangles, loop)
@@ -136,6 +155,22 @@ def mesh_fold_free_map(
     raise ValueError(
         "no fold-free map of the mesh onto the target was found; paths tried: " + "; ".join(tried)
     )
+
+
+def _continuous_end(vertices, triangles, indices, loop, end_values, continuous, tried):
+    """(images, certificate) of the `continuous` composite (see `mesh_fold_free_map`) if its mesh
+    map is a bijection, else None with the reason appended to `tried`."""
+    composite = continuous()
+    if composite is None:
+        tried.append(f"{CONTINUOUS_COMPOSITE} (not proven within its steps)")
+        return None
+    images, steps = composite
+    images[indices] = end_values
+    proof = mesh_bijection(vertices, images, triangles, loop)
+    if proof.proven:
+        return images, _certificate(vertices, images, triangles, CONTINUOUS_COMPOSITE, steps)
+    tried.append(f"{CONTINUOUS_COMPOSITE} (its mesh map is not a bijection: {proof.reason()})")
+    return None
 
 
 def _followed(
@@ -253,4 +288,4 @@ def _certificate(vertices, images, triangles, path: str, solves: int, moves=None
     )
 
 
-__all__ = ["PATHS", "PLAIN_HARMONIC_MAP", "mesh_fold_free_map"]
+__all__ = ["CONTINUOUS_COMPOSITE", "PATHS", "PLAIN_HARMONIC_MAP", "mesh_fold_free_map"]

@@ -332,7 +332,12 @@ class BarrierProblem:
         # The shape term's 2 (1 - θ) / χ I makes the matrix definite wherever the free vertices
         # connect to a fixed one; the shift only guards a region with an isolated part.
         shift = 1e-12 * matrix.diagonal().max() * scipy.sparse.identity(self.size, format="csc")
-        step = -scipy.sparse.linalg.spsolve(matrix + shift, gradient)
+        # Symmetric positive definite: factored without pivoting (SuperLU's symmetric mode), ~2x
+        # faster than a pivoting LU.
+        step = -scipy.sparse.linalg.splu(
+            (matrix + shift).tocsc(), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
+            options={"SymmetricMode": True},
+        ).solve(gradient)  # fmt: skip
         slope, energy, length = float(gradient @ step), self.energy(positions, epsilon), 1.0
         while slope < 0.0 and length > 1e-12:
             trial = positions + length * step

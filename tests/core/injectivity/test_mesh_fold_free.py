@@ -178,3 +178,71 @@ def test_given_the_basis_a_plain_map_that_does_not_fold_is_the_answer_and_one_th
     )
     assert certificate.extra["path"] == mesh_fold_free.PATHS[0]
     assert not core.folded_triangles(mesh, images).any()
+
+
+def test_a_large_mesh_takes_the_continuous_composite_first_where_its_mesh_map_is_proven(monkeypatch):
+    """Above `CONTINUOUS_FIRST` vertices (lowered here to the default mesh's size) the continuous
+    composite comes first, and its images are the answer only as a proven bijection on the mesh."""
+    from core.injectivity import composite
+
+    monkeypatch.setattr(composite, "CONTINUOUS_FIRST", 0)
+    points = examples.blob() * 300.0
+    curve = core.ClosedBSpline(points)
+    mesh = core.triangulate(curve)
+    target = points.copy()
+    target[1, 1] += 0.3 * curve.diameter  # the bench's strong drag: the plain map folds
+    assert core.folded_triangles(mesh, core.deform(core.mesh_basis_functions(curve, mesh), target)).any()
+    _, certificate = unfolded(curve, target, mesh)
+    assert certificate.on_mesh and certificate.extra["path"] == mesh_fold_free.CONTINUOUS_COMPOSITE
+    monkeypatch.setattr(composite, "CONTINUOUS_MOST_POINTS", curve.n - 1)  # a cage too large for it
+    _, certificate = unfolded(curve, target, mesh)
+    assert certificate.extra["path"] == mesh_fold_free.PATHS[0]
+
+
+@pytest.mark.parametrize("folded", [True, False])
+def test_a_continuous_composite_that_folds_on_the_mesh_or_stops_leaves_the_mesh_its_own_paths(folded):
+    curve = core.ClosedBSpline(ELLIPSE)
+    mesh = core.triangulate(curve)
+    target = ELLIPSE.copy()
+    target[0] += [-31.95, 1.79]
+    flipped = mesh.vertices.copy()
+    flipped[:, 0] = 2.0 * flipped[:, 0].mean() - flipped[:, 0]  # every triangle turned over
+    images, certificate = mesh_fold_free.mesh_fold_free_map(
+        curve, core.ClosedBSpline(target), mesh.vertices, mesh.triangles,
+        (mesh.boundary, mesh.boundary_parameters), continuous=lambda: (flipped, 1) if folded else None,
+    )  # fmt: skip
+    assert certificate.on_mesh and certificate.extra["path"] == mesh_fold_free.PATHS[0]
+    assert not core.folded_triangles(mesh, images).any()
+
+
+def star_drag_whose_paths_cross() -> np.ndarray:
+    """A point of the 40-point star dragged 110 px across its neighbour's arm: the cages on the
+    straight path and on the rotation's path both cross themselves on the way."""
+    target = STAR.copy()
+    target[1] += 110.0 * np.array([np.cos(np.radians(60.0)), np.sin(np.radians(60.0))])
+    return target
+
+
+def test_a_drag_whose_paths_both_cross_is_untangled_from_the_first_path_alone():
+    curve = core.ClosedBSpline(STAR)
+    _, certificate = mapped_within(5.0, curve, star_drag_whose_paths_cross(), core.triangulate(curve))
+    assert certificate.extra["path"] == mesh_fold_free.PATHS[0] and certificate.extra["moved"] > 0
+
+
+def test_a_later_path_that_crosses_itself_too_is_not_followed_and_the_refusal_says_so(monkeypatch):
+    followed = []
+
+    def stalled(vertices, triangles, boundary, start, *rest):
+        followed.append(start)
+        return MeshPath(start, 0.0, 3)
+
+    monkeypatch.setattr(mesh_fold_free, "composite_on_mesh", stalled)
+    monkeypatch.setattr(mesh_fold_free, "untangle_triangles", lambda v, images, *rest: (images, None))
+    curve = core.ClosedBSpline(STAR)
+    with pytest.raises(ValueError) as refused:
+        mesh_deformed(curve, star_drag_whose_paths_cross(), core.triangulate(curve))
+    assert len(followed) == 1  # the straight path's first solves only
+    assert (
+        "; rotation and scale about the centroid, then the straight path (not followed after a path "
+        "that crosses itself stalled; a cage on it crosses itself at "
+    ) in str(refused.value)
