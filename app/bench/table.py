@@ -9,7 +9,8 @@ to measure their own peak memory and their whole time from process start.  The
 drag frame is measured in the real viewer: a child ``python -m app demo starfish``
 in a window on a private Xvfb server, replaying a scripted drag of one control
 point through the mouse's input path, and its ``--stats`` line
-(``median_drag_frame_ms``) read on exit.  The GIF export row times the same demo's
+(``median_drag_frame_ms``) read on exit; the launch rows (`app.bench.launch`) time such
+children from their start to a picture that can be warped.  The GIF export row times the same demo's
 Ctrl+E to a .gif (sent with xdotool; its ``exported`` milestone) against ``animate``
 of the session the viewer saved, in turn.
 """
@@ -35,6 +36,7 @@ from pathlib import Path
 import numpy as np
 
 import core
+from app.bench.launch import launch_rows
 from app.bench.photos import (
     ANIMATION_SECONDS,
     ANIMATION_SIZE,
@@ -139,6 +141,8 @@ def run_bench(args: argparse.Namespace) -> int:
                 else fold_free_drag.fold_free_drag_row(StepFailed)
             )
         )
+    if not args.skip_launch:
+        children.append(lambda: launch_rows(args.repeats, args.quick, _started_xvfb, StepFailed))
     if not args.skip_export:
         children.append(
             lambda: (

@@ -82,8 +82,10 @@ def _warp_command(commands, run, kernels: tuple[str, ...]) -> None:
         ),
     )
     warp.add_argument("image", nargs="?", type=Path, metavar="IMAGE", help="source image (or give --session)")
-    warp.add_argument("--cage", type=Path, help="source cage JSON, image pixels")
-    warp.add_argument("--target", type=Path, help="target cage JSON, same number of control points")
+    warp.add_argument(
+        "--cage", type=Path, help="source cage, JSON or SVG (its first closed path), image pixels"
+    )
+    warp.add_argument("--target", type=Path, help="target cage, JSON or SVG, same number of control points")
     warp.add_argument(
         "--pins",
         type=Path,
@@ -231,6 +233,7 @@ def _fit_command(commands, run) -> None:
         ("%(prog)s photo.jpg --output cage.json", None),
         ("%(prog)s photo.jpg --output cage.json --rect 120,40,300,420", "only what is inside the rectangle"),
         ("%(prog)s logo.png --output cage.json --points 24", None),
+        ("%(prog)s photo.jpg --output cage.svg", "the cage as an SVG path, for Inkscape or Illustrator"),
     )
     fit.add_argument(
         "image",
@@ -238,7 +241,12 @@ def _fit_command(commands, run) -> None:
         metavar="IMAGE",
         help="a photograph, a shape on a plain background, or a PNG with alpha",
     )
-    fit.add_argument("--output", type=Path, required=True, help="cage JSON to write")
+    fit.add_argument(
+        "--output",
+        type=Path,
+        required=True,
+        help="cage to write: .json, or .svg (a path of quadratic Béziers)",
+    )
     fit.add_argument(
         "--points", type=_positive(int), default=16, metavar="N", help="control points (default 16)"
     )
@@ -267,7 +275,7 @@ def _compare_command(commands, run, kernels: tuple[str, ...]) -> None:
             "the natural and the arc-length parameterisation side by side",
         ),
     )
-    compare.add_argument("--cage", type=Path, required=True, help="domain cage JSON")
+    compare.add_argument("--cage", type=Path, required=True, help="domain cage, JSON or SVG")
     compare.add_argument(
         "--data",
         type=Path,
@@ -377,6 +385,11 @@ def _bench_command(commands, run) -> None:
         "--skip-drag",
         action="store_true",
         help="no viewer drag frame at 6k and 400k vertices, nor its fold-free drag frame (Xvfb)",
+    )
+    bench.add_argument(
+        "--skip-launch",
+        action="store_true",
+        help="no viewer launch to a warpable picture (the demo, a 24 megapixel photograph; Xvfb)",
     )
     bench.add_argument(
         "--skip-export",
@@ -528,7 +541,7 @@ def add_view_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="IMAGE",
         help="source image (a cage is fitted around its shape unless --cage)",
     )
-    parser.add_argument("--cage", type=Path, help="source cage JSON, image pixels")
+    parser.add_argument("--cage", type=Path, help="source cage, JSON or SVG, image pixels")
     parser.add_argument(
         "--session",
         type=Path,

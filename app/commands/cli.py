@@ -40,6 +40,7 @@ from app.console import (
     print_notes,
 )
 from app.io.files import (
+    CAGE_SUFFIXES,
     InputError,
     check_writable,
     kernel_names,
@@ -175,7 +176,7 @@ def _fit(args: argparse.Namespace) -> int:
             rect = []
         if len(rect) != 4:
             raise InputError(f"--rect: expected X,Y,W,H such as 40,30,200,150, got {args.rect!r}")
-    check_writable(args.output, suffix=".json")
+    check_writable(args.output, suffix=CAGE_SUFFIXES)
     refuse_overwriting_inputs(args.output, {"input image": args.image})
     if args.points > MAX_POINTS:
         raise InputError(f"--points {args.points}: at most {MAX_POINTS:,} control points can be fitted")
@@ -189,7 +190,7 @@ def _fit(args: argparse.Namespace) -> int:
     height, width = image.shape[:2]
     if height * width > FIT_PIXELS:
         note(f"fitted on a copy of about {FIT_PIXELS / 1e6:.1f} megapixels of the {width}x{height} image")
-    write_cage(args.output, control_points)
+    write_cage(args.output, control_points, image_size=(width, height))
     note(f"wrote {args.output} ({len(control_points)} control points)")
     return EXIT_OK
 

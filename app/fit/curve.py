@@ -60,7 +60,9 @@ def snap_corners(control_points: np.ndarray, tolerance: float = CORNER_SNAP) -> 
     return points
 
 
-def fit_closed_bspline(data: np.ndarray, count: int) -> np.ndarray:
+def fit_closed_bspline(
+    data: np.ndarray, count: int, corners: tuple[int, ...] = (), parameters: np.ndarray | None = None
+) -> np.ndarray:
     """Least-squares closed uniform quadratic B-spline through a closed point sequence.
 
     Starts from the linear fit at arc-length parameters, then minimises the
@@ -74,16 +76,29 @@ def fit_closed_bspline(data: np.ndarray, count: int) -> np.ndarray:
         Points along a closed curve, in order, the last one followed by the first.
     count : int
         n, the number of control points.
+    corners : tuple of int, optional
+        Slots i whose control points are one doubled point, ``P_i = P_(i+1)``: a sharp
+        corner of the curve at parameter i + 1 (`app.io.svg_cages` fits paths with corners).
+    parameters : ndarray of shape (K,), optional
+        The data's starting parameters in [0, n); by default their arc length, scaled to n.
 
     Returns
     -------
     ndarray of shape (n, 2)
         Control points; the curve may cross itself (callers check).
     """
-    steps = np.linalg.norm(np.diff(data, axis=0, append=data[:1]), axis=1)
-    t = count * np.concatenate([[0.0], np.cumsum(steps)[:-1]]) / steps.sum()
+    if parameters is None:
+        steps = np.linalg.norm(np.diff(data, axis=0, append=data[:1]), axis=1)
+        t = count * np.concatenate([[0.0], np.cumsum(steps)[:-1]]) / steps.sum()
+    else:
+        t = np.asarray(parameters, dtype=np.float64)
+    # owner[slot]: the unknown point of each control point slot (a corner's two share one).
+    slots = np.arange(count)
+    slots[(np.asarray(corners, dtype=int) + 1) % count] = np.asarray(corners, dtype=int)
+    _, owner = np.unique(slots, return_inverse=True)
+    unknowns = int(owner.max()) + 1
     index, weights = basis_weights(t, count)
-    control_points = _least_squares(index, weights, data, count)
+    control_points = _least_squares(owner[index], weights, data, unknowns)[owner]
     extent = float(np.ptp(data, axis=0).max())
     # A small tangential term keeps the system regular where the data are noisy
     # (pixel staircases) without holding the parameters back.
@@ -103,13 +118,13 @@ def fit_closed_bspline(data: np.ndarray, count: int) -> np.ndarray:
         tangent = first / np.maximum(np.linalg.norm(first, axis=1, keepdims=True), 1e-300)
         normal = np.stack([tangent[:, 1], -tangent[:, 0]], axis=1)
         # Unknowns (x_1..x_n, y_1..y_n); a row's coefficients are direction x basis weights.
-        columns = np.tile(np.concatenate([index, index + count], axis=1), (2, 1))
+        columns = np.tile(np.concatenate([owner[index], owner[index] + unknowns], axis=1), (2, 1))
         directions = np.concatenate([normal, tangential * tangent])
         both = np.tile(weights, (2, 1))
         coefficients = np.concatenate([directions[:, :1] * both, directions[:, 1:] * both], axis=1)
         right = np.sum(directions * np.concatenate([data, data]), axis=1)
-        solution = _least_squares(columns, coefficients, right[:, None], 2 * count)[:, 0]
-        updated = np.stack([solution[:count], solution[count:]], axis=1)
+        solution = _least_squares(columns, coefficients, right[:, None], 2 * unknowns)[:, 0]
+        updated = np.stack([solution[:unknowns], solution[unknowns:]], axis=1)[owner]
         change = np.abs(updated - control_points).max()
         control_points = updated
         if change <= 1e-12 * extent:

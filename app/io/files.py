@@ -246,15 +246,59 @@ def cage_points(value, where: str) -> np.ndarray:
         raise InputError(f"{where}: {error}") from None
 
 
+#: The file name extensions of cage files: JSON, or an SVG path (`app.io.svg_cages`).
+CAGE_SUFFIXES = (".json", ".svg")
+
+
 def read_cage(path: str | os.PathLike) -> np.ndarray:
-    """Control points, ndarray of shape (n, 2), of the cage file at `path`."""
-    return cage_points(read_json(path), str(path))
+    """Control points, ndarray of shape (n, 2), of the cage file at `path` (JSON or SVG).
+
+    A fitted SVG path leaves a `note` of its fit error."""
+    control_points, remark = read_cage_file(path)
+    if remark is not None:
+        note(remark)
+    return control_points
 
 
-def write_cage(path: str | os.PathLike, control_points: np.ndarray) -> None:
-    """Write a cage file (coordinates rounded to 1/1000 pixel), atomically."""
-    points = np.round(np.asarray(control_points, dtype=np.float64), 3)
-    write_json(path, {"control_points": points.tolist()})
+def read_cage_file(path: str | os.PathLike) -> tuple[np.ndarray, str | None]:
+    """Control points (n, 2) of the cage file at `path`, and what a reader should know of them.
+
+    A JSON cage file, or an SVG file whose first closed path is the cage
+    (`app.io.svg_cages`): exact when it is a chain of quadratic Béziers, fitted
+    otherwise, and then the remark says how closely (None for an exact cage).
+    """
+    if Path(path).suffix.lower() != ".svg":
+        return cage_points(read_json(path), str(path)), None
+    from app.io.svg_cages import FIT_TOLERANCE, svg_cage
+
+    data = _read_bytes(Path(path), MAX_JSON_FILE_BYTES)
+    try:
+        cage = svg_cage(data)
+    except ValueError as error:
+        raise InputError(f"{path}: {error}") from None
+    points = cage_points({"control_points": cage.control_points.tolist()}, str(path))
+    if cage.fit_error is None:
+        return points, None
+    return points, (
+        f"{path}: the path is not a quadratic B-spline; fitted {len(points)} control points within "
+        f"{cage.fit_error:.2f} px (at most {FIT_TOLERANCE:g})"
+    )
+
+
+def write_cage(
+    path: str | os.PathLike, control_points: np.ndarray, image_size: tuple[int, int] | None = None
+) -> None:
+    """Write a cage file atomically: JSON (coordinates rounded to 1/1000 pixel), or by an ``.svg``
+    name the exact chain of quadratic Béziers (`app.io.svg_cages.svg_text`) over an image of
+    `image_size` (width, height; by default the cage's extent)."""
+    points = np.asarray(control_points, dtype=np.float64)
+    if Path(path).suffix.lower() == ".svg":
+        from app.io.svg_cages import svg_text
+
+        width, height = image_size or np.ceil(np.maximum(points.max(axis=0), 1.0))
+        write_atomic(path, svg_text(points, width, height).encode("utf-8"))
+        return
+    write_json(path, {"control_points": np.round(points, 3).tolist()})
 
 
 # -- kernels -------------------------------------------------------------------

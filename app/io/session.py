@@ -222,6 +222,7 @@ class ViewerSettings:
     shift: str | None = None
     time: float | None = None
     loop: bool | None = None
+    fps: float | None = None  # the frame grid of the timeline (`app.viewer.frame_grid`)
 
 
 #: The type of each `ViewerSettings` value in the file.
@@ -237,6 +238,7 @@ _VIEWER_TYPES = {
     "shift": str,
     "time": float,
     "loop": bool,
+    "fps": float,
 }
 
 

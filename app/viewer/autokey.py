@@ -15,7 +15,9 @@ from app.viewer.state import Snapshot
 from app.warp.keyframes import MAX_TIME, TIME_RESOLUTION, Keyframe, interpolate
 
 
-def keyed(before: Snapshot, edited: Snapshot, time: float) -> tuple[Snapshot, str | None]:
+def keyed(
+    before: Snapshot, edited: Snapshot, time: float, near: float = TIME_RESOLUTION
+) -> tuple[Snapshot, str | None]:
     """`edited` with its pose keyed at `time`, and what the status line says about it.
 
     Parameters
@@ -26,6 +28,9 @@ def keyed(before: Snapshot, edited: Snapshot, time: float) -> tuple[Snapshot, st
         The document the edit makes.
     time : float
         The timeline's time, seconds.
+    near : float
+        A keyframe nearer than this (seconds) to `time` is the one there: the edit replaces it
+        (the viewer gives half a frame: `app.viewer.frame_grid`).
 
     Returns
     -------
@@ -33,7 +38,7 @@ def keyed(before: Snapshot, edited: Snapshot, time: float) -> tuple[Snapshot, st
         `edited` unchanged and None when there is nothing to key: no keyframes, an edit of
         the cage or of the keyframes, a time off the timeline, or a pose that is already the
         animation's at `time`.  Otherwise `edited` with a keyframe at `time` (new, or the
-        one within `app.warp.keyframes.TIME_RESOLUTION` of it replaced) and
+        one within `near` of it replaced) and
         ``"keyframe added at 0.80 s"`` or ``"keyframe at 0.80 s updated"``.
     """
     keyframes = edited.keyframes
@@ -47,7 +52,7 @@ def keyed(before: Snapshot, edited: Snapshot, time: float) -> tuple[Snapshot, st
         return edited, None
     if np.array_equal(edited.target, interpolate(keyframes, time, edited.interpolation)):
         return edited, None
-    kept = tuple(keyframe for keyframe in keyframes if abs(keyframe.time - time) >= TIME_RESOLUTION)
+    kept = tuple(keyframe for keyframe in keyframes if abs(keyframe.time - time) >= near)
     replaced = len(kept) < len(keyframes)
     what = f"keyframe at {time:.2f} s updated" if replaced else f"keyframe added at {time:.2f} s"
     return edited.replace(keyframes=(*kept, Keyframe(time, edited.target))), what

@@ -18,7 +18,8 @@ from typing import Protocol
 import numpy as np
 
 from app.io.files import InputError, kernel_names
-from app.viewer import drawing, editing
+from app.viewer import cage_files, drawing, editing
+from app.viewer.changes import change_words
 from app.viewer.controller import (
     KEY_ZOOM_STEP,
     cancel_drag,
@@ -31,16 +32,21 @@ from app.viewer.controller import (
     show_time,
     zoom,
 )
+from app.viewer.file_dialogs import FileRequests
 from app.viewer.fold_free import HARMONIC_KERNEL
+from app.viewer.frame_grid import half_frame, key_near, on_grid
 from app.viewer.state import EDIT_MODES, MEASURES, PARAMETERIZATIONS, SHIFTS, AppState
 from app.viewer.view_modes import VIEW_MODE_NAMES
 from app.warp.fill import checked_fill
 from app.warp.framing import CANVASES, OUTSIDES
-from app.warp.keyframes import INTERPOLATIONS, MAX_TIME, TIME_RESOLUTION, Keyframe
+from app.warp.keyframes import INTERPOLATIONS, MAX_TIME, Keyframe
 
 
 class WindowActions(Protocol):
     """What the window's commands ask of the running viewer (`app.viewer.window.Viewer`)."""
+
+    state: AppState
+    dialogs: FileRequests
 
     def save_now(self) -> None: ...
 
@@ -139,22 +145,32 @@ def command(state: AppState, name: str, value=None) -> bool:
     return True
 
 
-@_command("undo", "undo the last edit")
+@_command("undo", "undo the last change of the document (an edit or a setting)")
 def _undo(state: AppState, value) -> None:
-    if state.selection.drag is not None:
-        cancel_drag(state)
-    snapshot = state.document.history.undo()
-    show(state, snapshot) if snapshot is not None else state.say("nothing to undo")
-    show_time(state)  # with keyframes, the pose the animation has now at the timeline's time
+    _step_history(state, "undo")
 
 
-@_command("redo", "redo the edit undone", while_drawing=False)
+@_command("redo", "redo the change undone", while_drawing=False)
 def _redo(state: AppState, value) -> None:
+    _step_history(state, "redo")
+
+
+def _step_history(state: AppState, way: str) -> None:
+    """Undo (`way` "undo") or redo ("redo") one step; the status line says what it changed."""
     if state.selection.drag is not None:
         cancel_drag(state)
-    snapshot = state.document.history.redo()
-    show(state, snapshot) if snapshot is not None else state.say("nothing to redo")
-    show_time(state)
+    history = state.document.history
+    left = history.current
+    snapshot = history.undo() if way == "undo" else history.redo()
+    if snapshot is None:
+        state.say(f"nothing to {way}")
+        return
+    show(state, snapshot)
+    show_time(state)  # with keyframes, the pose the animation has now at the timeline's time
+    if way == "undo":
+        state.say(f"undone: {change_words(snapshot, left)}")
+    else:
+        state.say(f"redone: {change_words(left, snapshot)}")
 
 
 @_command("cancel", "cancel the drag in progress, close a list or the help")
@@ -162,6 +178,7 @@ def _cancel(state: AppState, value) -> None:
     if not cancel_drag(state):
         state.display.show_help = False
         state.status.open_prompt = state.status.export_prompt = None
+        state.status.cage_prompt = state.status.target_prompt = None
 
 
 @_command("new_cage", "draw a new cage by clicking")
@@ -292,23 +309,24 @@ def _parameterization(state: AppState, value) -> None:
 @_command("power", "the power kernel's exponent", undoable=True, while_drawing=False)
 def _power(state: AppState, value) -> None:
     if float(value) > 0:
-        commit(state, state.document.live.replace(power=float(value)))
+        commit(state, state.document.live.replace(power=float(value)), f"power k: {float(value):g}")
 
 
 @_command("shift", "the power kernel's shift", undoable=True, while_drawing=False)
 def _shift(state: AppState, value) -> None:
     if value in SHIFTS:
-        commit(state, state.document.live.replace(shift=value))
+        commit(state, state.document.live.replace(shift=value), f"shift: {value}")
 
 
-@_command("outside", "what an export shows outside the warp: transparent or original")
+@_command("outside", "what an export shows outside the warp: transparent or original", undoable=True)
 def _outside(state: AppState, value) -> None:
     if value in OUTSIDES:
-        state.document.outside = value
-        state.document.session_dirty = True
+        commit(state, state.document.live.replace(outside=value), f"outside: {value}")
 
 
-@_command("background", "what exports show where the warp leaves them transparent: none, or a colour")
+@_command(
+    "background", "what exports show where the warp leaves them transparent: none, or a colour", undoable=True
+)
 def _background(state: AppState, value) -> None:
     from app.io.images.colours import parse_colour
 
@@ -318,25 +336,27 @@ def _background(state: AppState, value) -> None:
         except ValueError as error:
             state.say(f"background: {error}", error=True)
             return
-    state.document.background = str(value)
-    state.document.session_dirty = True
+    commit(state, state.document.live.replace(background=str(value)), f"background: {value}")
 
 
-@_command("fill", "what fills the original position behind the warp: none, transparent, #rrggbb, inpaint")
+@_command(
+    "fill",
+    "what fills the original position behind the warp: none, transparent, #rrggbb, inpaint",
+    undoable=True,
+)
 def _fill(state: AppState, value) -> None:
     try:
-        state.document.fill = checked_fill(value, "fill")
+        fill = checked_fill(value, "fill")
     except InputError as error:
         state.say(str(error), error=True)
         return
-    state.document.session_dirty = True
+    commit(state, state.document.live.replace(fill=fill), f"fill: {fill}")
 
 
-@_command("canvas", "an export's frame: the source image, or grown to the target")
+@_command("canvas", "an export's frame: the source image, or grown to the target", undoable=True)
 def _canvas(state: AppState, value) -> None:
     if value in CANVASES:
-        state.document.canvas = value
-        state.document.session_dirty = True
+        commit(state, state.document.live.replace(canvas=value), f"canvas: {value}")
 
 
 #: The settings that "toggle" switches, and the part of the state that holds each.
@@ -392,7 +412,8 @@ def _add_keyframe(state: AppState, value) -> None:
     if not 0.0 <= time <= MAX_TIME:
         state.say(f"a keyframe needs a time within 0..{MAX_TIME:g} s", error=True)
         return
-    kept = tuple(k for k in keyframes if abs(k.time - time) >= TIME_RESOLUTION)
+    time = on_grid(time, state.playback.fps)
+    kept = tuple(k for k in keyframes if abs(k.time - time) >= half_frame(state.playback.fps))
     replaced = len(kept) < len(keyframes)
     snapshot = live.replace(keyframes=(*kept, Keyframe(time, live.target)))
     count = len(snapshot.keyframes)
@@ -434,8 +455,9 @@ def _keyframe_time(state: AppState, value) -> None:
     if not 0.0 <= time <= MAX_TIME:
         state.say(f"keyframe times lie within 0..{MAX_TIME:g} s", error=True)
         return
+    time = on_grid(time, state.playback.fps)
     others = keyframes[:index] + keyframes[index + 1 :]
-    if any(abs(k.time - time) < TIME_RESOLUTION for k in others):
+    if key_near(others, time, state.playback.fps) is not None:
         state.say(f"there is a keyframe at {time:.2f} s already", error=True)
         return
     moved = Keyframe(time, keyframes[index].target)
@@ -463,7 +485,7 @@ def _select_keyframe(state: AppState, value) -> None:
 
 @_command("seek", "go to a time (value: seconds)", while_drawing=False)
 def _seek(state: AppState, value) -> None:
-    state.playback.time = min(max(float(value), 0.0), MAX_TIME)
+    state.playback.time = on_grid(float(value), state.playback.fps)
     show_time(state)
 
 
@@ -477,7 +499,10 @@ def _playback(state: AppState, value) -> None:
     span = state.document.live.time_span
     if state.playback.playing:
         state.playback.playing = False
-        state.say(f"paused at {state.playback.time:.2f} s")
+        state.playback.time = on_grid(state.playback.time, state.playback.fps)
+        show_time(state)
+        frame = round(state.playback.time * state.playback.fps)
+        state.say(f"paused at {state.playback.time:.2f} s (frame {frame})")
     elif span is None or span[0] == span[1]:
         state.say("add two keyframes at different times to play (the Keyframe button, or I)", error=True)
     else:
@@ -549,6 +574,28 @@ def _open_session(viewer: WindowActions, value) -> None:
 @_window_command("open_path", "open the image at the path given")
 def _open_path(viewer: WindowActions, value) -> None:
     viewer.open_path(Path(value))
+
+
+@_window_command("save_cage", "save the source cage to a file (value: its path, .svg or .json; none: ask)")
+def _save_cage(viewer: WindowActions, value) -> None:
+    _save_cage_file(viewer, "cage", value)
+
+
+@_window_command("save_target", "save the target cage to a file (value: its path, .svg or .json; none: ask)")
+def _save_target(viewer: WindowActions, value) -> None:
+    _save_cage_file(viewer, "target", value)
+
+
+def _save_cage_file(viewer: WindowActions, which: str, path: str | None) -> None:
+    """Save the cage or the target to `path`; without one, ask where: a file dialog, or, with no
+    dialog program, the typed path and file list in the window (``status.cage_prompt``)."""
+    state = viewer.state
+    if path:
+        cage_files.save_cage(state, which, Path(path).expanduser())
+        return
+    proposed = cage_files.proposed_path(state, which)
+    if not viewer.dialogs.ask_save(f"save_{which}", f"Save the {which}", proposed):
+        setattr(state.status, f"{which}_prompt", str(proposed))
 
 
 @_window_command("play", "play or stop the demo script")

@@ -26,6 +26,7 @@ import numpy as np
 from app.io.files import InputError, read_image
 from app.render.viewport import View
 from app.viewer import autokey, drawing, editing
+from app.viewer.frame_grid import half_frame, on_grid
 from app.viewer.state import AppState, Drag, Snapshot
 from app.warp.keyframes import Keyframe, interpolate
 
@@ -45,8 +46,10 @@ def commit(state: AppState, snapshot: Snapshot, message: str | None = None, pose
     timeline's time in the same step (`app.viewer.autokey`).
     """
     if pose:
-        moment = state.playback.time
-        snapshot, keyed = autokey.keyed(state.document.history.current, snapshot, moment)
+        moment = on_grid(state.playback.time, state.playback.fps)
+        snapshot, keyed = autokey.keyed(
+            state.document.history.current, snapshot, moment, half_frame(state.playback.fps)
+        )
         if keyed:
             message = f"{message}; {keyed}" if message else keyed
             state.playback.keyframe = next(i for i, k in enumerate(snapshot.keyframes) if k.time == moment)

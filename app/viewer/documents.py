@@ -27,6 +27,7 @@ from app.io.files import (
     cage_curve,
     finite_number,
     read_cage,
+    read_cage_file,
     read_image,
     reported_as_input,
 )
@@ -43,6 +44,8 @@ from app.io.session import (
     write_session,
 )
 from app.render.viewport import View
+from app.viewer import state as model
+from app.viewer.frame_grid import DEFAULT_FPS, checked_fps, on_grid
 from app.viewer.session_files import backups, keep_aside, rotate_backups, session_path_for
 from app.viewer.session_lock import SessionLock, lock_session
 from app.viewer.state import (
@@ -183,7 +186,8 @@ def open_document(
     pixels = read_image(image)
     preferences = Preferences()
     if cage is not None:
-        control_points = read_cage(cage)
+        control_points, remark = read_cage_file(cage)  # an SVG path fitted: said on the status line
+        notices += [remark] if remark else []
         cage_curve(control_points, str(cage))
     else:
         control_points, note = fit_or_ellipse(pixels)
@@ -441,14 +445,36 @@ def apply_preferences(state: AppState, preferences: Preferences | None) -> None:
     for name in ("show_folds", "show_wireframe", "show_overlay"):
         if getattr(viewer, name) is not None:
             setattr(state.display, name, getattr(viewer, name))
-    state.document.outside, state.document.canvas = output.outside, output.canvas
-    state.document.fill, state.document.background = output.fill, output.background
+    _take_output(state, output)
     if viewer.loop is not None:
         state.playback.loop = viewer.loop
+    state.playback.fps = checked_fps(viewer.fps) or DEFAULT_FPS
     if viewer.time is not None and 0 <= viewer.time <= MAX_TIME:
-        state.playback.time = viewer.time
+        state.playback.time = on_grid(viewer.time, state.playback.fps)
     if viewer.selected is not None and 0 <= viewer.selected < state.document.live.n:
         state.selection.selected = viewer.selected
+
+
+def _take_output(state: AppState, output: OutputChoice) -> None:
+    """The session's output choices as the document's: they are the snapshots' (each a step of the
+    undo history), so the history's steps take them too, as its steps in the file do not hold them."""
+    chosen = {
+        "outside": output.outside,
+        "canvas": output.canvas,
+        "fill": output.fill,
+        "background": output.background,
+    }
+    document, history = state.document, state.document.history
+    saved = document.saved is not None and document.saved == history.current
+    document.history = model.History(
+        history.current.replace(**chosen),
+        history.limit,
+        [step.replace(**chosen) for step in history.undo_steps],
+        [step.replace(**chosen) for step in history.redo_steps],
+    )
+    document.live = document.history.current
+    if saved:
+        document.saved = document.live
 
 
 def session_of(state: AppState, max_edge: float | None) -> Session:
@@ -480,6 +506,7 @@ def session_of(state: AppState, max_edge: float | None) -> Session:
             shift=snapshot.shift,
             time=state.playback.time,
             loop=state.playback.loop,
+            fps=state.playback.fps,
         ),
         history=saved_history(state),
     )

@@ -25,12 +25,13 @@ IMAGE_FILTERS = [
     "Images",
     "*.png *.jpg *.jpeg *.bmp *.tif *.tiff *.webp",
     "Sessions and cages",
-    "*.json",
+    "*.json *.svg",
     "All files",
     "*",
 ]
 SESSION_FILTERS = ["Sessions", "*.json", "All files", "*"]
 EXPORT_FILTERS = ["PNG image", "*.png", "Animation", "*.gif *.mp4", "All files", "*"]
+CAGE_FILTERS = ["SVG path", "*.svg", "Cage JSON", "*.json", "All files", "*"]
 
 
 class PendingDialog(Protocol):
@@ -113,6 +114,16 @@ class FileRequests:
             state.status.export_prompt = str(proposed)
             return
         self._pending = ("export_path", self.backend.save_file("Export", str(proposed), EXPORT_FILTERS))
+
+    def ask_save(self, command: str, title: str, proposed: Path) -> bool:
+        """Ask where to save a cage, proposing `proposed`; the answer comes back from `poll` as
+        ``(command, path)``.  False when no dialog can open (nothing asked)."""
+        if self._pending is not None:
+            return True
+        if not self.backend.available():
+            return False
+        self._pending = (command, self.backend.save_file(title, str(proposed), CAGE_FILTERS))
+        return True
 
     def poll(self) -> list[tuple[str, str]]:
         """The window's commands for a dialog answered since the last call: ``[("open_path", path)]``

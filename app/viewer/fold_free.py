@@ -31,6 +31,8 @@ from app.viewer.state import AppState, BasisResult, WarpCheck
 PAUSE = 0.3
 #: The kernel whose maps are harmonic: the only one the certificate and the fold-free map support.
 HARMONIC_KERNEL = "poisson"
+#: Checks kept for their targets' return (undo, redo): each fold-free one holds the map at the vertices.
+KEPT_CHECKS = 16
 
 
 @dataclass(frozen=True)
@@ -365,6 +367,8 @@ class CheckUpdates:
         self.worker, self.announce, self.clock = worker, announce, clock
         self.submitted: str | None = None
         self._moved: tuple[bytes, float] | None = None  # (the dragged target, when it last changed)
+        # The last checks made, by key: undo and redo come back to them without a new proof.
+        self.made: dict[str, WarpCheck] = {}
 
     def wanted(self, state: AppState) -> CheckRequest | None:
         """The check the live document needs now, None when there is none to ask for (another
@@ -392,12 +396,19 @@ class CheckUpdates:
             if isinstance(check, CheckProgress):
                 if check.key == key:  # of an older target: dropped, as its check would be
                     state.compute.check_progress = check.share
-            elif check.key == key:
-                state.compute.check, state.compute.check_progress = check, None
-                self.announce(
-                    f"check fold_free={check.fold_free} injective={check.injective} "
-                    f"where={len(check.where)} seconds={check.seconds:.3f}"
-                )
+            else:
+                self.made[check.key] = check
+                if len(self.made) > KEPT_CHECKS:
+                    del self.made[next(iter(self.made))]  # the oldest
+                if check.key == key:
+                    state.compute.check, state.compute.check_progress = check, None
+                    self.announce(
+                        f"check fold_free={check.fold_free} injective={check.injective} "
+                        f"where={len(check.where)} seconds={check.seconds:.3f}"
+                    )
+        if key in self.made and (state.compute.check is None or state.compute.check.key != key):
+            state.compute.check, state.compute.check_progress = self.made[key], None  # an undo or a redo
+            self.announce(f"check reused fold_free={self.made[key].fold_free}")
         check = state.compute.check
         done = check is not None and check.key == key
         if done or request is None:

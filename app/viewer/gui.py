@@ -10,11 +10,15 @@ basis-function and height views, and the help with every shortcut.
 
 from __future__ import annotations
 
+import os
+
 from imgui_bundle import imgui
 
-from app.io.files import kernel_names
+from app.io.files import CAGE_SUFFIXES, kernel_names
 from app.viewer.controller import STATUS_HEIGHT
 from app.viewer.editing import to_window
+from app.viewer.file_browser import EXPORT_SUFFIXES, OPEN_SUFFIXES, chosen, current_listing
+from app.viewer.file_dialogs import DIALOG_PROGRAMS
 from app.viewer.fold_free import HARMONIC_KERNEL, current_check, status_text
 from app.viewer.scene import export_frame
 from app.viewer.state import PARAMETERIZATIONS, SHIFTS, AppState
@@ -54,37 +58,45 @@ def gui(
     spots = {} if spots is None else spots
     commands: list[tuple] = []
     width, height = state.screen.window_size
-    _panel(state, commands, extras, height, spots)
-    _status(state, width, height)
+    status_height = _status_height(state, width)
+    _panel(state, commands, extras, height - status_height, spots)
+    _status(state, width, height, status_height, spots)
     _canvas_label(state)
     if state.display.view_mode != "image" and state.compute.basis is not None:
         _colour_bar(state, width, height)
     if state.display.show_help:
         _help(state, shortcuts, width, height)
-    for kind in ("open", "export"):
+    for kind in ("open", "export", "cage", "target"):
         if getattr(state.status, f"{kind}_prompt") is not None:
-            _path_prompt(state, commands, (width, height), kind)
+            _path_prompt(state, commands, (width, height), kind, spots)
     return commands
 
 
-def _path_prompt(state: AppState, commands: list[tuple], size: tuple[float, float], kind: str) -> None:
-    """Type a path to open (`kind` "open") or to export to ("export"), where no file dialog
-    program (zenity, kdialog) is installed."""
+def _path_prompt(
+    state: AppState, commands: list[tuple], size: tuple[float, float], kind: str, spots: dict
+) -> None:
+    """Type a path to open (`kind` "open"), to export to ("export") or to save the cage or the
+    target to ("cage", "target"), or pick it in the viewer's own file list
+    (`app.viewer.file_browser`), where no file dialog program (zenity, kdialog) is installed."""
     width, height = size
     field = f"{kind}_prompt"
-    title, explanation, button, command = {
+    title, explanation, button, command, suffixes = {
         "open": (
             "Open a file",
             "Path of an image, a session or a cage file (or drop the file on the window):",
             "Open",
             "open_path",
+            OPEN_SUFFIXES,
         ),
         "export": (
             "Export the warped image or the animation",
             "Write to (a .png image; the keyframes' animation as .mp4, .gif, or PNG frames in a folder/):",
             "Export",
             "export_path",
+            EXPORT_SUFFIXES,
         ),
+        "cage": ("Save the cage", _CAGE_FILE_WORDS, "Save", "save_cage", CAGE_SUFFIXES),
+        "target": ("Save the target", _CAGE_FILE_WORDS, "Save", "save_target", CAGE_SUFFIXES),
     }[kind]
     imgui.set_next_window_pos((width / 2, height / 3), imgui.Cond_.appearing, (0.5, 0.5))
     imgui.set_next_window_size((min(640.0, 0.9 * width), 0), imgui.Cond_.appearing)
@@ -97,8 +109,9 @@ def _path_prompt(state: AppState, commands: list[tuple], size: tuple[float, floa
         # The proposed path starts selected, as in a file dialog: typing replaces it.
         flags = imgui.InputTextFlags_.enter_returns_true | imgui.InputTextFlags_.auto_select_all
         entered, text = imgui.input_text(f"##{kind}", getattr(state.status, field), flags)
+        text, opened_file = _file_list(text, suffixes, height, spots)
         setattr(state.status, field, text)
-        if (entered or imgui.button(button)) and text.strip():
+        if (entered or opened_file or imgui.button(button)) and text.strip():
             commands.append((command, text.strip()))
             setattr(state.status, field, None)
         imgui.same_line()
@@ -109,27 +122,58 @@ def _path_prompt(state: AppState, commands: list[tuple], size: tuple[float, floa
         setattr(state.status, field, None)
 
 
-def _panel(state: AppState, commands: list, extras: dict, height: float, spots: dict) -> None:
+_CAGE_FILE_WORDS = "Write to (.svg: a path of quadratic Beziers that Inkscape edits; .json: the cage file):"
+
+
+def _file_list(text: str, suffixes: tuple[str, ...], height: float, spots: dict) -> tuple[str, bool]:
+    """The folder of the typed path, listed under the field; the field's new text (a click on an
+    entry) and whether a file was double-clicked.  ``spots["files"]`` is the first entry's middle
+    height and the rows' pitch (for the window tests; the list is in the window's middle)."""
+    listed = current_listing(text, suffixes)
+    programs = ", ".join(DIALOG_PROGRAMS)
+    imgui.text_disabled(f"no file dialog program ({programs}) is installed: the viewer lists the files")
+    imgui.text(f"{listed.folder}{os.sep}" + (f"  ({listed.note})" if listed.note else ""))
+    opened = False
+    if imgui.begin_child("##files", (0, min(280.0, 0.4 * height)), imgui.ChildFlags_.borders):
+        top = imgui.get_cursor_screen_pos().y
+        spots["files"] = (top + 0.5 * imgui.get_text_line_height(), imgui.get_text_line_height_with_spacing())
+        for entry in listed.entries:
+            label = entry.name if entry.folder or entry.name == ".." else f"  {entry.name}"
+            clicked, _ = imgui.selectable(
+                label, str(entry.path) == text, imgui.SelectableFlags_.allow_double_click
+            )
+            if clicked:
+                text = chosen(entry)
+                opened = not entry.folder and imgui.is_mouse_double_clicked(imgui.MouseButton_.left)
+    imgui.end_child()
+    return text, opened
+
+
+def _panel(state: AppState, commands: list, extras: dict, room: float, spots: dict) -> None:
+    """The side panel, at most `room` pixels tall (the window above the status line): taller
+    content scrolls, and a click on the panel never lifts it over the status line."""
     live = state.document.live
     imgui.set_next_window_pos((0, 0))
     # As tall as its content: every pixel of panel costs a software rasteriser time.
-    imgui.set_next_window_size_constraints((PANEL_WIDTH, 0), (PANEL_WIDTH, height - STATUS_HEIGHT))
-    imgui.begin("Transfinite warp", None, _FIXED | imgui.WindowFlags_.always_auto_resize)
+    imgui.set_next_window_size_constraints((PANEL_WIDTH, 0), (PANEL_WIDTH, room))
+    flags = _FIXED | imgui.WindowFlags_.always_auto_resize | imgui.WindowFlags_.no_bring_to_front_on_focus
+    imgui.begin("Transfinite warp", None, flags)
     # A window too short for the whole panel (a 1024x600 screen) opens with two sections folded.
-    tall = height >= FOLD_BELOW_HEIGHT
-    if _section("Edit"):
+    tall = room + STATUS_HEIGHT >= FOLD_BELOW_HEIGHT
+    if _section("Edit", spots):
         _edit_section(state, live, commands)
-    if _section("Kernel"):
+    if _section("Kernel", spots):
         _kernel_section(state, live, commands, spots)
-    if _section("Show", tall):
+    if _section("Show", spots, tall):
         _show_section(state, commands)
-    if _section("Animation", tall):
+    if _section("Animation", spots, tall):
         _timeline(state, commands, extras)
-    if _section("File"):
-        _file_section(state, commands, extras)
+    if _section("File", spots):
+        _file_section(state, commands, extras, spots)
     state.screen.canvas_left = PANEL_WIDTH
+    state.screen.panel_bottom = imgui.get_window_pos().y + imgui.get_window_size().y
     # Its bottom edge and the pixels of content scrolled out of sight (for the window tests).
-    spots["panel"] = (imgui.get_window_pos().y + imgui.get_window_size().y, imgui.get_scroll_max_y())
+    spots["panel"] = (state.screen.panel_bottom, imgui.get_scroll_max_y())
     imgui.end()
 
 
@@ -137,10 +181,14 @@ def _panel(state: AppState, commands: list, extras: dict, height: float, spots: 
 FOLD_BELOW_HEIGHT = 900
 
 
-def _section(title: str, open_at_first: bool = True) -> bool:
-    """A heading that folds its section (a click); whether the section's widgets are shown."""
+def _section(title: str, spots: dict, open_at_first: bool = True) -> bool:
+    """A heading that folds its section (a click); whether the section's widgets are shown.
+    Its centre is ``spots[title]`` (for the window tests)."""
     imgui.set_next_item_open(open_at_first, imgui.Cond_.once)
-    return imgui.collapsing_header(title)
+    shown = imgui.collapsing_header(title)
+    low, high = imgui.get_item_rect_min(), imgui.get_item_rect_max()
+    spots[title] = (0.5 * (low.x + high.x), 0.5 * (low.y + high.y))
+    return shown
 
 
 def _edit_section(state: AppState, live, commands: list) -> None:
@@ -288,8 +336,9 @@ def _show_section(state: AppState, commands: list) -> None:
         imgui.text_colored((1.0, 0.5, 0.8, 1.0), f"{state.compute.folded_count} folded triangles")
 
 
-def _file_section(state: AppState, commands: list, extras: dict) -> None:
-    """Open, save, export, start over, the demo script, help and quit."""
+def _file_section(state: AppState, commands: list, extras: dict, spots: dict) -> None:
+    """Open, save, export, start over, save the cage or the target, the demo script, help and quit.
+    The Save target button's centre is ``spots["save target"]`` (for the window tests)."""
     if imgui.button("Open image..."):
         commands.append(("open", None))
     imgui.same_line()
@@ -305,6 +354,15 @@ def _file_section(state: AppState, commands: list, extras: dict) -> None:
         commands.append(("start_over", None))
     if imgui.is_item_hovered():
         imgui.set_tooltip("a new start from the opening cage (or a fitted one); Ctrl+Z goes back")
+    for which in ("cage", "target"):
+        if which == "target":
+            imgui.same_line()
+        if imgui.button(f"Save {which}..."):
+            commands.append((f"save_{which}", None))
+        low, high = imgui.get_item_rect_min(), imgui.get_item_rect_max()
+        spots[f"save {which}"] = (0.5 * (low.x + high.x), 0.5 * (low.y + high.y))
+        if imgui.is_item_hovered():
+            imgui.set_tooltip(f"write the {which} as an SVG path (or .json); Open reads it back")
     if extras.get("script"):
         if imgui.button("Stop script" if extras.get("playing") else "Play demo script"):
             commands.append(("play", None))
@@ -465,6 +523,8 @@ def status_check(state: AppState) -> str:
     live = state.document.live
     if live.kernel != HARMONIC_KERNEL:
         return f"no fold-free proof ({HARMONIC_KERNEL} only)"
+    if state.selection.drawing is not None:
+        return "fold-free: -"  # nothing is checked while a new cage is drawn
     check = current_check(state)
     proof = state.compute.mesh_proof
     on_mesh = live.fold_free and proof is not None and proof.proves(live.target)
@@ -520,6 +580,7 @@ FONT_SPELLINGS = {
     "…": "...",
     "–": "-",
     "—": "-",
+    "→": "->",
 }
 
 
@@ -530,31 +591,47 @@ def in_the_font(text: str) -> str:
     return text
 
 
-def _status(state: AppState, width: float, height: float) -> None:
-    """The status line: kernel, mesh, zoom, timings and the last message.
-
-    A message too long for the line goes on lines of its own above it, wrapped,
-    instead of being cut at the window's edge.
-    """
+def _status_lines(state: AppState, width: float) -> tuple[str, str, bool, float]:
+    """The status line's summary and message, whether they share one line, and the height the
+    wrapped lines above the last take (0 when all fits on one line)."""
     summary = in_the_font(status_summary(state))
     message = in_the_font(state.status_message())
-    padding = imgui.get_style().window_padding.x
-    room = width - 2 * padding
+    room = width - 2 * imgui.get_style().window_padding.x
     spacing = imgui.get_style().item_spacing.x
-    inline = imgui.calc_text_size(f"{summary} | {message}").x + spacing <= room
-    extra = 0.0 if inline or not message else imgui.calc_text_size(message, wrap_width=room).y
-    imgui.set_next_window_pos((0, height - STATUS_HEIGHT - extra))
-    imgui.set_next_window_size((width, STATUS_HEIGHT + extra))
+    inline = not message or imgui.calc_text_size(f"{summary} | {message}").x + spacing <= room
+    wrapped = imgui.calc_text_size(summary, wrap_width=room).y - imgui.get_text_line_height()
+    if not inline:
+        wrapped += imgui.calc_text_size(message, wrap_width=room).y + spacing
+    return summary, message, inline, max(wrapped, 0.0)
+
+
+def _status_height(state: AppState, width: float) -> float:
+    """Window pixels the status line takes at the window's bottom (more than one line when its
+    words do not fit the window's width)."""
+    return STATUS_HEIGHT + _status_lines(state, width)[3]
+
+
+def _status(state: AppState, width: float, height: float, status_height: float, spots: dict) -> None:
+    """The status line: kernel, mesh, zoom, timings and the last message.
+
+    A message too long for the line goes on lines of its own above it, and a summary too long
+    for the window wraps, instead of being cut at the window's edge; the panel stays above it
+    (`_panel`).  Its top is ``spots["status"]`` (for the window tests).
+    """
+    summary, message, inline, _ = _status_lines(state, width)
+    imgui.set_next_window_pos((0, height - status_height))
+    imgui.set_next_window_size((width, status_height))
     imgui.begin("##status", None, _FIXED | imgui.WindowFlags_.no_title_bar | imgui.WindowFlags_.no_scrollbar)
     colour = (1.0, 0.45, 0.4, 1.0) if state.status.message_is_error else (0.75, 0.85, 1.0, 1.0)
+    imgui.push_text_wrap_pos(0.0)
     if message and not inline:
-        imgui.push_text_wrap_pos(0.0)
         imgui.text_colored(colour, message)
-        imgui.pop_text_wrap_pos()
     imgui.text(summary)
+    imgui.pop_text_wrap_pos()
     if message and inline:
         imgui.same_line()
         imgui.text_colored(colour, f"| {message}")
+    spots["status"] = (0.0, height - status_height)
     imgui.end()
 
 

@@ -10,6 +10,9 @@ from dataclasses import dataclass, field
 
 from app.viewer.state import AppState
 
+#: The panel's sections (`app.viewer.gui`), whose headings' centres are announced.
+SECTIONS = ("Edit", "Kernel", "Show", "Animation", "File")
+
 #: Seconds between two updates of the status line's frame times (a median of every frame so far).
 FIGURES_INTERVAL = 0.5
 #: How the status line's fold-free words begin once something is proven: the mesh map's bijection
@@ -71,7 +74,10 @@ class Milestones:
         self.previewing = False  # the last frame drew the preview mesh
         self.popup_open = False  # an imgui popup (a list) is open: Esc closes it
         self.typing = False  # a text field has the keyboard
-        self.panel_spot = None  # the panel's bottom and hidden height last announced
+        #: What was last announced of the layout and the status line, by name: the panel's bottom
+        #: and hidden height ("panel"), the status line's message ("said") and top ("status"), the
+        #: section headings and other spots.
+        self.shown: dict = {}
         self.check_status = ""  # the status line's fold-free words last announced
         self.fold_free_drawn = False  # the last frame drew the fold-free map
         self.drag_first_frame: int | None = None
@@ -82,9 +88,14 @@ class Milestones:
         #: Window points of some widgets (`app.viewer.gui.gui` fills it), announced for the tests.
         self.spots: dict = {}
         self.figures_at = -FIGURES_INTERVAL  # when the status line's frame times were last computed
+        #: Lines said before ``ready`` that tests read after it (the first basis, when the worker
+        #: had it before the window's first frame was done): said just after ``ready``.
+        self.held: list[str] = []
 
     def announce(self, line: str) -> None:
-        if self.test_mode:
+        if self.test_mode and not self.announced_ready and line.startswith("basis "):
+            self.held.append(line)
+        elif self.test_mode:
             print(line, flush=True)
 
     def drags(self, state: AppState) -> None:
@@ -109,8 +120,8 @@ class Milestones:
             self.announce(f"text input {'on' if typing else 'off'}")  # keys go to a text field
             self.typing = typing
         panel = self.spots.get("panel")
-        if panel is not None and panel != self.panel_spot:  # its layout settles over the first frames
-            self.panel_spot = panel
+        if panel is not None and panel != self.shown.get("panel"):  # it settles over the first frames
+            self.shown["panel"] = panel
             self.announce(f"spot panel={panel[0]:.0f},{panel[1]:.0f}")
 
     def checked(self, status: str, fold_free_drawn: bool, folded: int | None) -> None:
@@ -150,6 +161,30 @@ class Milestones:
             for name in ("kernel", "arc-length"):
                 x, y = self.spots.get(name, (0, 0))
                 self.announce(f"spot {name}={x:.0f},{y:.0f}")
+            for line in self.held:
+                self.announce(line)
+            self.held.clear()
+        self._status_line(state)
+
+    def _status_line(self, state: AppState) -> None:
+        """Test mode: what the status line says and where its top is, announced when they change."""
+        if not self.test_mode:
+            return
+        said, top = state.status_message(), self.spots.get("status", (0.0, None))[1]
+        if said != self.shown.get("said", ""):
+            self.announce(f"status said {said}")
+        if top is not None and top != self.shown.get("status"):
+            self.announce(f"spot status={top:.0f}")
+        self.shown.update(said=said, status=top)
+        for name in (
+            *SECTIONS,
+            "files",
+            "save target",
+        ):  # the headings move as sections open and the progress bar goes
+            spot = self.spots.get(name)
+            if spot is not None and spot != self.shown.get(name):
+                self.shown[name] = spot
+                self.announce(f"spot {name}={spot[0]:.0f},{spot[1]:.0f}")
 
     def _fold_free_frame(self, state: AppState) -> None:
         """A frame with fold-free on: a drag frame's time and turned-over triangles; a release starts

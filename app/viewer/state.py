@@ -70,6 +70,15 @@ class Snapshot:
     fold_free : bool
         Deform by the certified fold-free map (`core.fold_free_deform`; ``poisson`` only), as
         sessions' ``"fold_free": true`` asks of ``warp`` and ``animate``.
+    outside : str
+        What exports show outside the deformed region (`app.warp.framing.OUTSIDES`).
+    canvas : str
+        What exports frame: ``"source"``, or ``"grow"`` to hold the whole target.
+    fill : str
+        What fills the source cage's region behind the warp, with outside "original" (`app.warp.fill`).
+    background : str
+        What exports show where the warp leaves them transparent: ``"none"`` (transparent) or a
+        colour as ``--background`` takes it (`app.io.images.colours.parse_colour`).
     """
 
     image: Path
@@ -82,6 +91,10 @@ class Snapshot:
     interpolation: str = DEFAULT_INTERPOLATION
     parameterization: str = "natural"
     fold_free: bool = False
+    outside: str = "transparent"
+    canvas: str = "source"
+    fill: str = "none"
+    background: str = "none"
 
     def __post_init__(self):
         cage = _frozen_points(self.cage, "cage")
@@ -151,7 +164,12 @@ class Snapshot:
             and self.interpolation == other.interpolation
             and self.parameterization == other.parameterization
             and self.fold_free == other.fold_free
+            and self.settings() == other.settings()
         )
+
+    def settings(self) -> tuple[str, str, str, str]:
+        """(outside, canvas, fill, background): what the export shows around the warp."""
+        return (self.outside, self.canvas, self.fill, self.background)
 
     __hash__ = None  # mutable-looking arrays inside: compare, do not hash
 
@@ -380,15 +398,6 @@ class Document:
     session_path : Path
     session_dirty : bool
         An edit to save now.
-    outside : str
-        What exports show outside the deformed region (`app.warp.framing.OUTSIDES`).
-    canvas : str
-        What exports frame: ``"source"``, or ``"grow"`` to hold the whole target.
-    fill : str
-        What fills the source cage's region behind the warp, with outside "original" (`app.warp.fill`).
-    background : str
-        What exports show where the warp leaves them transparent: ``"none"`` (transparent) or a
-        colour as ``--background`` takes it (`app.io.images.colours.parse_colour`).
     max_edge : float or None
         A forced mesh edge length (None: from the cage's area).
     saved : Snapshot or None
@@ -401,12 +410,25 @@ class Document:
     image: np.ndarray
     session_path: Path
     session_dirty: bool = False
-    outside: str = "transparent"
-    canvas: str = "source"
-    fill: str = "none"
-    background: str = "none"
     max_edge: float | None = None
     saved: Snapshot | None = None
+
+    # The export's settings are the live snapshot's: changing one is an undo step like any edit.
+    @property
+    def outside(self) -> str:
+        return self.live.outside
+
+    @property
+    def canvas(self) -> str:
+        return self.live.canvas
+
+    @property
+    def fill(self) -> str:
+        return self.live.fill
+
+    @property
+    def background(self) -> str:
+        return self.live.background
 
 
 @dataclass
@@ -451,6 +473,7 @@ class Playback:
     loop: bool = True  # playback starts again at the first keyframe after the last
     keyframe: int | None = None  # the keyframe selected on the timeline
     time_draft: float | None = None  # the selected keyframe's time field while it is dragged
+    fps: float = 30.0  # the session's frame grid (`app.viewer.frame_grid`): times sit at whole frames
 
 
 @dataclass
@@ -517,6 +540,8 @@ class Status:
     message_owner: Snapshot | None = None  # the document the message was said about (`status_message`)
     open_prompt: str | None = None  # the path typed into the open prompt (no dialog program)
     export_prompt: str | None = None  # the path typed into the export prompt (no dialog program)
+    cage_prompt: str | None = None  # the path typed into Save cage's prompt (no dialog program)
+    target_prompt: str | None = None  # the path typed into Save target's prompt (no dialog program)
     frame_ms: list[float] = field(default_factory=list)
     #: (median frame, median drag frame) in ms, as ``--stats`` reports them (the window updates them).
     frame_figures: tuple[float, float] | None = None
@@ -536,6 +561,9 @@ class Screen:
     cursor: tuple[float, float] = (0.0, 0.0)
     window_size: tuple[int, int] = (1280, 1024)
     canvas_left: float = 0.0  # hidden under the side panel
+    panel_bottom: float = (
+        0.0  # the side panel's bottom edge: a press above it, left of canvas_left, is the panel's
+    )
 
 
 @dataclass

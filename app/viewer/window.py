@@ -25,9 +25,10 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-from app.io.files import InputError, read_json
-from app.viewer import commands, controller, editing
+from app.io.files import CAGE_SUFFIXES, InputError, read_json
+from app.viewer import commands, controller
 from app.viewer.basis_updates import BasisUpdates
+from app.viewer.cage_files import open_cage
 from app.viewer.documents import OpenedDocument, apply_preferences, open_document, save, start_snapshot
 from app.viewer.exports import Exporter
 from app.viewer.file_dialogs import FileRequests
@@ -95,6 +96,7 @@ class Viewer:
         self.state.screen.window_size = options.size or WINDOW_SIZE
         self.opened: OpenedDocument | None = None  # the session file's lock, view and start cage
         self._load(document)
+        self.basis.update(self.state)  # the worker meshes while the window opens (~1 s sooner)
         self.input = InputQueue()
         self.dialogs = FileRequests()
         self.script = ScriptReplay(options.script, options.frames, options.fps, announce)
@@ -238,32 +240,23 @@ class Viewer:
             self.state.display.viewport_dirty = False
 
     def open_path(self, path: Path) -> None:
-        """Open a dropped or chosen file: an image or a session (each in its own session file), or a cage.
+        """Open a dropped or chosen file: an image or a session (each in its own session file), or a
+        cage (JSON or SVG: `app.viewer.cage_files`).
 
         The current session is saved first and never written again after the
         switch; opening an image whose session exists restores that session.
         """
-        state = self.state
         try:
-            if path.suffix.lower() == ".json":
-                value = read_json(path)
+            if path.suffix.lower() in CAGE_SUFFIXES:
+                value = read_json(path) if path.suffix.lower() == ".json" else None
                 if isinstance(value, dict) and "image" in value and "target" in value:
                     self._switch_to(open_document(session=path))
-                    return
-                from app.io.files import read_cage
-
-                cage = read_cage(path)
-                problem = editing.cage_problem(cage)
-                if problem:
-                    raise InputError(f"{path}: {problem}")
-                live = state.document.live
-                controller.commit(
-                    state, live.replace(cage=cage, target=cage, keyframes=()), f"cage from {path}"
-                )
+                else:
+                    open_cage(self.state, path)
                 return
             document = open_document(path)  # raises before the current session is left
         except (InputError, OSError) as error:
-            state.say(str(error), error=True)
+            self.state.say(str(error), error=True)
             return
         if not document.notices:
             document.notices.append(f"opened {path.name}")

@@ -73,12 +73,17 @@ class InputQueue:
 
             setter(window, callback)
 
+        def over_panel(x: float, y: float) -> bool:
+            return x < state.screen.canvas_left and y < state.screen.panel_bottom
+
         def mouse_button(_, button, action, mods):
             x, y = pointer
             if action == glfw.RELEASE:
                 events.append(("pointer", "release", x, y, button, 0.0, False, False))
-            elif not io.want_capture_mouse_unless_popup_close:
-                # A press that closes an open list (combo) also reaches the canvas.
+            elif not io.want_capture_mouse_unless_popup_close and not over_panel(x, y):
+                # A press that closes an open list (combo) also reaches the canvas.  One on the panel
+                # never does, though imgui may not know yet that the pointer is there (it moved
+                # onto a heading and clicked before a frame was drawn): it would deselect the handle.
                 shift, ctrl = bool(mods & glfw.MOD_SHIFT), bool(mods & (glfw.MOD_CONTROL | glfw.MOD_SUPER))
                 events.append(("pointer", "press", x, y, button, 0.0, shift, ctrl))
 

@@ -22,12 +22,14 @@ ACROSS_MODULES = {
     "tests/app/io/images/test_images.py": "the photograph package app.io.images as a whole",
     "tests/app/viewer/test_window.py": "the viewer's real window under Xvfb",
     "tests/app/viewer/test_window_fold_free.py": "the window in fold-free mode",
+    "tests/app/viewer/test_window_daily.py": "the window as a daily tool: layout, undo, frames, SVG cages",
 }
 #: Where a file's tests are slow (a real window, the bench, compiling from a cold cache, a wheel).
 SLOW = [
     "tests/app/viewer/test_window.py",
     "tests/app/viewer/test_window_fit.py",
     "tests/app/viewer/test_window_fold_free.py",
+    "tests/app/viewer/test_window_daily.py",
     "tests/app/bench/test_bench.py",
     "tests/core/newton/test_compilation.py",
     "tests/packaging/test_wheel.py",

@@ -48,6 +48,7 @@ def test_a_failed_row_is_reported_and_the_others_still_run(monkeypatch, capsys):
         skip_warp=False,
         skip_photos=True,
         skip_drag=True,
+        skip_launch=True,
         skip_export=True,
         skip_fold_free=True,
         skip_mesher=True,
@@ -129,6 +130,9 @@ def test_quick_runs_every_row_once_at_tiny_sizes(monkeypatch):
     monkeypatch.setattr(
         bench_fold_free_drag, "fold_free_drag_row", lambda failed, *rest: calls.update(fold_free_drag=rest)
     )
+    monkeypatch.setattr(
+        bench, "launch_rows", lambda repeats, quick, *rest: calls.update(launch=(repeats, quick))
+    )
     monkeypatch.setattr(bench, "photo_rows", lambda sizes, run: calls.update(photos=sizes))
     monkeypatch.setattr(bench, "animation_row", lambda run, *rest: calls.update(animation=rest))
     monkeypatch.setattr(bench_pins, "pin_rows", lambda *rest: calls.update(pins=rest))
@@ -150,6 +154,7 @@ def test_quick_runs_every_row_once_at_tiny_sizes(monkeypatch):
         skip_warp=False,
         skip_photos=False,
         skip_drag=False,
+        skip_launch=False,
         skip_export=False,
         skip_fold_free=False,
         skip_mesher=False,
@@ -166,6 +171,7 @@ def test_quick_runs_every_row_once_at_tiny_sizes(monkeypatch):
         "drag": ((6_000,), 1.0),
         "fold_free_drag": (0.5,),
         "export": (1, 1.0),  # 8 frames instead of the default 30 fps' 220
+        "launch": (3, True),
         "fold_free": (2_000,),
         "held_out": True,
         "mesher": (1, (2_000,)),
@@ -219,3 +225,15 @@ def test_triangle_gets_the_closed_boundary_polygon_of_our_mesh():
     assert (graph["vertices"] == mesh.vertices[mesh.boundary]).all()
     assert sorted(graph["segments"][:, 0]) == list(range(count))
     assert ((graph["segments"][:, 1] - graph["segments"][:, 0]) % count == 1).all()
+
+
+def test_the_launch_rows_time_the_demo_and_a_photograph_to_their_first_basis(capsys):
+    from app.bench.launch import launch_rows
+
+    launch_rows(1, True, bench._started_xvfb, StepFailed)
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[0].startswith("viewer launch to a warpable picture (process start to the basis drawn")
+    labels = ["demo, basis not cached", "demo, basis cached", "1200x800 JPEG, cage fitted"]
+    for line, label in zip(lines[1:4], labels, strict=True):
+        seconds = float(line.split()[-4])
+        assert line.strip().startswith(label) and 0.2 < seconds < 60.0, line  # a generous limit

@@ -434,13 +434,37 @@ def test_fit_writes_a_cage(tmp_path, capfd):
     assert np.allclose(points.mean(axis=0), (80.5, 60.5), atol=1.0)
 
 
+def test_fit_writes_an_svg_cage_that_warp_reads(tmp_path, capfd):
+    write_png(tmp_path / "blob.png", ellipse_picture())
+    code, out, err = run_main(
+        ["fit", tmp_path / "blob.png", "--output", tmp_path / "cage.svg", "--points", 10], capfd
+    )
+    assert code == 0, err
+    text = (tmp_path / "cage.svg").read_text()
+    assert f'width="{WIDTH}" height="{HEIGHT}"' in text and " T " in text
+    points = read_cage(tmp_path / "cage.svg")
+    assert points.shape == (10, 2)
+    assert np.allclose(points.mean(axis=0), (80.5, 60.5), atol=1.0)
+    argv = ["warp", tmp_path / "blob.png", "--cage", tmp_path / "cage.svg", "--target", tmp_path / "cage.svg"]
+    code, out, err = run_main([*argv, "--output", tmp_path / "out.png"], capfd)
+    assert code == 0, err
+    assert read_image(tmp_path / "out.png").shape == (HEIGHT, WIDTH, 4)
+
+
+def test_warp_refuses_an_svg_without_a_closed_path(files, capfd):
+    (files / "open.svg").write_text('<svg xmlns="http://www.w3.org/2000/svg"><path d="M 0 0 L 9 9"/></svg>')
+    code, out, err = run_main(warp_argv(files, **{"--cage": files / "open.svg"}), capfd)
+    assert_one_line_error(code, err, r"open.svg: no closed path in the SVG")
+    assert not (files / "out.png").exists()
+
+
 @pytest.mark.parametrize(
     "argv, pattern",
     [
         (["fit", "{d}/empty.png", "--output", "{d}/cage.json"], r"empty.png: found no object in the image"),
         (
             ["fit", "{d}/blob.png", "--output", "{d}/cage.txt"],
-            r"cage.txt: the output file name must end in .json",
+            r"cage.txt: the output file name must end in .json, .svg",
         ),
         (
             ["fit", "{d}/blob.png", "--output", "{d}/cage.json", "--points", "2"],

@@ -549,4 +549,6 @@ def test_every_command_of_the_keys_and_the_panel_is_registered():
         "open_path",
         "play",
         "start_over",
+        "save_cage",
+        "save_target",
     }

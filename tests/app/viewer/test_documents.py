@@ -308,7 +308,7 @@ def test_keyframes_are_saved_restored_and_in_the_history_steps(tmp_path):
     second = first.replace(keyframes=(*first.keyframes, Keyframe(1.5, moved)), interpolation="linear")
     state = AppState(Document(History(first), first, document.image, path))
     state.document.history.push(second)
-    state.document.live, state.playback.time, state.playback.loop = second, 0.75, False
+    state.document.live, state.playback.time, state.playback.loop = second, 0.8, False
     sessions.save(state, None)
     stored = json.loads(path.read_text())
     assert [k["time"] for k in stored["keyframes"]] == [0.0, 1.5] and stored["interpolation"] == "linear"
@@ -318,7 +318,7 @@ def test_keyframes_are_saved_restored_and_in_the_history_steps(tmp_path):
     assert restored.snapshot == second and restored.undo == [first]
     again = AppState(Document(History(restored.snapshot), restored.snapshot, restored.image, path))
     sessions.apply_preferences(again, restored.preferences)
-    assert (again.playback.time, again.playback.loop) == (0.75, False)
+    assert (again.playback.time, again.playback.loop) == (0.8, False)
 
 
 def test_old_sessions_without_keyframes_still_load(tmp_path):
@@ -484,3 +484,35 @@ def test_an_autosave_killed_before_its_rename_is_finished_on_the_next_open(given
     os.utime(stale, (stamp - 10, stamp - 10))
     again = sessions.open_document(session=path)
     assert path.read_bytes() == current and not any("finished" in n for n in again.notices)
+
+
+def test_the_output_choices_come_back_with_the_session_in_every_undo_step(tmp_path):
+    """They are the snapshots' (undo steps) in the viewer; the file's steps do not hold them, so
+    after a restart every step takes the session's choices."""
+    from app.viewer import commands
+
+    files = demo_files("starfish")
+    path = tmp_path / "settings.json"
+    state = opened_state(sessions.open_document(files.image, files.cage, path))
+    commands.command(state, "outside", "original")
+    commands.command(state, "fill", "#20c040")
+    sessions.save(state, None)
+    stored = json.loads(path.read_text())
+    assert (stored["outside"], stored["fill"]) == ("original", "#20c040")
+    restored = sessions.restore(path)
+    again = opened_state(restored)
+    sessions.apply_preferences(again, restored.preferences)
+    assert (again.document.outside, again.document.fill) == ("original", "#20c040")
+    assert again.document.history.current == again.document.live
+    undo = again.document.history.undo_steps
+    assert len(undo) == 2 and all((s.outside, s.fill) == ("original", "#20c040") for s in undo)
+
+
+def test_a_fitted_svg_cage_says_so_when_the_viewer_opens(tmp_path):
+    files = demo_files("starfish")
+    circle = tmp_path / "circle.svg"
+    circle.write_text('<svg xmlns="http://www.w3.org/2000/svg"><circle cx="320" cy="240" r="150"/></svg>')
+    document = sessions.open_document(files.image, circle, tmp_path / "s.json")
+    assert document.notices[-1].startswith(f"{circle}: the path is not a quadratic B-spline; fitted ")
+    radii = np.linalg.norm(document.snapshot.cage - [320, 240], axis=1)
+    assert radii.min() > 140 and radii.max() < 170  # control points just outside the circle they fit

@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from app.viewer.file_dialogs import EXPORT_FILTERS, SESSION_FILTERS, FileRequests, NativeDialogs
+from app.viewer.file_dialogs import CAGE_FILTERS, EXPORT_FILTERS, SESSION_FILTERS, FileRequests, NativeDialogs
 from app.viewer.state import AppState, History, Snapshot
 
 SQUARE = np.array([[0.0, 0.0], [100.0, 0.0], [100.0, 100.0], [0.0, 100.0]])
@@ -114,3 +114,17 @@ def test_native_dialogs_need_a_dialog_program_and_a_display(tmp_path, monkeypatc
     monkeypatch.delenv("DISPLAY")
     monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
     assert not NativeDialogs().available()
+
+
+def test_saving_a_cage_asks_a_dialog_and_answers_with_the_save_command():
+    backend = StandInBackend(available=True, answer="/tmp/mine.svg")
+    requests = FileRequests(backend)
+    assert requests.ask_save("save_target", "Save the target", Path("/state/s/square.target.svg"))
+    assert backend.asked == [("save", "Save the target", "/state/s/square.target.svg", CAGE_FILTERS)]
+    assert answered(requests) == [("save_target", "/tmp/mine.svg")]
+
+
+def test_saving_a_cage_without_a_dialog_program_asks_nothing():
+    backend = StandInBackend(available=False, answer="/tmp/mine.svg")
+    assert not FileRequests(backend).ask_save("save_cage", "Save the cage", Path("/x.cage.svg"))
+    assert backend.asked == []

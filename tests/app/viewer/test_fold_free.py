@@ -315,3 +315,37 @@ def test_playing_keyframes_asks_for_no_check(starfish_basis):
     state.playback.playing = False
     CheckUpdates(worker, print).update(state)
     assert len(worker.requests) == 1
+
+
+def test_undo_and_redo_of_a_fold_free_step_reuse_its_proof(starfish_basis):
+    state = opened(starfish_basis, target=strong_target())
+    worker = StandInWorker()
+    announced = []
+    updates = CheckUpdates(worker, announced.append)
+    updates.update(state)
+    worker.answer(worker.requests[-1])
+    updates.update(state)
+    commands.command(state, "fold_free")  # B: one undo step, a new proof
+    updates.update(state)
+    worker.answer(worker.requests[-1])
+    updates.update(state)
+    proven = current_check(state)
+    assert proven.fold_free and proven.injective and len(worker.requests) == 2
+    commands.command(state, "undo")
+    assert state.status_message() == "undone: fold-free on"
+    updates.update(state)
+    assert not current_check(state).fold_free and len(worker.requests) == 2  # the plain map's, kept
+    commands.command(state, "redo")
+    assert state.status_message() == "redone: fold-free on"
+    updates.update(state)
+    assert current_check(state) is proven and len(worker.requests) == 2 and not updates.pending
+    assert announced[-1] == "check reused fold_free=True"
+
+
+def test_nothing_is_said_to_be_checked_while_a_new_cage_is_drawn(starfish_basis):
+    state = opened(starfish_basis)
+    assert status_check(state) == "checking folds..."
+    commands.command(state, "new_cage")
+    assert state.selection.drawing is not None and status_check(state) == "fold-free: -"
+    commands.command(state, "cancel")
+    assert status_check(state) == "checking folds..."

@@ -66,11 +66,11 @@ def test_a_message_belongs_to_the_document_it_was_said_about():
     controller.pointer(state, "release", 10.0, 5.0)
     assert state.status_message() == "moved 2 control points"
     commands.command(state, "undo")
-    assert state.status_message() == ""  # it said what the undone edit did
+    assert state.status_message() == "undone: moved 2 target points"  # not what the undone edit said
     commands.command(state, "undo")
     assert state.status_message() == "nothing to undo"  # said about the document shown
     commands.command(state, "redo")
-    assert state.status_message() == ""
+    assert state.status_message() == "redone: moved 2 target points"
 
 
 def test_the_status_line_spells_what_the_font_cannot_draw():

@@ -373,7 +373,7 @@ def test_the_export_frame_is_shown_when_the_target_leaves_the_image():
     target[1] = [140.0, -30.0]
     state.document.live = state.document.live.replace(target=target)
     np.testing.assert_array_equal(export_frame(state), [[0, 0], [100, 0], [100, 100], [0, 100]])
-    state.document.canvas = "grow"
+    state.document.live = state.document.live.replace(canvas="grow")
     frame = export_frame(state)
     assert frame[0, 1] < 0 and frame[1, 0] > 100 and frame[2, 1] == 100  # widened up and right
     segments, _ = overlay_arrays(state)
@@ -416,7 +416,7 @@ def test_the_mesh_layer_is_drawn_again_only_when_what_it_shows_changes(renderer,
         lambda: setattr(state.document, "live", state.document.live.replace(target=cage + (4.0, 0.0))),
         lambda: setattr(state.display, "viewport", View(1.5, (-20.0, 0.0))),
         lambda: setattr(state.display, "show_folds", not state.display.show_folds),
-        lambda: setattr(state.document, "outside", "original"),
+        lambda: setattr(state.document, "live", state.document.live.replace(outside="original")),
     ):
         before = len(drawn)
         change()
@@ -538,7 +538,8 @@ def test_frames_before_the_first_basis_show_what_the_settled_view_shows_outside_
     for outside_mode, opacity in (("transparent", 0.0), ("transparent", 0.4), ("original", 0.0)):
         state = AppState(Document(History(snapshot), snapshot, image, Path("s.json")), compute=Compute())
         state.selection.edit_mode, state.display.viewport = "deform", View(1.0, (0.0, 0.0))
-        state.document.outside, state.display.backdrop_opacity = outside_mode, opacity
+        state.document.live = state.document.live.replace(outside=outside_mode)
+        state.display.backdrop_opacity = opacity
         state.display.show_overlay = False
         scene = Scene(renderer)
         cold = frame(state, scene)
@@ -549,7 +550,7 @@ def test_frames_before_the_first_basis_show_what_the_settled_view_shows_outside_
         if outside_mode == "transparent" and opacity == 0.0:
             assert (cold[..., :3] == np.round(255 * np.array(BACKGROUND))).all()  # no image at all
         scene.release()
-    state.document.outside = "transparent"
+    state.document.live = state.document.live.replace(outside="transparent")
     state.compute.basis, state.compute.basis_error = None, "the cage crosses itself"
     scene = Scene(renderer)
     np.testing.assert_array_equal(frame(state, scene)[..., :3], image[..., :3])  # nothing to wait for

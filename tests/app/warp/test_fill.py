@@ -108,9 +108,9 @@ def viewer_state(tmp_path: Path, fill: str):
     state = AppState(
         Document(History(snapshot), snapshot, read_image(ASSETS / "starfish.png"), tmp_path / "s.json")
     )
-    state.document.outside = "original"
     from app.viewer import commands
 
+    commands.command(state, "outside", "original")
     commands.command(state, "fill", fill)
     return state
 

@@ -228,7 +228,7 @@ def test_the_viewers_still_export_of_a_large_picture_is_warps_file_byte_for_byte
     snapshot = Snapshot(tmp_path / "picture.png", cage, moved)
     request = make_request(snapshot, MAX_EDGE)
     state = AppState(Document(History(snapshot), snapshot, picture(), tmp_path / "s.json"))
-    state.document.outside = outside
+    state.document.live = state.document.live.replace(outside=outside)
     state.compute.basis = result_from_message(request.key, compute(request))
     ctx = create_headless_context()  # as warp's: its own, made after warp released its own
     try:
