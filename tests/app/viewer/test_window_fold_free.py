@@ -74,9 +74,10 @@ def test_fold_free_on_a_strong_drag_is_proven_and_draws_no_folded_triangle(displ
         # of its triangles).
         drawn = viewer.wait_for("fold-free drawn", 30)
         assert drawn == "fold-free drawn folded=0", drawn
-        on_mesh = viewer.wait_for("status check fold-free on the mesh, proven", 30)
-        assert on_mesh.startswith("status check fold-free on the mesh, proven; "), on_mesh
-        proven = viewer.wait_for("status check fold-free on the mesh, proven (σ₂ ≥ ", 60)
+        # (The worker's map may come first where it is as quick as the frames' own proof.)
+        proven = viewer.wait_for("status check fold-free on the mesh, proven", 30)
+        if proven.startswith("status check fold-free on the mesh, proven; "):
+            proven = viewer.wait_for("status check fold-free on the mesh, proven (σ₂ ≥ ", 60)
         sigma = float(proven.split("≥ ")[1].rstrip(")"))
         assert sigma > 0, proven
         _, target, saved = wait_for_session(session, lambda c, t, v: v.get("fold_free") is True)
