@@ -146,6 +146,11 @@ class KernelChoice:
             )
 
 
+#: The output choices' keys, in `OutputChoice`'s order: top-level keys of a session, and of its
+#: history's steps.
+OUTPUT_KEYS = ("outside", "canvas", "fill", "background")
+
+
 @dataclass(frozen=True)
 class OutputChoice:
     """What an export shows around the warp.
@@ -246,7 +251,9 @@ _VIEWER_TYPES = {
 class HistoryStep:
     """One undo or redo step: what one edit of the viewer changes.
 
-    ``power`` and ``shift`` are the ``power`` kernel's settings, kept while another kernel is chosen.
+    ``power`` and ``shift`` are the ``power`` kernel's settings, kept while another kernel is chosen;
+    ``output`` the step's output choices (None in the steps of older sessions, which did not hold
+    them: those take the session's).
     """
 
     cage: np.ndarray
@@ -258,6 +265,7 @@ class HistoryStep:
     interpolation: str = DEFAULT_INTERPOLATION
     parameterization: str = DEFAULT_PARAMETERIZATION
     fold_free: bool = False
+    output: OutputChoice | None = None
 
     def __post_init__(self) -> None:
         if self.kernel not in kernel_names():
@@ -546,6 +554,7 @@ def _steps(value: dict, name: str) -> tuple[HistoryStep, ...]:
                     step.get("interpolation", DEFAULT_INTERPOLATION),
                     step.get("parameterization", DEFAULT_PARAMETERIZATION),
                     step.get("fold_free", False),
+                    _step_output(step),
                 )
             )
         except KeyError as error:
@@ -553,6 +562,14 @@ def _steps(value: dict, name: str) -> tuple[HistoryStep, ...]:
         except ValueError as error:
             raise ValueError(f"{name}[{index}]: {error}") from None
     return tuple(result)
+
+
+def _step_output(step: dict) -> OutputChoice | None:
+    """A history step's output choices, or None where it holds none (an older session's step)."""
+    if not any(key in step for key in OUTPUT_KEYS):
+        return None
+    defaults = OutputChoice()
+    return OutputChoice(*(step.get(key, getattr(defaults, key)) for key in OUTPUT_KEYS))
 
 
 def existing_image(session: Session, path: str | os.PathLike) -> Path:
@@ -643,4 +660,5 @@ def _step_json(step: HistoryStep) -> dict:
         "interpolation": step.interpolation,
         "parameterization": step.parameterization,
         "fold_free": step.fold_free,
+        **({} if step.output is None else {key: getattr(step.output, key) for key in OUTPUT_KEYS}),
     }

@@ -291,7 +291,7 @@ def restore(path: Path, max_edge: float | None = None) -> OpenedDocument:
     )
     notices: list[str] = []
     try:
-        undo, redo = history_of(session.history, image)
+        undo, redo = history_of(session.history, image, session.output)
     except ValueError as error:
         undo, redo = [], []
         notices.append(f"{path}: the undo history cannot be read ({error}); starting without it")
@@ -330,6 +330,7 @@ def _step(snapshot: Snapshot) -> HistoryStep:
         snapshot.interpolation,
         snapshot.parameterization,
         snapshot.fold_free,
+        OutputChoice(snapshot.outside, snapshot.canvas, snapshot.fill, snapshot.background),
     )
 
 
@@ -350,8 +351,11 @@ def saved_history(state: AppState) -> History:
     return History(nearest(state.document.history.undo_steps), nearest(state.document.history.redo_steps))
 
 
-def history_of(history: History, image: Path) -> tuple[list[Snapshot], list[Snapshot]]:
-    """Undo and redo steps of a session's `History`, as snapshots of `image`.
+def history_of(
+    history: History, image: Path, output: OutputChoice | None = None
+) -> tuple[list[Snapshot], list[Snapshot]]:
+    """Undo and redo steps of a session's `History`, as snapshots of `image`, each with its own
+    output choices (a step of an older session, which holds none, with the session's `output`).
 
     Raises
     ------
@@ -378,7 +382,7 @@ def history_of(history: History, image: Path) -> tuple[list[Snapshot], list[Snap
                         step.interpolation,
                         step.parameterization,
                         step.fold_free,
-                    )
+                    ).replace(**vars(step.output or output or OutputChoice()))
                 )
             except ValueError as error:
                 raise ValueError(f"{name}[{index}]: {error}") from None
@@ -456,21 +460,15 @@ def apply_preferences(state: AppState, preferences: Preferences | None) -> None:
 
 
 def _take_output(state: AppState, output: OutputChoice) -> None:
-    """The session's output choices as the document's: they are the snapshots' (each a step of the
-    undo history), so the history's steps take them too, as its steps in the file do not hold them."""
-    chosen = {
-        "outside": output.outside,
-        "canvas": output.canvas,
-        "fill": output.fill,
-        "background": output.background,
-    }
+    """The session's output choices as the document's current snapshot's (the undo history's steps
+    hold their own: `history_of`)."""
     document, history = state.document, state.document.history
     saved = document.saved is not None and document.saved == history.current
     document.history = model.History(
-        history.current.replace(**chosen),
+        history.current.replace(**vars(output)),
         history.limit,
-        [step.replace(**chosen) for step in history.undo_steps],
-        [step.replace(**chosen) for step in history.redo_steps],
+        list(history.undo_steps),
+        list(history.redo_steps),
     )
     document.live = document.history.current
     if saved:

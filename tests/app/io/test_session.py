@@ -1,5 +1,6 @@
 """Tests of app.io.session: the session model, its checks, reading old files, round trips."""
 
+import dataclasses
 import json
 import math
 from pathlib import Path
@@ -241,3 +242,23 @@ def test_the_image_is_looked_for_beside_the_session_file(tmp_path):
         existing_image(session, tmp_path / "s.json")
     (tmp_path / "picture.png").write_bytes(b"")
     assert existing_image(session, tmp_path / "s.json") == tmp_path / "picture.png"
+
+
+def test_a_history_step_keeps_its_output_choices_and_an_older_step_has_none(tmp_path):
+    # A step written with its output choices reads back with them; a step of an older session,
+    # without them, reads as None (the viewer gives it the session's).
+    from app.io.session import HistoryStep, OutputChoice, read_session, session_json, write_session
+
+    path = tmp_path / "s.json"
+    cage = [[0.0, 0.0], [10.0, 0.0], [10.0, 10.0], [0.0, 10.0]]
+    value = {"image": "p.png", "cage": {"control_points": cage}, "target": {"control_points": cage}}
+    value.update(kernel="poisson", view={"scale": 1.0, "offset": [0.0, 0.0]})
+    path.write_text(json.dumps(value))
+    step = HistoryStep(cage, cage, "poisson", 1.0, "none", output=OutputChoice("original", fill="inpaint"))
+    older = HistoryStep(cage, cage, "poisson", 1.0, "none")
+    session = dataclasses.replace(read_session(path), history=History(undo=(step, older)))
+    written = session_json(session)["history"]["undo"]
+    assert written[0]["fill"] == "inpaint" and "fill" not in written[1]
+    write_session(path, session)
+    undo = read_session(path).history.undo
+    assert undo[0].output == OutputChoice("original", fill="inpaint") and undo[1].output is None
