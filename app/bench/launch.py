@@ -74,16 +74,10 @@ def launch_rows(
 def _write_photo(path: Path, size: tuple[int, int]) -> None:
     """A JPEG like a photograph (soft discs, grain) of `size` (width, height), seed 5."""
     import cv2
-    import numpy as np
 
-    rng = np.random.default_rng(5)
-    small = np.zeros((240, 360, 3), np.uint8)
-    for _ in range(60):
-        centre = (int(rng.integers(0, 360)), int(rng.integers(0, 240)))
-        colour = tuple(int(c) for c in rng.integers(0, 255, 3))
-        cv2.circle(small, centre, int(rng.integers(5, 60)), colour, -1, cv2.LINE_AA)
-    image = cv2.resize(small, size, interpolation=cv2.INTER_CUBIC)
-    image = cv2.add(image, rng.integers(0, 6, image.shape, dtype=np.uint8))
+    from app.bench.photos import photograph
+
+    image = photograph(*size)
     cv2.imwrite(str(path), image, [cv2.IMWRITE_JPEG_QUALITY, 90])
 
 

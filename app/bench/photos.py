@@ -29,6 +29,23 @@ QUICK_SIZE = (1200, 800)
 #: Runs of the warp and of the baseline in each child.
 PHOTO_REPEATS = 2
 
+
+def photograph(width: int, height: int, grain: bool = True):
+    """A picture like a photograph: soft discs drawn small and scaled up, with grain (so that PNG
+    compresses it as it would a photograph), seed 5: ndarray (height, width, 3) uint8, BGR."""
+    import cv2
+    import numpy as np
+
+    rng = np.random.default_rng(5)
+    small = np.zeros((240, 360, 3), np.uint8)
+    for _ in range(60):
+        centre = (int(rng.integers(0, 360)), int(rng.integers(0, 240)))
+        colour = tuple(int(c) for c in rng.integers(0, 255, 3))
+        cv2.circle(small, centre, int(rng.integers(5, 60)), colour, -1, cv2.LINE_AA)
+    image = cv2.resize(small, (width, height), interpolation=cv2.INTER_CUBIC)
+    return cv2.add(image, rng.integers(0, 6, image.shape, dtype=np.uint8)) if grain else image
+
+
 _CHILD = r"""
 import json, statistics, sys, time
 from pathlib import Path
@@ -37,21 +54,14 @@ import cv2
 import numpy as np
 
 from app.__main__ import main
-from app.bench.photos import write_starfish_drag
+from app.bench.photos import photograph, write_starfish_drag
 from app.io.files import read_image, write_image
 
 width, height, folder, repeats = int(sys.argv[1]), int(sys.argv[2]), Path(sys.argv[3]), int(sys.argv[4])
 kind = sys.argv[5]
-rng = np.random.default_rng(5)
-small = np.zeros((240, 360, 3), np.uint8)
-for _ in range(60):
-    centre = (int(rng.integers(0, 360)), int(rng.integers(0, 240)))
-    colour = tuple(int(c) for c in rng.integers(0, 255, 3))
-    cv2.circle(small, centre, int(rng.integers(5, 60)), colour, -1, cv2.LINE_AA)
-image = cv2.resize(small, (width, height), interpolation=cv2.INTER_CUBIC)
-image = cv2.add(image, rng.integers(0, 6, image.shape, dtype=np.uint8))  # grain
+image = photograph(width, height)
 cv2.imwrite(str(folder / f"photo.{kind}"), image)
-del image, small
+del image
 write_starfish_drag(folder, width, height)
 argv = ["warp", str(folder / f"photo.{kind}"), "--cage", str(folder / "cage.json"), "--target",
         str(folder / "target.json"), "--output", str(folder / f"out.{kind}"), "--outside", "original"]
@@ -129,18 +139,12 @@ import cv2
 import numpy as np
 
 from app.__main__ import main
-from app.bench.photos import write_starfish_drag
+from app.bench.photos import photograph, write_starfish_drag
 
 width, height, seconds = int(sys.argv[1]), int(sys.argv[2]), float(sys.argv[3])
 folder, output = Path(sys.argv[4]), sys.argv[5]
 if not (folder / "photo.png").exists():
-    rng = np.random.default_rng(5)
-    small = np.zeros((240, 360, 3), np.uint8)
-    for _ in range(60):
-        centre = (int(rng.integers(0, 360)), int(rng.integers(0, 240)))
-        colour = tuple(int(c) for c in rng.integers(0, 255, 3))
-        cv2.circle(small, centre, int(rng.integers(5, 60)), colour, -1, cv2.LINE_AA)
-    cv2.imwrite(str(folder / "photo.png"), cv2.resize(small, (width, height), interpolation=cv2.INTER_CUBIC))
+    cv2.imwrite(str(folder / "photo.png"), photograph(width, height, grain=False))
     write_starfish_drag(folder, width, height)
     cage, target = (np.array(json.loads((folder / f"{name}.json").read_text())["control_points"])
                     for name in ("cage", "target"))
