@@ -157,7 +157,8 @@ def _warp(args: argparse.Namespace) -> int:
     from app.warp.pins import pin_report
 
     job, inputs = warp_job(args)
-    report = run_job(job, inputs.target_source, args.report)
+    proven = inputs.pinned.certificate if inputs.pinned is not None else None
+    report = run_job(job, inputs.target_source, args.report, proven)
     if args.report and inputs.pinned is not None:
         report[:0] = pin_report(inputs.pinned)
     if report:

@@ -280,7 +280,7 @@ def warp_job(args: argparse.Namespace) -> tuple[WarpJob, WarpInputs]:
     return job, inputs
 
 
-def run_job(job: WarpJob, target_source: str | None = None, report: bool = False) -> list[str]:
+def run_job(job: WarpJob, target_source: str | None = None, report: bool = False, proven=None) -> list[str]:
     """Draw every frame of `job` into its output.
 
     Parameters
@@ -291,6 +291,9 @@ def run_job(job: WarpJob, target_source: str | None = None, report: bool = False
         (``animate``).
     report : bool
         With `target_source`: also measure ``--report``'s worst Jacobians and the certificate.
+    proven : core.InjectivityCertificate, optional
+        What is proven already of the plain map to the job's target (the pins' solve's certificate):
+        ``--report`` says it instead of proving the map again.
 
     Returns
     -------
@@ -319,7 +322,7 @@ def run_job(job: WarpJob, target_source: str | None = None, report: bool = False
         started = time.perf_counter()
         deformation = _prepare(job, run)
         if target_source is not None:
-            lines = examined(job, deformation, target_source, report)
+            lines = examined(job, deformation, target_source, report, proven)
         require_render_memory(job.image_size, job.size, context=False)
         with WarpRenderer(ctx) as renderer, interrupted_by_sigterm():
             with reported_as_input(str(job.image_path)):

@@ -8,13 +8,14 @@ import numpy as np
 from app.console import ProgressBar, note
 from app.io.files import reported_as_input
 from app.warp.pipeline import Deformation
-from core import COMPILED_KERNELS
+from core import COMPILED_KERNELS, DEFAULT_KERNEL
 from core import GRADIENT_COMPILE_MESSAGE as GRADIENT_COMPILING
 
 
-def examined(job, deformation: Deformation, target_source: str, report: bool) -> list[str]:
+def examined(job, deformation: Deformation, target_source: str, report: bool, proven=None) -> list[str]:
     """Examine the deformation of a ``warp`` job (`app.warp.job.WarpJob`) to its target before it is
-    drawn: the fold warning (a note), and with `report` the lines of ``--report`` (returned)."""
+    drawn: the fold warning (a note), and with `report` the lines of ``--report`` (returned); the
+    certificate is `proven` (what the pins' solve proved of the plain map) where given."""
     target = job.targets[0]
     with reported_as_input(f"{job.source}: fold-free"):  # a fold-free path may cross itself
         deformed = deformation.positions(target)
@@ -31,7 +32,8 @@ def examined(job, deformation: Deformation, target_source: str, report: bool) ->
                 settings.params,
                 settings.fold_free,
             )
-        certificate = deformation.certificate(target)
+        plain = not deformation.fold_free and deformation.kernel == DEFAULT_KERNEL
+        certificate = proven if proven is not None and plain else deformation.certificate(target)
         lines.append(f"certificate: {'n/a (not a harmonic map)' if certificate is None else certificate}")
     warn_of_folds(deformation, deformed, target, target_source)
     return lines

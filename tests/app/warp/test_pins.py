@@ -52,6 +52,9 @@ def test_four_pins_within_a_bound_report_each_pin_and_the_proven_bound(files, ca
         re.search(r"asked sigma1/sigma2 <= 1\.5; proven sigma1/sigma2 <= (\S+) and det J > 0", out)[1]
     )
     assert 1.0 <= proven <= 1.5 + 1e-5
+    # One truth: the report's certificate is the pins' solve's, whose k gives that bound.
+    k = float(re.search(r"certificate: fold-free, proven \(σ₂ ≥ \S+, k ≤ ([\d.]+);", out)[1])
+    assert (1 + k) / (1 - k) == pytest.approx(proven, rel=5e-3)
 
 
 def test_a_sessions_pins_make_its_target(files, capfd):
