@@ -389,7 +389,10 @@ def _bench_command(commands, run) -> None:
     bench.add_argument(
         "--skip-launch",
         action="store_true",
-        help="no viewer launch to a warpable picture (the demo, a 24 megapixel photograph; Xvfb)",
+        help=(
+            "no launch rows: a warp's start-up; the viewer's to a warpable picture (the demo, a 24 "
+            "megapixel photograph; Xvfb)"
+        ),
     )
     bench.add_argument(
         "--skip-export",
