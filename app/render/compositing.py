@@ -142,10 +142,12 @@ def warp_over(base: np.ndarray, drawn: np.ndarray) -> np.ndarray:
     return base
 
 
-def warp_laid(base: np.ndarray, drawn: np.ndarray, coverage: np.ndarray) -> np.ndarray:
-    """A translucent picture's warp laid on `base`, in place, which is returned: premultiplied,
-    drawn + (1 - coverage) base, rounded once; untouched where `coverage` is 0, `drawn` alone
-    (made straight) where it is whole, the colour of `base` where the result is transparent.
+def warp_laid(base: np.ndarray, drawn: np.ndarray, coverage: np.ndarray, clear: np.ndarray) -> np.ndarray:
+    """A translucent picture's warp laid on `base` (the picture over `clear`), in place, which is
+    returned: premultiplied, drawn + (1 - coverage) base + (coverage - drawn's alpha) clear, the
+    warp laid on the picture and both over `clear`, rounded once; untouched where `coverage` is 0,
+    `drawn` alone (made straight) where it is whole and `clear` transparent, the colour of `base`
+    where the result is transparent.
 
     Parameters
     ----------
@@ -155,6 +157,8 @@ def warp_laid(base: np.ndarray, drawn: np.ndarray, coverage: np.ndarray) -> np.n
         The warp, premultiplied alpha, as GL reads it back.
     coverage : ndarray of shape (h, w), the type of `drawn`
         How much of each pixel the warp covers (``image.frag.glsl``'s ``u_coverage``).
+    clear : ndarray of shape (4,), the type of `base`
+        The straight colour under the picture (`clear_pixel`).
     """
     full = 1.0 if drawn.dtype == np.float32 else np.iinfo(drawn.dtype).max
     touched = coverage > 0
@@ -164,8 +168,10 @@ def warp_laid(base: np.ndarray, drawn: np.ndarray, coverage: np.ndarray) -> np.n
     over = drawn[touched].astype(np.float64) / full
     kept = 1 - np.minimum(coverage[touched].astype(np.float64) / full, 1.0)[:, None]
     under = base[touched].astype(np.float64) / maximum
-    alpha = over[:, 3:] + kept * under[:, 3:]
-    colour = over[:, :3] + kept * under[:, :3] * under[:, 3:]
+    behind = clear.astype(np.float64) / maximum
+    shows = np.maximum(1 - kept - over[:, 3:], 0) * behind[3]  # where the warp covers, its gaps
+    alpha = over[:, 3:] + kept * under[:, 3:] + shows
+    colour = over[:, :3] + kept * under[:, :3] * under[:, 3:] + shows * behind[:3]
     # A pixel left wholly transparent keeps the colour under it (unseen, but a straight picture's
     # own: an identity warp gives back even the colour of its transparent pixels).
     colour = np.divide(colour, alpha, out=under[:, :3].copy(), where=alpha > 0)

@@ -621,7 +621,7 @@ class WarpRenderer:
                     if translucent:
                         drawn = drawn.copy()  # the coverage's drawing reuses its array
                         coverage = drawing.tile(left, row, (0.0, 0.0, 0.0, 0.0), coverage=True)
-                        warp_laid(part, drawn, coverage[: len(part), : part.shape[1], 3])
+                        warp_laid(part, drawn, coverage[: len(part), : part.shape[1], 3], clear)
                     else:
                         warp_over(part, drawn)
             yield top, strip

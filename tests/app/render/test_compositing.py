@@ -106,6 +106,12 @@ def test_a_background_shows_under_transparent_pixels_and_leaves_opaque_ones(tmp_
     assert (back[away][:, 3] == 255).all()  # blended over an opaque white
     clear = away & (image[..., 3] == 0)
     assert (back[clear] == 255).all()
+    # An identity warp: the picture over white inside the cage too, the warp's gaps white.
+    back = warp(tmp_path, image, "out.png", CAGE, "--background", "white").astype(int)
+    alpha = image[..., 3:].astype(float) / 255
+    over_white = np.round(image[..., :3] * alpha + 255 * (1 - alpha))
+    assert (back[..., 3] == 255).all()
+    assert np.abs(back[..., :3] - over_white).max() <= 1
 
 
 def test_warp_over_keeps_the_base_where_nothing_is_drawn_and_blends_where_it_partly_covers():
@@ -126,7 +132,7 @@ def test_warp_laid_replaces_where_it_covers_blends_by_coverage_and_keeps_the_res
     drawn[0, 1] = (16384, 8192, 0, 16384)  # premultiplied: straight (1, 0.5, 0) at alpha 1/4 ...
     coverage = np.array([[0, 32768, 65535, 65535]], np.uint16)  # ... over half the pixel
     drawn[0, 3] = (0, 0, 0, 0)  # the warp covers the pixel with a transparent part of the picture
-    result = warp_laid(base.copy(), drawn, coverage).astype(float)
+    result = warp_laid(base.copy(), drawn, coverage, np.zeros(4, np.uint8)).astype(float)
     np.testing.assert_array_equal(result[0, 0], base[0, 0])
     half = 32767 / 65535  # the part of the picture under the warp that shows
     alpha = 16384 / 65535 + half
