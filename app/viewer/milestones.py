@@ -8,7 +8,7 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass, field
 
-from app.viewer.state import AppState
+from app.viewer.state import TARGET_DRAGS, AppState
 
 #: The panel's sections (`app.viewer.gui`), whose headings' centres are announced.
 SECTIONS = ("Edit", "Kernel", "Show", "Animation", "File")
@@ -103,7 +103,7 @@ class Milestones:
         if not self.test_mode:
             return
         drag = state.selection.drag
-        dragging = drag is not None and drag.kind == "target"
+        dragging = drag is not None and drag.kind in TARGET_DRAGS
         if dragging and self.drag_first_frame is None:
             self.drag_first_frame = len(state.status.frame_ms)
         elif not dragging and self.drag_first_frame is not None:
@@ -151,7 +151,7 @@ class Milestones:
     def frame_done(self, state: AppState, window_id: int) -> None:
         """The frame's time is in `state.status.frame_ms`; after the first, ``ready`` and the spots."""
         drag = state.selection.drag
-        if drag is not None and drag.kind in ("target", "source"):
+        if drag is not None and drag.kind in (*TARGET_DRAGS, "source"):
             self.drag_frame_ms.append(state.status.frame_ms[-1])
         self._fold_free_frame(state)
         self._update_figures(state)
