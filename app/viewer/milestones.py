@@ -180,6 +180,8 @@ class Milestones:
             *SECTIONS,
             "files",
             "save target",
+            "K rigid",
+            "K free",
         ):  # the headings move as sections open and the progress bar goes
             spot = self.spots.get(name)
             if spot is not None and spot != self.shown.get(name):

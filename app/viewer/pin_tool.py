@@ -116,7 +116,15 @@ def proven_words(result) -> str:
 def added(state: AppState, x: float, y: float) -> Edit:
     """The picture pinned at window position (x, y): the edit (the target does not move), or None
     and one line saying why not."""
+    from core import PIN_KERNELS
+
     live = state.document.live
+    if live.kernel not in PIN_KERNELS:
+        kernels = " or ".join(PIN_KERNELS)
+        state.say(
+            f"pins need the {kernels} kernel, not {live.kernel}: choose one in the Kernel section", error=True
+        )
+        return None
     click = editing.to_image(state.display.viewport, (x, y))
     at = source_point(state, click)
     if at is None:
@@ -239,12 +247,13 @@ def held(snapshot: Snapshot, moved) -> Snapshot:
 
 
 def overlay(state: AppState) -> tuple[np.ndarray, np.ndarray]:
-    """The pins' marks: segments (S, 2, 7) from each ``at`` to its ``to`` and handles (2 m, 7), a
+    """The pins' marks: segments (S, 2, 7) from each moved pin's ``at`` to its ``to`` and handles (2 m, 7), a
     small faint one at ``at``, a larger one at ``to`` (the selected pin's yellow): rows of
     `app.viewer.scene.overlay_arrays`."""
     at, to = pin_points(state.document.live)
-    segments = np.zeros((len(at), 2, 7))
-    segments[:, 0, :2], segments[:, 1, :2] = at, to
+    moved = np.any(at != to, axis=1)  # a line of no length would be drawn as a blot
+    segments = np.zeros((int(moved.sum()), 2, 7))
+    segments[:, 0, :2], segments[:, 1, :2] = at[moved], to[moved]
     segments[:, :, 2:5] = PIN_COLOUR
     segments[:, :, 5] = 0.7
     segments[:, :, 6] = 1.5

@@ -59,11 +59,18 @@ def test_a_click_pins_the_picture_there_as_one_undo_step_and_moves_nothing(state
     assert state.document.live.pins.points == ()
 
 
-def test_a_click_outside_the_cage_says_so_and_records_nothing(state):
+def test_a_click_outside_the_cage_or_with_another_kernel_says_so_and_records_nothing(state):
     controller.pointer(state, "press", 600.0, 20.0)
     assert state.document.live.pins.points == () and not state.document.history.can_undo
     assert state.status.message == "cannot pin there: pin 0 at (600, 20) is outside the cage"
     assert state.status.message_is_error
+    commands.command(state, "kernel", "mean-value")
+    controller.pointer(state, "press", 320.0, 240.0)
+    assert state.document.live.pins.points == ()
+    assert (
+        state.status.message
+        == "pins need the poisson or cauchy-green kernel, not mean-value: choose one in the Kernel section"
+    )
 
 
 def test_dragging_the_only_pin_translates_the_picture_and_the_release_says_what_is_proven(state):
@@ -216,3 +223,15 @@ def test_undo_says_what_a_pin_step_changed(state):
     assert change_words(Snapshot(Path("ellipse.png"), CAGE, CAGE), first) == "pins 0 → 1"
     assert change_words(first, moved) == "moved 1 pin; moved 16 target points"
     assert change_words(moved, moved.replace(pins=moved.pins.replace(bound=2.0))) == "K → 2"
+
+
+def test_with_keyframes_a_pin_move_keys_the_target_it_produces(state):
+    controller.pointer(state, "press", 320.0, 240.0)
+    controller.pointer(state, "release", 320.0, 240.0)
+    commands.command(state, "add_keyframe")  # a keyframe at 0 s: auto-key from now on
+    state.playback.time = 1.0
+    drag_pin(state, (320.0, 240.0), (335.0, 240.0))
+    live = state.document.history.current
+    assert [key.time for key in live.keyframes] == [0.0, 1.0]
+    np.testing.assert_allclose(live.keyframes[1].target, CAGE + [15.0, 0.0], atol=1e-9)
+    np.testing.assert_array_equal(live.keyframes[1].target, live.target)

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import json
 import os
+import time
 
 import numpy as np
 import pytest
@@ -39,6 +40,12 @@ def similarity_residual(source: np.ndarray, target: np.ndarray) -> float:
     design = np.column_stack([z, np.ones_like(z)])
     coefficients = np.linalg.lstsq(design, w, rcond=None)[0]
     return float(np.abs(design @ coefficients - w).max()), coefficients
+
+
+def viewer_spot(viewer: ViewerProcess, name: str) -> list[str]:
+    """The window point (x, y) of the widget `name`, from the last ``spot NAME=X,Y`` line said."""
+    said = [line for line in viewer.lines if line.startswith(f"spot {name}=")]
+    return said[-1].split("=")[1].split(",")
 
 
 def pins_of(value: dict) -> list:
@@ -105,8 +112,25 @@ def test_pins_added_dragged_undone_and_removed_in_the_window(display, tmp_path):
         _, target, saved = wait_for_session(session, lambda c, t, v: np.array_equal(t, c))
         assert pins_of(saved) == [(BODY.tolist(), BODY.tolist()), (ARM.tolist(), ARM.tolist())]
 
+        # The K slider: a click halfway between rigid and free asks K = 2 of the pins at their places.
+        rigid = [float(v) for v in viewer_spot(viewer, "K rigid")]
+        free = [float(v) for v in viewer_spot(viewer, "K free")]
+        middle = 0.5 * (np.array(rigid) + free)
+        xdotool(
+            display, "mousemove", "--window", window, f"{middle[0]:.0f}", f"{middle[1]:.0f}", "click", "1"
+        )
+        said = viewer.wait_for("status said pins: K = ", 30)
+        bound = float(said.split("K = ")[1].split(";")[0])
+        assert 1.8 <= bound <= 2.2, said
+        assert f"(bound {bound:g}), fold-free" in said, said
+        _, target, saved = wait_for_session(session, lambda c, t, v: v.get("max_distortion") == bound)
+        np.testing.assert_allclose(target, cage, atol=1e-6)  # pins at their places: nothing to move
+
         x, y = window_pixel(view, ARM)
-        xdotool(display, "mousemove", "--window", window, f"{x:.0f}", f"{y:.0f}", "click", "3")
+        # Off the panel, a frame drawn first: imgui lets the canvas have the mouse from then on.
+        xdotool(display, "mousemove", "--window", window, f"{x:.0f}", f"{y:.0f}")
+        time.sleep(0.3)
+        xdotool(display, "click", "3")
         said = viewer.wait_for("status said removed pin 1", 30)
         assert said.startswith("status said removed pin 1; pins: K ≤ 1 proven"), said
         _, target, saved = wait_for_session(session, lambda c, t, v: len(v.get("pins", [])) == 1)
