@@ -29,7 +29,7 @@ from app.io.files import InputError, read_image
 from app.render.viewport import View
 from app.viewer import autokey, drawing, editing, pin_tool
 from app.viewer.frame_grid import half_frame, on_grid
-from app.viewer.state import AppState, Drag, Snapshot
+from app.viewer.state import AppState, Drag, Pins, Snapshot
 from app.warp.keyframes import Keyframe, interpolate
 
 LEFT, RIGHT, MIDDLE = 0, 1, 2
@@ -241,7 +241,7 @@ def fit(state: AppState, rect=None, points: int | None = None) -> None:
     live = state.document.live
     points = points or (live.n if live.n >= 8 else 16)
     cage, note = fit_or_ellipse(state.document.image, points, rect)
-    commit(state, live.replace(cage=cage, target=cage, keyframes=()), note + dropped(live))
+    commit(state, live.replace(cage=cage, target=cage, keyframes=(), pins=Pins()), note + dropped(live))
 
 
 def band_corners(state: AppState) -> tuple[np.ndarray, np.ndarray] | None:
@@ -424,9 +424,12 @@ def map_keyframes(snapshot: Snapshot, change) -> tuple[Keyframe, ...]:
 
 
 def dropped(snapshot: Snapshot) -> str:
-    """What a new cage does to the keyframes of `snapshot`, for the status line."""
-    count = len(snapshot.keyframes)
-    return f"; its {count} keyframe{'s' * (count != 1)} cleared (Ctrl+Z brings them back)" if count else ""
+    """What a new cage does to the keyframes and the pins of `snapshot`, for the status line."""
+    count, pins = len(snapshot.keyframes), len(snapshot.pins.points)
+    gone = [f"{count} keyframe{'s' * (count != 1)}"] * bool(count) + [
+        f"{pins} pin{'s' * (pins != 1)}"
+    ] * bool(pins)
+    return f"; its {' and '.join(gone)} cleared (Ctrl+Z brings them back)" if gone else ""
 
 
 def show_time(state: AppState) -> None:

@@ -420,7 +420,7 @@ def start_snapshot(current: Snapshot, image: np.ndarray, cage: Path | None) -> t
         points = read_cage(cage)
         cage_curve(points, str(cage))
         note = f"the cage of {cage.name}"
-    return current.replace(cage=points, target=points, keyframes=()), note
+    return current.replace(cage=points, target=points, keyframes=(), pins=model.Pins()), note
 
 
 def begin_with(document: OpenedDocument, snapshot: Snapshot, message: str) -> None:

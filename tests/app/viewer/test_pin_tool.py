@@ -235,3 +235,14 @@ def test_with_keyframes_a_pin_move_keys_the_target_it_produces(state):
     assert [key.time for key in live.keyframes] == [0.0, 1.0]
     np.testing.assert_allclose(live.keyframes[1].target, CAGE + [15.0, 0.0], atol=1e-9)
     np.testing.assert_array_equal(live.keyframes[1].target, live.target)
+
+
+def test_a_new_cage_clears_the_pins_one_undo_away(state):
+    controller.pointer(state, "press", 320.0, 240.0)
+    controller.pointer(state, "release", 320.0, 240.0)
+    pinned = state.document.live
+    controller.fit(state)
+    assert state.document.live.pins.points == ()
+    assert state.status_message().endswith("; its 1 pin cleared (Ctrl+Z brings them back)")
+    commands.command(state, "undo")
+    assert state.document.live == pinned
