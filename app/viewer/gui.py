@@ -214,7 +214,8 @@ def _pin_bound(state: AppState, live, commands: list, spots: dict) -> None:
         )
     imgui.same_line()
     imgui.text("free")
-    imgui.text_disabled(f"{len(live.pins.points)} pins, {len(live.pins.fixed)} points fixed")
+    pins, fixed = len(live.pins.points), len(live.pins.fixed)
+    imgui.text_disabled(f"{pins} pin{'s' * (pins != 1)}, {fixed} point{'s' * (fixed != 1)} held by hand")
 
 
 def _edit_section(state: AppState, live, commands: list, spots: dict) -> None:
@@ -688,7 +689,9 @@ def _help(state: AppState, shortcuts: list[tuple[str, str]], width: float, heigh
         imgui.text_wrapped(
             "Transfinite barycentric image deformation (Chang & Hormann). The green curve is the "
             "source cage around the image, the blue one the target: drag blue handles to deform. "
-            "In cage mode, drag green handles, click to add a point, right-click a point to delete it."
+            "In cage mode, drag green handles, click to add a point, right-click a point to delete it. "
+            "In pins mode (T), click to pin the picture, drag a pin and it follows; the K slider bounds "
+            "its distortion, from rigid to free."
         )
         imgui.separator()
         if imgui.begin_table("shortcuts", 2, imgui.TableFlags_.row_bg | imgui.TableFlags_.borders_inner_v):
