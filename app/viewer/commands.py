@@ -241,9 +241,7 @@ def _delete(state: AppState, value) -> None:
     delete(state, value)
 
 
-@_command(
-    "max_distortion", "the pins' bound K on sigma1/sigma2 (None: free)", undoable=True, while_drawing=False
-)
+@_edit("max_distortion", "the pins' bound K on sigma1/sigma2 (None: free)")
 def _max_distortion(state: AppState, value) -> None:
     commit_pins(state, pin_tool.bounded(state, value))
 
