@@ -127,6 +127,10 @@ def added(state: AppState, x: float, y: float) -> Edit:
         return None
     click = editing.to_image(state.display.viewport, (x, y))
     at = source_point(state, click)
+    basis = state.compute.basis
+    if at is None and (basis is None or not np.array_equal(basis.cage, live.cage)):
+        state.say("cannot pin yet: the warp of this cage is being computed; click again once it is drawn")
+        return None
     if at is None:
         state.say("cannot pin there: click inside the cage's picture", error=True)
         return None

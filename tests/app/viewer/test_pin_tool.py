@@ -206,6 +206,12 @@ def test_a_pin_on_a_warped_picture_holds_the_source_point_under_the_click(state)
     click = weights @ deformed[[1, 3, 2]]
     np.testing.assert_allclose(pin_tool.source_point(state, click), weights @ vertices[[1, 3, 2]], atol=1e-9)
     assert pin_tool.source_point(state, deformed.max(axis=0) + 50.0) is None
+    controller.pointer(state, "press", *(deformed.max(axis=0) + 50.0))
+    assert state.status.message == "cannot pin there: click inside the cage's picture"
+    state.compute.basis = None  # a warped picture whose basis is not drawn yet: no source point known
+    controller.pointer(state, "press", *click)
+    assert state.document.live.pins.points == ()
+    assert state.status.message.startswith("cannot pin yet: the warp of this cage is being computed")
 
 
 def test_the_k_slider_runs_from_rigid_to_free():
