@@ -425,10 +425,8 @@ def map_keyframes(snapshot: Snapshot, change) -> tuple[Keyframe, ...]:
 
 def dropped(snapshot: Snapshot) -> str:
     """What a new cage does to the keyframes and the pins of `snapshot`, for the status line."""
-    count, pins = len(snapshot.keyframes), len(snapshot.pins.points)
-    gone = [f"{count} keyframe{'s' * (count != 1)}"] * bool(count) + [
-        f"{pins} pin{'s' * (pins != 1)}"
-    ] * bool(pins)
+    counts = ((len(snapshot.keyframes), "keyframe"), (len(snapshot.pins.points), "pin"))
+    gone = [f"{count} {name}{'s' * (count != 1)}" for count, name in counts if count]
     return f"; its {' and '.join(gone)} cleared (Ctrl+Z brings them back)" if gone else ""
 
 
