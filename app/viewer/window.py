@@ -378,7 +378,9 @@ class Viewer:
         state.status.frame_ms.append(1e3 * (time.perf_counter() - started))
         self._save_if_needed()
         window_id = glfw.get_x11_window(self.window) if sys.platform.startswith("linux") else 0
-        self.milestones.frame_done(state, window_id)
+        basis = state.compute.basis  # the scene's since _draw's sync
+        drawn = basis.key if basis is not None and self.scene.mesh_matches(state) else None
+        self.milestones.frame_done(state, window_id, drawn)
         if glfw.window_should_close(self.window):
             state.status.quit = True
 
