@@ -20,7 +20,7 @@ from core.meshes.harmonic import harmonic_basis
 from core.injectivity.certificate import InjectivityCertificate, certify_injective
 from core.injectivity.composite import fold_free_deform
 from core.pins.pin_deform import PIN_KERNELS, PinDeformation, pin_deform
-from core.injectivity.drag_step import DragMesh, DragStep, Untangling, drag_mesh, drag_step
+from core.injectivity.drag_step import DragMesh, DragStep, drag_mesh, drag_step
 from core.injectivity.mesh_bijection import MeshBijection, prove_mesh_bijection
 from core.kernel_table import BOUNDARY_INTEGRAL_KERNELS, COMPLEX_KERNELS, DEFAULT_KERNEL, MESH_ONLY_KERNELS
 from core.kernels import KERNELS, ConvergenceWarning, SolveReport, kernel
@@ -104,7 +104,6 @@ __all__ = [
     "MeshBijection",
     "PinDeformation",
     "SolveReport",
-    "Untangling",
     "abandoned_temporaries",
     "as_points",
     "basis_functions",

@@ -73,8 +73,9 @@ def fold_free_drag_row(step_failed: type[Exception], move_seconds: float = MOVE_
     print(
         f"  {int(stats['vertices']):>9,} vertices: plain {plain:.1f} ms, fold-free {fold_free:.1f} ms "
         f"({fold_free / max(plain, 1e-9):.2f}x) over {stats['fold_free_drag_frames']} frames "
-        f"({stats['fold_free_drag_frames_on_target']} on the target curve), at most "
-        f"{stats['max_folded_drawn']} turned-over triangles drawn; "
+        f"({stats['fold_free_drag_frames_on_target']} on the target curve, the others at most "
+        f"{stats['max_boundary_lag_px']} px behind it; slowest {stats['max_fold_free_drag_frame_ms']} ms), "
+        f"at most {stats['max_folded_drawn']} turned-over triangles drawn; "
         f"proven {stats['proven_after_release_ms']} ms after the release"
     )
     print()

@@ -322,13 +322,22 @@ class BarrierProblem:
         gradient += np.bincount(self.dofs[kept], gradient_x[kept], minlength=self.size)
         return gradient, hessian_x
 
+    def hessian(self, positions, epsilon) -> scipy.sparse.csc_matrix:
+        """The Hessian (2 F, 2 F) of E_ε at the positions (2 F,), each triangle's projected onto the
+        positive semi-definite matrices (`_derivatives`)."""
+        return self._assembled(self._derivatives(positions, epsilon)[1])
+
+    def _assembled(self, hessian_x) -> scipy.sparse.csc_matrix:
+        """The sparse (2 F, 2 F) sum of the triangles' Hessians in their coordinates (K, 6, 6)."""
+        return scipy.sparse.csc_matrix(
+            (hessian_x[self.kept], (self.rows, self.columns)), shape=(self.size,) * 2
+        )
+
     def newton_step(self, positions, epsilon) -> np.ndarray:
         """Positions (2 F,) after one projected Newton step on E_ε with a backtracking line search
         (Armijo); the same positions if no step descends."""
         gradient, hessian_x = self._derivatives(positions, epsilon)
-        matrix = scipy.sparse.csc_matrix(
-            (hessian_x[self.kept], (self.rows, self.columns)), shape=(self.size,) * 2
-        )
+        matrix = self._assembled(hessian_x)
         # The shape term's 2 (1 - θ) / χ I makes the matrix definite wherever the free vertices
         # connect to a fixed one; the shift only guards a region with an isolated part.
         shift = 1e-12 * matrix.diagonal().max() * scipy.sparse.identity(self.size, format="csc")
