@@ -39,8 +39,6 @@ import time
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.sparse
-import scipy.sparse.linalg
 
 from core.injectivity.mesh_bijection import MeshBijection, prove_mesh_bijection
 from core.injectivity.mesh_untangling import TINY_EPSILON, BarrierProblem, reference_shapes
@@ -220,27 +218,14 @@ def _substep(mesh: DragMesh, positions: np.ndarray, move: np.ndarray, floors: np
 
 def _tangent(mesh: DragMesh, positions: np.ndarray, move: np.ndarray, region: np.ndarray) -> np.ndarray:
     """`move` (V, 2) with its part on the region (V,) bool replaced by the barrier energy's response
-    to the rest: H_RR d_R = -H_R,rest d_rest, H the energy's Hessian at `positions` (V, 2) over the
-    triangles with a vertex in the region (source triangles as reference, ε tiny: the positions are
-    fold-free)."""
+    to the rest (`BarrierProblem.response`: H_RR d_R = -H_R,rest d_rest), H the energy's Hessian at
+    `positions` (V, 2) over the triangles with a vertex in the region (source triangles as
+    reference, ε tiny: the positions are fold-free)."""
     active = mesh.triangles[np.any(region[mesh.triangles], axis=1)]
-    touched = np.zeros(len(positions), dtype=bool)
-    touched[active.ravel()] = True
     gradients, areas = reference_shapes(mesh.vertices, positions, active, own_shapes=False)
-    problem = BarrierProblem(positions, active, touched, gradients, areas)
-    hessian = problem.hessian(positions[touched].ravel(), TINY_EPSILON).tocsr()
-    free = np.repeat(region[touched], 2)
-    rows = hessian[free]
-    block = rows[:, free].tocsc()
-    block = block + 1e-12 * block.diagonal().max() * scipy.sparse.identity(block.shape[0], format="csc")
-    right = -(rows[:, ~free] @ move[touched].ravel()[~free])
-    # Symmetric positive definite (the shape term's 2 (1 - θ) / χ I, each vertex linked to the rim):
-    # factored without pivoting, as `BarrierProblem.newton_step`.
-    response = scipy.sparse.linalg.splu(
-        block, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0, options={"SymmetricMode": True}
-    ).solve(right)
+    problem = BarrierProblem(positions, active, region, gradients, areas)
     move = move.copy()
-    move[region] = response.reshape(-1, 2)
+    move[region] = problem.response(positions[region].ravel(), TINY_EPSILON, move).reshape(-1, 2)
     return move
 
 
