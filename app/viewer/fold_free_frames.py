@@ -55,6 +55,25 @@ class MeshProof:
         return self.reached and self.turned_over == 0 and self.target == np.asarray(target).tobytes()
 
 
+@dataclass(frozen=True)
+class PreviewBasis:
+    """A dense mesh's preview mesh as `FoldFreeFrames` takes a basis (`app.viewer.state.BasisResult`):
+    fold-free frames drawn on it while a handle moves.
+
+    Attributes
+    ----------
+    key : str
+    mesh : app.viewer.state.PreviewMesh
+        Its vertices, triangles and boundary loop.
+    basis : ndarray of shape (V', n)
+        Its G.
+    """
+
+    key: str
+    mesh: object
+    basis: np.ndarray
+
+
 def plain_positions(basis: np.ndarray, target: np.ndarray) -> np.ndarray:
     """G P' (V, 2) in float64, one column of G at a time: a BLAS product leaves OpenBLAS's threads
     spinning, and on two cores they slow the software rasteriser's next frame
