@@ -21,7 +21,7 @@
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -204,6 +204,7 @@ class Preview:
     columns: Columns | None = None
     target: np.ndarray | None = None
     fold_free: bool = False  # its positions were the fold-free frames'
+    frames: FoldFreeFrames = field(default_factory=FoldFreeFrames)  # drawn on it with fold-free on
 
 
 @dataclass
@@ -283,8 +284,6 @@ class Scene:
         self._fold_check: tuple[int, bool | None] | None = None
         #: The positions drawn with "Fold-free" on (`app.viewer.fold_free_frames`).
         self.fold_free_frames = FoldFreeFrames()
-        #: Those drawn on the preview mesh while a handle of a dense mesh moves.
-        self.preview_frames = FoldFreeFrames()
 
     @property
     def layer_key(self) -> tuple | None:
@@ -384,13 +383,13 @@ class Scene:
             preview.target is not None
             and np.array_equal(preview.target, target)
             and preview.fold_free == fold_free
-            and not (fold_free and self.preview_frames.catching_up)
+            and not (fold_free and preview.frames.catching_up)
         ):
             return  # a pan or zoom: the positions are those of the last frame
         started = time.perf_counter()
         if fold_free:
             basis = self._basis
-            frames = self.preview_frames
+            frames = preview.frames
             coarse = PreviewBasis(f"{basis.key} preview", basis.preview, basis.preview.basis)
             positions = frames.positions(coarse, target, moving=True)
             state.compute.mesh_proof, state.compute.folded_count = frames.proof, frames.proof.turned_over
@@ -450,7 +449,7 @@ class Scene:
     def catching_up(self) -> bool:
         """The fold-free frames have not yet brought the boundary onto the target curve: the window
         draws again without waiting for input."""
-        frames = self.preview_frames if self.previewing else self.fold_free_frames
+        frames = self._preview.frames if self.previewing else self.fold_free_frames
         return frames.catching_up
 
     def _update_positions(self, state: AppState) -> None:
