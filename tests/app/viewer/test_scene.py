@@ -616,14 +616,14 @@ def test_with_fold_free_on_a_dense_mesh_drags_through_fold_free_preview_frames(r
     centre = cage.mean(axis=0)
     final = cage.copy()
     final[0] = cage[0] + 0.8 * (centre - cage[0])
-    assert core.prove_mesh_bijection(
-        plain_positions(preview.basis, final), preview.triangles, preview.boundary
-    ).turned_over > 0
+    folding = plain_positions(preview.basis, final)
+    assert core.prove_mesh_bijection(folding, preview.triangles, preview.boundary).turned_over > 0
     snapshot = Snapshot(Path("x.png"), cage, cage, fold_free=True)
     state = AppState(
         Document(History(snapshot), snapshot, opaque_image(), Path("s.json")), compute=Compute(basis=result)
     )
-    state.selection.edit_mode, state.display.view_mode, state.display.show_wireframe = "deform", "image", False
+    state.selection.edit_mode, state.display.view_mode = "deform", "image"
+    state.display.show_wireframe = False
     state.selection.drag = Drag("target", 0, np.zeros(2), snapshot)
     scene = Scene(renderer)
     for fraction in np.linspace(0.1, 1.0, 10):
