@@ -200,33 +200,43 @@ def drag_step(
 
 def _substep(mesh: DragMesh, positions: np.ndarray, move: np.ndarray, floors: np.ndarray):
     """One substep from fold-free `positions` (V, 2) along `move` (V, 2), its region's part replaced
-    by the barrier's tangent (`_tangent`): (new positions (V, 2), the share of the move taken: 1,
-    `SHARE` of the largest flip-free step, or 0 if that is shorter than `SHORTEST`)."""
+    by the barrier's response (`_responses`): the corrected one if it goes the whole way without a
+    triangle reaching its floor, else the predictor if that does, else the one that goes further.
+    Returns (new positions (V, 2), the share of the move taken: 1, `SHARE` of the largest
+    flip-free step, or 0 if that is shorter than `SHORTEST`)."""
     edges = _edges(positions, mesh.corners)
     c0, c1, c2 = _area_polynomial(edges, _edges(positions + move, mesh.corners))
     squeezed = (c0 + c1 + c2 <= floors) | (c0 < SQUEEZED * mesh.areas)
     region = _rings(mesh, squeezed, RINGS)
-    if region.any():
-        move = _tangent(mesh, positions, move, region)
-        c0, c1, c2 = _area_polynomial(edges, _edges(positions + move, mesh.corners))
-    coefficients = (c0 - floors, c1, c2)
-    if _first_root(*coefficients) > 1.0:
-        return positions + move, 1.0
-    share = _checked_length(coefficients, SHARE * _first_root(*coefficients))
-    return positions + share * move, share
+    moves = _responses(mesh, positions, move, region) if region.any() else (move,)
+    best, longest = move, -1.0
+    for candidate in moves[::-1]:  # the corrected one first
+        if candidate is not move:
+            c0, c1, c2 = _area_polynomial(edges, _edges(positions + candidate, mesh.corners))
+        coefficients = (c0 - floors, c1, c2)
+        root = _first_root(*coefficients)
+        if root > 1.0:
+            return positions + candidate, 1.0
+        share = _checked_length(coefficients, SHARE * root)
+        if share > longest:
+            best, longest = candidate, share
+    return positions + longest * best, longest
 
 
-def _tangent(mesh: DragMesh, positions: np.ndarray, move: np.ndarray, region: np.ndarray) -> np.ndarray:
+def _responses(mesh: DragMesh, positions: np.ndarray, move: np.ndarray, region: np.ndarray) -> tuple:
     """`move` (V, 2) with its part on the region (V,) bool replaced by the barrier energy's response
-    to the rest (`BarrierProblem.response`: H_RR d_R = -H_R,rest d_rest), H the energy's Hessian at
-    `positions` (V, 2) over the triangles with a vertex in the region (source triangles as
-    reference, ε tiny: the positions are fold-free)."""
+    to the rest (`BarrierProblem.responses`), H the energy's Hessian at `positions` (V, 2) over the
+    triangles with a vertex in the region (source triangles as reference, ε tiny: the positions are
+    fold-free): (the predictor, H_RR d_R = -H_R,rest d_rest; the corrected one, with the energy's
+    gradient on the right too), each (V, 2)."""
     active = mesh.triangles[np.any(region[mesh.triangles], axis=1)]
     gradients, areas = reference_shapes(mesh.vertices, positions, active, own_shapes=False)
     problem = BarrierProblem(positions, active, region, gradients, areas)
-    move = move.copy()
-    move[region] = problem.response(positions[region].ravel(), TINY_EPSILON, move).reshape(-1, 2)
-    return move
+    answers = []
+    for response in problem.responses(positions[region].ravel(), TINY_EPSILON, move):
+        answers.append(move.copy())
+        answers[-1][region] = response.reshape(-1, 2)
+    return tuple(answers)
 
 
 def _checked_length(coefficients: tuple, length: float) -> float:

@@ -328,22 +328,25 @@ class BarrierProblem:
             (hessian_x[self.kept], (self.rows, self.columns)), shape=(self.size,) * 2
         )
 
-    def response(self, positions, epsilon, moves) -> np.ndarray:
-        """How the movable vertices (2 F,) follow moves (V, 2) of the others, to first order:
-        H_FF d_F = -H_F,rest d_rest, with H the Hessian of E_ε at the positions (2 F,) (each
-        triangle's projected, `_derivatives`): a continuation's predictor."""
-        hessian_x = self._derivatives(positions, epsilon)[1]
+    def responses(self, positions, epsilon, moves) -> tuple[np.ndarray, np.ndarray]:
+        """How the movable vertices (2 F,) follow moves (V, 2) of the others, with H the Hessian of
+        E_ε at the positions (2 F,) (each triangle's projected, `_derivatives`), factored once:
+        to first order, H_FF d_F = -H_F,rest d_rest (a continuation's predictor), and with E_ε's
+        gradient too, H_FF d_F = -g_F - H_F,rest d_rest (a Newton step of E_ε with the others moved:
+        towards its minimiser as well, which opens up squeezed triangles)."""
+        gradient, hessian_x = self._derivatives(positions, epsilon)
         fixed = np.asarray(moves, dtype=np.float64)[self.active].reshape(-1, 6) * (self.dofs < 0)
         pushed = np.einsum("kij,kj->ki", hessian_x, fixed)
         kept = self.dofs >= 0
         right = -np.bincount(self.dofs[kept], pushed[kept], minlength=self.size)
-        return _definite_solve(self._assembled(hessian_x), right)
+        solve = _definite_factors(self._assembled(hessian_x)).solve
+        return solve(right), solve(right - gradient)
 
     def newton_step(self, positions, epsilon) -> np.ndarray:
         """Positions (2 F,) after one projected Newton step on E_ε with a backtracking line search
         (Armijo); the same positions if no step descends."""
         gradient, hessian_x = self._derivatives(positions, epsilon)
-        step = -_definite_solve(self._assembled(hessian_x), gradient)
+        step = -_definite_factors(self._assembled(hessian_x)).solve(gradient)
         slope, energy, length = float(gradient @ step), self.energy(positions, epsilon), 1.0
         while slope < 0.0 and length > 1e-12:
             trial = positions + length * step
@@ -353,8 +356,8 @@ class BarrierProblem:
         return positions
 
 
-def _definite_solve(matrix: scipy.sparse.csc_matrix, right: np.ndarray) -> np.ndarray:
-    """matrix⁻¹ right for a barrier Hessian (N, N) and right-hand side (N,).  The shape term's
+def _definite_factors(matrix: scipy.sparse.csc_matrix):
+    """The factors (`scipy.sparse.linalg.SuperLU`) of a barrier Hessian (N, N).  The shape term's
     2 (1 - θ) / χ I makes the matrix definite wherever the free vertices connect to a fixed one; the
     shift only guards a region with an isolated part.  Symmetric positive definite: factored without
     pivoting (SuperLU's symmetric mode), ~2x faster than a pivoting LU."""
@@ -362,7 +365,7 @@ def _definite_solve(matrix: scipy.sparse.csc_matrix, right: np.ndarray) -> np.nd
     return scipy.sparse.linalg.splu(
         (matrix + shift).tocsc(), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
         options={"SymmetricMode": True},
-    ).solve(right)  # fmt: skip
+    )  # fmt: skip
 
 
 #: The Hessian of det J in vec(J) = (J00, J01, J10, J11).
