@@ -27,6 +27,8 @@ from support.viewer_harness import (
     xdotool,
 )
 
+from app.bench.fold_free_drag import drag_moves
+
 pytestmark = pytest.mark.slow
 
 
@@ -102,12 +104,13 @@ def test_fold_free_on_a_strong_drag_is_proven_and_draws_no_folded_triangle(displ
 #: boundary on the target curve and the farthest a boundary vertex was drawn from it (px): in the
 #: bench's eight runs at load 9-17, 276 of 290 frames, the worst run 15 of 20 and 2.3 px (every frame
 #: given the time: tests/app/viewer/test_fold_free_frames.py); the time from the release to "proven"
-#: on the status line (the issue asks 1 s; 0.03-0.15 s in those runs).
+#: on the status line (the issue's 1 s; 0.03-0.3 s in those runs, 0.6-2.4 s before the last frame
+#: was drawn on the curve).
 RATIO_LIMIT = 3.0
 FRAME_LIMIT_MS = 60.0
 ON_TARGET_SHARE = 0.75
 LAG_LIMIT_PX = 3.0
-PROOF_LIMIT_MS = 3000.0
+PROOF_LIMIT_MS = 1000.0
 
 
 def test_a_hard_drag_with_fold_free_on_draws_no_turned_over_triangle_and_is_proven_after_release(
@@ -115,9 +118,10 @@ def test_a_hard_drag_with_fold_free_on_draws_no_turned_over_triangle_and_is_prov
 ):
     """The demo in a 1366x768 window, `STRONG` replayed through the mouse's input path (its plain map
     turns 249 of the default mesh's triangles over) out and back with fold-free off, then out again
-    with it on: --stats counts the fold-free frames drawn during the drag, the most turned-over
-    triangles one drew (0), those on the target curve, their median time against the plain drag's,
-    and the time from the release to the status line's proof."""
+    with it on (`app.bench.fold_free_drag.drag_moves`, as the bench's row): --stats counts the
+    fold-free frames drawn during the drag, the most turned-over triangles one drew (0), those on
+    the target curve, their median time against the plain drag's, and the time from the release to
+    the status line's proof."""
     env = {
         **os.environ,
         "DISPLAY": display,
@@ -136,12 +140,7 @@ def test_a_hard_drag_with_fold_free_on_draws_no_turned_over_triangle_and_is_prov
     session.write_text(json.dumps(value))
     index, shift = STRONG
     script = tmp_path / "drag.json"
-    out, back = (cage[index] + shift).tolist(), cage[index].tolist()
-    moves = [
-        {"at": 2.0 * step, "duration": 2.0, "point": index, "to": to, "fold_free": fold_free}
-        for step, (to, fold_free) in enumerate(((out, False), (back, False), (out, True)))
-    ]
-    script.write_text(json.dumps({"moves": moves}))
+    script.write_text(json.dumps({"moves": drag_moves(index, cage[index], cage[index] + shift, 2.0)}))
     arguments = ["demo", "starfish", "--session", str(session), "--script", str(script), "--stats"]
     viewer = ViewerProcess(arguments, env, ROOT, window_size=(1366, 768))
     try:
