@@ -38,8 +38,6 @@ import numpy as np
 import core
 from app.bench.launch import launch_rows
 from app.bench.photos import (
-    ANIMATION_SECONDS,
-    ANIMATION_SIZE,
     PHOTO_SIZES,
     QUICK_SIZE,
     animation_row,
@@ -125,9 +123,7 @@ def run_bench(args: argparse.Namespace) -> int:
     if not args.skip_photos:
         children.append(lambda: photo_rows((QUICK_SIZE,) if args.quick else PHOTO_SIZES, run_child))
         children.append(
-            lambda: animation_row(
-                run_child, *((QUICK_SIZE, 0.25) if args.quick else (ANIMATION_SIZE, ANIMATION_SECONDS))
-            )
+            lambda: animation_row(run_child, QUICK_SIZE, 0.25, 1) if args.quick else animation_row(run_child)
         )
     if not args.skip_drag:
         from app.bench import fold_free_drag
