@@ -42,6 +42,9 @@ PALETTE_FRAMES = 8
 #: over 8 frames of 1600x1200 took 3.9 s, over a 1-megapixel sample 0.08 s, and mapped a frame with
 #: the same error (36.7 dB against 36.6 dB).
 PALETTE_PIXELS = 1 << 20
+#: The GIF palette's index of the pixels a frame leaves as the previous one showed them (transparent);
+#: the palette holds the 255 others.
+UNCHANGED = 255
 #: Most bytes of frames (RGB) a GIF is written with: beyond, an MP4 or PNG frames are the output to
 #: write (`check_frames`).
 MAX_GIF_BYTES = 4 << 30
@@ -101,18 +104,19 @@ def flatten(rgba: np.ndarray) -> np.ndarray:
     """RGB uint8 (H, W, 3) of straight-alpha RGBA (H, W, 4), uint8 or uint16 (rounded to 8 bits: video
     and GIF have no more), composited over `BACKGROUND` and rounded to the nearest level.
 
-    Only the pixels that are not opaque are blended: an opaque frame (``--outside original`` over an
-    opaque picture) is a copy of its colour channels."""
+    Only the pixels neither opaque nor clear are blended: an opaque frame (``--outside original`` over
+    an opaque picture) is a copy of its colour channels, a clear pixel the background."""
     import cv2
 
     rgba = eight_bit(rgba)
     rgb = cv2.cvtColor(rgba, cv2.COLOR_RGBA2RGB)
-    partial = rgba[..., 3] != 255
-    if partial.any():
-        alpha = rgba[..., 3][partial].astype(np.uint32)[:, None]
-        colour = rgba[..., :3][partial].astype(np.uint32)
-        blended = colour * alpha + np.asarray(BACKGROUND, np.uint32) * (255 - alpha)
-        rgb[partial] = (blended + 127) // 255
+    alpha, pixels = rgba[..., 3].reshape(-1), rgb.reshape(-1, 3)
+    pixels[alpha == 0] = BACKGROUND
+    partial = np.flatnonzero((alpha != 0) & (alpha != 255))
+    if len(partial):
+        weight = alpha[partial].astype(np.uint32)[:, None]
+        colour = rgba.reshape(-1, 4)[partial, :3].astype(np.uint32)
+        pixels[partial] = (colour * weight + np.asarray(BACKGROUND, np.uint32) * (255 - weight) + 127) // 255
     return rgb
 
 
@@ -239,10 +243,10 @@ class GifWriter(FrameWriter):
     (H x W bytes) and its encoding until the next shows whether it lasts longer.
 
     The palette is the median cut of a sample of `PALETTE_PIXELS` pixels of the `lookahead` frames
-    (or of the first frame, if none were previewed); each frame is mapped to it without dithering
-    (Pillow), so that still parts keep their indices, and only the box that differs from the previous
-    frame is encoded (LZW, Pillow's `GifImagePlugin.getdata`); a frame equal to the previous one
-    lengthens its delay.
+    (or of the first frame, if none were previewed), 255 colours; each frame is mapped to it without
+    dithering (Pillow), so that still parts keep their indices, and only the box that differs from
+    the previous frame is encoded (LZW, Pillow's `GifImagePlugin.getdata`), its unchanged pixels
+    transparent (`UNCHANGED`); a frame equal to the previous one lengthens its delay.
     """
 
     def __init__(self, path: Path, size: tuple[int, int], fps: float, metadata: ImageMetadata | None = None):
@@ -253,7 +257,8 @@ class GifWriter(FrameWriter):
         self._samples: list[np.ndarray] = []  # (N, 3) uint8: pixels of the previewed frames
         self._stride = 1
         self._previous: np.ndarray | None = None  # (H, W) uint8 indices of the last frame
-        self._pending: tuple | None = None  # (image, offset, milliseconds) of the last, not yet written
+        # (image, offset, milliseconds, GIF options) of the last frame, not yet written.
+        self._pending: tuple | None = None
 
     def lookahead(self, count: int) -> list[int]:
         picks = np.linspace(0, count - 1, min(PALETTE_FRAMES, count)).round().astype(int)
@@ -275,7 +280,7 @@ class GifWriter(FrameWriter):
 
         sample = np.concatenate(self._samples).reshape(-1, 1, 3)
         self._samples = []
-        self._palette = Image.fromarray(sample).quantize(256, method=Image.Quantize.MEDIANCUT)
+        self._palette = Image.fromarray(sample).quantize(UNCHANGED, method=Image.Quantize.MEDIANCUT)
 
     def add(self, rgba: np.ndarray) -> None:
         from PIL import GifImagePlugin, Image
@@ -291,25 +296,32 @@ class GifWriter(FrameWriter):
         self.count += 1
         if self._previous is None:
             self._stream.write(b"".join(GifImagePlugin.getheader(indexed, info={"loop": 0})[0]))
-            box = (0, 0, indices.shape[1], indices.shape[0])
-        else:
-            changed = indices != self._previous
-            rows, columns = np.flatnonzero(changed.any(axis=1)), np.flatnonzero(changed.any(axis=0))
-            if not len(rows):
-                image, offset, milliseconds = self._pending
-                self._pending = (image, offset, milliseconds + delay)
-                return
-            box = (int(columns[0]), int(rows[0]), int(columns[-1]) + 1, int(rows[-1]) + 1)
+            self._previous = indices
+            self._pending = (indexed, (0, 0), delay, {})
+            return
+        changed = indices != self._previous
+        rows, columns = np.flatnonzero(changed.any(axis=1)), np.flatnonzero(changed.any(axis=0))
+        if not len(rows):
+            image, offset, milliseconds, options = self._pending
+            self._pending = (image, offset, milliseconds + delay, options)
+            return
+        top, bottom, left, right = rows[0], rows[-1] + 1, columns[0], columns[-1] + 1
+        # In the box, what did not change is transparent: the previous frame shows through, and
+        # the runs of one index compress well.
+        box = np.where(changed[top:bottom, left:right], indices[top:bottom, left:right], UNCHANGED)
+        image = Image.fromarray(box.astype(np.uint8))
+        image.putpalette(self._palette.getpalette())
         self._write_pending()
         self._previous = indices
-        self._pending = (indexed.crop(box), box[:2], delay)
+        self._pending = (image, (int(left), int(top)), delay, {"transparency": UNCHANGED})
 
     def _write_pending(self) -> None:
         from PIL import GifImagePlugin
 
         if self._pending is not None:
-            image, offset, milliseconds = self._pending
-            self._stream.write(b"".join(GifImagePlugin.getdata(image, offset, duration=milliseconds)))
+            image, offset, milliseconds, options = self._pending
+            chunks = GifImagePlugin.getdata(image, offset, duration=milliseconds, **options)
+            self._stream.write(b"".join(chunks))
             self._pending = None
 
     def finish(self) -> None:

@@ -8,9 +8,9 @@ A warp is two steps, as in the paper's Sec. 4.3:
 2. `Deformation.positions` and `render`: the deformed vertices f(v) = sum_i G_i(v) P_i
    for a target (V, n) @ (n, 2), then the source image drawn on the deformed mesh.
 
-Every command that writes warped pixels goes through `render`, so `warp`, each frame
-of `animate` and the viewer's export of the same target are the same pixels; `quality`
-measures `Deformation.positions` of the same `prepare`.
+Every warped picture is drawn and written by one function, `write_frames` (over `render`):
+`warp`'s still, `animate`'s frames and the viewer's still and animation exports, so that the
+same target gives the same file; `quality` measures `Deformation.positions` of the same `prepare`.
 """
 
 from __future__ import annotations
