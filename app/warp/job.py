@@ -7,8 +7,8 @@ frames (one for ``warp``, the keyframes' interpolation for ``animate``), the fra
 image-to-output `View`, what shows outside) and the output with the kind of writer its name asks
 for (`app.warp.frame_writers.WRITERS`).  `warp_job` builds one from ``warp``'s arguments,
 `app.warp.animation.animation_job` from ``animate``'s; `run_job` draws it: the GL context first, then
-the mesh and the basis functions (`app.warp.pipeline.prepare`, once), then one render per target into
-the writer.  Every check that can fail on bad input runs while the job is built, before the slow
+the mesh and the basis functions (`app.warp.pipeline.prepare`, once), then
+`app.warp.pipeline.write_frames`: one render per target into the file or the writer.  Every check that can fail on bad input runs while the job is built, before the slow
 part.
 """
 
@@ -128,7 +128,7 @@ class WarpJob:
         and EXIF (also in an animation's PNG frames); None for no metadata.
     kind : str
         The writer: a key of `app.warp.frame_writers.WRITERS`, or ``"image"`` for one file
-        (``warp``'s, written by `app.warp.pipeline.render_to_file`).
+        (``warp``'s); both written by `app.warp.pipeline.write_frames`.
     fps : float
         Frames per second of an animation (0 for one image).
     """
