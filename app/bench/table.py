@@ -121,7 +121,11 @@ def run_bench(args: argparse.Namespace) -> int:
     if not args.skip_warp:
         children.append(lambda: _warp_4k((640, 360) if args.quick else (3840, 2160)))
     if not args.skip_photos:
-        children.append(lambda: photo_rows((QUICK_SIZE,) if args.quick else PHOTO_SIZES, run_child))
+        children.append(
+            lambda: (
+                photo_rows((QUICK_SIZE,), run_child, 1) if args.quick else photo_rows(PHOTO_SIZES, run_child)
+            )
+        )
         children.append(
             lambda: animation_row(run_child, QUICK_SIZE, 0.25, 1) if args.quick else animation_row(run_child)
         )

@@ -18,12 +18,13 @@ from typing import Protocol
 import numpy as np
 
 from app.io.files import InputError, kernel_names
-from app.viewer import cage_files, drawing, editing
+from app.viewer import cage_files, drawing, editing, pin_tool
 from app.viewer.changes import change_words
 from app.viewer.controller import (
     KEY_ZOOM_STEP,
     cancel_drag,
     commit,
+    commit_pins,
     delete,
     fit,
     fit_view,
@@ -205,7 +206,9 @@ def _confirm(state: AppState, value) -> None:
 @_edit("reset_target", "reset the target to the source cage")
 def _reset_target(state: AppState, value) -> None:
     live = state.document.live
-    commit(state, live.replace(target=live.cage), "target reset to the source cage", pose=True)
+    points = tuple((at, at) for at, _ in live.pins.points)  # the pins where they are on the source
+    snapshot = live.replace(target=live.cage, pins=live.pins.replace(points=points, fixed=()))
+    commit(state, snapshot, "target reset to the source cage", pose=True)
 
 
 @_edit("fit", "fit the cage to the subject")
@@ -231,12 +234,19 @@ def _subdivide(state: AppState, value) -> None:
     state.selection.selected = None
 
 
-@_command("delete", "delete the selected control points (cage mode)", undoable=True)
+@_command(
+    "delete", "delete the selected control points (cage mode), the selected pin (pins mode)", undoable=True
+)
 def _delete(state: AppState, value) -> None:
     delete(state, value)
 
 
-@_command("edit_mode", "deform (drag the target) or cage (edit the source)", while_drawing=False)
+@_edit("max_distortion", "the pins' bound K on sigma1/sigma2 (None: free)")
+def _max_distortion(state: AppState, value) -> None:
+    commit_pins(state, pin_tool.bounded(state, value))
+
+
+@_command("edit_mode", "deform (drag the target), cage (edit the source) or pins", while_drawing=False)
 def _edit_mode(state: AppState, value) -> None:
     state.selection.edit_mode = (
         value if value in EDIT_MODES else ("cage" if state.selection.edit_mode == "deform" else "deform")

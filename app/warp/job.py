@@ -8,8 +8,8 @@ image-to-output `View`, what shows outside) and the output with the kind of writ
 for (`app.warp.frame_writers.WRITERS`).  `warp_job` builds one from ``warp``'s arguments,
 `app.warp.animation.animation_job` from ``animate``'s; `run_job` draws it: the GL context first, then
 the mesh and the basis functions (`app.warp.pipeline.prepare`, once), then
-`app.warp.pipeline.write_frames`: one render per target into the file or the writer.  Every check that can fail on bad input runs while the job is built, before the slow
-part.
+`app.warp.pipeline.write_frames`: one render per target into the file or the writer.  Every check
+that can fail on bad input runs while the job is built, before the slow part.
 """
 
 from __future__ import annotations
