@@ -176,15 +176,9 @@ class Viewer:
         self.basis.precompute.wake_on_message(glfw.post_empty_event)
         self.checks.worker.wake_on_message(glfw.post_empty_event)
         self.scene = Scene(WarpRenderer(self.ctx))
-        options = self.options
+        options, announce = self.options, self.milestones.announce
         self.exporter = Exporter(
-            self.state,
-            self.scene,
-            self.basis.ready,
-            options.export,
-            options.fps,
-            self.milestones.announce,
-            self.dialogs,
+            self.state, self.scene, self.basis.ready, options.export, options.fps, announce, self.dialogs
         )
         glfw.focus_window(window)
         self.state.screen.window_size = glfw.get_window_size(window)
