@@ -180,7 +180,7 @@ def _bounded(precompute, rows, bound, linear, certify):
             return exact, 0, certificate
     total, certificate = 0, None
     for _ in range(CERTIFY_ROUNDS):
-        x, solves = bounded_solution(precompute, *rows, k, linear)
+        x, solves = bounded_solution(precompute, *rows, k, linear, settle=certify)
         x = _joined_corners(precompute, x)
         total += solves
         if not certify or precompute.kernel != "poisson":

@@ -57,6 +57,8 @@ class PinPrecompute:
         `core.pins.linear_rows.departure_rows` of the source.
     active : ndarray of shape (N,), bool
         The active set: samples whose constraints the conic problem holds.
+    floored : ndarray of shape (N,), bool
+        Samples whose floor row the conic problem holds when they are active (all for Cauchy-Green).
     frames : ndarray of shape (N,), complex
         Unit frames: the samples' constraints bound Re(f_z conj(frame)) (BDHM's frames).
     limits : ndarray of shape (N,)
@@ -76,6 +78,7 @@ class PinPrecompute:
         self.departure = departure_rows(self.source)
         self.active = np.zeros(self.points.shape[0], dtype=bool)
         self.active[::ACTIVE_EVERY] = True
+        self.floored = np.full(self.points.shape[0], kernel != "poisson")
         self.frames = np.ones(self.points.shape[0], dtype=np.complex128)
         self.limits, self._limits_k = np.zeros(self.points.shape[0]), None
         self._pin_rows: OrderedDict[bytes, tuple[np.ndarray, np.ndarray]] = OrderedDict()
