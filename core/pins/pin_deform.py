@@ -179,8 +179,10 @@ def _bounded(precompute, rows, bound, linear, certify):
         if certificate is None or _proves(certificate, goal):
             return exact, 0, certificate
     total, certificate = 0, None
-    for _ in range(CERTIFY_ROUNDS):
-        x, solves = bounded_solution(precompute, *rows, k, linear, settle=certify)
+    for round_ in range(CERTIFY_ROUNDS):
+        # The first round settles the frames; the tightened rounds after it solve as at drag rate
+        # (from those frames), and the certificate judges each.
+        x, solves = bounded_solution(precompute, *rows, k, linear, settle=certify and round_ == 0)
         x = _joined_corners(precompute, x)
         total += solves
         if not certify or precompute.kernel != "poisson":
