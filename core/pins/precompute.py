@@ -76,12 +76,18 @@ class PinPrecompute:
         along, across = derivative_coefficients(gradients)
         self.f_z, self.f_zbar = complex_rows(along), complex_rows(across)
         self.departure = departure_rows(self.source)
-        self.active = np.zeros(self.points.shape[0], dtype=bool)
-        self.active[::ACTIVE_EVERY] = True
-        self.floored = np.full(self.points.shape[0], kernel != "poisson")
-        self.frames = np.ones(self.points.shape[0], dtype=np.complex128)
-        self.limits, self._limits_k = np.zeros(self.points.shape[0]), None
+        self.restart()
         self._pin_rows: OrderedDict[bytes, tuple[np.ndarray, np.ndarray]] = OrderedDict()
+
+    def restart(self) -> None:
+        """Forget what earlier solves learnt (active set, floor rows, frames, tightened limits), so
+        that the next solve depends on its own inputs only."""
+        count = self.points.shape[0]
+        self.active = np.zeros(count, dtype=bool)
+        self.active[::ACTIVE_EVERY] = True
+        self.floored = np.full(count, self.kernel != "poisson")
+        self.frames = np.ones(count, dtype=np.complex128)
+        self.limits, self._limits_k = np.zeros(count), None
 
     @property
     def n(self) -> int:
