@@ -267,12 +267,13 @@ def _coarse_system(curve: ClosedBSpline, coarse: Panels, blocks: dict, target, p
             coarse.z, layer_factors(curve, coarse), *span_parameters(curve, coarse.t), coarse.weights,
             np.ascontiguousarray(np.stack([c1.real, c1.imag, c2.real, c2.imag, scale], axis=1)),
         )  # fmt: skip
-        span_order = np.argsort(nodes.span, kind="stable")  # each span's nodes
+        span_order = np.argsort(nodes.span, kind="stable")
         span_start = np.searchsorted(nodes.span[span_order], np.arange(curve.n + 1)).astype(np.int64)
         return (
             nodes, node_block, block_columns, block_reduced,
             np.searchsorted(target, np.arange(coarse.size + 1)).astype(np.int64), np.ascontiguousarray(panel),
-            span_order, span_start, scratch("coarse system", (coarse.size, coarse.size)),
+            compiled_integrals.SpanNodes(span_start, span_order),
+            scratch("coarse system", (coarse.size, coarse.size)),
         )  # fmt: skip
 
     system = compiled_integrals.run_compiled(compiled_integrals.coarse_system, arguments) if blocks else None
