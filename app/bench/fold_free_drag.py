@@ -21,6 +21,8 @@ import tempfile
 import threading
 from pathlib import Path
 
+from app.bench.xvfb import failure_details, viewer_lines
+
 #: The dragged point and how far: its plain map turns 249 of the 12,155 triangles over at the end.
 POINT, OFFSET = 5, (-42.43, -42.43)
 #: The window, as the issue's laptop screen.
@@ -96,34 +98,28 @@ def _run(folder: Path, display: str, script: Path, step_failed) -> dict:
     child = subprocess.Popen(
         command, env=environment, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
     )
-    lines, vertices = [], None
-    watchdog = threading.Timer(TIMEOUT, child.kill)
-    watchdog.start()
-    stopper = None
+    vertices, stopper = None, None
+
+    def milestone(line: str) -> bool:
+        nonlocal vertices, stopper
+        if line.startswith("basis "):
+            vertices = re.search(r"vertices=(\d+)", line).group(1)
+        if line.startswith("script done"):  # quit once the release is proven, or after a while
+            stopper = threading.Timer(PROOF_WAIT, child.send_signal, (signal.SIGTERM,))
+            stopper.start()
+        if line.startswith("proven after release") and stopper is not None:
+            stopper.cancel()
+            child.send_signal(signal.SIGTERM)  # quits cleanly, printing --stats
+        return False
+
     try:
-        for line in child.stdout:  # the test hook's milestones, one a line
-            line = line.strip()
-            lines.append(line)
-            if line.startswith("basis "):
-                vertices = re.search(r"vertices=(\d+)", line).group(1)
-            if line.startswith("script done"):  # quit once the release is proven, or after a while
-                stopper = threading.Timer(PROOF_WAIT, child.send_signal, (signal.SIGTERM,))
-                stopper.start()
-            if line.startswith("proven after release") and stopper is not None:
-                stopper.cancel()
-                child.send_signal(signal.SIGTERM)  # quits cleanly, printing --stats
-        child.wait(timeout=60)
+        lines = viewer_lines(child, TIMEOUT, milestone)
     finally:
-        watchdog.cancel()
         if stopper is not None:
             stopper.cancel()
-        if child.poll() is None:
-            child.kill()
-            child.wait()
     stats = [line for line in lines if line.startswith("frames=")]
     if child.returncode != 0 or not stats or vertices is None:
-        errors = child.stderr.read().strip().splitlines()[-20:] or ["(no output on stderr)"]
-        details = "\n".join(f"    {line}" for line in [*lines[-3:], *errors])
+        details = failure_details(child, lines, 20)
         raise step_failed(
             f"the viewer fold-free drag frame failed with exit code {child.returncode}:\n{details}"
         )

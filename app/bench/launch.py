@@ -16,10 +16,11 @@ import statistics
 import subprocess
 import sys
 import tempfile
-import threading
 import time
 from collections.abc import Callable
 from pathlib import Path
+
+from app.bench.xvfb import failure_details, viewer_lines
 
 #: (width, height) of the launch row's photograph: 24 megapixels, and the quick smoke test's.
 LAUNCH_PHOTO, QUICK_LAUNCH_PHOTO = (6000, 4000), (1200, 800)
@@ -92,24 +93,17 @@ def _launch(arguments: list[str], environment: dict, state: Path, cache: Path, f
         stderr=subprocess.PIPE,
         text=True,
     )
-    watchdog = threading.Timer(LAUNCH_TIMEOUT, child.kill)
-    watchdog.start()
-    seconds, seen = None, []
-    try:
-        for line in child.stdout:
-            seen.append(line.strip())
-            if line.startswith("basis "):
-                seconds = time.perf_counter() - start
-                child.send_signal(signal.SIGTERM)  # saves and quits
-                break
-        child.wait(timeout=60)
-    finally:
-        watchdog.cancel()
-        if child.poll() is None:
-            child.kill()
-            child.wait()
+    seconds = None
+
+    def basis(line: str) -> bool:
+        nonlocal seconds
+        if line.startswith("basis "):
+            seconds = time.perf_counter() - start
+            child.send_signal(signal.SIGTERM)  # saves and quits
+        return seconds is not None
+
+    seen = viewer_lines(child, LAUNCH_TIMEOUT, basis)
     if seconds is None:
-        errors = child.stderr.read().strip().splitlines()[-10:] or ["(no output on stderr)"]
-        details = "\n".join(f"    {line}" for line in [*seen[-3:], *errors])
+        details = failure_details(child, seen, 10)
         raise failed(f"the viewer launch ({' '.join(arguments)}) drew no basis:\n{details}")
     return seconds

@@ -47,6 +47,7 @@ from app.bench.photos import (
     write_starfish_drag,
 )
 from app.bench.timing import edge_for_vertices, median_time, print_head
+from app.bench.xvfb import failure_details, viewer_lines
 from app.console import EXIT_ENVIRONMENT, EXIT_OK, ProgressBar
 from core import GRADIENTS_COMPILE_MESSAGE as GRADIENTS_COMPILING
 from core import examples
@@ -123,7 +124,11 @@ def run_bench(args: argparse.Namespace) -> int:
     if not args.skip_warp:
         children.append(lambda: _warp_4k((640, 360) if args.quick else (3840, 2160)))
     if not args.skip_photos:
-        children.append(lambda: photo_rows((QUICK_SIZE,) if args.quick else PHOTO_SIZES, run_child))
+        children.append(
+            lambda: (
+                photo_rows((QUICK_SIZE,), run_child, 1) if args.quick else photo_rows(PHOTO_SIZES, run_child)
+            )
+        )
         children.append(
             lambda: animation_row(
                 run_child, *((QUICK_SIZE, 0.25) if args.quick else (ANIMATION_SIZE, ANIMATION_SECONDS))
@@ -510,27 +515,21 @@ def _drag_child(
     child = subprocess.Popen(
         command, env=environment, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
     )
-    vertices, preview, lines = 0, 0, []
-    watchdog = threading.Timer(DRAG_TIMEOUT, child.kill)
-    watchdog.start()
-    try:
-        for line in child.stdout:  # the test hook's milestones, one a line
-            lines.append(line.strip())
-            if line.startswith("basis "):
-                vertices = int(re.search(r"vertices=(\d+)", line).group(1))
-                preview = int(re.search(r"preview=(\d+)", line).group(1))
-            if line.startswith("script done"):
-                child.send_signal(signal.SIGTERM)  # quits cleanly, printing --stats
-        child.wait(timeout=60)
-    finally:
-        watchdog.cancel()
-        if child.poll() is None:
-            child.kill()
-            child.wait()
+    vertices, preview = 0, 0
+
+    def milestone(line: str) -> bool:
+        nonlocal vertices, preview
+        if line.startswith("basis "):
+            vertices = int(re.search(r"vertices=(\d+)", line).group(1))
+            preview = int(re.search(r"preview=(\d+)", line).group(1))
+        if line.startswith("script done"):
+            child.send_signal(signal.SIGTERM)  # quits cleanly, printing --stats
+        return False
+
+    lines = viewer_lines(child, DRAG_TIMEOUT, milestone)
     stats = [m for m in map(re.compile(r"frames=.*median_drag_frame_ms=([\d.]+)").match, lines) if m]
     if child.returncode != 0 or not stats or not vertices:
-        errors = child.stderr.read().strip().splitlines()[-CHILD_ERROR_LINES:] or ["(no output on stderr)"]
-        details = "\n".join(f"    {line}" for line in [*lines[-3:], *errors])
+        details = failure_details(child, lines, CHILD_ERROR_LINES)
         raise StepFailed(f"{what} failed with exit code {child.returncode}:\n{details}")
     return vertices, preview, float(stats[-1].group(1))
 

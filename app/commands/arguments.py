@@ -47,19 +47,21 @@ def command_parser(prog: str, runs: dict) -> argparse.ArgumentParser:
     )
     commands = parser.add_subparsers(dest="command", required=True, parser_class=_Parser, metavar="COMMAND")
     kernels = kernel_names()
-    _warp_command(commands, runs["warp"], kernels)
-    _fit_command(commands, runs["fit"])
-    _compare_command(commands, runs["compare"], kernels)
-    _quality_command(commands, runs["quality"], kernels)
-    _bench_command(commands, runs["bench"])
-    _view_command(commands, runs["view"])
-    _demo_command(commands, runs["demo"])
-    _animate_command(commands, runs["animate"])
+    _warp_command(commands, kernels)
+    _fit_command(commands)
+    _compare_command(commands, kernels)
+    _quality_command(commands, kernels)
+    _bench_command(commands)
+    _view_command(commands)
+    _demo_command(commands)
+    _animate_command(commands)
+    for name, command in commands.choices.items():
+        command.set_defaults(run=runs[name])
     return parser
 
 
-def _warp_command(commands, run, kernels: tuple[str, ...]) -> None:
-    """The warp command and its arguments; `run` runs it."""
+def _warp_command(commands, kernels: tuple[str, ...]) -> None:
+    """The warp command and its arguments."""
     warp = _command(
         commands,
         "warp",
@@ -140,28 +142,23 @@ def _warp_command(commands, run, kernels: tuple[str, ...]) -> None:
         metavar="K",
         help="boundary samples per B-spline span (default: the kernel's)",
     )
-    warp.add_argument(
-        "--overwrite-input",
-        action="store_true",
-        help="allow --output to be the input image (otherwise refused)",
-    )
+    _switch(warp, "--overwrite-input", "allow --output to be the input image (otherwise refused)")
     _checking_arguments(warp)
-    warp.set_defaults(run=run)
 
 
 def _checking_arguments(warp: argparse.ArgumentParser) -> None:
     """``warp``'s checks of the deformation: ``--fold-free`` and ``--report``."""
-    warp.add_argument(
+    _switch(
+        warp,
         "--fold-free",
-        action="store_true",
-        help="a warp that provably never folds and still meets the target curve: composite harmonic maps "
+        "a warp that provably never folds and still meets the target curve: composite harmonic maps "
         "along the straight path of cages, each certified injective (core.fold_free_deform; poisson only; "
         'a session with "fold_free": true asks for it too)',
     )
-    warp.add_argument(
+    _switch(
+        warp,
         "--report",
-        action="store_true",
-        help="print on stdout, one line each, the deformation's smallest det J (area change), largest "
+        "print on stdout, one line each, the deformation's smallest det J (area change), largest "
         "conformal distortion sigma1/sigma2 (over det J > 0) and how many points fold (det J <= 0), with "
         "where the extremes are in source-image pixels.  Point kernels: the exact Jacobian "
         "sum_i P'_i grad G_i at the interior mesh vertices (core.basis_gradients); harmonic, pgw and "
@@ -216,8 +213,8 @@ def _output_file_arguments(warp: argparse.ArgumentParser) -> None:
     )
 
 
-def _fit_command(commands, run) -> None:
-    """The fit command and its arguments; `run` runs it."""
+def _fit_command(commands) -> None:
+    """The fit command and its arguments."""
     fit = _command(
         commands,
         "fit",
@@ -256,11 +253,10 @@ def _fit_command(commands, run) -> None:
         help="where the subject is, in image pixels (x right, y down from the top-left corner); "
         "nothing outside is chosen (default: found in the whole image)",
     )
-    fit.set_defaults(run=run)
 
 
-def _compare_command(commands, run, kernels: tuple[str, ...]) -> None:
-    """The compare command and its arguments; `run` runs it."""
+def _compare_command(commands, kernels: tuple[str, ...]) -> None:
+    """The compare command and its arguments."""
     compare = _command(
         commands,
         "compare",
@@ -302,11 +298,10 @@ def _compare_command(commands, run, kernels: tuple[str, ...]) -> None:
         metavar="LENGTH",
         help="longest mesh edge in cage units (default: diameter / 60)",
     )
-    compare.set_defaults(run=run)
 
 
-def _quality_command(commands, run, kernels: tuple[str, ...]) -> None:
-    """The quality command and its arguments; `run` runs it."""
+def _quality_command(commands, kernels: tuple[str, ...]) -> None:
+    """The quality command and its arguments."""
     quality = _command(
         commands,
         "quality",
@@ -333,9 +328,7 @@ def _quality_command(commands, run, kernels: tuple[str, ...]) -> None:
         metavar="NAME[:param=value,...]",
         help=f"add this kernel, repeatable: {', '.join(kernels)}",
     )
-    quality.add_argument(
-        "--search", action="store_true", help="measure the weight family 1/r^k instead of the kernels"
-    )
+    _switch(quality, "--search", "measure the weight family 1/r^k instead of the kernels")
     quality.add_argument(
         "--domain",
         action="append",
@@ -345,11 +338,10 @@ def _quality_command(commands, run, kernels: tuple[str, ...]) -> None:
     quality.add_argument(
         "--seed", type=_natural, default=14, help="seed of the deformations, an integer >= 0 (default 14)"
     )
-    quality.set_defaults(run=run)
 
 
-def _bench_command(commands, run) -> None:
-    """The bench command and its arguments; `run` runs it."""
+def _bench_command(commands) -> None:
+    """The bench command and its arguments."""
     bench = _command(
         commands,
         "bench",
@@ -360,62 +352,51 @@ def _bench_command(commands, run) -> None:
         ("%(prog)s", "the full table (a few minutes)"),
         ("%(prog)s --quick", "every row once at tiny sizes: a smoke test of about 20 s"),
     )
-    bench.add_argument(
+    _switch(
+        bench,
         "--quick",
-        action="store_true",
-        help="every row once at tiny sizes: a smoke test of about 20 s (on 2 busy cores; most of it starts "
+        "every row once at tiny sizes: a smoke test of about 20 s (on 2 busy cores; most of it starts "
         "child processes, solves poisson's densities and drags in a viewer under Xvfb)",
     )
     bench.add_argument(
         "--repeats", type=_positive(int), default=3, metavar="N", help="runs per row; the median is shown"
     )
-    bench.add_argument(
-        "--large", action="store_true", help="also the 1,000,000-vertex FEM comparison (minutes)"
-    )
-    bench.add_argument("--skip-fem", action="store_true", help="no finite-element comparison")
-    bench.add_argument("--skip-memory", action="store_true", help="no 1,000,000-point memory run")
-    bench.add_argument("--skip-warp", action="store_true", help="no end-to-end 4K warp")
-    bench.add_argument(
+    _switch(bench, "--large", "also the 1,000,000-vertex FEM comparison (minutes)")
+    _switch(bench, "--skip-fem", "no finite-element comparison")
+    _switch(bench, "--skip-memory", "no 1,000,000-point memory run")
+    _switch(bench, "--skip-warp", "no end-to-end 4K warp")
+    _switch(
+        bench,
         "--skip-photos",
-        action="store_true",
-        help="no 24 and 100 megapixel PNG and JPEG warps against reading and writing them, nor the "
+        "no 24 and 100 megapixel PNG and JPEG warps against reading and writing them, nor the "
         "1600x1200 animation to GIF against PNG frames (about 4 minutes)",
     )
-    bench.add_argument(
+    _switch(
+        bench,
         "--skip-drag",
-        action="store_true",
-        help="no viewer drag frame at 6k and 400k vertices, nor its fold-free drag frame (Xvfb)",
+        "no viewer drag frame at 6k and 400k vertices, nor its fold-free drag frame (Xvfb)",
     )
-    bench.add_argument(
+    _switch(
+        bench,
         "--skip-launch",
-        action="store_true",
-        help="no viewer launch to a warpable picture (the demo, a 24 megapixel photograph; Xvfb)",
+        "no viewer launch to a warpable picture (the demo, a 24 megapixel photograph; Xvfb)",
     )
-    bench.add_argument(
+    _switch(
+        bench,
         "--skip-export",
-        action="store_true",
-        help="no viewer GIF export of the starfish animation against animate (Xvfb, xdotool)",
+        "no viewer GIF export of the starfish animation against animate (Xvfb, xdotool)",
     )
-    bench.add_argument(
+    _switch(
+        bench,
         "--skip-pins",
-        action="store_true",
-        help="no pins rows (core.pin_deform within a distortion bound at 16, 40 and 100 control points)",
+        "no pins rows (core.pin_deform within a distortion bound at 16, 40 and 100 control points)",
     )
-    bench.add_argument(
-        "--skip-fold-free",
-        action="store_true",
-        help="no fold-free warp against libigl at 10k and 50k vertices",
-    )
-    bench.add_argument(
-        "--skip-mesher",
-        action="store_true",
-        help="no mesher against Triangle at 10k, 100k and 300k vertices",
-    )
-    bench.set_defaults(run=run)
+    _switch(bench, "--skip-fold-free", "no fold-free warp against libigl at 10k and 50k vertices")
+    _switch(bench, "--skip-mesher", "no mesher against Triangle at 10k, 100k and 300k vertices")
 
 
-def _view_command(commands, run) -> None:
-    """The view command and its arguments; `run` runs it."""
+def _view_command(commands) -> None:
+    """The view command and its arguments."""
     view = _command(
         commands,
         "view",
@@ -429,11 +410,10 @@ def _view_command(commands, run) -> None:
         ("%(prog)s --session my-edit.json", "reopen (or start) a session file"),
     )
     add_view_arguments(view)
-    view.set_defaults(run=run)
 
 
-def _demo_command(commands, run) -> None:
-    """The demo command and its arguments; `run` runs it."""
+def _demo_command(commands) -> None:
+    """The demo command and its arguments."""
     demo = _command(
         commands,
         "demo",
@@ -448,16 +428,16 @@ def _demo_command(commands, run) -> None:
         ("%(prog)s --list", "where the demos' images and cages are, to try warp or fit on"),
     )
     demo.add_argument("name", nargs="?", metavar="NAME", help="starfish (default), character or pattern")
-    demo.add_argument(
+    _switch(
+        demo,
         "--list",
-        action="store_true",
-        help="print where each demo's image, cage, script and session are (to use with warp, fit, animate "
+        "print where each demo's image, cage, script and session are (to use with warp, fit, animate "
         "or view), and quit",
     )
-    demo.add_argument(
+    _switch(
+        demo,
         "--play",
-        action="store_true",
-        help="play the demo's keyframed animation at once (its scripted drags as keyframes), looping",
+        "play the demo's keyframed animation at once (its scripted drags as keyframes), looping",
     )
     demo.add_argument("--script", type=Path, help="replay this script file instead (format above)")
     demo.add_argument(
@@ -479,11 +459,10 @@ def _demo_command(commands, run) -> None:
         "session file, the same one the program without a command opens)",
     )
     _add_viewer_options(demo)
-    demo.set_defaults(run=run)
 
 
-def _animate_command(commands, run) -> None:
-    """The animate command and its arguments; `run` runs it."""
+def _animate_command(commands) -> None:
+    """The animate command and its arguments."""
     animate = _command(
         commands,
         "animate",
@@ -529,7 +508,6 @@ def _animate_command(commands, run) -> None:
         help="as for warp: fill what the warp leaves transparent with COLOR (default: the session's "
         "background, else transparent PNG frames and white video and GIF)",
     )
-    animate.set_defaults(run=run)
 
 
 def add_view_arguments(parser: argparse.ArgumentParser) -> None:
@@ -554,16 +532,16 @@ def add_view_arguments(parser: argparse.ArgumentParser) -> None:
 
 def _add_viewer_options(parser: argparse.ArgumentParser) -> None:
     """The options that ``view`` and ``demo`` share."""
-    parser.add_argument(
+    _switch(
+        parser,
         "--fresh",
-        action="store_true",
-        help="start over instead of restoring the image's last session (the old session file is kept "
+        "start over instead of restoring the image's last session (the old session file is kept "
         "beside the new one, renamed)",
     )
-    parser.add_argument(
+    _switch(
+        parser,
         "--stats",
-        action="store_true",
-        help="on exit, print frames=N median_frame_ms=X p95_frame_ms=Y median_drag_frame_ms=Z (Z: the frames "
+        "on exit, print frames=N median_frame_ms=X p95_frame_ms=Y median_drag_frame_ms=Z (Z: the frames "
         "drawn while a control point is dragged; 0 without any) fold_free_drag_frames=N max_folded_drawn=K "
         "median_fold_free_drag_frame_ms=X proven_after_release_ms=Y (the drag frames drawn with fold-free "
         "on, the most turned-over triangles one drew, their median time, and the time from the last release "
@@ -621,6 +599,11 @@ def _command(commands, name: str, summary: str, description: str, *examples) -> 
         epilog=_examples(*examples),
         formatter_class=_HelpFormatter,
     )
+
+
+def _switch(parser: argparse.ArgumentParser, name: str, help: str) -> None:
+    """An option without a value that switches something on (``store_true``)."""
+    parser.add_argument(name, action="store_true", help=help)
 
 
 def _examples(*examples: tuple[str, str | None]) -> str:

@@ -253,7 +253,8 @@ class HistoryStep:
 
     ``power`` and ``shift`` are the ``power`` kernel's settings, kept while another kernel is chosen;
     ``output`` the step's output choices (None in the steps of older sessions, which did not hold
-    them: those take the session's).
+    them: those take the session's); ``pins``, ``max_distortion`` and ``fixed`` the viewer's pins
+    (`Pin`), their bound and the control points they hold.
     """
 
     cage: np.ndarray
@@ -266,6 +267,9 @@ class HistoryStep:
     parameterization: str = DEFAULT_PARAMETERIZATION
     fold_free: bool = False
     output: OutputChoice | None = None
+    pins: tuple[Pin, ...] = ()
+    max_distortion: float | None = None
+    fixed: tuple[int, ...] = ()
 
     def __post_init__(self) -> None:
         if self.kernel not in kernel_names():
@@ -555,6 +559,9 @@ def _steps(value: dict, name: str) -> tuple[HistoryStep, ...]:
                     step.get("parameterization", DEFAULT_PARAMETERIZATION),
                     step.get("fold_free", False),
                     _step_output(step),
+                    tuple(Pin(pin["at"], pin["to"]) for pin in step.get("pins", [])),
+                    step.get("max_distortion"),
+                    tuple(int(i) for i in step.get("fixed", [])),
                 )
             )
         except KeyError as error:
@@ -661,4 +668,7 @@ def _step_json(step: HistoryStep) -> dict:
         "parameterization": step.parameterization,
         "fold_free": step.fold_free,
         **({} if step.output is None else {key: getattr(step.output, key) for key in OUTPUT_KEYS}),
+        **({"pins": [{"at": list(pin.at), "to": list(pin.to)} for pin in step.pins]} if step.pins else {}),
+        **({} if step.max_distortion is None else {"max_distortion": step.max_distortion}),
+        **({"fixed": list(step.fixed)} if step.fixed else {}),
     }

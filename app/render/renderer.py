@@ -336,10 +336,8 @@ class WarpRenderer:
 
         Parameters
         ----------
-        view : View
-            Image-to-framebuffer transform.
-        viewport_size : tuple of int
-            (width, height) of the viewport in framebuffer pixels.
+        view, viewport_size : View, tuple of int
+            Where to draw: as for `app.render.passes.gl_state.set_view`.
         content : {"image", "field", "heat", "distortion", "none"}
             The warped image, the scalar field in height bands (Fig. 1), the scalar
             field as a heat map (Fig. 8), the field as the distortion view
@@ -399,10 +397,8 @@ class WarpRenderer:
 
         Parameters
         ----------
-        view : View
-            Image-to-framebuffer transform.
-        viewport_size : tuple of int
-            (width, height) of the viewport in framebuffer pixels.
+        view, viewport_size : View, tuple of int
+            Where to draw: as for `app.render.passes.gl_state.set_view`.
         opacity : float
             In [0, 1]; the image is blended over what is drawn already.
         """
@@ -431,10 +427,8 @@ class WarpRenderer:
 
         Parameters
         ----------
-        view : View
-            Image-to-framebuffer transform.
-        viewport_size : tuple of int
-            (width, height) of the viewport in framebuffer pixels.
+        view, viewport_size : View, tuple of int
+            Where to draw: as for `app.render.passes.gl_state.set_view`.
         """
         self._overlay.draw(view, viewport_size)
 

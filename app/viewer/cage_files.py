@@ -9,7 +9,7 @@ from pathlib import Path
 from app.io.files import CAGE_SUFFIXES, InputError, read_cage_file, write_cage
 from app.viewer import editing
 from app.viewer.controller import commit
-from app.viewer.state import AppState
+from app.viewer.state import AppState, Pins
 
 #: What Save writes, by the command's value: the source cage or the target.
 SAVED = ("cage", "target")
@@ -28,7 +28,7 @@ def open_cage(state: AppState, path: Path) -> None:
     if problem:
         raise InputError(f"{path}: {problem}")
     live = state.document.live
-    commit(state, live.replace(cage=cage, target=cage, keyframes=()), f"cage from {path}")
+    commit(state, live.replace(cage=cage, target=cage, keyframes=(), pins=Pins()), f"cage from {path}")
     if remark is not None:
         state.say(remark)
 

@@ -43,6 +43,9 @@ def change_words(before: Snapshot, after: Snapshot) -> str:
             words.append(f"{name} → {value:g}" if isinstance(value, float) else f"{name} → {value}")
     if before.fold_free != after.fold_free:
         words.append(f"fold-free {'on' if after.fold_free else 'off'}")
+    if before.pins.bound != after.pins.bound:
+        words.append(f"K → {'∞' if after.pins.bound is None else f'{after.pins.bound:g}'}")
+    words += _pin_words(before, after)
     words += _points_words(before, after)
     if before.keyframes != after.keyframes:
         words.append(_keyframe_words(before, after))
@@ -59,6 +62,15 @@ def _points_words(before: Snapshot, after: Snapshot) -> list[str]:
         if moved:
             words.append(f"moved {moved} {name} point{'s' * (moved != 1)}")
     return words
+
+
+def _pin_words(before: Snapshot, after: Snapshot) -> list[str]:
+    """Pins added, removed or moved."""
+    old, new = before.pins.points, after.pins.points
+    if len(old) != len(new):
+        return [f"pins {len(old)} → {len(new)}"]
+    moved = sum(a != b for a, b in zip(old, new, strict=True))
+    return [f"moved {moved} pin{'s' * (moved != 1)}"] if moved else []
 
 
 def _keyframe_words(before: Snapshot, after: Snapshot) -> str:

@@ -18,12 +18,13 @@ from typing import Protocol
 import numpy as np
 
 from app.io.files import InputError, kernel_names
-from app.viewer import cage_files, drawing, editing
+from app.viewer import cage_files, drawing, editing, pin_tool
 from app.viewer.changes import change_words
 from app.viewer.controller import (
     KEY_ZOOM_STEP,
     cancel_drag,
     commit,
+    commit_pins,
     delete,
     fit,
     fit_view,
@@ -111,6 +112,12 @@ def _command(
     return register
 
 
+def _edit(name: str, label: str):
+    """Register the decorated ``run(state, value)`` as the command `name` that edits the document:
+    one step of the undo history, refused while a new cage is drawn."""
+    return _command(name, label, undoable=True, while_drawing=False)
+
+
 def _window_command(name: str, label: str):
     """Register the decorated ``run(viewer, value)`` as the window's command `name`."""
 
@@ -196,13 +203,15 @@ def _confirm(state: AppState, value) -> None:
     pass  # Enter means something only while a new cage is drawn (`_drawing_command`)
 
 
-@_command("reset_target", "reset the target to the source cage", undoable=True, while_drawing=False)
+@_edit("reset_target", "reset the target to the source cage")
 def _reset_target(state: AppState, value) -> None:
     live = state.document.live
-    commit(state, live.replace(target=live.cage), "target reset to the source cage", pose=True)
+    points = tuple((at, at) for at, _ in live.pins.points)  # the pins where they are on the source
+    snapshot = live.replace(target=live.cage, pins=live.pins.replace(points=points, fixed=()))
+    commit(state, snapshot, "target reset to the source cage", pose=True)
 
 
-@_command("fit", "fit the cage to the subject", undoable=True, while_drawing=False)
+@_edit("fit", "fit the cage to the subject")
 def _fit(state: AppState, value) -> None:
     if value is None and (state.document.image[..., 3] == np.iinfo(state.document.image.dtype).max).all():
         # A photograph: the user shows where the subject is first.
@@ -212,9 +221,7 @@ def _fit(state: AppState, value) -> None:
         fit(state, points=int(value) if value else None)
 
 
-@_command(
-    "subdivide", "subdivide the cage (same curve, twice the points)", undoable=True, while_drawing=False
-)
+@_edit("subdivide", "subdivide the cage (same curve, twice the points)")
 def _subdivide(state: AppState, value) -> None:
     live = state.document.live
     if live.n < 3:
@@ -227,12 +234,19 @@ def _subdivide(state: AppState, value) -> None:
     state.selection.selected = None
 
 
-@_command("delete", "delete the selected control points (cage mode)", undoable=True)
+@_command(
+    "delete", "delete the selected control points (cage mode), the selected pin (pins mode)", undoable=True
+)
 def _delete(state: AppState, value) -> None:
     delete(state, value)
 
 
-@_command("edit_mode", "deform (drag the target) or cage (edit the source)", while_drawing=False)
+@_edit("max_distortion", "the pins' bound K on sigma1/sigma2 (None: free)")
+def _max_distortion(state: AppState, value) -> None:
+    commit_pins(state, pin_tool.bounded(state, value))
+
+
+@_command("edit_mode", "deform (drag the target), cage (edit the source) or pins", while_drawing=False)
 def _edit_mode(state: AppState, value) -> None:
     state.selection.edit_mode = (
         value if value in EDIT_MODES else ("cage" if state.selection.edit_mode == "deform" else "deform")
@@ -256,7 +270,7 @@ def _distortion_measure(state: AppState, value) -> None:
         state.document.session_dirty = True
 
 
-@_command("kernel", "deform with this kernel", undoable=True, while_drawing=False)
+@_edit("kernel", "deform with this kernel")
 def _kernel(state: AppState, value) -> None:
     if value not in kernel_names():
         state.say(f"unknown kernel {value!r}", error=True)
@@ -270,12 +284,7 @@ def with_kernel(live, kernel: str):
     return live.replace(kernel=kernel, fold_free=live.fold_free and kernel == HARMONIC_KERNEL)
 
 
-@_command(
-    "fold_free",
-    "fold-free: the certified map that never folds (poisson only)",
-    undoable=True,
-    while_drawing=False,
-)
+@_edit("fold_free", "fold-free: the certified map that never folds (poisson only)")
 def _fold_free(state: AppState, value) -> None:
     live = state.document.live
     if live.kernel != HARMONIC_KERNEL:
@@ -286,9 +295,7 @@ def _fold_free(state: AppState, value) -> None:
         commit(state, live.replace(fold_free=on), f"fold-free {'on' if on else 'off'}")
 
 
-@_command(
-    "cycle_kernel", "the next (value 'previous': the previous) kernel", undoable=True, while_drawing=False
-)
+@_edit("cycle_kernel", "the next (value 'previous': the previous) kernel")
 def _cycle_kernel(state: AppState, value) -> None:
     names = kernel_names()
     index = names.index(state.document.live.kernel) if state.document.live.kernel in names else -1
@@ -296,9 +303,7 @@ def _cycle_kernel(state: AppState, value) -> None:
     commit(state, with_kernel(state.document.live, kernel), f"kernel: {kernel}")
 
 
-@_command(
-    "parameterization", "the boundary's parameter: natural or arc-length", undoable=True, while_drawing=False
-)
+@_edit("parameterization", "the boundary's parameter: natural or arc-length")
 def _parameterization(state: AppState, value) -> None:
     if value not in PARAMETERIZATIONS:
         state.say(f"unknown parameterization {value!r}", error=True)
@@ -306,13 +311,13 @@ def _parameterization(state: AppState, value) -> None:
         commit(state, state.document.live.replace(parameterization=value), f"parameterization: {value}")
 
 
-@_command("power", "the power kernel's exponent", undoable=True, while_drawing=False)
+@_edit("power", "the power kernel's exponent")
 def _power(state: AppState, value) -> None:
     if float(value) > 0:
         commit(state, state.document.live.replace(power=float(value)), f"power k: {float(value):g}")
 
 
-@_command("shift", "the power kernel's shift", undoable=True, while_drawing=False)
+@_edit("shift", "the power kernel's shift")
 def _shift(state: AppState, value) -> None:
     if value in SHIFTS:
         commit(state, state.document.live.replace(shift=value), f"shift: {value}")
@@ -399,12 +404,7 @@ def _help(state: AppState, value) -> None:
 # -- the timeline's commands ------------------------------------------------------------
 
 
-@_command(
-    "add_keyframe",
-    "a keyframe at the current time (or at time value) from the target shown",
-    undoable=True,
-    while_drawing=False,
-)
+@_edit("add_keyframe", "a keyframe at the current time (or at time value) from the target shown")
 def _add_keyframe(state: AppState, value) -> None:
     live = state.document.live
     keyframes = live.keyframes
@@ -423,12 +423,7 @@ def _add_keyframe(state: AppState, value) -> None:
     state.playback.keyframe = next(i for i, k in enumerate(snapshot.keyframes) if k.time == time)
 
 
-@_command(
-    "delete_keyframe",
-    "delete a keyframe (value: its index; the selected one)",
-    undoable=True,
-    while_drawing=False,
-)
+@_edit("delete_keyframe", "delete a keyframe (value: its index; the selected one)")
 def _delete_keyframe(state: AppState, value) -> None:
     live = state.document.live
     keyframes = live.keyframes
@@ -443,9 +438,7 @@ def _delete_keyframe(state: AppState, value) -> None:
     show_time(state)
 
 
-@_command(
-    "keyframe_time", "move a keyframe in time (value: index, seconds)", undoable=True, while_drawing=False
-)
+@_edit("keyframe_time", "move a keyframe in time (value: index, seconds)")
 def _keyframe_time(state: AppState, value) -> None:
     live = state.document.live
     keyframes = live.keyframes
@@ -513,7 +506,7 @@ def _playback(state: AppState, value) -> None:
         show_time(state)
 
 
-@_command("interpolation", "how the target moves between keyframes", undoable=True, while_drawing=False)
+@_edit("interpolation", "how the target moves between keyframes")
 def _interpolation(state: AppState, value) -> None:
     if value in INTERPOLATIONS:
         commit(state, state.document.live.replace(interpolation=value), f"interpolation: {value}")

@@ -12,6 +12,8 @@ Mouse (window pixels, canvas only):
 - cage mode: drag a green source handle to move it (its target follows); click
   elsewhere to add a point (appended while there are fewer than 3, otherwise
   inserted into the nearest span); right-click a handle to delete it;
+- pins mode: click in the picture to pin it, drag a pin to warp (`app.viewer.pin_tool`), drag a
+  blue handle to move it by hand (it becomes fixed), right-click a pin to remove it;
 - Shift+click adds a handle to the selection or takes it out; dragging a selected
   handle moves the whole selection;
 - middle or right drag pans, the wheel zooms around the cursor; Esc cancels a drag.
@@ -25,9 +27,9 @@ import numpy as np
 
 from app.io.files import InputError, read_image
 from app.render.viewport import View
-from app.viewer import autokey, drawing, editing
+from app.viewer import autokey, drawing, editing, pin_tool
 from app.viewer.frame_grid import half_frame, on_grid
-from app.viewer.state import AppState, Drag, Snapshot
+from app.viewer.state import AppState, Drag, Pins, Snapshot
 from app.warp.keyframes import Keyframe, interpolate
 
 LEFT, RIGHT, MIDDLE = 0, 1, 2
@@ -155,6 +157,8 @@ def _press(state: AppState, x: float, y: float, button: int, shift: bool = False
     cursor = editing.to_image(state.display.viewport, (x, y))
     index = pick(state, x, y)
     live = state.document.live
+    if state.selection.edit_mode == "pins" and not shift and _pin_press(state, x, y, button, index):
+        return
     if button == LEFT and index is not None:
         if shift:  # Shift+click: in or out of the selection, nothing moves
             state.selection.group = state.selection.group ^ {index}
@@ -178,8 +182,11 @@ def _press(state: AppState, x: float, y: float, button: int, shift: bool = False
             state.say(f"cannot add a point there: {problem}", error=True)
             return
         keyframes = map_keyframes(live, lambda points: editing.insert_point(live.cage, points, cursor)[1])
+        pins = live.pins.replace(fixed=[i + (i >= index) for i in live.pins.fixed])
         commit(
-            state, live.replace(cage=cage, target=target, keyframes=keyframes), f"added control point {index}"
+            state,
+            live.replace(cage=cage, target=target, keyframes=keyframes, pins=pins),
+            f"added control point {index}",
         )
         state.selection.selected = index
         state.selection.group = frozenset({index})
@@ -197,6 +204,34 @@ def _press(state: AppState, x: float, y: float, button: int, shift: bool = False
         state.selection.drag = Drag("pan", -1, np.array([x, y], dtype=np.float64), live)
 
 
+def _pin_press(state: AppState, x: float, y: float, button: int, handle: int | None) -> bool:
+    """A press in pins mode: a pin grabbed (left) or removed (right), or the picture pinned (left,
+    off the target's handles); False where the press does what it does in deform mode."""
+    pin = pin_tool.pick_pin(state, x, y)
+    live = state.document.live
+    if button == LEFT and pin is not None:
+        grab = np.asarray(live.pins.points[pin][1]) - editing.to_image(state.display.viewport, (x, y))
+        state.selection.drag = Drag("pin", pin, grab, live, solved=live.pins.points)
+        state.selection.pin = pin
+        return True
+    if button == RIGHT and pin is not None:
+        commit_pins(state, pin_tool.removed(state, pin))
+        return True
+    if button == LEFT and handle is None:
+        edit = pin_tool.added(state, x, y)
+        if edit is not None:
+            commit(state, *edit)
+            state.selection.pin = len(edit[0].pins.points) - 1
+        return True
+    return False
+
+
+def commit_pins(state: AppState, edit) -> None:
+    """Commit a `pin_tool.Edit` (None: refused, nothing to do) as one undo step, keyed with keyframes."""
+    if edit is not None:
+        commit(state, *edit, pose=True)
+
+
 def fit(state: AppState, rect=None, points: int | None = None) -> None:
     """Fit the cage to the image's subject (inside `rect`, (x, y, width, height) image pixels) as one
     edit, with `points` control points (default: as many as now, at least 8, or 16)."""
@@ -206,7 +241,7 @@ def fit(state: AppState, rect=None, points: int | None = None) -> None:
     live = state.document.live
     points = points or (live.n if live.n >= 8 else 16)
     cage, note = fit_or_ellipse(state.document.image, points, rect)
-    commit(state, live.replace(cage=cage, target=cage, keyframes=()), note + dropped(live))
+    commit(state, live.replace(cage=cage, target=cage, keyframes=(), pins=Pins()), note + dropped(live))
 
 
 def band_corners(state: AppState) -> tuple[np.ndarray, np.ndarray] | None:
@@ -241,6 +276,9 @@ def _move(state: AppState, x: float, y: float) -> None:
         state.selection.group = drag.selection | frozenset(np.flatnonzero(inside).tolist())
         return
     position = editing.to_image(state.display.viewport, (x, y)) + drag.grab
+    if drag.kind == "pin":
+        pin_tool.move(state, drag.index, position)  # solved once a frame: `pin_tool.follow`
+        return
     before, indices = drag.before, drag.indices or (drag.index,)
     if drag.kind == "target":
         shift = position - before.target[drag.index]
@@ -277,6 +315,9 @@ def _release(state: AppState, button: int) -> None:
         return
     if drag.kind == "pan" or not drag.moved:
         return
+    if drag.kind == "pin":
+        commit_pins(state, pin_tool.released(state, drag.index, drag.before))
+        return
     if drag.kind == "source":
         problem = editing.cage_problem(state.document.live.cage) if state.document.live.n >= 3 else None
         if problem:
@@ -285,7 +326,11 @@ def _release(state: AppState, button: int) -> None:
             return
     moved = len(drag.indices)
     message = f"moved {moved} control points" if moved > 1 else None
-    commit(state, state.document.live, message, pose=drag.kind == "target")
+    live = state.document.live
+    if drag.kind == "target" and live.pins.points:  # moved by hand: the pins' solves hold it from now on
+        live = pin_tool.held(live, drag.indices)
+        message = f"{message or f'moved control point {drag.index}'}; fixed for the pins"
+    commit(state, live, message, pose=drag.kind == "target")
 
 
 def _fit_in_rectangle(state: AppState, drag) -> None:
@@ -320,7 +365,11 @@ def cancel_drag(state: AppState) -> bool:
 
 
 def delete(state: AppState, index: int | None = None) -> None:
-    """Delete source control point `index` (default: the selected ones) and their targets (cage mode)."""
+    """Delete source control point `index` (default: the selected ones) and their targets (cage mode);
+    in pins mode, the selected pin."""
+    if state.selection.edit_mode == "pins":
+        commit_pins(state, pin_tool.removed(state))
+        return
     if state.selection.edit_mode != "cage":
         state.say("points are deleted in cage mode (C); deforming never removes them", error=True)
         return
@@ -344,9 +393,12 @@ def delete(state: AppState, index: int | None = None) -> None:
     if problem:
         state.say(f"cannot delete {what}: {problem}", error=True)
         return
+    pins = state.document.live.pins
+    gone = np.searchsorted(indices[::-1], pins.fixed)  # the deleted points before each fixed one
+    pins = pins.replace(fixed=[i - k for i, k in zip(pins.fixed, gone, strict=True) if i not in indices])
     commit(
         state,
-        state.document.live.replace(cage=cage, target=target, keyframes=keyframes),
+        state.document.live.replace(cage=cage, target=target, keyframes=keyframes, pins=pins),
         f"deleted control {what}",
     )
     state.selection.selected = None
@@ -372,9 +424,10 @@ def map_keyframes(snapshot: Snapshot, change) -> tuple[Keyframe, ...]:
 
 
 def dropped(snapshot: Snapshot) -> str:
-    """What a new cage does to the keyframes of `snapshot`, for the status line."""
-    count = len(snapshot.keyframes)
-    return f"; its {count} keyframe{'s' * (count != 1)} cleared (Ctrl+Z brings them back)" if count else ""
+    """What a new cage does to the keyframes and the pins of `snapshot`, for the status line."""
+    counts = ((len(snapshot.keyframes), "keyframe"), (len(snapshot.pins.points), "pin"))
+    gone = [f"{count} {name}{'s' * (count != 1)}" for count, name in counts if count]
+    return f"; its {' and '.join(gone)} cleared (Ctrl+Z brings them back)" if gone else ""
 
 
 def show_time(state: AppState) -> None:

@@ -37,6 +37,7 @@ from app.io.session import (
     HistoryStep,
     KernelChoice,
     OutputChoice,
+    Pin,
     Session,
     ViewerSettings,
     existing_image,
@@ -288,6 +289,9 @@ def restore(path: Path, max_edge: float | None = None) -> OpenedDocument:
         animation.interpolation,
         chosen.parameterization,
         session.fold_free and chosen.name == "poisson",
+        pins=model.Pins(
+            tuple((pin.at, pin.to) for pin in session.pins), session.max_distortion, _fixed(session)
+        ),
     )
     notices: list[str] = []
     try:
@@ -307,6 +311,13 @@ def restore(path: Path, max_edge: float | None = None) -> OpenedDocument:
         restored=True,
         notices=notices,
     )
+
+
+def _fixed(session: Session) -> tuple[int, ...]:
+    """The session's ``fixed`` control points (`app.warp.pins.session_pins`'s), the valid ones."""
+    fixed = session.extra.get("fixed", [])
+    valid = isinstance(fixed, list) and all(isinstance(i, int) and not isinstance(i, bool) for i in fixed)
+    return tuple(i for i in fixed if 0 <= i < len(session.cage)) if valid else ()
 
 
 def power_family(params: dict, viewer: ViewerSettings) -> tuple[float, str]:
@@ -331,6 +342,9 @@ def _step(snapshot: Snapshot) -> HistoryStep:
         snapshot.parameterization,
         snapshot.fold_free,
         OutputChoice(snapshot.outside, snapshot.canvas, snapshot.fill, snapshot.background),
+        tuple(Pin(at, to) for at, to in snapshot.pins.points),
+        snapshot.pins.bound,
+        snapshot.pins.fixed,
     )
 
 
@@ -382,6 +396,9 @@ def history_of(
                         step.interpolation,
                         step.parameterization,
                         step.fold_free,
+                        pins=model.Pins(
+                            tuple((pin.at, pin.to) for pin in step.pins), step.max_distortion, step.fixed
+                        ),
                     ).replace(**vars(step.output or output or OutputChoice()))
                 )
             except ValueError as error:
@@ -403,7 +420,7 @@ def start_snapshot(current: Snapshot, image: np.ndarray, cage: Path | None) -> t
         points = read_cage(cage)
         cage_curve(points, str(cage))
         note = f"the cage of {cage.name}"
-    return current.replace(cage=points, target=points, keyframes=()), note
+    return current.replace(cage=points, target=points, keyframes=(), pins=model.Pins()), note
 
 
 def begin_with(document: OpenedDocument, snapshot: Snapshot, message: str) -> None:
@@ -490,6 +507,8 @@ def session_of(state: AppState, max_edge: float | None) -> Session:
         ),
         max_edge=None if max_edge is None else float(max_edge),
         fold_free=snapshot.fold_free,
+        pins=tuple(Pin(at, to) for at, to in snapshot.pins.points),
+        max_distortion=snapshot.pins.bound,
         output=OutputChoice(document.outside, document.canvas, document.fill, document.background),
         animation=Animation(snapshot.keyframes, snapshot.interpolation),
         viewer=ViewerSettings(
@@ -507,6 +526,7 @@ def session_of(state: AppState, max_edge: float | None) -> Session:
             fps=state.playback.fps,
         ),
         history=saved_history(state),
+        extra={"fixed": list(snapshot.pins.fixed)} if snapshot.pins.fixed else {},
     )
 
 

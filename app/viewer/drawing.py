@@ -19,7 +19,7 @@ from __future__ import annotations
 import numpy as np
 
 from app.viewer import editing
-from app.viewer.state import AppState, Drawing, Snapshot
+from app.viewer.state import AppState, Drawing, Pins, Snapshot
 from core import interpolating_control_points
 
 #: What a click places: a point on the curve, or a control point (the panel's choice).
@@ -41,7 +41,7 @@ def start(state: AppState) -> None:
     state.selection.drawing = Drawing(before)
     state.selection.drag = None
     empty = np.zeros((0, 2))
-    state.document.live = before.replace(cage=empty, target=empty, keyframes=())
+    state.document.live = before.replace(cage=empty, target=empty, keyframes=(), pins=Pins())
     state.selection.edit_mode = "cage"
     state.selection.selected = state.selection.hovered = None
     state.selection.group = frozenset()
@@ -105,7 +105,7 @@ def confirm(state: AppState) -> Snapshot | None:
     points = state.document.live.cage
     state.document.live = state.selection.drawing.before
     state.selection.drawing = None
-    return state.document.live.replace(cage=points, target=points, keyframes=())
+    return state.document.live.replace(cage=points, target=points, keyframes=(), pins=Pins())
 
 
 def remove_last(state: AppState) -> None:
@@ -161,4 +161,4 @@ def clicked_points(state: AppState) -> np.ndarray:
 def _update(state: AppState) -> None:
     drawing = state.selection.drawing
     points = control_points(drawing.clicks, drawing.corners, state.selection.cage_drawing)
-    state.document.live = state.document.live.replace(cage=points, target=points, keyframes=())
+    state.document.live = state.document.live.replace(cage=points, target=points, keyframes=(), pins=Pins())

@@ -146,18 +146,13 @@ class Exporter:
         InputError
             The file cannot be written (transparent pixels for a JPEG, a folder that is not there...).
         """
-        state = self.state
-        if not self.ready(state):
+        still = self._still()
+        if still is None:
             return False
         from app.warp.pipeline import OutputFile, render_to_file
 
-        deformation = self.scene.deformation(state)
-        if deformation is None:
-            return False
-        self.scene.invalidate_positions()
-        height, width = state.document.image.shape[:2]
-        target = state.document.live.target
-        frame = output_frame(output_region((width, height), target, state.document.canvas))
+        deformation, target, frame = still
+        state = self.state
         metadata = image_metadata(state.document.live.image)
         output = OutputFile(path, metadata, background=document_background(state))
         render_to_file(self.scene.renderer, deformation, target, frame, state.document.outside, output)
@@ -165,20 +160,32 @@ class Exporter:
 
     def render_still(self) -> np.ndarray | None:
         """The live target's warp framed like ``warp`` (RGBA (H, W, 4)), None before its basis is ready."""
-        state = self.state
-        if not self.ready(state):
+        still = self._still()
+        if still is None:
             return None
         from app.warp.pipeline import render
 
+        deformation, target, (size, view) = still
+        outside, background = self.state.document.outside, document_background(self.state)
+        return render(self.scene.renderer, deformation, target, size, view, outside, background)
+
+    def _still(self):
+        """The live target's deformation, the target and its output frame (size, view) framed like
+        ``warp``, with the scene's positions to be drawn again; None before its basis is ready."""
+        state = self.state
+        if not self.ready(state):
+            return None
         deformation = self.scene.deformation(state)
         if deformation is None:
             return None
         self.scene.invalidate_positions()
         height, width = state.document.image.shape[:2]
         target = state.document.live.target
-        size, view = output_frame(output_region((width, height), target, state.document.canvas))
-        outside, background = state.document.outside, document_background(state)
-        return render(self.scene.renderer, deformation, target, size, view, outside, background)
+        return (
+            deformation,
+            target,
+            output_frame(output_region((width, height), target, state.document.canvas)),
+        )
 
     def cancel(self) -> bool:
         """Esc: stop the animation export, if one runs (nothing is written)."""

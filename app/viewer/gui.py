@@ -15,6 +15,7 @@ import os
 from imgui_bundle import imgui
 
 from app.io.files import CAGE_SUFFIXES, kernel_names
+from app.viewer import pin_tool
 from app.viewer.controller import STATUS_HEIGHT
 from app.viewer.editing import to_window
 from app.viewer.file_browser import EXPORT_SUFFIXES, OPEN_SUFFIXES, chosen, current_listing
@@ -161,7 +162,7 @@ def _panel(state: AppState, commands: list, extras: dict, room: float, spots: di
     # A window too short for the whole panel (a 1024x600 screen) opens with two sections folded.
     tall = room + STATUS_HEIGHT >= FOLD_BELOW_HEIGHT
     if _section("Edit", spots):
-        _edit_section(state, live, commands)
+        _edit_section(state, live, commands, spots)
     if _section("Kernel", spots):
         _kernel_section(state, live, commands, spots)
     if _section("Show", spots, tall):
@@ -191,12 +192,42 @@ def _section(title: str, spots: dict, open_at_first: bool = True) -> bool:
     return shown
 
 
-def _edit_section(state: AppState, live, commands: list) -> None:
+def _pin_bound(state: AppState, live, commands: list, spots: dict) -> None:
+    """The pins' K slider, 1 (rigid) to inf (free), at position 1 - 1/K; one undo step on release.
+    Its left and right ends are ``spots["K rigid"]`` and ``spots["K free"]`` (for the window tests)."""
+    if state.display.bound_draft is None or not imgui.is_any_item_active():
+        state.display.bound_draft = pin_tool.position_of(live.pins.bound)
+    imgui.text("rigid")
+    imgui.same_line()
+    imgui.set_next_item_width(PANEL_WIDTH - 110)
+    shown = in_the_font(pin_tool.bound_words(pin_tool.bound_of(state.display.bound_draft)))
+    _, state.display.bound_draft = imgui.slider_float("##K", state.display.bound_draft, 0.0, 1.0, shown)
+    low, high = imgui.get_item_rect_min(), imgui.get_item_rect_max()
+    middle = 0.5 * (low.y + high.y)
+    spots["K rigid"], spots["K free"] = (low.x + 4, middle), (high.x - 4, middle)
+    if imgui.is_item_deactivated_after_edit():
+        commands.append(("max_distortion", pin_tool.bound_of(state.display.bound_draft)))
+    if imgui.is_item_hovered():
+        imgui.set_tooltip(
+            "K bounds sigma1/sigma2 everywhere in the picture, proven: 1 keeps it rigid up to "
+            "scale, larger lets it stretch, free sets no bound (the pins land exactly)"
+        )
+    imgui.same_line()
+    imgui.text("free")
+    pins, fixed = len(live.pins.points), len(live.pins.fixed)
+    imgui.text_disabled(f"{pins} pin{'s' * (pins != 1)}, {fixed} point{'s' * (fixed != 1)} held by hand")
+
+
+def _edit_section(state: AppState, live, commands: list, spots: dict) -> None:
     """What a click edits, undo, and the edits of the whole cage."""
     if imgui.radio_button("Deform (target, blue)", state.selection.edit_mode == "deform"):
         commands.append(("edit_mode", "deform"))
     if imgui.radio_button("Edit cage (source, green)", state.selection.edit_mode == "cage"):
         commands.append(("edit_mode", "cage"))
+    if imgui.radio_button("Pins (in the picture)", state.selection.edit_mode == "pins"):
+        commands.append(("edit_mode", "pins"))
+    if state.selection.edit_mode == "pins" or live.pins.points:
+        _pin_bound(state, live, commands, spots)
     if imgui.button("Undo"):
         commands.append(("undo", None))
     imgui.same_line()
@@ -581,6 +612,7 @@ FONT_SPELLINGS = {
     "–": "-",
     "—": "-",
     "→": "->",
+    "∞": "inf",
 }
 
 
@@ -657,7 +689,9 @@ def _help(state: AppState, shortcuts: list[tuple[str, str]], width: float, heigh
         imgui.text_wrapped(
             "Transfinite barycentric image deformation (Chang & Hormann). The green curve is the "
             "source cage around the image, the blue one the target: drag blue handles to deform. "
-            "In cage mode, drag green handles, click to add a point, right-click a point to delete it."
+            "In cage mode, drag green handles, click to add a point, right-click a point to delete it. "
+            "In pins mode (T), click to pin the picture, drag a pin and it follows; the K slider bounds "
+            "its distortion, from rigid to free."
         )
         imgui.separator()
         if imgui.begin_table("shortcuts", 2, imgui.TableFlags_.row_bg | imgui.TableFlags_.borders_inner_v):

@@ -5,6 +5,13 @@ from __future__ import annotations
 
 from app.viewer.view_modes import MODES as VIEW_MODES
 
+#: What the pin tool's key says in the help.
+PINS_HELP = (
+    "pins: click in the picture to pin it there, drag a pin and the picture follows, right-click or "
+    "Delete removes one; the panel's K slider bounds the distortion (1 rigid ... free: no bound); a blue "
+    "point moved by hand is held (orange) by later solves"
+)
+
 
 def key_table() -> list[tuple]:
     """Every key binding: (glfw key, modifiers, command, value, keys shown in the help or None,
@@ -41,6 +48,7 @@ def key_table() -> list[tuple]:
             "C",
             "cage: drag green points, click to add, right-click to delete",
         ),
+        (glfw.KEY_T, 0, "edit_mode", "pins", "T", PINS_HELP),
         (
             glfw.KEY_N,
             0,
@@ -64,7 +72,7 @@ def key_table() -> list[tuple]:
             "fit the cage to the subject (on a photo: drag a rectangle around it first)",
         ),
         (glfw.KEY_S, 0, "subdivide", None, "S", "subdivide the cage (same curve, twice the points)"),
-        (glfw.KEY_DELETE, 0, "delete", None, "Delete", "delete the selected control points (cage mode)"),
+        (glfw.KEY_DELETE, 0, "delete", None, "Delete", "delete the selected points (cage) or pin (pins)"),
         (glfw.KEY_BACKSPACE, 0, "delete", None, None, None),
         (glfw.KEY_K, 0, "cycle_kernel", "next", "K, Shift+K", "next (previous) kernel"),
         (glfw.KEY_K, shift, "cycle_kernel", "previous", None, None),

@@ -1,14 +1,14 @@
 """What the running viewer reports about itself: one line per milestone on stdout in test mode
-(``TRANSFINITE_VIEWER_TEST=1``: ``ready window=ID``, ``basis ...``, ``saved PATH``, ``drag done
-...``, ``popup open``, ``spot kernel=X,Y``, ...) for the tests that drive the real window, and the
-frame times of ``--stats``."""
+(``TRANSFINITE_VIEWER_TEST=1``: ``ready window=ID``, ``basis ...``, ``drawn basis key=K``,
+``saved PATH``, ``drag done ...``, ``popup open``, ``spot kernel=X,Y``, ...) for the tests that
+drive the real window, and the frame times of ``--stats``."""
 
 from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
 
-from app.viewer.state import AppState
+from app.viewer.state import TARGET_DRAGS, AppState
 
 #: The panel's sections (`app.viewer.gui`), whose headings' centres are announced.
 SECTIONS = ("Edit", "Kernel", "Show", "Animation", "File")
@@ -91,6 +91,8 @@ class Milestones:
         #: Lines said before ``ready`` that tests read after it (the first basis, when the worker
         #: had it before the window's first frame was done): said just after ``ready``.
         self.held: list[str] = []
+        #: The key of the last basis a frame on screen was drawn with (``drawn basis``).
+        self.drawn_basis: str | None = None
 
     def announce(self, line: str) -> None:
         if self.test_mode and not self.announced_ready and line.startswith("basis "):
@@ -103,7 +105,7 @@ class Milestones:
         if not self.test_mode:
             return
         drag = state.selection.drag
-        dragging = drag is not None and drag.kind == "target"
+        dragging = drag is not None and drag.kind in TARGET_DRAGS
         if dragging and self.drag_first_frame is None:
             self.drag_first_frame = len(state.status.frame_ms)
         elif not dragging and self.drag_first_frame is not None:
@@ -148,10 +150,14 @@ class Milestones:
                 f"at={summary.min_det_at[0]:.1f},{summary.min_det_at[1]:.1f}"
             )
 
-    def frame_done(self, state: AppState, window_id: int) -> None:
-        """The frame's time is in `state.status.frame_ms`; after the first, ``ready`` and the spots."""
+    def frame_done(self, state: AppState, window_id: int, drawn_basis: str | None = None) -> None:
+        """The frame's time is in `state.status.frame_ms`; after the first, ``ready`` and the spots.
+
+        `drawn_basis` is the key of the basis the frame, now on screen, was drawn with (None: the
+        source image alone): ``drawn basis key=K`` the first time, after ``basis key=K`` (which
+        says when it arrived, before a frame drew it), so that a test's screenshot shows it."""
         drag = state.selection.drag
-        if drag is not None and drag.kind in ("target", "source"):
+        if drag is not None and drag.kind in (*TARGET_DRAGS, "source"):
             self.drag_frame_ms.append(state.status.frame_ms[-1])
         self._fold_free_frame(state)
         self._update_figures(state)
@@ -164,6 +170,9 @@ class Milestones:
             for line in self.held:
                 self.announce(line)
             self.held.clear()
+        if drawn_basis is not None and drawn_basis != self.drawn_basis:
+            self.drawn_basis = drawn_basis
+            self.announce(f"drawn basis key={drawn_basis}")
         self._status_line(state)
 
     def _status_line(self, state: AppState) -> None:
@@ -180,6 +189,8 @@ class Milestones:
             *SECTIONS,
             "files",
             "save target",
+            "K rigid",
+            "K free",
         ):  # the headings move as sections open and the progress bar goes
             spot = self.spots.get(name)
             if spot is not None and spot != self.shown.get(name):

@@ -27,12 +27,13 @@ import numpy as np
 
 from app.render.renderer import WarpRenderer
 from app.render.viewport import View
+from app.viewer import pin_tool
 from app.viewer.controller import band_corners
 from app.viewer.drawing import clicked_points
 from app.viewer.editing import curve_points, to_image
 from app.viewer.fold_free import HARMONIC_KERNEL, current_check
 from app.viewer.fold_free_frames import FoldFreeFrames
-from app.viewer.state import AppState
+from app.viewer.state import TARGET_DRAGS, WARPING_MODES, AppState
 from app.viewer.view_modes import BY_NAME as VIEW_MODES
 from app.warp.fill import set_fill
 from app.warp.framing import output_region
@@ -87,6 +88,8 @@ def overlay_arrays(state: AppState) -> tuple[np.ndarray, np.ndarray]:
             cursor = to_image(state.display.viewport, [state.screen.cursor])
             segments.append(_closed_segments(np.vstack([control[-1:], cursor]), colour, 0.6, 1.0)[:1])
         size = 11.0 if is_active else 7.0
+        if kind == "target" and state.selection.drawing is None:
+            points.append(pin_tool.fixed_marks(state))  # under the handles, showing around them
         handles = np.zeros((len(control), 7))
         handles[:, :2] = control
         handles[:, 2:5] = colour
@@ -111,6 +114,9 @@ def overlay_arrays(state: AppState) -> tuple[np.ndarray, np.ndarray]:
         corners = to_image(state.display.viewport, [[x0, y0], [x1, y0], [x1, y1], [x0, y1]])
         segments.append(_closed_segments(corners, SELECTED_COLOUR, 0.9, 1.0))
     points.append(fold_marks(state))
+    pin_segments, pin_marks = pin_tool.overlay(state)
+    segments.append(pin_segments)
+    points.append(pin_marks)
     segments = np.concatenate(segments) if segments else np.zeros((0, 2, 7))
     return segments, np.concatenate(points)
 
@@ -122,7 +128,7 @@ def export_frame(state: AppState) -> np.ndarray | None:
     the export is clipped there, with ``"grow"`` it widens to this frame.
     """
     target = state.document.live.target
-    if state.selection.edit_mode != "deform" or len(target) < 3 or state.document.image is None:
+    if state.selection.edit_mode not in WARPING_MODES or len(target) < 3 or state.document.image is None:
         return None
     height, width = state.document.image.shape[:2]
     curve = curve_points(target)
@@ -232,7 +238,7 @@ def fold_marks(state: AppState) -> np.ndarray:
     """Handles (K, 7) at the points where the live warp's proof fails, none while it is proven or
     not yet checked."""
     check = current_check(state)
-    if check is None or check.injective or state.selection.edit_mode != "deform":
+    if check is None or check.injective or state.selection.edit_mode not in WARPING_MODES:
         return np.zeros((0, 7))
     marks = np.zeros((len(check.marks), 7))
     marks[:, :2] = check.marks
@@ -360,13 +366,13 @@ class Scene:
         """Whether this frame draws the preview mesh: a dense mesh's image while its target or the
         view moves."""
         moving = (
-            state.selection.drag is not None and state.selection.drag.kind == "target"
+            state.selection.drag is not None and state.selection.drag.kind in TARGET_DRAGS
         ) or state.playback.playing
         return (
             (moving or state.display.viewport_moving)
             and self._preview.columns is not None
             and state.display.view_mode == "image"
-            and state.selection.edit_mode == "deform"
+            and state.selection.edit_mode in WARPING_MODES
             and not state.display.show_wireframe
         )
 
@@ -415,7 +421,7 @@ class Scene:
         ):
             positions = certified
         else:
-            dragging = state.selection.drag is not None and state.selection.drag.kind == "target"
+            dragging = state.selection.drag is not None and state.selection.drag.kind in TARGET_DRAGS
             positions = frames.positions(self._basis, target, dragging)
         state.compute.mesh_proof = frames.proof
         state.compute.folded_count = frames.proof.turned_over
@@ -440,7 +446,7 @@ class Scene:
             self.fold_free_frames.forget()
             state.compute.mesh_proof = None
         basis, target = self._basis, state.document.live.target
-        dragging = state.selection.drag is not None and state.selection.drag.kind == "target"
+        dragging = state.selection.drag is not None and state.selection.drag.kind in TARGET_DRAGS
         drawn, fold_free_drawn = self._drawn if self._drawn is not None else (None, None)
         fold_free = None if state.playback.playing else _fold_free_positions(state)
         if (
@@ -537,7 +543,7 @@ class Scene:
         )
         meshed = self.mesh_matches(state)
         content = VIEW_MODES[state.display.view_mode].drawn
-        warps = state.selection.edit_mode == "deform" or content != "image"
+        warps = state.selection.edit_mode in WARPING_MODES or content != "image"
         warped = meshed and warps
         # The faded source image costs a full textured pass of a software rasteriser: only on request.
         opacity = (

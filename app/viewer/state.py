@@ -31,8 +31,13 @@ DEFAULT_SHIFT = "mean"
 
 #: What the distortion view shows: log2 det J, or log2 sigma_1 / sigma_2 (app.viewer.distortion_view).
 MEASURES = ("area", "conformal")
-#: What a left click edits: the target (deform) or the source cage.
-EDIT_MODES = ("deform", "cage")
+#: What a left click edits: the target (deform), the source cage, or pins in the picture
+#: (`app.viewer.pin_tool`).
+EDIT_MODES = ("deform", "cage", "pins")
+#: The edit modes that show the warp (the cage mode shows the source).
+WARPING_MODES = ("deform", "pins")
+#: The drags that move the target: the scene draws their frames as drag frames.
+TARGET_DRAGS = ("target", "pin")
 
 
 def _frozen_points(points, name: str) -> np.ndarray:
@@ -41,6 +46,45 @@ def _frozen_points(points, name: str) -> np.ndarray:
         raise ValueError(f"{name} contain NaN or infinite values")
     array.setflags(write=False)
     return array
+
+
+@dataclass(frozen=True)
+class Pins:
+    """The pin tool's part of a `Snapshot` (`app.viewer.pin_tool`), never modified in place.
+
+    Attributes
+    ----------
+    points : tuple of ((float, float), (float, float))
+        Each pin's source point ``at`` and where the warp takes it, ``to``, image pixels.
+    bound : float or None
+        K >= 1: sigma1/sigma2 <= K in the whole picture (None, or inf: no bound).
+    fixed : tuple of int
+        Control points moved by hand while there are pins: the pins' solves hold their targets.
+    """
+
+    points: tuple = ()
+    bound: float | None = None
+    fixed: tuple[int, ...] = ()
+
+    def __post_init__(self):
+        points = tuple((_pair(at), _pair(to)) for at, to in self.points)
+        object.__setattr__(self, "points", points)
+        bound = None if self.bound is None else float(self.bound)
+        if bound is not None and not bound >= 1.0:  # NaN too
+            raise ValueError(f"the pins' bound K must be a number >= 1, got {self.bound!r}")
+        object.__setattr__(self, "bound", None if bound == np.inf else bound)
+        object.__setattr__(self, "fixed", tuple(sorted({int(i) for i in self.fixed if i >= 0})))
+
+    def replace(self, **changes) -> Pins:
+        """A copy with some fields changed."""
+        return dataclasses.replace(self, **changes)
+
+
+def _pair(point) -> tuple[float, float]:
+    x, y = (float(v) for v in point)
+    if not (np.isfinite(x) and np.isfinite(y)):
+        raise ValueError("a pin contains NaN or infinite values")
+    return (x, y)
 
 
 @dataclass(frozen=True, eq=False)
@@ -79,6 +123,8 @@ class Snapshot:
     background : str
         What exports show where the warp leaves them transparent: ``"none"`` (transparent) or a
         colour as ``--background`` takes it (`app.io.images.colours.parse_colour`).
+    pins : Pins
+        The pins in the picture, their bound and the control points they hold (`app.viewer.pin_tool`).
     """
 
     image: Path
@@ -95,6 +141,7 @@ class Snapshot:
     canvas: str = "source"
     fill: str = "none"
     background: str = "none"
+    pins: Pins = field(default_factory=Pins)
 
     def __post_init__(self):
         cage = _frozen_points(self.cage, "cage")
@@ -117,6 +164,10 @@ class Snapshot:
         object.__setattr__(self, "cage", cage)
         object.__setattr__(self, "target", target)
         object.__setattr__(self, "power", float(self.power))
+        if any(i >= len(cage) for i in self.pins.fixed):  # a fixed point of a cage with more points
+            object.__setattr__(
+                self, "pins", self.pins.replace(fixed=[i for i in self.pins.fixed if i < len(cage)])
+            )
 
     @property
     def n(self) -> int:
@@ -165,6 +216,7 @@ class Snapshot:
             and self.parameterization == other.parameterization
             and self.fold_free == other.fold_free
             and self.settings() == other.settings()
+            and self.pins == other.pins
         )
 
     def settings(self) -> tuple[str, str, str, str]:
@@ -255,11 +307,12 @@ class Drag:
 
     Attributes
     ----------
-    kind : {"target", "source", "pan", "band", "fit_rect"}
-        What the drag moves ("band": a rubber band that selects the handles inside it;
-        "fit_rect": the rectangle around a photograph's subject for "Fit cage").
+    kind : {"target", "source", "pin", "pan", "band", "fit_rect"}
+        What the drag moves ("pin": a pin's ``to``, the target following by the pins' solve;
+        "band": a rubber band that selects the handles inside it; "fit_rect": the rectangle
+        around a photograph's subject for "Fit cage").
     index : int
-        The control point under the cursor (-1 for a pan or a band).
+        The control point (the pin) under the cursor (-1 for a pan or a band).
     grab : ndarray of shape (2,)
         Control point minus cursor, image pixels, so that the point does not jump
         to the cursor; for a pan, the cursor's window position at the last event;
@@ -272,6 +325,8 @@ class Drag:
         Every control point the drag moves together (the selection, `index` among them).
     selection : frozenset of int
         The selection when the drag started (a band with Shift adds to it; Esc restores it).
+    solved : tuple
+        A pin drag: the pins the live target was last solved for (`app.viewer.pin_tool.follow`).
     """
 
     kind: str
@@ -281,6 +336,7 @@ class Drag:
     moved: bool = False
     indices: tuple[int, ...] = ()
     selection: frozenset = frozenset()
+    solved: tuple = ()
 
 
 @dataclass
@@ -443,6 +499,7 @@ class Selection:
     drawing: Drawing | None = None  # a new cage being placed
     cage_drawing: str = "curve"  # a new cage's clicks: points on the "curve", or "control" points
     fit_rect: bool = False  # "Fit cage" on a photo waits for a rectangle around the subject
+    pin: int | None = None  # the pin last clicked (pins mode): Delete removes it
 
 
 @dataclass
@@ -462,6 +519,7 @@ class Display:
     show_help: bool = False
     backdrop_opacity: float = 0.0  # of the source image behind the warp (outside "transparent")
     power_draft: float | None = None  # the power slider while it is dragged
+    bound_draft: float | None = None  # the pins' K slider (its position, 1 - 1/K) while it is dragged
 
 
 @dataclass

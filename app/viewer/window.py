@@ -26,7 +26,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from app.io.files import CAGE_SUFFIXES, InputError, read_json
-from app.viewer import commands, controller
+from app.viewer import commands, controller, pin_tool
 from app.viewer.basis_updates import BasisUpdates
 from app.viewer.cage_files import open_cage
 from app.viewer.documents import OpenedDocument, apply_preferences, open_document, save, start_snapshot
@@ -358,6 +358,7 @@ class Viewer:
         ready = self.basis.ready(state) and self.basis.precompute.pending is None
         self.script.send_events(state, ready, self.input.events)
         self.input.apply(state, self.command)
+        pin_tool.follow(state)  # a dragged pin: the pins solved once a frame, for the latest cursor
         # An edit is saved before this frame's drawing: on a dense mesh the frame after a release
         # (exact positions, fold count, the whole mesh drawn) takes ~0.7 s, and a viewer killed
         # meanwhile lost the drag.
@@ -377,7 +378,9 @@ class Viewer:
         state.status.frame_ms.append(1e3 * (time.perf_counter() - started))
         self._save_if_needed()
         window_id = glfw.get_x11_window(self.window) if sys.platform.startswith("linux") else 0
-        self.milestones.frame_done(state, window_id)
+        basis = state.compute.basis  # the scene's since _draw's sync
+        drawn = basis.key if basis is not None and self.scene.mesh_matches(state) else None
+        self.milestones.frame_done(state, window_id, drawn)
         if glfw.window_should_close(self.window):
             state.status.quit = True
 

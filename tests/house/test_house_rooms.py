@@ -23,6 +23,7 @@ ACROSS_MODULES = {
     "tests/app/viewer/test_window.py": "the viewer's real window under Xvfb",
     "tests/app/viewer/test_window_fold_free.py": "the window in fold-free mode",
     "tests/app/viewer/test_window_daily.py": "the window as a daily tool: layout, undo, frames, SVG cages",
+    "tests/app/viewer/test_window_pins.py": "the window's pin tool: pins added, dragged, undone, removed",
 }
 #: Where a file's tests are slow (a real window, the bench, compiling from a cold cache, a wheel).
 SLOW = [
@@ -30,6 +31,7 @@ SLOW = [
     "tests/app/viewer/test_window_fit.py",
     "tests/app/viewer/test_window_fold_free.py",
     "tests/app/viewer/test_window_daily.py",
+    "tests/app/viewer/test_window_pins.py",
     "tests/app/bench/test_bench.py",
     "tests/core/newton/test_compilation.py",
     "tests/packaging/test_wheel.py",

@@ -47,10 +47,8 @@ class BackdropPass:
         ----------
         source : SourceImage
             The image of the last `set_image_size`.
-        view : View
-            Image-to-framebuffer transform.
-        viewport_size : tuple of int
-            (width, height) of the viewport in framebuffer pixels.
+        view, viewport_size : View, tuple of int
+            Where to draw: as for `app.render.passes.gl_state.set_view`.
         opacity : float
             Clamped to [0, 1].
         """

@@ -92,10 +92,8 @@ class FieldPass:
             With its field written (`MeshBuffers.write_values`).
         order : {"screen", "caller"}
             The triangle order (`MeshBuffers.vaos`).
-        view : View
-            Image-to-framebuffer transform.
-        viewport_size : tuple of int
-            (width, height) of the viewport in framebuffer pixels.
+        view, viewport_size : View, tuple of int
+            Where to draw: as for `app.render.passes.gl_state.set_view`.
         """
         set_view((self.program,), view, viewport_size)
         premultiplied_blending(self._ctx)

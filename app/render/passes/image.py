@@ -75,10 +75,8 @@ class ImagePass:
         mesh : MeshBuffers
         order : {"screen", "caller"}
             The triangle order (`MeshBuffers.vaos`).
-        view : View
-            Image-to-framebuffer transform.
-        viewport_size : tuple of int
-            (width, height) of the viewport in framebuffer pixels.
+        view, viewport_size : View, tuple of int
+            Where to draw: as for `app.render.passes.gl_state.set_view`.
         mipmaps : bool
             Sample through the mipmaps (`SourceImage.bind`); False where no triangle shrinks the image.
         snap : bool
@@ -113,10 +111,8 @@ class ImagePass:
         mesh : MeshBuffers
         order : {"screen", "caller"}
             The triangle order of the fold pass.
-        view : View
-            Image-to-framebuffer transform.
-        viewport_size : tuple of int
-            (width, height) of the viewport in framebuffer pixels.
+        view, viewport_size : View, tuple of int
+            Where to draw: as for `app.render.passes.gl_state.set_view`.
         folds : bool
             Fill the triangles that the current positions fold over.
         highlight : bool

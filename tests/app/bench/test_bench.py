@@ -133,7 +133,9 @@ def test_quick_runs_every_row_once_at_tiny_sizes(monkeypatch):
     monkeypatch.setattr(
         bench, "launch_rows", lambda repeats, quick, *rest: calls.update(launch=(repeats, quick))
     )
-    monkeypatch.setattr(bench, "photo_rows", lambda sizes, run: calls.update(photos=sizes))
+    monkeypatch.setattr(
+        bench, "photo_rows", lambda sizes, run, *repeats: calls.update(photos=(sizes, *repeats))
+    )
     monkeypatch.setattr(bench, "animation_row", lambda run, *rest: calls.update(animation=rest))
     monkeypatch.setattr(bench_pins, "pin_rows", lambda *rest: calls.update(pins=rest))
     monkeypatch.setattr(
@@ -167,7 +169,7 @@ def test_quick_runs_every_row_once_at_tiny_sizes(monkeypatch):
         "fem": ((2_000,), 1, 0.0),
         "memory": 20_000,
         "warp": (640, 360),
-        "photos": ((1200, 800),),
+        "photos": (((1200, 800),), 1),  # each warp once
         "animation": ((1200, 800), 0.25),
         "drag": ((6_000,), 1.0),
         "fold_free_drag": (0.5,),

@@ -14,7 +14,8 @@ from app.render.viewport import View
 from app.viewer import documents as sessions
 from app.viewer.demos import demo_files
 from app.viewer.session_files import BACKUPS, backup_path, backups, session_path_for
-from app.viewer.state import AppState, Display, Document, History
+from app.viewer.state import AppState, Display, Document, History, Pins
+from app.warp.pins import session_pins
 
 
 @pytest.fixture(autouse=True)
@@ -91,6 +92,34 @@ def test_save_and_restore_everything(tmp_path):
     broken.write_text("{ not json")
     with pytest.raises(InputError, match=r"broken.json exists but cannot be read \(not valid JSON"):
         sessions.open_document(files.image, None, broken)
+
+
+def test_pins_their_bound_and_the_fixed_points_are_saved_and_restored_with_their_history(tmp_path):
+    files = demo_files("starfish")
+    path = tmp_path / "p.json"
+    document = sessions.open_document(files.image, files.cage, path)
+    first = document.snapshot.replace(pins=Pins((((300.0, 250.0), (300.0, 250.0)),)))
+    target = first.target.copy()
+    target[3] += [5.0, -2.0]
+    second = first.replace(pins=Pins((((300.0, 250.0), (310.0, 240.0)),), 2.5, (3,)), target=target)
+    history = History(document.snapshot)
+    history.push(first)
+    history.push(second)
+    state = AppState(Document(history, second, document.image, path))
+    state.selection.edit_mode = "pins"
+    sessions.save(state, None)
+    stored = json.loads(path.read_text())
+    assert stored["pins"] == [{"at": [300.0, 250.0], "to": [310.0, 240.0]}]
+    assert stored["max_distortion"] == 2.5 and stored["fixed"] == [3]
+    # `warp --session` reads the very pins, bound and held point.
+    request = session_pins(read_session(path), path)
+    np.testing.assert_array_equal(request.moved, [[310.0, 240.0]])
+    assert request.max_distortion == 2.5 and list(request.fixed) == [3]
+    restored = sessions.restore(path)
+    assert restored.snapshot == second and restored.undo == [document.snapshot, first]
+    again = AppState(Document(History(restored.snapshot), restored.snapshot, restored.image, path))
+    sessions.apply_preferences(again, restored.preferences)
+    assert again.selection.edit_mode == "pins"
 
 
 def test_a_saved_session_reads_back_with_the_shared_reader(tmp_path):
