@@ -108,7 +108,7 @@ def run_bench(args: argparse.Namespace) -> int:
         fold_free_rows(
             curve, 1 if args.quick else repeats, _forget_densities, (2_000,) if args.quick else None
         )
-        large_cage_row(1 if args.quick else repeats)
+        large_cage_row(1, 40) if args.quick else large_cage_row(repeats)
         held_out_rows(_forget_densities, args.quick)
     if not args.skip_pins:
         from app.bench.pins import pin_rows

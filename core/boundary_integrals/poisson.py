@@ -107,7 +107,8 @@ class Densities:
 _solving: dict[bytes, ClosedBSpline] = {}
 #: Every cage's densities still in memory (in `solved_densities`' cache or held elsewhere), by its points.
 _held: weakref.WeakValueDictionary[bytes, Densities] = weakref.WeakValueDictionary()
-#: The first combination `combined_levels` solved for alone, by the cage's points (a few cages' worth).
+#: The first combination `combined_levels` solved for alone, by the cage's points, for at most
+#: `COMBINED_CAGES` cages (then it starts again).
 _combined: dict[bytes, bytes] = {}
 COMBINED_CAGES = 64
 

@@ -144,7 +144,9 @@ def test_quick_runs_every_row_once_at_tiny_sizes(monkeypatch):
         lambda curve, repeats, forget, vertices: calls.update(fold_free=vertices),
     )
     monkeypatch.setattr(bench_held_out, "held_out_rows", lambda forget, quick: calls.update(held_out=quick))
-    monkeypatch.setattr(bench_fold_free, "large_cage_row", lambda repeats: calls.update(large_cage=repeats))
+    monkeypatch.setattr(
+        bench_fold_free, "large_cage_row", lambda repeats, *count: calls.update(large_cage=(repeats, *count))
+    )
     monkeypatch.setattr(
         bench_mesher, "mesher_rows", lambda curve, repeats, vertices: calls.update(mesher=(repeats, vertices))
     )
@@ -177,7 +179,7 @@ def test_quick_runs_every_row_once_at_tiny_sizes(monkeypatch):
         "launch": (3, True),
         "fold_free": (2_000,),
         "held_out": True,
-        "large_cage": 1,
+        "large_cage": (1, 40),
         "mesher": (1, (2_000,)),
         "pins": ((16,), 2, 1),
     }
