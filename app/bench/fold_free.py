@@ -29,13 +29,9 @@ VERTICES = (10_000, 50_000)
 HANDLE = 1
 DRAG = 0.3
 DRAG_ANGLE = 90.0
-#: The large cage's row: control points on a five-lobed circle (radius ~150 px), the handle, and its
-#: drags upwards in pixels: one the certificate proves, one whose harmonic map folds (for the
-#: fold-free map).
-LARGE_CAGE = 200
-LARGE_HANDLE = 10
-PROVEN_DRAG = 5.0
-FOLDING_DRAG = 45.0
+#: The large cage's row: its control points (on a five-lobed circle, radius ~150 px), the one dragged
+#: upwards, and the drags in pixels: (one the certificate proves, one whose harmonic map folds).
+LARGE_CAGE, LARGE_HANDLE, LARGE_DRAGS = 200, 10, (5.0, 45.0)
 
 
 def bench_target(curve: core.ClosedBSpline) -> np.ndarray:
@@ -104,14 +100,14 @@ def large_cage_row(repeats: int, count: int = LARGE_CAGE) -> None:
     base = core.examples.lobed_circle(count) * 150.0 + 300.0
     print(f"{count}-point cage (a five-lobed circle, radius ~150 px); medians of {repeats}")
     header = f"{'certificate s':>14} {'cpu s':>6} {'proven':>7} {'samples':>8} {'vertices V':>11}"
-    header += f" {f'{FOLDING_DRAG:.0f}-px drag map s':>17} {'flips':>6} {'proven':>7}"
+    header += f" {f'{LARGE_DRAGS[1]:.0f}-px drag map s':>17} {'flips':>6} {'proven':>7}"
     print(header)
     print("-" * len(header))
     walls, cpus = [], []
     for run in range(1, repeats + 1):
         points = base * (1.0 + 1e-3 * run)
         target = points.copy()
-        target[LARGE_HANDLE, 1] += PROVEN_DRAG
+        target[LARGE_HANDLE, 1] += LARGE_DRAGS[0]
         started, cpu = time.perf_counter(), time.process_time()
         proof = core.certify_injective(core.ClosedBSpline(points), target)
         walls.append(time.perf_counter() - started)
@@ -119,7 +115,7 @@ def large_cage_row(repeats: int, count: int = LARGE_CAGE) -> None:
     curve = core.ClosedBSpline(base)
     mesh = core.triangulate(curve)
     target = base.copy()
-    target[LARGE_HANDLE, 1] += FOLDING_DRAG
+    target[LARGE_HANDLE, 1] += LARGE_DRAGS[1]
 
     def mapped():
         return core.fold_free_deform(
