@@ -111,6 +111,10 @@ _held: weakref.WeakValueDictionary[bytes, Densities] = weakref.WeakValueDictiona
 #: `COMBINED_CAGES` cages (then it starts again).
 _combined: dict[bytes, bytes] = {}
 COMBINED_CAGES = 64
+#: Control points from which a combination is solved alone: below, all the densities cost about as
+#: much (CPU time, five-lobed circles, loaded: 16 points 0.025 s all, 0.031 s five combined; 80:
+#: 0.30 s either way; 120: 0.65 s and 0.34 s; 200: 2.4 s and 0.8 s) and serve every later target.
+COMBINED_FROM = 100
 
 
 @one_blas_thread
@@ -130,8 +134,9 @@ def combined_levels(curve: ClosedBSpline, mix: np.ndarray) -> Levels:
     weighs the densities' sum: the layer is linear in its density, so their layers are the
     combinations' (`poisson_gradients` with weights).
 
-    From the cage's densities where they are in memory; else, for a cage's first combination of at
-    most `two_grid.FEW_COLUMNS` columns, solved for those k right-hand sides 2 N M alone
+    From the cage's densities where they are in memory; else, for a cage of `COMBINED_FROM` control
+    points or more, its first combination of at most `two_grid.FEW_COLUMNS` columns is solved for
+    those k right-hand sides 2 N M alone
     (`combined_densities`: a 200-point cage's 201 columns took 5.5 s, most of it in proportion to
     them or in the coarse LU that few columns do without).  A second combination of the same cage
     (another target of a certificate) solves all its densities, shared with the basis and any later one.
@@ -140,7 +145,8 @@ def combined_levels(curve: ClosedBSpline, mix: np.ndarray) -> Levels:
     if len(_combined) > COMBINED_CAGES:
         _combined.clear()
     first = _combined.setdefault(key, wanted.tobytes())
-    if key not in _held and first == wanted.tobytes() and wanted.shape[1] <= two_grid.FEW_COLUMNS:
+    alone = curve.n >= COMBINED_FROM and wanted.shape[1] <= two_grid.FEW_COLUMNS
+    if alone and key not in _held and first == wanted.tobytes():
         _solving[key] = curve
         try:
             return combined_densities(key, curve.n, first, wanted.shape[1]).levels
