@@ -204,7 +204,7 @@ class Milestones:
         """A frame with fold-free on: a drag frame's time and turned-over triangles; a release starts
         the clock that the status line's proof (`checked`) stops."""
         figures = self.fold_free
-        dragged = state.selection.drag is not None and state.selection.drag.kind == "target"
+        dragged = state.selection.drag is not None and state.selection.drag.kind in TARGET_DRAGS
         fold_free = state.document.live.fold_free
         if dragged and fold_free:
             figures.drag_ms.append(state.status.frame_ms[-1])
