@@ -1,6 +1,7 @@
 """Tests of app.bench.table's error reporting (the table itself is smoke-tested in test_layout)."""
 
 import argparse
+import re
 import sys
 
 import pytest
@@ -145,6 +146,9 @@ def test_quick_runs_every_row_once_at_tiny_sizes(monkeypatch):
     )
     monkeypatch.setattr(bench_held_out, "held_out_rows", lambda forget, quick: calls.update(held_out=quick))
     monkeypatch.setattr(
+        bench_fold_free, "large_cage_row", lambda repeats, *count: calls.update(large_cage=(repeats, *count))
+    )
+    monkeypatch.setattr(
         bench_mesher, "mesher_rows", lambda curve, repeats, vertices: calls.update(mesher=(repeats, vertices))
     )
     args = argparse.Namespace(
@@ -169,13 +173,14 @@ def test_quick_runs_every_row_once_at_tiny_sizes(monkeypatch):
         "memory": 20_000,
         "warp": (640, 360),
         "photos": (((1200, 800),), 1),  # each warp once
-        "animation": ((1200, 800), 0.25),
+        "animation": ((1200, 800), 0.25, 1),
         "drag": ((6_000,), 1.0),
         "fold_free_drag": (0.5,),
         "export": (1, 1.0),  # 8 frames instead of the default 30 fps' 220
         "launch": (3, True),
         "fold_free": (2_000,),
         "held_out": True,
+        "large_cage": (1, 40),
         "mesher": (1, (2_000,)),
         "pins": ((16,), 2, 1),
     }
@@ -199,6 +204,15 @@ def test_the_fold_free_row_says_when_libigl_is_missing(monkeypatch, capsys):
     assert "libigl is not installed" in out
     row = out.strip().splitlines()[-1].split()
     assert row[2] != "0" and row[3] == "0" and row[4] == "yes"  # steps, flips, proven
+
+
+def test_the_large_cage_row_proves_the_certificate_and_maps_the_drag(capsys):
+    """The row's columns on a 40-point lobed circle (the bench's has 200): the certificate of the small
+    drag proven, the folding drag's map with no triangle turned over, proven."""
+    bench_fold_free.large_cage_row(1, count=40)
+    row = capsys.readouterr().out.strip().splitlines()[-1].split()
+    assert float(row[0]) > 0 and row[2] == "yes" and int(row[3]) > 0
+    assert row[6] == "0" and row[7] == "yes"
 
 
 def test_the_mesher_row_says_when_triangle_is_missing(monkeypatch, capsys):
@@ -239,3 +253,18 @@ def test_the_launch_rows_time_the_demo_and_a_photograph_to_their_first_basis(cap
     for line, label in zip(lines[1:4], labels, strict=True):
         seconds = float(line.split()[-4])
         assert line.strip().startswith(label) and 0.2 < seconds < 60.0, line  # a generous limit
+
+
+def test_the_animation_row_times_gif_and_png_frames_in_turns_with_their_own_peaks(capsys):
+    from app.bench.photos import animation_row
+
+    animation_row(run_child, (160, 120), 0.2, 2)
+    (line,) = capsys.readouterr().out.strip().splitlines()
+    pattern = (
+        r"animate 160x120, 0\.2 s at 30 fps, --outside original \(median of 2, in turns\): GIF [\d.]+ s, "
+        r"PNG frames [\d.]+ s, GIF / PNG frames = [\d.]+; "
+        r"peak memory: GIF ([\d.]+) GiB, PNG frames ([\d.]+) GiB"
+    )
+    match = re.fullmatch(pattern, line)
+    assert match is not None, line
+    assert all(0.05 < float(peak) < 1.0 for peak in match.groups()), line
