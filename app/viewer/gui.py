@@ -218,14 +218,23 @@ def _pin_bound(state: AppState, live, commands: list, spots: dict) -> None:
     imgui.text_disabled(f"{pins} pin{'s' * (pins != 1)}, {fixed} point{'s' * (fixed != 1)} held by hand")
 
 
+#: The edit modes' radio buttons: mode, label, tooltip.
+EDIT_MODES = (
+    ("deform", "Deform", "Drag the target cage's points (blue): the picture follows (D)"),
+    ("cage", "Cage", "Edit the source cage (green): where the picture is held (C)"),
+    ("pins", "Pins", "Pin the picture: click adds a pin, drag moves it, right-click removes (T)"),
+)
+
+
 def _edit_section(state: AppState, live, commands: list, spots: dict) -> None:
     """What a click edits, undo, and the edits of the whole cage."""
-    if imgui.radio_button("Deform (target, blue)", state.selection.edit_mode == "deform"):
-        commands.append(("edit_mode", "deform"))
-    if imgui.radio_button("Edit cage (source, green)", state.selection.edit_mode == "cage"):
-        commands.append(("edit_mode", "cage"))
-    if imgui.radio_button("Pins (in the picture)", state.selection.edit_mode == "pins"):
-        commands.append(("edit_mode", "pins"))
+    for index, (mode, label, tip) in enumerate(EDIT_MODES):  # one line: the panel fits a 1080p screen
+        if index:
+            imgui.same_line()
+        if imgui.radio_button(label, state.selection.edit_mode == mode):
+            commands.append(("edit_mode", mode))
+        if imgui.is_item_hovered():
+            imgui.set_tooltip(tip)
     if state.selection.edit_mode == "pins" or live.pins.points:
         _pin_bound(state, live, commands, spots)
     if imgui.button("Undo"):
