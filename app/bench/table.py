@@ -41,6 +41,7 @@ from app.bench.photos import (
     ANIMATION_SECONDS,
     ANIMATION_SIZE,
     PHOTO_SIZES,
+    QUICK_ANIMATION_SIZE,
     QUICK_SIZE,
     animation_row,
     photo_rows,
@@ -128,11 +129,8 @@ def run_bench(args: argparse.Namespace) -> int:
                 photo_rows((QUICK_SIZE,), run_child, 1) if args.quick else photo_rows(PHOTO_SIZES, run_child)
             )
         )
-        children.append(
-            lambda: animation_row(
-                run_child, *((QUICK_SIZE, 0.25) if args.quick else (ANIMATION_SIZE, ANIMATION_SECONDS))
-            )
-        )
+        animation = (QUICK_ANIMATION_SIZE, 0.25) if args.quick else (ANIMATION_SIZE, ANIMATION_SECONDS)
+        children.append(lambda: animation_row(run_child, *animation))
     if not args.skip_drag:
         from app.bench import fold_free_drag
 
