@@ -24,8 +24,7 @@ from pathlib import Path
 PHOTO_SIZES = ((6000, 4000), (12000, 8400))
 #: The formats of the rows, by extension.
 PHOTO_FORMATS = ("png", "jpg")
-#: The quick smoke test's size, and its animation's (a GIF's colours are chosen frame by frame: at
-#: 1200x800 its 8 frames took a third of the smoke test's animation row).
+#: The quick smoke test's size, and its animation's (smaller: there the GIF's frames cost most).
 QUICK_SIZE = (1200, 800)
 QUICK_ANIMATION_SIZE = (600, 400)
 #: Runs of the warp and of the baseline in each child.
@@ -132,9 +131,11 @@ def photo_rows(sizes, run_child, repeats: int = PHOTO_REPEATS, kinds=PHOTO_FORMA
 
 #: (width, height) and seconds at 30 fps of the animation row's session.
 ANIMATION_SIZE, ANIMATION_SECONDS = (1600, 1200), 2.0
+#: Turns of the animation row: PNG frames then GIF, each turn, in one process.
+ANIMATION_REPEATS = 3
 
 _ANIMATION_CHILD = r"""
-import json, sys, time
+import json, statistics, sys, time
 from pathlib import Path
 
 import cv2
@@ -144,42 +145,53 @@ from app.__main__ import main
 from app.bench.photos import photograph, write_starfish_drag
 
 width, height, seconds = int(sys.argv[1]), int(sys.argv[2]), float(sys.argv[3])
-folder, output = Path(sys.argv[4]), sys.argv[5]
-if not (folder / "photo.png").exists():
-    cv2.imwrite(str(folder / "photo.png"), photograph(width, height, grain=False))
-    write_starfish_drag(folder, width, height)
-    cage, target = (np.array(json.loads((folder / f"{name}.json").read_text())["control_points"])
-                    for name in ("cage", "target"))
-    keyframes = [{"time": t, "target": {"control_points": p.tolist()}}
-                 for t, p in ((0.0, cage), (seconds, target))]
-    session = {"image": "photo.png", "cage": {"control_points": cage.tolist()}, "kernel": "poisson",
-               "target": {"control_points": target.tolist()}, "view": {"scale": 1.0, "offset": [0, 0]},
-               "keyframes": keyframes, "outside": "original"}
-    (folder / "session.json").write_text(json.dumps(session))
+folder, repeats = Path(sys.argv[4]), int(sys.argv[5])
+cv2.imwrite(str(folder / "photo.png"), photograph(width, height, grain=False))
+write_starfish_drag(folder, width, height)
+cage, target = (np.array(json.loads((folder / f"{name}.json").read_text())["control_points"])
+                for name in ("cage", "target"))
+keyframes = [{"time": t, "target": {"control_points": p.tolist()}}
+             for t, p in ((0.0, cage), (seconds, target))]
+session = {"image": "photo.png", "cage": {"control_points": cage.tolist()}, "kernel": "poisson",
+           "target": {"control_points": target.tolist()}, "view": {"scale": 1.0, "offset": [0, 0]},
+           "keyframes": keyframes, "outside": "original"}
+(folder / "session.json").write_text(json.dumps(session))
 # The basis computed and cached first: the row times the frames.
 main(["animate", str(folder / "session.json"), "--output", str(folder / "warm.gif"), "--fps", "1"])
-start = time.perf_counter()
-if main(["animate", str(folder / "session.json"), "--output", str(folder / output), "--fps", "30"]) != 0:
-    raise SystemExit("animate failed")
-seconds = time.perf_counter() - start
-peak = next(int(line.split()[1]) for line in open("/proc/self/status") if line.startswith("VmHWM:"))
-print(json.dumps({"seconds": seconds, "peak": peak}))
+results = {"frames/": ([], []), "out.gif": ([], [])}
+for _ in range(repeats):
+    for output, (times, peaks) in results.items():
+        with open("/proc/self/clear_refs", "w") as stream:  # the high-water mark starts again here
+            stream.write("5")
+        start = time.perf_counter()
+        argv = ["animate", str(folder / "session.json"), "--output", str(folder / output), "--fps", "30"]
+        if main(argv) != 0:
+            raise SystemExit("animate failed")
+        times.append(time.perf_counter() - start)
+        status = open("/proc/self/status").read().splitlines()
+        peaks.append(next(int(line.split()[1]) for line in status if line.startswith("VmHWM:")))
+print(json.dumps({output: {"seconds": statistics.median(times), "peak": max(peaks)}
+                  for output, (times, peaks) in results.items()}))
 """
 
 
-def animation_row(run_child, size=ANIMATION_SIZE, seconds: float = ANIMATION_SECONDS) -> None:
+def animation_row(
+    run_child, size=ANIMATION_SIZE, seconds: float = ANIMATION_SECONDS, repeats: int = ANIMATION_REPEATS
+) -> None:
     """Print the row of ``animate`` to GIF of a `size` session of `seconds` at 30 fps against the same
-    frames written as PNGs (each in a child of its own: its peak memory is its own)."""
-    results = {}
+    frames written as PNGs: in turns in one child process (the machine's load falls on both alike),
+    the medians of `repeats` turns, and each one's peak memory (the process's high-water mark, reset
+    before each run)."""
     with tempfile.TemporaryDirectory() as folder:
         environment = dict(os.environ, TRANSFINITE_CACHE_DIR=str(Path(folder) / "cache"))
-        for output in ("frames/", "out.gif"):
-            command = [sys.executable, "-c", _ANIMATION_CHILD, *map(str, size), str(seconds), folder, output]
-            result = run_child(command, f"the {output} animation", env=environment)
-            results[output] = json.loads(result.stdout.strip().splitlines()[-1])
+        arguments = [*map(str, size), str(seconds), folder, str(repeats)]
+        command = [sys.executable, "-c", _ANIMATION_CHILD, *arguments]
+        result = run_child(command, "the GIF and PNG frames animation", env=environment)
+    results = json.loads(result.stdout.strip().splitlines()[-1])
     gif, frames = results["out.gif"], results["frames/"]
     print(
-        f"animate {size[0]}x{size[1]}, {seconds:g} s at 30 fps, --outside original: "
+        f"animate {size[0]}x{size[1]}, {seconds:g} s at 30 fps, --outside original "
+        f"(median of {repeats}, in turns): "
         f"GIF {gif['seconds']:.2f} s, "
         f"PNG frames {frames['seconds']:.2f} s, GIF / PNG frames = {gif['seconds'] / frames['seconds']:.2f}; "
         f"peak memory: GIF {gif['peak'] / 2**20:.2f} GiB, PNG frames {frames['peak'] / 2**20:.2f} GiB"

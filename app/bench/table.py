@@ -38,8 +38,6 @@ import numpy as np
 import core
 from app.bench.launch import launch_rows
 from app.bench.photos import (
-    ANIMATION_SECONDS,
-    ANIMATION_SIZE,
     PHOTO_SIZES,
     QUICK_ANIMATION_SIZE,
     QUICK_SIZE,
@@ -129,7 +127,7 @@ def run_bench(args: argparse.Namespace) -> int:
                 photo_rows((QUICK_SIZE,), run_child, 1) if args.quick else photo_rows(PHOTO_SIZES, run_child)
             )
         )
-        animation = (QUICK_ANIMATION_SIZE, 0.25) if args.quick else (ANIMATION_SIZE, ANIMATION_SECONDS)
+        animation = (QUICK_ANIMATION_SIZE, 0.25, 1) if args.quick else ()
         children.append(lambda: animation_row(run_child, *animation))
     if not args.skip_drag:
         from app.bench import fold_free_drag

@@ -1,21 +1,22 @@
 """The viewer's exports (Ctrl+E): the warped image at the image's full resolution, like
 ``warp --session``, or the keyframed animation, like ``animate``, as many frames as fit in
-`EXPORT_BUDGET` between two frames the viewer draws (Esc stops it).  Both draw through
-`app.warp.pipeline.render` on the window's renderer, so they are ``warp``'s and ``animate``'s pixels."""
+`EXPORT_BUDGET` between two frames the viewer draws (Esc stops it).  Both draw and write through
+`app.warp.pipeline.write_frames` on the window's renderer, as ``warp`` and ``animate`` do, so they
+are their files."""
 
 from __future__ import annotations
 
 import os
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from app.io.files import IMAGE_SUFFIXES, InputError, image_metadata
+from app.io.files import IMAGE_SUFFIXES, image_metadata
 from app.viewer.file_dialogs import FileRequests
-from app.viewer.state import AppState, Snapshot
+from app.viewer.state import AppState
 from app.warp.framing import output_frame, output_region
 
 #: Seconds of an animation export's frames rendered between two window frames (the window's own
@@ -29,30 +30,19 @@ class AnimationExport:
 
     Attributes
     ----------
-    writer : app.warp.frame_writers.FrameWriter
-    times : ndarray of shape (F,)
-        Seconds of every frame (`app.warp.keyframes.frame_times`).
-    size, view
-        Output size (width, height) and image-to-output `View` (`app.warp.framing`).
-    snapshot : Snapshot
-        The document when the export started (its keyframes and interpolation).
-    deformation : app.warp.pipeline.Deformation
-        The mesh drawn and its G.
-    outside : str
-    background : tuple of float or None
-        Straight RGBA in [0, 1] under the warp (the document's ``background``); None: transparent.
+    steps : iterator of int
+        `app.warp.pipeline.write_frames` of the export: each step draws a frame and gives how many
+        are written.
+    path : Path
+    frames : int
+        How many frames the animation has.
     written : int
         Frames written so far.
     """
 
-    writer: object
-    times: np.ndarray
-    size: tuple[int, int]
-    view: object
-    snapshot: Snapshot
-    deformation: object  # app.warp.pipeline.Deformation
-    outside: str
-    background: tuple[float, float, float, float] | None
+    steps: Iterator[int]
+    path: Path
+    frames: int
     written: int = 0
 
 
@@ -95,7 +85,7 @@ class Exporter:
     @property
     def progress(self) -> float | None:
         """The fraction of the animation export written, None when none runs."""
-        return None if self.animation is None else self.animation.written / len(self.animation.times)
+        return None if self.animation is None else self.animation.written / self.animation.frames
 
     def ask_path(self, again: bool = False) -> None:
         """Ctrl+E: where to write (``--export`` if given, else a save dialog or the in-window
@@ -124,7 +114,7 @@ class Exporter:
             path = path.with_name(path.name + ".png")
         try:
             written = self.write_still(path)
-        except (ValueError, InputError) as error:  # too large an output, or a file not written
+        except (ValueError, MemoryError) as error:  # too large an output, or a file not written
             state.say(str(error), error=True)
             return None
         if not written:
@@ -136,26 +126,30 @@ class Exporter:
         return path
 
     def write_still(self, path: Path) -> bool:
-        """Write the live target's warp to `path` as ``warp --session`` does (`render_to_file`: the
+        """Write the live target's warp to `path` as ``warp --session`` does (`write_frames`: the
         image's depth, ICC profile and EXIF, strips for a large PNG); False before its basis is ready.
 
         Raises
         ------
         ValueError
             An output over `app.warp.framing.MAX_OUTPUT_PIXELS`.
+        MemoryError
+            Too little address space to draw it (`app.render.renderer.require_render_memory`).
         InputError
             The file cannot be written (transparent pixels for a JPEG, a folder that is not there...).
         """
         still = self._still()
         if still is None:
             return False
-        from app.warp.pipeline import OutputFile, render_to_file
+        from app.warp.pipeline import FrameOutput, OutputFile, write_frames
 
-        deformation, target, frame = still
+        deformation, target, (size, view) = still
         state = self.state
         metadata = image_metadata(state.document.live.image)
-        output = OutputFile(path, metadata, background=document_background(state))
-        render_to_file(self.scene.renderer, deformation, target, frame, state.document.outside, output)
+        file = OutputFile(path, metadata, background=document_background(state))
+        output = FrameOutput(file, "image", size, view, state.document.outside)
+        for _ in write_frames(self.scene.renderer, deformation, [target], output):
+            pass
         return True
 
     def render_still(self) -> np.ndarray | None:
@@ -191,15 +185,16 @@ class Exporter:
         """Esc: stop the animation export, if one runs (nothing is written)."""
         if self.animation is None:
             return False
-        self.animation.writer.abort()
+        self.animation.steps.close()
         self.animation = None
         self.state.say("animation export stopped; nothing was written")
         return True
 
     def _start_animation(self, path: Path, typed: str | None) -> None:
-        from app.warp.frame_writers import WRITERS, check_output, output_kind
+        from app.warp.frame_writers import check_output, output_kind
         from app.warp.framing import frame_region
-        from app.warp.keyframes import frame_times
+        from app.warp.keyframes import frame_times, interpolate
+        from app.warp.pipeline import FrameOutput, OutputFile, write_frames
 
         state = self.state
         live = state.document.live
@@ -209,6 +204,7 @@ class Exporter:
         if not self.ready(state) or not self.scene.mesh_matches(state):
             state.say("nothing to export yet: the basis functions are still being computed", error=True)
             return
+        deformation = state.compute.basis.deformation(fold_free=live.fold_free)
         try:
             kind = output_kind(path, typed)
             check_output(path, kind)
@@ -218,57 +214,39 @@ class Exporter:
             size, view = output_frame(
                 frame_region((width, height), live.keyframes, live.interpolation, times, canvas)
             )
-            writer = WRITERS[kind](path, size, self.fps, image_metadata(live.image))
-        except (InputError, ValueError, OSError) as error:
+            targets = [interpolate(live.keyframes, float(moment), live.interpolation) for moment in times]
+            file = OutputFile(path, image_metadata(live.image), background=document_background(state))
+            output = FrameOutput(file, kind, size, view, state.document.outside, self.fps)
+            steps = write_frames(self.scene.renderer, deformation, targets, output)
+        except (ValueError, MemoryError, OSError) as error:
             state.say(str(error), error=True)
             return
         state.playback.playing = False
-        deformation = state.compute.basis.deformation(fold_free=live.fold_free)
-        self.animation = AnimationExport(
-            writer, times, size, view, live, deformation, state.document.outside, document_background(state)
-        )
+        self.animation = AnimationExport(steps, path, len(targets))
         self.last = str(path) + os.sep if kind == "png" else str(path)
-        state.say(f"exporting {len(times)} frames to {path} (Esc stops)")
+        state.say(f"exporting {len(targets)} frames to {path} (Esc stops)")
 
     def next_frame(self) -> None:
-        """Render and write the next frames of the animation being exported, for `EXPORT_BUDGET`
-        seconds (a window frame between them keeps the progress shown and Esc heard); finish after
-        the last.  Each frame is what `animate` renders (`app.warp.pipeline.render`)."""
+        """Draw and write the next frames of the animation being exported (`write_frames`'s steps), for
+        `EXPORT_BUDGET` seconds (a window frame between them keeps the progress shown and Esc heard);
+        the file appears after the last."""
         export, state = self.animation, self.state
         if export is None:
             return
-        from app.warp.keyframes import interpolate
-        from app.warp.pipeline import render
-
-        snapshot = export.snapshot
         self.scene.invalidate_positions()
         started = time.perf_counter()
         try:
-            while export.written < len(export.times) and time.perf_counter() - started < EXPORT_BUDGET:
-                moment = float(export.times[export.written])
-                target = interpolate(snapshot.keyframes, moment, snapshot.interpolation)
-                pixels = render(
-                    self.scene.renderer,
-                    export.deformation,
-                    target,
-                    export.size,
-                    export.view,
-                    export.outside,
-                    export.background,
-                )
-                export.writer.add(pixels)
-                export.written += 1
-            if export.written == len(export.times):
-                export.writer.finish()
+            for written in export.steps:
+                export.written = written
+                if time.perf_counter() - started >= EXPORT_BUDGET:
+                    return
         except (OSError, ValueError) as error:
-            export.writer.abort()
             self.animation = None
             state.say(f"cannot export the animation: {error}", error=True)
             return
-        if export.written == len(export.times):
-            self.animation = None
-            state.say(f"exported {len(export.times)} frames to {export.writer.path}")
-            self.announce(f"exported {export.writer.path}")
+        self.animation = None
+        state.say(f"exported {export.frames} frames to {export.path}")
+        self.announce(f"exported {export.path}")
 
 
 def document_background(state: AppState) -> tuple[float, float, float, float] | None:

@@ -101,13 +101,9 @@ class Viewer:
         self.dialogs = FileRequests()
         self.script = ScriptReplay(options.script, options.frames, options.fps, announce)
         self.playback = PlaybackClock(announce)
-        self.exporter = Exporter(
-            self.state, None, self.basis.ready, options.export, options.fps, announce, self.dialogs
-        )
         self.window = None
-        self.ctx = self.imgui_renderer = self.scene = (
-            None  # made with the window (the scene holds the renderer)
-        )
+        # Made with the window: the scene holds the window's renderer, the exporter draws with it.
+        self.ctx = self.imgui_renderer = self.scene = self.exporter = None
 
     # -- lifetime -------------------------------------------------------------------
 
@@ -179,7 +175,11 @@ class Viewer:
         self.input.chain_callbacks(glfw, window, imgui.get_io(), self.state)
         self.basis.precompute.wake_on_message(glfw.post_empty_event)
         self.checks.worker.wake_on_message(glfw.post_empty_event)
-        self.scene = self.exporter.scene = Scene(WarpRenderer(self.ctx))
+        self.scene = Scene(WarpRenderer(self.ctx))
+        options, announce = self.options, self.milestones.announce
+        self.exporter = Exporter(
+            self.state, self.scene, self.basis.ready, options.export, options.fps, announce, self.dialogs
+        )
         glfw.focus_window(window)
         self.state.screen.window_size = glfw.get_window_size(window)
         self.input.sizes = {

@@ -16,15 +16,12 @@ from pathlib import Path
 
 from app.io.files import InputError, read_photo, refuse_overwriting_inputs, reported_as_input
 from app.io.session import read_session
-from app.warp.frame_writers import check_output, output_kind
+from app.warp.frame_writers import check_frames, check_output, output_kind
 from app.warp.framing import frame_region, output_frame
 from app.warp.job import WarpJob, checked_curve, kernel_params, session_inputs, width_height
 from app.warp.keyframes import frame_times, interpolate
 from app.warp.pins import session_pins
 from app.warp.pipeline import OutputFile, WarpSettings
-
-#: Most bytes of frames a GIF export keeps in memory until it writes the file.
-MAX_GIF_BYTES = 4 << 30
 
 
 def animation_job(args: argparse.Namespace) -> WarpJob:
@@ -65,11 +62,7 @@ def animation_job(args: argparse.Namespace) -> WarpJob:
         size, view = output_frame(
             frame_region(width_height(image), keyframes, interpolation, times, canvas), size=args.size
         )
-    if kind == "gif" and len(times) * size[0] * size[1] * 3 > MAX_GIF_BYTES:
-        raise InputError(
-            f"{path}: {len(times)} frames of {size[0]}x{size[1]} are too many for a GIF; write an MP4 or PNG "
-            "frames, or give a smaller --size or --fps"
-        )
+    check_frames(kind, len(times), size, path)  # before the slow part (`write_frames` checks it too)
     max_edge = inputs.max_edge if args.max_edge is None else args.max_edge
     return WarpJob(
         image=image,

@@ -7,14 +7,15 @@ frames (one for ``warp``, the keyframes' interpolation for ``animate``), the fra
 image-to-output `View`, what shows outside) and the output with the kind of writer its name asks
 for (`app.warp.frame_writers.WRITERS`).  `warp_job` builds one from ``warp``'s arguments,
 `app.warp.animation.animation_job` from ``animate``'s; `run_job` draws it: the GL context first, then
-the mesh and the basis functions (`app.warp.pipeline.prepare`, once), then one render per target into
-the writer.  Every check that can fail on bad input runs while the job is built, before the slow
-part.
+the mesh and the basis functions (`app.warp.pipeline.prepare`, once), then
+`app.warp.pipeline.write_frames`: one render per target into the file or the writer.  Every check
+that can fail on bad input runs while the job is built, before the slow part.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -39,10 +40,10 @@ from app.io.images import has_alpha, output_format
 from app.io.session import Session, existing_image, read_session
 from app.render.viewport import View
 from app.warp.fill import FILLS, chosen_fill
-from app.warp.frame_writers import WRITERS, interrupted_by_sigterm
+from app.warp.frame_writers import interrupted_by_sigterm
 from app.warp.framing import CANVASES, OUTSIDES, output_frame, output_region
 from app.warp.pins import pin_request, pinned_inputs
-from app.warp.pipeline import Deformation, OutputFile, WarpSettings
+from app.warp.pipeline import Deformation, FrameOutput, OutputFile, WarpSettings
 
 DEFAULT_KERNEL = "poisson"  # core.mesh_basis.DEFAULT_KERNEL, the deformation default
 #: A target larger than this many times the output's larger side is reported.
@@ -127,7 +128,7 @@ class WarpJob:
         and EXIF (also in an animation's PNG frames); None for no metadata.
     kind : str
         The writer: a key of `app.warp.frame_writers.WRITERS`, or ``"image"`` for one file
-        (``warp``'s, written by `app.warp.pipeline.render_to_file`).
+        (``warp``'s); both written by `app.warp.pipeline.write_frames`.
     fps : float
         Frames per second of an animation (0 for one image).
     """
@@ -310,6 +311,7 @@ def run_job(job: WarpJob, target_source: str | None = None, report: bool = False
     """
     from app.render.renderer import WarpRenderer, create_headless_context, require_render_memory
     from app.warp.fill import set_fill
+    from app.warp.pipeline import write_frames
     from app.warp.report import examined
 
     run = _STILL if job.kind == "image" else _FRAMES  # the one place the kind of job is read
@@ -317,57 +319,41 @@ def run_job(job: WarpJob, target_source: str | None = None, report: bool = False
     require_render_memory(job.image_size, job.size, context=True)
     ctx = create_headless_context()
     lines: list[str] = []
-    write = None
+    steps = None
     try:
-        started = time.perf_counter()
-        deformation = _prepare(job, run)
-        if target_source is not None:
-            lines = examined(job, deformation, target_source, report, proven)
-        require_render_memory(job.image_size, job.size, context=False)
-        with WarpRenderer(ctx) as renderer, interrupted_by_sigterm():
-            with reported_as_input(str(job.image_path)):
-                renderer.set_image(job.image)
-            set_fill(renderer, job.image, job.curve.control_points, job.fill, job.outside)
-            job.image = None  # the texture holds it now
-            renderer.set_mesh(deformation.mesh.vertices, deformation.mesh.triangles)
-            write = run.draw(job, renderer, deformation)
+        try:
+            started = time.perf_counter()
+            deformation = _prepare(job, run)
+            if target_source is not None:
+                lines = examined(job, deformation, target_source, report, proven)
+            with WarpRenderer(ctx) as renderer, interrupted_by_sigterm():
+                with reported_as_input(str(job.image_path)):
+                    renderer.set_image(job.image)
+                set_fill(renderer, job.image, job.curve.control_points, job.fill, job.outside)
+                job.image = None  # the texture holds it now
+                renderer.set_mesh(deformation.mesh.vertices, deformation.mesh.triangles)
+                steps = write_frames(renderer, deformation, job.targets, frame_output(job))
+                with run.progress(job) as bar:
+                    for drawn in steps:
+                        bar(drawn / len(job.targets))
+                        if drawn == len(job.targets):
+                            break  # what is left needs no GL context
+        finally:
+            ctx.release()
+        with interrupted_by_sigterm():
+            for _ in steps:  # a whole still's encoding, the frames' writer's finish
+                pass
     finally:
-        ctx.release()
-    if write is not None:
-        with reported_as_input("rendering"):
-            write()
+        if steps is not None:
+            steps.close()  # stopped early: nothing is left at the output's path
     seconds = time.perf_counter() - started
     note(run.wrote(job, len(deformation.mesh.vertices), seconds))
     return lines
 
 
-def _render_still(job: WarpJob, renderer, deformation: Deformation):
-    """The one target of `job` drawn for its file (`app.warp.pipeline.render_to_file`): written, or
-    returned as what writes it once the GL context is released."""
-    from app.warp.pipeline import render_to_file
-
-    with reported_as_input("rendering"):
-        frame = (job.size, job.view)
-        return render_to_file(renderer, deformation, job.targets[0], frame, job.outside, job.file, last=True)
-
-
-def _render_frames(job: WarpJob, renderer, deformation: Deformation) -> None:
-    """Every target of `job` drawn into the writer its output asks for (nothing left to write)."""
-    from app.warp.pipeline import render
-
-    metadata = None if job.file is None else job.file.metadata
-    background = None if job.file is None else job.file.background
-    frames_bar = ProgressBar(f"frames ({len(job.targets)})")
-    with WRITERS[job.kind](job.output, job.size, job.fps, metadata) as writer, frames_bar as bar:
-        for index, target in enumerate(job.targets):
-            with reported_as_input(f"rendering frame {index}"):  # a fold-free path may cross itself
-                pixels = render(renderer, deformation, target, job.size, job.view, job.outside, background)
-                writer.add(pixels)
-            bar((index + 1) / len(job.targets))
-        try:
-            writer.finish()
-        except OSError as error:
-            raise InputError(f"{job.output}: cannot write ({error.strerror or error})") from None
+def frame_output(job: WarpJob) -> FrameOutput:
+    """What `app.warp.pipeline.write_frames` writes for `job`."""
+    return FrameOutput(job.file, job.kind, job.size, job.view, job.outside, job.fps)
 
 
 def _prepare(job: WarpJob, run: _Run) -> Deformation:
@@ -417,20 +403,27 @@ class _Run:
     ----------
     still : bool
         One image: the mesh is noted and a fold-free path proven with a progress bar of its own.
-    draw : callable
-        (job, renderer, deformation): the drawing and writing; returns None, or what writes the
-        output once the GL context is released.
+    progress : callable
+        (job): a context manager giving the progress bar of the frames drawn (a silent one for a still).
     wrote : callable
         (job, vertices, seconds): the closing note.
     """
 
     still: bool
-    draw: Callable
+    progress: Callable
     wrote: Callable
 
 
-_STILL = _Run(True, _render_still, _wrote_still)
-_FRAMES = _Run(False, _render_frames, _wrote_frames)
+def _no_progress(job: WarpJob) -> contextlib.nullcontext:
+    return contextlib.nullcontext(lambda fraction: None)
+
+
+def _frames_progress(job: WarpJob) -> ProgressBar:
+    return ProgressBar(f"frames ({len(job.targets)})")
+
+
+_STILL = _Run(True, _no_progress, _wrote_still)
+_FRAMES = _Run(False, _frames_progress, _wrote_frames)
 
 
 def width_height(image: np.ndarray) -> tuple[int, int]:

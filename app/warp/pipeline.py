@@ -8,14 +8,14 @@ A warp is two steps, as in the paper's Sec. 4.3:
 2. `Deformation.positions` and `render`: the deformed vertices f(v) = sum_i G_i(v) P_i
    for a target (V, n) @ (n, 2), then the source image drawn on the deformed mesh.
 
-Every command that writes warped pixels goes through `render`, so `warp`, each frame
-of `animate` and the viewer's export of the same target are the same pixels; `quality`
-measures `Deformation.positions` of the same `prepare`.
+Every warped picture is drawn and written by one function, `write_frames` (over `render`):
+`warp`'s still, `animate`'s frames and the viewer's still and animation exports, so that the
+same target gives the same file; `quality` measures `Deformation.positions` of the same `prepare`.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -236,69 +236,134 @@ def render(
     return renderer.render(size, view, backdrop=outside == "original", background=clear)
 
 
-def render_to_file(
-    renderer,
-    deformation: Deformation,
-    target: np.ndarray,
-    frame: tuple[tuple[int, int], View],
-    outside: str,
-    output: OutputFile,
-    last: bool = False,
-) -> Callable[[], None] | None:
-    """`render` written to `output.path` in its format: a PNG larger than one strip is drawn and
-    compressed strip by strip (`WarpRenderer.render_strips`), so that the output is never whole in
-    memory and compressing overlaps drawing; other outputs are rendered whole, then encoded.
+@dataclass(frozen=True)
+class FrameOutput:
+    """What `write_frames` writes: the file, its kind, the framing and what shows outside the warp.
+
+    Attributes
+    ----------
+    file : OutputFile
+        Path, metadata, quality and background.
+    kind : str
+        ``"image"``: one file in the format of its extension; else a key of
+        `app.warp.frame_writers.WRITERS` (``"png"`` frames, ``"mp4"``, ``"gif"``).
+    size : tuple of int
+        (width, height) of the output.
+    view : View
+        Image pixels to output pixels.
+    outside : str
+        ``"original"`` or ``"transparent"`` (`render`).
+    fps : float
+        Frames per second of an animation.
+    """
+
+    file: OutputFile
+    kind: str
+    size: tuple[int, int]
+    view: View
+    outside: str
+    fps: float = 0.0
+
+
+def write_frames(renderer, deformation: Deformation, targets, output: FrameOutput) -> Iterator[int]:
+    """Draw the warp to each of `targets` and write it: the one way every warped picture is written
+    (``warp``, ``animate``, the viewer's still and animation exports).
+
+    Called, it checks that the output fits (the renderer's memory,
+    `app.render.renderer.require_render_memory`; the format's caps,
+    `app.warp.frame_writers.check_frames`); iterated, it draws a frame at each step and yields
+    how many are drawn, so that a window can draw its own frames between them.  Once it has
+    yielded ``len(targets)``, the rest needs no GL context: the encoding of a whole still (which
+    ``warp`` runs after releasing the context, so that the encoder's memory does not come on top of
+    the driver's textures) and the writer's finish.  The output appears when the iteration ends;
+    closing the iterator before (or an error) leaves nothing at its path.
+
+    A still (`kind` ``"image"``) PNG larger than `STREAMED_PIXELS` is drawn and compressed strip
+    by strip (`WarpRenderer.render_strips`): never whole in memory, compressing overlapping drawing.
+    A GIF's palette frames (`FrameWriter.lookahead`) are drawn first.
 
     Parameters
     ----------
-    renderer, deformation, target, outside
-        As in `render`.
-    frame : tuple
-        (width, height) of the output and the `View` of image pixels to output pixels.
-    output : OutputFile
-        Where and how to write.
-    last : bool
-        The image is drawn no more (``warp``): a whole output is not encoded here but returned as
-        a function that writes it, to call once the GL context is released, so that the
-        encoder's memory does not come on top of the driver's textures.
-
-    Returns
-    -------
-    callable or None
-        With `last`, what writes a whole output; None once the file is written.
+    renderer : app.render.renderer.WarpRenderer
+        Holds the source image and `deformation.mesh`.
+    deformation : Deformation
+    targets : sequence of ndarray of shape (n, 2)
+        Target control points of each frame (one for a still), image pixels.
+    output : FrameOutput
 
     Raises
     ------
+    MemoryError
+        Too little address space to draw the output (when called).
     app.io.files.InputError
-        The file cannot be written, or transparent pixels for a JPEG (nothing is written).
+        Too many frames for the format (when called); an output that cannot be written, transparent
+        pixels for a JPEG, or a target the fold-free map refuses (while iterated; nothing is written).
     """
-    from app.io.files import write_image, write_png_strips
+    from app.render.renderer import require_render_memory
+    from app.warp.frame_writers import check_frames
+
+    require_render_memory(renderer.image_size, output.size, context=False)
+    if output.kind == "image":
+        return _still_steps(renderer, deformation, targets[0], output)
+    check_frames(output.kind, len(targets), output.size, output.file.path)
+    return _frame_steps(renderer, deformation, targets, output)
+
+
+def _still_steps(
+    renderer, deformation: Deformation, target: np.ndarray, output: FrameOutput
+) -> Iterator[int]:
+    """`write_frames` of one image file."""
+    from app.io.files import reported_as_input, write_image, write_png_strips
     from app.io.images import output_format
     from app.io.images.tiles import crosses, drawn_edges
     from app.render.renderer import STRIP_ROWS
 
-    size, view = frame
-    background = (0.0, 0.0, 0.0, 0.0) if output.background is None else output.background
-    if output_format(output.path) == "PNG" and size[1] > STRIP_ROWS and size[0] * size[1] > STREAMED_PIXELS:
-        positions = deformation.positions(target)
-        renderer.set_positions(positions)
-        edges = None
-        if not core.folded_triangles(deformation.mesh, positions).any():  # folds: edges everywhere
-            edges = drawn_edges(deformation.mesh, positions, view, renderer.image_size, outside == "original")
-        strips = renderer.render_strips(
-            size,
-            view,
-            backdrop=outside == "original",
-            background=background,
-            antialiased=None if edges is None else lambda box: crosses(edges, box),
-        )
-        write_png_strips(output.path, size, renderer.pixel_type, strips, output.metadata)
-        return None
-    pixels = render(renderer, deformation, target, size, view, outside, output.background)
-    if last:  # encoded once the caller has let go of the GL context, and the textures with it
-        return lambda: write_image(output.path, pixels, output.metadata, output.quality, consume=True)
-    write_image(output.path, pixels, output.metadata, output.quality)
-    return None
+    size, view, file = output.size, output.view, output.file
+    with reported_as_input("rendering"):  # a fold-free path may cross itself
+        if output_format(file.path) == "PNG" and size[1] > STRIP_ROWS and size[0] * size[1] > STREAMED_PIXELS:
+            positions = deformation.positions(target)
+            renderer.set_positions(positions)
+            edges = None
+            backdrop = output.outside == "original"
+            if not core.folded_triangles(deformation.mesh, positions).any():  # folds: edges everywhere
+                edges = drawn_edges(deformation.mesh, positions, view, renderer.image_size, backdrop)
+            strips = renderer.render_strips(
+                size,
+                view,
+                backdrop=backdrop,
+                background=(0.0, 0.0, 0.0, 0.0) if file.background is None else file.background,
+                antialiased=None if edges is None else lambda box: crosses(edges, box),
+            )
+            write_png_strips(file.path, size, renderer.pixel_type, strips, file.metadata)
+            yield 1
+            return
+        pixels = render(renderer, deformation, target, size, view, output.outside, file.background)
+    yield 1
+    write_image(file.path, pixels, file.metadata, file.quality, consume=True)
 
 
-__all__ = ["Deformation", "OutputFile", "WarpSettings", "prepare", "render", "render_to_file"]
+def _frame_steps(renderer, deformation: Deformation, targets, output: FrameOutput) -> Iterator[int]:
+    """`write_frames` of an animation, into the writer of its kind."""
+    from app.io.files import InputError, reported_as_input
+    from app.warp.frame_writers import WRITERS
+
+    file, size, view = output.file, output.size, output.view
+
+    def drawn(index: int) -> np.ndarray:
+        with reported_as_input(f"rendering frame {index}"):  # a fold-free path may cross itself
+            return render(renderer, deformation, targets[index], size, view, output.outside, file.background)
+
+    with WRITERS[output.kind](file.path, size, output.fps, file.metadata) as writer:
+        for index in writer.lookahead(len(targets)):
+            writer.preview(drawn(index))
+            yield 0
+        for index in range(len(targets)):
+            writer.add(drawn(index))
+            yield index + 1
+        try:
+            writer.finish()
+        except OSError as error:
+            raise InputError(f"{file.path}: cannot write ({error.strerror or error})") from None
+
+
+__all__ = ["Deformation", "FrameOutput", "OutputFile", "WarpSettings", "prepare", "render", "write_frames"]

@@ -18,9 +18,16 @@ the inequality applies.
 
 Rounds (`ROUNDS` at most): solve; evaluate f_z, f_z̄ at every sample of Γ; samples where the bound
 fails join the active set (BDHM's active set); every sample's frame becomes the direction of its
-f_z in the solution (which keeps the solution feasible, so the objective cannot rise); stop when no
-sample fails and the objective fell by less than `SETTLED` in the last round or the frames barely
-turned.
+f_z in the solution (which keeps the solution feasible, so the objective cannot rise).  A solve
+that settles (the certified one) stops when no sample fails and the objective fell by less than
+`SETTLED` in the last round or the frames barely turned.  At drag rate (BDHM's interactive solve,
+warm-started across a drag's solves by the kept active set, frames and limits) one program is
+solved, again only while a sample fails its own bound; where the strip beside a pair of samples
+exceeds the bound, their limits drop and the higher joins the active set for the next solve.
+
+The unknowns are x and the pins' residuals (2m): the cone rows are dense in the 2n target
+coordinates only (each costs clarabel's factorisation about (2n)² a row), and a sample's floor row
+is held only where |f_z| came near the floor (`FLOOR_NEAR`).
 """
 
 from __future__ import annotations
@@ -42,10 +49,16 @@ FLOOR = 0.25
 #: Rounds of active set and frame updates; they end when the objective fell by less than `SETTLED`
 #: (relative) or no frame turned by more than `FRAME_SETTLED` radians (a drag's next solve goes on).
 ROUNDS = 10
-SETTLED = 1e-3
+SETTLED = 1e-2
 FRAME_SETTLED = 0.02
-#: Clarabel's gap and feasibility tolerances.
+#: The program holds a sample's floor row once its |f_z| came within this factor of the floor
+#: (elsewhere the cone alone keeps Re(f_z conj(e)) >= 0, and a quarter of the rows are saved).
+FLOOR_NEAR = 3.0
+#: Clarabel's gap and feasibility tolerances (relative to the objective, which is >= 0), for a
+#: solve that settles (the certified one) and for one at drag rate: the drag's pins land within a
+#: few hundredths of a pixel at 1e-5 too, in 10-13 interior-point iterations instead of 12-18.
 TOLERANCE = 1e-7
+DRAG_TOLERANCE = 1e-5
 #: A sample outside the active set joins it when it exceeds its bound by more than this fraction:
 #: the active samples, held exactly at their bound, keep their neighbours within it, and the active
 #: set stays small (the program's cost grows with it).  The first bound is below the goal by more
@@ -62,14 +75,15 @@ LOWEST_LIMIT = 0.25
 
 def bounded_solution(
     precompute: PinPrecompute, pin_rows: np.ndarray, targets: np.ndarray, hard_rows: np.ndarray,
-    hard_values: np.ndarray, k: float, similarity: complex,
+    hard_values: np.ndarray, k: float, similarity: complex, settle: bool = True,
 ) -> tuple[np.ndarray, int]:  # fmt: skip
     """The solution x (2n + 4,) and the number of cone programs solved.
 
     Parameters as `core.pins.exact_solve.exact_solution`'s, with `k` the bound on |f_z̄| / |f_z| at
     the samples and `similarity` the linear part A of the pins' best similarity: it meets the bound, its
     direction is every sample's frame when the kept frames leave the program infeasible, and
-    `FLOOR` |A| is the floor of Re(f_z conj(e)).
+    `FLOOR` |A| is the floor of Re(f_z conj(e)).  `settle`: rounds until the objective settles, the
+    strip's excess solved away (for the certificate); False: at drag rate (see the module's text).
 
     Raises
     ------
@@ -78,9 +92,20 @@ def bounded_solution(
     """
     import clarabel  # here, not at the top: `import core` (and the package's build) does without it
 
-    quadratic = 2.0 * (W_PIN * pin_rows.T @ pin_rows + precompute.departure.T @ precompute.departure)
-    linear = -2.0 * W_PIN * pin_rows.T @ targets
-    objective_matrix = sparse.csc_matrix(np.triu(quadratic))
+    width, residuals = pin_rows.shape[1], pin_rows.shape[0]
+    # The pins' residuals r = pins(x) - targets are unknowns too: the objective is then
+    # W_PIN |r|² + |departure(x)|² >= 0, without the constant -W_PIN |targets|² that made the
+    # solver's relative gap tolerance a loose absolute one.
+    objective_matrix = sparse.block_diag(
+        [sparse.csc_matrix(np.triu(2.0 * precompute.departure.T @ precompute.departure)),
+         sparse.identity(residuals) * (2.0 * W_PIN)],
+        format="csc",
+    )  # fmt: skip
+    linear = np.zeros(width + residuals)
+    hard_rows = np.block(
+        [[hard_rows, np.zeros((hard_rows.shape[0], residuals))], [pin_rows, -np.eye(residuals)]]
+    )
+    hard_values = np.concatenate([hard_values, targets])
     floor = FLOOR * abs(similarity)
     limits = precompute.limits_for(k)
     paired = np.flatnonzero(precompute.companion >= 0)
@@ -88,7 +113,10 @@ def bounded_solution(
     previous, solves, reset = np.inf, 0, False
     x = None
     for _ in range(ROUNDS):
-        solution = _solved(precompute, objective_matrix, linear, hard_rows, hard_values, limits, floor)
+        solution = _solved(
+            precompute, objective_matrix, linear, hard_rows, hard_values, limits, floor,
+            TOLERANCE if settle else DRAG_TOLERANCE,
+        )  # fmt: skip
         solves += 1
         if solution.status not in (clarabel.SolverStatus.Solved, clarabel.SolverStatus.AlmostSolved):
             if reset:
@@ -99,30 +127,34 @@ def bounded_solution(
             precompute.frames[:] = similarity / abs(similarity)
             reset = True
             continue
-        x = np.asarray(solution.x)
+        x = np.asarray(solution.x)[:width]
         f_z = precompute.f_z[0] @ x + 1j * (precompute.f_z[1] @ x)
         f_zbar = precompute.f_zbar[0] @ x + 1j * (precompute.f_zbar[1] @ x)
         size = np.abs(f_z)
-        failing = (np.abs(f_zbar) > limits * (1.0 + CHECK_SLACK) * size) | (
-            size < floor * (1.0 - CHECK_SLACK)
-        )
+        low = size < floor * (1.0 - CHECK_SLACK)
+        failing = (np.abs(f_zbar) > limits * (1.0 + CHECK_SLACK) * size) | low
+        # Samples below the floor that the program did not hold there, and those outside the active set.
+        own_failing = (failing & ~precompute.active) | (low & ~precompute.floored)
+        precompute.floored |= size < FLOOR_NEAR * floor
         strip = _strip_ratios(precompute, f_z, f_zbar, floor)
         over = strip > k * (1.0 + CHECK_SLACK)
         for rows in (paired[over], partner[over]):
             lowered = limits[rows] - STRIP_TIGHTEN * (strip[over] - k)
             limits[rows] = np.maximum(np.minimum(limits[rows], lowered), LOWEST_LIMIT * k)
-        failing[paired[over]] = failing[partner[over]] = True
+        # The higher of the two ratios sets the strip's bound: that sample joins the active set.
+        ratio = np.abs(f_zbar) / np.maximum(size, floor)
+        failing[paired[over & (ratio[paired] >= ratio[partner])]] = True
         moving = size > 0
         turn = np.abs(np.angle(f_z[moving] / precompute.frames[moving]))
         precompute.frames[moving] = f_z[moving] / size[moving]
-        joining = failing & ~precompute.active
-        if joining.any() or over.any():
-            precompute.active |= failing
+        # At drag rate (not `settle`) a strip over its bound tightens the next solve, not this one.
+        again = own_failing.any() or (settle and over.any())
+        precompute.active |= failing
+        if again:
             continue
         objective = solution.obj_val
-        if (
-            previous - objective <= SETTLED * max(abs(objective), 1.0)
-            or turn.max(initial=0.0) < FRAME_SETTLED
+        if not settle or (
+            previous - objective <= SETTLED * objective or turn.max(initial=0.0) < FRAME_SETTLED
         ):
             break
         previous = objective
@@ -153,8 +185,9 @@ def _strip_ratios(precompute: PinPrecompute, f_z, f_zbar, floor: float) -> np.nd
 
 
 def _solved(
-    precompute: PinPrecompute, objective_matrix, linear, hard_rows, hard_values, limits, floor: float
-):
+    precompute: PinPrecompute, objective_matrix, linear, hard_rows, hard_values, limits, floor: float,
+    tolerance: float,
+):  # fmt: skip
     """Clarabel's solution of the program over the current active set and frames."""
     import clarabel
 
@@ -163,13 +196,19 @@ def _solved(
     along = (
         frames.real[:, None] * precompute.f_z[0][active] + frames.imag[:, None] * precompute.f_z[1][active]
     )
-    blocks, values = [hard_rows, -along], [hard_values, np.full(active.size, -floor)]
-    cones = [clarabel.NonnegativeConeT(active.size)]
-    if hard_rows.shape[0]:
-        cones.insert(0, clarabel.ZeroConeT(hard_rows.shape[0]))
+    padding = np.zeros((active.size, hard_rows.shape[1] - along.shape[1]))
+    along = np.hstack([along, padding])
+    floored = precompute.floored[active]
+    blocks, values = [hard_rows, -along[floored]], [hard_values, np.full(floored.sum(), -floor)]
+    cones = [clarabel.ZeroConeT(hard_rows.shape[0]), clarabel.NonnegativeConeT(int(floored.sum()))]
     if precompute.kernel == "poisson":
         cone_rows = np.stack(
-            [limits[active, None] * along, precompute.f_zbar[0][active], precompute.f_zbar[1][active]], axis=1
+            [
+                limits[active, None] * along,
+                np.hstack([precompute.f_zbar[0][active], padding]),
+                np.hstack([precompute.f_zbar[1][active], padding]),
+            ],
+            axis=1,
         )
         blocks.append(-cone_rows.reshape(-1, along.shape[1]))
         values.append(np.zeros(3 * active.size))
@@ -177,8 +216,11 @@ def _solved(
     constraints = sparse.csc_matrix(np.vstack(blocks))
     settings = clarabel.DefaultSettings()
     settings.verbose = False
-    # A thousandth of a pixel is more than enough: fewer interior-point iterations.
-    settings.tol_gap_abs = settings.tol_gap_rel = settings.tol_feas = TOLERANCE
+    settings.tol_gap_abs = settings.tol_gap_rel = settings.tol_feas = tolerance
+    # One thread with QDLDL, and no iterative refinement: a third of the time of clarabel's default
+    # (faer on every core) on these small, dense programs, on a shared machine too.
+    settings.direct_solve_method, settings.max_threads = "qdldl", 1
+    settings.iterative_refinement_enable = False
     solver = clarabel.DefaultSolver(
         objective_matrix, linear, constraints, np.concatenate(values), cones, settings
     )

@@ -124,8 +124,10 @@ def pin_deform(
         σ₁ = σ₂, K = 1, everywhere, and the bound only keeps f_z away from zero at the samples).
     certify : bool
         With a bound and the Poisson kernel: certify, tighten and solve again until the certificate
-        proves the bound (`CERTIFY_ROUNDS` at most).  False: the bound holds at the samples of Γ
-        only, and the certificate is computed when first read.
+        proves the bound (`CERTIFY_ROUNDS` at most), from the cage's first active set (the result
+        depends on the arguments only).  False: the bound holds at the samples of Γ only, the solve
+        starts from what the last one on this cage learnt (a drag's frames), and the certificate is
+        computed when first read.
 
     Returns
     -------
@@ -146,6 +148,10 @@ def pin_deform(
     bound = _checked_distortion(max_distortion)
     held = _checked_fixed(curve, fixed)
     precompute = precompute_for(curve, kernel)
+    if certify:
+        # A certified target is a function of its inputs, not of the drag that led to it: the
+        # viewer's release and `warp --session` (a fresh process) give the same cage.
+        precompute.restart()
     x_rows, y_rows = precompute.pin_rows(pins)
     pin_rows = np.vstack([x_rows, y_rows])
     normalised = precompute.normalised(moved)
@@ -179,8 +185,10 @@ def _bounded(precompute, rows, bound, linear, certify):
         if certificate is None or _proves(certificate, goal):
             return exact, 0, certificate
     total, certificate = 0, None
-    for _ in range(CERTIFY_ROUNDS):
-        x, solves = bounded_solution(precompute, *rows, k, linear)
+    for round_ in range(CERTIFY_ROUNDS):
+        # The first round settles the frames; the tightened rounds after it solve as at drag rate
+        # (from those frames), and the certificate judges each.
+        x, solves = bounded_solution(precompute, *rows, k, linear, settle=certify and round_ == 0)
         x = _joined_corners(precompute, x)
         total += solves
         if not certify or precompute.kernel != "poisson":

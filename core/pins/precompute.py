@@ -57,6 +57,8 @@ class PinPrecompute:
         `core.pins.linear_rows.departure_rows` of the source.
     active : ndarray of shape (N,), bool
         The active set: samples whose constraints the conic problem holds.
+    floored : ndarray of shape (N,), bool
+        Samples whose floor row the conic problem holds when they are active (all for Cauchy-Green).
     frames : ndarray of shape (N,), complex
         Unit frames: the samples' constraints bound Re(f_z conj(frame)) (BDHM's frames).
     limits : ndarray of shape (N,)
@@ -74,11 +76,18 @@ class PinPrecompute:
         along, across = derivative_coefficients(gradients)
         self.f_z, self.f_zbar = complex_rows(along), complex_rows(across)
         self.departure = departure_rows(self.source)
-        self.active = np.zeros(self.points.shape[0], dtype=bool)
-        self.active[::ACTIVE_EVERY] = True
-        self.frames = np.ones(self.points.shape[0], dtype=np.complex128)
-        self.limits, self._limits_k = np.zeros(self.points.shape[0]), None
+        self.restart()
         self._pin_rows: OrderedDict[bytes, tuple[np.ndarray, np.ndarray]] = OrderedDict()
+
+    def restart(self) -> None:
+        """Forget what earlier solves learnt (active set, floor rows, frames, tightened limits), so
+        that the next solve depends on its own inputs only."""
+        count = self.points.shape[0]
+        self.active = np.zeros(count, dtype=bool)
+        self.active[::ACTIVE_EVERY] = True
+        self.floored = np.full(count, self.kernel != "poisson")
+        self.frames = np.ones(count, dtype=np.complex128)
+        self.limits, self._limits_k = np.zeros(count), None
 
     @property
     def n(self) -> int:

@@ -1,6 +1,7 @@
 """Tests of app.bench.table's error reporting (the table itself is smoke-tested in test_layout)."""
 
 import argparse
+import re
 import sys
 
 import pytest
@@ -169,7 +170,7 @@ def test_quick_runs_every_row_once_at_tiny_sizes(monkeypatch):
         "memory": 20_000,
         "warp": (640, 360),
         "photos": (((1200, 800),), 1),  # each warp once
-        "animation": ((600, 400), 0.25),
+        "animation": ((600, 400), 0.25, 1),
         "drag": ((6_000,), 1.0),
         "fold_free_drag": (0.5,),
         "export": (1, 1.0),  # 8 frames instead of the default 30 fps' 220
@@ -239,3 +240,18 @@ def test_the_launch_rows_time_the_demo_and_a_photograph_to_their_first_basis(cap
     for line, label in zip(lines[1:4], labels, strict=True):
         seconds = float(line.split()[-4])
         assert line.strip().startswith(label) and 0.2 < seconds < 60.0, line  # a generous limit
+
+
+def test_the_animation_row_times_gif_and_png_frames_in_turns_with_their_own_peaks(capsys):
+    from app.bench.photos import animation_row
+
+    animation_row(run_child, (160, 120), 0.2, 2)
+    (line,) = capsys.readouterr().out.strip().splitlines()
+    pattern = (
+        r"animate 160x120, 0\.2 s at 30 fps, --outside original \(median of 2, in turns\): GIF [\d.]+ s, "
+        r"PNG frames [\d.]+ s, GIF / PNG frames = [\d.]+; "
+        r"peak memory: GIF ([\d.]+) GiB, PNG frames ([\d.]+) GiB"
+    )
+    match = re.fullmatch(pattern, line)
+    assert match is not None, line
+    assert all(0.05 < float(peak) < 1.0 for peak in match.groups()), line

@@ -14,7 +14,7 @@ from support.commands import CAGE, picture, run_main, transformed
 from support.paths import ROOT
 
 from app.io.files import read_image, write_png
-from app.warp.frame_writers import GifWriter, flatten, gif_delays
+from app.warp.frame_writers import GifWriter, flatten, gif_delay
 from app.warp.framing import output_region
 
 
@@ -257,6 +257,10 @@ def test_ctrl_c_leaves_no_output_and_no_temporary(tmp_path, output, stop, capfd)
         "picture.png",
         "s.json",
     ]
+
+
+def gif_delays(count: int, fps: float) -> list[int]:
+    return [gif_delay(index, fps) for index in range(count)]
 
 
 def test_gif_delays_carry_the_rounding_so_the_animation_lasts_its_true_time():

@@ -240,3 +240,128 @@ def test_the_viewers_still_export_of_a_large_picture_is_warps_file_byte_for_byte
     finally:
         ctx.release()
     assert (tmp_path / "viewer.png").read_bytes() == (tmp_path / "warp.png").read_bytes()
+
+
+@pytest.mark.parametrize("output", ["movie.gif", "frames/"])
+def test_the_viewers_animation_export_is_animates_file_byte_for_byte_through_one_function(
+    tmp_path, capfd, monkeypatch, output
+):
+    from app.render.renderer import WarpRenderer, create_headless_context
+    from app.warp.keyframes import Keyframe
+
+    callers = []
+    original = app.warp.pipeline.write_frames
+
+    def spy(renderer, deformation, targets, frame_output):
+        callers.append((frame_output.kind, len(targets)))
+        return original(renderer, deformation, targets, frame_output)
+
+    monkeypatch.setattr(app.warp.pipeline, "write_frames", spy)
+    monkeypatch.setattr("app.viewer.exports.EXPORT_BUDGET", 0.0)  # one step between two window frames
+    write_png(tmp_path / "picture.png", picture())
+    cage, moved = np.array(CAGE, dtype=float), transformed(CAGE)
+    session = {
+        "image": "picture.png",
+        "cage": {"control_points": cage.tolist()},
+        "target": {"control_points": moved.tolist()},
+        "kernel": "poisson",
+        "view": {"scale": 1.0, "offset": [0, 0]},
+        "mesh": {"max_edge": MAX_EDGE},
+        "keyframes": [
+            {"time": t, "target": {"control_points": p.tolist()}} for t, p in ((0, cage), (1, moved))
+        ],
+    }
+    (tmp_path / "session.json").write_text(json.dumps(session))
+    typed = str(tmp_path / "animate" / output)
+    (tmp_path / "animate").mkdir()
+    code, _, err = run_main(["animate", tmp_path / "session.json", "--output", typed, "--fps", "12"], capfd)
+    assert code == 0, err
+    kind = "gif" if output.endswith(".gif") else "png"
+    assert callers == [(kind, 13)]
+
+    keyframes = (Keyframe(0.0, cage), Keyframe(1.0, moved))
+    snapshot = Snapshot(tmp_path / "picture.png", cage, moved, keyframes=keyframes)
+    request = make_request(snapshot, MAX_EDGE)
+    state = AppState(Document(History(snapshot), snapshot, picture(), tmp_path / "s.json"))
+    state.compute.basis = result_from_message(request.key, compute(request))
+    (tmp_path / "viewer").mkdir()
+    ctx = create_headless_context()  # as animate's: its own, made after animate released its own
+    try:
+        with WarpRenderer(ctx) as renderer:
+            scene = Scene(renderer)
+            exporter = Exporter(state, scene, lambda s: True, None, 12.0, print, None)
+            scene.sync(state)
+            viewer = tmp_path / "viewer" / output
+            exporter.export(viewer, str(viewer) + ("/" if kind == "png" else ""))
+            steps = 0
+            while exporter.animation is not None:
+                exporter.next_frame()  # what the window does between its frames
+                steps += 1
+    finally:
+        ctx.release()
+    # A window frame after each frame drawn (and each of the GIF's 8 palette frames), and one to finish.
+    assert callers == [(kind, 13), (kind, 13)] and steps == 13 + (8 if kind == "gif" else 0) + 1
+    assert state.status.message == f"exported 13 frames to {viewer}"
+    if kind == "gif":
+        assert viewer.read_bytes() == (tmp_path / "animate" / output).read_bytes()
+    else:
+        names = sorted(path.name for path in viewer.iterdir())
+        assert names == sorted(path.name for path in (tmp_path / "animate" / "frames").iterdir())
+        for name in names:
+            assert (viewer / name).read_bytes() == (tmp_path / "animate" / "frames" / name).read_bytes()
+
+
+def keyframed_state(tmp_path):
+    """The viewer's state of a picture keyframed at 0 s (the cage) and 1 s (moved), its basis computed."""
+    from app.warp.keyframes import Keyframe
+
+    write_png(tmp_path / "picture.png", picture())
+    cage, moved = np.array(CAGE, dtype=float), transformed(CAGE)
+    keyframes = (Keyframe(0.0, cage), Keyframe(1.0, moved))
+    snapshot = Snapshot(tmp_path / "picture.png", cage, moved, keyframes=keyframes)
+    request = make_request(snapshot, MAX_EDGE)
+    state = AppState(Document(History(snapshot), snapshot, picture(), tmp_path / "s.json"))
+    state.compute.basis = result_from_message(request.key, compute(request))
+    return state
+
+
+def exported(state, path, window_frames):
+    """Ctrl+E to `path` in a viewer on its own GL context, then `window_frames` window frames; the
+    exporter."""
+    from app.render.renderer import WarpRenderer, create_headless_context
+
+    ctx = create_headless_context()
+    try:
+        with WarpRenderer(ctx) as renderer:
+            scene = Scene(renderer)
+            exporter = Exporter(state, scene, lambda s: True, None, 12.0, print, None)
+            scene.sync(state)
+            exporter.export(path)
+            for _ in range(window_frames):
+                exporter.next_frame()
+    finally:
+        ctx.release()
+    return exporter
+
+
+def test_the_viewers_animation_export_meets_animates_gif_cap(tmp_path, monkeypatch):
+    monkeypatch.setattr("app.warp.frame_writers.MAX_GIF_BYTES", 1000)
+    state = keyframed_state(tmp_path)
+    exporter = exported(state, tmp_path / "movie.gif", 0)
+    assert exporter.animation is None and state.status.message_is_error
+    message = state.status.message
+    assert (
+        message.startswith(f"{tmp_path / 'movie.gif'}: 13 frames of ")
+        and " are too many for a GIF; " in message
+    )
+    assert sorted(path.name for path in tmp_path.iterdir()) == ["picture.png"]
+
+
+def test_an_animation_export_stopped_midway_leaves_nothing(tmp_path, monkeypatch):
+    monkeypatch.setattr("app.viewer.exports.EXPORT_BUDGET", 0.0)
+    state = keyframed_state(tmp_path)
+    exporter = exported(state, tmp_path / "movie.gif", 12)  # the 8 palette frames and 4 of the 13
+    assert exporter.progress == 4 / 13
+    assert exporter.cancel() and exporter.animation is None
+    assert state.status.message == "animation export stopped; nothing was written"
+    assert sorted(path.name for path in tmp_path.iterdir()) == ["picture.png"]

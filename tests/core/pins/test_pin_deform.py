@@ -91,6 +91,24 @@ def test_the_bound_is_met_between_the_samples_on_the_curve_inside_the_boundary()
     assert (np.abs(f_zbar) / np.abs(f_z)).max() <= result.certificate.k_max <= 0.2 + 1e-6
 
 
+def test_a_certified_target_does_not_depend_on_the_drag_before_it():
+    """The viewer's release after a drag and `warp --session` in a fresh process give one cage."""
+    from core.pins.precompute import _KEPT
+
+    core.pin_deform(CAGE, PINS, MOVED, max_distortion=1.5)
+    fresh = core.pin_deform(CAGE, PINS, MOVED, max_distortion=1.5).target
+    for step in np.linspace(0.0, 1.0, 6)[1:]:
+        core.pin_deform(
+            CAGE, PINS, PINS + step * (MOVED - PINS) * [1.3, 0.7], max_distortion=1.5, certify=False
+        )
+    after_drag = core.pin_deform(CAGE, PINS, MOVED, max_distortion=1.5).target
+    _KEPT.clear()
+    new_process = core.pin_deform(CAGE, PINS, MOVED, max_distortion=1.5).target
+    # The same to the conic solver's tolerance (a drag's history moved it by up to 0.55 px).
+    np.testing.assert_allclose(after_drag, fresh, rtol=0, atol=1e-4)
+    np.testing.assert_allclose(new_process, fresh, rtol=0, atol=1e-4)
+
+
 @pytest.mark.parametrize("bound", [None, 2.0])
 def test_fixed_control_points_stay(bound):
     held = {3: CAGE.control_points[3] + [5.0, 0.0], 9: CAGE.control_points[9]}
