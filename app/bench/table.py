@@ -101,12 +101,13 @@ def run_bench(args: argparse.Namespace) -> int:
         # Quick: each solve once, not again and again for ROW_SECONDS.
         _fem_comparison(curve, vertices, 1 if args.quick else repeats, 0.0 if args.quick else ROW_SECONDS)
     if not args.skip_fold_free:
-        from app.bench.fold_free import fold_free_rows
+        from app.bench.fold_free import fold_free_rows, large_cage_row
         from app.bench.fold_free_held_out import held_out_rows
 
         fold_free_rows(
             curve, 1 if args.quick else repeats, _forget_densities, (2_000,) if args.quick else None
         )
+        large_cage_row(1, 40) if args.quick else large_cage_row(repeats)
         held_out_rows(_forget_densities, args.quick)
     if not args.skip_pins:
         from app.bench.pins import pin_rows

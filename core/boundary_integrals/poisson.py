@@ -30,6 +30,7 @@ whose denominator is 1 up to the quadrature error, so that Σ_i G_i = 1 to round
 from __future__ import annotations
 
 import functools
+import weakref
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -104,6 +105,16 @@ class Densities:
 #: The curves `densities` is solving for, by their points: `solved_densities`, cached by the points' bytes,
 #: takes its curve from here rather than building (and checking) it again.
 _solving: dict[bytes, ClosedBSpline] = {}
+#: Every cage's densities still in memory (in `solved_densities`' cache or held elsewhere), by its points.
+_held: weakref.WeakValueDictionary[bytes, Densities] = weakref.WeakValueDictionary()
+#: The first combination `combined_levels` solved for alone, by the cage's points, for at most
+#: `COMBINED_CAGES` cages (then it starts again).
+_combined: dict[bytes, bytes] = {}
+COMBINED_CAGES = 64
+#: Control points from which a combination is solved alone: below, all the densities cost about as
+#: much (CPU time, five-lobed circles, loaded: 16 points 0.025 s all, 0.031 s five combined; 80:
+#: 0.30 s either way; 120: 0.65 s and 0.34 s; 200: 2.4 s and 0.8 s) and serve every later target.
+COMBINED_FROM = 100
 
 
 @one_blas_thread
@@ -112,9 +123,38 @@ def densities(curve: ClosedBSpline) -> Densities:
     key = curve.control_points.tobytes()
     _solving[key] = curve
     try:
-        return solved_densities(key, curve.control_points.shape[0])
+        solution = _held[key] = solved_densities(key, curve.control_points.shape[0])
+        return solution
     finally:
         _solving.pop(key, None)
+
+
+def combined_levels(curve: ClosedBSpline, mix: np.ndarray) -> Levels:
+    """The levels of `curve`'s densities combined, Σ_i μ_i M_ik for a mix M (n + 1, k) whose row n
+    weighs the densities' sum: the layer is linear in its density, so their layers are the
+    combinations' (`poisson_gradients` with weights).
+
+    From the cage's densities where they are in memory; else, for a cage of `COMBINED_FROM` control
+    points or more, its first combination of at most `two_grid.FEW_COLUMNS` columns is solved for
+    those k right-hand sides 2 N M alone
+    (`combined_densities`: a 200-point cage's 201 columns took 5.5 s, most of it in proportion to
+    them or in the coarse LU that few columns do without).  A second combination of the same cage
+    (another target of a certificate) solves all its densities, shared with the basis and any later one.
+    """
+    key, wanted = curve.control_points.tobytes(), np.ascontiguousarray(mix, dtype=np.float64)
+    if len(_combined) > COMBINED_CAGES:
+        _combined.clear()
+    first = _combined.setdefault(key, wanted.tobytes())
+    alone = curve.n >= COMBINED_FROM and wanted.shape[1] <= two_grid.FEW_COLUMNS
+    if alone and key not in _held and first == wanted.tobytes():
+        _solving[key] = curve
+        try:
+            return combined_densities(key, curve.n, first, wanted.shape[1]).levels
+        finally:
+            _solving.pop(key, None)
+    levels = densities(curve).levels
+    mixed = tuple(density @ wanted for density in levels.densities)
+    return Levels(levels.panels, levels.parents, mixed, levels.safety)
 
 
 @functools.lru_cache(maxsize=4)
@@ -133,6 +173,18 @@ def solved_densities(points: bytes, count: int) -> Densities:
     take the fine densities (I + K*)^-1 P ρ̃ with the adaptive rule, not R ρ̃.  The dense
     coarse equation is solved by `core.boundary_integrals.two_grid` (its LU where that does not contract).
     """
+    return _solved(points, count, None)
+
+
+@functools.lru_cache(maxsize=8)
+def combined_densities(points: bytes, count: int, mix: bytes, columns: int) -> Densities:
+    """`solved_densities` of the combinations Σ_i μ_i M_ik for a mix M (count + 1, columns) (its bytes),
+    solved for their right-hand sides 2 N M alone (`combined_levels`)."""
+    return _solved(points, count, np.frombuffer(mix).reshape(count + 1, columns))
+
+
+def _solved(points: bytes, count: int, mix: np.ndarray | None) -> Densities:
+    """`solved_densities` (`mix` None) or `combined_densities`."""
     curve = _solving.get(points)
     if curve is None:
         curve = ClosedBSpline(np.frombuffer(points).reshape(count, 2))
@@ -170,7 +222,7 @@ def solved_densities(points: bytes, count: int) -> Densities:
         )  # fmt: skip
         system[near_rows] += 2.0 * near
     system[np.arange(coarse.size), np.arange(coarse.size)] += 1.0
-    data = _data(curve, coarse.t)
+    data = _data(curve, coarse.t, mix)
     transformed = two_grid.solve(system, data)
     del system
     mu = expand.apply(transformed)
@@ -185,7 +237,7 @@ def solved_densities(points: bytes, count: int) -> Densities:
     safety = (None, np.where(corner_block, CORNER_SAFE, SAFE), None)
     levels = Levels((spans, coarse, fine), (span_of, parent), (span_density, weighted, mu), safety)
     refine = np.flatnonzero(fine.lengths > REFINED_RATIO * gap[parent])
-    corrected = nystrom_halves(curve, fine, mu, refine) if refine.size else None
+    corrected = nystrom_halves(curve, fine, mu, refine, mix) if refine.size else None
     return Densities(curve, bisected(curve, levels, corrected=corrected))
 
 
@@ -222,9 +274,12 @@ def _coarse_system(curve: ClosedBSpline, coarse: Panels, blocks: dict, target, p
             coarse.z, layer_factors(curve, coarse), *span_parameters(curve, coarse.t), coarse.weights,
             np.ascontiguousarray(np.stack([c1.real, c1.imag, c2.real, c2.imag, scale], axis=1)),
         )  # fmt: skip
+        span_order = np.argsort(nodes.span, kind="stable")
+        span_start = np.searchsorted(nodes.span[span_order], np.arange(curve.n + 1)).astype(np.int64)
         return (
             nodes, node_block, block_columns, block_reduced,
             np.searchsorted(target, np.arange(coarse.size + 1)).astype(np.int64), np.ascontiguousarray(panel),
+            compiled_integrals.SpanNodes(span_start, span_order),
             scratch("coarse system", (coarse.size, coarse.size)),
         )  # fmt: skip
 
@@ -362,15 +417,18 @@ def _solved_blocks(curve, fine, rows, start, entries, values, entry_start, prolo
     return solution, reduced
 
 
-def _data(curve: ClosedBSpline, t: np.ndarray) -> np.ndarray:
-    """The right-hand sides 2 N_i(t) and their sum, shape (K, n + 1)."""
+def _data(curve: ClosedBSpline, t: np.ndarray, mix: np.ndarray | None = None) -> np.ndarray:
+    """The right-hand sides 2 N_i(t) and their sum, shape (K, n + 1), or their combinations by a
+    mix (n + 1, k), shape (K, k)."""
     basis = curve.basis_matrix(t)
-    return 2.0 * np.concatenate([basis, basis.sum(axis=1, keepdims=True)], axis=1)
+    data = 2.0 * np.concatenate([basis, basis.sum(axis=1, keepdims=True)], axis=1)
+    return data if mix is None else np.ascontiguousarray(data @ mix)
 
 
-def nystrom_halves(curve: ClosedBSpline, fine: Panels, mu: np.ndarray, refine: np.ndarray):
+def nystrom_halves(curve: ClosedBSpline, fine: Panels, mu: np.ndarray, refine: np.ndarray, mix=None):
     """The densities at the nodes of the halves of the fine panels `refine` (K,), by Nyström
-    interpolation: (node indices of `cauchy_integrals.bisected`'s first level, values (2K ORDER, n + 1)).
+    interpolation: (node indices of `cauchy_integrals.bisected`'s first level, values (2K ORDER, n + 1),
+    or (2K ORDER, k) for densities combined by a mix (n + 1, k), `mu` (P_f ORDER, k) then theirs).
 
     The equation holds at every point x of the curve, not only at the nodes, so
 
@@ -407,7 +465,7 @@ def nystrom_halves(curve: ClosedBSpline, fine: Panels, mu: np.ndarray, refine: n
     owner = np.concatenate([np.repeat(refine, 2 * ORDER), np.repeat(refine, ORDER)])  # each z's panel
     touching |= panel == owner[target]
     matrix[target[:, None], panel[:, None] * ORDER + np.arange(ORDER)] = values
-    formula = _data(curve, t) - 2.0 * (matrix @ mu)
+    formula = _data(curve, t, mix) - 2.0 * (matrix @ mu)
     split = 2 * count * ORDER
     residual = (mu[own] - formula[split:]).reshape(count, ORDER, -1)
     to_halves = interpolation_matrix(np.concatenate([0.5 * NODES - 0.5, 0.5 * NODES + 0.5]))
@@ -648,17 +706,18 @@ def poisson_gradients(curve: ClosedBSpline, x: np.ndarray, weights: np.ndarray |
     With `weights` (n, k): the gradients of the k combinations Σ_i G_i w_ik instead, shape
     (M, k, 2), from the densities combined first (the layer is linear in its density, so
     Σ_i F_i w_ik is the layer of Σ_i μ_i w_ik): k columns evaluated instead of n, the cost of a
-    map's derivatives (`core.injectivity.harmonic_parts`) rather than of every basis function's.
+    map's derivatives (`core.injectivity.harmonic_parts`) rather than of every basis function's;
+    without the cage's densities in memory, only those k are solved for (`combined_levels`).
     """
     refuse_far_outside(curve, x)
     shown = x
     curve, x = centred(curve, x)
-    levels = densities(curve).levels
-    if weights is not None:
+    if weights is None:
+        levels = densities(curve).levels
+    else:
         mix = np.zeros((curve.n + 1, weights.shape[1] + 1))
         mix[: curve.n, :-1], mix[curve.n, -1] = weights, 1.0
-        mixed = tuple(density @ mix for density in levels.densities)
-        levels = Levels(levels.panels, levels.parents, mixed, levels.safety)
+        levels = combined_levels(curve, mix)
     real, _, on_curve = cauchy_integrals(curve, levels, x)
     derivative = cauchy_derivatives(curve, levels, x)
     total = real[:, -1:]

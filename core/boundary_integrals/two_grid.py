@@ -19,6 +19,12 @@ product A x each (2 K² m flops) replace an LU (2/3 K³): for the blob's K = 560
 m = 13 right-hand sides 3.8 -> 2.4 ms (two steps), for the F polygon's 1,552 67 -> 34 ms, the
 whole solve of a smooth cage of 120 control points 1.2 -> 0.55 s.  The LU of A_c is 1/8 of A's.
 
+With few right-hand sides (`FEW_COLUMNS`: a map's derivatives from its densities combined first,
+`poisson.combined_densities`) a step costs little and the LU of A_c most of the solve: the coarse
+grid then has `FEW_COLUMNS_ORDER` nodes a panel, an LU 19x shorter, at the cost of a step or so
+more (a 200-point five-lobed cage, K = 6,400 and 5 right-hand sides: LU 1.5 s -> 0.1 s, 2 steps either
+way, the same solution to 5e-15).  Where that does not contract, the `COARSE_ORDER` grid is tried.
+
 A system that does not contract so (a cage the coarse grid does not resolve) falls back to the
 LU of A, which the iteration leaves as it was.
 """
@@ -36,6 +42,9 @@ from core.boundary_integrals.scratch_arrays import scratch
 #: Gauss–Legendre nodes a panel on the coarse grid: with 6 the blob takes a step more than with 8
 #: (its coarse LU shorter, as fast in all), with 10 none fewer.
 COARSE_ORDER = 8
+#: Right-hand sides at most that take the coarser grid of `FEW_COLUMNS_ORDER` nodes a panel first.
+FEW_COLUMNS = 16
+FEW_COLUMNS_ORDER = 3
 #: Rows of A a block of the coarse matrix's product takes, times K (its scratch: ROWS / 2 numbers).
 ROWS = 32_768
 #: A step must shrink the last one's size at least this much, or the iteration is not worth it.
@@ -50,36 +59,48 @@ TOLERANCE = 1e-13
 ROUNDING = 1e-14
 
 
-def _grids() -> tuple[np.ndarray, np.ndarray]:
-    """Π (ORDER, COARSE_ORDER) and Ρ (COARSE_ORDER, ORDER) of the module docstring."""
-    nodes, weights = np.polynomial.legendre.leggauss(COARSE_ORDER)
-    coarse = np.polynomial.legendre.legvander(nodes, COARSE_ORDER - 1)
-    fine = np.polynomial.legendre.legvander(NODES, COARSE_ORDER - 1)
+def _grids(order: int) -> tuple[np.ndarray, np.ndarray]:
+    """Π (ORDER, order) and Ρ (order, ORDER) of the module docstring, `order` coarse nodes a panel."""
+    nodes, weights = np.polynomial.legendre.leggauss(order)
+    coarse = np.polynomial.legendre.legvander(nodes, order - 1)
+    fine = np.polynomial.legendre.legvander(NODES, order - 1)
     prolong = np.linalg.solve(coarse.T, fine.T).T  # fine values of the coarse interpolant
     restrict = prolong.T * WEIGHTS[None, :] / weights[:, None]
     return np.ascontiguousarray(prolong), np.ascontiguousarray(restrict)
 
 
-_PROLONG, _RESTRICT = _grids()
+_GRIDS = {order: _grids(order) for order in (COARSE_ORDER, FEW_COLUMNS_ORDER)}
 
 
 def solve(matrix: np.ndarray, rhs: np.ndarray) -> np.ndarray:
     """matrix^-1 rhs, shape (K, m), for a C-ordered second-kind system matrix (K, K) on panels
     of `ORDER` Gauss–Legendre nodes (unknowns panel by panel); `matrix` is not changed but
     where the two-grid iteration does not contract (then it is overwritten by its LU)."""
+    orders = (FEW_COLUMNS_ORDER, COARSE_ORDER) if rhs.shape[1] <= FEW_COLUMNS else (COARSE_ORDER,)
+    for order in orders:
+        x = _iterated(matrix, rhs, order)
+        if x is not None:
+            return x
+    return solve_in_place(matrix, rhs)
+
+
+def _iterated(matrix: np.ndarray, rhs: np.ndarray, order: int) -> np.ndarray | None:
+    """`solve`'s two-grid iteration on a coarse grid of `order` nodes a panel: matrix^-1 rhs (K, m),
+    or None where it does not contract (`matrix` is not changed)."""
     size, columns = rhs.shape
     panels = size // ORDER
-    coarse_size = panels * COARSE_ORDER
-    coarse = _galerkin(matrix, scratch("coarse matrix", (coarse_size, coarse_size)))
+    coarse_size = panels * order
+    prolong, restrict = _GRIDS[order]
+    coarse = _galerkin(matrix, scratch("coarse matrix", (coarse_size, coarse_size)), prolong, restrict)
     factors = lu_factor(coarse.T, overwrite_a=True, check_finite=False)  # Fortran order: no copy
     product = scratch("two-grid product", (size, columns))  # A x of each step
 
     def precondition(residual: np.ndarray) -> np.ndarray:
         by_panel = residual.reshape(panels, ORDER, columns)
-        projected = np.matmul(_RESTRICT, by_panel)
+        projected = np.matmul(restrict, by_panel)
         solved = lu_solve(factors, projected.reshape(coarse_size, columns), trans=1, check_finite=False)
-        correction = solved.reshape(panels, COARSE_ORDER, columns) - projected
-        return (by_panel + np.matmul(_PROLONG, correction)).reshape(size, columns)
+        correction = solved.reshape(panels, order, columns) - projected
+        return (by_panel + np.matmul(prolong, correction)).reshape(size, columns)
 
     x = precondition(rhs)
     # An LU of A costs 2/3 K^3, a step 2 K^2 m: the iteration may take that many steps.
@@ -104,32 +125,32 @@ def solve(matrix: np.ndarray, rhs: np.ndarray) -> np.ndarray:
                 return x
             break
         last = length
-    return solve_in_place(matrix, rhs)
+    return None
 
 
-def _galerkin(matrix: np.ndarray, coarse: np.ndarray) -> np.ndarray:
-    """Ρ A Π (the module docstring) into `coarse` (P COARSE_ORDER, P COARSE_ORDER) for A = `matrix`
-    (P ORDER, P ORDER), C-ordered: compiled on every thread (`compiled_integrals.galerkin_matrix`)
-    where at hand, else numpy."""
+def _galerkin(
+    matrix: np.ndarray, coarse: np.ndarray, prolong: np.ndarray, restrict: np.ndarray
+) -> np.ndarray:
+    """Ρ A Π (the module docstring) into `coarse` (P c, P c) for A = `matrix` (P ORDER, P ORDER),
+    C-ordered, Π = `prolong` (ORDER, c) and Ρ = `restrict` (c, ORDER): compiled on every thread
+    (`compiled_integrals.galerkin_matrix`) where at hand, else numpy."""
     found = compiled_integrals.run_compiled(
-        compiled_integrals.galerkin_matrix, lambda: (matrix, _RESTRICT, _PROLONG, coarse)
+        compiled_integrals.galerkin_matrix, lambda: (matrix, restrict, prolong, coarse)
     )
     if found is not None:
         return found
     size = matrix.shape[0]
     panels = size // ORDER
+    order = restrict.shape[0]
     # A few row panels at a time: Ρ on their rows, then Π on every panel of those (one product
     # each, written into A_c's rows).  One product over all rows made A Π, K^2 / 2 numbers of
     # fresh memory, whose page faults took a third of the bench blob's solve.
     rows = max(1, ROWS // size)
     for first in range(0, panels, rows):
         last = min(panels, first + rows)
-        restricted = np.matmul(_RESTRICT, matrix[first * ORDER : last * ORDER].reshape(-1, ORDER, size))
-        np.matmul(
-            restricted.reshape(-1, ORDER),
-            _PROLONG,
-            out=coarse[first * COARSE_ORDER : last * COARSE_ORDER].reshape(-1, COARSE_ORDER),
-        )
+        restricted = np.matmul(restrict, matrix[first * ORDER : last * ORDER].reshape(-1, ORDER, size))
+        written = coarse[first * order : last * order].reshape(-1, order)
+        np.matmul(restricted.reshape(-1, ORDER), prolong, out=written)
     return coarse
 
 

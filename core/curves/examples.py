@@ -44,6 +44,14 @@ def ellipse(count: int = 8, a: float = 1.0, b: float = 0.7) -> np.ndarray:
     return np.stack([a * np.cos(angles), b * np.sin(angles)], axis=1)
 
 
+def lobed_circle(count: int, lobes: int = 5, depth: float = 0.15) -> np.ndarray:
+    """`count` control points on a circle of radius 1 + `depth` sin(`lobes` θ), (count, 2): a large
+    smooth cage (the bench's and the tests' 200-point one)."""
+    angles = 2 * np.pi * np.arange(count) / count
+    radii = 1.0 + depth * np.sin(lobes * angles)
+    return np.stack([radii * np.cos(angles), radii * np.sin(angles)], axis=1)
+
+
 def dumbbell() -> np.ndarray:
     """Two lobes joined by a narrow neck (width about 0.1)."""
     return np.array(

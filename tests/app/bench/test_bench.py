@@ -146,6 +146,9 @@ def test_quick_runs_every_row_once_at_tiny_sizes(monkeypatch):
     )
     monkeypatch.setattr(bench_held_out, "held_out_rows", lambda forget, quick: calls.update(held_out=quick))
     monkeypatch.setattr(
+        bench_fold_free, "large_cage_row", lambda repeats, *count: calls.update(large_cage=(repeats, *count))
+    )
+    monkeypatch.setattr(
         bench_mesher, "mesher_rows", lambda curve, repeats, vertices: calls.update(mesher=(repeats, vertices))
     )
     args = argparse.Namespace(
@@ -177,6 +180,7 @@ def test_quick_runs_every_row_once_at_tiny_sizes(monkeypatch):
         "launch": (3, True),
         "fold_free": (2_000,),
         "held_out": True,
+        "large_cage": (1, 40),
         "mesher": (1, (2_000,)),
         "pins": ((16,), 2, 1),
     }
@@ -200,6 +204,15 @@ def test_the_fold_free_row_says_when_libigl_is_missing(monkeypatch, capsys):
     assert "libigl is not installed" in out
     row = out.strip().splitlines()[-1].split()
     assert row[2] != "0" and row[3] == "0" and row[4] == "yes"  # steps, flips, proven
+
+
+def test_the_large_cage_row_proves_the_certificate_and_maps_the_drag(capsys):
+    """The row's columns on a 40-point lobed circle (the bench's has 200): the certificate of the small
+    drag proven, the folding drag's map with no triangle turned over, proven."""
+    bench_fold_free.large_cage_row(1, count=40)
+    row = capsys.readouterr().out.strip().splitlines()[-1].split()
+    assert float(row[0]) > 0 and row[2] == "yes" and int(row[3]) > 0
+    assert row[6] == "0" and row[7] == "yes"
 
 
 def test_the_mesher_row_says_when_triangle_is_missing(monkeypatch, capsys):

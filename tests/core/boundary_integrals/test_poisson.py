@@ -606,3 +606,49 @@ def test_near_pairs_are_the_same_by_direct_comparison_and_by_search_tree(monkeyp
     assert direct[0].size > panels.size
     np.testing.assert_array_equal(direct[0], searched[0])
     np.testing.assert_array_equal(direct[1], searched[1])
+
+
+@pytest.mark.parametrize(
+    "cage",
+    [
+        lambda: core.ClosedBSpline(core.examples.blob() * 3.0 + 0.25),
+        lambda: core.ClosedBSpline(SHAPES["F polygon"] * 1.5),
+        lambda: random_polygon_cage(645),
+    ],
+    ids=["blob", "F polygon", "corner cage 645"],
+)
+def test_gradients_of_combinations_solved_alone_are_those_of_the_densities(cage, monkeypatch):
+    """A large cage's first combination of few columns (a certificate's map) is solved for its
+    right-hand sides alone (`poisson.combined_levels`; here small cages, from 0 control points): the
+    same gradients as every density's, combined (measured 3e-14 of the largest on the blob); a
+    second combination solves all the densities."""
+    from core.boundary_integrals import poisson
+
+    monkeypatch.setattr(poisson, "COMBINED_FROM", 0)
+    curve = cage()
+    rng = np.random.default_rng(8)
+    weights = rng.normal(size=(curve.n, 4))
+    x = interior_points(curve, 200, seed=8)
+    key = poisson.centred(curve, x)[0].control_points.tobytes()
+    poisson.solved_densities.cache_clear()
+    poisson._combined.pop(key, None)  # a combination asked of this cage before, in another test
+    alone = poisson_gradients(curve, x, weights)
+    assert key not in poisson._held
+    poisson_gradients(curve, x, weights[:, ::-1])  # another combination: every density
+    assert key in poisson._held
+    combined = np.einsum("mnd,nk->mkd", poisson_gradients(curve, x), weights)
+    assert np.abs(alone - combined).max() <= 1e-12 * np.abs(combined).max()
+
+
+def test_a_small_cages_combination_solves_all_its_densities():
+    """Below `poisson.COMBINED_FROM` control points every density costs about what a combination
+    does, and serves every later target: a combination solves them all."""
+    from core.boundary_integrals import poisson
+
+    curve = core.ClosedBSpline(core.examples.blob() * 3.0 + 0.5)
+    x = interior_points(curve, 20, seed=9)
+    key = poisson.centred(curve, x)[0].control_points.tobytes()
+    poisson.solved_densities.cache_clear()
+    poisson._combined.pop(key, None)
+    poisson_gradients(curve, x, np.ones((curve.n, 2)))
+    assert curve.n < poisson.COMBINED_FROM and key in poisson._held

@@ -37,9 +37,15 @@ CAGES = {
 }
 
 
+@pytest.mark.parametrize("combined", [False, True], ids=["every column", "5 combined"])
 @pytest.mark.parametrize("name", CAGES)
-def test_agrees_with_the_lu_to_its_rounding(name, monkeypatch):
+def test_agrees_with_the_lu_to_its_rounding(name, combined, monkeypatch):
+    """Every basis function's right-hand side, or 5 combinations (a certificate's: x and y of a target
+    and of the source, and the sum), which take the `FEW_COLUMNS_ORDER` grid."""
     matrix, rhs = coarse_system(CAGES[name]())
+    if combined:
+        mix = np.random.default_rng(6).normal(size=(rhs.shape[1], 5))
+        rhs = np.ascontiguousarray(rhs @ mix)
     lu = two_grid.solve_in_place(matrix.copy(), rhs)
     factored = []
     lu_instead = lambda m, r: factored.append(m.shape) or np.linalg.solve(m, r)  # noqa: E731
@@ -69,17 +75,47 @@ def test_a_system_the_coarse_grid_misses_falls_back_to_the_lu(monkeypatch):
     assert factored == [(size, size)]
 
 
-def test_exact_on_smooth_densities_in_one_application():
+@pytest.mark.parametrize(
+    ("order", "columns"),
+    [(two_grid.COARSE_ORDER, two_grid.FEW_COLUMNS + 1), (two_grid.FEW_COLUMNS_ORDER, two_grid.FEW_COLUMNS)],
+)
+def test_exact_on_smooth_densities_in_one_application(order, columns, monkeypatch):
     # A = I + K with K mapping into the coarse grid's polynomials: the first preconditioned
-    # application is already the solution, and the iteration stops at once.
+    # application is already the solution, and the iteration stops at once (its first step and a
+    # second to see that the first changed nothing beyond rounding).
     rng = np.random.default_rng(4)
     panels = 12
-    prolong, restrict = two_grid._PROLONG, two_grid._RESTRICT
-    projection = np.kron(np.eye(panels), prolong @ restrict)  # onto degree < COARSE_ORDER a panel
+    prolong, restrict = two_grid._GRIDS[order]
+    projection = np.kron(np.eye(panels), prolong @ restrict)  # onto degree < order a panel
     matrix = np.eye(panels * 16) + projection @ rng.normal(scale=0.05, size=(panels * 16,) * 2) @ projection
-    rhs = rng.normal(size=(panels * 16, 2))
+    rhs = rng.normal(size=(panels * 16, columns))
+    products = []
+    product = two_grid._product
+    monkeypatch.setattr(two_grid, "_product", lambda *arguments: products.append(1) or product(*arguments))
     np.testing.assert_allclose(two_grid.solve(matrix, rhs), np.linalg.solve(matrix, rhs), rtol=0, atol=1e-13)
+    assert len(products) <= 2
     np.testing.assert_array_equal(two_grid.solve(matrix, np.zeros_like(rhs)), 0.0)
+
+
+def test_few_columns_the_coarser_grid_misses_take_the_finer_one(monkeypatch):
+    """A = I + K with K smooth to degree < COARSE_ORDER but not < FEW_COLUMNS_ORDER a panel, strong
+    enough that the coarser grid's iteration does not contract: the `COARSE_ORDER` grid's does."""
+    rng = np.random.default_rng(7)
+    panels = 12
+    prolong, restrict = two_grid._GRIDS[two_grid.COARSE_ORDER]
+    projection = np.kron(np.eye(panels), prolong @ restrict)
+    matrix = np.eye(panels * 16) + projection @ rng.normal(scale=0.5, size=(panels * 16,) * 2) @ projection
+    rhs = rng.normal(size=(panels * 16, 3))
+    tried = []
+    iterated = two_grid._iterated
+    monkeypatch.setattr(
+        two_grid,
+        "_iterated",
+        lambda m, r, order: tried.append((order, iterated(m, r, order) is None)) or iterated(m, r, order),
+    )
+    np.testing.assert_allclose(two_grid.solve(matrix, rhs), np.linalg.solve(matrix, rhs), rtol=0, atol=1e-12)
+    assert tried[0] == (two_grid.FEW_COLUMNS_ORDER, True)
+    assert tried[-1] == (two_grid.COARSE_ORDER, False)
 
 
 def test_the_compiled_products_equal_numpys(monkeypatch):
@@ -90,7 +126,9 @@ def test_the_compiled_products_equal_numpys(monkeypatch):
     results = {}
     for mode in ("numpy", "compiled"):
         monkeypatch.setattr(compiled_integrals, "mode", mode)
-        galerkin = two_grid._galerkin(matrix, np.full((coarse_size, coarse_size), np.nan))
+        galerkin = two_grid._galerkin(
+            matrix, np.full((coarse_size, coarse_size), np.nan), *two_grid._GRIDS[two_grid.COARSE_ORDER]
+        )
         product = two_grid._product(matrix, rhs, np.full_like(rhs, np.nan))
         results[mode] = galerkin, product, two_grid.solve(matrix, rhs)
     for numpy_result, compiled_result in zip(results["numpy"], results["compiled"], strict=True):
