@@ -51,7 +51,7 @@ ROOT = Path(__file__).resolve().parent.parent
 #: The package whose `__pycache__` folders (its own and its subpackages') hold numba's cache.
 CORE = ROOT / "core"
 #: What the compilation imports (`import core`), at the versions of `pyproject.toml`'s dependencies.
-COMPILE_REQUIRES = ["numpy>=1.24", "scipy>=1.10", "numba>=0.59", "threadpoolctl>=3.1"]
+COMPILE_REQUIRES = ["numpy>=2.0", "scipy>=1.13", "numba>=0.61", "threadpoolctl>=3.1"]
 
 
 def _compiles() -> bool:

@@ -4,72 +4,99 @@ Pure numerics (numpy, scipy, numba): never imports `app`, moderngl, glfw or imgu
 See .docs/architecture.md in the repository for the data flow and the paper's equation numbers.
 """
 
+import importlib  # noqa: I001
+
 # First, before numpy loads OpenBLAS and before numba starts its OpenMP pool: their idle threads
 # spin briefly or not at all (`core.library_threads`).
 import core.library_threads  # noqa: F401, I001
 
 # Then: the compiled functions of the package compile uncached where numba cannot cache.
 import core.jit_cache  # noqa: F401, I001
-from core.basis import basis_functions
-from core.curves.boundary import Boundary
-from core.curves.bspline import ClosedBSpline
-from core.newton.compilation import compile_solver
-from core.deformation import deform
-from core.gradients import basis_gradients, kernel_gradients
-from core.meshes.harmonic import harmonic_basis
-from core.injectivity.certificate import InjectivityCertificate, certify_injective
-from core.injectivity.composite import fold_free_deform
-from core.pins.pin_deform import PIN_KERNELS, PinDeformation, pin_deform
-from core.injectivity.drag_step import DragMesh, DragStep, Untangling, drag_mesh, drag_step
-from core.injectivity.mesh_bijection import MeshBijection, prove_mesh_bijection
-from core.kernel_table import BOUNDARY_INTEGRAL_KERNELS, COMPLEX_KERNELS, DEFAULT_KERNEL, MESH_ONLY_KERNELS
-from core.kernels import KERNELS, ConvergenceWarning, SolveReport, kernel
-from core.meshes.mesh import Mesh, folded_triangles
-from core.mesh_basis import CacheWarning, mesh_basis_functions
-from core.meshes.pgw import pgw_basis
-from core.meshes.triangulation import triangulate
 
-# What the app needs beyond the mathematics above: file and cache helpers, input checks, the
-# kernel table, compile messages, example shapes and the mesh measures of the studies and the bench.
-# `app` imports only from here (tests/house/test_house_app.py).
-from core.boundary_integrals.poisson import load_compiled as load_compiled_integrals, solved_densities
-from core.curves import examples
-from core.curves.arc_length import DEFAULT_PARAMETERIZATION, PARAMETERIZATIONS, checked_parameterization
-from core.curves.bspline import basis_weights
-from core.curves.closest_point import distance_to_curve
-from core.curves.examples import wave_heights
-from core.curves.interpolating_spline import interpolating_control_points
-from core.kernel_table import COMPILED_KERNELS, BY_NAME as KERNEL_TABLE, PARAMETERIZED_KERNELS
-from core.kernels import SHIFTS, kernel_parameters
-from core.mesh_basis import DEFAULT_SAMPLES_PER_SEGMENT
-from core.meshes import distortion
-from core.meshes.distortion import (
-    signed_singular_values,
-    triangle_jacobians,
-    vertex_jacobians,
-    worst_distortion,
-)
-from core.injectivity.mesh_fold_free import PLAIN_HARMONIC_MAP
-from core.meshes.mesh import unique_edges
-from core.meshes.mesh_transfer import transfer_basis
-from core.meshes.refinement import RADIUS_EDGE_RATIO
-from core.newton.compilation import (
-    MESSAGE as COMPILE_MESSAGE,
-    GRADIENTS_MESSAGE as GRADIENTS_COMPILE_MESSAGE,
-    GRADIENT_MESSAGE as GRADIENT_COMPILE_MESSAGE,
-)
-from core.newton.reference import reference_kernel
-from core.storage.atomic_write import NAME_MAX, abandoned_temporaries, temporary_path, write_atomically
-from core.storage.cache import cache_directory
-from core.storage.state_directory import state_directory
-from core.validation import (
-    MAX_BOUNDARY_SAMPLES,
-    MAX_CONTROL_POINTS,
-    as_points,
-    checked_samples_per_segment,
-    positive_int,
-    too_many_control_points,
-)
+#: Where each name of `__all__` is defined: "module" (the name there, or the module of that name in
+#: that package: `examples`, `distortion`) or "module:attribute" (named otherwise here).  A name
+#: is imported at its first use (`__getattr__`, PEP 562): a command loads only the modules it uses
+#: (``warp`` neither the injectivity proofs nor the finite-element solvers).
+_WHERE = {
+    "basis_functions": "core.basis",
+    "Boundary": "core.curves.boundary",
+    "ClosedBSpline": "core.curves.bspline",
+    "compile_solver": "core.newton.compilation",
+    "deform": "core.deformation",
+    "basis_gradients": "core.gradients",
+    "kernel_gradients": "core.gradients",
+    "harmonic_basis": "core.meshes.harmonic",
+    "InjectivityCertificate": "core.injectivity.certificate",
+    "certify_injective": "core.injectivity.certificate",
+    "fold_free_deform": "core.injectivity.composite",
+    "PIN_KERNELS": "core.pins.pin_deform",
+    "PinDeformation": "core.pins.pin_deform",
+    "pin_deform": "core.pins.pin_deform",
+    "DragMesh": "core.injectivity.drag_step",
+    "DragStep": "core.injectivity.drag_step",
+    "drag_mesh": "core.injectivity.drag_step",
+    "drag_step": "core.injectivity.drag_step",
+    "MeshBijection": "core.injectivity.mesh_bijection",
+    "prove_mesh_bijection": "core.injectivity.mesh_bijection",
+    "BOUNDARY_INTEGRAL_KERNELS": "core.kernel_table",
+    "COMPLEX_KERNELS": "core.kernel_table",
+    "DEFAULT_KERNEL": "core.kernel_table",
+    "MESH_ONLY_KERNELS": "core.kernel_table",
+    "KERNELS": "core.kernel_table:POINT_KERNELS",  # core.kernels.KERNELS, without the solver
+    "ConvergenceWarning": "core.kernels",
+    "SolveReport": "core.kernels",
+    "kernel": "core.kernels",
+    "Mesh": "core.meshes.mesh",
+    "folded_triangles": "core.meshes.mesh",
+    "CacheWarning": "core.mesh_basis",
+    "mesh_basis_functions": "core.mesh_basis",
+    "pgw_basis": "core.meshes.pgw",
+    "triangulate": "core.meshes.triangulation",
+    # What the app needs beyond the mathematics above: file and cache helpers, input checks, the
+    # kernel table, compile messages, example shapes and the mesh measures of the studies and the
+    # bench. `app` imports only from here (tests/house/test_house_app.py).
+    "load_compiled_integrals": "core.boundary_integrals.poisson:load_compiled",
+    "solved_densities": "core.boundary_integrals.poisson",
+    "examples": "core.curves",
+    "DEFAULT_PARAMETERIZATION": "core.curves.arc_length",
+    "PARAMETERIZATIONS": "core.curves.arc_length",
+    "checked_parameterization": "core.curves.arc_length",
+    "basis_weights": "core.curves.bspline",
+    "distance_to_curve": "core.curves.closest_point",
+    "wave_heights": "core.curves.examples",
+    "interpolating_control_points": "core.curves.interpolating_spline",
+    "COMPILED_KERNELS": "core.kernel_table",
+    "KERNEL_TABLE": "core.kernel_table:BY_NAME",
+    "PARAMETERIZED_KERNELS": "core.kernel_table",
+    "SHIFTS": "core.kernels",
+    "kernel_parameters": "core.kernels",
+    "DEFAULT_SAMPLES_PER_SEGMENT": "core.mesh_basis",
+    "distortion": "core.meshes",
+    "signed_singular_values": "core.meshes.distortion",
+    "triangle_jacobians": "core.meshes.distortion",
+    "vertex_jacobians": "core.meshes.distortion",
+    "worst_distortion": "core.meshes.distortion",
+    "PLAIN_HARMONIC_MAP": "core.injectivity.mesh_fold_free",
+    "unique_edges": "core.meshes.mesh",
+    "transfer_basis": "core.meshes.mesh_transfer",
+    "RADIUS_EDGE_RATIO": "core.meshes.refinement",
+    "COMPILE_MESSAGE": "core.newton.compilation:MESSAGE",
+    "GRADIENTS_COMPILE_MESSAGE": "core.newton.compilation:GRADIENTS_MESSAGE",
+    "GRADIENT_COMPILE_MESSAGE": "core.newton.compilation:GRADIENT_MESSAGE",
+    "reference_kernel": "core.newton.reference",
+    "NAME_MAX": "core.storage.atomic_write",
+    "abandoned_temporaries": "core.storage.atomic_write",
+    "temporary_path": "core.storage.atomic_write",
+    "write_atomically": "core.storage.atomic_write",
+    "cache_directory": "core.storage.cache",
+    "state_directory": "core.storage.state_directory",
+    "MAX_BOUNDARY_SAMPLES": "core.validation",
+    "MAX_CONTROL_POINTS": "core.validation",
+    "as_points": "core.validation",
+    "checked_samples_per_segment": "core.validation",
+    "positive_int": "core.validation",
+    "too_many_control_points": "core.validation",
+}
 
 __all__ = [
     "BOUNDARY_INTEGRAL_KERNELS",
@@ -104,7 +131,6 @@ __all__ = [
     "MeshBijection",
     "PinDeformation",
     "SolveReport",
-    "Untangling",
     "abandoned_temporaries",
     "as_points",
     "basis_functions",
@@ -149,3 +175,29 @@ __all__ = [
     "worst_distortion",
     "write_atomically",
 ]
+
+
+def __getattr__(name: str):
+    """The name `name` of `__all__`, imported from its module at its first use and kept; or a module
+    of the package (`core.kernels`), imported."""
+    where = _WHERE.get(name)
+    if where is None:
+        try:
+            return importlib.import_module(f"core.{name}")
+        except ModuleNotFoundError as error:
+            if error.name != f"core.{name}":
+                raise
+            raise AttributeError(f"module 'core' has no attribute {name!r}") from None
+    module, _, attribute = where.partition(":")
+    attribute = attribute or name
+    value = importlib.import_module(module)
+    if hasattr(value, attribute):
+        value = getattr(value, attribute)
+    else:  # a module of the package
+        value = importlib.import_module(f"{module}.{attribute}")
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

@@ -32,7 +32,6 @@ from core.kernel_table import (
     POINT_KERNELS,
 )
 from core.kernels import DEFAULT_TOLERANCE
-from core.meshes.harmonic import harmonic_basis
 from core.meshes.mesh import Mesh, require_mesh_of
 from core.meshes.pgw import pgw_basis
 from core.newton.compilation import compile_solver
@@ -362,6 +361,8 @@ def _cache_key(curve, mesh, kernel, samples_per_segment, params, **what) -> str:
 
 def _compute(curve, mesh, kernel, samples_per_segment, progress, parameterization, params) -> np.ndarray:
     if kernel == "harmonic":
+        from core.meshes.harmonic import harmonic_basis  # scipy.sparse: only for this kernel
+
         if progress is not None:
             progress(0.0)
         values = harmonic_basis(curve, mesh)

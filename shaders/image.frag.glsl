@@ -5,15 +5,28 @@
 // u_snap (drawings at one output pixel per image pixel): a texture coordinate within float32's
 // rounding of a texel's centre reads that texel itself, so that an undeformed part of the
 // picture comes back exactly rather than blended with its neighbours by the rounding.
+// u_coverage: instead of the picture, how much of the pixel it covers (in every channel), as the
+// alpha of an opaque picture drawn the same way: 1 inside the image, fading to 0 over the half
+// texel past its edge as bilinear filtering against the transparent border does (level 0), so that
+// a translucent picture's own alpha and the warp's coverage are told apart when it is laid over
+// the untouched picture.
 
 uniform sampler2D u_image;
 uniform float u_opacity;
 uniform bool u_snap;
+uniform bool u_coverage;
 
 in vec2 v_uv;
 out vec4 f_colour;
 
 void main() {
+    if (u_coverage) {
+        vec2 size = vec2(textureSize(u_image, 0));
+        vec2 texel = v_uv * size;
+        vec2 inside = clamp(texel + 0.5, 0.0, 1.0) * clamp(size + 0.5 - texel, 0.0, 1.0);
+        f_colour = vec4(inside.x * inside.y);
+        return;
+    }
     vec4 colour;
     if (u_snap) {
         vec2 size = vec2(textureSize(u_image, 0));

@@ -6,6 +6,11 @@ drag deforms the picture at once.  Rows: the bundled demo with its basis functio
 (a first run) and cached (every later one), and a 24-megapixel JPEG photograph opened without
 a cage (read, EXIF-oriented, a cage fitted to its subject, the texture uploaded).  The issue's
 bounds are 3 s for the demo and 5 s for the photograph, on a quiet machine.
+
+The warp start-up row (`warp_startup_row`, no window) times ``python -m app warp`` children in
+turn: ``warp --help`` (process start to the command line parsed: the imports of every command)
+and a warp of a small PNG, its basis cached (process start to the file written and the process
+gone: imports, the mesher's compiled code loaded, meshing, the GL context, drawing, writing).
 """
 
 from __future__ import annotations
@@ -26,6 +31,71 @@ from app.bench.xvfb import failure_details, viewer_lines
 LAUNCH_PHOTO, QUICK_LAUNCH_PHOTO = (6000, 4000), (1200, 800)
 #: Seconds one launch may take before it counts as failed.
 LAUNCH_TIMEOUT = 120.0
+#: (width, height) of the warp start-up row's picture.
+STARTUP_PICTURE = (640, 480)
+
+
+def warp_startup_row(repeats: int, quick: bool, failed: Callable[[str], Exception]) -> None:
+    """Print the warp start-up row: medians of `repeats` turns (one if `quick`) of ``warp --help``
+    and of a warp of a `STARTUP_PICTURE` PNG with its basis cached (one warp first fills the cache).
+
+    Parameters
+    ----------
+    repeats : int
+    quick : bool
+    failed : callable
+        Makes the exception that reports a failed run, from its message.
+    """
+    from app.bench.photos import photograph, write_starfish_drag
+
+    with tempfile.TemporaryDirectory() as folder:
+        folder = Path(folder)
+        _write_picture(folder / "photo.png", photograph(*STARTUP_PICTURE))
+        write_starfish_drag(folder, *STARTUP_PICTURE)
+        environment = dict(
+            os.environ,
+            TRANSFINITE_STATE_DIR=str(folder / "state"),
+            TRANSFINITE_CACHE_DIR=str(folder / "cache"),
+        )
+        warp = ["warp", str(folder / "photo.png"), "--cage", str(folder / "cage.json")]
+        warp += ["--target", str(folder / "target.json"), "--output", str(folder / "out.png")]
+        _timed_run(warp, environment, failed)  # fills the basis cache
+        helps, warps = [], []
+        for _ in range(1 if quick else repeats):
+            helps.append(_timed_run(["warp", "--help"], environment, failed))
+            warps.append(_timed_run(warp, environment, failed))
+    width, height = STARTUP_PICTURE
+    print(f"warp start-up, {width}x{height} PNG, basis cached (process start to ...)")
+    for label, times in (("the command line parsed (warp --help)", helps), ("the file written", warps)):
+        turns = ", ".join(f"{t:.2f}" for t in times)
+        print(f"  {label:<40} {statistics.median(times):6.2f} s (runs {turns})")
+    print()
+
+
+def _write_picture(path: Path, image) -> None:
+    import cv2
+
+    cv2.imwrite(str(path), image)
+
+
+def _timed_run(arguments: list[str], environment: dict, failed) -> float:
+    """Seconds from starting ``python -m app ARGUMENTS`` to its exit, which must be 0."""
+    start = time.perf_counter()
+    result = subprocess.run(
+        [sys.executable, "-m", "app", *arguments],
+        env=environment,
+        capture_output=True,
+        text=True,
+        timeout=LAUNCH_TIMEOUT,
+    )
+    seconds = time.perf_counter() - start
+    if result.returncode != 0:
+        errors = result.stderr.strip().splitlines()[-10:] or ["(no output on stderr)"]
+        details = "\n".join(f"    {line}" for line in errors)
+        raise failed(
+            f"python -m app {' '.join(arguments)} failed with exit code {result.returncode}:\n{details}"
+        )
+    return seconds
 
 
 def launch_rows(

@@ -36,7 +36,7 @@ from pathlib import Path
 import numpy as np
 
 import core
-from app.bench.launch import launch_rows
+from app.bench.launch import launch_rows, warp_startup_row
 from app.bench.photos import (
     PHOTO_SIZES,
     QUICK_ANIMATION_SIZE,
@@ -144,6 +144,7 @@ def run_bench(args: argparse.Namespace) -> int:
             )
         )
     if not args.skip_launch:
+        children.append(lambda: warp_startup_row(args.repeats, args.quick, StepFailed))
         children.append(lambda: launch_rows(args.repeats, args.quick, _started_xvfb, StepFailed))
     if not args.skip_export:
         children.append(

@@ -379,7 +379,8 @@ def _bench_command(commands) -> None:
     _switch(
         bench,
         "--skip-launch",
-        "no viewer launch to a warpable picture (the demo, a 24 megapixel photograph; Xvfb)",
+        "no launch rows: a warp's start-up; the viewer's to a warpable picture (the demo, a 24 megapixel "
+        "photograph; Xvfb)",
     )
     _switch(
         bench,
@@ -546,7 +547,9 @@ def _add_viewer_options(parser: argparse.ArgumentParser) -> None:
         "median_fold_free_drag_frame_ms=X proven_after_release_ms=Y (the drag frames drawn with fold-free "
         "on, the most turned-over triangles one drew, their median time, and the time from the last release "
         "to a proof on the status line, or none) median_plain_drag_frame_ms=Z (drag frames with it off) "
-        "fold_free_drag_frames_on_target=K (fold-free drag frames whose boundary was on the target curve)",
+        "fold_free_drag_frames_on_target=K (fold-free drag frames whose boundary was on the target curve) "
+        "max_boundary_lag_px=D (the farthest, in image pixels, a boundary vertex of theirs was drawn from "
+        "that curve) max_fold_free_drag_frame_ms=X (the slowest of them)",
     )
     parser.add_argument(
         "--max-edge",

@@ -4,7 +4,10 @@ Drawn at one output pixel per image pixel and a whole-pixel offset, the backdrop
 `app.render.renderer.WarpRenderer.render` is the picture itself: its pixels are copied, bit for bit
 and with their straight alpha (`backdrop_rows`), GL draws only the warp, alone and only within the
 box the deformed mesh covers (`drawn_box`), and that drawing is laid over the copy where it covers
-anything (`warp_over`).  `texel_footprint` tells whether any triangle shrinks the picture, that is
+anything: an opaque picture's drawing over it (`warp_over`: its alpha is the warp's coverage), a
+translucent picture's drawing in place of it where the warp covers the pixel wholly, blended by the
+coverage drawn apart (`warp_laid`) where it covers part: its alpha is the picture's own.
+`texel_footprint` tells whether any triangle shrinks the picture, that is
 whether a drawing samples the texture's mipmaps at all.
 
 Pixels are RGBA of shape (h, w, 4), uint8 or uint16, row 0 at the top; a View maps image point
@@ -136,6 +139,43 @@ def warp_over(base: np.ndarray, drawn: np.ndarray) -> np.ndarray:
         result_alpha = over[:, 3:] + under[:, 3:] * kept
         colour = (over[:, :3] + under[:, :3] * under[:, 3:] * kept) / result_alpha
         base[partial] = _rounded(np.concatenate([colour, result_alpha], axis=1), base.dtype)
+    return base
+
+
+def warp_laid(base: np.ndarray, drawn: np.ndarray, coverage: np.ndarray, clear: np.ndarray) -> np.ndarray:
+    """A translucent picture's warp laid on `base` (the picture over `clear`), in place, which is
+    returned: premultiplied, drawn + (1 - coverage) base + (coverage - drawn's alpha) clear, the
+    warp laid on the picture and both over `clear`, rounded once; untouched where `coverage` is 0,
+    `drawn` alone (made straight) where it is whole and `clear` transparent, the colour of `base`
+    where the result is transparent.
+
+    Parameters
+    ----------
+    base : ndarray of shape (h, w, 4), uint8 or uint16
+        Straight alpha.
+    drawn : ndarray of shape (h, w, 4), uint16 or float32 in [0, 1]
+        The warp, premultiplied alpha, as GL reads it back.
+    coverage : ndarray of shape (h, w), the type of `drawn`
+        How much of each pixel the warp covers (``image.frag.glsl``'s ``u_coverage``).
+    clear : ndarray of shape (4,), the type of `base`
+        The straight colour under the picture (`clear_pixel`).
+    """
+    full = 1.0 if drawn.dtype == np.float32 else np.iinfo(drawn.dtype).max
+    touched = coverage > 0
+    if not touched.any():
+        return base
+    maximum = np.iinfo(base.dtype).max
+    over = drawn[touched].astype(np.float64) / full
+    kept = 1 - np.minimum(coverage[touched].astype(np.float64) / full, 1.0)[:, None]
+    under = base[touched].astype(np.float64) / maximum
+    behind = clear.astype(np.float64) / maximum
+    shows = np.maximum(1 - kept - over[:, 3:], 0) * behind[3]  # where the warp covers, its gaps
+    alpha = over[:, 3:] + kept * under[:, 3:] + shows
+    colour = over[:, :3] + kept * under[:, :3] * under[:, 3:] + shows * behind[:3]
+    # A pixel left wholly transparent keeps the colour under it (unseen, but a straight picture's
+    # own: an identity warp gives back even the colour of its transparent pixels).
+    colour = np.divide(colour, alpha, out=under[:, :3].copy(), where=alpha > 0)
+    base[touched] = _rounded(np.concatenate([np.minimum(colour, 1.0), alpha], axis=1), base.dtype)
     return base
 
 

@@ -36,6 +36,7 @@ from app.render.compositing import (
     exact_offset,
     straight,
     texel_footprint,
+    warp_laid,
     warp_over,
 )
 from app.render.passes.backdrop import BackdropPass
@@ -365,10 +366,10 @@ class WarpRenderer:
         highlight,
         folds,
         preview=False,
-        sampling=(True, False),
+        sampling=(True, False, False),
     ) -> None:
         """`draw` with the triangles in ``order``: "screen" (fastest) or "caller" (as given to `set_mesh`);
-        `sampling` is ``(mipmaps, snap)`` of `ImagePass.draw_image`."""
+        `sampling` is ``(mipmaps, snap, coverage)`` of `ImagePass.draw_image`."""
         self._require_mesh()
         if preview:
             self._require_preview()
@@ -384,8 +385,10 @@ class WarpRenderer:
             raise RuntimeError(f"draw(content={content!r}) needs set_field first")
         mesh = self._preview if preview else self._mesh
         if content == "image":
-            mipmaps, snap = sampling
-            self._image.draw_image(self._source, mesh, order, view, viewport_size, mipmaps=mipmaps, snap=snap)
+            mipmaps, snap, coverage = sampling
+            self._image.draw_image(
+                self._source, mesh, order, view, viewport_size, mipmaps=mipmaps, snap=snap, coverage=coverage
+            )
         elif content in self._fields:
             self._fields[content].draw(mesh, order, view, viewport_size)
         self._image.draw_marks(
@@ -568,7 +571,9 @@ class WarpRenderer:
     def _copied_strips(self, size, view, offset, tile, options, into):
         """`_strips` of the image over its copied backdrop (`app.render.compositing`): the backdrop's
         pixels copied, the warp drawn alone within its box and laid over them; a tile the warp's
-        outline crosses is multisampled, in floats, one inside it drawn once in the image's type."""
+        outline crosses is multisampled, in floats, one inside it drawn once in the image's type.  A
+        translucent image's warp is drawn finer (`SourceImage.drawn_dtype`) and its coverage drawn
+        too, and both laid over the backdrop (`warp_laid`): its own alpha is not a coverage."""
         width, height = size
         dtype = self.pixel_type
         clear = clear_pixel(options["background"], dtype)
@@ -585,8 +590,10 @@ class WarpRenderer:
         # Edges blended in 16 bits for an 8-bit image (a unit of 65535 is far below its rounding),
         # in floats for a 16-bit one.
         edge_type = np.uint16 if dtype == np.uint8 else np.float32
+        translucent = not self._source.opaque
         edged = _Drawing(self, view, small, what, options, edge_type, mipmaps)
-        plain = _Drawing(self, view, small, what, dict(options, samples=0), dtype, mipmaps)
+        plain_type = self._source.drawn_dtype
+        plain = _Drawing(self, view, small, what, dict(options, samples=0), plain_type, mipmaps)
         edged.backdrop = plain.backdrop = False  # copied, not drawn
         edged.antialiased, plain.antialiased = (lambda box: True), (lambda box: False)
         outline = None  # folds put edges anywhere
@@ -603,8 +610,14 @@ class WarpRenderer:
                         row - top : min(row + small[1], last) - top, left : min(left + small[0], box[2])
                     ]
                     crossed = outline is None or crosses(outline, (left, row, small[0], small[1]))
-                    drawn = (edged if crossed else plain).tile(left, row, (0.0, 0.0, 0.0, 0.0))
-                    warp_over(part, drawn[: len(part), : part.shape[1]])
+                    drawing = edged if crossed else plain
+                    drawn = drawing.tile(left, row, (0.0, 0.0, 0.0, 0.0))[: len(part), : part.shape[1]]
+                    if translucent:
+                        drawn = drawn.copy()  # the coverage's drawing reuses its array
+                        coverage = drawing.tile(left, row, (0.0, 0.0, 0.0, 0.0), coverage=True)
+                        warp_laid(part, drawn, coverage[: len(part), : part.shape[1], 3], clear)
+                    else:
+                        warp_over(part, drawn)
             yield top, strip
 
     def _ordered_positions(self) -> np.ndarray:
@@ -743,9 +756,10 @@ class _Drawing:
             renderer._source.build_mipmaps()  # before the output's pages: the driver's temporaries go first
         self.sampling = (bool(mipmaps), bool(view.scale == 1))
 
-    def tile(self, left: int, top: int, background) -> np.ndarray:
+    def tile(self, left: int, top: int, background, coverage: bool = False) -> np.ndarray:
         """The tile whose top-left output pixel is (`left`, `top`) drawn over `background` (straight
-        RGBA in [0, 1]), read back premultiplied, row 0 at the top: a view of a reused array."""
+        RGBA in [0, 1]), read back premultiplied, row 0 at the top: a view of a reused array; with
+        `coverage`, the image's coverage of each pixel instead (`ImagePass.draw_image`)."""
         red, green, blue, alpha = background
         smooth = self.antialiased((left, top, self.size[0], self.size[1]))
         target = self.multisample if smooth else self.resolved
@@ -754,7 +768,8 @@ class _Drawing:
         shifted = View(self.view.scale, (self.view.offset[0] - left, self.view.offset[1] - top))
         if self.backdrop:
             self.renderer.draw_backdrop(shifted, self.size)
-        self.renderer._draw(shifted, self.size, "caller", *self.what, sampling=self.sampling)
+        sampling = (*self.sampling, coverage)
+        self.renderer._draw(shifted, self.size, "caller", *self.what, sampling=sampling)
         if smooth:
             self.renderer.ctx.copy_framebuffer(self.resolved, self.multisample)
         self.resolved.read_into(

@@ -4,9 +4,10 @@ What the canvas shows is the mesh's piecewise-linear map.  Each frame, while a h
 after, its positions come from `core.drag_step`: the plain map G P' itself when it is proven a
 bijection onto its boundary polygon (`core.prove_mesh_bijection`: every triangle positive, exactly,
 and the polygon simple), else positions reached from the last frame's without turning a triangle
-over, the boundary on the target curve.  A drag so hard that a frame's budget (`DRAG_BUDGET`)
-does not reach that draws the nearest fold-free state on the way and catches up in the frames
-after (`FoldFreeFrames.catching_up`: the window keeps drawing until it has).  The background
+over, the boundary on the target curve.  A frame whose budget (`DRAG_BUDGET`) does not reach that
+(a jump of many pixels at once on a slow machine) draws the fold-free state it reached on the way,
+its boundary behind the target curve by `MeshProof.lag`, and catches up in the frames after
+(`FoldFreeFrames.catching_up`: the window keeps drawing until it has).  The background
 check's certified continuous map (`app.viewer.fold_free`) replaces these positions once it
 arrives, if it too is a bijection on the mesh; else the mesh keeps them.
 """
@@ -19,11 +20,11 @@ import numpy as np
 
 import core
 
-#: Seconds of a frame the drag step may spend on a map that folds while a handle moves (the plain
-#: frame of the default mesh takes ~8 ms: the fold-free one may take twice that), and at rest
-#: (catching up after a release, or fold-free switched on: nothing else moves then; 30 ms took
-#: 3.3 s to catch up with a hard drag on a loaded machine, 100 ms frames are not seen).
-DRAG_BUDGET = 0.002
+#: Seconds of a frame in which the drag step starts substeps while a handle moves (one is always
+#: taken: on the bench's hard drag one reached the target curve in every frame, 3-8 ms on a quiet
+#: machine; a jump of many pixels in one frame takes more), and at rest (catching up after a
+#: release, or fold-free switched on: nothing else moves then).
+DRAG_BUDGET = 0.04
 REST_BUDGET = 0.1
 
 
@@ -39,15 +40,38 @@ class MeshProof:
         The boundary is on the target curve (False: the drawing is catching up with the drag).
     turned_over : int
         Turned-over triangles drawn, counted exactly (0: the PL map is proven a bijection).
+    lag : float
+        How far (image px) the boundary vertices drawn are from their places on the target curve, at
+        most (0 when `reached`).
     """
 
     target: bytes
     reached: bool
     turned_over: int
+    lag: float = 0.0
 
     def proves(self, target: np.ndarray) -> bool:
         """Whether this is the proof of a bijection onto `target`'s (n, 2) curve polygon."""
         return self.reached and self.turned_over == 0 and self.target == np.asarray(target).tobytes()
+
+
+@dataclass(frozen=True)
+class PreviewBasis:
+    """A dense mesh's preview mesh as `FoldFreeFrames` takes a basis (`app.viewer.state.BasisResult`):
+    fold-free frames drawn on it while a handle moves.
+
+    Attributes
+    ----------
+    key : str
+    mesh : app.viewer.state.PreviewMesh
+        Its vertices, triangles and boundary loop.
+    basis : ndarray of shape (V', n)
+        Its G.
+    """
+
+    key: str
+    mesh: object
+    basis: np.ndarray
 
 
 def plain_positions(basis: np.ndarray, target: np.ndarray) -> np.ndarray:
@@ -69,7 +93,7 @@ class FoldFreeFrames:
         self._basis_key: str | None = None
         self._mesh: core.DragMesh | None = None
         self._positions: np.ndarray | None = None  # the last fold-free positions drawn (V, 2)
-        self._untangling: core.Untangling | None = None
+        self._way: np.ndarray | None = None  # the plain positions they were drawn for (V, 2)
         #: The last frame's boundary is not yet on the target curve: draw again.
         self.catching_up = False
         self.proof: MeshProof | None = None
@@ -83,22 +107,24 @@ class FoldFreeFrames:
         mesh = basis.mesh
         self._basis_key = basis.key
         self._mesh = core.drag_mesh(mesh.vertices, mesh.triangles, mesh.boundary)
-        self._positions = self._untangling = None
+        self._positions = self._way = None
 
     def positions(self, basis, target: np.ndarray, moving: bool) -> np.ndarray:
-        """This frame's fold-free positions (V, 2) for `target` (n, 2) on the mesh of `basis`; while
-        a handle is `moving`, within `DRAG_BUDGET` (the nearest fold-free state on the way where the
-        continuation's next round would not fit), else `REST_BUDGET` and a round at least."""
+        """This frame's fold-free positions (V, 2) for `target` (n, 2) on the mesh of `basis`: one
+        substep of `core.drag_step` at least, more within `DRAG_BUDGET` while a handle is `moving`,
+        else `REST_BUDGET`."""
         self._use(basis)
         goal = plain_positions(basis.basis, target)
-        budget, least = (DRAG_BUDGET, 0) if moving else (REST_BUDGET, 1)
+        budget = DRAG_BUDGET if moving else REST_BUDGET
         try:
-            step = core.drag_step(self._mesh, self._positions, goal, budget, self._untangling, least)
+            step = core.drag_step(self._mesh, self._positions, goal, budget, self._way)
         except ValueError:  # a start that is not fold-free (none is kept): from the source mesh then
-            step = core.drag_step(self._mesh, None, goal, budget, None, least)
-        self._positions, self._untangling = step.positions, step.untangling
+            step = core.drag_step(self._mesh, None, goal, budget)
+        self._positions, self._way = step.positions, step.way
         self.catching_up = not step.reached
-        self.proof = MeshProof(np.asarray(target).tobytes(), step.reached, step.proof.turned_over)
+        boundary = self._mesh.boundary
+        lag = np.hypot(*(step.positions[boundary] - goal[boundary]).T).max(initial=0.0)
+        self.proof = MeshProof(np.asarray(target).tobytes(), step.reached, step.proof.turned_over, float(lag))
         return step.positions
 
     def adopt(self, basis, target: np.ndarray, positions: np.ndarray) -> bool:
@@ -110,7 +136,7 @@ class FoldFreeFrames:
         if not proof.proven or np.any(core.folded_triangles(basis.mesh, positions)):
             self.refused = positions
             return False
-        self._positions, self._untangling, self.catching_up = positions, None, False
+        self._positions, self._way, self.catching_up = positions, plain_positions(basis.basis, target), False
         self.proof = MeshProof(np.asarray(target).tobytes(), True, 0)
         return True
 

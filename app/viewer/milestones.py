@@ -42,6 +42,8 @@ class FoldFreeFigures:
         The most turned-over triangles a frame of the first drew.
     on_target : int
         Those of its frames whose boundary was on the target curve (the others caught up later).
+    max_lag_px : float
+        The farthest (image px) a boundary vertex of those frames was drawn from the target curve.
     proven_after_release_ms : float or None
         ms from the last release with fold-free on to a proof on the status line (None: not yet).
     released_at : float or None
@@ -54,6 +56,7 @@ class FoldFreeFigures:
     plain_drag_ms: list = field(default_factory=list)
     max_folded_drawn: int = 0
     on_target: int = 0
+    max_lag_px: float = 0.0
     proven_after_release_ms: float | None = None
     released_at: float | None = None
     target_dragged: bool = False
@@ -201,13 +204,14 @@ class Milestones:
         """A frame with fold-free on: a drag frame's time and turned-over triangles; a release starts
         the clock that the status line's proof (`checked`) stops."""
         figures = self.fold_free
-        dragged = state.selection.drag is not None and state.selection.drag.kind == "target"
+        dragged = state.selection.drag is not None and state.selection.drag.kind in TARGET_DRAGS
         fold_free = state.document.live.fold_free
         if dragged and fold_free:
             figures.drag_ms.append(state.status.frame_ms[-1])
             figures.max_folded_drawn = max(figures.max_folded_drawn, state.compute.folded_count or 0)
             proof = state.compute.mesh_proof
             figures.on_target += proof is not None and proof.proves(state.document.live.target)
+            figures.max_lag_px = max(figures.max_lag_px, 0.0 if proof is None else proof.lag)
         elif dragged:
             figures.plain_drag_ms.append(state.status.frame_ms[-1])
         if figures.target_dragged and not dragged and fold_free:
@@ -234,7 +238,9 @@ class Milestones:
         fold_free_drag_frames=N max_folded_drawn=K median_fold_free_drag_frame_ms=X
         proven_after_release_ms=Y (``none``: no release with fold-free on was proven since)
         median_plain_drag_frame_ms=Z (target drags with fold-free off)
-        fold_free_drag_frames_on_target=K (fold-free drag frames whose boundary was on the target curve)."""
+        fold_free_drag_frames_on_target=K (fold-free drag frames whose boundary was on the target curve)
+        max_boundary_lag_px=D (the farthest a boundary vertex of theirs was drawn from that curve)
+        max_fold_free_drag_frame_ms=X (their slowest)."""
         count, median, p95 = frame_statistics(state.status.frame_ms)
         _, drag_median, _ = frame_statistics(self.drag_frame_ms)
         figures = self.fold_free
@@ -248,5 +254,7 @@ class Milestones:
             f"median_fold_free_drag_frame_ms={fold_free_median:.2f} "
             f"proven_after_release_ms={'none' if proven is None else f'{proven:.0f}'} "
             f"median_plain_drag_frame_ms={plain_median:.2f} "
-            f"fold_free_drag_frames_on_target={figures.on_target}"
+            f"fold_free_drag_frames_on_target={figures.on_target} "
+            f"max_boundary_lag_px={figures.max_lag_px:.2f} "
+            f"max_fold_free_drag_frame_ms={max(figures.drag_ms, default=0.0):.2f}"
         )

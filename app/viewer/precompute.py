@@ -229,8 +229,9 @@ def compute(request: Request, progress=None) -> dict:
 
 
 def _preview(curve, mesh, basis: np.ndarray, max_edge: float, kernel: str) -> tuple:
-    """(vertices, triangles, basis) of a mesh of about `PREVIEW_VERTICES` vertices of the same curve,
-    whose rows of G draw what the dense mesh draws at its vertices (`core.meshes.mesh_transfer`).
+    """(vertices, triangles, basis, boundary) of a mesh of about `PREVIEW_VERTICES` vertices of the
+    same curve, whose rows of G draw what the dense mesh draws at its vertices
+    (`core.meshes.mesh_transfer`).
 
     The complex coordinates (no Lagrange property, so their boundary rows are not the
     B-spline basis that `transfer_basis` puts there) are evaluated at the preview's vertices.
@@ -240,8 +241,13 @@ def _preview(curve, mesh, basis: np.ndarray, max_edge: float, kernel: str) -> tu
 
     coarse = core.triangulate(curve, max_edge=max_edge * np.sqrt(len(mesh.vertices) / PREVIEW_VERTICES))
     if np.iscomplexobj(basis):
-        return coarse.vertices, coarse.triangles, core.mesh_basis_functions(curve, coarse, kernel)
-    return coarse.vertices, coarse.triangles, transfer_basis(curve, mesh, basis, coarse)
+        return (
+            coarse.vertices,
+            coarse.triangles,
+            core.mesh_basis_functions(curve, coarse, kernel),
+            coarse.boundary,
+        )
+    return coarse.vertices, coarse.triangles, transfer_basis(curve, mesh, basis, coarse), coarse.boundary
 
 
 class Precompute:

@@ -21,7 +21,7 @@
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -32,7 +32,7 @@ from app.viewer.controller import band_corners
 from app.viewer.drawing import clicked_points
 from app.viewer.editing import curve_points, to_image
 from app.viewer.fold_free import HARMONIC_KERNEL, current_check
-from app.viewer.fold_free_frames import FoldFreeFrames
+from app.viewer.fold_free_frames import FoldFreeFrames, PreviewBasis
 from app.viewer.state import TARGET_DRAGS, WARPING_MODES, AppState
 from app.viewer.view_modes import BY_NAME as VIEW_MODES
 from app.warp.fill import set_fill
@@ -205,10 +205,12 @@ class Columns:
 @dataclass
 class Preview:
     """The preview mesh's G, rows in the renderer's preview vertex order, and the target its
-    positions were last made for."""
+    positions were last made for (fold-free or not)."""
 
     columns: Columns | None = None
     target: np.ndarray | None = None
+    fold_free: bool = False  # its positions were the fold-free frames'
+    frames: FoldFreeFrames = field(default_factory=FoldFreeFrames)  # drawn on it with fold-free on
 
 
 @dataclass
@@ -377,17 +379,34 @@ class Scene:
         )
 
     def _update_preview(self, state: AppState) -> None:
-        """The preview mesh's positions, G' @ P' (~20k rows: cheaper than any update of the dense mesh)."""
+        """The preview mesh's positions, G' @ P' (~20k rows: cheaper than any update of the dense
+        mesh), or with fold-free on, the fold-free frames' on it."""
         self.previewing = True
         target = state.document.live.target
         preview = self._preview
-        if preview.target is not None and np.array_equal(preview.target, target):
+        fold_free = self._fold_free_frames_wanted(state)
+        if (
+            preview.target is not None
+            and np.array_equal(preview.target, target)
+            and preview.fold_free == fold_free
+            and not (fold_free and preview.frames.catching_up)
+        ):
             return  # a pan or zoom: the positions are those of the last frame
         started = time.perf_counter()
-        self.renderer.set_preview_positions(
-            combined_columns(preview.columns.columns, target, preview.columns.imaginary)
-        )
-        preview.target = np.array(target)
+        if fold_free:
+            basis = self._basis
+            frames = preview.frames
+            coarse = PreviewBasis(f"{basis.key} preview", basis.preview, basis.preview.basis)
+            positions = frames.positions(coarse, target, moving=True)
+            state.compute.mesh_proof, state.compute.folded_count = frames.proof, frames.proof.turned_over
+            self.renderer.set_preview_positions(
+                positions[self.renderer.preview_vertex_order].astype(np.float32)
+            )
+        else:
+            self.renderer.set_preview_positions(
+                combined_columns(preview.columns.columns, target, preview.columns.imaginary)
+            )
+        preview.target, preview.fold_free = np.array(target), fold_free
         # The dense mesh is left as it was (`_drawn` with it): once the motion stops it gets
         # the exact positions if the target changed meanwhile.
         self.update_ms = 1e3 * (time.perf_counter() - started)
@@ -436,7 +455,8 @@ class Scene:
     def catching_up(self) -> bool:
         """The fold-free frames have not yet brought the boundary onto the target curve: the window
         draws again without waiting for input."""
-        return self.fold_free_frames.catching_up
+        frames = self._preview.frames if self.previewing else self.fold_free_frames
+        return frames.catching_up
 
     def _update_positions(self, state: AppState) -> None:
         if self._fold_free_frames_wanted(state):

@@ -431,11 +431,14 @@ class PreviewMesh:
     basis : ndarray of shape (V', n), float64
         ``core.meshes.mesh_transfer.transfer_basis`` of the dense mesh's G: the preview's
         deformed vertices are ``basis @ target``.
+    boundary : ndarray of shape (B,), int
+        Its boundary loop (the fold-free frames drawn on it: `app.viewer.fold_free_frames`).
     """
 
     vertices: np.ndarray
     triangles: np.ndarray
     basis: np.ndarray
+    boundary: np.ndarray
 
 
 @dataclass

@@ -20,5 +20,6 @@
 - `mesh_bijection`: `prove_mesh_bijection`, the exact proof that a mesh's piecewise-linear map is a
   bijection (every triangle positive, the boundary polygon simple);
 - `drag_step`: `drag_step`, one frame of a fold-free drag: the plain map where it is proven, else
-  fold-free positions reached from the last frame's.
+  the last frame's positions moved onto the target curve by flip-free substeps (the barrier
+  energy's tangent where triangles are squeezed).
 """

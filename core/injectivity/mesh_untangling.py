@@ -322,22 +322,31 @@ class BarrierProblem:
         gradient += np.bincount(self.dofs[kept], gradient_x[kept], minlength=self.size)
         return gradient, hessian_x
 
+    def _assembled(self, hessian_x) -> scipy.sparse.csc_matrix:
+        """The sparse (2 F, 2 F) sum of the triangles' Hessians in their coordinates (K, 6, 6)."""
+        return scipy.sparse.csc_matrix(
+            (hessian_x[self.kept], (self.rows, self.columns)), shape=(self.size,) * 2
+        )
+
+    def responses(self, positions, epsilon, moves) -> tuple[np.ndarray, np.ndarray]:
+        """How the movable vertices (2 F,) follow moves (V, 2) of the others, with H the Hessian of
+        E_ε at the positions (2 F,) (each triangle's projected, `_derivatives`), factored once:
+        to first order, H_FF d_F = -H_F,rest d_rest (a continuation's predictor), and with E_ε's
+        gradient too, H_FF d_F = -g_F - H_F,rest d_rest (a Newton step of E_ε with the others moved:
+        towards its minimiser as well, which opens up squeezed triangles)."""
+        gradient, hessian_x = self._derivatives(positions, epsilon)
+        fixed = np.asarray(moves, dtype=np.float64)[self.active].reshape(-1, 6) * (self.dofs < 0)
+        pushed = np.einsum("kij,kj->ki", hessian_x, fixed)
+        kept = self.dofs >= 0
+        right = -np.bincount(self.dofs[kept], pushed[kept], minlength=self.size)
+        solve = _definite_factors(self._assembled(hessian_x)).solve
+        return solve(right), solve(right - gradient)
+
     def newton_step(self, positions, epsilon) -> np.ndarray:
         """Positions (2 F,) after one projected Newton step on E_ε with a backtracking line search
         (Armijo); the same positions if no step descends."""
         gradient, hessian_x = self._derivatives(positions, epsilon)
-        matrix = scipy.sparse.csc_matrix(
-            (hessian_x[self.kept], (self.rows, self.columns)), shape=(self.size,) * 2
-        )
-        # The shape term's 2 (1 - θ) / χ I makes the matrix definite wherever the free vertices
-        # connect to a fixed one; the shift only guards a region with an isolated part.
-        shift = 1e-12 * matrix.diagonal().max() * scipy.sparse.identity(self.size, format="csc")
-        # Symmetric positive definite: factored without pivoting (SuperLU's symmetric mode), ~2x
-        # faster than a pivoting LU.
-        step = -scipy.sparse.linalg.splu(
-            (matrix + shift).tocsc(), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
-            options={"SymmetricMode": True},
-        ).solve(gradient)  # fmt: skip
+        step = -_definite_factors(self._assembled(hessian_x)).solve(gradient)
         slope, energy, length = float(gradient @ step), self.energy(positions, epsilon), 1.0
         while slope < 0.0 and length > 1e-12:
             trial = positions + length * step
@@ -345,6 +354,18 @@ class BarrierProblem:
                 return trial
             length *= 0.5
         return positions
+
+
+def _definite_factors(matrix: scipy.sparse.csc_matrix):
+    """The factors (`scipy.sparse.linalg.SuperLU`) of a barrier Hessian (N, N).  The shape term's
+    2 (1 - θ) / χ I makes the matrix definite wherever the free vertices connect to a fixed one; the
+    shift only guards a region with an isolated part.  Symmetric positive definite: factored without
+    pivoting (SuperLU's symmetric mode), ~2x faster than a pivoting LU."""
+    shift = 1e-12 * matrix.diagonal().max() * scipy.sparse.identity(matrix.shape[0], format="csc")
+    return scipy.sparse.linalg.splu(
+        (matrix + shift).tocsc(), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
+        options={"SymmetricMode": True},
+    )  # fmt: skip
 
 
 #: The Hessian of det J in vec(J) = (J00, J01, J10, J11).

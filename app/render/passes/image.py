@@ -51,6 +51,7 @@ class ImagePass:
         self._programs = [self.textured_program, self.solid_program, self._folds_program]
         self.textured_program["u_opacity"].value = 1.0
         self.textured_program["u_snap"].value = False
+        self.textured_program["u_coverage"].value = False
         self.mesh_programs = {
             "image": (self.textured_program, "in_uv"),
             "folds": (self._folds_program, "in_uv"),
@@ -66,6 +67,7 @@ class ImagePass:
         *,
         mipmaps: bool = True,
         snap: bool = False,
+        coverage: bool = False,
     ) -> None:
         """Draw `mesh` textured with `source` into the bound framebuffer.
 
@@ -82,14 +84,19 @@ class ImagePass:
         snap : bool
             Read a texel itself where the texture coordinate is its centre up to float32 rounding
             (``image.frag.glsl``): for drawings at one pixel per image pixel.
+        coverage : bool
+            Draw, instead of the image, how much of each pixel it covers in every channel (the alpha
+            an opaque image would have: ``image.frag.glsl``).
         """
         set_view((self.textured_program,), view, viewport_size)
         premultiplied_blending(self._ctx)
         source.bind(self.textured_program, mipmaps)
         self.textured_program["u_opacity"].value = 1.0
         self.textured_program["u_snap"].value = snap
+        self.textured_program["u_coverage"].value = coverage
         mesh.vaos[order]["image"].render()
         self.textured_program["u_snap"].value = False
+        self.textured_program["u_coverage"].value = False
         source.unbind()
 
     def draw_marks(

@@ -1,8 +1,11 @@
 """The source image on the GPU: a mipmapped texture with premultiplied alpha and its sampler.
 
-An 8-bit image is an RGBA8 texture; a 16-bit one an RGBA16 texture (normalised 16-bit
-integers, filtered and mipmapped like RGBA8), so that a 16-bit photograph is drawn and
-read back at its depth.
+An opaque 8-bit image is an RGBA8 texture, an opaque 16-bit one an RGBA16 texture (normalised
+16-bit integers, filtered and mipmapped like RGBA8): the texture holds the image itself, drawn and
+read back at its depth.  A translucent image is premultiplied at a finer depth (`drawn_dtype`: 16
+bits for an 8-bit image, 32-bit floats for a 16-bit one), so that its straight colour comes back
+from a drawing within a unit at every alpha, even the lowest (an 8-bit colour premultiplied at 8
+bits keeps two levels at alpha 1).
 """
 
 from __future__ import annotations
@@ -49,9 +52,12 @@ class SourceImage:
     size : tuple of int
         (W, H) of the image.
     dtype : numpy.dtype
-        uint8 or uint16: the image's samples, and those a drawing of it is read back in.
+        uint8 or uint16: the image's samples.
     opaque : bool
         Whether every alpha is its type's maximum: the texture then holds the image itself.
+    drawn_dtype : numpy.dtype
+        The texture's samples, and those a drawing must be read back in to keep the image's
+        precision: `dtype` for an opaque image, else uint16 (8-bit image) or float32 (16-bit).
     """
 
     def __init__(self, ctx: moderngl.Context, image: np.ndarray):
@@ -61,12 +67,15 @@ class SourceImage:
         # Row 0 of the data is texture row v = 0, so v = y / H needs no flip.  Uploaded (and
         # premultiplied) a strip at a time: a 100-megapixel image is 0.4 GB, and a whole copy of
         # it on the way to the driver would be as much again.
-        self._texture = ctx.texture((width, height), 4, dtype=texture_dtype(image.dtype))
-        self.opaque = True
+        maximum = np.iinfo(image.dtype).max
+        self.opaque = all(
+            image[top : top + UPLOAD_ROWS, :, 3].min() == maximum for top in range(0, height, UPLOAD_ROWS)
+        )
+        self.drawn_dtype = np.dtype(image.dtype if self.opaque else _PREMULTIPLIED[np.dtype(image.dtype)])
+        self._texture = ctx.texture((width, height), 4, dtype=texture_dtype(self.drawn_dtype))
         for top in range(0, height, UPLOAD_ROWS):
             rows = image[top : top + UPLOAD_ROWS]
-            premultiplied = _premultiply(rows)
-            self.opaque &= premultiplied is rows
+            premultiplied = rows if self.opaque else _premultiply(rows)
             self._texture.write(np.ascontiguousarray(premultiplied), viewport=(0, top, width, len(rows)))
         self._reader: moderngl.Framebuffer | None = None
         # The mipmaps are built at the first drawing that samples them (`bind`): by then the caller
@@ -113,15 +122,15 @@ class SourceImage:
             self._mipmapped = True
 
     def read(self, top: int, bottom: int, left: int, right: int, out: np.ndarray | None = None) -> np.ndarray:
-        """Rows `top` to `bottom` and columns `left` to `right` of the image as uploaded (premultiplied:
-        the image itself where `opaque`), ndarray (bottom - top, right - left, 4) of `dtype`: `out`
+        """Rows `top` to `bottom` and columns `left` to `right` of the texture (premultiplied: the image
+        itself where `opaque`), ndarray (bottom - top, right - left, 4) of `drawn_dtype`: `out`
         (C-contiguous) if given."""
         if self._reader is None:
             self._reader = self._texture.ctx.framebuffer(color_attachments=[self._texture])
-        pixels = np.empty((bottom - top, right - left, 4), self.dtype) if out is None else out
+        pixels = np.empty((bottom - top, right - left, 4), self.drawn_dtype) if out is None else out
         viewport = (left, top, right - left, bottom - top)  # texture row 0 is image row 0: no flip
         self._reader.read_into(
-            pixels, viewport=viewport, components=4, alignment=1, dtype=texture_dtype(self.dtype)
+            pixels, viewport=viewport, components=4, alignment=1, dtype=texture_dtype(self.drawn_dtype)
         )
         return pixels
 
@@ -158,15 +167,22 @@ def texture_dtype(dtype: np.dtype) -> str:
     return {np.dtype(np.uint8): "f1", np.dtype(np.uint16): "nu2", np.dtype(np.float32): "f4"}[np.dtype(dtype)]
 
 
+#: The samples a translucent image is premultiplied in, by the image's: a unit of the image's
+#: colour over the least alpha (1 / 255, 1 / 65535) still shows in them.
+_PREMULTIPLIED = {np.dtype(np.uint8): np.dtype(np.uint16), np.dtype(np.uint16): np.dtype(np.float32)}
+
+
 def _premultiply(image: np.ndarray) -> np.ndarray:
-    """RGBA uint8 or uint16 (H, W, 4), straight alpha -> premultiplied, rounded."""
-    alpha = image[..., 3]
+    """RGBA uint8 or uint16 (H, W, 4), straight alpha -> premultiplied RGBA (H, W, 4): uint16 of
+    round(c a 65535 / 255^2) for uint8, float32 of c a / 65535^2 (and a / 65535) for uint16."""
     maximum = np.iinfo(image.dtype).max
-    if alpha.min() == maximum:
-        return image
-    wide = np.uint16 if image.dtype == np.uint8 else np.uint32
-    result = image.copy()
-    result[..., :3] = ((image[..., :3].astype(wide) * alpha[..., None] + maximum // 2) // maximum).astype(
-        image.dtype
-    )
-    return result
+    if image.dtype == np.uint8:
+        wide = image.astype(np.uint32)
+        result = np.empty(image.shape, np.uint16)
+        # c a 257 / 255 rounded: c a / 255^2 in units of 1 / 65535
+        result[..., :3] = (wide[..., :3] * wide[..., 3:] * 257 + 127) // 255
+        result[..., 3] = wide[..., 3] * 257
+        return result
+    wide = image.astype(np.float64) / maximum
+    wide[..., :3] *= wide[..., 3:]
+    return wide.astype(np.float32)

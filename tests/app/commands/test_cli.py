@@ -297,6 +297,22 @@ def test_bad_input_end_to_end_in_a_subprocess(files):
     assert not (files / "out.png").exists()
 
 
+def test_a_warp_loads_no_module_it_does_not_use(files, private_cache):
+    # Its start-up (issue 48): `core` imports each name's module at its first use, so a plain warp
+    # loads neither the injectivity proofs, the pins, nor the finite-element basis (scipy.sparse).
+    unused = ("core.injectivity", "core.pins", "core.meshes.harmonic")
+    code = (
+        "import sys; from app.__main__ import main; "
+        f"code = main({[str(a) for a in warp_argv(files)]!r}); "
+        f"print(code, sorted(m for m in sys.modules if m.startswith({unused!r})))"
+    )
+    result = subprocess.run(
+        [sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, timeout=300
+    )
+    assert result.stdout.strip().splitlines()[-1] == "0 []", result.stderr
+    assert (files / "out.png").exists()
+
+
 GIB = 1 << 30
 
 

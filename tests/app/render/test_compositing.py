@@ -1,6 +1,6 @@
 """The untouched picture copied under the warp (issue 48 item 1): pixels away from both cages are the
 input's, bit for bit, at 8 and 16 bits and with any straight alpha; an identity warp gives the input
-back inside the cage too; the compositing helpers on their own."""
+back inside the cage too, translucent or not; the compositing helpers on their own."""
 
 import json
 
@@ -9,7 +9,7 @@ import pytest
 
 from app.__main__ import main
 from app.io.files import read_photo, write_image
-from app.render.compositing import clear_pixel, drawn_box, exact_offset, texel_footprint, warp_over
+from app.render.compositing import clear_pixel, drawn_box, exact_offset, texel_footprint, warp_laid, warp_over
 from app.render.viewport import View
 
 WIDTH, HEIGHT = 200, 150
@@ -20,14 +20,16 @@ TARGET = CAGE + np.array([[0, 0], [6, -4], [0, 0], [8, 3], [0, 0], [0, 0], [-5, 
 
 def noisy(dtype, alpha: str, seed: int = 7) -> np.ndarray:
     """RGBA (HEIGHT, WIDTH, 4) of `dtype`: colour noise over the whole range; alpha opaque, every
-    level in turn (``"levels"``), or noise (``"noise"``)."""
+    level in turn (``"levels"``: at 16 bits, 30000 levels spread over the range, the lowest among
+    them), or noise (``"noise"``)."""
     rng = np.random.default_rng(seed)
     maximum = np.iinfo(dtype).max
     image = rng.integers(0, maximum + 1, (HEIGHT, WIDTH, 4), dtype=np.int64).astype(dtype)
     if alpha == "opaque":
         image[..., 3] = maximum
-    elif alpha == "levels":  # 0, 1, 2, ... 255 along the rows, over and over
-        image[..., 3] = (np.arange(HEIGHT * WIDTH).reshape(HEIGHT, WIDTH) % 256) * (maximum // 255)
+    elif alpha == "levels":  # 0, 1, 2, ... 255 along the rows, over and over; 16 bits: 0, 2053, ...
+        step = 1 if dtype == np.uint8 else 2053  # odd: every pixel its own level of 65536
+        image[..., 3] = (np.arange(HEIGHT * WIDTH).reshape(HEIGHT, WIDTH) * step) % (maximum + 1)
     return image
 
 
@@ -72,20 +74,27 @@ def test_an_identity_warp_gives_the_input_back_inside_the_cage_too(tmp_path, dty
     np.testing.assert_array_equal(back, image)
 
 
-def test_an_identity_warp_of_straight_alpha_is_the_picture_over_itself_inside_the_cage(tmp_path):
-    image = noisy(np.uint8, "levels")
+@pytest.mark.parametrize("dtype", [np.uint8, np.uint16])
+@pytest.mark.parametrize("alpha", ["levels", "noise"])
+def test_an_identity_warp_of_straight_alpha_gives_the_input_back_within_a_unit(tmp_path, dtype, alpha):
+    image = noisy(dtype, alpha, seed=5)
     back = warp(tmp_path, image, "out.png", CAGE).astype(int)
+    # Everywhere, at every alpha (the lowest too), colour and alpha: the warp's own alpha is not
+    # taken for a coverage, and the translucent picture is drawn finer than its depth.
+    assert np.abs(back - image).max() <= 1
+
+
+def test_a_translucent_warp_is_laid_on_the_picture_not_over_it(tmp_path):
+    image = noisy(np.uint8, "levels")
+    back = warp(tmp_path, image, "out.png", CAGE + (3, 2)).astype(int)  # moved by whole pixels
+    # Well inside the moved cage: the picture moved, not drawn over the picture under it (a over a).
     inside = np.zeros((HEIGHT, WIDTH), bool)
-    inside[55:95, 80:120] = True  # well inside the cage's curve: the warp covers it whole
-    alpha = image[..., 3].astype(float) / 255
-    # --outside original draws the warp over the untouched picture: alpha a over a.
-    over = np.round(255 * (alpha + alpha * (1 - alpha)))
-    assert np.abs(back[..., 3] - over)[inside].max() <= 1
-    # Colour is straight: kept within a unit where the premultiplied 8-bit texture holds it so.
-    dense = inside & (image[..., 3] >= 128)
-    assert np.abs(back[..., :3] - image[..., :3])[dense].max() <= 1
-    opaque = inside & (image[..., 3] == 255)
-    np.testing.assert_array_equal(back[opaque], image[opaque])
+    inside[55:95, 80:120] = True
+    moved = np.roll(image, (2, 3), axis=(0, 1)).astype(int)
+    assert np.abs(back - moved)[..., 3][inside].max() <= 1
+    seen = inside & (moved[..., 3] > 0)  # a transparent pixel keeps the colour under it
+    assert np.abs(back - moved)[..., :3][seen].max() <= 1
+    assert (image[inside][:, 3] < 255).mean() > 0.9
 
 
 def test_a_background_shows_under_transparent_pixels_and_leaves_opaque_ones(tmp_path):
@@ -97,6 +106,12 @@ def test_a_background_shows_under_transparent_pixels_and_leaves_opaque_ones(tmp_
     assert (back[away][:, 3] == 255).all()  # blended over an opaque white
     clear = away & (image[..., 3] == 0)
     assert (back[clear] == 255).all()
+    # An identity warp: the picture over white inside the cage too, the warp's gaps white.
+    back = warp(tmp_path, image, "out.png", CAGE, "--background", "white").astype(int)
+    alpha = image[..., 3:].astype(float) / 255
+    over_white = np.round(image[..., :3] * alpha + 255 * (1 - alpha))
+    assert (back[..., 3] == 255).all()
+    assert np.abs(back[..., :3] - over_white).max() <= 1
 
 
 def test_warp_over_keeps_the_base_where_nothing_is_drawn_and_blends_where_it_partly_covers():
@@ -109,6 +124,22 @@ def test_warp_over_keeps_the_base_where_nothing_is_drawn_and_blends_where_it_par
     np.testing.assert_array_equal(result[0, 2], [51, 102, 153, 255])
     expected = np.round(np.array([0.5 + 200 / 255 * 0.5, 0.25 + 100 / 255 * 0.5, 50 / 255 * 0.5, 1.0]) * 255)
     np.testing.assert_array_equal(result[0, 1], expected)
+
+
+def test_warp_laid_replaces_where_it_covers_blends_by_coverage_and_keeps_the_rest():
+    base = np.array([[[10, 20, 30, 40], [200, 100, 50, 255], [0, 0, 0, 0], [90, 60, 30, 100]]], np.uint8)
+    drawn = np.zeros((1, 4, 4), np.uint16)
+    drawn[0, 1] = (16384, 8192, 0, 16384)  # premultiplied: straight (1, 0.5, 0) at alpha 1/4 ...
+    coverage = np.array([[0, 32768, 65535, 65535]], np.uint16)  # ... over half the pixel
+    drawn[0, 3] = (0, 0, 0, 0)  # the warp covers the pixel with a transparent part of the picture
+    result = warp_laid(base.copy(), drawn, coverage, np.zeros(4, np.uint8)).astype(float)
+    np.testing.assert_array_equal(result[0, 0], base[0, 0])
+    half = 32767 / 65535  # the part of the picture under the warp that shows
+    alpha = 16384 / 65535 + half
+    colour = (np.array([16384, 8192, 0]) / 65535 + half * np.array([200, 100, 50]) / 255) / alpha
+    np.testing.assert_array_equal(result[0, 1], np.round(np.append(colour, alpha) * 255))
+    np.testing.assert_array_equal(result[0, 2], [0, 0, 0, 0])
+    np.testing.assert_array_equal(result[0, 3], [90, 60, 30, 0])  # transparent: the colour under it
 
 
 def test_exact_offsets_boxes_and_clear_pixels():

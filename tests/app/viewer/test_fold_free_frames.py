@@ -11,6 +11,7 @@ import pytest
 from support.fold_free_checks import ASSETS, STARFISH, strong_target
 
 import core
+from app.viewer import fold_free_frames
 from app.viewer.fold_free_frames import FoldFreeFrames, MeshProof, plain_positions
 from app.viewer.gui import status_check
 from app.viewer.milestones import Milestones
@@ -68,6 +69,22 @@ def test_a_strong_drag_draws_only_proven_frames_and_catches_up_at_rest(basis):
     assert not frames.proof.proves(STARFISH)
 
 
+def test_given_the_time_every_frame_of_a_strong_drag_is_on_the_target_curve(basis, monkeypatch):
+    """The strong drag in 20 moving frames, each given 5 s at most (a few substeps: ~0.1 s): every
+    frame proven fold-free with its boundary on the target curve (no lag), none catching up."""
+    monkeypatch.setattr(fold_free_frames, "DRAG_BUDGET", 5.0)
+    mesh, frames = basis.mesh, FoldFreeFrames()
+    for fraction in np.linspace(0.05, 1.0, 20):
+        target = STARFISH + fraction * (strong_target() - STARFISH)
+        positions = frames.positions(basis, target, moving=True)
+        assert frames.proof.proves(target) and frames.proof.lag == 0.0 and not frames.catching_up
+        assert np.count_nonzero(core.folded_triangles(mesh, positions)) == 0
+        np.testing.assert_array_equal(
+            positions[mesh.boundary], plain_positions(basis.basis, target)[mesh.boundary]
+        )
+    assert not frames.proof.proves(STARFISH)
+
+
 def test_a_certified_map_is_drawn_only_if_its_mesh_map_is_a_bijection(basis):
     frames = FoldFreeFrames()
     folding = plain_positions(basis.basis, strong_target())
@@ -96,7 +113,8 @@ def test_stats_count_fold_free_drag_frames_and_time_the_proof_after_release(basi
     state = _state(basis, strong_target())
     state.selection.drag = Drag("target", 5, np.zeros(2), state.document.live)
     reached = MeshProof(state.document.live.target.tobytes(), True, 0)
-    for folded, frame_ms, proof in ((0, 12.0, None), (2, 14.0, None), (0, 13.0, reached)):
+    behind = MeshProof(state.document.live.target.tobytes(), False, 0, 1.5)
+    for folded, frame_ms, proof in ((0, 12.0, behind), (2, 14.0, None), (0, 13.0, reached)):
         state.compute.folded_count, state.compute.mesh_proof = folded, proof
         state.status.frame_ms.append(frame_ms)
         milestones.frame_done(state, 0)
@@ -112,14 +130,16 @@ def test_stats_count_fold_free_drag_frames_and_time_the_proof_after_release(basi
     assert (
         stats["median_fold_free_drag_frame_ms"] == "13.00" and stats["median_plain_drag_frame_ms"] == "0.00"
     )
-    assert stats["fold_free_drag_frames_on_target"] == "1"
+    assert stats["fold_free_drag_frames_on_target"] == "1" and stats["max_boundary_lag_px"] == "1.50"
+    assert stats["max_fold_free_drag_frame_ms"] == "14.00"
     # From the start of the release's frame (30 ms) to the proof, a frame later.
     assert 30 <= int(stats["proven_after_release_ms"]) < 1000
     assert (
         Milestones(test_mode=False)
         .statistics(state)
         .endswith(
-            "proven_after_release_ms=none median_plain_drag_frame_ms=0.00 fold_free_drag_frames_on_target=0"
+            "proven_after_release_ms=none median_plain_drag_frame_ms=0.00 fold_free_drag_frames_on_target=0 "
+            "max_boundary_lag_px=0.00 max_fold_free_drag_frame_ms=0.00"
         )
     )
 

@@ -162,7 +162,9 @@ def preview_setup(renderer):
     dense = core.triangulate(curve, max_edge=1.5)
     basis = core.harmonic_basis(curve, dense)
     coarse = core.triangulate(curve, max_edge=6.0)
-    preview = PreviewMesh(coarse.vertices, coarse.triangles, transfer_basis(curve, dense, basis, coarse))
+    preview = PreviewMesh(
+        coarse.vertices, coarse.triangles, transfer_basis(curve, dense, basis, coarse), coarse.boundary
+    )
     result = BasisResult(
         "k", cage, dense, basis, np.asfortranarray(basis, np.float32), "harmonic", 1.0, preview=preview
     )
@@ -593,3 +595,48 @@ def test_with_fold_free_on_the_scene_draws_no_turned_over_triangle(renderer):
     scene.sync(state)
     drawn[renderer.vertex_order] = scene._positions
     assert np.count_nonzero(core.folded_triangles(mesh, drawn)) > 0 and state.compute.mesh_proof is None
+
+
+def test_with_fold_free_on_a_dense_mesh_drags_through_fold_free_preview_frames(renderer, monkeypatch):
+    """A dense mesh's drag is drawn on its preview mesh: with fold-free on, there too no frame turns a
+    preview triangle over (proven, `app.viewer.fold_free_frames` on the preview mesh) while a point
+    is pulled deep inside, where the plain preview map folds; each frame's boundary is on the target
+    curve once the step has the time (here: every frame), and the status has the preview's proof."""
+    import dataclasses
+
+    from app.viewer import fold_free_frames
+    from app.viewer.fold_free_frames import plain_positions
+
+    monkeypatch.setattr(fold_free_frames, "DRAG_BUDGET", 5.0)  # each frame the time it needs (~0.1 s)
+    result, cage = preview_setup(renderer)
+    result = dataclasses.replace(result, kernel="poisson")
+    preview = result.preview
+    drawn = []
+    monkeypatch.setattr(renderer, "set_preview_positions", lambda positions: drawn.append(positions))
+    centre = cage.mean(axis=0)
+    final = cage.copy()
+    final[0] = cage[0] + 0.8 * (centre - cage[0])
+    folding = plain_positions(preview.basis, final)
+    assert core.prove_mesh_bijection(folding, preview.triangles, preview.boundary).turned_over > 0
+    snapshot = Snapshot(Path("x.png"), cage, cage, fold_free=True)
+    state = AppState(
+        Document(History(snapshot), snapshot, opaque_image(), Path("s.json")), compute=Compute(basis=result)
+    )
+    state.selection.edit_mode, state.display.view_mode = "deform", "image"
+    state.display.show_wireframe = False
+    state.selection.drag = Drag("target", 0, np.zeros(2), snapshot)
+    scene = Scene(renderer)
+    for fraction in np.linspace(0.1, 1.0, 10):
+        target = cage + fraction * (final - cage)
+        state.document.live = state.document.live.replace(target=target)
+        scene.sync(state)
+        order = renderer.preview_vertex_order
+        assert scene.previewing
+        positions = np.empty((len(preview.vertices), 2))
+        positions[order] = drawn[-1]
+        proof = core.prove_mesh_bijection(positions, preview.triangles, preview.boundary)
+        assert proof.proven and state.compute.mesh_proof.turned_over == 0 == state.compute.folded_count
+        assert state.compute.mesh_proof.proves(target)
+    np.testing.assert_allclose(
+        positions[preview.boundary], plain_positions(preview.basis, final)[preview.boundary], atol=1e-3
+    )

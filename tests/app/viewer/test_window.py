@@ -86,7 +86,8 @@ def stats_line(lines: list[str]) -> re.Match:
             r"frames=(\d+) median_frame_ms=([\d.]+) p95_frame_ms=([\d.]+) median_drag_frame_ms=([\d.]+) "
             r"fold_free_drag_frames=\d+ max_folded_drawn=\d+ median_fold_free_drag_frame_ms=[\d.]+ "
             r"proven_after_release_ms=(?:\d+|none) median_plain_drag_frame_ms=[\d.]+ "
-            r"fold_free_drag_frames_on_target=\d+",
+            r"fold_free_drag_frames_on_target=\d+ max_boundary_lag_px=[\d.]+ "
+            r"max_fold_free_drag_frame_ms=[\d.]+",
             line,
         )
         if match:

@@ -1,8 +1,8 @@
 """Fold-free in the real viewer window under Xvfb (xdotool input): a strong drag of the starfish
 demo folds the plain map and the status line says so; "B" switches fold-free on, the status line
 says proven and the mesh drawn has no folded triangle; the session keeps it; Ctrl+Z takes it back.
-A hard drag with fold-free on draws no turned-over triangle in any frame, within the frame time, and
-is proven soon after the release.
+A hard drag with fold-free on draws no turned-over triangle in any frame, its boundary on the target
+curve, within the frame time (against the plain drag's), and is proven soon after the release.
 
 Xvfb and xdotool are required: without them this test fails, it never skips.
 """
@@ -26,6 +26,8 @@ from support.viewer_harness import (
     window_pixel,
     xdotool,
 )
+
+from app.bench.fold_free_drag import drag_moves
 
 pytestmark = pytest.mark.slow
 
@@ -95,20 +97,31 @@ def test_fold_free_on_a_strong_drag_is_proven_and_draws_no_folded_triangle(displ
         viewer.kill()
 
 
-#: Limits of the hard drag with fold-free on: a frame's median time (the issue's 60 ms, on a loaded
-#: machine too) and the time from the release to "proven" on the status line (the issue asks 1 s;
-#: with 2 cores shared by a load of ~10 it took 0.6-2.4 s, so 3 s here for a loaded CI).
+#: Limits of the hard drag with fold-free on, for a loaded CI (the bench's row measures the issue's
+#: figures on a quiet machine): its median frame against the plain drag's in the same window (the
+#: issue's 2x; with 2 cores shared by a load of ~10 the two medians swung from 12 to 35 ms between
+#: runs, so 3x here) and in ms (the issue's 60 ms a frame); the share of its frames drawn with the
+#: boundary on the target curve and the farthest a boundary vertex was drawn from it (px): in the
+#: bench's eight runs at load 9-17, 276 of 290 frames, the worst run 15 of 20 and 2.3 px (every frame
+#: given the time: tests/app/viewer/test_fold_free_frames.py); the time from the release to "proven"
+#: on the status line (the issue's 1 s; 0.03-0.3 s in those runs, 0.6-2.4 s before the last frame
+#: was drawn on the curve).
+RATIO_LIMIT = 3.0
 FRAME_LIMIT_MS = 60.0
-PROOF_LIMIT_MS = 3000.0
+ON_TARGET_SHARE = 0.75
+LAG_LIMIT_PX = 3.0
+PROOF_LIMIT_MS = 1000.0
 
 
 def test_a_hard_drag_with_fold_free_on_draws_no_turned_over_triangle_and_is_proven_after_release(
     display, tmp_path
 ):
-    """The demo in a 1366x768 window, fold-free on, `STRONG` replayed through the mouse's input path
-    (its plain map turns 249 of the default mesh's triangles over): --stats counts the frames drawn
-    during the drag, the most turned-over triangles one drew (0), their median time, and the time
-    from the release to the status line's proof."""
+    """The demo in a 1366x768 window, `STRONG` replayed through the mouse's input path (its plain map
+    turns 249 of the default mesh's triangles over) out and back with fold-free off, then out again
+    with it on (`app.bench.fold_free_drag.drag_moves`, as the bench's row): --stats counts the
+    fold-free frames drawn during the drag, the most turned-over triangles one drew (0), those on
+    the target curve, their median time against the plain drag's, and the time from the release to
+    the status line's proof."""
     env = {
         **os.environ,
         "DISPLAY": display,
@@ -122,20 +135,20 @@ def test_a_hard_drag_with_fold_free_on_draws_no_turned_over_triangle_and_is_prov
         "cage": {"control_points": cage.tolist()},
         "target": {"control_points": cage.tolist()},
         "kernel": "poisson",
-        "fold_free": True,
         "view": {"scale": 1.0, "offset": [350.0, 120.0]},
     }
     session.write_text(json.dumps(value))
     index, shift = STRONG
     script = tmp_path / "drag.json"
-    moves = [{"at": 0.0, "duration": 2.0, "point": index, "to": (cage[index] + shift).tolist()}]
-    script.write_text(json.dumps({"moves": moves}))
+    script.write_text(json.dumps({"moves": drag_moves(index, cage[index], cage[index] + shift, 2.0)}))
     arguments = ["demo", "starfish", "--session", str(session), "--script", str(script), "--stats"]
     viewer = ViewerProcess(arguments, env, ROOT, window_size=(1366, 768))
     try:
         viewer.wait_for("basis ", 60)
         viewer.wait_for("script done", 60)
-        proven = viewer.wait_for("proven after release ms=", 30)
+        # The proof of a quick release may come before the script's end.
+        proven = next((line for line in viewer.lines if line.startswith("proven after release ms=")), None)
+        proven = proven or viewer.wait_for("proven after release ms=", 30)
         viewer.process.send_signal(signal.SIGTERM)  # quits cleanly, printing --stats
         code, stderr = viewer.finish()
         assert code == 0, stderr
@@ -143,9 +156,15 @@ def test_a_hard_drag_with_fold_free_on_draws_no_turned_over_triangle_and_is_prov
         viewer.kill()
     stats = next(line for line in viewer.lines if line.startswith("frames="))
     figures = dict(item.split("=", 1) for item in stats.split())
-    assert int(figures["fold_free_drag_frames"]) >= 10, stats
+    frames = int(figures["fold_free_drag_frames"])
+    assert frames >= 10, stats
     assert int(figures["max_folded_drawn"]) == 0, stats
-    assert 0 < float(figures["median_fold_free_drag_frame_ms"]) <= FRAME_LIMIT_MS, stats
+    assert int(figures["fold_free_drag_frames_on_target"]) >= ON_TARGET_SHARE * frames, stats
+    assert float(figures["max_boundary_lag_px"]) <= LAG_LIMIT_PX, stats
+    fold_free, plain = (
+        float(figures[key]) for key in ("median_fold_free_drag_frame_ms", "median_plain_drag_frame_ms")
+    )
+    assert 0 < fold_free <= min(FRAME_LIMIT_MS, RATIO_LIMIT * plain), stats
     assert float(figures["proven_after_release_ms"]) <= PROOF_LIMIT_MS, stats
     assert re.fullmatch(r"proven after release ms=\d+", proven), proven
     said = [line for line in viewer.lines if line.startswith("status check ")]
