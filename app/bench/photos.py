@@ -24,8 +24,9 @@ from pathlib import Path
 PHOTO_SIZES = ((6000, 4000), (12000, 8400))
 #: The formats of the rows, by extension.
 PHOTO_FORMATS = ("png", "jpg")
-#: The quick smoke test's size.
+#: The quick smoke test's size, and its animation's (smaller: there the GIF's frames cost most).
 QUICK_SIZE = (1200, 800)
+QUICK_ANIMATION_SIZE = (600, 400)
 #: Runs of the warp and of the baseline in each child.
 PHOTO_REPEATS = 2
 

@@ -39,6 +39,7 @@ import core
 from app.bench.launch import launch_rows, warp_startup_row
 from app.bench.photos import (
     PHOTO_SIZES,
+    QUICK_ANIMATION_SIZE,
     QUICK_SIZE,
     animation_row,
     photo_rows,
@@ -127,9 +128,8 @@ def run_bench(args: argparse.Namespace) -> int:
                 photo_rows((QUICK_SIZE,), run_child, 1) if args.quick else photo_rows(PHOTO_SIZES, run_child)
             )
         )
-        children.append(
-            lambda: animation_row(run_child, QUICK_SIZE, 0.25, 1) if args.quick else animation_row(run_child)
-        )
+        animation = (QUICK_ANIMATION_SIZE, 0.25, 1) if args.quick else ()
+        children.append(lambda: animation_row(run_child, *animation))
     if not args.skip_drag:
         from app.bench import fold_free_drag
 

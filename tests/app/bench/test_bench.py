@@ -173,7 +173,7 @@ def test_quick_runs_every_row_once_at_tiny_sizes(monkeypatch):
         "memory": 20_000,
         "warp": (640, 360),
         "photos": (((1200, 800),), 1),  # each warp once
-        "animation": ((1200, 800), 0.25, 1),
+        "animation": ((600, 400), 0.25, 1),
         "drag": ((6_000,), 1.0),
         "fold_free_drag": (0.5,),
         "export": (1, 1.0),  # 8 frames instead of the default 30 fps' 220
