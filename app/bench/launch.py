@@ -1,7 +1,7 @@
 """``bench``'s launch rows: from ``python -m app`` to a picture that can be warped, in the real viewer.
 
 Each run starts a viewer child in test mode on a private Xvfb server and times process start
-to its ``basis`` line: the window is up and the basis functions of the cage are drawn, so a
+to its ``drawn basis`` line: the first frame with the basis functions of the cage on screen, so a
 drag deforms the picture at once.  Rows: the bundled demo with its basis functions not cached
 (a first run) and cached (every later one), and a 24-megapixel JPEG photograph opened without
 a cage (read, EXIF-oriented, a cage fitted to its subject, the texture uploaded).  The issue's
@@ -153,7 +153,8 @@ def _write_photo(path: Path, size: tuple[int, int]) -> None:
 
 
 def _launch(arguments: list[str], environment: dict, state: Path, cache: Path, failed) -> float:
-    """Seconds from starting ``python -m app ARGUMENTS`` to its ``basis`` line; the viewer then quits."""
+    """Seconds from starting ``python -m app ARGUMENTS`` to its ``drawn basis`` line (the first frame
+    with the basis functions on screen); the viewer then quits."""
     environment = dict(environment, TRANSFINITE_STATE_DIR=str(state), TRANSFINITE_CACHE_DIR=str(cache))
     start = time.perf_counter()
     child = subprocess.Popen(
@@ -167,7 +168,7 @@ def _launch(arguments: list[str], environment: dict, state: Path, cache: Path, f
 
     def basis(line: str) -> bool:
         nonlocal seconds
-        if line.startswith("basis "):
+        if line.startswith("drawn basis "):
             seconds = time.perf_counter() - start
             child.send_signal(signal.SIGTERM)  # saves and quits
         return seconds is not None
