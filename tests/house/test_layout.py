@@ -67,25 +67,6 @@ def test_top_level_holds_only_the_agreed_entries():
 
 
 @pytest.mark.slow
-def test_bench_runs(tmp_path):
-    # A smoke test of `python -m app bench` at tiny sizes, so that the table never rots;
-    # speed itself is measured by the bench, not by tests. The launch and pins rows have tests of
-    # their own (tests/app/bench/test_bench.py), which this one would repeat (~8 s).
-    skipped = ["--skip-memory", "--skip-warp", "--skip-launch", "--skip-pins"]
-    command = ["bench", "--quick", "--repeats", "1", *skipped]
-    result = subprocess.run(
-        [sys.executable, "-m", "app", *command],
-        capture_output=True,
-        text=True,
-        cwd=ROOT,
-        check=True,
-    )
-    assert "harmonic-like" in result.stdout and "FEM / poisson" in result.stdout
-    # The viewer's drag frame at ~6k vertices under Xvfb (or the line saying it was skipped), and
-    # its fold-free drag frame.
-    assert "viewer drag frame" in result.stdout and "viewer fold-free drag frame" in result.stdout
-
-
 def test_find_cycle_finds_a_cycle():
     assert find_cycle({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}) == ["a", "b", "c", "a"]
     assert find_cycle({"a": {"b", "c"}, "b": {"c"}, "c": set()}) == []

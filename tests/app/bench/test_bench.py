@@ -1,10 +1,13 @@
-"""Tests of app.bench.table's error reporting (the table itself is smoke-tested in test_layout)."""
+"""Tests of app.bench.table: a smoke test of the whole table at tiny sizes, its error reporting, and
+its rows one by one."""
 
 import argparse
 import re
+import subprocess
 import sys
 
 import pytest
+from support.paths import ROOT
 
 from app.bench import fold_free as bench_fold_free
 from app.bench import fold_free_drag as bench_fold_free_drag
@@ -15,6 +18,25 @@ from app.bench import table as bench
 from app.bench.table import StepFailed, run_child
 
 pytestmark = pytest.mark.slow
+
+
+def test_the_whole_quick_table_runs():
+    # A smoke test of `python -m app bench` at tiny sizes, so that the table never rots;
+    # speed itself is measured by the bench, not by tests. The launch and pins rows have tests of
+    # their own below, which this one would repeat (~8 s).
+    skipped = ["--skip-memory", "--skip-warp", "--skip-launch", "--skip-pins"]
+    command = ["bench", "--quick", "--repeats", "1", *skipped]
+    result = subprocess.run(
+        [sys.executable, "-m", "app", *command],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+        check=True,
+    )
+    assert "harmonic-like" in result.stdout and "FEM / poisson" in result.stdout
+    # The viewer's drag frame at ~6k vertices under Xvfb (or the line saying it was skipped), and
+    # its fold-free drag frame.
+    assert "viewer drag frame" in result.stdout and "viewer fold-free drag frame" in result.stdout
 
 
 def test_a_failed_child_shows_its_own_error():

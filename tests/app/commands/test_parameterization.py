@@ -172,6 +172,7 @@ def test_view_starts_with_the_command_lines_parameterization(tmp_path, monkeypat
     assert document.undo[-1].parameterization == "natural"  # the session's state, a Ctrl+Z away
 
 
+@pytest.mark.slow
 def test_the_real_window_switches_to_arc_length_and_back(tmp_path):
     # The panel's choice in the real window (Xvfb, llvmpipe): a click on "arc length" recomputes
     # the basis, changes the picture and is saved; Ctrl+Z goes back.  The session holds a point
