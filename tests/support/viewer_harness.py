@@ -19,6 +19,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from support.paths import ROOT
+
 
 def start_xvfb(size=(1280, 1024)) -> tuple[subprocess.Popen, str]:
     """Start a private Xvfb server (`app.bench.xvfb.start_xvfb`); returns (process, ":N").
@@ -336,3 +338,35 @@ def changed_fraction(a: np.ndarray, b: np.ndarray) -> float:
 def park_mouse(display: str, window: str) -> None:
     """Move the pointer onto empty canvas, so no handle shows as hovered."""
     xdotool(display, "mousemove", "--window", window, "1250", "40")
+
+
+#: The bundled starfish demo's cage, (n, 2).
+STARFISH_CAGE = np.array(
+    json.loads((ROOT / "assets" / "starfish.cage.json").read_text())["control_points"], dtype=float
+)
+STARFISH_CAGE.flags.writeable = False  # shared by the tests: none may move it for another
+
+
+def viewer_environment(display: str, folder: Path) -> dict:
+    """The environment of a viewer on `display` with its cache and state folders in `folder`."""
+    return {
+        **os.environ,
+        "DISPLAY": display,
+        "TRANSFINITE_CACHE_DIR": str(folder / "cache"),
+        "TRANSFINITE_STATE_DIR": str(folder / "state"),
+    }
+
+
+def starfish_session(path: Path, view: dict, keyframes=()) -> None:
+    """Write a session of the starfish demo at rest (target = cage) seen through `view`, with
+    keyframes of the rest pose at the times `keyframes`."""
+    rest = {"control_points": STARFISH_CAGE.tolist()}
+    value = {
+        "image": str(ROOT / "assets" / "starfish.png"),
+        "cage": rest,
+        "target": rest,
+        "kernel": "poisson",
+        "view": view,
+        "keyframes": [{"time": t, "target": rest} for t in keyframes],
+    }
+    path.write_text(json.dumps(value))

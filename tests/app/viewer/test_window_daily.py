@@ -3,7 +3,6 @@ at small sizes, undo and redo that say what they did, times on the frame grid, S
 
 from __future__ import annotations
 
-import json
 import os
 import re
 import time
@@ -12,11 +11,14 @@ import numpy as np
 import pytest
 from support.paths import ROOT
 from support.viewer_harness import (
+    STARFISH_CAGE,
     ViewerProcess,
     drag_point,
     save_png,
     screenshot,
+    starfish_session,
     start_xvfb,
+    viewer_environment,
     wait_for_session,
     window_pixel,
     xdotool,
@@ -27,30 +29,8 @@ from app.io.svg_cages import svg_text
 
 pytestmark = pytest.mark.slow
 
-ASSETS = ROOT / "assets"
-CAGE = np.array(json.loads((ASSETS / "starfish.cage.json").read_text())["control_points"], dtype=float)
+CAGE = STARFISH_CAGE
 VIEW = {"scale": 1.0, "offset": [320.0, 40.0]}
-
-
-def environment(display: str, folder) -> dict:
-    return {
-        **os.environ,
-        "DISPLAY": display,
-        "TRANSFINITE_CACHE_DIR": str(folder / "cache"),
-        "TRANSFINITE_STATE_DIR": str(folder / "state"),
-    }
-
-
-def starfish_session(path, keyframes=()) -> None:
-    value = {
-        "image": str(ASSETS / "starfish.png"),
-        "cage": {"control_points": CAGE.tolist()},
-        "target": {"control_points": CAGE.tolist()},
-        "kernel": "poisson",
-        "view": VIEW,
-        "keyframes": [{"time": t, "target": {"control_points": CAGE.tolist()}} for t in keyframes],
-    }
-    path.write_text(json.dumps(value))
 
 
 def last_spot(viewer: ViewerProcess, name: str) -> list[float]:
@@ -82,7 +62,7 @@ def test_no_panel_section_covers_the_status_line(size, tmp_path):
     cage opened through the typed path): the panel ends above the status line, which is drawn."""
     server, display = start_xvfb(size)
     session = tmp_path / "s.json"
-    starfish_session(session)
+    starfish_session(session, VIEW)
     circle = tmp_path / "a-circle-drawn-in-another-program-with-a-long-name.svg"
     k = 0.5522847498 * 120
     circle.write_text(
@@ -92,7 +72,7 @@ def test_no_panel_section_covers_the_status_line(size, tmp_path):
     )
     no_programs = tmp_path / "empty-bin"
     no_programs.mkdir()
-    env = {**environment(display, tmp_path), "PATH": str(no_programs)}
+    env = {**viewer_environment(display, tmp_path), "PATH": str(no_programs)}
     viewer = ViewerProcess(["view", "--session", str(session)], env, ROOT, window_size=size)
     try:
         window = viewer.wait_for("ready window=", 30).split("=")[1]
@@ -138,8 +118,8 @@ def display():
 
 def test_undo_and_redo_say_what_they_did_and_redo_reuses_the_proof(display, tmp_path):
     session = tmp_path / "undo.json"
-    starfish_session(session)
-    viewer = ViewerProcess(["view", "--session", str(session)], environment(display, tmp_path), ROOT)
+    starfish_session(session, VIEW)
+    viewer = ViewerProcess(["view", "--session", str(session)], viewer_environment(display, tmp_path), ROOT)
     try:
         window = viewer.wait_for("ready window=", 30).split("=")[1]
         viewer.wait_for("basis ", 60)
@@ -169,8 +149,8 @@ def test_undo_and_redo_say_what_they_did_and_redo_reuses_the_proof(display, tmp_
 
 def test_a_pause_and_the_key_of_a_drag_sit_on_the_frame_grid(display, tmp_path):
     session = tmp_path / "frames.json"
-    starfish_session(session, keyframes=(0.0, 2.0))
-    viewer = ViewerProcess(["view", "--session", str(session)], environment(display, tmp_path), ROOT)
+    starfish_session(session, VIEW, keyframes=(0.0, 2.0))
+    viewer = ViewerProcess(["view", "--session", str(session)], viewer_environment(display, tmp_path), ROOT)
     try:
         window = viewer.wait_for("ready window=", 30).split("=")[1]
         viewer.wait_for("basis ", 60)
@@ -200,14 +180,14 @@ def test_without_a_dialog_program_the_window_lists_the_files_and_a_double_click_
     """Ctrl+O on a machine without zenity or kdialog: the typed-path field lists the folder, says
     why, and a double click on an SVG cage in it opens that cage (exactly: a Q/T chain)."""
     session = tmp_path / "browse.json"
-    starfish_session(session)
+    starfish_session(session, VIEW)
     folder = tmp_path / "pick"
     folder.mkdir()
     moved = CAGE + [3.5, -2.25]
     (folder / "cage.svg").write_text(svg_text(moved, 640, 480))
     no_programs = tmp_path / "empty-bin"
     no_programs.mkdir()
-    env = {**environment(display, tmp_path), "PATH": str(no_programs)}
+    env = {**viewer_environment(display, tmp_path), "PATH": str(no_programs)}
     viewer = ViewerProcess(["view", "--session", str(session)], env, ROOT)
     try:
         window = viewer.wait_for("ready window=", 30).split("=")[1]
@@ -241,10 +221,10 @@ def test_save_target_writes_the_exact_chain_that_warp_reads_back(display, tmp_pa
     """Save target... without a dialog program: the typed path in the window, an SVG written over the
     image's size that reads back (as --target does) to the session's target exactly."""
     session = tmp_path / "save.json"
-    starfish_session(session)
+    starfish_session(session, VIEW)
     no_programs = tmp_path / "empty-bin"
     no_programs.mkdir()
-    env = {**environment(display, tmp_path), "PATH": str(no_programs)}
+    env = {**viewer_environment(display, tmp_path), "PATH": str(no_programs)}
     viewer = ViewerProcess(["view", "--session", str(session)], env, ROOT)
     try:
         window = viewer.wait_for("ready window=", 30).split("=")[1]

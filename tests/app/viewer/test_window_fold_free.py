@@ -10,18 +10,20 @@ Xvfb and xdotool are required: without them this test fails, it never skips.
 from __future__ import annotations
 
 import json
-import os
 import re
 import signal
 
 import numpy as np
 import pytest
-from support.fold_free_checks import ASSETS, STRONG
+from support.fold_free_checks import STRONG
 from support.paths import ROOT
 from support.viewer_harness import (
+    STARFISH_CAGE,
     ViewerProcess,
     drag_point,
+    starfish_session,
     start_xvfb,
+    viewer_environment,
     wait_for_session,
     window_pixel,
     xdotool,
@@ -41,23 +43,11 @@ def display():
 
 
 def test_fold_free_on_a_strong_drag_is_proven_and_draws_no_folded_triangle(display, tmp_path):
-    env = {
-        **os.environ,
-        "DISPLAY": display,
-        "TRANSFINITE_CACHE_DIR": str(tmp_path / "cache"),
-        "TRANSFINITE_STATE_DIR": str(tmp_path / "state"),
-    }
-    cage = np.array(json.loads((ASSETS / "starfish.cage.json").read_text())["control_points"], dtype=float)
+    env = viewer_environment(display, tmp_path)
+    cage = STARFISH_CAGE
     view = {"scale": 1.0, "offset": [450.0, 250.0]}
     session = tmp_path / "starfish.json"
-    value = {
-        "image": str(ASSETS / "starfish.png"),
-        "cage": {"control_points": cage.tolist()},
-        "target": {"control_points": cage.tolist()},
-        "kernel": "poisson",
-        "view": view,
-    }
-    session.write_text(json.dumps(value))
+    starfish_session(session, view)
     viewer = ViewerProcess(["view", "--session", str(session)], env, ROOT)
     try:
         window = viewer.wait_for("ready window=", 30).split("=")[1]
@@ -122,22 +112,10 @@ def test_a_hard_drag_with_fold_free_on_draws_no_turned_over_triangle_and_is_prov
     fold-free frames drawn during the drag, the most turned-over triangles one drew (0), those on
     the target curve, their median time against the plain drag's, and the time from the release to
     the status line's proof."""
-    env = {
-        **os.environ,
-        "DISPLAY": display,
-        "TRANSFINITE_CACHE_DIR": str(tmp_path / "cache"),
-        "TRANSFINITE_STATE_DIR": str(tmp_path / "state"),
-    }
-    cage = np.array(json.loads((ASSETS / "starfish.cage.json").read_text())["control_points"], dtype=float)
+    env = viewer_environment(display, tmp_path)
+    cage = STARFISH_CAGE
     session = tmp_path / "starfish.json"
-    value = {
-        "image": str(ASSETS / "starfish.png"),
-        "cage": {"control_points": cage.tolist()},
-        "target": {"control_points": cage.tolist()},
-        "kernel": "poisson",
-        "view": {"scale": 1.0, "offset": [350.0, 120.0]},
-    }
-    session.write_text(json.dumps(value))
+    starfish_session(session, {"scale": 1.0, "offset": [350.0, 120.0]})
     index, shift = STRONG
     script = tmp_path / "drag.json"
     script.write_text(json.dumps({"moves": drag_moves(index, cage[index], cage[index] + shift, 2.0)}))

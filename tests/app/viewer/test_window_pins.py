@@ -9,19 +9,20 @@ kept in the test's temporary directory (and under ``$VIEWER_SCREENSHOTS`` when s
 
 from __future__ import annotations
 
-import json
-import os
 import time
 
 import numpy as np
 import pytest
 from support.paths import ROOT
 from support.viewer_harness import (
+    STARFISH_CAGE,
     ViewerProcess,
     changed_fraction,
     drag_point,
     park_mouse,
     shot,
+    starfish_session,
+    viewer_environment,
     wait_for_session,
     window_pixel,
     xdotool,
@@ -29,7 +30,6 @@ from support.viewer_harness import (
 
 pytestmark = pytest.mark.slow
 
-ASSETS = ROOT / "assets"
 #: Image pixels: a pin on the starfish's body, one on its top arm, and where the arm's pin is dragged.
 BODY, ARM, MOVED = np.array([320.0, 250.0]), np.array([320.0, 100.0]), np.array([270.0, 95.0])
 
@@ -53,23 +53,11 @@ def pins_of(value: dict) -> list:
 
 
 def test_pins_added_dragged_undone_and_removed_in_the_window(display, tmp_path):
-    env = {
-        **os.environ,
-        "DISPLAY": display,
-        "TRANSFINITE_CACHE_DIR": str(tmp_path / "cache"),
-        "TRANSFINITE_STATE_DIR": str(tmp_path / "state"),
-    }
-    cage = np.array(json.loads((ASSETS / "starfish.cage.json").read_text())["control_points"], dtype=float)
+    env = viewer_environment(display, tmp_path)
+    cage = STARFISH_CAGE
     view = {"scale": 1.0, "offset": [450.0, 250.0]}
     session = tmp_path / "starfish.json"
-    value = {
-        "image": str(ASSETS / "starfish.png"),
-        "cage": {"control_points": cage.tolist()},
-        "target": {"control_points": cage.tolist()},
-        "kernel": "poisson",
-        "view": view,
-    }
-    session.write_text(json.dumps(value))
+    starfish_session(session, view)
     viewer = ViewerProcess(["view", "--session", str(session)], env, ROOT)
     try:
         window = viewer.wait_for("ready window=", 30).split("=")[1]
