@@ -16,6 +16,7 @@ Pixels are RGBA of shape (h, w, 4), uint8 or uint16, row 0 at the top; a View ma
 
 from __future__ import annotations
 
+import cv2
 import numpy as np
 
 #: Rows of the image read at a time by `backdrop_rows`.
@@ -120,16 +121,13 @@ def warp_over(base: np.ndarray, drawn: np.ndarray) -> np.ndarray:
         Premultiplied alpha, as GL reads it back.
     """
     full = 1.0 if drawn.dtype == np.float32 else np.iinfo(drawn.dtype).max
-    same = drawn.dtype == base.dtype
     alpha = drawn[..., 3]
     opaque = alpha >= full
     if opaque.all():  # a tile inside the warp: its pixels as drawn
-        base[...] = drawn if same else _rounded(drawn / np.float32(full), base.dtype)
+        base[...] = narrowed(drawn, base.dtype)
         return base
     if opaque.any():
-        np.copyto(
-            base, drawn if same else _rounded(drawn / np.float32(full), base.dtype), where=opaque[..., None]
-        )
+        _copy_pixels(base, narrowed(drawn, base.dtype), opaque)
     partial = (alpha > 0) & ~opaque
     if partial.any():
         maximum = np.iinfo(base.dtype).max
@@ -177,6 +175,29 @@ def warp_laid(base: np.ndarray, drawn: np.ndarray, coverage: np.ndarray, clear: 
     colour = np.divide(colour, alpha, out=under[:, :3].copy(), where=alpha > 0)
     base[touched] = _rounded(np.concatenate([np.minimum(colour, 1.0), alpha], axis=1), base.dtype)
     return base
+
+
+def _copy_pixels(base: np.ndarray, pixels: np.ndarray, where: np.ndarray) -> None:
+    """`pixels` (h, w, 4) copied into `base` (h, w, 4, the same integer type) `where` (h, w) is True: each
+    pixel moved as one integer where both hold their samples side by side (30 times faster than
+    a mask broadcast over the samples)."""
+    whole = {1: np.uint32, 2: np.uint64}[base.dtype.itemsize]
+    if all(a.strides[-1] == a.itemsize and a.strides[-2] == 4 * a.itemsize for a in (base, pixels)):
+        np.copyto(base.view(whole)[..., 0], pixels.view(whole)[..., 0], where=where)
+    else:
+        np.copyto(base, pixels, where=where[..., None])
+
+
+def narrowed(drawn: np.ndarray, dtype) -> np.ndarray:
+    """Samples `drawn` (h, w, 4) of uint8, uint16 or float32 in [0, 1] as the nearest samples of
+    the integer `dtype` (`drawn` itself if of that type): 16 bits to 8 by round(x / 257) in integers
+    (x / 257 is never half-way between two integers), in float32 otherwise."""
+    if drawn.dtype == dtype:
+        return drawn
+    if drawn.dtype == np.uint16 and dtype == np.uint8:
+        return cv2.convertScaleAbs(drawn, alpha=1 / 257)
+    full = 1.0 if drawn.dtype == np.float32 else np.iinfo(drawn.dtype).max
+    return _rounded(drawn / np.float32(full), dtype)
 
 
 def _rounded(values: np.ndarray, dtype) -> np.ndarray:

@@ -27,7 +27,7 @@ import moderngl
 import numpy as np
 
 from app.console import captured_c_stderr
-from app.io.images.tiles import crosses
+from app.io.images.tiles import crosses, encloses
 from app.render.address_space import GL_CONTEXT_BYTES, PROGRAM_BYTES, render_bytes, require_address_space
 from app.render.compositing import (
     backdrop_rows,
@@ -56,9 +56,12 @@ STRIP_ROWS = 512
 #: Largest `app.render.compositing.texel_footprint` drawn without mipmaps: GL samples level 0 alone
 #: up to 1; past it by this much the next level's weight (log2 of it) is under 4e-4.
 UNSHRUNK_FOOTPRINT = 1.0 + 2.0**-12
-#: Largest side of a tile of the warp drawn over a copied backdrop (`WarpRenderer.render`): those
-#: its outline crosses are multisampled in floats (a 512 x 512 tile of 4 float samples is 16 MiB).
+#: Largest side of a tile of the warp drawn over a copied backdrop (`WarpRenderer.render`): one inside
+#: its outline is drawn whole, one outside it not at all.
 COPIED_TILE = 512
+#: Side of the parts of a tile that its outline crosses: those the outline crosses are multisampled,
+#: in floats (a multisample resolve costs more than the drawing on a software rasteriser).
+EDGE_TILE = 256
 
 
 class ContextUnavailableError(RuntimeError):
@@ -136,7 +139,7 @@ class WarpRenderer:
         self._image_size: tuple[int, int] | None = None
         self._mesh: MeshBuffers | None = None
         self._preview: MeshBuffers | None = None
-        #: Offscreen framebuffers by (size, samples, dtype), two kinds at most (`_framebuffers`).
+        #: Offscreen framebuffers by (size, samples, dtype), three kinds at most (`_framebuffers`).
         self._target: dict[tuple, list] = {}
         #: Counts the changes of what `draw` and `draw_backdrop` would draw (image, meshes,
         #: positions, fields): a picture drawn at one revision can be reused until the next.
@@ -585,17 +588,23 @@ class WarpRenderer:
         else:
             image = ((host.shape[1], host.shape[0]), partial(_host_rows, host))
         small = (min(tile[0], COPIED_TILE), min(tile[1], COPIED_TILE))
+        edge = (min(small[0], EDGE_TILE), min(small[1], EDGE_TILE))
         what = ("image", False, False, False)
         mipmaps = self._needs_mipmaps(view, False)
         # Edges blended in 16 bits for an 8-bit image (a unit of 65535 is far below its rounding),
         # in floats for a 16-bit one.
         edge_type = np.uint16 if dtype == np.uint8 else np.float32
         translucent = not self._source.opaque
-        edged = _Drawing(self, view, small, what, options, edge_type, mipmaps)
-        plain_type = self._source.drawn_dtype
-        plain = _Drawing(self, view, small, what, dict(options, samples=0), plain_type, mipmaps)
-        edged.backdrop = plain.backdrop = False  # copied, not drawn
-        edged.antialiased, plain.antialiased = (lambda box: True), (lambda box: False)
+        edged = _Drawing(self, view, edge, what, options, edge_type, mipmaps)
+        plain_type, plain_options = self._source.drawn_dtype, dict(options, samples=0)
+        plain = {}
+        for size in (small, edge):
+            plain[size] = _Drawing(self, view, size, what, plain_options, plain_type, mipmaps)
+        for drawing in (edged, *plain.values()):
+            drawing.backdrop = False  # copied, not drawn
+        edged.antialiased = lambda box: True
+        for drawing in plain.values():
+            drawing.antialiased = lambda box: False
         outline = None  # folds put edges anywhere
         if not self._mesh.may_fold(positions):
             outline = positions[self._mesh.boundary_edges] * view.scale + np.asarray(offset, np.float32)
@@ -606,18 +615,18 @@ class WarpRenderer:
             first, last = (max(top, box[1]), min(top + count, box[3])) if box else (0, 0)
             for row in range(first, last, small[1]):
                 for left in range(box[0], box[2], small[0]):
-                    part = strip[
-                        row - top : min(row + small[1], last) - top, left : min(left + small[0], box[2])
-                    ]
-                    crossed = outline is None or crosses(outline, (left, row, small[0], small[1]))
-                    drawing = edged if crossed else plain
-                    drawn = drawing.tile(left, row, (0.0, 0.0, 0.0, 0.0))[: len(part), : part.shape[1]]
-                    if translucent:
-                        drawn = drawn.copy()  # the coverage's drawing reuses its array
-                        coverage = drawing.tile(left, row, (0.0, 0.0, 0.0, 0.0), coverage=True)
-                        warp_laid(part, drawn, coverage[: len(part), : part.shape[1], 3], clear)
-                    else:
-                        warp_over(part, drawn)
+                    whole = (left, row, min(left + small[0], box[2]), min(row + small[1], last))
+                    for (x, y, right, bottom), smooth in _drawn_parts(outline, whole, edge):
+                        part = strip[y - top : bottom - top, x:right]
+                        sub = right - x <= edge[0] and bottom - y <= edge[1]
+                        drawing = edged if smooth else plain[edge if sub else small]
+                        drawn = drawing.tile(x, y, (0.0, 0.0, 0.0, 0.0))[: len(part), : part.shape[1]]
+                        if translucent:
+                            drawn = drawn.copy()  # the coverage's drawing reuses its array
+                            coverage = drawing.tile(x, y, (0.0, 0.0, 0.0, 0.0), coverage=True)
+                            warp_laid(part, drawn, coverage[: len(part), : part.shape[1], 3], clear)
+                        else:
+                            warp_over(part, drawn)
             yield top, strip
 
     def _ordered_positions(self) -> np.ndarray:
@@ -661,11 +670,14 @@ class WarpRenderer:
         """Multisampled and resolve framebuffers of `size` and samples of `dtype` (8 or 16 bits),
         kept for the next render of that kind."""
         kind = (size, samples, np.dtype(dtype))
-        if kind not in self._target:
-            # Two kinds are kept (a copied backdrop's warp draws in floats and in the image's type):
-            # a 4K 4x multisample target alone is ~130 MB.
-            if len(self._target) >= 2:
-                self._release_target()
+        if kind in self._target:
+            self._target[kind] = self._target.pop(kind)  # the last used last: kept the longest
+        else:
+            # Three kinds are kept, the last used (a copied backdrop's warp draws its edges
+            # multisampled in floats, the rest in the image's type in two sizes; a drawing's own are
+            # never the ones dropped): a 4K 4x multisample target alone is ~130 MB.
+            if len(self._target) >= 3:
+                self._release_target(next(iter(self._target)))
             gl_type = texture_dtype(dtype)
             colour = self.ctx.renderbuffer(size, 4, samples=samples, dtype=gl_type)
             resolved_colour = self.ctx.renderbuffer(size, 4, dtype=gl_type)
@@ -713,14 +725,36 @@ class WarpRenderer:
         self._source = self._backdrop_source = None
         self._host = {}
 
-    def _release_target(self) -> None:
-        for objects in self._target.values():
+    def _release_target(self, kind=None) -> None:
+        """Free the framebuffers of `kind` (a key of ``_target``), or of every kind."""
+        for key in [kind] if kind is not None else list(self._target):
+            objects = self._target.pop(key)
             if self.ctx.fbo in objects:
                 # GL falls back to the default framebuffer when the bound one is deleted.
                 self.ctx.fbo = self.ctx.screen
             for item in objects:
                 item.release()
-        self._target = {}
+
+
+def _drawn_parts(outline: np.ndarray | None, tile: tuple[int, int, int, int], edge: tuple[int, int]):
+    """The parts of the output `tile` (left, top, right, bottom) where a drawing of the warp shows, each
+    as (part, smooth), part a box like `tile` and smooth whether it is multisampled: the whole tile,
+    not smooth, if the warp's `outline` (E, 2, 2: segments, output pixels) keeps away from it and
+    it lies inside; nothing if it lies outside (nothing is drawn there); else its parts of `edge`
+    (width, height) that the outline crosses (smooth) or that lie inside (not).  `outline` None
+    (folds put edges anywhere): every part of `edge`, smooth."""
+    left, top, right, bottom = tile
+    if outline is not None and not crosses(outline, (left, top, right - left, bottom - top)):
+        if encloses(outline, ((left + right) / 2, (top + bottom) / 2)):
+            yield tile, False
+        return
+    for y in range(top, bottom, edge[1]):
+        for x in range(left, right, edge[0]):
+            part = (x, y, min(x + edge[0], right), min(y + edge[1], bottom))
+            if outline is None or crosses(outline, (x, y, part[2] - x, part[3] - y)):
+                yield part, True
+            elif encloses(outline, ((x + part[2]) / 2, (y + part[3]) / 2)):
+                yield part, False
 
 
 def _host_rows(host: np.ndarray, top: int, bottom: int, left: int, right: int, out=None) -> np.ndarray:

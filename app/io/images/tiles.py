@@ -145,6 +145,17 @@ def crosses(segments: np.ndarray, box: tuple[int, int, int, int], margin: float 
     )
 
 
+def encloses(segments: np.ndarray, point: tuple[float, float]) -> bool:
+    """Whether `point` (x, y) lies inside the closed outline made of `segments` (E, 2, 2), in any order
+    (holes too): an odd count of them crosses the ray from it towards +x."""
+    x, y = point
+    (x0, y0), (x1, y1) = segments[:, 0].T, segments[:, 1].T
+    spans = (y0 > y) != (y1 > y)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        crossing = x0 + (y - y0) * (x1 - x0) / (y1 - y0)
+    return bool(np.count_nonzero(spans & (crossing > x)) % 2)
+
+
 def sub_filtered(rows: np.ndarray) -> bytes:
     """PNG scanlines of RGBA `rows` (r, W, 4), uint8 or uint16 (stored big-endian), each with the
     Sub filter: a filter-type byte 1, then every byte minus the one a pixel before it (mod 256)."""

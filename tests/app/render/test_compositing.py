@@ -9,7 +9,15 @@ import pytest
 
 from app.__main__ import main
 from app.io.files import read_photo, write_image
-from app.render.compositing import clear_pixel, drawn_box, exact_offset, texel_footprint, warp_laid, warp_over
+from app.render.compositing import (
+    clear_pixel,
+    drawn_box,
+    exact_offset,
+    narrowed,
+    texel_footprint,
+    warp_laid,
+    warp_over,
+)
 from app.render.viewport import View
 
 WIDTH, HEIGHT = 200, 150
@@ -124,6 +132,37 @@ def test_warp_over_keeps_the_base_where_nothing_is_drawn_and_blends_where_it_par
     np.testing.assert_array_equal(result[0, 2], [51, 102, 153, 255])
     expected = np.round(np.array([0.5 + 200 / 255 * 0.5, 0.25 + 100 / 255 * 0.5, 50 / 255 * 0.5, 1.0]) * 255)
     np.testing.assert_array_equal(result[0, 1], expected)
+
+
+@pytest.mark.parametrize("dtype", [np.uint8, np.uint16])
+def test_warp_over_a_tile_of_a_strip_is_its_blend_pixel_by_pixel_and_leaves_the_rest(dtype):
+    rng = np.random.default_rng(4)
+    maximum = np.iinfo(dtype).max
+    strip = rng.integers(0, maximum + 1, (6, 20, 4)).astype(dtype)
+    drawn = rng.integers(0, 65536, (6, 8, 4)).astype(np.uint16)
+    drawn[..., 3] = np.array([0, 65535, 30000, 65535, 1, 65535, 65535, 0])  # clear, whole, partial
+    drawn[..., :3] = np.minimum(drawn[..., :3], drawn[..., 3:])  # premultiplied
+    if dtype == np.uint16:
+        drawn = drawn.astype(np.float32) / 65535
+    rows = [warp_over(strip[row : row + 1, 5:13].copy(), drawn[row : row + 1]) for row in range(6)]
+    expected = np.stack(rows)
+    result = strip.copy()
+    warp_over(result[:, 5:13], drawn[::-1][::-1])  # a tile of a strip, GL's rows flipped twice
+    np.testing.assert_array_equal(result[:, 5:13], expected[:, 0])
+    rest = np.s_[5:13]
+    np.testing.assert_array_equal(np.delete(result, rest, axis=1), np.delete(strip, rest, axis=1))
+    whole = drawn[..., 3] >= (1.0 if dtype == np.uint16 else 65535)
+    np.testing.assert_array_equal(result[:, 5:13][whole], narrowed(drawn, dtype)[whole])
+
+
+def test_sixteen_bit_drawings_are_narrowed_to_the_nearest_eight_bit_sample():
+    every = np.arange(65536, dtype=np.uint16).reshape(128, 128, 4)
+    expected = np.floor(every.astype(np.float64) * 255 / 65535 + 0.5)
+    np.testing.assert_array_equal(narrowed(every, np.uint8), expected)
+    np.testing.assert_array_equal(narrowed(every[::-1], np.uint8), expected[::-1])  # GL's rows, flipped
+    floats = np.linspace(0.0, 1.0, 4096, dtype=np.float32).reshape(32, 32, 4)
+    np.testing.assert_array_equal(narrowed(floats, np.uint16), np.floor(floats * 65535.0 + 0.5))
+    assert narrowed(every, np.uint16) is every
 
 
 def test_warp_laid_replaces_where_it_covers_blends_by_coverage_and_keeps_the_rest():

@@ -372,3 +372,34 @@ def test_strips_are_the_rows_of_render_and_skip_multisampling_only_off_the_edges
         difference = np.abs(rows.astype(int) - whole[top : top + len(rows)]).max(axis=2)
         assert difference.max() <= 1, top  # one unit where two triangles meet inside the warp
     assert plain  # some tiles were drawn without multisampling
+
+
+def test_a_copied_drawing_lays_tiles_inside_whole_parts_along_the_outline_and_nothing_outside():
+    from app.render.renderer import _drawn_parts
+
+    corners = np.array([[100.0, 100.0], [400.0, 100.0], [400.0, 400.0], [100.0, 400.0]])
+    square = np.stack([corners, np.roll(corners, -1, axis=0)], axis=1)
+    assert list(_drawn_parts(square, (200, 200, 300, 300), (64, 64))) == [((200, 200, 300, 300), False)]
+    assert list(_drawn_parts(square, (500, 0, 600, 100), (64, 64))) == []  # outside: nothing drawn
+    parts = list(_drawn_parts(square, (64, 64, 192, 180), (64, 64)))  # two sides cross it
+    assert parts == [
+        ((64, 64, 128, 128), True),
+        ((128, 64, 192, 128), True),
+        ((64, 128, 128, 180), True),
+        ((128, 128, 192, 180), False),  # inside, away from both sides
+    ]
+    folded = list(_drawn_parts(None, (0, 0, 100, 64), (64, 64)))  # folds: every part multisampled
+    assert folded == [((0, 0, 64, 64), True), ((64, 0, 100, 64), True)]
+
+
+def test_copied_drawings_of_other_kinds_one_after_another_keep_their_framebuffers(renderer):
+    vertices, triangles, _ = ellipse_mesh((160, 120), (120, 85), 6, seed=3)
+    opaque = smooth_image()
+    translucent = opaque.copy()
+    translucent[..., 3] = 200
+    for image in (opaque, translucent, opaque):  # an 8-bit translucent image draws in 16 bits
+        renderer.set_image(image)
+        renderer.set_mesh(vertices, triangles)
+        renderer.set_positions(affine(rotation(0.2), (5, -3), vertices))
+        pixels = renderer.render((160, 120), backdrop=True)
+        assert (pixels[..., 3] == image[0, 0, 3]).mean() > 0.5

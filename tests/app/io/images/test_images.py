@@ -19,6 +19,7 @@ from app.io.files import InputError, read_photo, write_image, write_png_strips
 from app.io.images import ImageMetadata, encode_image, oriented
 from app.io.images.colours import parse_colour
 from app.io.images.metadata import exif_orientation, read_metadata
+from app.io.images.writing import opaque
 
 WIDTH, HEIGHT = 96, 64
 CAGE = [[10, 8], [48, 4], [86, 10], [90, 32], [84, 56], [48, 60], [12, 54], [6, 32]]
@@ -387,3 +388,20 @@ def test_a_jpeg_packed_in_its_own_buffer_is_the_same_bytes_as_from_a_copy():
     kept = image.copy()
     assert encode_image(image, "JPEG") == encode_image(kept.copy(), "JPEG", consume=True)
     np.testing.assert_array_equal(image, kept)  # not consumed unless asked
+
+
+@pytest.mark.parametrize("dtype", [np.uint8, np.uint16])
+def test_opaque_is_every_alpha_at_its_maximum_read_whole_or_strided(dtype):
+    maximum = np.iinfo(dtype).max
+    image = np.random.default_rng(9).integers(0, maximum + 1, (40, 30, 4)).astype(dtype)
+    image[..., 3] = maximum
+    assert opaque(image) and opaque(image[:, ::2]) and opaque(image[:0])
+    for row, column, alpha in ((0, 0, maximum - 1), (39, 29, 0), (17, 5, 1)):
+        changed = image.copy()
+        changed[row, column, 3] = alpha
+        assert not opaque(changed) and not opaque(changed[:, ::-1])
+    colours = image.copy()
+    colours[..., :3] = maximum  # the colour at its maximum too: only the alpha counts
+    assert opaque(colours)
+    colours[3, 4, 3] = maximum - 1
+    assert not opaque(colours)
