@@ -24,6 +24,11 @@ READ_ROWS = 128
 #: Output pixels added around the deformed mesh's bounding box: a multisampled pixel is drawn
 #: where any of its samples falls in a triangle.
 BOX_MARGIN = 1
+#: Largest `texel_footprint` drawn from a texture of the image's part around the mesh alone
+#: (`sampled_box`); past it, of the whole image.
+BOXED_FOOTPRINT = 8.0
+#: Image pixels added around the undeformed mesh's box in `sampled_box`, and the step of its sides.
+SAMPLED_MARGIN = 64
 
 
 def exact_offset(view) -> tuple[int, int] | None:
@@ -204,6 +209,36 @@ def _rounded(values: np.ndarray, dtype) -> np.ndarray:
     """Floats in [0, 1] as the nearest samples of the integer `dtype`."""
     maximum = np.iinfo(dtype).max
     return np.clip(values * maximum + 0.5, 0, maximum).astype(dtype)
+
+
+def mipmap_levels(footprint: float) -> int:
+    """The mipmap levels past the image itself that a drawing samples where one output pixel steps
+    over at most `footprint` image pixels: GL's level log2 of it and the next (trilinear filtering),
+    and one more for its drivers' approximations of the footprint."""
+    return int(np.floor(np.log2(max(footprint, 1.0)))) + 2
+
+
+def sampled_box(vertices: np.ndarray, size: tuple[int, int], footprint: float) -> tuple[int, ...] | None:
+    """(left, top, right, bottom), image pixels: what a drawing of a mesh of the undeformed
+    `vertices` (V, 2), image pixels, samples of an image of `size` (width, height) where one output
+    pixel steps over at most `footprint` image pixels; None (the whole image) past
+    `BOXED_FOOTPRINT`.
+
+    The box of the vertices, `SAMPLED_MARGIN` more on each side, its sides on multiples of it
+    (or the image's): a pixel centre is up to 0.71 output pixels past a triangle's edge (0.71
+    `footprint` image pixels), and bilinear filtering of mipmap level k (`mipmap_levels`, at most 5
+    here) reaches 1.5 2^k pixels past the point filtered (48); the mipmaps of a texture of the box
+    keep the whole image's grid up to level 6.
+    """
+    if not footprint <= BOXED_FOOTPRINT:
+        return None
+    low = np.floor((vertices.min(axis=0) - SAMPLED_MARGIN) / SAMPLED_MARGIN) * SAMPLED_MARGIN
+    high = np.ceil((vertices.max(axis=0) + SAMPLED_MARGIN) / SAMPLED_MARGIN) * SAMPLED_MARGIN
+    left, top = max(int(low[0]), 0), max(int(low[1]), 0)
+    right, bottom = min(int(high[0]), size[0]), min(int(high[1]), size[1])
+    if left >= right or top >= bottom:
+        return None
+    return left, top, right, bottom
 
 
 def texel_footprint(

@@ -34,6 +34,8 @@ from app.render.compositing import (
     clear_pixel,
     drawn_box,
     exact_offset,
+    mipmap_levels,
+    sampled_box,
     straight,
     texel_footprint,
     warp_laid,
@@ -132,9 +134,13 @@ class WarpRenderer:
         self._mesh_programs = dict(self._image.mesh_programs)
         for field in self._fields.values():
             self._mesh_programs.update(field.mesh_programs)
+        #: The texture of the whole image (made at the first drawing that samples beyond `_boxed`'s).
         self._source: SourceImage | None = None
+        #: The texture of the part of the image a copied backdrop's warp samples (`_copied_strips`).
+        self._boxed: SourceImage | None = None
         self._backdrop_source: SourceImage | None = None  # what the backdrop shows instead (`app.warp.fill`)
-        #: The straight pixels of a translucent image and of the backdrop image: `render` copies them.
+        #: The straight pixels of the image and of the backdrop image: `render` copies them, and
+        #: uploads what it samples.
         self._host: dict[str, np.ndarray] = {}  # "image", "backdrop"
         self._image_size: tuple[int, int] | None = None
         self._mesh: MeshBuffers | None = None
@@ -148,22 +154,22 @@ class WarpRenderer:
     # -- data ---------------------------------------------------------------
 
     def set_image(self, image: np.ndarray) -> None:
-        """Upload the source image.
+        """Set the source image; it is uploaded at the first drawing, whole or only the part that
+        drawing samples (`render` over a copied backdrop).
 
         Parameters
         ----------
         image : ndarray of shape (H, W, 4), uint8 or uint16
             RGBA with straight (non-premultiplied) alpha, row 0 at the top.  A 16-bit image
-            is drawn, and `render` reads it back, at 16 bits.
+            is drawn, and `render` reads it back, at 16 bits.  The renderer keeps the array (not a
+            copy): the caller must not change it while the renderer holds it.
         """
         self.revision += 1
         image = checked_image(self.ctx, image)
         self._release_image()
-        self._source = SourceImage(self.ctx, image)
-        if not self._source.opaque:  # straight alpha, which the premultiplied texture does not keep
-            self._host["image"] = image
-        changed = self._image_size != self._source.size
-        self._image_size = self._source.size
+        self._host["image"] = image
+        changed = self._image_size != (image.shape[1], image.shape[0])
+        self._image_size = (image.shape[1], image.shape[0])
         if changed:
             for mesh in (self._mesh, self._preview):
                 if mesh is not None:
@@ -186,7 +192,7 @@ class WarpRenderer:
         self._host.pop("backdrop", None)
         if image is not None:
             image = checked_image(self.ctx, image)
-            if self._source is None or self._source.size != (image.shape[1], image.shape[0]):
+            if self._image_size is None or self._image_size != (image.shape[1], image.shape[0]):
                 raise ValueError("the backdrop image must have the source image's size")
             self._host["backdrop"] = image  # uploaded when first drawn: `render` may only copy it
 
@@ -370,9 +376,11 @@ class WarpRenderer:
         folds,
         preview=False,
         sampling=(True, False, False),
+        source=None,
     ) -> None:
         """`draw` with the triangles in ``order``: "screen" (fastest) or "caller" (as given to `set_mesh`);
-        `sampling` is ``(mipmaps, snap, coverage)`` of `ImagePass.draw_image`."""
+        `sampling` is ``(mipmaps, snap, coverage)`` of `ImagePass.draw_image`, `source` the texture
+        drawn (a `SourceImage` of the image; the whole image's if None)."""
         self._require_mesh()
         if preview:
             self._require_preview()
@@ -382,7 +390,7 @@ class WarpRenderer:
             raise ValueError(
                 f"content must be 'image', 'field', 'heat', 'distortion' or 'none', got {content!r}"
             )
-        if content == "image" and self._source is None:
+        if content == "image" and "image" not in self._host:
             raise RuntimeError("draw(content='image') needs set_image first")
         if content in self._fields and not self._mesh.has_field:
             raise RuntimeError(f"draw(content={content!r}) needs set_field first")
@@ -390,7 +398,14 @@ class WarpRenderer:
         if content == "image":
             mipmaps, snap, coverage = sampling
             self._image.draw_image(
-                self._source, mesh, order, view, viewport_size, mipmaps=mipmaps, snap=snap, coverage=coverage
+                source or self._whole(),
+                mesh,
+                order,
+                view,
+                viewport_size,
+                mipmaps=mipmaps,
+                snap=snap,
+                coverage=coverage,
             )
         elif content in self._fields:
             self._fields[content].draw(mesh, order, view, viewport_size)
@@ -408,11 +423,11 @@ class WarpRenderer:
         opacity : float
             In [0, 1]; the image is blended over what is drawn already.
         """
-        if self._source is None:
+        if "image" not in self._host:
             raise RuntimeError("draw_backdrop needs set_image first")
         if "backdrop" in self._host and self._backdrop_source is None:
             self._backdrop_source = SourceImage(self.ctx, self._host["backdrop"])
-        self._backdrop.draw(self._backdrop_source or self._source, view, viewport_size, opacity)
+        self._backdrop.draw(self._backdrop_source or self._whole(), view, viewport_size, opacity)
 
     def set_overlay(self, segments: np.ndarray, points: np.ndarray) -> None:
         """Set the overlay lines and handles drawn by `draw_overlay` (rewritten in place).
@@ -450,6 +465,7 @@ class WarpRenderer:
         highlight: bool = False,
         folds: bool = False,
         backdrop: bool = False,
+        in_place: bool = False,
     ) -> np.ndarray:
         """Draw offscreen with multisampling and read the result back.
 
@@ -480,6 +496,12 @@ class WarpRenderer:
         backdrop : bool
             Draw the whole undeformed image first (`draw_backdrop`) and the warp
             over it: the rest of the picture kept (``--outside original``).
+        in_place : bool
+            Where the output is the image itself under the warp (`backdrop`, the identity view, the
+            image's size, a transparent `background`): draw the warp into the array of the image
+            (`set_image`'s, or `set_backdrop_image`'s) and return it, rather than a copy of it (0.4 GB
+            at 100 megapixels).  The renderer then lets go of the image: `set_image` again to draw
+            more.  Elsewhere it is ignored.
 
         Returns
         -------
@@ -487,10 +509,16 @@ class WarpRenderer:
             RGBA with straight alpha, row 0 at the top.
         """
         width, height = _output_size(size)
-        pixels = np.empty((height, width, 4), self.pixel_type)
-        options = dict(samples=samples, background=background, backdrop=backdrop)
+        host = self._host.get("backdrop", self._host.get("image"))
+        exact = (width, height) == self._image_size and exact_offset(view or View()) == (0, 0)
+        drawn_in_place = in_place and backdrop and exact and background[3] == 0 and content == "image"
+        drawn_in_place = drawn_in_place and not (wireframe or highlight or folds)
+        pixels = host if drawn_in_place else np.empty((height, width, 4), self.pixel_type)
+        options = dict(samples=samples, background=background, backdrop=backdrop, in_place=drawn_in_place)
         for _ in self._strips(size, view, None, (content, wireframe, highlight, folds), options, pixels):
             pass
+        if drawn_in_place:
+            self._release_image()  # what it holds is the output now
         return pixels
 
     @property
@@ -501,7 +529,7 @@ class WarpRenderer:
     @property
     def pixel_type(self) -> np.dtype:
         """The samples `render` returns: uint16 for a 16-bit source image, else uint8."""
-        return np.dtype(np.uint8) if self._source is None else self._source.dtype
+        return np.dtype(self._host["image"].dtype if "image" in self._host else np.uint8)
 
     def render_strips(
         self,
@@ -544,6 +572,9 @@ class WarpRenderer:
         tile; `what` is ``(content, wireframe, highlight, folds)``, `options` the drawing's."""
         width, height = _output_size(size)
         view = view or View()
+        self._require_mesh()
+        if what[0] == "image" and "image" not in self._host:
+            raise RuntimeError("render(content='image') needs set_image first")
         limit = min(TILE, self.ctx.info["GL_MAX_RENDERBUFFER_SIZE"], *self.ctx.info["GL_MAX_VIEWPORT_DIMS"])
         tile = (min(width, limit, rows or limit), min(height, limit, rows or limit))
         offset = None
@@ -582,24 +613,25 @@ class WarpRenderer:
         clear = clear_pixel(options["background"], dtype)
         positions = self._ordered_positions()
         box = drawn_box(positions, offset, size)
-        host = self._host.get("backdrop", self._host.get("image"))
-        if host is None:  # an opaque image: the texture holds its very pixels
-            image = (self._source.size, self._source.read)
-        else:
-            image = ((host.shape[1], host.shape[0]), partial(_host_rows, host))
+        host = self._host.get("backdrop", self._host["image"])
+        image = ((host.shape[1], host.shape[0]), partial(_host_rows, host))
         small = (min(tile[0], COPIED_TILE), min(tile[1], COPIED_TILE))
         edge = (min(small[0], EDGE_TILE), min(small[1], EDGE_TILE))
         what = ("image", False, False, False)
-        mipmaps = self._needs_mipmaps(view, False)
+        footprint = self._footprint(view, False)
+        source = self._sampled_source(footprint)
+        mipmaps = footprint > UNSHRUNK_FOOTPRINT  # every level of the whole image's texture
+        if mipmaps and source is self._boxed:
+            mipmaps = mipmap_levels(footprint)  # only those the drawing samples
         # Edges blended in 16 bits for an 8-bit image (a unit of 65535 is far below its rounding),
         # in floats for a 16-bit one.
         edge_type = np.uint16 if dtype == np.uint8 else np.float32
-        translucent = not self._source.opaque
-        edged = _Drawing(self, view, edge, what, options, edge_type, mipmaps)
-        plain_type, plain_options = self._source.drawn_dtype, dict(options, samples=0)
+        translucent = not source.opaque
+        edged = _Drawing(self, view, edge, what, options, edge_type, mipmaps, source)
+        plain_type, plain_options = source.drawn_dtype, dict(options, samples=0)
         plain = {}
         for size in (small, edge):
-            plain[size] = _Drawing(self, view, size, what, plain_options, plain_type, mipmaps)
+            plain[size] = _Drawing(self, view, size, what, plain_options, plain_type, mipmaps, source)
         for drawing in (edged, *plain.values()):
             drawing.backdrop = False  # copied, not drawn
         edged.antialiased = lambda box: True
@@ -611,7 +643,8 @@ class WarpRenderer:
         for top in range(0, height, tile[1]):
             count = min(tile[1], height - top)
             strip = np.empty((count, width, 4), dtype) if into is None else into[top : top + count]
-            backdrop_rows(image, offset, strip, top, clear)
+            if not options.get("in_place"):  # else the rows are the image's own
+                backdrop_rows(image, offset, strip, top, clear)
             first, last = (max(top, box[1]), min(top + count, box[3])) if box else (0, 0)
             for row in range(first, last, small[1]):
                 for left in range(box[0], box[2], small[0]):
@@ -634,17 +667,41 @@ class WarpRenderer:
         self._require_mesh()
         return np.frombuffer(self._mesh.positions.read(), np.float32).reshape(-1, 2)
 
-    def _needs_mipmaps(self, view: View, backdrop: bool) -> bool:
-        """Whether a drawing through `view` (and of the whole image, with `backdrop`) shrinks the image
-        anywhere, so that GL samples its mipmaps (`app.render.compositing.texel_footprint`)."""
-        if backdrop and view.scale * UNSHRUNK_FOOTPRINT < 1.0:
-            return True
+    def _footprint(self, view: View, backdrop: bool) -> float:
+        """The most image pixels one output pixel steps over in a drawing through `view` (and of the
+        whole image, with `backdrop`): GL samples the image's mipmaps where it is over 1
+        (`app.render.compositing.texel_footprint`)."""
         mesh = self._mesh
-        if mesh is None or self._source is None:
-            return True  # nothing to draw: `_draw` says what is missing
+        if mesh is None or "image" not in self._host:
+            return float("inf")  # nothing to draw: `_draw` says what is missing
         vertices = mesh.vertices[mesh.order]
         footprint = texel_footprint(vertices, self._ordered_positions(), mesh.triangle_indices, view.scale)
-        return footprint > UNSHRUNK_FOOTPRINT
+        return max(footprint, 1.0 / view.scale) if backdrop else footprint
+
+    def _needs_mipmaps(self, view: View, backdrop: bool) -> bool:
+        """Whether a drawing through `view` (and of the whole image, with `backdrop`) shrinks the image
+        anywhere, so that GL samples its mipmaps."""
+        return self._footprint(view, backdrop) > UNSHRUNK_FOOTPRINT
+
+    def _whole(self) -> SourceImage:
+        """The texture of the whole image, uploaded now if it is not yet."""
+        if self._source is None:
+            self._source = SourceImage(self.ctx, self._host["image"])
+        return self._source
+
+    def _sampled_source(self, footprint: float) -> SourceImage:
+        """A texture holding what a drawing of the mesh samples where one output pixel steps over
+        at most `footprint` image pixels (`app.render.compositing.sampled_box`): the box around the
+        undeformed mesh (whether or not the whole image is uploaded: a drawing's pixels do not
+        depend on what was drawn before), or the whole image where the box is not smaller."""
+        box = sampled_box(self._mesh.vertices, self._image_size, footprint)
+        if box is None or box == (0, 0, *self._image_size):
+            return self._whole()
+        if self._boxed is None or self._boxed.box != box:
+            if self._boxed is not None:
+                self._boxed.release()
+            self._boxed = SourceImage(self.ctx, self._host["image"], box)
+        return self._boxed
 
     # -- lifetime -----------------------------------------------------------
 
@@ -719,11 +776,17 @@ class WarpRenderer:
 
     def _release_image(self) -> None:
         self._backdrop.release()
+        self._release_boxed()
         for source in (self._source, self._backdrop_source):
             if source is not None:
                 source.release()
         self._source = self._backdrop_source = None
         self._host = {}
+
+    def _release_boxed(self) -> None:
+        if self._boxed is not None:
+            self._boxed.release()
+        self._boxed = None
 
     def _release_target(self, kind=None) -> None:
         """Free the framebuffers of `kind` (a key of ``_target``), or of every kind."""
@@ -775,10 +838,12 @@ def _output_size(size: tuple[int, int]) -> tuple[int, int]:
 
 class _Drawing:
     """One offscreen drawing of `WarpRenderer._strips`, a tile at a time: its view, what it draws and
-    how, and the framebuffers (of samples of `dtype`) it draws into and reads back from."""
+    how, and the framebuffers (of samples of `dtype`) it draws into and reads back from; `mipmaps`
+    the image's mipmaps it samples (True: every level, a number: that many, built now; None:
+    those it needs), `source` the texture it draws (a `SourceImage`; the whole image's if None)."""
 
-    def __init__(self, renderer: WarpRenderer, view: View, tile, what, options, dtype, mipmaps=None):
-        self.renderer, self.view, self.size, self.what = renderer, view, tile, what
+    def __init__(self, renderer: WarpRenderer, view, tile, what, options, dtype, mipmaps=None, source=None):
+        self.renderer, self.view, self.size, self.what, self.source = renderer, view, tile, what, source
         self.backdrop = options["backdrop"]
         self.antialiased = options.get("antialiased") or (lambda box: True)
         samples = max(0, min(int(options["samples"]), renderer.ctx.max_samples))
@@ -786,8 +851,10 @@ class _Drawing:
         self.pixels = np.empty((tile[1], tile[0], 4), dtype)
         if mipmaps is None:  # whether the drawing samples them (`WarpRenderer._needs_mipmaps`)
             mipmaps = what[0] == "image" and renderer._needs_mipmaps(view, self.backdrop)
-        if mipmaps and renderer._source is not None:
-            renderer._source.build_mipmaps()  # before the output's pages: the driver's temporaries go first
+        if mipmaps and "image" in renderer._host:
+            # Before the output's pages: the driver's temporaries go first.  `mipmaps` True: every
+            # level; a number: the levels the drawing samples.
+            (source or renderer._whole()).build_mipmaps(None if mipmaps is True else mipmaps)
         self.sampling = (bool(mipmaps), bool(view.scale == 1))
 
     def tile(self, left: int, top: int, background, coverage: bool = False) -> np.ndarray:
@@ -803,7 +870,7 @@ class _Drawing:
         if self.backdrop:
             self.renderer.draw_backdrop(shifted, self.size)
         sampling = (*self.sampling, coverage)
-        self.renderer._draw(shifted, self.size, "caller", *self.what, sampling=sampling)
+        self.renderer._draw(shifted, self.size, "caller", *self.what, sampling=sampling, source=self.source)
         if smooth:
             self.renderer.ctx.copy_framebuffer(self.resolved, self.multisample)
         self.resolved.read_into(

@@ -330,7 +330,7 @@ def run_job(job: WarpJob, target_source: str | None = None, report: bool = False
                 with reported_as_input(str(job.image_path)):
                     renderer.set_image(job.image)
                 set_fill(renderer, job.image, job.curve.control_points, job.fill, job.outside)
-                job.image = None  # the texture holds it now
+                job.image = None  # the renderer holds it now
                 renderer.set_mesh(deformation.mesh.vertices, deformation.mesh.triangles)
                 steps = write_frames(renderer, deformation, job.targets, frame_output(job))
                 with run.progress(job) as bar:
@@ -352,8 +352,11 @@ def run_job(job: WarpJob, target_source: str | None = None, report: bool = False
 
 
 def frame_output(job: WarpJob) -> FrameOutput:
-    """What `app.warp.pipeline.write_frames` writes for `job`."""
-    return FrameOutput(job.file, job.kind, job.size, job.view, job.outside, job.fps)
+    """What `app.warp.pipeline.write_frames` writes for `job`: a still into the image's own array
+    (`run_job` lets go of it)."""
+    return FrameOutput(
+        job.file, job.kind, job.size, job.view, job.outside, job.fps, consume=job.kind == "image"
+    )
 
 
 def _prepare(job: WarpJob, run: _Run) -> Deformation:

@@ -207,6 +207,7 @@ def render(
     view: View,
     outside: str,
     background: tuple[float, float, float, float] | None = None,
+    in_place: bool = False,
 ) -> np.ndarray:
     """The image on `renderer` drawn on the mesh deformed to `target`.
 
@@ -225,6 +226,9 @@ def render(
         ``"original"`` draws the source image behind the warp, ``"transparent"`` leaves it clear.
     background : tuple of float, optional
         Straight RGBA in [0, 1] under everything (``--background``); transparent if None.
+    in_place : bool
+        The warp may be drawn into the renderer's own image, which it then lets go of
+        (`app.render.renderer.WarpRenderer.render`).
 
     Returns
     -------
@@ -233,7 +237,7 @@ def render(
     """
     renderer.set_positions(deformation.positions(target))
     clear = (0.0, 0.0, 0.0, 0.0) if background is None else background
-    return renderer.render(size, view, backdrop=outside == "original", background=clear)
+    return renderer.render(size, view, backdrop=outside == "original", background=clear, in_place=in_place)
 
 
 @dataclass(frozen=True)
@@ -255,6 +259,9 @@ class FrameOutput:
         ``"original"`` or ``"transparent"`` (`render`).
     fps : float
         Frames per second of an animation.
+    consume : bool
+        A still may be drawn into the renderer's own image array (`render`'s `in_place`): the caller
+        lets go of the image, and the renderer draws nothing more before another ``set_image``.
     """
 
     file: OutputFile
@@ -263,6 +270,7 @@ class FrameOutput:
     view: View
     outside: str
     fps: float = 0.0
+    consume: bool = False
 
 
 def write_frames(renderer, deformation: Deformation, targets, output: FrameOutput) -> Iterator[int]:
@@ -337,7 +345,9 @@ def _still_steps(
             write_png_strips(file.path, size, renderer.pixel_type, strips, file.metadata)
             yield 1
             return
-        pixels = render(renderer, deformation, target, size, view, output.outside, file.background)
+        pixels = render(
+            renderer, deformation, target, size, view, output.outside, file.background, output.consume
+        )
     yield 1
     write_image(file.path, pixels, file.metadata, file.quality, consume=True)
 

@@ -1,4 +1,5 @@
-"""The source image on the GPU: a mipmapped texture with premultiplied alpha and its sampler.
+"""The source image on the GPU: a mipmapped texture with premultiplied alpha and its sampler, of
+the whole image or of the part of it a drawing samples.
 
 An opaque 8-bit image is an RGBA8 texture, an opaque 16-bit one an RGBA16 texture (normalised
 16-bit integers, filtered and mipmapped like RGBA8): the texture holds the image itself, drawn and
@@ -15,6 +16,8 @@ import numpy as np
 
 #: Rows of the image uploaded at a time.
 UPLOAD_ROWS = 512
+#: GL's own bound on mipmap levels (``GL_TEXTURE_MAX_LEVEL``'s default): every level.
+_LEVELS_MAX = 1000
 
 
 def checked_image(ctx: moderngl.Context, image) -> np.ndarray:
@@ -39,50 +42,59 @@ def checked_image(ctx: moderngl.Context, image) -> np.ndarray:
 
 
 class SourceImage:
-    """The texture of the source image, sampled through texture unit 0.
+    """The texture of the source image, or of the part of it a drawing samples, through texture unit 0.
 
     Parameters
     ----------
     ctx : moderngl.Context
     image : ndarray of shape (H, W, 4), uint8 or uint16
         RGBA with straight alpha, row 0 at the top, as `checked_image` returns it.
+    box : tuple of int, optional
+        (left, top, right, bottom), image pixels: the texture holds these pixels alone, and a
+        drawing through it must sample no others (`app.render.compositing.sampled_box`); the whole
+        image if None.
 
     Attributes
     ----------
     size : tuple of int
         (W, H) of the image.
+    box : tuple of int
+        (left, top, right, bottom) of the image held by the texture.
     dtype : numpy.dtype
         uint8 or uint16: the image's samples.
     opaque : bool
-        Whether every alpha is its type's maximum: the texture then holds the image itself.
+        Whether every alpha of `box` is its type's maximum: the texture then holds the image itself.
     drawn_dtype : numpy.dtype
         The texture's samples, and those a drawing must be read back in to keep the image's
         precision: `dtype` for an opaque image, else uint16 (8-bit image) or float32 (16-bit).
     """
 
-    def __init__(self, ctx: moderngl.Context, image: np.ndarray):
+    def __init__(self, ctx: moderngl.Context, image: np.ndarray, box: tuple[int, ...] | None = None):
         height, width = image.shape[:2]
         self.size = (width, height)
+        self.box = (0, 0, width, height) if box is None else tuple(int(side) for side in box)
+        left, top, right, bottom = self.box
+        held = image[top:bottom, left:right]
         self.dtype = image.dtype
         # Row 0 of the data is texture row v = 0, so v = y / H needs no flip.  Uploaded (and
         # premultiplied) a strip at a time: a 100-megapixel image is 0.4 GB, and a whole copy of
         # it on the way to the driver would be as much again.
         maximum = np.iinfo(image.dtype).max
         self.opaque = all(
-            image[top : top + UPLOAD_ROWS, :, 3].min() == maximum for top in range(0, height, UPLOAD_ROWS)
+            held[row : row + UPLOAD_ROWS, :, 3].min() == maximum for row in range(0, len(held), UPLOAD_ROWS)
         )
         self.drawn_dtype = np.dtype(image.dtype if self.opaque else _PREMULTIPLIED[np.dtype(image.dtype)])
-        self._texture = ctx.texture((width, height), 4, dtype=texture_dtype(self.drawn_dtype))
-        for top in range(0, height, UPLOAD_ROWS):
-            rows = image[top : top + UPLOAD_ROWS]
+        self._texture = ctx.texture((right - left, bottom - top), 4, dtype=texture_dtype(self.drawn_dtype))
+        for row in range(0, len(held), UPLOAD_ROWS):
+            rows = held[row : row + UPLOAD_ROWS]
             premultiplied = rows if self.opaque else _premultiply(rows)
-            self._texture.write(np.ascontiguousarray(premultiplied), viewport=(0, top, width, len(rows)))
-        self._reader: moderngl.Framebuffer | None = None
+            viewport = (0, row, right - left, len(rows))
+            self._texture.write(np.ascontiguousarray(premultiplied), viewport=viewport)
         # The mipmaps are built at the first drawing that samples them (`bind`): by then the caller
         # may have let go of `image`, and the driver's temporaries of that step (~0.8 of the image)
         # do not come on top of the image's array (issue 36: 100 megapixels within 1.5 GiB); a
         # drawing that shrinks nothing never builds them (issue 48).
-        self._mipmapped = False
+        self._levels = 0  # the mipmaps built, past the image itself
         # Clamp to a transparent border: parts of the domain beyond the image
         # stay empty instead of smearing the edge pixels, and fade smoothly.
         self._samplers = {
@@ -99,40 +111,35 @@ class SourceImage:
         self._bound: moderngl.Sampler | None = None
 
     def bind(self, program: moderngl.Program, mipmaps: bool = True) -> None:
-        """Sample the image in `program`'s ``u_image``; `unbind` after drawing.
+        """Sample the image in `program`'s ``u_image`` (and tell it the part the texture holds:
+        ``image.frag.glsl``'s ``u_boxed``, ``u_image_size``, ``u_region``); `unbind` after drawing.
 
         Parameters
         ----------
         program : moderngl.Program
         mipmaps : bool
-            Filter trilinearly through the mipmaps (built at the first such drawing); False: bilinear
-            filtering of the image itself, the same pixels wherever no triangle shrinks the picture
+            Filter trilinearly through the mipmaps (every level built at the first such drawing,
+            unless `build_mipmaps` built those it needs); False: bilinear filtering of the image
+            itself, the same pixels wherever no triangle shrinks the picture
             (`app.render.compositing.texel_footprint` at most 1).
         """
-        if mipmaps:
+        if mipmaps and not self._levels:
             self.build_mipmaps()
         self._bound = self._samplers[mipmaps]
         self._bound.use(location=0)
         program["u_image"].value = 0
+        left, top, right, bottom = self.box
+        program["u_boxed"].value = self.box != (0, 0, *self.size)
+        program["u_image_size"].value = self.size
+        program["u_region"].value = (left, top, right - left, bottom - top)
 
-    def build_mipmaps(self) -> None:
-        """Build the mipmaps now, if they are not yet (a drawing that samples them would)."""
-        if not self._mipmapped:
-            self._texture.build_mipmaps()
-            self._mipmapped = True
-
-    def read(self, top: int, bottom: int, left: int, right: int, out: np.ndarray | None = None) -> np.ndarray:
-        """Rows `top` to `bottom` and columns `left` to `right` of the texture (premultiplied: the image
-        itself where `opaque`), ndarray (bottom - top, right - left, 4) of `drawn_dtype`: `out`
-        (C-contiguous) if given."""
-        if self._reader is None:
-            self._reader = self._texture.ctx.framebuffer(color_attachments=[self._texture])
-        pixels = np.empty((bottom - top, right - left, 4), self.drawn_dtype) if out is None else out
-        viewport = (left, top, right - left, bottom - top)  # texture row 0 is image row 0: no flip
-        self._reader.read_into(
-            pixels, viewport=viewport, components=4, alignment=1, dtype=texture_dtype(self.drawn_dtype)
-        )
-        return pixels
+    def build_mipmaps(self, levels: int | None = None) -> None:
+        """Build the mipmaps now, if they are not yet (a drawing that samples them would): the first
+        `levels` past the image itself (GL samples no coarser one), or every one if None."""
+        wanted = _LEVELS_MAX if levels is None else max(1, int(levels))
+        if self._levels < wanted:
+            self._texture.build_mipmaps(0, wanted)
+            self._levels = wanted
 
     def unbind(self) -> None:
         """Unbind the sampler: a bound sampler object overrides any texture's own filtering on its
@@ -142,8 +149,6 @@ class SourceImage:
             self._bound = None
 
     def release(self) -> None:
-        if self._reader is not None:
-            self._reader.release()
         for sampler in self._samplers.values():
             sampler.release()
         self._texture.release()

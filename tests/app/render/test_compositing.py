@@ -13,7 +13,9 @@ from app.render.compositing import (
     clear_pixel,
     drawn_box,
     exact_offset,
+    mipmap_levels,
     narrowed,
+    sampled_box,
     texel_footprint,
     warp_laid,
     warp_over,
@@ -200,3 +202,16 @@ def test_texel_footprint_is_one_for_a_translation_and_the_shrinking_otherwise():
     flat = vertices.copy()
     flat[:, 1] = 0.0
     assert texel_footprint(vertices, flat, triangles, 1.0) == float("inf")
+
+
+def test_the_sampled_box_reaches_past_every_filter_on_a_grid_of_its_margin():
+    vertices = np.array([[300.5, 200.0], [700.0, 260.2], [520.0, 611.0]])
+    assert sampled_box(vertices, (1000, 800), 1.0) == (192, 128, 768, 704)
+    assert sampled_box(vertices, (720, 650), 8.0) == (192, 128, 720, 650)  # within the image
+    assert sampled_box(vertices, (1000, 800), 8.5) is None  # shrunk further: the whole image
+    assert sampled_box(vertices, (1000, 800), float("inf")) is None
+    assert sampled_box(vertices + 2000, (1000, 800), 1.0) is None
+    # GL's level log2(footprint) and the next, and one more; the sampled box reaches past level 5.
+    assert [mipmap_levels(footprint) for footprint in (1.0, 1.5, 2.0, 3.9, 8.0)] == [2, 2, 3, 3, 5]
+    reach = 0.71 * 8.0 + 1.5 * 2 ** mipmap_levels(8.0)
+    assert reach < 64

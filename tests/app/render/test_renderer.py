@@ -403,3 +403,52 @@ def test_copied_drawings_of_other_kinds_one_after_another_keep_their_framebuffer
         renderer.set_positions(affine(rotation(0.2), (5, -3), vertices))
         pixels = renderer.render((160, 120), backdrop=True)
         assert (pixels[..., 3] == image[0, 0, 3]).mean() > 0.5
+
+
+@pytest.mark.parametrize("shrink", [1.0, 0.6])  # 0.6: the drawing samples the mipmaps
+@pytest.mark.parametrize("translucent", [False, True])
+def test_a_copied_drawing_from_a_texture_of_the_box_it_samples_is_the_whole_images(
+    renderer, monkeypatch, shrink, translucent
+):
+    import app.render.renderer as renderer_module
+
+    image = smooth_image(640, 512, seed=4)
+    if translucent:
+        image[..., 3] = np.random.default_rng(4).integers(1, 256, image.shape[:2])
+    vertices, triangles, _ = ellipse_mesh((300, 260), (120, 90), 9, seed=5)
+    positions = affine(rotation(0.25) * shrink, (40, 20), vertices - (300, 260)) + (300, 260)
+    renderer.set_image(image)
+    renderer.set_mesh(vertices, triangles)
+    renderer.set_positions(positions)
+    boxed = renderer.render((640, 512), backdrop=True)
+    assert renderer._boxed is not None and renderer._boxed.box == (64, 64, 512, 448)
+    monkeypatch.setattr(renderer_module, "sampled_box", lambda *arguments: None)  # the whole image
+    renderer.set_image(image)
+    whole = renderer.render((640, 512), backdrop=True)
+    assert renderer._boxed is None
+    difference = np.abs(boxed.astype(int) - whole)
+    assert difference.max() <= 1  # the texture's coordinate rounded otherwise: a unit, rarely
+    assert (difference.max(axis=2) > 0).mean() < 0.01
+
+
+def test_a_warp_drawn_in_place_is_the_copys_pixels_in_the_images_own_array(renderer):
+    image = smooth_image(200, 160, seed=2)
+    vertices, triangles, _ = ellipse_mesh((100, 80), (60, 45), 6, seed=1)
+    positions = affine(rotation(0.2), (6, -4), vertices - (100, 80)) + (100, 80)
+
+    def drawn(**options):
+        mine = image.copy()
+        renderer.set_image(mine)
+        renderer.set_mesh(vertices, triangles)
+        renderer.set_positions(positions)
+        return mine, renderer.render((200, 160), backdrop=True, **options)
+
+    _, copied = drawn()
+    mine, in_place = drawn(in_place=True)
+    assert in_place is mine
+    np.testing.assert_array_equal(in_place, copied)
+    with pytest.raises(RuntimeError, match="set_image first"):  # the renderer let go of it
+        renderer.render((200, 160), backdrop=True)
+    for options in ({"background": (1.0, 1.0, 1.0, 1.0)}, {"view": View(1.0, (1.0, 0.0))}):
+        mine, pixels = drawn(in_place=True, **options)
+        assert pixels is not mine and np.array_equal(mine, image)  # not the image's frame: a copy
