@@ -13,6 +13,8 @@ from __future__ import annotations
 
 import numpy as np
 
+#: Largest point set whose hull is found in plain Python (`_hull`); larger ones by Qhull.
+PLAIN_HULL_POINTS = 20_000
 # Antipodal vertices searched on either side of the one the angles give: guards the
 # search against rounding in arctan2 where consecutive hull edges are almost parallel.
 _NEIGHBOURS = 2
@@ -57,15 +59,45 @@ def point_set_diameter(points: np.ndarray) -> float:
 
 
 def _hull(points: np.ndarray) -> np.ndarray:
-    """Convex hull vertices (h, 2), counter-clockwise; the two extreme points if degenerate."""
-    from scipy.spatial import ConvexHull, QhullError
+    """Convex hull vertices (h, 2), counter-clockwise; the two extreme points if degenerate.
 
-    try:
-        return points[ConvexHull(points).vertices]
-    except (QhullError, ValueError):
-        # Collinear (or coincident) points: the diameter joins the lexicographic extremes.
-        order = np.lexsort((points[:, 1], points[:, 0]))
-        return points[[order[0], order[-1]]]
+    Up to `PLAIN_HULL_POINTS` points, Andrew's monotone chain over them sorted by (x, y), in plain
+    floats: no scipy.spatial to import (a quarter of a second of a warp's start, for the cage's
+    dense samples); past it, Qhull.
+    """
+    if len(points) > PLAIN_HULL_POINTS:
+        from scipy.spatial import ConvexHull, QhullError
+
+        try:
+            return points[ConvexHull(points).vertices]
+        except (QhullError, ValueError):
+            hull = []
+    else:
+        hull = _chain(points[np.lexsort((points[:, 1], points[:, 0]))].tolist())
+    if len(hull) >= 3:
+        return np.asarray(hull)
+    # Collinear (or coincident) points: the diameter joins the lexicographic extremes.
+    order = np.lexsort((points[:, 1], points[:, 0]))
+    return points[[order[0], order[-1]]]
+
+
+def _chain(ranked: list) -> list:
+    """The convex hull's vertices, counter-clockwise, of points [x, y] sorted by (x, y): lower then
+    upper chain, collinear points left out."""
+
+    def chain(sequence):
+        kept: list = []
+        for x, y in sequence:
+            while len(kept) >= 2:
+                (ax, ay), (bx, by) = kept[-2], kept[-1]
+                if (bx - ax) * (y - ay) - (by - ay) * (x - ax) > 0:
+                    break
+                kept.pop()
+            kept.append((x, y))
+        return kept
+
+    lower, upper = chain(ranked), chain(reversed(ranked))
+    return lower[:-1] + upper[:-1]
 
 
 def _pairwise_maximum(a: np.ndarray, b: np.ndarray) -> float:

@@ -51,3 +51,29 @@ def test_memory_is_linear_for_points_all_on_the_hull():
         tracemalloc.stop()
     assert diameter == 6.0  # the points at angles 0 and pi, exactly
     assert peak < 40 * points.nbytes  # 200 MB: linear in N with a generous constant
+
+
+def test_the_plain_hull_and_qhulls_give_the_same_diameter(monkeypatch):
+    import core.curves.diameter as diameter
+
+    for points in point_sets(seed=8):
+        plain = point_set_diameter(points)
+        monkeypatch.setattr(diameter, "PLAIN_HULL_POINTS", 0)  # Qhull for every set
+        assert point_set_diameter(points) == plain
+        monkeypatch.undo()
+
+
+def test_a_cages_diameter_imports_no_scipy_spatial():
+    import subprocess
+    import sys
+
+    code = (
+        "import sys, numpy as np; from core.curves.diameter import point_set_diameter; "
+        "point_set_diameter(np.random.default_rng(1).normal(size=(5000, 2))); "
+        "print('scipy.spatial' in sys.modules)"
+    )
+    from support.paths import ROOT
+
+    result = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True)
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.strip() == "False"
