@@ -117,18 +117,23 @@ def _run(folder: Path, display: str, script: Path, step_failed) -> dict:
     child = subprocess.Popen(
         command, env=environment, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
     )
-    vertices, stopper = None, None
+    vertices, stopper, proven = None, None, False
 
     def milestone(line: str) -> bool:
-        nonlocal vertices, stopper
+        nonlocal vertices, stopper, proven
         if line.startswith("basis "):
             vertices = re.search(r"vertices=(\d+)", line).group(1)
-        if line.startswith("script done"):  # quit once the release is proven, or after a while
-            stopper = threading.Timer(PROOF_WAIT, child.send_signal, (signal.SIGTERM,))
+        # Quit (SIGTERM: cleanly, printing --stats) once the script is done and its fold-free
+        # release proven, whichever comes last (a quick release's proof may come before the
+        # script's end), or `PROOF_WAIT` after the script if no proof comes.
+        if line.startswith("proven after release"):
+            proven = True
+            if stopper is not None:
+                stopper.cancel()
+                child.send_signal(signal.SIGTERM)
+        elif line.startswith("script done"):
+            stopper = threading.Timer(0.0 if proven else PROOF_WAIT, child.send_signal, (signal.SIGTERM,))
             stopper.start()
-        if line.startswith("proven after release") and stopper is not None:
-            stopper.cancel()
-            child.send_signal(signal.SIGTERM)  # quits cleanly, printing --stats
         return False
 
     try:

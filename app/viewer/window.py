@@ -33,6 +33,7 @@ from app.viewer.documents import OpenedDocument, apply_preferences, open_documen
 from app.viewer.exports import Exporter
 from app.viewer.file_dialogs import FileRequests
 from app.viewer.fold_free import CheckUpdates, CheckWorker
+from app.viewer.message_waker import SignalWaker
 from app.viewer.milestones import Milestones
 from app.viewer.playback_clock import PlaybackClock
 from app.viewer.precompute import Precompute
@@ -124,8 +125,9 @@ class Viewer:
                 # collector's full passes, the frames' collections and the exit skip it (the
                 # collections at exit took ~0.3 s of CPU).
                 gc.freeze()
-                while not self.state.status.quit:
-                    self._frame()
+                with SignalWaker(_initialised_glfw().post_empty_event):  # a SIGTERM ends a sleep
+                    while not self.state.status.quit:
+                        self._frame()
             finally:
                 self._close_window()
         finally:

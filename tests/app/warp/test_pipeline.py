@@ -92,7 +92,9 @@ def test_warp_animate_the_viewer_export_and_quality_share_one_pipeline(tmp_path,
     expected = app.warp.pipeline.prepare(
         core.ClosedBSpline(cage), app.warp.pipeline.WarpSettings(cache=False), study.meshes["picture"]
     )
-    np.testing.assert_array_equal(study.bases["picture", "poisson"], expected.basis)
+    # The same basis but for rounding: one suite run in many, on a loaded machine, differed from the
+    # second computation by 1e-15 (in the last bits of 81 % of the entries).
+    np.testing.assert_allclose(study.bases["picture", "poisson"], expected.basis, rtol=0, atol=1e-14)
 
 
 def test_prepare_uses_the_given_mesh_and_the_default_kernel():
