@@ -134,11 +134,10 @@ class WarpRenderer:
         self._mesh_programs = dict(self._image.mesh_programs)
         for field in self._fields.values():
             self._mesh_programs.update(field.mesh_programs)
-        #: The texture of the whole image (made at the first drawing that samples beyond `_boxed`'s).
-        self._source: SourceImage | None = None
-        #: The texture of the part of the image a copied backdrop's warp samples (`_copied_strips`).
-        self._boxed: SourceImage | None = None
-        self._backdrop_source: SourceImage | None = None  # what the backdrop shows instead (`app.warp.fill`)
+        #: Textures, made at the first drawing that samples them: "image" (the whole image), "box"
+        #: (the part of it a copied backdrop's warp samples, `_copied_strips`), "backdrop" (what the
+        #: backdrop shows instead, `app.warp.fill`).
+        self._textures: dict[str, SourceImage] = {}
         #: The straight pixels of the image and of the backdrop image: `render` copies them, and
         #: uploads what it samples.
         self._host: dict[str, np.ndarray] = {}  # "image", "backdrop"
@@ -186,9 +185,7 @@ class WarpRenderer:
             The size of the source image (`set_image` first; a new source image drops it).
         """
         self.revision += 1
-        if self._backdrop_source is not None:
-            self._backdrop_source.release()
-            self._backdrop_source = None
+        self._release_texture("backdrop")
         self._host.pop("backdrop", None)
         if image is not None:
             image = checked_image(self.ctx, image)
@@ -425,9 +422,9 @@ class WarpRenderer:
         """
         if "image" not in self._host:
             raise RuntimeError("draw_backdrop needs set_image first")
-        if "backdrop" in self._host and self._backdrop_source is None:
-            self._backdrop_source = SourceImage(self.ctx, self._host["backdrop"])
-        self._backdrop.draw(self._backdrop_source or self._whole(), view, viewport_size, opacity)
+        if "backdrop" in self._host and "backdrop" not in self._textures:
+            self._textures["backdrop"] = SourceImage(self.ctx, self._host["backdrop"])
+        self._backdrop.draw(self._textures.get("backdrop") or self._whole(), view, viewport_size, opacity)
 
     def set_overlay(self, segments: np.ndarray, points: np.ndarray) -> None:
         """Set the overlay lines and handles drawn by `draw_overlay` (rewritten in place).
@@ -621,7 +618,7 @@ class WarpRenderer:
         footprint = self._footprint(view, False)
         source = self._sampled_source(footprint)
         mipmaps = footprint > UNSHRUNK_FOOTPRINT  # every level of the whole image's texture
-        if mipmaps and source is self._boxed:
+        if mipmaps and source is self._textures.get("box"):
             mipmaps = mipmap_levels(footprint)  # only those the drawing samples
         # Edges blended in 16 bits for an 8-bit image (a unit of 65535 is far below its rounding),
         # in floats for a 16-bit one.
@@ -685,9 +682,9 @@ class WarpRenderer:
 
     def _whole(self) -> SourceImage:
         """The texture of the whole image, uploaded now if it is not yet."""
-        if self._source is None:
-            self._source = SourceImage(self.ctx, self._host["image"])
-        return self._source
+        if "image" not in self._textures:
+            self._textures["image"] = SourceImage(self.ctx, self._host["image"])
+        return self._textures["image"]
 
     def _sampled_source(self, footprint: float) -> SourceImage:
         """A texture holding what a drawing of the mesh samples where one output pixel steps over
@@ -697,11 +694,10 @@ class WarpRenderer:
         box = sampled_box(self._mesh.vertices, self._image_size, footprint)
         if box is None or box == (0, 0, *self._image_size):
             return self._whole()
-        if self._boxed is None or self._boxed.box != box:
-            if self._boxed is not None:
-                self._boxed.release()
-            self._boxed = SourceImage(self.ctx, self._host["image"], box)
-        return self._boxed
+        if "box" not in self._textures or self._textures["box"].box != box:
+            self._release_texture("box")
+            self._textures["box"] = SourceImage(self.ctx, self._host["image"], box)
+        return self._textures["box"]
 
     # -- lifetime -----------------------------------------------------------
 
@@ -776,17 +772,15 @@ class WarpRenderer:
 
     def _release_image(self) -> None:
         self._backdrop.release()
-        self._release_boxed()
-        for source in (self._source, self._backdrop_source):
-            if source is not None:
-                source.release()
-        self._source = self._backdrop_source = None
+        for kind in list(self._textures):
+            self._release_texture(kind)
         self._host = {}
 
-    def _release_boxed(self) -> None:
-        if self._boxed is not None:
-            self._boxed.release()
-        self._boxed = None
+    def _release_texture(self, kind: str) -> None:
+        """Free the texture `kind` (a key of ``_textures``), if there is one."""
+        texture = self._textures.pop(kind, None)
+        if texture is not None:
+            texture.release()
 
     def _release_target(self, kind=None) -> None:
         """Free the framebuffers of `kind` (a key of ``_target``), or of every kind."""

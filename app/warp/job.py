@@ -105,8 +105,8 @@ class WarpJob:
     Attributes
     ----------
     image : ndarray of shape (H, W, 4), uint8 or uint16, or None
-        The source image, RGBA; None once `run_job` has uploaded it (a 100-megapixel input is
-        not held twice).
+        The source image, RGBA; None once `run_job` has given it to the renderer (which draws a
+        still into it: a 100-megapixel input is not held twice).
     image_path : Path
     curve : core.ClosedBSpline
         The source cage.
@@ -132,6 +132,9 @@ class WarpJob:
         (``warp``'s); both written by `app.warp.pipeline.write_frames`.
     fps : float
         Frames per second of an animation (0 for one image).
+    mesh : core.Mesh or None
+        The source cage's mesh at the job's mesh size, if made while the image was read
+        (`warp_job`); None: `run_job` makes it.
     """
 
     image: np.ndarray
@@ -148,14 +151,7 @@ class WarpJob:
     file: OutputFile | None
     kind: str
     fps: float = 0.0
-    #: (width, height) of the source image, kept when the image is released.
-    image_size: tuple[int, int] = (0, 0)
-    #: The source cage's mesh at the job's mesh size, if made while the image was read (`warp_job`).
-    mesh: object = None
-
-    def __post_init__(self) -> None:
-        if self.image is not None:
-            self.image_size = width_height(self.image)
+    mesh: object = None  # core.Mesh (core is imported when a job runs)
 
 
 def session_inputs(session: Session, path: Path, kernel: str | None = None) -> WarpInputs:
@@ -346,7 +342,7 @@ def run_job(job: WarpJob, target_source: str | None = None, report: bool = False
 
     run = _STILL if job.kind == "image" else _FRAMES  # the one place the kind of job is read
     # The GL context comes first: without one there is no point in the long precompute.
-    require_render_memory(job.image_size, job.size, context=True)
+    require_render_memory(width_height(job.image), job.size, context=True)
     ctx = create_headless_context()
     lines: list[str] = []
     steps = None

@@ -421,11 +421,11 @@ def test_a_copied_drawing_from_a_texture_of_the_box_it_samples_is_the_whole_imag
     renderer.set_mesh(vertices, triangles)
     renderer.set_positions(positions)
     boxed = renderer.render((640, 512), backdrop=True)
-    assert renderer._boxed is not None and renderer._boxed.box == (64, 64, 512, 448)
+    assert renderer._textures["box"].box == (64, 64, 512, 448)
     monkeypatch.setattr(renderer_module, "sampled_box", lambda *arguments: None)  # the whole image
     renderer.set_image(image)
     whole = renderer.render((640, 512), backdrop=True)
-    assert renderer._boxed is None
+    assert "box" not in renderer._textures
     difference = np.abs(boxed.astype(int) - whole)
     assert difference.max() <= 1  # the texture's coordinate rounded otherwise: a unit, rarely
     assert (difference.max(axis=2) > 0).mean() < 0.01
