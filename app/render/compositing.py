@@ -258,24 +258,34 @@ def texel_footprint(
     Returns
     -------
     float
-        max over triangles of the longer column of J^-1, J the triangle's affine map from image
-        to output pixels; infinite where a triangle collapses.
+        max over triangles of `texel_footprints`; 0 without triangles.
     """
+    footprints = texel_footprints(vertices, positions, triangles, scale)
+    return float(footprints.max()) if len(footprints) else 0.0
+
+
+def texel_footprints(
+    vertices: np.ndarray, positions: np.ndarray, triangles: np.ndarray, scale: float
+) -> np.ndarray:
+    """`texel_footprint` of each triangle: ndarray (T,), the longer column of J^-1, J the triangle's
+    affine map from image to output pixels; infinite where a triangle collapses."""
     corners = vertices[triangles].astype(np.float64)
     moved = positions[triangles].astype(np.float64) * scale
     source = np.stack([corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]], axis=2)
     drawn = np.stack([moved[:, 1] - moved[:, 0], moved[:, 2] - moved[:, 0]], axis=2)
     if not len(triangles):
-        return 0.0
+        return np.zeros(0)
     determinant = drawn[:, 0, 0] * drawn[:, 1, 1] - drawn[:, 0, 1] * drawn[:, 1, 0]
-    if np.any(np.abs(determinant) <= 1e-12 * np.abs(drawn).max(axis=(1, 2)) ** 2):
-        return float("inf")
+    collapsed = np.abs(determinant) <= 1e-12 * np.abs(drawn).max(axis=(1, 2)) ** 2
+    determinant[collapsed] = 1.0
     inverse = np.empty_like(drawn)
     inverse[:, 0, 0], inverse[:, 1, 1] = drawn[:, 1, 1], drawn[:, 0, 0]
     inverse[:, 0, 1], inverse[:, 1, 0] = -drawn[:, 0, 1], -drawn[:, 1, 0]
     inverse /= determinant[:, None, None]
     steps = source @ inverse  # columns: image pixels per output pixel along x and along y
-    return float(np.sqrt((steps**2).sum(axis=1)).max())
+    footprints = np.sqrt((steps**2).sum(axis=1)).max(axis=1)
+    footprints[collapsed] = np.inf
+    return footprints
 
 
 def _premultiplied(image: np.ndarray) -> np.ndarray:

@@ -37,7 +37,7 @@ from app.render.compositing import (
     mipmap_levels,
     sampled_box,
     straight,
-    texel_footprint,
+    texel_footprints,
     warp_laid,
     warp_over,
 )
@@ -374,10 +374,12 @@ class WarpRenderer:
         preview=False,
         sampling=(True, False, False),
         source=None,
+        shrinking=None,
     ) -> None:
         """`draw` with the triangles in ``order``: "screen" (fastest) or "caller" (as given to `set_mesh`);
-        `sampling` is ``(mipmaps, snap, coverage)`` of `ImagePass.draw_image`, `source` the texture
-        drawn (a `SourceImage` of the image; the whole image's if None)."""
+        `sampling` is ``(mipmaps, snap, coverage)`` and `shrinking` the triangles drawn through the
+        mipmaps of `ImagePass.draw_image`, `source` the texture drawn (a `SourceImage` of the image;
+        the whole image's if None)."""
         self._require_mesh()
         if preview:
             self._require_preview()
@@ -403,6 +405,7 @@ class WarpRenderer:
                 mipmaps=mipmaps,
                 snap=snap,
                 coverage=coverage,
+                shrinking=shrinking if order == "caller" and not preview else None,
             )
         elif content in self._fields:
             self._fields[content].draw(mesh, order, view, viewport_size)
@@ -615,7 +618,8 @@ class WarpRenderer:
         small = (min(tile[0], COPIED_TILE), min(tile[1], COPIED_TILE))
         edge = (min(small[0], EDGE_TILE), min(small[1], EDGE_TILE))
         what = ("image", False, False, False)
-        footprint = self._footprint(view, False)
+        footprints = self._footprints(view)
+        footprint = float(footprints.max())
         source = self._sampled_source(footprint)
         mipmaps = footprint > UNSHRUNK_FOOTPRINT  # every level of the whole image's texture
         if mipmaps and source is self._textures.get("box"):
@@ -637,6 +641,9 @@ class WarpRenderer:
         outline = None  # folds put edges anywhere
         if not self._mesh.may_fold(positions):
             outline = positions[self._mesh.boundary_edges] * view.scale + np.asarray(offset, np.float32)
+            # No triangles overlap: those that shrink nothing are drawn without the mipmaps.
+            for drawing in (edged, *plain.values()):
+                drawing.shrinking = footprints > UNSHRUNK_FOOTPRINT
         for top in range(0, height, tile[1]):
             count = min(tile[1], height - top)
             strip = np.empty((count, width, 4), dtype) if into is None else into[top : top + count]
@@ -671,9 +678,15 @@ class WarpRenderer:
         mesh = self._mesh
         if mesh is None or "image" not in self._host:
             return float("inf")  # nothing to draw: `_draw` says what is missing
-        vertices = mesh.vertices[mesh.order]
-        footprint = texel_footprint(vertices, self._ordered_positions(), mesh.triangle_indices, view.scale)
+        footprint = float(self._footprints(view).max())
         return max(footprint, 1.0 / view.scale) if backdrop else footprint
+
+    def _footprints(self, view: View) -> np.ndarray:
+        """`app.render.compositing.texel_footprints` of the mesh's triangles (T,), in the caller's
+        order, through `view`."""
+        mesh = self._mesh
+        vertices = mesh.vertices[mesh.order]
+        return texel_footprints(vertices, self._ordered_positions(), mesh.triangle_indices, view.scale)
 
     def _needs_mipmaps(self, view: View, backdrop: bool) -> bool:
         """Whether a drawing through `view` (and of the whole image, with `backdrop`) shrinks the image
@@ -850,6 +863,7 @@ class _Drawing:
             # level; a number: the levels the drawing samples.
             (source or renderer._whole()).build_mipmaps(None if mipmaps is True else mipmaps)
         self.sampling = (bool(mipmaps), bool(view.scale == 1))
+        self.shrinking = None  # the triangles drawn through the mipmaps, if not every one
 
     def tile(self, left: int, top: int, background, coverage: bool = False) -> np.ndarray:
         """The tile whose top-left output pixel is (`left`, `top`) drawn over `background` (straight
@@ -864,7 +878,15 @@ class _Drawing:
         if self.backdrop:
             self.renderer.draw_backdrop(shifted, self.size)
         sampling = (*self.sampling, coverage)
-        self.renderer._draw(shifted, self.size, "caller", *self.what, sampling=sampling, source=self.source)
+        self.renderer._draw(
+            shifted,
+            self.size,
+            "caller",
+            *self.what,
+            sampling=sampling,
+            source=self.source,
+            shrinking=self.shrinking,
+        )
         if smooth:
             self.renderer.ctx.copy_framebuffer(self.resolved, self.multisample)
         self.resolved.read_into(

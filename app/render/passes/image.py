@@ -4,6 +4,7 @@ mesh: the triangles it folds over (found on the GPU), chosen triangles, its edge
 from __future__ import annotations
 
 import moderngl
+import numpy as np
 
 from app.render.passes.gl_state import premultiplied_blending, set_view
 from app.render.passes.mesh_buffers import MeshBuffers
@@ -68,6 +69,7 @@ class ImagePass:
         mipmaps: bool = True,
         snap: bool = False,
         coverage: bool = False,
+        shrinking: np.ndarray | None = None,
     ) -> None:
         """Draw `mesh` textured with `source` into the bound framebuffer.
 
@@ -87,14 +89,27 @@ class ImagePass:
         coverage : bool
             Draw, instead of the image, how much of each pixel it covers in every channel (the alpha
             an opaque image would have: ``image.frag.glsl``).
+        shrinking : ndarray of shape (T,), bool, optional
+            With `mipmaps` and the caller's order: the triangles that shrink the image, drawn
+            through the mipmaps, the others (which sample level 0 alone there too) bilinearly, the
+            cheaper filter: the same pixels where no triangles overlap (`MeshBuffers.chosen_first`).
         """
         set_view((self.textured_program,), view, viewport_size)
         premultiplied_blending(self._ctx)
-        source.bind(self.textured_program, mipmaps)
         self.textured_program["u_opacity"].value = 1.0
         self.textured_program["u_snap"].value = snap
         self.textured_program["u_coverage"].value = coverage
-        mesh.vaos[order]["image"].render()
+        if shrinking is None or not mipmaps:
+            source.bind(self.textured_program, mipmaps)
+            mesh.vaos[order]["image"].render()
+        else:
+            vao, count = mesh.chosen_first(shrinking)
+            total = 3 * len(shrinking)
+            for first, vertices, filtered in ((0, 3 * count, True), (3 * count, total - 3 * count, False)):
+                if vertices:
+                    source.bind(self.textured_program, filtered)
+                    vao.render(vertices=vertices, first=first)
+                    source.unbind()
         self.textured_program["u_snap"].value = False
         self.textured_program["u_coverage"].value = False
         source.unbind()

@@ -96,7 +96,8 @@ class MeshBuffers:
         self.highlight_count = 0
         self.has_field = False
         self._outline_program = outline_program
-        #: What is derived from the mesh on first use: "fold_margins" (`FoldMargins`), "boundary".
+        #: What is derived from the mesh on first use: "fold_margins" (`FoldMargins`), "boundary",
+        #: "chosen_first" (`chosen_first`'s index buffer and vertex array).
         self._derived: dict = {}
         self._edge_vao: moderngl.VertexArray | None = None
         self.positions = ctx.buffer(vertices[order].astype("f4").tobytes(), dynamic=True)
@@ -177,6 +178,26 @@ class MeshBuffers:
             unique, counts = np.unique(edges, axis=0, return_counts=True)
             self._derived["boundary"] = unique[counts == 1]
         return self._derived["boundary"]
+
+    def chosen_first(self, chosen: np.ndarray) -> tuple[moderngl.VertexArray, int]:
+        """The image pass's vertex array over the caller's triangles, in their order but those of
+        `chosen` (bool (T,)) first, and how many those are (its buffer rewritten at each call).
+        Only where no triangles overlap (no folds) is it drawn as the caller's order is."""
+        if "chosen_first" not in self._derived:
+            ctx = self.positions.ctx
+            program = self.vaos["caller"]["image"].program
+            indices = ctx.buffer(reserve=self.triangle_indices.nbytes, dynamic=True)
+            vao = ctx.vertex_array(
+                program,
+                [(self.positions, "2f", "in_position"), (self.uv, "2f", "in_uv")],
+                index_buffer=indices,
+            )
+            self._objects += [vao, indices]
+            self._derived["chosen_first"] = (indices, vao)
+        indices, vao = self._derived["chosen_first"]
+        order = np.concatenate([np.flatnonzero(chosen), np.flatnonzero(~chosen)])
+        indices.write(np.ascontiguousarray(self.triangle_indices[order]))
+        return vao, int(np.count_nonzero(chosen))
 
     def edge_vao(self) -> moderngl.VertexArray:
         """The edges' vertex array, built on first use (0.5 s for a 400k-vertex mesh)."""

@@ -17,6 +17,7 @@ from app.render.compositing import (
     narrowed,
     sampled_box,
     texel_footprint,
+    texel_footprints,
     warp_laid,
     warp_over,
 )
@@ -215,3 +216,17 @@ def test_the_sampled_box_reaches_past_every_filter_on_a_grid_of_its_margin():
     assert [mipmap_levels(footprint) for footprint in (1.0, 1.5, 2.0, 3.9, 8.0)] == [2, 2, 3, 3, 5]
     reach = 0.71 * 8.0 + 1.5 * 2 ** mipmap_levels(8.0)
     assert reach < 64
+
+
+def test_texel_footprints_are_each_triangles_and_their_maximum_the_footprint():
+    vertices = np.array([[0.0, 0.0], [4.0, 0.0], [0.0, 4.0], [4.0, 4.0]])
+    triangles = np.array([[0, 1, 2], [1, 3, 2]])
+    moved = vertices.copy()
+    moved[3] = (2.0, 2.0)  # the second triangle flattened to a line: collapsed
+    np.testing.assert_allclose(
+        texel_footprints(vertices, vertices * 0.5, triangles, 1.0), [2.0, 2.0], atol=1e-12
+    )
+    footprints = texel_footprints(vertices, moved, triangles, 1.0)
+    assert footprints[0] == pytest.approx(1.0, abs=1e-12) and footprints[1] == float("inf")
+    assert texel_footprint(vertices, moved, triangles, 1.0) == float("inf")
+    assert texel_footprint(vertices, vertices, triangles[:0], 1.0) == 0.0
