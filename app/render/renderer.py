@@ -374,12 +374,12 @@ class WarpRenderer:
         preview=False,
         sampling=(True, False, False),
         source=None,
-        shrinking=None,
+        split=None,
     ) -> None:
         """`draw` with the triangles in ``order``: "screen" (fastest) or "caller" (as given to `set_mesh`);
-        `sampling` is ``(mipmaps, snap, coverage)`` and `shrinking` the triangles drawn through the
-        mipmaps of `ImagePass.draw_image`, `source` the texture drawn (a `SourceImage` of the image;
-        the whole image's if None)."""
+        `sampling` is ``(mipmaps, snap, coverage)`` and `split` the triangles drawn through the
+        mipmaps and those that may show, of `ImagePass.draw_image`, `source` the texture drawn (a
+        `SourceImage` of the image; the whole image's if None)."""
         self._require_mesh()
         if preview:
             self._require_preview()
@@ -405,7 +405,7 @@ class WarpRenderer:
                 mipmaps=mipmaps,
                 snap=snap,
                 coverage=coverage,
-                shrinking=shrinking if order == "caller" and not preview else None,
+                split=split if order == "caller" and not preview else None,
             )
         elif content in self._fields:
             self._fields[content].draw(mesh, order, view, viewport_size)
@@ -641,9 +641,12 @@ class WarpRenderer:
         outline = None  # folds put edges anywhere
         if not self._mesh.may_fold(positions):
             outline = positions[self._mesh.boundary_edges] * view.scale + np.asarray(offset, np.float32)
-            # No triangles overlap: those that shrink nothing are drawn without the mipmaps.
+            # No triangles overlap: those that shrink nothing are drawn without the mipmaps, and
+            # each tile draws those that may show in it.
+            corners = positions[self._mesh.triangle_indices] * view.scale + np.asarray(offset, np.float32)
+            extents = np.concatenate([corners.min(axis=1), corners.max(axis=1)], axis=1)  # (T, 4)
             for drawing in (edged, *plain.values()):
-                drawing.shrinking = footprints > UNSHRUNK_FOOTPRINT
+                drawing.triangles = (footprints > UNSHRUNK_FOOTPRINT, extents)
         for top in range(0, height, tile[1]):
             count = min(tile[1], height - top)
             strip = np.empty((count, width, 4), dtype) if into is None else into[top : top + count]
@@ -863,7 +866,9 @@ class _Drawing:
             # level; a number: the levels the drawing samples.
             (source or renderer._whole()).build_mipmaps(None if mipmaps is True else mipmaps)
         self.sampling = (bool(mipmaps), bool(view.scale == 1))
-        self.shrinking = None  # the triangles drawn through the mipmaps, if not every one
+        #: (shrinking (T,), extents (T, 4): each triangle's box in output pixels), when no
+        #: triangles overlap: the drawing splits the mesh (`ImagePass.draw_image`); None: it does not.
+        self.triangles = None
 
     def tile(self, left: int, top: int, background, coverage: bool = False) -> np.ndarray:
         """The tile whose top-left output pixel is (`left`, `top`) drawn over `background` (straight
@@ -878,15 +883,15 @@ class _Drawing:
         if self.backdrop:
             self.renderer.draw_backdrop(shifted, self.size)
         sampling = (*self.sampling, coverage)
-        self.renderer._draw(
-            shifted,
-            self.size,
-            "caller",
-            *self.what,
-            sampling=sampling,
-            source=self.source,
-            shrinking=self.shrinking,
-        )
+        split = None
+        if self.triangles is not None:
+            shrinking, extents = self.triangles
+            right, bottom = left + self.size[0], top + self.size[1]
+            shown = (extents[:, 2] >= left - 1) & (extents[:, 0] <= right + 1)
+            shown &= (extents[:, 3] >= top - 1) & (extents[:, 1] <= bottom + 1)
+            split = (shrinking, shown)
+        what = dict(sampling=sampling, source=self.source, split=split)
+        self.renderer._draw(shifted, self.size, "caller", *self.what, **what)
         if smooth:
             self.renderer.ctx.copy_framebuffer(self.resolved, self.multisample)
         self.resolved.read_into(

@@ -69,7 +69,7 @@ class ImagePass:
         mipmaps: bool = True,
         snap: bool = False,
         coverage: bool = False,
-        shrinking: np.ndarray | None = None,
+        split: tuple[np.ndarray, np.ndarray] | None = None,
     ) -> None:
         """Draw `mesh` textured with `source` into the bound framebuffer.
 
@@ -89,26 +89,28 @@ class ImagePass:
         coverage : bool
             Draw, instead of the image, how much of each pixel it covers in every channel (the alpha
             an opaque image would have: ``image.frag.glsl``).
-        shrinking : ndarray of shape (T,), bool, optional
-            With `mipmaps` and the caller's order: the triangles that shrink the image, drawn
-            through the mipmaps, the others (which sample level 0 alone there too) bilinearly, the
-            cheaper filter: the same pixels where no triangles overlap (`MeshBuffers.chosen_first`).
+        split : tuple of two ndarray of shape (T,), bool, optional
+            (shrinking, shown), for the caller's triangles where none overlap: those that shrink the
+            image, drawn through the mipmaps if `mipmaps` (the others sample level 0 alone there
+            too, and are drawn bilinearly, the cheaper filter), and those that may show in the
+            viewport (the others are left out: a software rasteriser sets up every triangle it is
+            given).  The same pixels as one drawing of the mesh (`MeshBuffers.chosen_first`).
         """
         set_view((self.textured_program,), view, viewport_size)
         premultiplied_blending(self._ctx)
         self.textured_program["u_opacity"].value = 1.0
         self.textured_program["u_snap"].value = snap
         self.textured_program["u_coverage"].value = coverage
-        if shrinking is None or not mipmaps:
+        if split is None:
             source.bind(self.textured_program, mipmaps)
             mesh.vaos[order]["image"].render()
         else:
-            vao, count = mesh.chosen_first(shrinking)
-            total = 3 * len(shrinking)
-            for first, vertices, filtered in ((0, 3 * count, True), (3 * count, total - 3 * count, False)):
-                if vertices:
+            shrinking, shown = split
+            vao, count, total = mesh.chosen_first(shrinking, shown)
+            for first, last, filtered in ((0, count, mipmaps), (count, total, False)):
+                if last > first:
                     source.bind(self.textured_program, filtered)
-                    vao.render(vertices=vertices, first=first)
+                    vao.render(vertices=3 * (last - first), first=3 * first)
                     source.unbind()
         self.textured_program["u_snap"].value = False
         self.textured_program["u_coverage"].value = False

@@ -179,10 +179,11 @@ class MeshBuffers:
             self._derived["boundary"] = unique[counts == 1]
         return self._derived["boundary"]
 
-    def chosen_first(self, chosen: np.ndarray) -> tuple[moderngl.VertexArray, int]:
-        """The image pass's vertex array over the caller's triangles, in their order but those of
-        `chosen` (bool (T,)) first, and how many those are (its buffer rewritten at each call).
-        Only where no triangles overlap (no folds) is it drawn as the caller's order is."""
+    def chosen_first(self, chosen: np.ndarray, kept: np.ndarray) -> tuple[moderngl.VertexArray, int, int]:
+        """The image pass's vertex array over the caller's triangles of `kept` (bool (T,)), in
+        their order but those of `chosen` (bool (T,)) first, how many those are and how many in
+        all (its buffer rewritten at each call).  Only where no triangles overlap (no folds) is it
+        drawn as the caller's order is."""
         if "chosen_first" not in self._derived:
             ctx = self.positions.ctx
             program = self.vaos["caller"]["image"].program
@@ -195,9 +196,10 @@ class MeshBuffers:
             self._objects += [vao, indices]
             self._derived["chosen_first"] = (indices, vao)
         indices, vao = self._derived["chosen_first"]
-        order = np.concatenate([np.flatnonzero(chosen), np.flatnonzero(~chosen)])
-        indices.write(np.ascontiguousarray(self.triangle_indices[order]))
-        return vao, int(np.count_nonzero(chosen))
+        first, rest = np.flatnonzero(chosen & kept), np.flatnonzero(kept & ~chosen)
+        if len(first) + len(rest):
+            indices.write(np.ascontiguousarray(self.triangle_indices[np.concatenate([first, rest])]))
+        return vao, len(first), len(first) + len(rest)
 
     def edge_vao(self) -> moderngl.VertexArray:
         """The edges' vertex array, built on first use (0.5 s for a 400k-vertex mesh)."""
