@@ -545,9 +545,14 @@ def _require_overlap(curve, image_size: tuple[int, int], source: str) -> None:
     if high[0] <= 0 or high[1] <= 0 or low[0] >= width or low[1] >= height:
         covered = 0
     else:
-        mask = np.zeros((height, width), dtype=np.uint8)
+        # Only the pixels of the outline's box can be covered: a mask of those alone (not one byte
+        # per pixel of a 100-megapixel image), its corner (left, top).
+        left, top = max(int(np.floor(low[0])) - 1, 0), max(int(np.floor(low[1])) - 1, 0)
+        right, bottom = min(int(np.ceil(high[0])) + 1, width), min(int(np.ceil(high[1])) + 1, height)
+        mask = np.zeros((bottom - top, right - left), dtype=np.uint8)
         # Pixel (i, j) has its centre at (i + 0.5, j + 0.5); fillPoly samples integer points.
-        cv2.fillPoly(mask, [np.round((outline - 0.5) * 16).astype(np.int32)], 1, shift=4)
+        points = np.round((outline - 0.5) * 16).astype(np.int32) - 16 * np.array([left, top], np.int32)
+        cv2.fillPoly(mask, [points], 1, shift=4)
         covered = int(np.count_nonzero(mask))
     if covered == 0:
         raise InputError(

@@ -31,3 +31,14 @@ def test_a_bad_picture_is_named_before_a_bad_cage_and_a_cage_the_mesher_refuses_
     code, _, err = run_main(warp_argv(files, **{"--max-edge": 1e-9}), capfd)  # the mesher refuses it
     assert code != 0 and "cage.json: meshing" in err
     assert not (files / "out.png").exists()
+
+
+def test_a_cage_covering_one_pixel_centre_at_the_images_edge_is_on_it_and_one_past_it_is_off(files, capfd):
+    # A thin triangle over the centre of pixel (159, 60), the last column, and one past it.
+    on = [[159.3, 59.0], [159.7, 59.0], [159.7, 62.0], [159.3, 62.0]]
+    off = [[160.1, 59.0], [160.9, 59.0], [160.9, 62.0], [160.1, 62.0]]
+    for points, refused in ((on, False), (off, True)):
+        (files / "thin.json").write_text(json.dumps({"control_points": points}))
+        thin = files / "thin.json"
+        code, _, err = run_main(warp_argv(files, **{"--cage": thin, "--target": thin}), capfd)
+        assert ("lies entirely outside" in err) == refused, err
