@@ -91,7 +91,24 @@ def random_polygon_points(seed: int) -> np.ndarray:
     return x
 
 
-@pytest.mark.parametrize("seed", [0, 5, 6, 8, 12, 13, 17, 29, 45, 88, 93, 147, 369, 496, 559, 636, 645, 760])
+#: Seeds of `test_random_polygons_with_sharp_corners`: each a cage that once missed its bounds.
+SHARP_SEEDS = [0, 5, 6, 8, 12, 13, 17, 29, 45, 88, 93, 147, 369, 496, 559, 636, 645, 760]
+#: Seeds run on the compiled path alone: seed 636's 1.8° wedge took 8.8 s on the numpy path (3.7 s
+#: compiled), and both paths share the panels, grading and splits these seeds' fixes are in (the
+#: two layers' equality: tests/core/boundary_integrals/test_compiled_integrals.py).
+COMPILED_ONLY = {636}
+
+
+@pytest.mark.parametrize(
+    "seed, layer_path",
+    [
+        (seed, path)
+        for seed in SHARP_SEEDS
+        for path in ("numpy", "compiled")
+        if not (path == "numpy" and seed in COMPILED_ONLY)
+    ],
+    indirect=["layer_path"],
+)
 def test_random_polygons_with_sharp_corners(seed, layer_path):
     # Each sharp corner's compressed block holds its two panels and one more on each side
     # (poisson.widened_at_corners), and thin parts are split at twice their distance: with the
