@@ -11,8 +11,8 @@ from core.curves import examples
 pytest_plugins = ("support.viewer_harness",)
 
 #: The test files that take longest, longest first (their time in one run of the suite on a quiet
-#: machine, core compiled beforehand: 92 s down to 3 s, 426 s for all on the two workers). `.ci/run` hands
-#: whole files to its two workers in collection order (``--dist loadfile --no-loadscope-reorder``):
+#: machine, core compiled beforehand: 92 s down to 3 s, 426 s for all on two workers). `.ci/run` hands
+#: whole files to its three workers in collection order (``--dist loadfile --no-loadscope-reorder``):
 #: started first, the long files end with the short ones instead of one worker finishing a long
 #: file alone. Files not named follow, in path order.
 LONGEST_FIRST = (
