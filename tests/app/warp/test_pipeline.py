@@ -16,6 +16,32 @@ from app.viewer.scene import Scene
 from app.viewer.state import AppState, Document, History, Snapshot
 
 MAX_EDGE = 9.0
+#: The picture's cage and its target, of every test but the fold-free ones.
+CAGE_POINTS, MOVED = np.array(CAGE, dtype=float), transformed(CAGE)
+
+
+def write_session(folder, **fields) -> None:
+    """Write ``picture.png`` and ``session.json`` into `folder`: the picture, `CAGE_POINTS` moved to
+    `MOVED`, the default kernel, seen at scale 1, with `fields` added or replaced."""
+    write_png(folder / "picture.png", picture())
+    session = {
+        "image": "picture.png",
+        "cage": {"control_points": CAGE_POINTS.tolist()},
+        "target": {"control_points": MOVED.tolist()},
+        "kernel": "poisson",
+        "view": {"scale": 1.0, "offset": [0, 0]},
+        **fields,
+    }
+    (folder / "session.json").write_text(json.dumps(session))
+
+
+def viewer_state(snapshot: Snapshot, image: np.ndarray, folder, max_edge: float = MAX_EDGE) -> AppState:
+    """The viewer's state of `snapshot` over `image`, its session in `folder`, its basis computed by
+    the precompute worker's function."""
+    request = make_request(snapshot, max_edge)
+    state = AppState(Document(History(snapshot), snapshot, image, folder / "s.json"))
+    state.compute.basis = result_from_message(request.key, compute(request))
+    return state
 
 
 @pytest.fixture(autouse=True)
@@ -39,17 +65,9 @@ def spied(monkeypatch):
 
 
 def test_warp_animate_the_viewer_export_and_quality_share_one_pipeline(tmp_path, capfd, renderer, spied):
-    write_png(tmp_path / "picture.png", picture())
-    cage, moved = np.array(CAGE, dtype=float), transformed(CAGE)
-    session = {
-        "image": "picture.png",
-        "cage": {"control_points": cage.tolist()},
-        "target": {"control_points": moved.tolist()},
-        "kernel": "poisson",
-        "view": {"scale": 1.0, "offset": [0, 0]},
-        "keyframes": [{"time": t, "target": {"control_points": moved.tolist()}} for t in (0.0, 1.0)],
-    }
-    (tmp_path / "session.json").write_text(json.dumps(session))
+    cage, moved = CAGE_POINTS, MOVED
+    keyframes = [{"time": t, "target": {"control_points": moved.tolist()}} for t in (0.0, 1.0)]
+    write_session(tmp_path, keyframes=keyframes)
     limit = ["--max-edge", str(MAX_EDGE)]
 
     warp_argv = ["warp", "--session", tmp_path / "session.json", "--output", tmp_path / "warp.png", *limit]
@@ -66,18 +84,14 @@ def test_warp_animate_the_viewer_export_and_quality_share_one_pipeline(tmp_path,
         np.testing.assert_array_equal(read_image(frame), warped)
 
     # The viewer: its worker's precompute, its scene, and the export of the current target.
-    snapshot = Snapshot(tmp_path / "picture.png", cage, moved)
-    request = make_request(snapshot, MAX_EDGE)
-    state = AppState(Document(History(snapshot), snapshot, picture(), tmp_path / "s.json"))
-    state.compute.basis = result_from_message(request.key, compute(request))
+    state = viewer_state(Snapshot(tmp_path / "picture.png", cage, moved), picture(), tmp_path)
+    key = state.compute.basis.key
     state.selection.edit_mode = "deform"
     # warp and animate made their own GL contexts current and released them: the fixture's
     # renderer draws in its own context again, made current for the viewer's part (then restored).
     with renderer.ctx:
         scene = Scene(renderer)
-        exporter = Exporter(
-            state, scene, lambda s: s.compute.basis.key == request.key, None, 30.0, print, None
-        )
+        exporter = Exporter(state, scene, lambda s: s.compute.basis.key == key, None, 30.0, print, None)
         scene.sync(state)
         np.testing.assert_array_equal(exporter.render_still(), warped)
     assert spied[6:] == ["prepare", "render"]
@@ -146,10 +160,7 @@ def test_the_viewers_fold_free_export_is_warps_fold_free_session(tmp_path, capfd
     warped = read_image(tmp_path / "warp.png")
 
     snapshot = Snapshot(ASSETS / "starfish.png", STARFISH, target, fold_free=True)
-    request = make_request(snapshot, 12.0)
-    image = read_image(ASSETS / "starfish.png")
-    state = AppState(Document(History(snapshot), snapshot, image, tmp_path / "s.json"))
-    state.compute.basis = result_from_message(request.key, compute(request))
+    state = viewer_state(snapshot, read_image(ASSETS / "starfish.png"), tmp_path, max_edge=12.0)
     ctx = create_headless_context()  # as warp's: its own, made after warp released its own
     try:
         with WarpRenderer(ctx) as renderer:
@@ -170,11 +181,8 @@ def test_the_viewers_background_is_saved_and_drawn_as_warp_draws_it(tmp_path, ca
     from app.viewer.documents import restore, save
 
     write_png(tmp_path / "picture.png", picture())
-    cage, moved = np.array(CAGE, dtype=float), transformed(CAGE)
-    snapshot = Snapshot(tmp_path / "picture.png", cage, moved)
-    request = make_request(snapshot, MAX_EDGE)
-    state = AppState(Document(History(snapshot), snapshot, picture(), tmp_path / "s.json"))
-    state.compute.basis = result_from_message(request.key, compute(request))
+    state = viewer_state(Snapshot(tmp_path / "picture.png", CAGE_POINTS, MOVED), picture(), tmp_path)
+    key = state.compute.basis.key
     commands.command(state, "background", "mauve")
     assert state.status.message_is_error and state.document.background == "none"
     commands.command(state, "background", "#0000ff")
@@ -185,9 +193,7 @@ def test_the_viewers_background_is_saved_and_drawn_as_warp_draws_it(tmp_path, ca
     # An earlier test's warp made its own context current and released it: this one is made current.
     with ctx, WarpRenderer(ctx) as renderer:
         scene = Scene(renderer)
-        exporter = Exporter(
-            state, scene, lambda s: s.compute.basis.key == request.key, None, 30.0, print, None
-        )
+        exporter = Exporter(state, scene, lambda s: s.compute.basis.key == key, None, 30.0, print, None)
         scene.sync(state)
         exported = exporter.render_still()
     assert (exported[..., 3] == 255).all() and (exported == [0, 0, 255, 255]).all(axis=2).any()
@@ -211,27 +217,13 @@ def test_the_viewers_still_export_of_a_large_picture_is_warps_file_byte_for_byte
     # Every output counts as large: drawn and compressed strip by strip by both (issue 48 item 5).
     monkeypatch.setattr("app.warp.pipeline.STREAMED_PIXELS", 0)
     monkeypatch.setattr("app.render.renderer.STRIP_ROWS", 16)
-    write_png(tmp_path / "picture.png", picture())
-    cage, moved = np.array(CAGE, dtype=float), transformed(CAGE)
-    session = {
-        "image": "picture.png",
-        "cage": {"control_points": cage.tolist()},
-        "target": {"control_points": moved.tolist()},
-        "kernel": "poisson",
-        "view": {"scale": 1.0, "offset": [0, 0]},
-        "mesh": {"max_edge": MAX_EDGE},
-        "outside": outside,
-    }
-    (tmp_path / "session.json").write_text(json.dumps(session))
+    write_session(tmp_path, mesh={"max_edge": MAX_EDGE}, outside=outside)
     argv = ["warp", "--session", tmp_path / "session.json", "--output", tmp_path / "warp.png"]
     code, _, err = run_main(argv, capfd)
     assert code == 0, err
 
-    snapshot = Snapshot(tmp_path / "picture.png", cage, moved)
-    request = make_request(snapshot, MAX_EDGE)
-    state = AppState(Document(History(snapshot), snapshot, picture(), tmp_path / "s.json"))
+    state = viewer_state(Snapshot(tmp_path / "picture.png", CAGE_POINTS, MOVED), picture(), tmp_path)
     state.document.live = state.document.live.replace(outside=outside)
-    state.compute.basis = result_from_message(request.key, compute(request))
     ctx = create_headless_context()  # as warp's: its own, made after warp released its own
     try:
         with WarpRenderer(ctx) as renderer:
@@ -249,7 +241,6 @@ def test_the_viewers_animation_export_is_animates_file_byte_for_byte_through_one
     tmp_path, capfd, monkeypatch, output
 ):
     from app.render.renderer import WarpRenderer, create_headless_context
-    from app.warp.keyframes import Keyframe
 
     callers = []
     original = app.warp.pipeline.write_frames
@@ -260,20 +251,8 @@ def test_the_viewers_animation_export_is_animates_file_byte_for_byte_through_one
 
     monkeypatch.setattr(app.warp.pipeline, "write_frames", spy)
     monkeypatch.setattr("app.viewer.exports.EXPORT_BUDGET", 0.0)  # one step between two window frames
-    write_png(tmp_path / "picture.png", picture())
-    cage, moved = np.array(CAGE, dtype=float), transformed(CAGE)
-    session = {
-        "image": "picture.png",
-        "cage": {"control_points": cage.tolist()},
-        "target": {"control_points": moved.tolist()},
-        "kernel": "poisson",
-        "view": {"scale": 1.0, "offset": [0, 0]},
-        "mesh": {"max_edge": MAX_EDGE},
-        "keyframes": [
-            {"time": t, "target": {"control_points": p.tolist()}} for t, p in ((0, cage), (1, moved))
-        ],
-    }
-    (tmp_path / "session.json").write_text(json.dumps(session))
+    keyed = [{"time": t, "target": {"control_points": p.tolist()}} for t, p in ((0, CAGE_POINTS), (1, MOVED))]
+    write_session(tmp_path, mesh={"max_edge": MAX_EDGE}, keyframes=keyed)
     typed = str(tmp_path / "animate" / output)
     (tmp_path / "animate").mkdir()
     code, _, err = run_main(["animate", tmp_path / "session.json", "--output", typed, "--fps", "12"], capfd)
@@ -281,11 +260,7 @@ def test_the_viewers_animation_export_is_animates_file_byte_for_byte_through_one
     kind = "gif" if output.endswith(".gif") else "png"
     assert callers == [(kind, 13)]
 
-    keyframes = (Keyframe(0.0, cage), Keyframe(1.0, moved))
-    snapshot = Snapshot(tmp_path / "picture.png", cage, moved, keyframes=keyframes)
-    request = make_request(snapshot, MAX_EDGE)
-    state = AppState(Document(History(snapshot), snapshot, picture(), tmp_path / "s.json"))
-    state.compute.basis = result_from_message(request.key, compute(request))
+    state = keyframed_state(tmp_path)  # the session's own
     (tmp_path / "viewer").mkdir()
     ctx = create_headless_context()  # as animate's: its own, made after animate released its own
     try:
@@ -318,13 +293,9 @@ def keyframed_state(tmp_path):
     from app.warp.keyframes import Keyframe
 
     write_png(tmp_path / "picture.png", picture())
-    cage, moved = np.array(CAGE, dtype=float), transformed(CAGE)
-    keyframes = (Keyframe(0.0, cage), Keyframe(1.0, moved))
-    snapshot = Snapshot(tmp_path / "picture.png", cage, moved, keyframes=keyframes)
-    request = make_request(snapshot, MAX_EDGE)
-    state = AppState(Document(History(snapshot), snapshot, picture(), tmp_path / "s.json"))
-    state.compute.basis = result_from_message(request.key, compute(request))
-    return state
+    keyframes = (Keyframe(0.0, CAGE_POINTS), Keyframe(1.0, MOVED))
+    snapshot = Snapshot(tmp_path / "picture.png", CAGE_POINTS, MOVED, keyframes=keyframes)
+    return viewer_state(snapshot, picture(), tmp_path)
 
 
 def exported(state, path, window_frames):
