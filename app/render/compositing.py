@@ -7,7 +7,7 @@ box the deformed mesh covers (`drawn_box`), and that drawing is laid over the co
 anything: an opaque picture's drawing over it (`warp_over`: its alpha is the warp's coverage), a
 translucent picture's drawing in place of it where the warp covers the pixel wholly, blended by the
 coverage drawn apart (`warp_laid`) where it covers part: its alpha is the picture's own.
-`texel_footprint` tells whether any triangle shrinks the picture, that is
+`texel_footprints` tell whether a triangle shrinks the picture, that is
 whether a drawing samples the texture's mipmaps at all.
 
 Pixels are RGBA of shape (h, w, 4), uint8 or uint16, row 0 at the top; a View maps image point
@@ -24,7 +24,7 @@ READ_ROWS = 128
 #: Output pixels added around the deformed mesh's bounding box: a multisampled pixel is drawn
 #: where any of its samples falls in a triangle.
 BOX_MARGIN = 1
-#: Largest `texel_footprint` drawn from a texture of the image's part around the mesh alone
+#: Largest of `texel_footprints` drawn from a texture of the image's part around the mesh alone
 #: (`sampled_box`); past it, of the whole image.
 BOXED_FOOTPRINT = 8.0
 #: Image pixels added around the undeformed mesh's box in `sampled_box`, and the step of its sides.
@@ -241,11 +241,11 @@ def sampled_box(vertices: np.ndarray, size: tuple[int, int], footprint: float) -
     return left, top, right, bottom
 
 
-def texel_footprint(
+def texel_footprints(
     vertices: np.ndarray, positions: np.ndarray, triangles: np.ndarray, scale: float
-) -> float:
-    """The most image pixels that one output pixel steps over inside any triangle (GL's rho, whose
-    log2 is the mipmap level sampled): at most 1 where no triangle shrinks the picture.
+) -> np.ndarray:
+    """The most image pixels that one output pixel steps over inside each triangle (GL's rho, whose
+    log2 is the mipmap level sampled; at most 1 where the triangle does not shrink the picture).
 
     Parameters
     ----------
@@ -257,18 +257,10 @@ def texel_footprint(
 
     Returns
     -------
-    float
-        max over triangles of `texel_footprints`; 0 without triangles.
+    ndarray of shape (T,)
+        The longer column of J^-1, J the triangle's affine map from image to output pixels;
+        infinite where a triangle collapses.
     """
-    footprints = texel_footprints(vertices, positions, triangles, scale)
-    return float(footprints.max()) if len(footprints) else 0.0
-
-
-def texel_footprints(
-    vertices: np.ndarray, positions: np.ndarray, triangles: np.ndarray, scale: float
-) -> np.ndarray:
-    """`texel_footprint` of each triangle: ndarray (T,), the longer column of J^-1, J the triangle's
-    affine map from image to output pixels; infinite where a triangle collapses."""
     corners = vertices[triangles].astype(np.float64)
     moved = positions[triangles].astype(np.float64) * scale
     source = np.stack([corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]], axis=2)

@@ -55,7 +55,7 @@ TILE = 4096
 #: Rows of a strip of `WarpRenderer.render_strips` (drawn in tiles of as many columns): a
 #: 12000-pixel-wide strip is 25 MB at 8 bits; smaller tiles multisample less of the picture.
 STRIP_ROWS = 512
-#: Largest `app.render.compositing.texel_footprint` drawn without mipmaps: GL samples level 0 alone
+#: Largest `app.render.compositing.texel_footprints` drawn without mipmaps: GL samples level 0 alone
 #: up to 1; past it by this much the next level's weight (log2 of it) is under 4e-4.
 UNSHRUNK_FOOTPRINT = 1.0 + 2.0**-12
 #: Largest side of a tile of the warp drawn over a copied backdrop (`WarpRenderer.render`): one inside
@@ -674,16 +674,6 @@ class WarpRenderer:
         self._require_mesh()
         return np.frombuffer(self._mesh.positions.read(), np.float32).reshape(-1, 2)
 
-    def _footprint(self, view: View, backdrop: bool) -> float:
-        """The most image pixels one output pixel steps over in a drawing through `view` (and of the
-        whole image, with `backdrop`): GL samples the image's mipmaps where it is over 1
-        (`app.render.compositing.texel_footprint`)."""
-        mesh = self._mesh
-        if mesh is None or "image" not in self._host:
-            return float("inf")  # nothing to draw: `_draw` says what is missing
-        footprint = float(self._footprints(view).max())
-        return max(footprint, 1.0 / view.scale) if backdrop else footprint
-
     def _footprints(self, view: View) -> np.ndarray:
         """`app.render.compositing.texel_footprints` of the mesh's triangles (T,), in the caller's
         order, through `view`."""
@@ -693,8 +683,14 @@ class WarpRenderer:
 
     def _needs_mipmaps(self, view: View, backdrop: bool) -> bool:
         """Whether a drawing through `view` (and of the whole image, with `backdrop`) shrinks the image
-        anywhere, so that GL samples its mipmaps."""
-        return self._footprint(view, backdrop) > UNSHRUNK_FOOTPRINT
+        anywhere, so that GL samples its mipmaps: where one output pixel steps over more than one
+        image pixel (`_footprints`)."""
+        if self._mesh is None or "image" not in self._host:
+            return True  # nothing to draw: `_draw` says what is missing
+        footprint = float(self._footprints(view).max())
+        if backdrop:
+            footprint = max(footprint, 1.0 / view.scale)
+        return footprint > UNSHRUNK_FOOTPRINT
 
     def _whole(self) -> SourceImage:
         """The texture of the whole image, uploaded now if it is not yet."""

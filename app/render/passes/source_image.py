@@ -121,7 +121,7 @@ class SourceImage:
             Filter trilinearly through the mipmaps (every level built at the first such drawing,
             unless `build_mipmaps` built those it needs); False: bilinear filtering of the image
             itself, the same pixels wherever no triangle shrinks the picture
-            (`app.render.compositing.texel_footprint` at most 1).
+            (`app.render.compositing.texel_footprints` at most 1).
         """
         if mipmaps and not self._levels:
             self.build_mipmaps()

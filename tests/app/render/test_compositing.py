@@ -16,7 +16,6 @@ from app.render.compositing import (
     mipmap_levels,
     narrowed,
     sampled_box,
-    texel_footprint,
     texel_footprints,
     warp_laid,
     warp_over,
@@ -194,15 +193,15 @@ def test_exact_offsets_boxes_and_clear_pixels():
     np.testing.assert_array_equal(clear_pixel((0.0, 0.0, 0.0, 0.0), np.uint16), [0, 0, 0, 0])
 
 
-def test_texel_footprint_is_one_for_a_translation_and_the_shrinking_otherwise():
+def test_texel_footprints_are_one_for_a_translation_and_the_shrinking_otherwise():
     vertices = np.array([[0.0, 0.0], [4.0, 0.0], [0.0, 4.0], [4.0, 4.0]])
     triangles = np.array([[0, 1, 2], [1, 3, 2]])
-    assert texel_footprint(vertices, vertices + 7.0, triangles, 1.0) == pytest.approx(1.0, abs=1e-12)
-    assert texel_footprint(vertices, vertices * 0.5, triangles, 1.0) == pytest.approx(2.0, abs=1e-12)
-    assert texel_footprint(vertices, vertices * 3.0, triangles, 0.5) == pytest.approx(2 / 3, abs=1e-12)
+    assert texel_footprints(vertices, vertices + 7.0, triangles, 1.0).max() == pytest.approx(1.0, abs=1e-12)
+    assert texel_footprints(vertices, vertices * 0.5, triangles, 1.0).max() == pytest.approx(2.0, abs=1e-12)
+    assert texel_footprints(vertices, vertices * 3.0, triangles, 0.5).max() == pytest.approx(2 / 3, abs=1e-12)
     flat = vertices.copy()
     flat[:, 1] = 0.0
-    assert texel_footprint(vertices, flat, triangles, 1.0) == float("inf")
+    assert texel_footprints(vertices, flat, triangles, 1.0).max() == float("inf")
 
 
 def test_the_sampled_box_reaches_past_every_filter_on_a_grid_of_its_margin():
@@ -228,5 +227,5 @@ def test_texel_footprints_are_each_triangles_and_their_maximum_the_footprint():
     )
     footprints = texel_footprints(vertices, moved, triangles, 1.0)
     assert footprints[0] == pytest.approx(1.0, abs=1e-12) and footprints[1] == float("inf")
-    assert texel_footprint(vertices, moved, triangles, 1.0) == float("inf")
-    assert texel_footprint(vertices, vertices, triangles[:0], 1.0) == 0.0
+    assert footprints.max() == float("inf")
+    assert texel_footprints(vertices, vertices, triangles[:0], 1.0).shape == (0,)
