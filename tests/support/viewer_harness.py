@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from support import warm_start
 from support.paths import ROOT
 
 
@@ -153,7 +154,8 @@ def close_window(display: str, window: int) -> None:
 
 
 class ViewerProcess:
-    """``python -m app ...`` in a subprocess with the viewer's test hook, its stdout read line by line.
+    """``python -m app ...`` in a process of its own (forked from the warm server, `support.warm_start`)
+    with the viewer's test hook, its stdout read line by line.
 
     Parameters
     ----------
@@ -170,20 +172,12 @@ class ViewerProcess:
 
     def __init__(self, args: list[str], env: dict, cwd, window_size=(1280, 1024)):
         import queue
-        import sys
         import threading
 
         self.lines: list[str] = []
         self._queue: queue.Queue = queue.Queue()
         size = [] if window_size is None else ["--window-size", "{}x{}".format(*window_size)]
-        self.process = subprocess.Popen(
-            [sys.executable, "-m", "app", *args, *size],
-            cwd=cwd,
-            env={**env, "TRANSFINITE_VIEWER_TEST": "1"},
-            stdout=subprocess.PIPE,
-            stderr=subprocess.PIPE,
-            text=True,
-        )
+        self.process = warm_start.start([*args, *size], {**env, "TRANSFINITE_VIEWER_TEST": "1"}, cwd)
         threading.Thread(target=self._read, daemon=True).start()
 
     def _read(self) -> None:
