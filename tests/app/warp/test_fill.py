@@ -3,8 +3,6 @@
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -143,15 +141,10 @@ def test_the_viewers_export_and_warp_fill_write_the_same_pixels(renderer, tmp_pa
     plain = render(renderer, scene.deformation(state), state.document.live.target, size, view, "transparent")
 
     def warp(*arguments) -> np.ndarray:
+        # The command itself (`python -m app warp`'s main), in this process: its own start is
+        # tested in tests/app/commands/test_cli.py.
         output = tmp_path / f"warp-{len(arguments)}.png"
-        result = subprocess.run(
-            [sys.executable, "-m", "app", "warp", *arguments, "--output", str(output)],
-            cwd=ROOT,
-            capture_output=True,
-            text=True,
-            timeout=300,
-        )
-        assert result.returncode == 0, result.stderr
+        assert main(["warp", *arguments, "--output", str(output)]) == 0
         return read_image(output)
 
     from_session = warp("--session", str(state.document.session_path))
