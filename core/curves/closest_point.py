@@ -108,7 +108,9 @@ def _distances(coefficients, piece_length, points, out_t, out_d):
 
 def closest_parameters(curve: PiecewisePolynomial, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Closest curve parameter and distance for each point, two ndarrays of shape (M,)."""
-    points = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 2)
+    # Writeable, as numba compiled it: a read-only array (a curve's own points are) is another type,
+    # and would be compiled again at its first use, outside the installed cache.
+    points = np.require(np.asarray(points, dtype=np.float64).reshape(-1, 2), requirements="CW")
     out_t = np.zeros(points.shape[0])
     out_d = np.zeros(points.shape[0])
     _distances(curve.coefficients, curve.piece_length, points, out_t, out_d)
