@@ -13,59 +13,127 @@ from support.paths import ROOT
 
 pytestmark = pytest.mark.slow
 
-# Compiles (or loads) the solver, then runs what users run: both output modes, a
-# near point, quadrature refinement (unshifted power 8), an explicit and a
-# three-point kernel.  All of it must go through the one specialisation made by
-# compile_solver; numba loads cached callees inside their callers, so the counts
-# are only meaningful on a cold cache.
+# Loads (or, on a cold cache, compiles) the solver, then runs what users run: both output modes,
+# a near point, quadrature refinement (unshifted power 8), an explicit and a three-point kernel,
+# counting the solver's compilations meanwhile. Then each separately compiled function's entries
+# in numba's cache index: the suite and `compile_all` share that cache, so one entry each means
+# that no caller, here or in any test run before, ever needed a second specialisation (numba
+# loads cached callees inside their callers: counting a warm process's signatures would say
+# nothing).
 _CHILD = """
 import json, warnings
 import numpy as np
-from numba.core.registry import CPUDispatcher
+from numba.core import event
 import core
 from core.curves import examples
-from core.newton.compilation import SOLVER_MODULES
+from core.newton.compilation import SOLVER_MODULES, solver_weights
 
 warnings.simplefilter("ignore")
+names = {module.__name__ for module in SOLVER_MODULES}
 fractions = []
 compiled = core.compile_solver(fractions.append)
-blob = core.ClosedBSpline(examples.blob())
-centre = blob.control_points.mean(axis=0)
-x = np.array([centre, 0.999 * blob.sample(100).points[0] + 0.001 * centre])
-core.basis_functions(blob, x)
-core.basis_functions(blob, x, "power", power=8.0)
-core.kernel(blob.sample(20), x, "mean-value")
-square = core.ClosedBSpline(np.repeat([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]], 2, axis=0))
-core.basis_functions(square, [[0.3, 0.6]], "wachspress")
-signatures = {
-    n: len(f.signatures)
-    for module in SOLVER_MODULES
-    for n, f in vars(module).items()
-    if isinstance(f, CPUDispatcher) and f.py_func.__module__ == module.__name__
-    and f.targetoptions.get("inline") != "always"  # compiled inside its callers
-}
-print(json.dumps({"compiled": compiled, "fractions": fractions, "signatures": signatures}))
+later = []
+class Later(event.Listener):
+    def on_start(self, ev):
+        function = ev.data["dispatcher"].py_func
+        if function.__module__ in names:
+            later.append(function.__name__)
+    def on_end(self, ev):
+        pass
+with event.install_listener("numba:compile", Later()):
+    blob = core.ClosedBSpline(examples.blob())
+    centre = blob.control_points.mean(axis=0)
+    x = np.array([centre, 0.999 * blob.sample(100).points[0] + 0.001 * centre])
+    core.basis_functions(blob, x)
+    core.basis_functions(blob, x, "power", power=8.0)
+    core.kernel(blob.sample(20), x, "mean-value")
+    square = core.ClosedBSpline(np.repeat([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]], 2, axis=0))
+    core.basis_functions(square, [[0.3, 0.6]], "wachspress")
+weights = solver_weights()
+functions = {n: f for module in SOLVER_MODULES for n, f in vars(module).items() if n in weights}
+cached = {n: len(f._cache._cache_file._load_index()) for n, f in functions.items()}
+print(json.dumps({"compiled": compiled, "fractions": fractions, "later": later, "cached": cached}))
 """
 
 
-def _run_child(cache: Path) -> dict:
-    environment = dict(os.environ, NUMBA_CACHE_DIR=str(cache), PYTHONPATH=str(ROOT))
+def _run_child() -> dict:
+    environment = dict(os.environ, PYTHONPATH=str(ROOT))
     result = subprocess.run(
         [sys.executable, "-c", _CHILD], capture_output=True, text=True, env=environment, cwd=ROOT, check=True
     )
     return json.loads(result.stdout.splitlines()[-1])
 
 
-def test_a_cold_cache_compiles_once_with_progress_and_the_next_run_loads_it(tmp_path):
+def test_users_calls_need_the_one_specialisation_compile_solver_makes_and_the_next_run_loads_it():
     from core.newton.compilation import solver_weights
 
-    cold = _run_child(tmp_path)
-    fractions = cold["fractions"]
-    assert cold["compiled"] and fractions[0] == 0.0 and fractions[-1] == 1.0
-    assert np.all(np.diff(fractions) >= 0.0) and len(fractions) > 10  # it moves, never a frozen 0 %
-    assert cold["signatures"] == dict.fromkeys(solver_weights(), 1)
-    warm = _run_child(tmp_path)
-    assert not warm["compiled"] and warm["fractions"] == []
+    first = _run_child()
+    assert first["later"] == []  # nothing compiled after compile_solver
+    assert first["cached"] == dict.fromkeys(solver_weights(), 1)
+    if first["compiled"]:  # a cold cache (a run without `compile_all` first): its progress
+        fractions = first["fractions"]
+        assert fractions[0] == 0.0 and fractions[-1] == 1.0 and np.all(np.diff(fractions) >= 0.0)
+    again = _run_child()
+    assert not again["compiled"] and again["fractions"] == [] and again["later"] == []
+
+
+# A module of four compiled functions: `outer` calls `middle` twice and `inlined` (compiled inside
+# its callers), `middle` calls `inner`; `other` is not called.
+_PROBE = """from numba import njit
+
+
+@njit(inline="always")
+def inlined(x):
+    y = x + 1.0
+    return y
+
+
+@njit
+def inner(x):
+    return x * 2.0
+
+
+@njit
+def middle(x):
+    y = inner(x)
+    return y + inner(y)
+
+
+@njit
+def outer(x):
+    a = middle(x)
+    b = middle(a)
+    return inlined(a + b)
+
+
+@njit
+def other(x):
+    return x
+"""
+
+
+def test_progress_is_the_share_of_source_lines_compiled_callees_first(tmp_path, monkeypatch):
+    # The mechanism of compile_solver's progress (`_Progress`) on a cold compilation of a probe
+    # module, where the real solver's would take ~25 s of a core.
+    from numba.core import event
+
+    from core.newton.compilation import _Progress, solver_weights
+
+    (tmp_path / "progress_probe.py").write_text(_PROBE)
+    monkeypatch.syspath_prepend(str(tmp_path))
+    import progress_probe
+
+    weights = solver_weights((progress_probe,))
+    # Each function's source lines, its decorator's included; inlined's 4 count for outer.
+    assert weights == {"inner": 3, "middle": 4, "outer": 5 + 4, "other": 3}
+    fractions = []
+    listener = _Progress(fractions.append, (progress_probe,))
+    with event.install_listener("numba:compile", listener):
+        assert progress_probe.outer(1.0) == 43.0  # middle(1) = 2 + 4, middle(6) = 12 + 24, + 1
+    total = sum(weights.values())
+    assert listener.compiled
+    assert fractions == [0.0, 3 / total, 7 / total, 16 / total]  # started; inner, middle, outer done
+    assert _Progress(fractions.append, (progress_probe,)).compiled is False
 
 
 def test_once_loaded_in_a_process_compile_solver_returns_at_once(monkeypatch):
