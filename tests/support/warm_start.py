@@ -1,4 +1,5 @@
-"""Viewers started from a warm process: ``python -m app ...`` without loading its libraries again.
+"""Viewers (and commands) started from a warm process: ``python -m app ...`` without loading its
+libraries again.
 
 A viewer's start costs ~2.5 CPU-s, about half of it loading numpy, numba, scipy, OpenCV, imgui,
 moderngl and the app's own modules and numba's compiled-code machinery (its first use of a cached
@@ -6,18 +7,22 @@ function, in the viewer's precompute worker).  The window tests start ~35 viewer
 program, so each pytest process starts them from one preloaded server instead (`multiprocessing`'s
 forkserver, which imports `preload` once): each viewer is a fork of it that takes its arguments,
 environment, working folder, stdout and stderr, and runs `app.__main__.main` as ``python -m app``
-would.  What it runs is the real program in a real process with its own window and workers; what
-the fork skips is only what the server loaded already.  Starting the program itself (its imports,
-a display or none) stays tested by real processes (`tests/app/viewer/test_window.py`'s environment
-errors, the bench's launch rows, the installed wheel's demo).
+would, Ctrl+C included (an interpreter started from a terminal raises KeyboardInterrupt on SIGINT,
+whatever the server inherited).  What it runs is the real program in a real process with its own
+window and workers; what the fork skips is only what the server loaded already.  Starting the
+program itself (its imports, a display or none) stays tested by real processes
+(`tests/app/viewer/test_window.py`'s environment errors, the bench's launch rows, the installed
+wheel's demo).
 """
 
 from __future__ import annotations
 
 import multiprocessing
 import os
+import signal
 import subprocess
 import sys
+import threading
 from multiprocessing import forkserver
 from multiprocessing.connection import Connection
 
@@ -78,6 +83,20 @@ class WarmProcess:
             raise subprocess.TimeoutExpired("python -m app", timeout)
         return self.returncode
 
+    def communicate(self, timeout: float | None = None) -> tuple[str, str]:
+        """Wait for the exit; (stdout, stderr) whole, read meanwhile so that neither pipe fills."""
+        read = {}
+        readers = [
+            threading.Thread(target=lambda name, stream: read.update({name: stream.read()}), args=item)
+            for item in (("out", self.stdout), ("err", self.stderr))
+        ]
+        for reader in readers:
+            reader.start()
+        self.wait(timeout)
+        for reader in readers:
+            reader.join(timeout)
+        return read.get("out", ""), read.get("err", "")
+
     def send_signal(self, number: int) -> None:
         if self.poll() is None:
             os.kill(self.pid, number)
@@ -97,6 +116,7 @@ def _run(args: list[str], env: dict, cwd: str, streams: tuple[Connection, Connec
     os.environ.clear()
     os.environ.update(env)
     os.chdir(cwd)
+    signal.signal(signal.SIGINT, signal.default_int_handler)
     from app import __main__ as program
 
     sys.argv = [program.__file__, *args]

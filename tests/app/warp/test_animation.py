@@ -1,15 +1,15 @@
 """``python -m app animate``: a session's keyframes as PNG frames, MP4 or GIF (app.warp.animation)."""
 
 import json
+import os
 import re
 import signal
-import subprocess
-import sys
 import time
 
 import cv2
 import numpy as np
 import pytest
+from support import warm_start
 from support.commands import CAGE, picture, run_main, transformed
 from support.paths import ROOT
 
@@ -199,13 +199,6 @@ def test_bad_input_is_one_line_and_writes_nothing(tmp_path, capfd, case):
     assert sorted(p.name for p in tmp_path.rglob("*")) == before
 
 
-def _interruptible() -> None:
-    """In the child: Ctrl+C as a terminal delivers it.  A job started in the background by a
-    non-interactive shell (CI scripts, nohup) ignores SIGINT, children inherit that, and Python
-    then never raises KeyboardInterrupt: the test waited 60 s for an exit that could not come."""
-    signal.signal(signal.SIGINT, signal.SIG_DFL)
-
-
 @pytest.mark.parametrize(
     ("output", "stop"),
     [
@@ -220,22 +213,10 @@ def test_ctrl_c_leaves_no_output_and_no_temporary(tmp_path, output, stop, capfd)
     write_png(tmp_path / "picture.png", picture())
     moved = transformed(CAGE)
     (tmp_path / "s.json").write_text(json.dumps(session(CAGE, [(0, CAGE), (600, moved)])))
-    process = subprocess.Popen(
-        [
-            sys.executable,
-            "-m",
-            "app",
-            "animate",
-            str(tmp_path / "s.json"),
-            "--output",
-            f"{tmp_path}/{output}",
-        ],
-        cwd=ROOT,
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-        preexec_fn=_interruptible,
-    )
+    # `python -m app animate` in a process of its own, forked from the warm server
+    # (`support.warm_start`), where SIGINT raises KeyboardInterrupt as from a terminal.
+    arguments = ["animate", str(tmp_path / "s.json"), "--output", f"{tmp_path}/{output}"]
+    process = warm_start.start(arguments, dict(os.environ), ROOT)
     deadline = time.monotonic() + 120
     while not any(p.name.startswith(".long") for p in tmp_path.iterdir()):  # frames are being written
         assert process.poll() is None and time.monotonic() < deadline, process.communicate()
