@@ -337,7 +337,7 @@ def layer_rows(targets, tree, power, imaginary, out):
     out[:] = 0.0
     out_imaginary = np.zeros((count if imaginary else 0, columns))
     on_curve = np.zeros(count, dtype=np.bool_)
-    order, box_start = _boxes(targets, BOX)
+    order, box_start = _boxes(targets, np.int64(BOX))  # the type a call from Python gives: one specialisation
     for b in prange(box_start.shape[0] - 1):
         members = order[box_start[b] : box_start[b + 1]].copy()  # reordered as boxes split
         stack = np.empty(total + tree.stack_size, dtype=np.int64)  # a list of panels, then descents
