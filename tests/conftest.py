@@ -10,32 +10,33 @@ from core.curves import examples
 #: The viewer-window harness's `display` fixture (a private Xvfb server), for every window test.
 pytest_plugins = ("support.viewer_harness",)
 
-#: The test files that take longest, longest first (their time in one run of the suite on a quiet
-#: machine, core compiled beforehand: 92 s down to 3 s, 426 s for all on two workers). `.ci/run` hands
-#: whole files to its three workers in collection order (``--dist loadfile --no-loadscope-reorder``):
+#: The test files that take longest, longest first (their wall time in one serial run of the suite,
+#: core compiled beforehand, 2026-12-07: 60 s down to 4 s, 390 s for all). `.ci/run` hands whole
+#: files to its three workers in collection order (``--dist loadfile --no-loadscope-reorder``):
 #: started first, the long files end with the short ones instead of one worker finishing a long
 #: file alone. Files not named follow, in path order.
 LONGEST_FIRST = (
     "test_window.py",
     "test_bench.py",
-    "test_window_daily.py",
-    "test_compilation.py",
-    "test_poisson.py",
     "test_subject.py",
+    "test_window_daily.py",
     "test_cli.py",
-    "test_window_fold_free.py",
-    "test_window_fit.py",
-    "test_animation.py",
-    "test_fill.py",
-    "test_compiled_integrals.py",
+    "test_poisson.py",
     "test_bad_inputs.py",
-    "test_bspline.py",
-    "test_mesh_fold_free.py",
-    "test_library_threads.py",
-    "test_parameterization.py",
+    "test_window_fold_free.py",
+    "test_compiled_integrals.py",
     "test_certificate.py",
-    "test_window_pins.py",
+    "test_bspline.py",
+    "test_compilation.py",
+    "test_animation.py",
+    "test_window_fit.py",
+    "test_mesh_fold_free.py",
+    "test_pipeline.py",
+    "test_library_threads.py",
     "test_documents.py",
+    "test_parameterization.py",
+    "test_window_pins.py",
+    "test_compositing.py",
 )
 
 
