@@ -19,6 +19,7 @@ class PlaybackClock:
         self.announce = announce
         self.last: float | None = None  # perf_counter of the last frame that played
         self.first_frame = 0
+        self.since = 0.0  # perf_counter of that first frame
 
     def tick(self, state: AppState, ready: bool) -> None:
         """Move the playing animation on by the wall time since the last frame; `ready`: the
@@ -27,14 +28,17 @@ class PlaybackClock:
         if not state.playback.playing:
             if self.last is not None:
                 count, median, _ = frame_statistics(state.status.frame_ms[self.first_frame :])
-                self.announce(f"playback paused frames={count} median_frame_ms={median:.2f}")
+                rate = count / max(now - self.since, 1e-9)
+                self.announce(
+                    f"playback paused frames={count} median_frame_ms={median:.2f} per_second={rate:.1f}"
+                )
             self.last = None
             return
         if self.last is None:
-            self.first_frame = len(state.status.frame_ms)
+            self.first_frame, self.since = len(state.status.frame_ms), now
             self.announce("playback started")
         elif not ready:  # the animation waits, its time standing still, until it can be seen
-            self.first_frame = len(state.status.frame_ms)
+            self.first_frame, self.since = len(state.status.frame_ms), now
         else:
             controller.advance(state, now - self.last)
         self.last = now

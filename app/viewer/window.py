@@ -17,6 +17,7 @@ that drive the real window, and does not wait for vertical sync.
 
 from __future__ import annotations
 
+import functools
 import gc
 import os
 import signal
@@ -53,6 +54,8 @@ VIEW_SETTLE = 0.25
 #: Seconds an idle viewer sleeps between frames (input, and the workers' messages, wake it:
 #: `app.viewer.message_waker`).
 IDLE_WAIT = 2.0
+#: Frames a second where the screen does not say its refresh rate (Xvfb says 0).
+DEFAULT_REFRESH = 60.0
 
 
 @dataclass
@@ -395,8 +398,11 @@ class Viewer:
         again and again on a software renderer took the cores the precompute needed (the
         starfish demo's --play: basis 12.5 s instead of 1.6 s)."""
         playing = self.state.playback.playing and self._playback_ready()
-        if self.script.moving or playing or self.exporter.animation or self.scene.catching_up:
-            glfw.poll_events()  # a replay, playback, an export or fold-free frames catching up
+        writing = self.script.moving and self.script.frames is not None
+        if self.exporter.animation or self.scene.catching_up or writing:
+            glfw.poll_events()  # an export, fold-free frames catching up, a replay writing its frames
+        elif self.script.moving or playing:
+            _wait_for_the_screen(glfw, self.state.status.frame_ms)  # in real time
         elif not imgui.get_current_context().input_events_queue.empty():
             glfw.poll_events()  # imgui takes queued input a few events a frame (typed text)
         elif self.input.events or self.input.frames_to_draw > 0:
@@ -485,6 +491,26 @@ def _environment_error(message: str) -> Exception:
     from app.render.renderer import ContextUnavailableError
 
     return ContextUnavailableError(message)
+
+
+def _wait_for_the_screen(glfw, frame_ms: list[float]) -> None:
+    """Draw the next frame (input wakes it at once) no sooner than the screen can show it, where
+    swapping buffers does not wait for the screen (a software renderer, a virtual screen: a replay
+    or playback drew ~80 frames a second, each ~12 ms of a core, on this project's 2-core machines).
+    `frame_ms`: the frames' times so far, the last one's just ended."""
+    pause = 0.95 / _refresh_rate(glfw) - 1e-3 * (frame_ms[-1] if frame_ms else 0.0)
+    if pause > 0:
+        glfw.wait_events_timeout(pause)
+    else:
+        glfw.poll_events()
+
+
+@functools.cache
+def _refresh_rate(glfw) -> float:
+    """The primary screen's refresh rate in Hz, or `DEFAULT_REFRESH` where it says none."""
+    monitor = glfw.get_primary_monitor()
+    mode = glfw.get_video_mode(monitor) if monitor else None
+    return float(mode.refresh_rate) if mode is not None and mode.refresh_rate > 0 else DEFAULT_REFRESH
 
 
 def run(document: OpenedDocument, options: Options) -> int:
