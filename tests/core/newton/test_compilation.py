@@ -73,6 +73,7 @@ def test_users_calls_need_the_one_specialisation_compile_solver_makes_and_the_ne
     if first["compiled"]:  # a cold cache (a run without `compile_all` first): its progress
         fractions = first["fractions"]
         assert fractions[0] == 0.0 and fractions[-1] == 1.0 and np.all(np.diff(fractions) >= 0.0)
+        assert len(fractions) > 10  # it moves, never a frozen 0 %
     again = _run_child()
     assert not again["compiled"] and again["fractions"] == [] and again["later"] == []
 
