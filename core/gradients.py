@@ -59,7 +59,6 @@ Points on the boundary (the Lagrange limit of the values) get NaN gradients.
 
 from __future__ import annotations
 
-import numba
 import numpy as np
 
 from core import kernels
@@ -67,6 +66,7 @@ from core.curves.boundary import Boundary
 from core.curves.bspline import ClosedBSpline
 from core.kernel_table import DEFAULT_KERNEL
 from core.kernels import DEFAULT_TOLERANCE, REFINEMENTS, checked_report
+from core.library_threads import in_shares
 from core.newton import codes, gradient_solver
 from core.newton.solver_state import Geometry, Output, Settings
 from core.validation import as_points, positive_float, positive_int
@@ -212,17 +212,8 @@ def _evaluate(boundary, x, kernel, mode, columns, tolerance, params):
 
 def _in_threads(points, settings, curve, geometry, rows, derivatives, diagnostics) -> None:
     """`gradient_solver.gradient_points` on every point, one strided share per thread."""
-    threads = min(numba.config.NUMBA_NUM_THREADS, points.shape[0])
     arguments = (points, settings, curve, geometry, Output(rows, *diagnostics), derivatives)
-    if threads <= 1:
-        gradient_solver.gradient_points(*arguments, 0, 1)
-        return
-    shares = [
-        kernels.solver_pool(threads).submit(gradient_solver.gradient_points, *arguments, first, threads)
-        for first in range(threads)
-    ]
-    for share in shares:
-        share.result()
+    in_shares(gradient_solver.gradient_points, points.shape[0], *arguments)
 
 
 __all__ = ["basis_gradients", "kernel_gradients"]

@@ -28,30 +28,7 @@ from pathlib import Path
 
 from numba.core import event
 from numba.core.caching import CacheImpl, NullCache, _CacheLocator
-from numba.core.cpu_options import ParallelOptions
 from numba.core.dispatcher import Dispatcher
-
-#: numba's ``parallel`` option of the package's loops: their ``prange`` loops run on threads,
-#: while numba leaves their array expressions (``out[:] = 0.0``, ``np.zeros``, ``a.copy()``)
-#: serial instead of making each a parallel loop of its own (``parallel=True``), which cost
-#: ~10 of the boundary integrals' ~65 CPU-s of compiling, for loops of microseconds. Their
-#: callees now compile as on their own: with ``parallel=True`` a callee compiled first for a
-#: parallel caller went through numba's parallel passes too, and the Newton solver, which shares
-#: the curve functions of `core.curves` with `core.curves.closest_point`, gave results that
-#: differed in the last bit with the order in which a process compiled them. An instance, not
-#: a dict: numba empties a dict option at a function's first compilation, and its next
-#: specialisation would get ``parallel=True``.
-PRANGE_ONLY = ParallelOptions(
-    {
-        "comprehension": False,
-        "reduction": False,
-        "inplace_binop": False,
-        "setitem": False,
-        "numpy": False,
-        "stencil": False,
-        "fusion": False,
-    }
-)
 
 #: Why the package's compiled functions are not cached (the first function's error), or None.
 uncached: str | None = None
@@ -90,8 +67,7 @@ def package_stamp() -> str:
     """SHA-256 of the package's modules that hold compiled functions (``njit`` in their text) and
     of the modules of the package they import, transitively: a compiled function freezes the
     constants it reads from them (`core.boundary_integrals.compiled_integrals` reads the Gauss
-    nodes of `core.boundary_integrals.gauss_legendre`) and is compiled with the options they
-    define (`PRANGE_ONLY`, here)."""
+    nodes of `core.boundary_integrals.gauss_legendre`)."""
     texts = {
         _dotted(path): path.read_bytes()
         for path in sorted(_FOLDER.rglob("*.py"))

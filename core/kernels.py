@@ -44,13 +44,10 @@ the diameter from the boundary unresolved (reported, Sec. 3.3).
 
 from __future__ import annotations
 
-import functools
 import warnings
 from collections.abc import Callable
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
-import numba
 import numpy as np
 
 from core.curves import arc_length_compiled
@@ -58,6 +55,7 @@ from core.curves.arc_length import arc_length_boundary, checked_parameterization
 from core.curves.boundary import Boundary
 from core.curves.crossing_slabs import crossing_slabs
 from core.kernel_table import BOUNDARY_INTEGRAL_KERNELS, CONVEX_ONLY, POINT_KERNELS
+from core.library_threads import in_shares
 from core.newton import codes, quadrature_nodes, solver
 from core.newton.solver_state import Geometry, Nodes, Output, Samples, Settings
 from core.validation import as_points, positive_float
@@ -335,24 +333,8 @@ class _Run:
 
 def _solve_in_threads(points, settings, curve, geometry, rows, diagnostics) -> None:
     """`solver.solve_points` on every point, one strided share per thread (it releases the GIL)."""
-    threads = min(numba.config.NUMBA_NUM_THREADS, points.shape[0])
-    if threads <= 1:
-        solver.solve_points(points, settings, curve, geometry, Output(rows, *diagnostics), 0, 1)
-        return
-    shares = [
-        solver_pool(threads).submit(
-            solver.solve_points, points, settings, curve, geometry, Output(rows, *diagnostics), first, threads
-        )
-        for first in range(threads)
-    ]
-    for share in shares:
-        share.result()
-
-
-@functools.cache
-def solver_pool(threads: int) -> ThreadPoolExecutor:
-    """The solver's worker threads, made once per process (per thread count)."""
-    return ThreadPoolExecutor(threads, thread_name_prefix="transfinite-solver")
+    output = Output(rows, *diagnostics)
+    in_shares(solver.solve_points, points.shape[0], points, settings, curve, geometry, output)
 
 
 def curve_arrays(boundary: Boundary, mode: int, columns: int, factor: int, out_step: float) -> Samples:

@@ -1,5 +1,6 @@
-"""The threads of the libraries core calls: one BLAS thread for the boundary-integral kernels'
-many small matrix products; idle BLAS and OpenMP threads that sleep soon.
+"""The threads of the libraries core calls and of its own loops: one BLAS thread for the
+boundary-integral kernels' many small matrix products; idle BLAS threads that sleep soon; the
+compiled loops' shares on a pool of threads (`in_shares`).
 
 `poisson` and `cauchy_green` spend their time in thousands of products of a
 few hundred rows each.  OpenBLAS threads those, and on a machine whose cores are busy
@@ -19,23 +20,21 @@ spin 2^`IDLE_SPIN` cycles (~0.4 ms) instead: the finite-element solve keeps its 
 call its own.  Importing this module sets it, unless the user did; `core` imports it first,
 before numpy, and it has no effect once numpy has loaded OpenBLAS.
 
-numba runs the ``prange`` loops of `core` on its OpenMP thread pool (GNU libgomp, numba's
-threading layer where TBB is not installed).  After each parallel loop libgomp's threads
-busy-wait for the next one (~300,000 spins by default) before they sleep, the same theft as
-OpenBLAS's, and the viewer runs its drawing, its precompute worker and its fold-free check
-worker side by side.  A caller idling 2 ms after each of 100 small parallel loops kept 0.49-0.66
-of a core busy with the pool's spinning; with ``OMP_WAIT_POLICY=passive`` (sleep at once) 0.02.
-On the 2-core development machine under load, the tests of the kernels
-(`tests/core/boundary_integrals/test_poisson.py`, `test_kernels.py`, `test_gradients.py`) took 35-37
-CPU-seconds instead of 44-52. Importing this module sets `WAIT_POLICY`, unless the user set a
-policy; numba starts its pool at the first parallel loop, after `core` is imported, and libgomp
-reads the variable then.
+core's own loops run on threads too, a strided share each (`in_shares`): each compiled loop
+takes its share of the items (``first``, ``first + shares``, ...) and releases the GIL, and
+Python threads run the shares side by side.  numba's parallel loops (``prange``) did the same
+on its OpenMP pool, but their passes cost ~20 of the ~100 CPU-seconds of compiling `core` from a
+cold cache (the boundary integrals' half: 43-51 CPU-s against 25-28 serial), and libgomp's idle
+threads spun after every loop unless ``OMP_WAIT_POLICY`` said otherwise.  The pool's threads
+here wait on a queue: an idle pool costs nothing.
 """
 
 from __future__ import annotations
 
 import functools
 import os
+from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
 
 from threadpoolctl import ThreadpoolController
 
@@ -43,11 +42,6 @@ from threadpoolctl import ThreadpoolController
 IDLE_SPIN = 20
 
 os.environ.setdefault("OPENBLAS_THREAD_TIMEOUT", str(IDLE_SPIN))
-
-#: libgomp's policy for the idle threads of numba's pool (its default: spin, then sleep).
-WAIT_POLICY = "passive"
-
-os.environ.setdefault("OMP_WAIT_POLICY", WAIT_POLICY)
 
 
 def one_blas_thread(function):
@@ -67,3 +61,41 @@ def _controller() -> ThreadpoolController:
     ~1.5 ms a call (threadpoolctl's `threadpool_limits` does it at every call). Made at the
     first call, after numpy and scipy have loaded their BLAS."""
     return ThreadpoolController()
+
+
+def thread_count(items: int) -> int:
+    """Threads for a loop over `items`: numba's thread count (``NUMBA_NUM_THREADS``, the cores by
+    default), at most one an item, at least one."""
+    import numba  # here: this module sets OpenBLAS's variable before numpy (numba's import) loads
+
+    return max(1, min(numba.config.NUMBA_NUM_THREADS, items))
+
+
+def in_shares(loop: Callable, items: int, *arguments) -> None:
+    """``loop(*arguments, first, shares)`` for every `first` below ``shares = thread_count(items)``,
+    side by side: the calling thread runs the first share, `pool`'s threads the others.
+
+    `loop` is a compiled function that releases the GIL (``nogil=True``) and takes the items
+    ``first``, ``first + shares``, ... below `items`, writing only their outputs.  Every share
+    has ended when this returns, or raises the first share's error.
+    """
+    shares = thread_count(items)
+    others = [pool(shares - 1).submit(loop, *arguments, first, shares) for first in range(1, shares)]
+    try:
+        loop(*arguments, 0, shares)
+    finally:
+        for share in others:
+            share.exception()  # waits: no share writes after a return
+    for share in others:
+        share.result()
+
+
+@functools.cache
+def pool(threads: int) -> ThreadPoolExecutor:
+    """`threads` worker threads, made once per process (per count)."""
+    return ThreadPoolExecutor(threads, thread_name_prefix="transfinite")
+
+
+if hasattr(os, "register_at_fork"):
+    # A forked child (the viewer's workers) has none of its parent's threads: new pools there.
+    os.register_at_fork(after_in_child=pool.cache_clear)

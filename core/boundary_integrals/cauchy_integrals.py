@@ -254,6 +254,7 @@ def adaptive_weights(
     """
     touch = on_curve * curve.diameter
     pieces = np.ascontiguousarray(curve.piecewise_polynomial().coefficients, dtype=np.float64)
+    count = len(targets)
     found = compiled_integrals.run_compiled(
         compiled_integrals.adaptive_pairs,
         lambda: (
@@ -263,10 +264,13 @@ def adaptive_weights(
             np.ascontiguousarray(panel, dtype=np.int64),
             int(power),
             float(touch),
+            np.zeros((count, ORDER), dtype=np.complex128),
+            np.zeros(count, dtype=np.bool_),
         ),
+        items=count,
     )
     if found is not None:
-        return found
+        return found[-2:]
     # `compiled_integrals.near_weights`, pair by pair there, for all pairs at once here.
     bounds = panels.bounds[panel]
     span = np.floor(bounds[:, 0] + 1e-12)
@@ -539,11 +543,17 @@ def _compiled_rows(
     None."""
 
     def arguments():
+        boxes = (z, np.int64(compiled_tree.BOX))  # the type a call from Python gives: one specialisation
+        if not compiled_integrals.loaded(compiled_tree.target_boxes, *boxes):
+            return None
         tree = _panel_tree(curve, levels)
         rows = np.empty((z.size, tree.density.shape[1])) if out is None else out
-        return z, tree, power, imaginary, rows
+        rows[:] = 0.0
+        found = np.zeros((z.size if imaginary else 0, rows.shape[1])), np.zeros(z.size, dtype=np.bool_)
+        return z, tree, power, imaginary, rows, *found, *compiled_tree.target_boxes(*boxes)
 
-    return compiled_integrals.run_compiled(compiled_tree.layer_rows, arguments, z.size)
+    found = compiled_integrals.run_compiled(compiled_tree.layer_rows, arguments, z.size, items=z.size)
+    return None if found is None else found[4:7]
 
 
 def _panel_tree(curve: ClosedBSpline, levels: Levels) -> compiled_tree.PanelTree:

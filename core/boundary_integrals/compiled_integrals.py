@@ -22,7 +22,10 @@ The same arithmetic as loops: here are
   adaptive entries as `core.boundary_integrals.poisson._block_near_pairs` finds them, their LUs), and
   `coarse_system`, its coarse matrix;
 - `galerkin_matrix` and `rows_product`, the two-grid solve's coarse matrix and residual
-  products (`core.boundary_integrals.two_grid`) on every numba thread.
+  products (`core.boundary_integrals.two_grid`).
+
+The loops over many items take their share of them (`core.library_threads.in_shares`) and run
+on every thread.
 
 They are compiled by numba, which the package's build does at install
 (`core.newton.compilation.compile_all`); their callers take them through `run_compiled`, only
@@ -39,14 +42,13 @@ from __future__ import annotations
 import math
 from typing import NamedTuple
 
-import numba
 import numpy as np
-from numba import njit, prange
+from numba import njit
 from numba.core.compiler_lock import global_compiler_lock
 
 from core.boundary_integrals.dense_solve import solve
 from core.boundary_integrals.gauss_legendre import LEGENDRE_VALUES, LEGENDRE_WEIGHTS, NODES, ORDER, WEIGHTS
-from core.jit_cache import PRANGE_ONLY
+from core.library_threads import in_shares, thread_count
 
 #: How `cauchy_integrals` chooses: "auto" (compiled where loaded, `loaded`), "numpy", or "compiled"
 #: (compile on first use if need be: tests and `core.newton.compilation.compile_all`).
@@ -94,14 +96,26 @@ def worth_trying(dispatcher, points: int = 0) -> bool:
     return bool(dispatcher.overloads) or _read or _points >= LOAD_AFTER_POINTS
 
 
-def run_compiled(dispatcher, arguments, points: int = 0):
+def run_compiled(dispatcher, arguments, points: int = 0, items: int | None = None):
     """dispatcher(*arguments()) where its machine code is at hand (`worth_trying` for `points`,
     then `loaded`), else None, and the caller takes its numpy path: every function here returns
-    something.  `arguments` builds the tuple, only once the call is worth trying."""
+    something.  `arguments` builds the tuple, only once the call is worth trying, or returns None
+    where something it needs is not at hand (then so does this).
+
+    With `items`, the dispatcher is a loop over that many items taking its share (``first,
+    shares``, `core.library_threads.in_shares`) and writing into outputs among its arguments: it
+    runs on threads, and the arguments' tuple is returned."""
     if not worth_trying(dispatcher, points):
         return None
     values = arguments()
-    return dispatcher(*values) if loaded(dispatcher, *values) else None
+    if values is None:
+        return None
+    if items is None:
+        return dispatcher(*values) if loaded(dispatcher, *values) else None
+    if not loaded(dispatcher, *values, 0, 1):
+        return None
+    in_shares(dispatcher, items, *values)
+    return values
 
 
 def loaded(dispatcher, *args) -> bool:
@@ -485,9 +499,10 @@ def _layer_entry(x, y, own, u, k, nodes):
     return (factors[k].real * dx + factors[k].imag * dy) / (dx * dx + dy * dy)
 
 
-@njit(cache=True, parallel=PRANGE_ONLY, error_model="numpy")
-def layer_matrix_rows(targets, target_span, target_u, nodes):
-    """The double layer's Re C-weights of `poisson.layer_matrix`, shape (M, N), for targets z
+@njit(cache=True, nogil=True, error_model="numpy")
+def layer_matrix_rows(targets, target_span, target_u, nodes, out, first, shares):
+    """The double layer's Re C-weights of `poisson.layer_matrix` into out (M, N), rows first,
+    first + shares, ... (`core.library_threads.in_shares`), for targets z
     complex (M,) on the curve and nodes τ complex (N,) with their quadrature weights (N,).
 
     A pair on different spans takes the plain rule, Re(factor_k / (τ_k - z_m)); a pair on one
@@ -497,12 +512,10 @@ def layer_matrix_rows(targets, target_span, target_u, nodes):
     fields of `nodes` (`LayerNodes`).
     """
     node_z = nodes.z
-    out = np.empty((targets.shape[0], node_z.shape[0]))
-    for m in prange(targets.shape[0]):
+    for m in range(first, targets.shape[0], shares):
         x, y, own, u = targets[m].real, targets[m].imag, target_span[m], target_u[m]
         for k in range(node_z.shape[0]):
             out[m, k] = _layer_entry(x, y, own, u, k, nodes)
-    return out
 
 
 class SpanNodes(NamedTuple):
@@ -530,8 +543,21 @@ class KnotBlocks(NamedTuple):
     orientation: float  #: +1 counter-clockwise, -1 clockwise
 
 
-@njit(cache=True, parallel=PRANGE_ONLY, error_model="numpy")
-def knot_blocks(fine, panels, start, interpolation, offsets, row_weights, column_weights, sequence):
+@njit(cache=True, nogil=True, error_model="numpy")
+def knot_blocks(
+    fine,
+    panels,
+    start,
+    interpolation,
+    offsets,
+    row_weights,
+    column_weights,
+    sequence,
+    solution,
+    reduced,
+    first,
+    shares,
+):
     """The compressed knot blocks of `core.boundary_integrals.poisson`, a block a thread at a time.
 
     Block b's fine panels are panels[start[b]:start[b + 1]] (of `fine`, a `KnotBlocks`), its
@@ -540,17 +566,18 @@ def knot_blocks(fine, panels, start, interpolation, offsets, row_weights, column
     the block's panels and the kernel is not smooth there (`_smooth_on_own_span`) the adaptive
     rule's (`near_weights`), as `poisson._block_near_pairs` finds them.  P, (R, W), has
     in row r the interpolation row (R, ORDER) at columns offsets[r]..offsets[r] + ORDER.
-    Returns X = (I + 2 K*)^-1 P (R, W) and Q X, shape (B, W, W), with Q = W_c^-1 P^T W_f
-    (row_weights (R,), column_weights (B, W)).  The blocks are taken in the order `sequence`
-    (int (B,)): numba hands each thread an equal run of it, so `balanced_sequence` puts as much
-    work in each run (the bench blob's 12 blocks: 3.2 -> 2.95 ms on two threads).
+    Writes X = (I + 2 K*)^-1 P into solution (R, W) and Q X into reduced (B, W, W), with
+    Q = W_c^-1 P^T W_f (row_weights (R,), column_weights (B, W)).  The blocks are taken in the
+    order `sequence` (int (B,)), share `first` of `shares` (`core.library_threads.in_shares`)
+    taking the first-th of its equal runs, so `balanced_sequence` puts as much work in each run
+    (the bench blob's 12 blocks: 3.2 -> 2.95 ms on two threads).
     """
     nodes = fine  # a `LayerNodes` by its first fields' names
     node_z, node_span, node_u = nodes.z, nodes.span, nodes.u
     width = column_weights.shape[1]
-    solution = np.zeros((interpolation.shape[0], width))
-    reduced = np.zeros((start.shape[0] - 1, width, width))
-    for position in prange(start.shape[0] - 1):
+    blocks = start.shape[0] - 1
+    run = -(-blocks // shares)
+    for position in range(first * run, min(blocks, (first + 1) * run)):
         b = sequence[position]
         first, count = start[b] * ORDER, (start[b + 1] - start[b]) * ORDER
         prolongation = np.zeros((count, width))
@@ -580,13 +607,13 @@ def knot_blocks(fine, panels, start, interpolation, offsets, row_weights, column
         for i in range(width):
             for c in range(width):
                 reduced[b, i, c] = product[i, c]
-    return solution, reduced
 
 
 def balanced_sequence(costs: np.ndarray) -> np.ndarray:
-    """An order of the items of `costs` (B,) whose equal runs, one a numba thread, cost about the
-    same, int (B,): the costliest first, each to the run with the least cost that still has room."""
-    threads = numba.get_num_threads()
+    """An order of the items of `costs` (B,) whose equal runs, one a thread (`knot_blocks`), cost
+    about the same, int (B,): the costliest first, each to the run with the least cost that still
+    has room."""
+    threads = thread_count(costs.size)
     size = -(-costs.size // max(1, threads))
     runs, loads = [[] for _ in range(max(1, threads))], np.zeros(max(1, threads))
     for item in np.argsort(-costs, kind="stable"):
@@ -659,14 +686,17 @@ def _smooth_on_own_span(fine, t, p):
 SYSTEM_ROWS = 32
 
 
-@njit(cache=True, parallel=PRANGE_ONLY, error_model="numpy")
-def coarse_system(nodes, node_block, block_columns, block_reduced, near_start, near_panel, span_nodes, out):
+@njit(cache=True, nogil=True, error_model="numpy")
+def coarse_system(
+    nodes, node_block, block_columns, block_reduced, near_start, near_panel, span_nodes, out, first, shares
+):
     """2 K°_c R of `poisson`'s coarse equation into out (N, N): `layer_matrix_rows`'s entries
     at the coarse nodes (arguments as there, targets the nodes themselves) times 2, with 0 in
     the columns of a node's own knot block (node_block (N,), -1 for none; block_columns (B, W),
     -1 padding) and in the nodes of its near panels (near_panel[near_start[m]:near_start[m + 1]]),
     then each block's columns times its R (block_reduced (B, W, W)), `SYSTEM_ROWS` rows at a time
-    (no two blocks share a column).  A row takes the plain rule at every node, in a loop without a
+    (no two blocks share a column), the runs of rows first, first + shares, ...
+    (`core.library_threads.in_shares`).  A row takes the plain rule at every node, in a loop without a
     branch that the compiler vectorises, then the same-span closed form at the nodes of its own
     span (span_nodes, `SpanNodes`).  A 200-point cage's 6,400 nodes: 2.0-2.5 s
     -> 0.36 s, where each entry asked which rule it takes and the blocks' products gathered their
@@ -681,8 +711,8 @@ def coarse_system(nodes, node_block, block_columns, block_reduced, near_start, n
     for b in range(blocks):
         while used[b] < width and block_columns[b, used[b]] >= 0:
             used[b] += 1
-    for first in prange((count + SYSTEM_ROWS - 1) // SYSTEM_ROWS):
-        low, high = first * SYSTEM_ROWS, min(count, (first + 1) * SYSTEM_ROWS)
+    for run in range(first, (count + SYSTEM_ROWS - 1) // SYSTEM_ROWS, shares):
+        low, high = run * SYSTEM_ROWS, min(count, (run + 1) * SYSTEM_ROWS)
         for m in range(low, high):
             row = out[m]
             x, y, own, u = z_real[m], z_imaginary[m], node_span[m], node_u[m]
@@ -712,58 +742,53 @@ def coarse_system(nodes, node_block, block_columns, block_reduced, near_start, n
             for m in range(high - low):
                 for c in range(used[b]):
                     out[low + m, block_columns[b, c]] = product[m, c]
-    return out
 
 
-@njit(cache=True, parallel=PRANGE_ONLY, error_model="numpy")
-def rows_product(matrix, x, runs, out):
-    """out = matrix @ x, (K, m) for matrix (K, L) and x (L, m), C-ordered: in `runs` runs of rows
-    (one a numba thread; its count an argument, as a function asking numba for it cannot be
-    cached), each a BLAS product (`two_grid`'s residuals: the bench blob's 560 x 560 times
-    13 columns took 0.32-0.37 ms in one BLAS call, 0.18-0.20 ms in two runs)."""
+@njit(cache=True, nogil=True, error_model="numpy")
+def rows_product(matrix, x, out, first, shares):
+    """out = matrix @ x, (K, m) for matrix (K, L) and x (L, m), C-ordered: the first-th of
+    `shares` equal runs of rows (`core.library_threads.in_shares`), a BLAS product
+    (`two_grid`'s residuals: the bench blob's 560 x 560 times 13 columns took 0.32-0.37 ms in
+    one BLAS call, 0.18-0.20 ms in two runs)."""
     rows = matrix.shape[0]
-    step = max(1, -(-rows // max(1, runs)))
-    for first in prange(-(-rows // step)):
-        low, high = first * step, min(rows, (first + 1) * step)
+    step = max(1, -(-rows // shares))
+    low, high = min(rows, first * step), min(rows, (first + 1) * step)
+    if high > low:
         product = np.dot(matrix[low:high], x)
         for k in range(high - low):
             for c in range(x.shape[1]):
                 out[low + k, c] = product[k, c]
-    return out
 
 
-@njit(cache=True, parallel=PRANGE_ONLY, error_model="numpy")
-def galerkin_matrix(matrix, restrict, prolong, out):
+@njit(cache=True, nogil=True, error_model="numpy")
+def galerkin_matrix(matrix, restrict, prolong, out, first, shares):
     """Ρ A Π of `two_grid` into out (P c, P c): for A (P ORDER, P ORDER) on P panels, Ρ
-    (c, ORDER) on each panel's rows, then Π (ORDER, c) on each panel's columns; a row panel a
-    thread at a time, two BLAS products each."""
+    (c, ORDER) on each panel's rows, then Π (ORDER, c) on each panel's columns; the row panels
+    first, first + shares, ... (`core.library_threads.in_shares`), two BLAS products each."""
     panels = matrix.shape[0] // ORDER
     coarse = restrict.shape[0]
-    for i in prange(panels):
+    for i in range(first, panels, shares):
         restricted = np.dot(restrict, matrix[i * ORDER : (i + 1) * ORDER])  # (c, P ORDER)
         product = np.dot(restricted.reshape(coarse * panels, ORDER), prolong).reshape(coarse, panels * coarse)
         for r in range(coarse):
             for c in range(panels * coarse):
                 out[i * coarse + r, c] = product[r, c]
-    return out
 
 
-@njit(cache=True, parallel=PRANGE_ONLY, error_model="numpy")
-def adaptive_pairs(coefficients, bounds, targets, panel, power, touch):
-    """`cauchy_integrals.adaptive_weights` for K pairs: weights complex (K, ORDER) and touching bool (K,).
+@njit(cache=True, nogil=True, error_model="numpy")
+def adaptive_pairs(coefficients, bounds, targets, panel, power, touch, weights, touching, first, shares):
+    """`cauchy_integrals.adaptive_weights` for K pairs into weights complex (K, ORDER) and
+    touching bool (K,), the pairs first, first + shares, ... (`core.library_threads.in_shares`).
 
     coefficients (n, 3, 2) are the curve's spans (`ClosedBSpline.piecewise_polynomial`),
     bounds (P, 2) the panels' parameter intervals, targets complex (K,), panel int (K,).
     """
     count = targets.shape[0]
     n = coefficients.shape[0]
-    weights = np.zeros((count, ORDER), dtype=np.complex128)
-    touching = np.zeros(count, dtype=np.bool_)
-    for k in prange(count):
+    for k in range(first, count, shares):
         moments = np.empty((2, ORDER), dtype=np.complex128)
         p = panel[k]
         span = int(math.floor(bounds[p, 0] + 1e-12)) % n
         touching[k] = near_weights(
             coefficients[span], bounds[p, 0], bounds[p, 1], targets[k], power, touch, weights[k], moments
         )
-    return weights, touching

@@ -9,11 +9,10 @@ import math
 from typing import NamedTuple
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
 
 from core.boundary_integrals.compiled_integrals import near_weights
 from core.boundary_integrals.gauss_legendre import ORDER
-from core.jit_cache import PRANGE_ONLY
 
 
 class PanelTree(NamedTuple):
@@ -73,7 +72,7 @@ def _grid_index(position, count):
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def _boxes(targets, size):
+def target_boxes(targets, size):
     """Targets grouped by a grid of cells holding ~`size` each: (order int (M,), start int (B + 1,)),
     box b holding targets order[start[b]:start[b + 1]] (at most `size`, all in one cell).
     Non-finite targets (the callers refuse them; here they would index outside the grid) go
@@ -308,18 +307,22 @@ def _add_far(targets, members, tree, far, power, imaginary, out, out_imaginary):
                 out_imaginary[members[k], c] += product[k, c]
 
 
-@njit(cache=True, parallel=PRANGE_ONLY, error_model="numpy")
-def layer_rows(targets, tree, power, imaginary, out):
+@njit(cache=True, nogil=True, error_model="numpy")
+def layer_rows(
+    targets, tree, power, imaginary, out, out_imaginary, on_curve, order, box_start, first, shares
+):
     """C[φ](z) (power 1), or its z-derivative (power 2), at targets complex (M,), over the panels
-    of `tree` (a `PanelTree`).
+    of `tree` (a `PanelTree`), for the boxes first, first + shares, ... of `target_boxes`
+    (order int (M,), box_start int (B + 1,); `core.library_threads.in_shares`).
 
-    Returns the real parts (M, m), written into `out` (M, m), the imaginary parts (M, m) if
-    `imaginary` (else (0, m)) and on-curve flags (M,).  Each target walks down from the
+    Adds the real parts (M, m) into `out` (M, m), the imaginary parts into `out_imaginary` (M, m)
+    if `imaginary` (else (0, m)), and sets on-curve flags in `on_curve` (M,), all three zero
+    before the first share.  Each target walks down from the
     coarsest level: a panel is near it when one of its nodes is within the panel's close
     range; a far panel takes its plain rule, a near one is replaced by its children, on the
     finest level by `near_weights` (a target it finds on the curve is flagged).
 
-    The walk is shared by up to `BOX` targets close together (`_boxes`): a panel far from
+    The walk is shared by up to `BOX` targets close together (`target_boxes`): a panel far from
     all of them (`_box_side`) is far for each, one near all of them is replaced by its
     children for all.  The box's far panels' rules make one matrix, whose product with
     their densities is one BLAS call (`_add_far`); a box with panels mixed for it is split
@@ -330,15 +333,10 @@ def layer_rows(targets, tree, power, imaginary, out):
     """
     node_z, centres, reach, close_squared = tree.node_z, tree.centres, tree.reach, tree.close_squared
     children, child_start = tree.children, tree.child_start
-    count = targets.shape[0]
     columns = tree.density.shape[1]
     finest = tree.panel_start[tree.panel_start.shape[0] - 2]
     total = node_z.shape[0] // ORDER
-    out[:] = 0.0
-    out_imaginary = np.zeros((count if imaginary else 0, columns))
-    on_curve = np.zeros(count, dtype=np.bool_)
-    order, box_start = _boxes(targets, np.int64(BOX))  # the type a call from Python gives: one specialisation
-    for b in prange(box_start.shape[0] - 1):
+    for b in range(first, box_start.shape[0] - 1, shares):
         members = order[box_start[b] : box_start[b + 1]].copy()  # reordered as boxes split
         stack = np.empty(total + tree.stack_size, dtype=np.int64)  # a list of panels, then descents
         moments = np.empty((2, ORDER), dtype=np.complex128)
@@ -404,4 +402,3 @@ def layer_rows(targets, tree, power, imaginary, out):
                     out[m, c] += row[c]
                     if imaginary:
                         out_imaginary[m, c] += row_imaginary[c]
-    return out, out_imaginary, on_curve

@@ -283,9 +283,14 @@ def _coarse_system(curve: ClosedBSpline, coarse: Panels, blocks: dict, target, p
             scratch("coarse system", (coarse.size, coarse.size)),
         )  # fmt: skip
 
-    system = compiled_integrals.run_compiled(compiled_integrals.coarse_system, arguments) if blocks else None
-    if system is not None:
-        return system
+    if blocks:
+        found = compiled_integrals.run_compiled(
+            compiled_integrals.coarse_system,
+            arguments,
+            items=-(-coarse.size // compiled_integrals.SYSTEM_ROWS),
+        )
+        if found is not None:
+            return found[7]
     system = layer_matrix(curve, coarse, coarse.z, coarse.t)
     system *= 2.0  # in place: a second dense matrix is fresh memory a solve (1.9 ms at 560 unknowns)
     for columns, _ in blocks.values():  # K*: within a knot's pair of panels, in R
@@ -392,9 +397,13 @@ def _compiled_blocks(curve, fine: Panels, panels, start, interpolation, offsets,
         )  # fmt: skip
         nodes = np.diff(start).astype(np.float64) * ORDER  # an LU costs nodes^3
         sequence = compiled_integrals.balanced_sequence(nodes**3)
-        return blocks, panels, start, interpolation, offsets, weights, column_weights, sequence
+        solution = np.zeros((interpolation.shape[0], column_weights.shape[1]))
+        reduced = np.zeros((start.size - 1, column_weights.shape[1], column_weights.shape[1]))
+        arrays = (panels, start, interpolation, offsets, weights, column_weights, sequence)
+        return blocks, *arrays, solution, reduced
 
-    return compiled_integrals.run_compiled(compiled_integrals.knot_blocks, arguments)
+    found = compiled_integrals.run_compiled(compiled_integrals.knot_blocks, arguments, items=start.size - 1)
+    return None if found is None else found[-2:]
 
 
 def _solved_blocks(curve, fine, rows, start, entries, values, entry_start, prolongation, restriction):
@@ -609,11 +618,12 @@ def layer_matrix(curve: ClosedBSpline, panels: Panels, z: np.ndarray, t: np.ndar
         nodes = compiled_integrals.LayerNodes(
             panels.z, factors, *span_parameters(curve, panels.t), panels.weights, spans
         )
-        return (np.ascontiguousarray(z, dtype=np.complex128), *span_parameters(curve, t), nodes)
+        out = np.empty((z.size, panels.size))
+        return (np.ascontiguousarray(z, dtype=np.complex128), *span_parameters(curve, t), nodes, out)
 
-    found = compiled_integrals.run_compiled(compiled_integrals.layer_matrix_rows, arguments)
+    found = compiled_integrals.run_compiled(compiled_integrals.layer_matrix_rows, arguments, items=z.size)
     if found is not None:
-        return found
+        return found[-1]
     matrix = np.empty((z.size, panels.size))
     for first in range(0, z.size, 1024):  # real arithmetic, in blocks of rows: memory of one matrix
         dx = panels.z.real[None, :] - z[first : first + 1024, None].real
@@ -675,7 +685,7 @@ def load_compiled() -> bool:
     """Read the compiled boundary integrals (`compiled_integrals`) from numba's cache now, for a
     program about to evaluate many points (~0.2 s once; never compiles).
 
-    Returns whether all eleven are in memory afterwards: False where numba's cache lacks them
+    Returns whether all twelve are in memory afterwards: False where numba's cache lacks them
     (another CPU model or numba version than the install's, `TRANSFINITE_PRECOMPILE=0`),
     and the numpy path runs instead.
     """
@@ -685,7 +695,7 @@ def load_compiled() -> bool:
     cauchy_integrals(square, solution.levels, np.array([[0.5, 0.5]]))
     exercise_near_field(square, solution.levels.panels[-1])
     compiled = (
-        compiled_integrals.adaptive_pairs, compiled_tree.layer_rows,
+        compiled_integrals.adaptive_pairs, compiled_tree.layer_rows, compiled_tree.target_boxes,
         compiled_integrals.layer_matrix_rows, compiled_integrals.knot_blocks,
         compiled_integrals.coarse_system, compiled_integrals.panel_geometry,
         compiled_integrals.panel_gaps, compiled_integrals.close_pairs,

@@ -31,7 +31,6 @@ LU of A, which the iteration leaves as it was.
 
 from __future__ import annotations
 
-import numba
 import numpy as np
 from scipy.linalg import lu_factor, lu_solve
 
@@ -135,10 +134,12 @@ def _galerkin(
     C-ordered, Π = `prolong` (ORDER, c) and Ρ = `restrict` (c, ORDER): compiled on every thread
     (`compiled_integrals.galerkin_matrix`) where at hand, else numpy."""
     found = compiled_integrals.run_compiled(
-        compiled_integrals.galerkin_matrix, lambda: (matrix, restrict, prolong, coarse)
+        compiled_integrals.galerkin_matrix,
+        lambda: (matrix, restrict, prolong, coarse),
+        items=matrix.shape[0] // ORDER,
     )
     if found is not None:
-        return found
+        return coarse
     size = matrix.shape[0]
     panels = size // ORDER
     order = restrict.shape[0]
@@ -158,9 +159,9 @@ def _product(matrix: np.ndarray, x: np.ndarray, out: np.ndarray) -> np.ndarray:
     """matrix @ x into `out` (K, m): compiled on every thread (`compiled_integrals.rows_product`)
     where at hand, else one BLAS call."""
     found = compiled_integrals.run_compiled(
-        compiled_integrals.rows_product, lambda: (matrix, x, numba.get_num_threads(), out)
+        compiled_integrals.rows_product, lambda: (matrix, x, out), items=matrix.shape[0]
     )
-    return np.matmul(matrix, x, out=out) if found is None else found
+    return np.matmul(matrix, x, out=out) if found is None else out
 
 
 def _steps_left(length: float, rate: float, scale: float) -> float:

@@ -10,20 +10,22 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
 
 from core.curves.boundary import PiecewisePolynomial
 from core.curves.closest_parameter import closest_parameter
-from core.jit_cache import PRANGE_ONLY
+from core.library_threads import in_shares
 
 # Direction (radians) of the rays of the crossing test, deliberately not a round angle.
 RAY_ANGLE = 0.6180339887498949
 
 
-@njit(cache=True, parallel=PRANGE_ONLY, error_model="numpy")
-def _winding(coefficients, points, out):
+@njit(cache=True, nogil=True, error_model="numpy")
+def _winding(coefficients, points, out, first, shares):
+    """The winding numbers of `winding_numbers` into out (M,), for the points first, first + shares,
+    ... (`core.library_threads.in_shares`)."""
     pieces = coefficients.shape[0]
-    for m in prange(points.shape[0]):
+    for m in range(first, points.shape[0], shares):
         x = points[m, 0]
         y = points[m, 1]
         winding = 0
@@ -80,14 +82,16 @@ def winding_numbers(curve: PiecewisePolynomial, points: np.ndarray) -> np.ndarra
     coefficients = np.ascontiguousarray(curve.coefficients @ rotation.T)
     rotated = np.ascontiguousarray(np.asarray(points, dtype=np.float64) @ rotation.T)
     out = np.zeros(points.shape[0], dtype=np.int64)
-    _winding(coefficients, rotated, out)
+    in_shares(_winding, rotated.shape[0], coefficients, rotated, out)
     return out
 
 
-@njit(cache=True, parallel=PRANGE_ONLY, error_model="numpy")
-def _distances(coefficients, piece_length, points, out_t, out_d):
+@njit(cache=True, nogil=True, error_model="numpy")
+def _distances(coefficients, piece_length, points, out_t, out_d, first, shares):
+    """The closest parameters and distances of `closest_parameters` into out_t and out_d (M,), for
+    the points first, first + shares, ... (`core.library_threads.in_shares`)."""
     pieces = coefficients.shape[0]
-    for m in prange(points.shape[0]):
+    for m in range(first, points.shape[0], shares):
         best = 1e300
         best_t = 0.0
         for k in range(pieces):
@@ -113,7 +117,7 @@ def closest_parameters(curve: PiecewisePolynomial, points: np.ndarray) -> tuple[
     points = np.require(np.asarray(points, dtype=np.float64).reshape(-1, 2), requirements="CW")
     out_t = np.zeros(points.shape[0])
     out_d = np.zeros(points.shape[0])
-    _distances(curve.coefficients, curve.piece_length, points, out_t, out_d)
+    in_shares(_distances, points.shape[0], curve.coefficients, curve.piece_length, points, out_t, out_d)
     return np.mod(out_t, curve.period), out_d
 
 

@@ -39,10 +39,10 @@ import math
 from collections.abc import Callable
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
 
 from core.curves.bspline import ClosedBSpline
-from core.jit_cache import PRANGE_ONLY
+from core.library_threads import in_shares
 from core.validation import as_points, positive_int
 
 # Points per compiled call: paces the progress callback.
@@ -105,7 +105,8 @@ def pgw_basis(
     snap = ON_CURVE * curve.diameter
     for start in range(0, count, CHUNK):
         stop = min(start + CHUNK, count)
-        _pgw_rows(control, points[start:stop], directions, snap, values[start:stop], outside[start:stop])
+        rows = (control, points[start:stop], directions, snap, values[start:stop], outside[start:stop])
+        in_shares(_pgw_rows, stop - start, *rows)
         if progress is not None:
             progress(stop / count)
     if outside.any():
@@ -175,12 +176,13 @@ def _span_roots(s0, s1, s2, roots):
     return 2
 
 
-@njit(cache=True, parallel=PRANGE_ONLY)
-def _pgw_rows(control, points, directions, snap, out, outside):
-    """Fill out (M, n) with PGW basis rows; flag points outside the curve."""
+@njit(cache=True, nogil=True)
+def _pgw_rows(control, points, directions, snap, out, outside, first, shares):
+    """Fill out (M, n) with PGW basis rows and flag the points outside the curve in outside (M,),
+    for the points first, first + shares, ... (`core.library_threads.in_shares`)."""
     n = control.shape[0]
     count = points.shape[0]
-    for m in prange(count):
+    for m in range(first, count, shares):
         x = points[m, 0]
         y = points[m, 1]
         # Bezier points relative to x: knot midpoints K_j = (P_{j-1} + P_j) / 2, controls P_j.

@@ -171,7 +171,7 @@ def test_the_installed_wheel_runs_its_commands_from_anywhere(venv, elsewhere):
     compiled_layer = command(
         "python", "-c",
         "import numpy as np, core; from core.boundary_integrals import compiled_integrals as c, poisson; "
-        "from core.boundary_integrals.compiled_tree import layer_rows; "
+        "from core.boundary_integrals.compiled_tree import layer_rows, target_boxes; "
         "square = core.ClosedBSpline(np.array([[0.0, 0], [1, 0], [1, 1], [0, 1]])); "
         "x = np.random.default_rng(1).uniform(0.3, 0.7, (c.LOAD_AFTER_POINTS + 1, 2)); "
         "core.basis_functions(square, x); poisson.solved_densities.cache_clear(); "
@@ -179,11 +179,11 @@ def test_the_installed_wheel_runs_its_commands_from_anywhere(venv, elsewhere):
         "from core.boundary_integrals.panels import curve_panels; "
         "poisson.exercise_near_field(square, curve_panels(square)); "
         "print(*(len(f.overloads) for f in "
-        "(c.adaptive_pairs, layer_rows, c.layer_matrix_rows, c.knot_blocks, c.coarse_system, "
+        "(c.adaptive_pairs, layer_rows, target_boxes, c.layer_matrix_rows, c.knot_blocks, c.coarse_system, "
         "c.panel_geometry, c.panel_gaps, c.close_pairs, c.galerkin_matrix, c.rows_product, "
         "c.interpolation_rows)))",
     )  # fmt: skip
-    assert compiled_layer.stdout.split() == ["1"] * 11, f"not loaded:\n{compiled_layer.stderr}"
+    assert compiled_layer.stdout.split() == ["1"] * 12, f"not loaded:\n{compiled_layer.stderr}"
 
     cv2.imwrite(str(folder / "blob.png"), picture())
     command("transfinite-warp", "fit", "blob.png", "--output", "cage.json", "--points", "10")

@@ -161,7 +161,7 @@ def test_boxes_take_any_targets():
         np.array([0.5 + 0.5j, np.nan + 0.3j, complex(0.4, np.inf), complex(-np.inf, 0.2), 0.7 + 0.1j]),
         np.array([complex(np.nan, np.nan), complex(np.inf, -np.inf)]),
     ):  # fmt: skip
-        order, start = compiled_tree._boxes(targets, compiled_tree.BOX)
+        order, start = compiled_tree.target_boxes(targets, compiled_tree.BOX)
         assert np.array_equal(np.sort(order), np.arange(targets.size))
         assert start[0] == 0 and start[-1] == targets.size and np.all(np.diff(start) >= 0)
 
@@ -245,21 +245,22 @@ def test_the_cache_is_read_once_the_work_repays_it(monkeypatch):
 
 
 def test_run_compiled_builds_its_arguments_only_where_it_calls(monkeypatch):
-    # mode "numpy": None, and the arguments are never built; "compiled": the function's own result.
+    # mode "numpy": None, and the arguments are never built; "compiled": the function's own result,
+    # or for a loop in shares its arguments, the outputs written; arguments that say None: None.
     built = []
 
     def arguments():
         built.append(True)
-        return np.array([[1.0, 2.0]]), np.array([[3.0], [4.0]]), 1, np.empty((1, 1))
+        return np.array([[1.0, 2.0], [0.0, 1.0]]), np.array([[3.0], [4.0]]), np.full((2, 1), np.nan)
 
     monkeypatch.setattr(compiled_integrals, "mode", "numpy")
-    assert compiled_integrals.run_compiled(compiled_integrals.rows_product, arguments) is None
+    assert compiled_integrals.run_compiled(compiled_integrals.rows_product, arguments, items=2) is None
     assert built == []
     monkeypatch.setattr(compiled_integrals, "mode", "compiled")
-    np.testing.assert_array_equal(
-        compiled_integrals.run_compiled(compiled_integrals.rows_product, arguments), [[11.0]]
-    )
+    found = compiled_integrals.run_compiled(compiled_integrals.rows_product, arguments, items=2)
+    np.testing.assert_array_equal(found[2], [[11.0], [4.0]])
     assert built == [True]
+    assert compiled_integrals.run_compiled(compiled_integrals.panel_geometry, lambda: None) is None
 
 
 def test_a_damaged_cache_entry_falls_back_to_numpy_for_good(monkeypatch):
@@ -372,7 +373,7 @@ def test_the_near_rule_integrates_a_constant_density_exactly(name, mode, monkeyp
 
 
 def test_balanced_sequence_gives_each_thread_an_equal_share_of_the_knot_blocks(monkeypatch):
-    monkeypatch.setattr(compiled_integrals.numba, "get_num_threads", lambda: 2)
+    monkeypatch.setattr("numba.config.NUMBA_NUM_THREADS", 2)
     costs = np.array([8, 8, 10, 10, 8, 10, 8, 8, 8, 8, 8, 10], dtype=float) ** 3  # the bench blob's
     sequence = compiled_integrals.balanced_sequence(costs)
     assert sorted(sequence.tolist()) == list(range(costs.size))

@@ -139,5 +139,7 @@ def test_the_compiled_products_equal_numpys(monkeypatch):
 def test_the_rows_product_covers_every_row_in_any_number_of_runs(runs):
     rng = np.random.default_rng(5)
     matrix, x = rng.normal(size=(7, 5)), rng.normal(size=(5, 3))
-    out = compiled_integrals.rows_product(matrix, x, runs, np.full((7, 3), np.nan))
+    out = np.full((7, 3), np.nan)
+    for first in range(runs):
+        compiled_integrals.rows_product(matrix, x, out, first, runs)
     np.testing.assert_allclose(out, matrix @ x, rtol=1e-15, atol=1e-15)
