@@ -260,17 +260,15 @@ def adaptive_weights(
         lambda: (
             pieces,
             np.ascontiguousarray(panels.bounds, dtype=np.float64),
-            np.ascontiguousarray(targets, dtype=np.complex128),
-            np.ascontiguousarray(panel, dtype=np.int64),
+            (np.ascontiguousarray(targets, dtype=np.complex128), np.ascontiguousarray(panel, dtype=np.int64)),
             int(power),
             float(touch),
-            np.zeros((count, ORDER), dtype=np.complex128),
-            np.zeros(count, dtype=np.bool_),
+            (np.zeros((count, ORDER), dtype=np.complex128), np.zeros(count, dtype=np.bool_)),
         ),
         items=count,
     )
     if found is not None:
-        return found[-2:]
+        return found[-1]
     # `compiled_integrals.near_weights`, pair by pair there, for all pairs at once here.
     bounds = panels.bounds[panel]
     span = np.floor(bounds[:, 0] + 1e-12)
@@ -549,11 +547,11 @@ def _compiled_rows(
         tree = _panel_tree(curve, levels)
         rows = np.empty((z.size, tree.density.shape[1])) if out is None else out
         rows[:] = 0.0
-        found = np.zeros((z.size if imaginary else 0, rows.shape[1])), np.zeros(z.size, dtype=np.bool_)
-        return z, tree, power, imaginary, rows, *found, *compiled_tree.target_boxes(*boxes)
+        found = rows, np.zeros((z.size if imaginary else 0, rows.shape[1])), np.zeros(z.size, dtype=np.bool_)
+        return z, tree, power, imaginary, found, compiled_tree.target_boxes(*boxes)
 
     found = compiled_integrals.run_compiled(compiled_tree.layer_rows, arguments, z.size, items=z.size)
-    return None if found is None else found[4:7]
+    return None if found is None else found[4]
 
 
 def _panel_tree(curve: ClosedBSpline, levels: Levels) -> compiled_tree.PanelTree:

@@ -543,25 +543,26 @@ class KnotBlocks(NamedTuple):
     orientation: float  #: +1 counter-clockwise, -1 clockwise
 
 
+class BlockSolve(NamedTuple):
+    """The knot blocks `knot_blocks` solves (B blocks, R rows in all) and where it writes."""
+
+    panels: np.ndarray  #: int: the blocks' fine panels, block b's panels[start[b]:start[b + 1]]
+    start: np.ndarray  #: int (B + 1,)
+    interpolation: np.ndarray  #: (R, ORDER): P's rows
+    offsets: np.ndarray  #: int (R,): each row's first column in P
+    row_weights: np.ndarray  #: (R,)
+    column_weights: np.ndarray  #: (B, W)
+    sequence: np.ndarray  #: int (B,): the order the blocks are taken in (`balanced_sequence`)
+    solution: np.ndarray  #: (R, W), written: X = (I + 2 K*)^-1 P
+    reduced: np.ndarray  #: (B, W, W), written: Q X
+
+
 @njit(cache=True, nogil=True, error_model="numpy")
-def knot_blocks(
-    fine,
-    panels,
-    start,
-    interpolation,
-    offsets,
-    row_weights,
-    column_weights,
-    sequence,
-    solution,
-    reduced,
-    first,
-    shares,
-):
+def knot_blocks(fine, work, first, shares):
     """The compressed knot blocks of `core.boundary_integrals.poisson`, a block a thread at a time.
 
-    Block b's fine panels are panels[start[b]:start[b + 1]] (of `fine`, a `KnotBlocks`), its
-    rows those panels' nodes in order (R rows in all).  Its matrix I + 2 K*_b takes
+    Block b's fine panels are panels[start[b]:start[b + 1]] (of `fine`, a `KnotBlocks`; `work`
+    a `BlockSolve`), its rows those panels' nodes in order (R rows in all).  Its matrix I + 2 K*_b takes
     `layer_matrix_rows`'s entries, but where a node is within its close range of another of
     the block's panels and the kernel is not smooth there (`_smooth_on_own_span`) the adaptive
     rule's (`near_weights`), as `poisson._block_near_pairs` finds them.  P, (R, W), has
@@ -573,6 +574,9 @@ def knot_blocks(
     (the bench blob's 12 blocks: 3.2 -> 2.95 ms on two threads).
     """
     nodes = fine  # a `LayerNodes` by its first fields' names
+    panels, start, interpolation, offsets = work.panels, work.start, work.interpolation, work.offsets
+    row_weights, column_weights, sequence = work.row_weights, work.column_weights, work.sequence
+    solution, reduced = work.solution, work.reduced
     node_z, node_span, node_u = nodes.z, nodes.span, nodes.u
     width = column_weights.shape[1]
     blocks = start.shape[0] - 1
@@ -687,14 +691,13 @@ SYSTEM_ROWS = 32
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def coarse_system(
-    nodes, node_block, block_columns, block_reduced, near_start, near_panel, span_nodes, out, first, shares
-):
+def coarse_system(nodes, blocks, near_start, near_panel, span_nodes, out, first, shares):
     """2 K°_c R of `poisson`'s coarse equation into out (N, N): `layer_matrix_rows`'s entries
     at the coarse nodes (arguments as there, targets the nodes themselves) times 2, with 0 in
-    the columns of a node's own knot block (node_block (N,), -1 for none; block_columns (B, W),
-    -1 padding) and in the nodes of its near panels (near_panel[near_start[m]:near_start[m + 1]]),
-    then each block's columns times its R (block_reduced (B, W, W)), `SYSTEM_ROWS` rows at a time
+    the columns of a node's own knot block (`blocks` = (node_block (N,), -1 for none;
+    block_columns (B, W), -1 padding; block_reduced (B, W, W))) and in the nodes of its near
+    panels (near_panel[near_start[m]:near_start[m + 1]]), then each block's columns times its
+    R (block_reduced), `SYSTEM_ROWS` rows at a time
     (no two blocks share a column), the runs of rows first, first + shares, ...
     (`core.library_threads.in_shares`).  A row takes the plain rule at every node, in a loop without a
     branch that the compiler vectorises, then the same-span closed form at the nodes of its own
@@ -703,12 +706,13 @@ def coarse_system(
     columns over all rows (a loaded 2-core machine; the same matrix, bit for bit)."""
     node_span, node_u, weights, spans = nodes.span, nodes.u, nodes.weights, nodes.spans
     span_start, span_order = span_nodes.start, span_nodes.nodes
+    node_block, block_columns, block_reduced = blocks
     count = nodes.z.shape[0]
     z_real, z_imaginary = nodes.z.real.copy(), nodes.z.imag.copy()
     f_real, f_imaginary = nodes.factors.real.copy(), nodes.factors.imag.copy()
-    blocks, width = block_columns.shape
-    used = np.zeros(blocks, dtype=np.int64)
-    for b in range(blocks):
+    block_count, width = block_columns.shape
+    used = np.zeros(block_count, dtype=np.int64)
+    for b in range(block_count):
         while used[b] < width and block_columns[b, used[b]] >= 0:
             used[b] += 1
     for run in range(first, (count + SYSTEM_ROWS - 1) // SYSTEM_ROWS, shares):
@@ -733,7 +737,7 @@ def coarse_system(
             for e in range(near_start[m], near_start[m + 1]):
                 for j in range(ORDER):
                     row[near_panel[e] * ORDER + j] = 0.0
-        for b in range(blocks):
+        for b in range(block_count):
             gathered = np.empty((high - low, used[b]))
             for m in range(high - low):
                 for i in range(used[b]):
@@ -776,13 +780,16 @@ def galerkin_matrix(matrix, restrict, prolong, out, first, shares):
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def adaptive_pairs(coefficients, bounds, targets, panel, power, touch, weights, touching, first, shares):
-    """`cauchy_integrals.adaptive_weights` for K pairs into weights complex (K, ORDER) and
-    touching bool (K,), the pairs first, first + shares, ... (`core.library_threads.in_shares`).
+def adaptive_pairs(coefficients, bounds, pairs, power, touch, out, first, shares):
+    """`cauchy_integrals.adaptive_weights` for K pairs (targets complex (K,), panel int (K,))
+    into out = (weights complex (K, ORDER), touching bool (K,)), the pairs first,
+    first + shares, ... (`core.library_threads.in_shares`).
 
     coefficients (n, 3, 2) are the curve's spans (`ClosedBSpline.piecewise_polynomial`),
-    bounds (P, 2) the panels' parameter intervals, targets complex (K,), panel int (K,).
+    bounds (P, 2) the panels' parameter intervals.
     """
+    targets, panel = pairs
+    weights, touching = out
     count = targets.shape[0]
     n = coefficients.shape[0]
     for k in range(first, count, shares):

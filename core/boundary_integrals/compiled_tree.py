@@ -308,16 +308,13 @@ def _add_far(targets, members, tree, far, power, imaginary, out, out_imaginary):
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def layer_rows(
-    targets, tree, power, imaginary, out, out_imaginary, on_curve, order, box_start, first, shares
-):
+def layer_rows(targets, tree, power, imaginary, out, boxes, first, shares):
     """C[φ](z) (power 1), or its z-derivative (power 2), at targets complex (M,), over the panels
-    of `tree` (a `PanelTree`), for the boxes first, first + shares, ... of `target_boxes`
-    (order int (M,), box_start int (B + 1,); `core.library_threads.in_shares`).
+    of `tree` (a `PanelTree`), for the boxes first, first + shares, ... of `boxes` (order int
+    (M,), box_start int (B + 1,): `target_boxes`; `core.library_threads.in_shares`).
 
-    Adds the real parts (M, m) into `out` (M, m), the imaginary parts into `out_imaginary` (M, m)
-    if `imaginary` (else (0, m)), and sets on-curve flags in `on_curve` (M,), all three zero
-    before the first share.  Each target walks down from the
+    Adds into out = (real parts (M, m), imaginary parts (M, m) if `imaginary` (else (0, m)),
+    on-curve flags (M,)), all three zero before the first share.  Each target walks down from the
     coarsest level: a panel is near it when one of its nodes is within the panel's close
     range; a far panel takes its plain rule, a near one is replaced by its children, on the
     finest level by `near_weights` (a target it finds on the curve is flagged).
@@ -333,6 +330,8 @@ def layer_rows(
     """
     node_z, centres, reach, close_squared = tree.node_z, tree.centres, tree.reach, tree.close_squared
     children, child_start = tree.children, tree.child_start
+    out, out_imaginary, on_curve = out
+    order, box_start = boxes
     columns = tree.density.shape[1]
     finest = tree.panel_start[tree.panel_start.shape[0] - 2]
     total = node_z.shape[0] // ORDER

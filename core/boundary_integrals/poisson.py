@@ -277,20 +277,18 @@ def _coarse_system(curve: ClosedBSpline, coarse: Panels, blocks: dict, target, p
         span_order = np.argsort(nodes.span, kind="stable")
         span_start = np.searchsorted(nodes.span[span_order], np.arange(curve.n + 1)).astype(np.int64)
         return (
-            nodes, node_block, block_columns, block_reduced,
+            nodes, (node_block, block_columns, block_reduced),
             np.searchsorted(target, np.arange(coarse.size + 1)).astype(np.int64), np.ascontiguousarray(panel),
             compiled_integrals.SpanNodes(span_start, span_order),
             scratch("coarse system", (coarse.size, coarse.size)),
         )  # fmt: skip
 
-    if blocks:
-        found = compiled_integrals.run_compiled(
-            compiled_integrals.coarse_system,
-            arguments,
-            items=-(-coarse.size // compiled_integrals.SYSTEM_ROWS),
-        )
-        if found is not None:
-            return found[7]
+    runs = -(-coarse.size // compiled_integrals.SYSTEM_ROWS)
+    found = blocks and compiled_integrals.run_compiled(
+        compiled_integrals.coarse_system, arguments, items=runs
+    )
+    if found:  # no blocks ({}) or not at hand (None): numpy
+        return found[5]
     system = layer_matrix(curve, coarse, coarse.z, coarse.t)
     system *= 2.0  # in place: a second dense matrix is fresh memory a solve (1.9 ms at 560 unknowns)
     for columns, _ in blocks.values():  # K*: within a knot's pair of panels, in R
@@ -397,13 +395,13 @@ def _compiled_blocks(curve, fine: Panels, panels, start, interpolation, offsets,
         )  # fmt: skip
         nodes = np.diff(start).astype(np.float64) * ORDER  # an LU costs nodes^3
         sequence = compiled_integrals.balanced_sequence(nodes**3)
-        solution = np.zeros((interpolation.shape[0], column_weights.shape[1]))
-        reduced = np.zeros((start.size - 1, column_weights.shape[1], column_weights.shape[1]))
-        arrays = (panels, start, interpolation, offsets, weights, column_weights, sequence)
-        return blocks, *arrays, solution, reduced
+        width = column_weights.shape[1]
+        written = np.zeros((interpolation.shape[0], width)), np.zeros((start.size - 1, width, width))
+        solve = (panels, start, interpolation, offsets, weights, column_weights, sequence, *written)
+        return blocks, compiled_integrals.BlockSolve(*solve)
 
     found = compiled_integrals.run_compiled(compiled_integrals.knot_blocks, arguments, items=start.size - 1)
-    return None if found is None else found[-2:]
+    return None if found is None else (found[1].solution, found[1].reduced)
 
 
 def _solved_blocks(curve, fine, rows, start, entries, values, entry_start, prolongation, restriction):

@@ -181,8 +181,7 @@ def _pgw_rows(control, points, directions, snap, out, outside, first, shares):
     """Fill out (M, n) with PGW basis rows and flag the points outside the curve in outside (M,),
     for the points first, first + shares, ... (`core.library_threads.in_shares`)."""
     n = control.shape[0]
-    count = points.shape[0]
-    for m in range(first, count, shares):
+    for m in range(first, points.shape[0], shares):
         x = points[m, 0]
         y = points[m, 1]
         # Bezier points relative to x: knot midpoints K_j = (P_{j-1} + P_j) / 2, controls P_j.
