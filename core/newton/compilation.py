@@ -117,14 +117,14 @@ def compile_solver(progress: Callable[[float], None] | None = None, gradients: b
 
 def compile_all() -> None:
     """Compile every compiled function of `core` into numba's disk cache: the boundary integrals
-    and the curve tests (`compile_integrals`), the positive Gordon-Wixom rows (`compile_pgw`) and
-    the mesher (`compile_mesher`) in a child process, and meanwhile the solver with its gradients
-    (`compile_solver`) in this one.
+    and the curve tests (`compile_integrals`) and the mesher (`compile_mesher`) in a child
+    process, and meanwhile the solver with its gradients (`compile_solver`) and the positive
+    Gordon-Wixom rows (`compile_pgw`) in this one.
 
     The package's build runs it (``.packaging/backend.py``), so that an installed
     package starts every kernel from the cache.  The two halves share no compiled function's
     work that matters (a few small curve tests, which either writes to the cache whole) and cost
-    ~37 and ~36 s of one core, so on two cores they take about half the time.
+    ~35 s of one core each (66-73 CPU-s in all), so on two cores they take about half the time.
 
     Raises
     ------
@@ -139,19 +139,17 @@ def compile_all() -> None:
             sys.executable,
             "-c",
             "from core.newton import compilation; "
-            "compilation.compile_integrals(); compilation.compile_pgw(); compilation.compile_mesher()",
+            "compilation.compile_integrals(); compilation.compile_mesher()",
         ],
         env=environment,
     )
     try:
         compile_solver(gradients=True)
+        compile_pgw()
     finally:
         returned = child.wait()
     if returned != 0:
-        raise RuntimeError(
-            "compiling the boundary integrals, the Gordon-Wixom rows and the mesher failed "
-            f"(exit status {returned})"
-        )
+        raise RuntimeError(f"compiling the boundary integrals and the mesher failed (exit status {returned})")
 
 
 def compile_integrals() -> None:
