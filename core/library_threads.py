@@ -64,23 +64,30 @@ def _controller() -> ThreadpoolController:
 
 
 def thread_count(items: int) -> int:
-    """Threads for a loop over `items`: numba's thread count (``NUMBA_NUM_THREADS``, the cores by
-    default), at most one an item, at least one."""
+    """Threads for a loop over `items`: numba's thread count (`configured_threads`), at most one
+    an item, at least one."""
+    return max(1, min(configured_threads(), items))
+
+
+def configured_threads() -> int:
+    """numba's thread count, ``NUMBA_NUM_THREADS`` (the cores by default)."""
     import numba  # here: this module sets OpenBLAS's variable before numpy (numba's import) loads
 
-    return max(1, min(numba.config.NUMBA_NUM_THREADS, items))
+    return numba.config.NUMBA_NUM_THREADS
 
 
 def in_shares(loop: Callable, items: int, *arguments) -> None:
     """``loop(*arguments, first, shares)`` for every `first` below ``shares = thread_count(items)``,
     side by side: the calling thread runs the first share, `pool`'s threads the others.
 
-    `loop` is a compiled function that releases the GIL (``nogil=True``) and takes the items
-    ``first``, ``first + shares``, ... below `items`, writing only their outputs.  Every share
-    has ended when this returns, or raises the first share's error.
+    `loop` is a compiled function that releases the GIL (``nogil=True``) and takes its share of
+    the items (those at first, first + shares, ..., or the first-th of `shares` equal runs),
+    writing only their outputs.  Every share has ended when this returns, or raises the first
+    share's error.
     """
     shares = thread_count(items)
-    others = [pool(shares - 1).submit(loop, *arguments, first, shares) for first in range(1, shares)]
+    workers = pool(configured_threads() - 1) if shares > 1 else None
+    others = [workers.submit(loop, *arguments, first, shares) for first in range(1, shares)]
     try:
         loop(*arguments, 0, shares)
     finally:
@@ -92,7 +99,8 @@ def in_shares(loop: Callable, items: int, *arguments) -> None:
 
 @functools.cache
 def pool(threads: int) -> ThreadPoolExecutor:
-    """`threads` worker threads, made once per process (per count)."""
+    """The worker threads of `in_shares`, one fewer than numba's thread count (the caller's thread
+    takes a share too): made once per process, each thread at its first use."""
     return ThreadPoolExecutor(threads, thread_name_prefix="transfinite")
 
 

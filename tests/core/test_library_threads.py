@@ -76,6 +76,10 @@ def test_each_share_takes_its_items_side_by_side(monkeypatch):
     in_shares(loop, 10, out)
     assert sorted(taken) == [(0, 3), (1, 3), (2, 3)] and len(threads) == 3
     assert np.array_equal(out, np.ones(10, dtype=int))
+    # Fewer items, fewer shares, on the same pool: no thread beyond numba's count in all.
+    barrier = threading.Barrier(2, timeout=10)
+    in_shares(loop, 2, out)
+    assert sorted(taken[3:]) == [(0, 2), (1, 2)] and len(threads) == 3
 
 
 def test_a_failed_share_is_raised_once_every_share_has_ended(monkeypatch):
