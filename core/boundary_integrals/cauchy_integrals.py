@@ -541,7 +541,7 @@ def _compiled_rows(
     None."""
 
     def arguments():
-        boxes = (z, np.int64(compiled_tree.BOX))  # the type a call from Python gives: one specialisation
+        boxes = (z, compiled_tree.BOX)
         if not compiled_integrals.loaded(compiled_tree.target_boxes, *boxes):
             return None
         tree = _panel_tree(curve, levels)

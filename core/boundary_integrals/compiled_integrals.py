@@ -583,11 +583,11 @@ def knot_blocks(fine, work, first, shares):
     run = -(-blocks // shares)
     for position in range(first * run, min(blocks, (first + 1) * run)):
         b = sequence[position]
-        first, count = start[b] * ORDER, (start[b + 1] - start[b]) * ORDER
+        row, count = start[b] * ORDER, (start[b + 1] - start[b]) * ORDER
         prolongation = np.zeros((count, width))
         for i in range(count):
             for j in range(ORDER):
-                prolongation[i, offsets[first + i] + j] = interpolation[first + i, j]
+                prolongation[i, offsets[row + i] + j] = interpolation[row + i, j]
         matrix = np.empty((count, count))
         for i in range(count):
             m = panels[start[b] + i // ORDER] * ORDER + i % ORDER
@@ -603,10 +603,10 @@ def knot_blocks(fine, work, first, shares):
         block = solve(matrix, prolongation)  # np.linalg.solve's LAPACK routine, cheaper to compile
         for i in range(count):
             for c in range(width):
-                solution[first + i, c] = block[i, c]
+                solution[row + i, c] = block[i, c]
         for i in range(count):
             for c in range(width):
-                prolongation[i, c] *= row_weights[first + i] / column_weights[b, c]
+                prolongation[i, c] *= row_weights[row + i] / column_weights[b, c]
         product = np.dot(prolongation.T.copy(), block)
         for i in range(width):
             for c in range(width):
